@@ -1,0 +1,30 @@
+# Finds the Debian 12 packages installed by scripts/install-deps.sh. LCM 1.3.1 ships no CMake config and
+# its lcm.pc needs glib's .pc, so LCM is found by hand (the C/C++ headers do not need glib).
+find_package(Threads REQUIRED)
+find_package(Eigen3 3.3 REQUIRED NO_MODULE)
+find_package(yaml-cpp REQUIRED)
+
+find_path(LCM_INCLUDE_DIR lcm/lcm-cpp.hpp)
+find_library(LCM_LIBRARY lcm)
+find_program(LCM_GEN_EXECUTABLE lcm-gen)
+if(NOT LCM_INCLUDE_DIR OR NOT LCM_LIBRARY OR NOT LCM_GEN_EXECUTABLE)
+  message(FATAL_ERROR "LCM not found (need liblcm-dev and liblcm-bin): run scripts/install-deps.sh")
+endif()
+add_library(sirupp_lcm_external INTERFACE)
+target_include_directories(sirupp_lcm_external SYSTEM INTERFACE ${LCM_INCLUDE_DIR})
+target_link_libraries(sirupp_lcm_external INTERFACE ${LCM_LIBRARY} Threads::Threads)
+
+if(SIRUPP_BUILD_JAVA)
+  find_package(Java 1.8 COMPONENTS Development)
+  find_file(LCM_JAR lcm.jar PATHS /usr/share/java /usr/local/share/java)
+  if(NOT Java_FOUND OR NOT LCM_JAR)
+    message(FATAL_ERROR "Java types jar needs a JDK and lcm.jar (default-jdk-headless, liblcm-java): "
+                        "run scripts/install-deps.sh, or configure with -DSIRUPP_BUILD_JAVA=OFF")
+  endif()
+  include(UseJava)
+endif()
+
+if(SIRUPP_BUILD_TESTS)
+  find_package(GTest REQUIRED)
+  include(GoogleTest)
+endif()

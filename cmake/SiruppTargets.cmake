@@ -1,0 +1,35 @@
+# Helpers that keep every folder's CMakeLists.txt to a few lines.
+
+# sirupp_add_library(<name> SOURCES <...> DEPS <...>)
+#   A static library whose public headers live in the folder itself, included as
+#   "<folder>/<header>.hpp" from the source root.
+function(sirupp_add_library name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  add_library(${name} STATIC ${ARG_SOURCES})
+  target_include_directories(${name} PUBLIC ${PROJECT_SOURCE_DIR})
+  target_link_libraries(${name} PUBLIC ${ARG_DEPS})
+  sirupp_set_warnings(${name})
+endfunction()
+
+# sirupp_add_executable(<name> SOURCES <...> DEPS <...>): a thin process main.
+function(sirupp_add_executable name)
+  cmake_parse_arguments(ARG "" "" "SOURCES;DEPS" ${ARGN})
+  add_executable(${name} ${ARG_SOURCES})
+  target_link_libraries(${name} PRIVATE ${ARG_DEPS})
+  sirupp_set_warnings(${name})
+endfunction()
+
+# sirupp_add_test(<name> [DEPS <libs...>] [SOURCES <extra...>])
+#   One line per test file: builds tests/<name>.cpp with GoogleTest against the given libraries and
+#   registers every TEST in it with CTest. Tests run from the source root, so paths like
+#   config/robots/puma260.yaml work as written.
+function(sirupp_add_test name)
+  cmake_parse_arguments(ARG "" "" "DEPS;SOURCES" ${ARGN})
+  add_executable(${name} ${name}.cpp ${ARG_SOURCES})
+  target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gtest_main)
+  sirupp_set_warnings(${name})
+  gtest_discover_tests(${name}
+    WORKING_DIRECTORY ${PROJECT_SOURCE_DIR}
+    PROPERTIES ENVIRONMENT "SIRUPP_BIN_DIR=${CMAKE_BINARY_DIR}/bin"
+    DISCOVERY_TIMEOUT 30)
+endfunction()

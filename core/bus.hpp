@@ -1,0 +1,321 @@
+#pragma once
+// The LCM bus every SIRUPP process talks through: a thin layer over lcm::LCM (1.3.1) that adds what
+// the raw API leaves to each caller.
+//
+//  - Typed publish and subscribe with std::function handlers (1.3.1 only takes member functions).
+//  - A rig prefix (e.g. "RIG3_") put in front of every channel name, so several rigs share a
+//  network.
+//  - Per-channel counters (messages, decode errors, rejected, late, sequence gaps, last error) that
+//    feed heartbeat_t, so a silent fault on one channel shows up in `sirupp status`.
+//  - A hard wall between handlers and LCM's C code: a message that does not decode never reaches a
+//    handler, and an exception thrown by a handler is counted, never propagated through C frames.
+//
+// Thread model: single-threaded. Handlers run inside Handle()/HandleAvailable(), on the thread that
+// calls them; nothing here locks. Use one Bus per thread if a process needs several.
+//
+// Channel names: every `channel` argument below is the name without the rig prefix, as written in
+// Channels (core/channels.hpp). ReceiveInfo::channel and ChannelStats::channel are full names,
+// prefix included, because that is what is on the wire and what lcm-spy shows. LCM treats a
+// subscribed name as a regular expression, so names are restricted to characters that only match
+// themselves.
+
+#include <cstdint>
+#include <functional>
+#include <lcm/lcm-cpp.hpp>
+#include <memory>
+#include <stdexcept>
+#include <string>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+namespace sirupp::core {
+
+// Any failure of the bus: bad URL or channel name, a message that cannot be encoded or sent, an LCM
+// error while waiting for messages.
+class BusError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// What LCM tells us about one received message, besides its content.
+struct ReceiveInfo {
+  std::string channel;             // full name, prefix included
+  int64_t recv_utime = 0;          // wall clock at reception, microseconds since the Unix epoch
+  int64_t encoded_size_bytes = 0;  // size on the wire, fingerprint included
+};
+
+// Traffic counters of one channel in one direction; the fields of channel_stats_t except the rate,
+// which the heartbeat computes from two snapshots.
+struct ChannelStats {
+  std::string channel;        // full name, prefix included
+  bool publishing = false;    // true: counters of what we sent; false: of what we received
+  int64_t messages = 0;       // sent, or received (decoded or not)
+  int64_t decode_errors = 0;  // received but did not decode as the subscribed type
+  int64_t rejected = 0;       // decoded but refused (Reject() or an exception from the handler)
+  int64_t late = 0;           // arrived after their deadline (NoteLate())
+  int64_t gaps = 0;           // missing sequence numbers (NoteSequence(), or automatic)
+  std::string last_error;     // one line on the latest decode error or rejection
+};
+
+// Which side of a channel a ChannelStats entry describes. A process (or a memq:// test) that both
+// publishes and subscribes a channel has one entry per side.
+enum class ChannelSide { kReceiving, kPublishing };
+
+class Bus;
+
+// One subscription, owned by its Bus. Obtained from Bus::Subscribe; valid until Unsubscribe() or
+// the end of the Bus.
+class Subscription {
+ public:
+  Subscription(const Subscription&) = delete;
+  Subscription& operator=(const Subscription&) = delete;
+  virtual ~Subscription();
+
+  const std::string& channel() const { return channel_; }  // full name
+  bool active() const { return active_; }
+
+  // Stops delivery at once. The object is destroyed (immediately, or when the message being handled
+  // has been dispatched if called from inside a handler), so do not use it afterwards.
+  void Unsubscribe();
+
+ protected:
+  Subscription(Bus& bus, std::string full_channel);
+  Bus& bus() const { return bus_; }
+
+  // Decodes the message and hands it over. Exceptions are caught by the caller and counted.
+  virtual void Deliver(const lcm::ReceiveBuffer& rbuf, const ReceiveInfo& info) = 0;
+
+  // Counts a message that did not decode as `type_name` and records why, in one line.
+  void NoteDecodeError(const lcm::ReceiveBuffer& rbuf, const ReceiveInfo& info,
+                       const char* type_name, int64_t expected_fingerprint);
+  void NoteSequenceNumber(const ReceiveInfo& info, int64_t seq);
+
+ private:
+  friend class Bus;
+  // What LCM calls for each message. A static function with a context pointer (subscribeFunction)
+  // rather than a member-function handler: GCC 12's -fsanitize=vptr miscompiles the member-function
+  // pointer call inside lcm-cpp-impl.hpp, so the ASan+UBSan build would crash in LCM's own header.
+  // noexcept: nothing may unwind into LCM's C dispatch loop.
+  static void OnLcmMessage(const lcm::ReceiveBuffer* rbuf, const std::string& channel,
+                           Subscription* self) noexcept;
+  // Counts the message, then Deliver()s it, catching whatever the handler throws.
+  void Dispatch(const lcm::ReceiveBuffer& rbuf, const std::string& channel) noexcept;
+
+  Bus& bus_;
+  std::string channel_;
+  lcm::Subscription* lcm_subscription_ = nullptr;  // owned by lcm::LCM
+  bool active_ = true;
+};
+
+namespace bus_internal {
+
+// True when Msg has an integral member `seq` (every SIRUPP type but image_t): the typed
+// subscription then counts gaps without the handler having to remember to.
+template <class Msg, class = void>
+struct HasSeqField : std::false_type {};
+template <class Msg>
+struct HasSeqField<Msg, std::void_t<decltype(std::declval<const Msg&>().seq)>>
+    : std::is_integral<
+          std::remove_cv_t<std::remove_reference_t<decltype(std::declval<const Msg&>().seq)>>> {};
+
+template <class Msg>
+class TypedSubscription final : public Subscription {
+ public:
+  using Handler = std::function<void(const Msg&, const ReceiveInfo&)>;
+
+  TypedSubscription(Bus& bus, std::string full_channel, Handler handler)
+      : Subscription(bus, std::move(full_channel)), handler_(std::move(handler)) {}
+
+ private:
+  void Deliver(const lcm::ReceiveBuffer& rbuf, const ReceiveInfo& info) override {
+    Msg msg;
+    int status = -1;
+    try {
+      // A corrupt count field with a matching fingerprint can make decode allocate absurd sizes.
+      status = msg.decode(rbuf.data, 0, static_cast<int>(rbuf.data_size));
+    } catch (const std::exception&) {
+      status = -1;
+    }
+    if (status < 0) {
+      NoteDecodeError(rbuf, info, Msg::getTypeName(), Msg::getHash());
+      return;
+    }
+    if constexpr (HasSeqField<Msg>::value) NoteSequenceNumber(info, static_cast<int64_t>(msg.seq));
+    handler_(msg, info);
+  }
+
+  Handler handler_;
+};
+
+}  // namespace bus_internal
+
+class Bus {
+ public:
+  // LCM's per-subscription queue (1.3.1 default). Messages beyond it are dropped by LCM, which then
+  // shows up as gaps.
+  static constexpr int kDefaultQueueCapacity = 30;
+  // HandleAvailable() stops after this many messages, so a fast publisher cannot starve the caller.
+  static constexpr int kDefaultHandleLimit = 10000;
+
+  // lcm_url: "" means LCM's default (the LCM_DEFAULT_URL environment variable, else
+  // udpm://239.255.76.67:7667?ttl=0). channel_prefix: letters, digits and '_' only, may be empty.
+  // Throws BusError if LCM cannot be started with that URL or the prefix is not allowed.
+  explicit Bus(const std::string& lcm_url = "", const std::string& channel_prefix = "");
+  ~Bus();
+  Bus(const Bus&) = delete;
+  Bus& operator=(const Bus&) = delete;
+
+  const std::string& url() const { return url_; }
+  const std::string& prefix() const { return prefix_; }
+  // prefix + channel, after checking the result is a usable channel name (throws BusError if not).
+  std::string FullName(const std::string& channel) const;
+
+  // Encodes and sends msg on prefix + channel. Every count field (num_joints, ...) must match the
+  // size of its vector: the generated encoder trusts it and reads past a short vector. Generated
+  // types do not initialise their fields either, so build messages as `sirupp::arm_state_t msg{};`.
+  // Throws BusError naming the channel on failure.
+  template <class Msg>
+  void Publish(const std::string& channel, const Msg& msg) {
+    const int size_bytes = msg.getEncodedSize();
+    uint8_t* buffer = PublishBuffer(size_bytes);
+    const int encoded_bytes = msg.encode(buffer, 0, size_bytes);
+    SendEncoded(channel, Msg::getTypeName(), encoded_bytes);
+  }
+
+  // Calls handler for each message on prefix + channel that decodes as Msg. Messages that do not
+  // decode are counted as decode_errors and never reach the handler; an exception from the handler
+  // is counted as rejected, its what() kept as last_error. If Msg has a `seq` member, gaps are
+  // counted. queue_capacity: messages LCM holds for this subscription between Handle() calls.
+  template <class Msg>
+  Subscription& Subscribe(const std::string& channel,
+                          std::function<void(const Msg&, const ReceiveInfo&)> handler,
+                          int queue_capacity = kDefaultQueueCapacity) {
+    if (!handler) ThrowEmptyHandler(channel);
+    return Attach(std::make_unique<bus_internal::TypedSubscription<Msg>>(*this, FullName(channel),
+                                                                         std::move(handler)),
+                  queue_capacity);
+  }
+  // Same as subscription.Unsubscribe().
+  void Unsubscribe(Subscription& subscription);
+
+  // Waits up to timeout_ms (< 0: forever) for one message and dispatches it to every matching
+  // handler. Returns 1 if a message was handled, 0 on timeout. Throws BusError if LCM reports an
+  // error, or if called from inside a handler (LCM cannot dispatch re-entrantly).
+  int Handle(int timeout_ms);
+  // Handles the messages already queued without blocking, at most max_messages of them. Returns the
+  // number handled.
+  int HandleAvailable(int max_messages = kDefaultHandleLimit);
+  // A file descriptor that becomes readable when a message is waiting: for poll()/select() loops.
+  int Fileno();
+
+  // Counters a handler (or the process's main loop) adds to. `channel` is without prefix; the
+  // ReceiveInfo overloads are for use inside handlers. A rejection counts once per message even
+  // when several handlers of the same channel refuse it.
+  void Reject(const std::string& channel, const std::string& reason);
+  void Reject(const ReceiveInfo& info, const std::string& reason);
+  void NoteLate(const std::string& channel);
+  void NoteLate(const ReceiveInfo& info);
+  // Counts seq values skipped since the previous call: 0,1,2,5 gives 2 gaps. A smaller seq (the
+  // publisher restarted) starts counting afresh; a repeated seq counts nothing.
+  void NoteSequence(const std::string& channel, int64_t seq);
+
+  // Every channel this bus has published or subscribed, sorted by name, receiving side first.
+  std::vector<ChannelStats> Stats() const;
+  // One channel's counters (all zero if the channel was never used on that side).
+  ChannelStats StatsFor(const std::string& channel,
+                        ChannelSide side = ChannelSide::kReceiving) const;
+
+  // The underlying LCM instance, for tools that need raw access. Traffic through it is not counted.
+  lcm::LCM& raw_lcm() { return lcm_; }
+
+ private:
+  friend class Subscription;
+  struct Counters;
+  struct CounterTable;
+
+  uint8_t* PublishBuffer(int size_bytes);
+  void SendEncoded(const std::string& channel, const char* type_name, int encoded_bytes);
+  Subscription& Attach(std::unique_ptr<Subscription> subscription, int queue_capacity);
+  [[noreturn]] void ThrowEmptyHandler(const std::string& channel) const;
+  void Remove(Subscription* subscription);
+
+  // Counting by full channel name, used by Subscription and the public overloads.
+  Counters& Receiving(const std::string& full_channel);
+  void CountReceived(const std::string& full_channel);
+  void CountDecodeError(const std::string& full_channel, std::string description);
+  void CountRejected(const std::string& full_channel, std::string reason);
+  void CountLate(const std::string& full_channel);
+  void CountSequence(const std::string& full_channel, int64_t seq);
+
+  std::string url_;
+  std::string prefix_;
+  lcm::LCM lcm_;
+  std::unique_ptr<CounterTable> counters_;
+  std::vector<uint8_t>
+      publish_buffer_;  // reused so that publishing at the servo rate does not allocate
+  // Declared after lcm_ so that they are destroyed first; LCM's own wrappers go with lcm_.
+  std::vector<std::unique_ptr<Subscription>> subscriptions_;
+  std::vector<Subscription*> pending_removal_;  // unsubscribed from inside a handler
+  bool dispatching_ = false;
+  // Numbers each dispatched message so that several subscriptions of one channel count it once.
+  int64_t dispatch_number_ = 0;
+};
+
+// The newest valid message of one channel, for code that samples rather than reacts (a viewer
+// frame, the model a controller was built for). Must not outlive its Bus. Single-threaded like the
+// Bus.
+template <class Msg>
+class Latest {
+ public:
+  // Returns "" to accept a message, else why it is refused. Refused messages are counted with
+  // Bus::Reject and do not replace the held one.
+  using Validator = std::function<std::string(const Msg&)>;
+
+  Latest(Bus& bus, const std::string& channel, Validator validator = nullptr,
+         int queue_capacity = Bus::kDefaultQueueCapacity)
+      : bus_(bus),
+        validator_(std::move(validator)),
+        subscription_(&bus.Subscribe<Msg>(
+            channel, [this](const Msg& msg, const ReceiveInfo& info) { Accept(msg, info); },
+            queue_capacity)) {}
+  ~Latest() { subscription_->Unsubscribe(); }
+  Latest(const Latest&) = delete;
+  Latest& operator=(const Latest&) = delete;
+
+  bool Has() const { return count_ > 0; }
+  // The newest accepted message. Throws BusError if none has arrived yet.
+  const Msg& Get() const {
+    if (!Has()) ThrowNothingYet(subscription_->channel());
+    return message_;
+  }
+  int64_t count() const { return count_; }            // messages accepted so far
+  int64_t recv_utime() const { return recv_utime_; }  // reception time of Get(), 0 if none
+  const std::string& channel() const { return subscription_->channel(); }
+
+ private:
+  void Accept(const Msg& msg, const ReceiveInfo& info) {
+    if (validator_) {
+      std::string reason = validator_(msg);
+      if (!reason.empty()) {
+        bus_.Reject(info, reason);
+        return;
+      }
+    }
+    message_ = msg;
+    recv_utime_ = info.recv_utime;
+    ++count_;
+  }
+  [[noreturn]] static void ThrowNothingYet(const std::string& channel) {
+    throw BusError("no message received yet on " + channel);
+  }
+
+  Bus& bus_;
+  Validator validator_;
+  Msg message_{};
+  int64_t count_ = 0;
+  int64_t recv_utime_ = 0;
+  Subscription* subscription_;  // last: subscribes once everything above is ready
+};
+
+}  // namespace sirupp::core

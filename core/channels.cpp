@@ -1,0 +1,116 @@
+#include "core/channels.hpp"
+
+#include <algorithm>
+#include <stdexcept>
+
+namespace sirupp::core {
+
+namespace {
+
+// LCM_MAX_CHANNEL_NAME_LENGTH in lcm.h: udpm:// refuses longer names at publish time, which would
+// surface as a failure deep inside a running process instead of at start-up.
+constexpr std::size_t kMaxChannelNameLength = 63;
+
+bool IsPrefixCharacter(char c) {
+  return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_';
+}
+
+std::size_t LongestDefaultName() {
+  std::size_t longest = 0;
+  for (const ChannelInfo& info : ChannelTable()) longest = std::max(longest, info.name.size());
+  return longest;
+}
+
+}  // namespace
+
+Channels Channels::WithPrefix(const std::string& prefix) {
+  ValidateChannelPrefix(prefix);
+  Channels channels;
+  for (std::string* name :
+       {&channels.robot_model, &channels.environment, &channels.sim_arm_state,
+        &channels.sim_arm_command, &channels.arm_move, &channels.arm_setpoint, &channels.arm_gains,
+        &channels.arm_target, &channels.arm_pose_target, &channels.arm_plan,
+        &channels.controller_status, &channels.real_arm_state, &channels.hardware_status,
+        &channels.hardware_command, &channels.estop, &channels.heartbeat, &channels.viewer_image}) {
+    name->insert(0, prefix);
+  }
+  return channels;
+}
+
+std::vector<std::string> Channels::All() const {
+  return {robot_model,       environment,    sim_arm_state,   sim_arm_command,  arm_move,
+          arm_setpoint,      arm_gains,      arm_target,      arm_pose_target,  arm_plan,
+          controller_status, real_arm_state, hardware_status, hardware_command, estop,
+          heartbeat,         viewer_image};
+}
+
+void ValidateChannelPrefix(const std::string& prefix) {
+  const std::size_t max_length = kMaxChannelNameLength - LongestDefaultName();
+  const auto bad = std::find_if_not(prefix.begin(), prefix.end(), IsPrefixCharacter);
+  if (bad != prefix.end()) {
+    throw std::invalid_argument("channel prefix \"" + prefix + "\" has the character '" +
+                                std::string(1, *bad) +
+                                "': allowed are letters, digits and '_' (e.g. \"RIG3_\"), or an "
+                                "empty prefix");
+  }
+  if (prefix.size() > max_length) {
+    throw std::invalid_argument(
+        "channel prefix \"" + prefix + "\" is " + std::to_string(prefix.size()) +
+        " characters long: at most " + std::to_string(max_length) +
+        " are allowed, so that every channel name fits LCM's 63 characters");
+  }
+}
+
+const std::vector<ChannelInfo>& ChannelTable() {
+  // Keep in step with docs/channels.md (tests/test_channels.cpp compares them row by row).
+  static const std::vector<ChannelInfo> table = {
+      {"ROBOT_MODEL", "sirupp.robot_model_t", "sirupp-sim", "all processes", "1 Hz and at start-up",
+       "the robot model as the physics loaded it: DH rows, links, mass properties, limits, "
+       "friction, servo parameters"},
+      {"ENVIRONMENT", "sirupp.environment_t", "sirupp-sim", "sirupp-viewer, sirupp-logger", "1 Hz",
+       "the objects around the robot: shape, pose, size, colour, static or dynamic"},
+      {"SIM_ARM_STATE", "sirupp.arm_state_t", "sirupp-sim",
+       "sirupp-control, sirupp-logger, sirupp-viewer",
+       "every physics tick (1953.125 Hz by default)",
+       "virtual arm: tick, joint positions, velocities, applied efforts, limit and brake flags"},
+      {"SIM_ARM_COMMAND", "sirupp.arm_command_t", "sirupp-control (or a student's controller)",
+       "sirupp-sim", "one per SIM_ARM_STATE",
+       "joint efforts for the tick it answers, or hold / limp"},
+      {"ARM_MOVE", "sirupp.servo_move_t", "sirupp-control", "sirupp-hardware, sirupp-logger",
+       "one per move",
+       "per-joint goal, maximum velocity and acceleration: the PIC-SERVO LOAD_TRAJ analogue"},
+      {"ARM_SETPOINT", "sirupp.servo_setpoint_t", "sirupp-control", "sirupp-logger, sirupp-viewer",
+       "every servo tick",
+       "profiled set-point position and velocity, goal, position error, effort, move-done per "
+       "joint"},
+      {"ARM_GAINS", "sirupp.servo_gains_t", "sirupp CLI or user", "sirupp-control, sirupp-hardware",
+       "on change", "Kp, Kd, Ki, integration, output and error limits per joint, in chip units"},
+      {"ARM_TARGET", "sirupp.joint_target_t", "sirupp CLI or user", "sirupp-control", "on demand",
+       "a joint-space target with per-joint speed and acceleration"},
+      {"ARM_POSE_TARGET", "sirupp.pose_target_t", "sirupp CLI", "sirupp-control", "on demand",
+       "an end-effector pose and the wanted IK configuration (shoulder, elbow, wrist)"},
+      {"ARM_PLAN", "sirupp.plan_command_t", "sirupp CLI", "sirupp-control", "on demand",
+       "plan text and run / pause / resume / abort, manual or automatic mode"},
+      {"CONTROLLER_STATUS", "sirupp.controller_status_t", "sirupp-control",
+       "sirupp CLI, sirupp-logger, sirupp-viewer", "10 Hz and on change",
+       "mode, state, present move and plan step, last error"},
+      {"REAL_ARM_STATE", "sirupp.arm_state_t", "sirupp-hardware",
+       "sirupp-logger, sirupp-viewer, sirupp-control", "every status poll (about 100-500 Hz)",
+       "real arm: joint positions and velocities from the encoders, estimated efforts"},
+      {"HARDWARE_STATUS", "sirupp.hardware_status_t", "sirupp-hardware",
+       "sirupp CLI, sirupp launch", "10 Hz and on change",
+       "bridge state (connected, armed, linked, fault), module status, serial errors"},
+      {"HARDWARE_COMMAND", "sirupp.hardware_command_t", "sirupp CLI", "sirupp-hardware",
+       "on demand", "connect, calibrate, arm, disarm, link, unlink, home, clear faults"},
+      {"ESTOP", "sirupp.estop_t", "any process", "all processes", "on demand",
+       "emergency stop engaged or released, by whom and why"},
+      {"HEARTBEAT", "sirupp.heartbeat_t", "every process", "sirupp launch, sirupp CLI", "1 Hz",
+       "process name, host, pid, state and per-channel traffic counters"},
+      {"VIEWER_IMAGE", "sirupp.image_t", "sirupp-viewer",
+       "sirupp view, lcm-spy, sirupp-logger (optional)", "chosen rate (e.g. 10-30 Hz)",
+       "rendered frames (JPEG or raw pixels) in the bot_core.image_t layout"},
+  };
+  return table;
+}
+
+}  // namespace sirupp::core

@@ -1,0 +1,50 @@
+#!/usr/bin/env bash
+# Installs every Debian 12 package SIRUPP-LCM needs to build, test and run.
+# Idempotent: when everything is present it only runs dpkg-query (well under a second).
+# Usage: scripts/install-deps.sh [--check]   (--check: list what is missing, install nothing)
+set -euo pipefail
+
+packages=(
+  # build tools
+  build-essential cmake ninja-build pkg-config git
+  # messaging: C/C++ library, lcm-gen, lcm.jar, lcm-logger/lcm-logplayer, jchart2d for lcm-spy
+  liblcm-dev liblcm-bin liblcm-java libjchart2d-java
+  # JDK to compile the Java types jar for lcm-spy
+  default-jdk-headless
+  # physics, maths, images
+  libode-dev libeigen3-dev
+  libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev libopencv-videoio-dev libopencv-highgui-dev
+  # off-screen OpenGL
+  libosmesa6-dev libgl-dev libglu1-mesa-dev
+  # strict config files with line numbers
+  libyaml-cpp-dev libtinyxml2-dev
+  # tests
+  libgtest-dev libgmock-dev
+  # multi-host tests (network namespaces), process tools
+  iproute2 procps
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  status=$(dpkg-query -W -f='${Status}' "$p" 2>/dev/null || true)
+  [[ "$status" == "install ok installed" ]] || missing+=("$p")
+done
+
+if [[ ${#missing[@]} -eq 0 ]]; then
+  exit 0
+fi
+if [[ "${1:-}" == "--check" ]]; then
+  printf 'missing: %s\n' "${missing[*]}"
+  exit 1
+fi
+
+echo "install-deps: installing ${#missing[@]} package(s): ${missing[*]}"
+SUDO=""
+if [[ $(id -u) -ne 0 ]]; then
+  command -v sudo >/dev/null || { echo "install-deps: not root and no sudo; install as root: ${missing[*]}" >&2; exit 1; }
+  SUDO=sudo
+fi
+export DEBIAN_FRONTEND=noninteractive
+$SUDO apt-get update -qq
+$SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+echo "install-deps: done"

@@ -1,0 +1,119 @@
+#include "core/yaml_reader.hpp"
+
+#include <gtest/gtest.h>
+
+namespace sirupp::core {
+namespace {
+
+// Runs `body` and returns the ConfigError text it throws ("" if none).
+template <class Body>
+std::string ErrorOf(Body body) {
+  try {
+    body();
+  } catch (const ConfigError& error) {
+    return error.what();
+  }
+  return "";
+}
+
+TEST(YamlReader, ReadsNumbersWithRules) {
+  const YamlDocument doc = YamlDocument::Parse("mass: 2.5\nspeed: -1\n", "t.yaml");
+  const YamlMap map = doc.Root().Map({"mass", "speed"});
+  EXPECT_DOUBLE_EQ(map.Number("mass", PositiveNumber("kg")), 2.5);
+  EXPECT_EQ(ErrorOf([&] { map.Number("speed", NonNegativeNumber("m/s")); }),
+            "t.yaml:2:8: speed: -1 is not allowed; expected a finite number >= 0 (m/s)");
+}
+
+TEST(YamlReader, DescribesRanges) {
+  EXPECT_EQ(NumberInRange(0, 1, "x").Describe(), "a finite number in [0, 1] (x)");
+  EXPECT_EQ(PositiveNumber().Describe(), "a finite number > 0");
+  EXPECT_EQ(AnyNumber("m").Describe(), "a finite number (m)");
+  EXPECT_FALSE(AnyNumber().Allows(std::numeric_limits<double>::quiet_NaN()));
+}
+
+TEST(YamlReader, UnknownKeyNamesAllowedOnes) {
+  const YamlDocument doc = YamlDocument::Parse("a: 1\nb: 2\n", "t.yaml");
+  EXPECT_EQ(ErrorOf([&] { doc.Root().Map({"a"}); }),
+            "t.yaml:2:1: b: unknown key 'b'; allowed keys: a");
+}
+
+TEST(YamlReader, DuplicateKeyIsAnError) {
+  const YamlDocument doc = YamlDocument::Parse("a: 1\na: 2\n", "t.yaml");
+  EXPECT_EQ(ErrorOf([&] { doc.Root().Map({"a"}); }),
+            "t.yaml:2:1: a: duplicate key 'a'; each key may appear once");
+}
+
+TEST(YamlReader, MissingKeyPointsAtTheMapping) {
+  const YamlDocument doc = YamlDocument::Parse("outer:\n  a: 1\n", "t.yaml");
+  const YamlMap outer = doc.Root().Map({"outer"}).Get("outer", "a mapping").Map({"a", "b"});
+  EXPECT_EQ(ErrorOf([&] { outer.Number("b", AnyNumber("s")); }),
+            "t.yaml:2:3: outer: missing required key 'b' (a finite number (s))");
+}
+
+TEST(YamlReader, QuotedNumbersAreText) {
+  const YamlDocument doc = YamlDocument::Parse("a: \"3\"\n", "t.yaml");
+  EXPECT_EQ(ErrorOf([&] { doc.Root().Map({"a"}).Number("a", AnyNumber()); }),
+            "t.yaml:1:4: a: the text \"3\" is not a number; expected a finite number");
+}
+
+TEST(YamlReader, NonFiniteNumbersAreRefused) {
+  const YamlDocument doc = YamlDocument::Parse("a: .nan\nb: -.inf\nc: 1e999\n", "t.yaml");
+  const YamlMap map = doc.Root().Map({"a", "b", "c"});
+  EXPECT_NE(ErrorOf([&] { map.Number("a", AnyNumber()); }).find(".nan is not allowed"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf([&] { map.Number("b", AnyNumber()); }).find("-.inf is not allowed"),
+            std::string::npos);
+  EXPECT_NE(ErrorOf([&] { map.Number("c", AnyNumber()); }).find("1e999 is not allowed"),
+            std::string::npos);
+}
+
+TEST(YamlReader, ListsHaveIndexedPaths) {
+  const YamlDocument doc = YamlDocument::Parse("v: [1, 2, x]\n", "t.yaml");
+  EXPECT_EQ(ErrorOf([&] { doc.Root().Map({"v"}).Get("v", "").Numbers(3, AnyNumber()); }),
+            "t.yaml:1:11: v[2]: x is not a number; expected a finite number");
+}
+
+TEST(YamlReader, MergeKeysResolveWithOverrides) {
+  const YamlDocument doc = YamlDocument::Parse(
+      "base: &b {kp: 100, kd: 1000}\n"
+      "mid: &m {<<: *b, kd: 5}\n"
+      "top: {<<: *m, kp: 7}\n",
+      "t.yaml");
+  const YamlMap root = doc.Root().Map({"base", "mid", "top"});
+  const YamlMap top = root.Get("top", "").Map({"kp", "kd"});
+  EXPECT_DOUBLE_EQ(top.Number("kp", AnyNumber()), 7);
+  EXPECT_DOUBLE_EQ(top.Number("kd", AnyNumber()), 5);
+  const YamlMap mid = root.Get("mid", "").Map({"kp", "kd"});
+  EXPECT_DOUBLE_EQ(mid.Number("kp", AnyNumber()), 100);
+}
+
+TEST(YamlReader, MergedUnknownKeyPointsIntoTheAnchor) {
+  const YamlDocument doc = YamlDocument::Parse("a: &x {kq: 1}\nb: {<<: *x}\n", "t.yaml");
+  const YamlMap root = doc.Root().Map({"a", "b"});
+  EXPECT_EQ(ErrorOf([&] { root.Get("b", "").Map({"kp"}); }),
+            "t.yaml:1:8: b.kq: unknown key 'kq'; allowed keys: kp");
+}
+
+TEST(YamlReader, EntriesKeepFileOrder) {
+  const YamlDocument doc = YamlDocument::Parse("poses: {zero: [0], up: [1]}\n", "t.yaml");
+  const auto entries = doc.Root().Map({"poses"}).Get("poses", "").Entries();
+  ASSERT_EQ(entries.size(), 2U);
+  EXPECT_EQ(entries[0].first, "zero");
+  EXPECT_EQ(entries[1].second.path(), "poses.up");
+}
+
+TEST(YamlReader, SyntaxErrorsHaveALine) {
+  EXPECT_EQ(ErrorOf([] { YamlDocument::Parse("a: [1, 2\nb: 3\n", "t.yaml"); }).substr(0, 9),
+            "t.yaml:2:");
+}
+
+TEST(YamlReader, LocationOfFallsBackToParent) {
+  const YamlDocument doc = YamlDocument::Parse("x: 1\nlist:\n  - {a: 1}\n", "t.yaml");
+  const YamlMap root = doc.Root().Map({"x", "list"});
+  root.Get("list", "").Sequence()[0].Map({"a"});
+  EXPECT_EQ(doc.LocationOf("list[0].b").ToString(), "t.yaml:3:5");
+  EXPECT_EQ(doc.LocationOf("nowhere").ToString(), "t.yaml:1:1");
+}
+
+}  // namespace
+}  // namespace sirupp::core
