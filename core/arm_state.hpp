@@ -1,6 +1,6 @@
 #pragma once
-// Value structs for what flows every tick: the arm's joint state and the effort command answering it.
-// Units: rad, rad/s, N*m (m, m/s, N for prismatic joints); utime in microseconds.
+// Value structs for what flows every tick: the arm's joint state and the effort command answering
+// it. Units: rad, rad/s, N*m (m, m/s, N for prismatic joints); utime in microseconds.
 
 #include <cstdint>
 #include <string>

@@ -81,7 +81,6 @@ class Subscription {
 
  protected:
   Subscription(Bus& bus, std::string full_channel);
-  Bus& bus() const { return bus_; }
 
   // Decodes the message and hands it over. Exceptions are caught by the caller and counted.
   virtual void Deliver(const lcm::ReceiveBuffer& rbuf, const ReceiveInfo& info) = 0;

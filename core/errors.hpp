@@ -1,7 +1,7 @@
 #pragma once
-// Error types thrown at the edges (config files, messages, command lines). Each carries where the bad
-// input is, so that main can print one line a user can act on. Inside per-tick loops we return status
-// instead of throwing.
+// Error types thrown at the edges (config files, messages, command lines). Each carries where the
+// bad input is, so that main can print one line a user can act on. Inside per-tick loops we return
+// status instead of throwing.
 
 #include <stdexcept>
 #include <string>

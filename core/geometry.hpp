@@ -19,8 +19,8 @@ struct Pose {
   }
 };
 
-// Roll-pitch-yaw (rad) as used in config files: R = Rz(yaw) * Ry(pitch) * Rx(roll), i.e. rotate about
-// the fixed x axis by roll, then fixed y by pitch, then fixed z by yaw.
+// Roll-pitch-yaw (rad) as used in config files: R = Rz(yaw) * Ry(pitch) * Rx(roll), i.e. rotate
+// about the fixed x axis by roll, then fixed y by pitch, then fixed z by yaw.
 inline Eigen::Quaterniond QuaternionFromRpy(double roll_rad, double pitch_rad, double yaw_rad) {
   return Eigen::Quaterniond(Eigen::AngleAxisd(yaw_rad, Eigen::Vector3d::UnitZ()) *
                             Eigen::AngleAxisd(pitch_rad, Eigen::Vector3d::UnitY()) *
@@ -31,8 +31,8 @@ enum class ShapeType { kBox, kCylinder, kSphere, kCapsule };
 
 const char* ShapeTypeName(ShapeType type);
 
-// A solid primitive placed by `pose` (its centre) in its parent frame. Cylinder and capsule axes are
-// the shape's local z. size_m: box = edge lengths x, y, z; cylinder = radius, length, 0;
+// A solid primitive placed by `pose` (its centre) in its parent frame. Cylinder and capsule axes
+// are the shape's local z. size_m: box = edge lengths x, y, z; cylinder = radius, length, 0;
 // capsule = radius, straight length between the cap centres, 0; sphere = radius, 0, 0.
 struct Shape {
   ShapeType type = ShapeType::kBox;

@@ -100,9 +100,9 @@ MassProperties DeriveMassProperties(const std::vector<Shape>& shapes, double mas
   for (const MassProperties& part : parts) {
     // Parallel-axis theorem: move each part's inertia from its own centre to the link's.
     const Eigen::Vector3d d = part.com_m - result.com_m;
-    result.inertia_kg_m2 += part.inertia_kg_m2 +
-                            part.mass_kg * (d.squaredNorm() * Eigen::Matrix3d::Identity() -
-                                            d * d.transpose());
+    result.inertia_kg_m2 +=
+        part.inertia_kg_m2 +
+        part.mass_kg * (d.squaredNorm() * Eigen::Matrix3d::Identity() - d * d.transpose());
   }
   return result;
 }
@@ -113,7 +113,8 @@ std::optional<std::string> InertiaProblem(const Eigen::Matrix3d& inertia) {
   if ((inertia - inertia.transpose()).cwiseAbs().maxCoeff() > 1e-12 * scale) {
     return std::string("is not symmetric");
   }
-  const Eigen::Vector3d moments = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(inertia).eigenvalues();
+  const Eigen::Vector3d moments =
+      Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(inertia).eigenvalues();
   if (moments.minCoeff() <= 0) {
     return "is not positive definite (principal moments " + FormatApprox(moments[0]) + ", " +
            FormatApprox(moments[1]) + ", " + FormatApprox(moments[2]) + " kg*m^2; all must be > 0)";

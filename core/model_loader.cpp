@@ -21,9 +21,11 @@ struct FileUnits {
 };
 
 FileUnits ReadUnits(const YamlMap& root) {
-  const YamlMap units = root.Get("units", "a mapping with length and angle").Map({"length", "angle"});
+  const YamlMap units =
+      root.Get("units", "a mapping with length and angle").Map({"length", "angle"});
   FileUnits result;
-  result.length_name = units.Get("length", "one of: m, cm, mm, inch").Choice({"m", "cm", "mm", "inch"});
+  result.length_name =
+      units.Get("length", "one of: m, cm, mm, inch").Choice({"m", "cm", "mm", "inch"});
   result.length_m = result.length_name == "inch" ? 0.0254
                     : result.length_name == "cm" ? 0.01
                     : result.length_name == "mm" ? 0.001
@@ -64,14 +66,16 @@ std::array<float, 4> ReadColor(const YamlValue& value) {
 
 // A cylinder or capsule given by the centres of its two end faces (or cap centres).
 void PlaceBetween(const YamlMap& map, const FileUnits& units, Shape& shape) {
-  const YamlValue from_value = map.Get("from", "the centre of one end, [x, y, z] in " + units.length_name);
-  const YamlValue to_value = map.Get("to", "the centre of the other end, [x, y, z] in " + units.length_name);
+  const YamlValue from_value =
+      map.Get("from", "the centre of one end, [x, y, z] in " + units.length_name);
+  const YamlValue to_value =
+      map.Get("to", "the centre of the other end, [x, y, z] in " + units.length_name);
   const Eigen::Vector3d from = ReadPoint(from_value, units);
   const Eigen::Vector3d to = ReadPoint(to_value, units);
   const Eigen::Vector3d axis = to - from;
   if (axis.norm() <= 0) {
-    to_value.Fail("is the same point as 'from'; expected a " + std::string(ShapeTypeName(shape.type)) +
-                  " of length > 0");
+    to_value.Fail("is the same point as 'from'; expected a " +
+                  std::string(ShapeTypeName(shape.type)) + " of length > 0");
   }
   shape.pose.position_m = (from + to) / 2;
   shape.pose.orientation = Eigen::Quaterniond::FromTwoVectors(Eigen::Vector3d::UnitZ(), axis);
@@ -114,7 +118,8 @@ Link ReadLink(const YamlValue& value, bool is_base, const FileUnits& units) {
   link.mass_kg = is_base ? map.NumberOr("mass_kg", 0, NonNegativeNumber("kg"))
                          : map.Number("mass_kg", PositiveNumber("kg"));
   if (auto shapes = map.Find("shapes")) {
-    for (const YamlValue& shape : shapes->Sequence()) link.shapes.push_back(ReadShape(shape, units));
+    for (const YamlValue& shape : shapes->Sequence())
+      link.shapes.push_back(ReadShape(shape, units));
   }
   const std::optional<YamlValue> com = map.Find("com");
   const std::optional<YamlValue> inertia = map.Find("inertia_kg_m2");
@@ -139,7 +144,8 @@ Link ReadLink(const YamlValue& value, bool is_base, const FileUnits& units) {
     double volume = 0;
     for (const Shape& shape : link.shapes) volume += ShapeVolume(shape);
     if (volume <= 0) {
-      map.self().Fail("has no com and inertia_kg_m2 and no shapes to derive them from; give one or the other");
+      map.self().Fail(
+          "has no com and inertia_kg_m2 and no shapes to derive them from; give one or the other");
     }
     const MassProperties derived = DeriveMassProperties(link.shapes, link.mass_kg);
     link.com_m = derived.com_m;
@@ -156,7 +162,8 @@ Friction ReadFriction(const YamlValue& value, bool revolute, const std::string& 
   const NumberRule effort = NonNegativeNumber(effort_unit);
   Friction friction;
   friction.static_effort = map.Number("static", effort);
-  const YamlValue coulomb = map.Get("coulomb", "a level, or [positive, negative] levels in " + effort_unit);
+  const YamlValue coulomb =
+      map.Get("coulomb", "a level, or [positive, negative] levels in " + effort_unit);
   if (coulomb.node().IsSequence()) {
     const std::vector<double> levels = coulomb.Numbers(2, effort);
     friction.coulomb_positive = levels[0];
@@ -166,15 +173,16 @@ Friction ReadFriction(const YamlValue& value, bool revolute, const std::string& 
   }
   friction.viscous = map.Number("viscous", NonNegativeNumber(revolute ? "N*m*s/rad" : "N*s/m"));
   friction.stribeck_velocity =
-      map.NumberOr("stribeck_velocity", 0.01 / speed_scale, PositiveNumber(speed_unit)) * speed_scale;
+      map.NumberOr("stribeck_velocity", 0.01 / speed_scale, PositiveNumber(speed_unit)) *
+      speed_scale;
   return friction;
 }
 
 ServoParams ReadServo(const YamlValue& value, const std::string& speed_unit, double speed_scale) {
-  const YamlMap map = value.Map({"encoder_counts_per_rev", "gear_ratio", "motor_torque_max_nm",
-                                 "default_velocity", "default_acceleration", "kp", "kd", "ki",
-                                 "integration_limit", "output_limit", "current_limit", "error_limit",
-                                 "servo_rate_divisor", "deadband"});
+  const YamlMap map =
+      value.Map({"encoder_counts_per_rev", "gear_ratio", "motor_torque_max_nm", "default_velocity",
+                 "default_acceleration", "kp", "kd", "ki", "integration_limit", "output_limit",
+                 "current_limit", "error_limit", "servo_rate_divisor", "deadband"});
   ServoParams servo;
   servo.encoder_counts_per_rev =
       map.Number("encoder_counts_per_rev", PositiveNumber("counts per motor revolution"));
@@ -233,7 +241,8 @@ Joint ReadJoint(const YamlValue& value, const DhRow& dh, const FileUnits& units)
   joint.home = map.NumberOr("home", 0, AnyNumber(position_unit)) * scale;
   joint.friction = ReadFriction(map.Get("friction", "a mapping: static, coulomb, viscous"),
                                 revolute, speed_unit, scale);
-  joint.servo = ReadServo(map.Get("servo", "the joint's PIC-SERVO drive, a mapping"), speed_unit, scale);
+  joint.servo =
+      ReadServo(map.Get("servo", "the joint's PIC-SERVO drive, a mapping"), speed_unit, scale);
   return joint;
 }
 
@@ -251,9 +260,9 @@ DhRow ReadDhRow(const YamlValue& value, const FileUnits& units) {
 
 RobotModel ParseRobotModel(const std::string& text, const std::string& name) {
   const YamlDocument document = YamlDocument::Parse(text, name);
-  const YamlMap root = document.Root().Map({"format", "name", "description", "units", "dh_convention",
-                                            "servo_tick_s", "gravity_m_s2", "base", "tool", "dh",
-                                            "joints", "links", "named_poses"});
+  const YamlMap root = document.Root().Map({"format", "name", "description", "units",
+                                            "dh_convention", "servo_tick_s", "gravity_m_s2", "base",
+                                            "tool", "dh", "joints", "links", "named_poses"});
   root.Get("format", std::string("the format tag ") + kRobotFormat).Choice({kRobotFormat});
 
   RobotModel model;
@@ -278,7 +287,8 @@ RobotModel ParseRobotModel(const std::string& text, const std::string& name) {
   model.base = ReadPose(root, "base", units);
   model.tool = ReadPose(root, "tool", units);
 
-  const YamlValue dh_value = root.Get("dh", "a list of DH rows {a, alpha, d, theta}, one per joint");
+  const YamlValue dh_value =
+      root.Get("dh", "a list of DH rows {a, alpha, d, theta}, one per joint");
   std::vector<DhRow> rows;
   for (const YamlValue& row : dh_value.Sequence(1, 64)) rows.push_back(ReadDhRow(row, units));
   const std::vector<YamlValue> joint_values =

@@ -1,6 +1,7 @@
 #pragma once
-// Human-readable text of a robot model, for `sirupp model show` and the demo: the DH table and joint
-// data in SI and in the file's own units, then link masses, centres of mass, inertias and shapes.
+// Human-readable text of a robot model, for `sirupp model show` and the demo: the DH table and
+// joint data in SI and in the file's own units, then link masses, centres of mass, inertias and
+// shapes.
 
 #include <string>
 

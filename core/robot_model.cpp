@@ -58,7 +58,9 @@ class UnitShow {
   const RobotModel& model_;
 };
 
-std::string Index(const char* list, size_t i) { return std::string(list) + "[" + std::to_string(i) + "]"; }
+std::string Index(const char* list, size_t i) {
+  return std::string(list) + "[" + std::to_string(i) + "]";
+}
 
 std::optional<ModelProblem> JointProblem(const RobotModel& model, size_t i) {
   const Joint& joint = model.joints[i];
@@ -82,14 +84,16 @@ std::optional<ModelProblem> JointProblem(const RobotModel& model, size_t i) {
   const DhRow& dh = joint.dh;
   if (!std::isfinite(dh.a_m) || !std::isfinite(dh.alpha_rad) || !std::isfinite(dh.d_m) ||
       !std::isfinite(dh.theta_rad)) {
-    return ModelProblem{Index("dh", i), "has a non-finite value; expected finite a, alpha, d, theta"};
+    return ModelProblem{Index("dh", i),
+                        "has a non-finite value; expected finite a, alpha, d, theta"};
   }
   if (!std::isfinite(joint.position_min) || !std::isfinite(joint.position_max)) {
     return problem("limits", "are not finite; expected two finite numbers, min < max");
   }
   if (joint.position_min >= joint.position_max) {
-    return problem("limits", "min " + show.Position(joint, joint.position_min) + " is not below max " +
-                                 show.Position(joint, joint.position_max) + "; expected min < max");
+    return problem("limits", "min " + show.Position(joint, joint.position_min) +
+                                 " is not below max " + show.Position(joint, joint.position_max) +
+                                 "; expected min < max");
   }
   if (!positive(joint.velocity_max)) {
     return problem("max_velocity", show.Position(joint, joint.velocity_max, "/s") +
@@ -117,19 +121,18 @@ std::optional<ModelProblem> JointProblem(const RobotModel& model, size_t i) {
   }
   if (!std::isfinite(f.static_effort) ||
       f.static_effort < std::max(f.coulomb_positive, f.coulomb_negative)) {
-    return problem("friction.static",
-                   FormatApprox(f.static_effort) + " " + effort_unit +
-                       " is below the Coulomb level " +
-                       FormatApprox(std::max(f.coulomb_positive, f.coulomb_negative)) + " " +
-                       effort_unit +
-                       "; expected static >= coulomb (break-away needs at least sliding friction)");
+    return problem(
+        "friction.static",
+        FormatApprox(f.static_effort) + " " + effort_unit + " is below the Coulomb level " +
+            FormatApprox(std::max(f.coulomb_positive, f.coulomb_negative)) + " " + effort_unit +
+            "; expected static >= coulomb (break-away needs at least sliding friction)");
   }
   if (!non_negative(f.viscous)) {
     return problem("friction.viscous", FormatApprox(f.viscous) + " is not allowed; expected >= 0");
   }
   if (!positive(f.stribeck_velocity)) {
-    return problem("friction.stribeck_velocity",
-                   show.Position(joint, f.stribeck_velocity, "/s") + " is not allowed; expected > 0");
+    return problem("friction.stribeck_velocity", show.Position(joint, f.stribeck_velocity, "/s") +
+                                                     " is not allowed; expected > 0");
   }
 
   const ServoParams& s = joint.servo;
@@ -152,9 +155,9 @@ std::optional<ModelProblem> JointProblem(const RobotModel& model, size_t i) {
                        show.Position(joint, joint.velocity_max, "/s"));
   }
   if (!positive(s.default_acceleration)) {
-    return problem("servo.default_acceleration",
-                   show.Position(joint, s.default_acceleration, "/s^2") +
-                       " is not allowed; expected > 0");
+    return problem(
+        "servo.default_acceleration",
+        show.Position(joint, s.default_acceleration, "/s^2") + " is not allowed; expected > 0");
   }
   struct ChipField {
     const char* key;
@@ -206,8 +209,7 @@ std::optional<ModelProblem> LinkProblem(const RobotModel& model, size_t i) {
                                 " m; expected every dimension > 0"};
       }
     }
-    if (!shape.pose.position_m.allFinite() ||
-        std::abs(shape.pose.orientation.norm() - 1) > 1e-6) {
+    if (!shape.pose.position_m.allFinite() || std::abs(shape.pose.orientation.norm() - 1) > 1e-6) {
       return ModelProblem{at + ".shapes[" + std::to_string(k) + "]",
                           "has a non-finite position or a non-unit orientation"};
     }

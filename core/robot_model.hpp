@@ -1,7 +1,8 @@
 #pragma once
-// The robot model: an immutable description of a serial arm built once from config/robots/*.yaml (or
-// received as robot_model_t) and shared read-only by every component. SI units throughout: metres,
-// radians, kilograms, seconds, N*m. Link i is rigidly attached to DH frame i; links[0] is the fixed base.
+// The robot model: an immutable description of a serial arm built once from config/robots/*.yaml
+// (or received as robot_model_t) and shared read-only by every component. SI units throughout:
+// metres, radians, kilograms, seconds, N*m. Link i is rigidly attached to DH frame i; links[0] is
+// the fixed base.
 
 #include <optional>
 #include <string>
@@ -13,7 +14,8 @@ namespace sirupp::core {
 
 enum class DhConvention {
   kStandard,  // distal (Paul): A_i = Rz(theta_i) Tz(d_i) Tx(a_i) Rx(alpha_i); joint i about z_(i-1)
-  kModified,  // proximal (Craig): A_i = Rx(alpha_(i-1)) Tx(a_(i-1)) Rz(theta_i) Tz(d_i); joint i about z_i
+  kModified,  // proximal (Craig): A_i = Rx(alpha_(i-1)) Tx(a_(i-1)) Rz(theta_i) Tz(d_i); joint i
+              // about z_i
 };
 enum class JointType { kRevolute, kPrismatic };
 
@@ -30,11 +32,11 @@ struct DhRow {
 
 // Joint friction at the joint (link side). Units: N*m and rad for revolute, N and m for prismatic.
 struct Friction {
-  double static_effort = 0;        // break-away effort while sticking (>= both Coulomb levels)
-  double coulomb_positive = 0;     // sliding friction magnitude while moving positive
-  double coulomb_negative = 0;     // sliding friction magnitude while moving negative
-  double viscous = 0;              // effort per unit speed
-  double stribeck_velocity = 0.01; // speed over which static decays to Coulomb (> 0)
+  double static_effort = 0;         // break-away effort while sticking (>= both Coulomb levels)
+  double coulomb_positive = 0;      // sliding friction magnitude while moving positive
+  double coulomb_negative = 0;      // sliding friction magnitude while moving negative
+  double viscous = 0;               // effort per unit speed
+  double stribeck_velocity = 0.01;  // speed over which static decays to Coulomb (> 0)
 };
 
 // The PIC-SERVO SC drive of a joint. Gains are in the chip's integer units (docs/servo-units.md).
@@ -72,8 +74,8 @@ struct Joint {
 struct Link {
   std::string name;
   double mass_kg = 0;
-  Eigen::Vector3d com_m = Eigen::Vector3d::Zero();             // in the link's DH frame
-  Eigen::Matrix3d inertia_kg_m2 = Eigen::Matrix3d::Zero();     // about the COM, link-frame axes
+  Eigen::Vector3d com_m = Eigen::Vector3d::Zero();          // in the link's DH frame
+  Eigen::Matrix3d inertia_kg_m2 = Eigen::Matrix3d::Zero();  // about the COM, link-frame axes
   bool inertia_derived = false;  // true when com and inertia came from the shapes
   std::vector<Shape> shapes;     // poses in the link's DH frame
 };
@@ -87,14 +89,14 @@ struct RobotModel {
   std::string name;
   std::string description;
   std::string source_file;
-  std::string source_hash;            // FNV-1a 64 of the file's bytes, 16 hex digits
-  std::string file_length_unit = "m"; // the file's own units, for display
+  std::string source_hash;             // FNV-1a 64 of the file's bytes, 16 hex digits
+  std::string file_length_unit = "m";  // the file's own units, for display
   double file_length_unit_m = 1;
   std::string file_angle_unit = "rad";
 
   DhConvention dh_convention = DhConvention::kStandard;
-  Pose base;   // DH frame 0 in the world
-  Pose tool;   // tool point in the last DH frame
+  Pose base;  // DH frame 0 in the world
+  Pose tool;  // tool point in the last DH frame
   Eigen::Vector3d gravity_m_s2{0, 0, -9.81};
   double servo_tick_s = 0.000512;
 

@@ -57,17 +57,19 @@ template <class T>
 void CheckCount(const std::string& channel, const std::string& field, int32_t count,
                 const std::vector<T>& array) {
   if (count < 0 || static_cast<size_t>(count) != array.size()) {
-    throw MessageError(channel, field, "count " + std::to_string(count) + " does not match the " +
-                                           std::to_string(array.size()) + " entries sent");
+    throw MessageError(channel, field,
+                       "count " + std::to_string(count) + " does not match the " +
+                           std::to_string(array.size()) + " entries sent");
   }
 }
 
 void CheckJointCount(const std::string& channel, int32_t num_joints, int expected_joints) {
   if (num_joints < 0 || (expected_joints >= 0 && num_joints != expected_joints)) {
-    throw MessageError(channel, "num_joints",
-                       std::to_string(num_joints) + " is not allowed; expected " +
-                           (expected_joints >= 0 ? std::to_string(expected_joints) + " (the model's joints)"
-                                                 : std::string("a count >= 0")));
+    throw MessageError(
+        channel, "num_joints",
+        std::to_string(num_joints) + " is not allowed; expected " +
+            (expected_joints >= 0 ? std::to_string(expected_joints) + " (the model's joints)"
+                                  : std::string("a count >= 0")));
   }
 }
 
@@ -218,9 +220,9 @@ RobotModel RobotModelFromMessage(const sirupp::robot_model_t& message, const std
     joint.effort_max = j.effort_max;
     joint.armature = j.armature;
     joint.home = j.home;
-    joint.friction = Friction{j.friction_static, j.friction_coulomb_positive,
-                              j.friction_coulomb_negative, j.friction_viscous,
-                              j.friction_stribeck_velocity};
+    joint.friction =
+        Friction{j.friction_static, j.friction_coulomb_positive, j.friction_coulomb_negative,
+                 j.friction_viscous, j.friction_stribeck_velocity};
     ServoParams& s = joint.servo;
     s.encoder_counts_per_rev = j.encoder_counts_per_rev;
     s.gear_ratio = j.gear_ratio;
@@ -294,8 +296,9 @@ ArmState ArmStateFromMessage(const sirupp::arm_state_t& message, const std::stri
   CheckJointCount(channel, message.num_joints, expected_joints);
   if (message.source < sirupp::arm_state_t::SOURCE_SIM ||
       message.source > sirupp::arm_state_t::SOURCE_EMULATED) {
-    throw MessageError(channel, "source",
-                       std::to_string(message.source) + " is not allowed; expected 0..2 (SOURCE_*)");
+    throw MessageError(
+        channel, "source",
+        std::to_string(message.source) + " is not allowed; expected 0..2 (SOURCE_*)");
   }
   CheckFinite(channel, "position", message.position);
   CheckFinite(channel, "velocity", message.velocity);

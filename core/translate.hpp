@@ -1,8 +1,8 @@
 #pragma once
 // Pure translation between our value structs and the LCM message types: no network, no clocks, no
-// state. ToMessage never fails. FromMessage checks what arrived (counts, finiteness, ranges, the model's
-// physical validity) and throws MessageError naming the channel and the field, so a bad message is
-// refused whole and never reaches the arm.
+// state. ToMessage never fails. FromMessage checks what arrived (counts, finiteness, ranges, the
+// model's physical validity) and throws MessageError naming the channel and the field, so a bad
+// message is refused whole and never reaches the arm.
 
 #include <sirupp/arm_command_t.hpp>
 #include <sirupp/arm_state_t.hpp>
@@ -15,8 +15,8 @@
 namespace sirupp::core {
 
 sirupp::robot_model_t ToMessage(const RobotModel& model, int64_t utime, int64_t seq);
-// Rebuilds the model as the sender loaded it; throws MessageError on anything FindModelProblem or the
-// message's own consistency (array counts, enum values) rejects.
+// Rebuilds the model as the sender loaded it; throws MessageError on anything FindModelProblem or
+// the message's own consistency (array counts, enum values) rejects.
 RobotModel RobotModelFromMessage(const sirupp::robot_model_t& message, const std::string& channel);
 
 sirupp::arm_state_t ToMessage(const ArmState& state, int64_t seq);

@@ -12,7 +12,8 @@
 
 namespace sirupp::core {
 
-// ---- NumberRule -----------------------------------------------------------------------------------
+// ---- NumberRule
+// -----------------------------------------------------------------------------------
 
 bool NumberRule::Allows(double value) const {
   if (!std::isfinite(value)) return false;
@@ -60,7 +61,8 @@ NumberRule NumberInRange(double min, double max, std::string unit) {
   return rule;
 }
 
-// ---- YamlValue ------------------------------------------------------------------------------------
+// ---- YamlValue
+// ------------------------------------------------------------------------------------
 
 namespace {
 
@@ -127,8 +129,8 @@ double YamlValue::Number(const NumberRule& rule) const {
   const std::optional<double> value = ParseNumber(text);
   if (!value) {
     std::string hint;
-    if (text.find(',') != std::string::npos && ParseNumber(std::string(text).replace(
-                                                   text.find(','), 1, "."))) {
+    if (text.find(',') != std::string::npos &&
+        ParseNumber(std::string(text).replace(text.find(','), 1, "."))) {
       hint = " (write decimals with a point)";
     }
     Fail(text + " is not a number" + hint + "; expected " + rule.Describe());
@@ -140,7 +142,8 @@ double YamlValue::Number(const NumberRule& rule) const {
 int64_t YamlValue::Integer(int64_t min, int64_t max) const {
   const std::string expected =
       "an integer in [" + std::to_string(min) + ", " + std::to_string(max) + "]";
-  if (!node_.IsScalar() || IsQuoted(node_)) Fail(Describe() + " is not an integer; expected " + expected);
+  if (!node_.IsScalar() || IsQuoted(node_))
+    Fail(Describe() + " is not an integer; expected " + expected);
   const std::string& text = node_.Scalar();
   errno = 0;
   char* end = nullptr;
@@ -222,14 +225,16 @@ std::vector<std::pair<std::string, YamlValue>> YamlValue::Entries() const {
     const std::string key = it->first.IsScalar() ? it->first.Scalar() : it->first.Tag();
     const std::string child_path = path_.empty() ? key : path_ + "." + key;
     for (const auto& entry : entries) {
-      if (entry.first == key) Child(it->first, child_path).Fail("duplicate key '" + key + "'; each key may appear once");
+      if (entry.first == key)
+        Child(it->first, child_path).Fail("duplicate key '" + key + "'; each key may appear once");
     }
     entries.emplace_back(key, Child(it->second, child_path));
   }
   return entries;
 }
 
-// ---- YamlMap --------------------------------------------------------------------------------------
+// ---- YamlMap
+// --------------------------------------------------------------------------------------
 
 namespace {
 std::string JoinPath(const std::string& parent, const std::string& key) {
@@ -239,8 +244,8 @@ std::string JoinPath(const std::string& parent, const std::string& key) {
 
 namespace {
 
-// The mapping's entries with merge keys expanded; key nodes keep their marks, so errors about a merged
-// key point into the anchored mapping it came from.
+// The mapping's entries with merge keys expanded; key nodes keep their marks, so errors about a
+// merged key point into the anchored mapping it came from.
 YAML::Node ResolveMergeKeys(const YAML::Node& node, const YamlValue& self, int depth = 0) {
   const YAML::Node merge = node["<<"];
   if (!merge.IsDefined()) return node;
@@ -253,7 +258,8 @@ YAML::Node ResolveMergeKeys(const YAML::Node& node, const YamlValue& self, int d
     for (const YAML::Node& item : merge) sources.push_back(item);
   }
   if (sources.empty()) {
-    merge_value.Fail("is not allowed; a merge key takes an anchored mapping (<<: *name) or a list of them");
+    merge_value.Fail(
+        "is not allowed; a merge key takes an anchored mapping (<<: *name) or a list of them");
   }
   std::set<std::string> taken;
   YAML::Node merged(YAML::NodeType::Map);
@@ -268,7 +274,8 @@ YAML::Node ResolveMergeKeys(const YAML::Node& node, const YamlValue& self, int d
   take(node);
   for (const YAML::Node& source : sources) {
     if (!source.IsMap()) {
-      merge_value.Fail("is not allowed; a merge key takes an anchored mapping (<<: *name) or a list of them");
+      merge_value.Fail(
+          "is not allowed; a merge key takes an anchored mapping (<<: *name) or a list of them");
     }
     take(ResolveMergeKeys(source, self, depth + 1));
   }
@@ -301,7 +308,8 @@ YamlMap::YamlMap(YamlValue self, std::vector<std::string> allowed_keys)
     const std::string key = it->first.IsScalar() ? it->first.Scalar() : it->first.Tag();
     if (std::find(allowed_keys_.begin(), allowed_keys_.end(), key) == allowed_keys_.end()) {
       // "a: 0,3" in a flow mapping splits at the comma and leaves a key "3": say so.
-      const std::string hint = ParseNumber(key) ? " (a decimal written with a comma? use a point)" : "";
+      const std::string hint =
+          ParseNumber(key) ? " (a decimal written with a comma? use a point)" : "";
       self_.Child(it->first, JoinPath(self_.path(), key))
           .Fail("unknown key '" + key + "'" + hint + "; allowed keys: " + allowed_list);
     }
@@ -324,7 +332,8 @@ YamlValue YamlMap::Get(const std::string& key, const std::string& expected) cons
     if (!it->first.IsScalar() || it->first.Scalar() != key) continue;
     const std::string child_path = JoinPath(self_.path(), key);
     // "key:" with nothing after it: point at the key, not at whatever the next line holds.
-    if (it->second.IsNull()) self_.Child(it->first, child_path).Fail("missing value; expected " + expected);
+    if (it->second.IsNull())
+      self_.Child(it->first, child_path).Fail("missing value; expected " + expected);
     return self_.Child(it->second, child_path);
   }
   self_.Fail("missing required key '" + key + "' (" + expected + ")");
@@ -347,7 +356,8 @@ std::string YamlMap::StringOr(const std::string& key, const std::string& fallbac
   return value ? value->String() : fallback;
 }
 
-// ---- YamlDocument ---------------------------------------------------------------------------------
+// ---- YamlDocument
+// ---------------------------------------------------------------------------------
 
 std::string ReadTextFile(const std::string& file) {
   std::ifstream in(file, std::ios::binary);
@@ -363,9 +373,7 @@ std::string ReadTextFile(const std::string& file) {
 YamlDocument::YamlDocument(YAML::Node root, std::string text, std::shared_ptr<YamlContext> context)
     : root_(std::move(root)), text_(std::move(text)), context_(std::move(context)) {}
 
-YamlDocument YamlDocument::Load(const std::string& file) {
-  return Parse(ReadTextFile(file), file);
-}
+YamlDocument YamlDocument::Load(const std::string& file) { return Parse(ReadTextFile(file), file); }
 
 YamlDocument YamlDocument::Parse(const std::string& text, const std::string& name) {
   auto context = std::make_shared<YamlContext>();

@@ -1,12 +1,13 @@
 #pragma once
 // Strict reading of YAML configuration files. Every value is read through YamlValue/YamlMap, which
 // know the key path ("joints[2].friction.static_nm") and the file:line:column of each node, so any
-// problem becomes one ConfigError naming the place, the bad value and what is allowed. Unknown keys,
-// duplicate keys, wrong types, missing keys and non-finite numbers are all errors.
+// problem becomes one ConfigError naming the place, the bad value and what is allowed. Unknown
+// keys, duplicate keys, wrong types, missing keys and non-finite numbers are all errors.
 //
-// Paths count list entries from 0, like YAML and JSON tools do. YAML merge keys ("<<: *anchor", or a
-// list of anchors) are resolved here, since yaml-cpp 0.7 leaves them as a literal "<<" key: keys
-// written in the mapping override merged ones, and an earlier anchor in a list overrides a later one.
+// Paths count list entries from 0, like YAML and JSON tools do. YAML merge keys ("<<: *anchor", or
+// a list of anchors) are resolved here, since yaml-cpp 0.7 leaves them as a literal "<<" key: keys
+// written in the mapping override merged ones, and an earlier anchor in a list overrides a later
+// one.
 
 #include <yaml-cpp/yaml.h>
 

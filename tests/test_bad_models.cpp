@@ -1,4 +1,5 @@
-// Every file in tests/data/bad_models/ is a robot model with one defect. Its second line says, after
+// Every file in tests/data/bad_models/ is a robot model with one defect. Its second line says,
+// after
 // "# expect: ", the exact message (after "FILE:") the loader must give. The corpus doubles as
 // documentation of what `sirupp model check` tells a user.
 #include <gtest/gtest.h>

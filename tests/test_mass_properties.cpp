@@ -1,8 +1,8 @@
-#include "core/mass_properties.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
+
+#include "core/mass_properties.hpp"
 
 namespace sirupp::core {
 namespace {
@@ -42,8 +42,9 @@ TEST(MassProperties, CapsuleOfZeroLengthIsASphere) {
   capsule.size_m = {0.1, 0, 0};
   Shape sphere = capsule;
   sphere.type = ShapeType::kSphere;
-  EXPECT_TRUE(SolidShapeMassProperties(capsule, 1).inertia_kg_m2.isApprox(
-      SolidShapeMassProperties(sphere, 1).inertia_kg_m2, 1e-12));
+  EXPECT_TRUE(
+      SolidShapeMassProperties(capsule, 1)
+          .inertia_kg_m2.isApprox(SolidShapeMassProperties(sphere, 1).inertia_kg_m2, 1e-12));
   EXPECT_NEAR(ShapeVolume(capsule), ShapeVolume(sphere), 1e-15);
 }
 
@@ -97,7 +98,8 @@ TEST(MassProperties, RotatedShapeRotatesItsInertia) {
 
 TEST(MassProperties, InertiaValidity) {
   EXPECT_FALSE(InertiaProblem(Eigen::Vector3d(1, 1, 1).asDiagonal()));
-  EXPECT_FALSE(InertiaProblem(Eigen::Vector3d(1, 1, 2).asDiagonal()));  // thin plate: equality holds
+  EXPECT_FALSE(
+      InertiaProblem(Eigen::Vector3d(1, 1, 2).asDiagonal()));  // thin plate: equality holds
   const auto triangle = InertiaProblem(Eigen::Vector3d(0.066, 0.086, 0.0125).asDiagonal());
   ASSERT_TRUE(triangle);
   EXPECT_NE(triangle->find("triangle inequality"), std::string::npos);

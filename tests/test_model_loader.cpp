@@ -1,10 +1,9 @@
-#include "core/model_loader.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
 
 #include "core/mass_properties.hpp"
+#include "core/model_loader.hpp"
 #include "core/yaml_reader.hpp"
 
 namespace sirupp::core {

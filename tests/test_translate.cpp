@@ -1,5 +1,3 @@
-#include "core/translate.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -7,6 +5,7 @@
 
 #include "core/errors.hpp"
 #include "core/model_loader.hpp"
+#include "core/translate.hpp"
 
 namespace sirupp::core {
 namespace {
@@ -68,8 +67,8 @@ void ExpectSameModel(const RobotModel& a, const RobotModel& b) {
 }
 
 TEST(Translate, EveryShippedModelSurvivesTheWire) {
-  for (const char* file :
-       {"config/robots/puma260.yaml", "config/robots/planar3.yaml", "config/robots/stanford.yaml"}) {
+  for (const char* file : {"config/robots/puma260.yaml", "config/robots/planar3.yaml",
+                           "config/robots/stanford.yaml"}) {
     SCOPED_TRACE(file);
     const RobotModel model = LoadRobotModel(file);
     const sirupp::robot_model_t message = ThroughTheWire(ToMessage(model, 42, 7));
@@ -86,11 +85,13 @@ TEST(Translate, ModelMessageWithBadInertiaIsRefused) {
   message.links[3].inertia[1] = 0.086;
   message.links[3].inertia[2] = 0.0125;
   message.links[3].inertia[3] = message.links[3].inertia[4] = message.links[3].inertia[5] = 0;
-  const std::string error = MessageErrorOf([&] { RobotModelFromMessage(message, "RIG1_ROBOT_MODEL"); });
-  EXPECT_EQ(error.rfind("channel RIG1_ROBOT_MODEL: links[3].shapes: give an inertia that breaks the "
-                        "triangle inequality",
-                        0),
-            0U)
+  const std::string error =
+      MessageErrorOf([&] { RobotModelFromMessage(message, "RIG1_ROBOT_MODEL"); });
+  EXPECT_EQ(
+      error.rfind("channel RIG1_ROBOT_MODEL: links[3].shapes: give an inertia that breaks the "
+                  "triangle inequality",
+                  0),
+      0U)
       << error;
 }
 
@@ -152,8 +153,8 @@ TEST(Translate, ArmCommandRoundTripAndChecks) {
   command.sender = "student-pid";
   command.mode = CommandMode::kHold;
   command.effort = {1.5, -2.5};
-  const ArmCommand back = ArmCommandFromMessage(ThroughTheWire(ToMessage(command, 3)),
-                                                "SIM_ARM_COMMAND", 2);
+  const ArmCommand back =
+      ArmCommandFromMessage(ThroughTheWire(ToMessage(command, 3)), "SIM_ARM_COMMAND", 2);
   EXPECT_EQ(back.tick, 17);
   EXPECT_EQ(back.sender, "student-pid");
   EXPECT_EQ(back.mode, CommandMode::kHold);

@@ -1,6 +1,6 @@
-#include "core/yaml_reader.hpp"
-
 #include <gtest/gtest.h>
+
+#include "core/yaml_reader.hpp"
 
 namespace sirupp::core {
 namespace {
