@@ -332,7 +332,7 @@ Descent Descend(const RobotModel& model, const Eigen::Isometry3d& target, JointV
     bool improved = false;
     // Levenberg-Marquardt: raise the damping until a step lowers the error. The damping keeps steps
     // bounded near singularities instead of letting them blow up.
-    for (int attempt = 0; attempt < 12 && !improved; ++attempt) {
+    for (int attempt = 0; attempt < 40 && !improved; ++attempt) {
       const Eigen::MatrixXd damped =
           jjt + lambda * lambda * Eigen::MatrixXd::Identity(rows, rows);
       JointVector step = jac.transpose() * damped.ldlt().solve(e);
@@ -348,7 +348,7 @@ Descent Descend(const RobotModel& model, const Eigen::Isometry3d& target, JointV
         lambda = std::max(lambda / 3, 1e-9);
         improved = true;
       } else {
-        lambda = std::min(lambda * 4, 1e3);
+        lambda = std::min(lambda * 4, 1e6);
       }
     }
     if (!improved) break;  // stalled: a local minimum, a limit, or a singularity
