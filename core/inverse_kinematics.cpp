@@ -35,10 +35,12 @@ bool UnwrapIntoLimits(const RobotModel& model, const JointVector& reference, Joi
     }
     double best = q[i] + 2 * M_PI * std::round((reference[i] - q[i]) / (2 * M_PI));
     bool found = false;
-    const double first = q[i] + 2 * M_PI * std::ceil((joint.position_min - q[i]) / (2 * M_PI) - 1e-12);
+    const double first =
+        q[i] + 2 * M_PI * std::ceil((joint.position_min - q[i]) / (2 * M_PI) - 1e-12);
     for (double candidate = first; candidate <= joint.position_max + 1e-12; candidate += 2 * M_PI) {
       const double clamped = std::clamp(candidate, joint.position_min, joint.position_max);
-      if (!found || std::abs(clamped - reference[i]) < std::abs(best - reference[i])) best = clamped;
+      if (!found || std::abs(clamped - reference[i]) < std::abs(best - reference[i]))
+        best = clamped;
       found = true;
     }
     inside = inside && found;
@@ -48,10 +50,11 @@ bool UnwrapIntoLimits(const RobotModel& model, const JointVector& reference, Joi
 }
 
 void SortSolutions(std::vector<IkSolution>& solutions, const JointVector& reference) {
-  std::stable_sort(solutions.begin(), solutions.end(), [&](const IkSolution& a, const IkSolution& b) {
-    if (a.within_limits != b.within_limits) return a.within_limits;
-    return Distance(a.q, reference) < Distance(b.q, reference);
-  });
+  std::stable_sort(solutions.begin(), solutions.end(),
+                   [&](const IkSolution& a, const IkSolution& b) {
+                     if (a.within_limits != b.within_limits) return a.within_limits;
+                     return Distance(a.q, reference) < Distance(b.q, reference);
+                   });
 }
 
 bool Reaches(const PoseError& error, const IkTolerance& tolerance, bool position_only = false) {
@@ -61,11 +64,11 @@ bool Reaches(const PoseError& error, const IkTolerance& tolerance, bool position
 
 // Geometry shared by the closed-form solver and the singularity names.
 struct PumaGeometry {
-  double s1;        // sin(alpha1) = +-1
-  double lateral;   // d2 + d3: offset of the wrist centre along the joint-2 axis
+  double s1;       // sin(alpha1) = +-1
+  double lateral;  // d2 + d3: offset of the wrist centre along the joint-2 axis
   double a2;
-  double l3;        // distance elbow axis -> wrist centre in the arm plane
-  double beta;      // angle of that vector at theta3 = 0
+  double l3;    // distance elbow axis -> wrist centre in the arm plane
+  double beta;  // angle of that vector at theta3 = 0
   double d1;
 };
 
@@ -89,9 +92,9 @@ Eigen::Isometry3d Frame6InBase(const RobotModel& model, const Eigen::Isometry3d&
 
 Eigen::Vector3d WristCentreInBase(const RobotModel& model, const Eigen::Isometry3d& frame6) {
   const Joint& j6 = model.joints[5];
-  const Eigen::Vector3d z5 =
-      frame6.linear() * Eigen::AngleAxisd(-j6.dh.alpha_rad, Eigen::Vector3d::UnitX()) *
-      Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d z5 = frame6.linear() *
+                             Eigen::AngleAxisd(-j6.dh.alpha_rad, Eigen::Vector3d::UnitX()) *
+                             Eigen::Vector3d::UnitZ();
   return frame6.translation() - j6.dh.d_m * z5;
 }
 
@@ -166,13 +169,15 @@ const char* IkFailureName(IkFailure failure) {
 
 std::optional<std::string> PumaIkNotApplicable(const RobotModel& model) {
   if (model.dh_convention != DhConvention::kStandard) return "it uses modified DH";
-  if (model.num_joints() != 6) return "it has " + std::to_string(model.num_joints()) + " joints, not 6";
+  if (model.num_joints() != 6)
+    return "it has " + std::to_string(model.num_joints()) + " joints, not 6";
   for (const Joint& joint : model.joints) {
     if (joint.type != JointType::kRevolute) return "joint " + joint.name + " is not revolute";
   }
   const auto& j = model.joints;
   auto quarter = [](double alpha) { return Near(std::abs(std::sin(alpha)), 1); };
-  if (!Near(j[0].dh.a_m, 0) || !quarter(j[0].dh.alpha_rad)) return "joint 1 needs a1 = 0, alpha1 = +-90";
+  if (!Near(j[0].dh.a_m, 0) || !quarter(j[0].dh.alpha_rad))
+    return "joint 1 needs a1 = 0, alpha1 = +-90";
   if (!Near(std::cos(j[1].dh.alpha_rad), 1) || Near(j[1].dh.a_m, 0)) {
     return "joints 2 and 3 need parallel axes (alpha2 = 0) and a2 != 0";
   }
@@ -216,15 +221,18 @@ IkResult SolvePumaIk(const RobotModel& model, const Eigen::Isometry3d& target,
 
   for (double theta1 : theta1_options) {
     // Wrist centre in frame 1: the planar two-link problem of joints 2 and 3.
-    const Eigen::Isometry3d a1 = DhTransform(DhConvention::kStandard, j[0], theta1 - j[0].dh.theta_rad);
-    const Eigen::Vector3d p1 = a1.linear().transpose() * (p + Eigen::Vector3d(0, 0, g.d1) - a1.translation());
+    const Eigen::Isometry3d a1 =
+        DhTransform(DhConvention::kStandard, j[0], theta1 - j[0].dh.theta_rad);
+    const Eigen::Vector3d p1 =
+        a1.linear().transpose() * (p + Eigen::Vector3d(0, 0, g.d1) - a1.translation());
     const double reach2 = p1.x() * p1.x() + p1.y() * p1.y();
     double cos_elbow = (reach2 - g.a2 * g.a2 - g.l3 * g.l3) / (2 * g.a2 * g.l3);
     if (std::abs(cos_elbow) > 1 + 1e-12) {
       result.failure = IkFailure::kUnreachable;
       result.reason = "the wrist centre is " + FormatApprox(std::sqrt(reach2)) +
                       " m from the shoulder in the arm's plane; the arm reaches " +
-                      FormatApprox(std::abs(g.a2 - g.l3)) + " to " + FormatApprox(g.a2 + g.l3) + " m";
+                      FormatApprox(std::abs(g.a2 - g.l3)) + " to " + FormatApprox(g.a2 + g.l3) +
+                      " m";
       return result;
     }
     cos_elbow = std::clamp(cos_elbow, -1.0, 1.0);
@@ -239,9 +247,11 @@ IkResult SolvePumaIk(const RobotModel& model, const Eigen::Isometry3d& target,
       q[2] = theta3 - j[2].dh.theta_rad;
       // Wrist: R36 = Rz(t4) Rx(a4) Rz(t5) Rx(-a4) Rz(t6) Rx(a6) = Rz(t4) Ry(-s4 t5) Rz(t6) Rx(a6).
       Eigen::Isometry3d t03 = Eigen::Isometry3d::Identity();
-      for (int i = 0; i < 3; ++i) t03 = t03 * DhTransform(DhConvention::kStandard, j[static_cast<size_t>(i)], q[i]);
-      const Eigen::Matrix3d w = t03.linear().transpose() * frame6.linear() *
-                                Eigen::AngleAxisd(-j[5].dh.alpha_rad, Eigen::Vector3d::UnitX()).toRotationMatrix();
+      for (int i = 0; i < 3; ++i)
+        t03 = t03 * DhTransform(DhConvention::kStandard, j[static_cast<size_t>(i)], q[i]);
+      const Eigen::Matrix3d w =
+          t03.linear().transpose() * frame6.linear() *
+          Eigen::AngleAxisd(-j[5].dh.alpha_rad, Eigen::Vector3d::UnitX()).toRotationMatrix();
       const double s4 = std::sin(j[3].dh.alpha_rad);
       const double sin_b = std::hypot(w(0, 2), w(1, 2));
       for (double wrist_sign : {1.0, -1.0}) {
@@ -296,7 +306,8 @@ struct Descent {
   bool converged = false;
 };
 
-Eigen::Matrix<double, 6, 1> TaskError(const Eigen::Isometry3d& current, const Eigen::Isometry3d& target) {
+Eigen::Matrix<double, 6, 1> TaskError(const Eigen::Isometry3d& current,
+                                      const Eigen::Isometry3d& target) {
   Eigen::Matrix<double, 6, 1> e;
   e.head<3>() = target.translation() - current.translation();
   const Eigen::AngleAxisd rotation(target.linear() * current.linear().transpose());
@@ -333,8 +344,7 @@ Descent Descend(const RobotModel& model, const Eigen::Isometry3d& target, JointV
     // Levenberg-Marquardt: raise the damping until a step lowers the error. The damping keeps steps
     // bounded near singularities instead of letting them blow up.
     for (int attempt = 0; attempt < 40 && !improved; ++attempt) {
-      const Eigen::MatrixXd damped =
-          jjt + lambda * lambda * Eigen::MatrixXd::Identity(rows, rows);
+      const Eigen::MatrixXd damped = jjt + lambda * lambda * Eigen::MatrixXd::Identity(rows, rows);
       JointVector step = jac.transpose() * damped.ldlt().solve(e);
       JointVector next = q + step;
       clamp(next);
@@ -421,8 +431,9 @@ IkResult SolveNumericIk(const RobotModel& model, const Eigen::Isometry3d& target
       best = descent;
     }
     if (!descent.converged) continue;
-    const bool repeated = std::any_of(result.solutions.begin(), result.solutions.end(),
-                                      [&](const IkSolution& s) { return Distance(s.q, descent.q) < 1e-6; });
+    const bool repeated =
+        std::any_of(result.solutions.begin(), result.solutions.end(),
+                    [&](const IkSolution& s) { return Distance(s.q, descent.q) < 1e-6; });
     if (repeated) continue;
     IkSolution solution;
     solution.q = descent.q;
@@ -443,7 +454,8 @@ IkResult SolveNumericIk(const RobotModel& model, const Eigen::Isometry3d& target
       return result;
     }
   }
-  const Eigen::MatrixXd jac = GeometricJacobian(model, best.q).topRows(options.position_only ? 3 : 6);
+  const Eigen::MatrixXd jac =
+      GeometricJacobian(model, best.q).topRows(options.position_only ? 3 : 6);
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(jac);
   const double smallest = svd.singularValues()(svd.singularValues().size() - 1);
   if (smallest < 1e-4) {
@@ -460,7 +472,8 @@ IkResult SolveNumericIk(const RobotModel& model, const Eigen::Isometry3d& target
   return result;
 }
 
-std::vector<std::string> Singularities(const RobotModel& model, const JointVector& q, double tolerance) {
+std::vector<std::string> Singularities(const RobotModel& model, const JointVector& q,
+                                       double tolerance) {
   std::vector<std::string> names;
   if (!PumaIkNotApplicable(model)) {
     const auto& j = model.joints;
@@ -486,7 +499,8 @@ const IkSolution* NearestSolution(const IkResult& result, const JointVector& ref
   const IkSolution* nearest = nullptr;
   for (const IkSolution& solution : result.solutions) {
     if (!solution.within_limits) continue;
-    if (!nearest || Distance(solution.q, reference) < Distance(nearest->q, reference)) nearest = &solution;
+    if (!nearest || Distance(solution.q, reference) < Distance(nearest->q, reference))
+      nearest = &solution;
   }
   return nearest;
 }

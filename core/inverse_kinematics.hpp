@@ -1,12 +1,13 @@
 #pragma once
 // Inverse kinematics: the closed-form solution of PUMA-type arms (all 8 configurations) and a
 // numeric damped-least-squares solver for any serial DH arm. Both report success only after forward
-// kinematics of the answer reaches the target within tolerance; otherwise they say why, from a fixed
-// set of reasons.
+// kinematics of the answer reaches the target within tolerance; otherwise they say why, from a
+// fixed set of reasons.
 //
 // Configuration labels are geometric, so they mean the same on any PUMA-type arm whatever the signs
 // in its DH table (docs/kinematics.md):
-//   shoulder left/right  the arm's lateral offset lies left/right of the line from the waist axis to
+//   shoulder left/right  the arm's lateral offset lies left/right of the line from the waist axis
+//   to
 //                        the wrist centre, seen from above (arms without offset: right = raising
 //                        joint 2 lifts the wrist);
 //   elbow up/down        the elbow lies above/below the line from shoulder to wrist centre;
@@ -36,19 +37,19 @@ struct IkConfiguration {
 };
 
 enum class IkFailure {
-  kNone,               // at least one solution
-  kUnreachable,        // the target is outside the arm's workspace
-  kOutsideJointLimits, // solutions exist, but none inside the joint limits
-  kSingular,           // the solver stalled at a singularity short of the target
-  kNoConvergence,      // the numeric solver did not reach the target from any seed
-  kNotApplicable,      // the closed-form solver does not fit this arm (use the numeric one)
+  kNone,                // at least one solution
+  kUnreachable,         // the target is outside the arm's workspace
+  kOutsideJointLimits,  // solutions exist, but none inside the joint limits
+  kSingular,            // the solver stalled at a singularity short of the target
+  kNoConvergence,       // the numeric solver did not reach the target from any seed
+  kNotApplicable,       // the closed-form solver does not fit this arm (use the numeric one)
 };
 const char* IkFailureName(IkFailure failure);
 
 struct IkSolution {
-  JointVector q;                           // joint positions, rad / m, unwrapped into the limits
-  std::optional<IkConfiguration> config;   // set by the closed-form solver
-  PoseError error;                         // FK(q) against the target
+  JointVector q;                          // joint positions, rad / m, unwrapped into the limits
+  std::optional<IkConfiguration> config;  // set by the closed-form solver
+  PoseError error;                        // FK(q) against the target
   bool within_limits = true;
   std::vector<std::string> singularities;  // names, e.g. "wrist"; empty when regular
 };
@@ -56,7 +57,7 @@ struct IkSolution {
 struct IkResult {
   std::vector<IkSolution> solutions;  // solutions within limits first, each group nearest first
   IkFailure failure = IkFailure::kNone;
-  std::string reason;                 // one line for people when failure != kNone
+  std::string reason;  // one line for people when failure != kNone
   bool ok() const { return failure == IkFailure::kNone; }
 };
 
@@ -80,11 +81,11 @@ IkResult SolvePumaIk(const RobotModel& model, const Eigen::Isometry3d& target,
 
 struct NumericIkOptions {
   IkTolerance tolerance;
-  int max_iterations = 300;   // per seed
-  int random_seeds = 16;      // seeds drawn inside the limits, besides the reference, home, named poses
+  int max_iterations = 300;  // per seed
+  int random_seeds = 16;  // seeds drawn inside the limits, besides the reference, home, named poses
   uint32_t random_seed = 12345;
-  bool position_only = false; // ignore orientation (for arms with fewer than 6 joints)
-  bool stop_at_first = false; // return as soon as one solution is found
+  bool position_only = false;  // ignore orientation (for arms with fewer than 6 joints)
+  bool stop_at_first = false;  // return as soon as one solution is found
 };
 
 // Damped least squares (Levenberg-Marquardt damping) from several seeds, joint limits enforced by

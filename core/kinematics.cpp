@@ -36,9 +36,8 @@ ForwardResult ForwardKinematics(const RobotModel& model, const JointVector& q) {
   result.frames.reserve(model.joints.size() + 1);
   result.frames.push_back(model.base.ToIsometry());
   for (size_t i = 0; i < model.joints.size(); ++i) {
-    result.frames.push_back(result.frames.back() *
-                            DhTransform(model.dh_convention, model.joints[i],
-                                        q[static_cast<Eigen::Index>(i)]));
+    result.frames.push_back(result.frames.back() * DhTransform(model.dh_convention, model.joints[i],
+                                                               q[static_cast<Eigen::Index>(i)]));
   }
   result.tool = result.frames.back() * model.tool.ToIsometry();
   return result;
@@ -47,7 +46,8 @@ ForwardResult ForwardKinematics(const RobotModel& model, const JointVector& q) {
 Eigen::Isometry3d ToolPose(const RobotModel& model, const JointVector& q) {
   Eigen::Isometry3d pose = model.base.ToIsometry();
   for (size_t i = 0; i < model.joints.size(); ++i) {
-    pose = pose * DhTransform(model.dh_convention, model.joints[i], q[static_cast<Eigen::Index>(i)]);
+    pose =
+        pose * DhTransform(model.dh_convention, model.joints[i], q[static_cast<Eigen::Index>(i)]);
   }
   return pose * model.tool.ToIsometry();
 }

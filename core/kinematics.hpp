@@ -2,8 +2,8 @@
 // Forward kinematics, the geometric Jacobian and manipulability of any serial DH arm (standard or
 // modified convention, revolute or prismatic joints). Pure functions of (model, joint positions).
 //
-// Frames: frames[0] is DH frame 0 in the world (the model's base pose); frames[i] is DH frame i; the
-// tool frame is frames[n] * model.tool. Positions in metres, angles in radians.
+// Frames: frames[0] is DH frame 0 in the world (the model's base pose); frames[i] is DH frame i;
+// the tool frame is frames[n] * model.tool. Positions in metres, angles in radians.
 
 #include <Eigen/Geometry>
 #include <vector>

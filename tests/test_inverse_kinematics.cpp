@@ -1,5 +1,3 @@
-#include "core/inverse_kinematics.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -7,6 +5,7 @@
 #include <random>
 #include <set>
 
+#include "core/inverse_kinematics.hpp"
 #include "core/model_loader.hpp"
 
 namespace sirupp::core {
@@ -25,7 +24,8 @@ JointVector RandomJoints(const RobotModel& model, std::mt19937& random, double m
 }
 
 // Same joint positions up to whole turns of revolute joints.
-bool SameUpToTurns(const RobotModel& model, const JointVector& a, const JointVector& b, double eps) {
+bool SameUpToTurns(const RobotModel& model, const JointVector& a, const JointVector& b,
+                   double eps) {
   for (int i = 0; i < a.size(); ++i) {
     double d = a[i] - b[i];
     if (model.joints[static_cast<size_t>(i)].type == JointType::kRevolute) {
@@ -43,7 +43,8 @@ class PumaIk : public ::testing::Test {
 
 TEST_F(PumaIk, AppliesToThePumaButNotToOtherArms) {
   EXPECT_FALSE(PumaIkNotApplicable(puma));
-  EXPECT_EQ(*PumaIkNotApplicable(LoadRobotModel("config/robots/planar3.yaml")), "it uses modified DH");
+  EXPECT_EQ(*PumaIkNotApplicable(LoadRobotModel("config/robots/planar3.yaml")),
+            "it uses modified DH");
   EXPECT_EQ(*PumaIkNotApplicable(LoadRobotModel("config/robots/stanford.yaml")),
             "joint boom is not revolute");
   const IkResult result = SolvePumaIk(LoadRobotModel("config/robots/stanford.yaml"),
@@ -86,8 +87,9 @@ TEST_F(PumaIk, RandomPosesRoundTripOnAllEightBranches) {
   EXPECT_EQ(eight, trials);  // random poses are not singular, so all 8 branches exist
   EXPECT_EQ(label_counts.size(), 8U);
   for (const auto& [label, count] : label_counts) EXPECT_EQ(count, trials) << label;
-  std::printf("PUMA 260 closed-form IK, %d random poses: worst |FK(IK(T)) - T| = %.3g m, %.3g rad\n",
-              trials, worst_position, worst_rotation);
+  std::printf(
+      "PUMA 260 closed-form IK, %d random poses: worst |FK(IK(T)) - T| = %.3g m, %.3g rad\n",
+      trials, worst_position, worst_rotation);
 }
 
 TEST_F(PumaIk, ConfigurationChoiceAndNearest) {
@@ -112,8 +114,8 @@ TEST_F(PumaIk, ConfigurationChoiceAndNearest) {
 }
 
 TEST_F(PumaIk, ElbowLabelFollowsGeometry) {
-  // Arm ready pose: upper arm straight up (joint 2 at -90), forearm forward (joint 3 at +90) puts the
-  // elbow above the shoulder-wrist line.
+  // Arm ready pose: upper arm straight up (joint 2 at -90), forearm forward (joint 3 at +90) puts
+  // the elbow above the shoulder-wrist line.
   const JointVector q = (JointVector(6) << 0, -90, 90, 0, 45, 0).finished() * kDeg;
   const IkResult result = SolvePumaIk(puma, ToolPose(puma, q), q);
   const IkSolution* nearest = NearestSolution(result, q);
@@ -159,8 +161,8 @@ TEST_F(PumaIk, ElbowAndShoulderSingularitiesAreNamed) {
   const auto elbow = Singularities(puma, stretched);
   EXPECT_NE(std::find(elbow.begin(), elbow.end(), "elbow"), elbow.end());
   EXPECT_EQ(std::count(elbow.begin(), elbow.end(), "shoulder"), 0);
-  // Shoulder: upper arm 45 degrees up, forearm at 0: the wrist centre is straight above the shoulder,
-  // on the cylinder where the left and right solutions meet.
+  // Shoulder: upper arm 45 degrees up, forearm at 0: the wrist centre is straight above the
+  // shoulder, on the cylinder where the left and right solutions meet.
   const JointVector aligned = (JointVector(6) << 0, -45, 0, 0, 30, 0).finished() * kDeg;
   EXPECT_EQ(Singularities(puma, aligned), std::vector<std::string>{"shoulder"});
   const JointVector regular = (JointVector(6) << 0, 20, 40, 0, 30, 0).finished() * kDeg;
@@ -176,7 +178,8 @@ TEST_F(PumaIk, LimitsAreRespected) {
       bool inside = true;
       for (int i = 0; i < 6; ++i) {
         const Joint& joint = puma.joints[static_cast<size_t>(i)];
-        inside = inside && s.q[i] >= joint.position_min - 1e-12 && s.q[i] <= joint.position_max + 1e-12;
+        inside =
+            inside && s.q[i] >= joint.position_min - 1e-12 && s.q[i] <= joint.position_max + 1e-12;
       }
       EXPECT_EQ(inside, s.within_limits);
     }
@@ -211,7 +214,8 @@ TEST_F(PumaIk, NumericSolverAgreesWithClosedForm) {
     const Eigen::Isometry3d target = ToolPose(puma, q);
     NumericIkOptions options;
     options.stop_at_first = true;
-    const IkResult numeric = SolveNumericIk(puma, target, q + JointVector::Constant(6, 0.2), options);
+    const IkResult numeric =
+        SolveNumericIk(puma, target, q + JointVector::Constant(6, 0.2), options);
     ASSERT_TRUE(numeric.ok()) << numeric.reason;
     const IkResult closed = SolvePumaIk(puma, target, numeric.solutions[0].q);
     bool matched = false;
@@ -260,8 +264,7 @@ TEST(NumericIk, ReasonsForFailure) {
   RobotModel stiff = arm;
   stiff.joints[1].position_min = -10 * kDeg;
   stiff.joints[1].position_max = 10 * kDeg;
-  const Eigen::Isometry3d bent =
-      ToolPose(arm, (JointVector(3) << 0, 120, 0).finished() * kDeg);
+  const Eigen::Isometry3d bent = ToolPose(arm, (JointVector(3) << 0, 120, 0).finished() * kDeg);
   const IkResult limited = SolveNumericIk(stiff, bent, JointVector::Zero(3));
   EXPECT_EQ(limited.failure, IkFailure::kOutsideJointLimits) << limited.reason;
 
@@ -284,7 +287,8 @@ TEST(NumericIk, StaysBoundedNearASingularity) {
   options.random_seeds = 2;
   const IkResult result = SolveNumericIk(arm, target, JointVector::Constant(3, 0.01), options);
   EXPECT_FALSE(result.ok());
-  EXPECT_TRUE(result.failure == IkFailure::kSingular || result.failure == IkFailure::kNoConvergence ||
+  EXPECT_TRUE(result.failure == IkFailure::kSingular ||
+              result.failure == IkFailure::kNoConvergence ||
               result.failure == IkFailure::kUnreachable)
       << result.reason;
 }

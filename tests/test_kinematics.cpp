@@ -1,10 +1,9 @@
-#include "core/kinematics.hpp"
-
 #include <gtest/gtest.h>
 
 #include <cmath>
 #include <random>
 
+#include "core/kinematics.hpp"
 #include "core/model_loader.hpp"
 
 namespace sirupp::core {
@@ -88,22 +87,24 @@ void ExpectJacobianMatchesFiniteDifferences(const RobotModel& model, const Joint
     const Eigen::Vector3d angular = turn.angle() * turn.axis() / (2 * h);
     EXPECT_TRUE(jac.col(i).head<3>().isApprox(linear, 1e-6) ||
                 (jac.col(i).head<3>() - linear).norm() < 1e-7)
-        << "joint " << i << " linear " << jac.col(i).head<3>().transpose() << " vs " << linear.transpose();
+        << "joint " << i << " linear " << jac.col(i).head<3>().transpose() << " vs "
+        << linear.transpose();
     EXPECT_LT((jac.col(i).tail<3>() - angular).norm(), 1e-6) << "joint " << i;
   }
 }
 
 TEST(Kinematics, JacobianMatchesFiniteDifferencesOnEveryShippedArm) {
   std::mt19937 random(7);
-  for (const char* file :
-       {"config/robots/puma260.yaml", "config/robots/planar3.yaml", "config/robots/stanford.yaml"}) {
+  for (const char* file : {"config/robots/puma260.yaml", "config/robots/planar3.yaml",
+                           "config/robots/stanford.yaml"}) {
     SCOPED_TRACE(file);
     const RobotModel model = LoadRobotModel(file);
     for (int trial = 0; trial < 20; ++trial) {
       JointVector q(model.num_joints());
       for (int i = 0; i < q.size(); ++i) {
         const Joint& joint = model.joints[static_cast<size_t>(i)];
-        q[i] = std::uniform_real_distribution<double>(joint.position_min, joint.position_max)(random);
+        q[i] =
+            std::uniform_real_distribution<double>(joint.position_min, joint.position_max)(random);
       }
       ExpectJacobianMatchesFiniteDifferences(model, q);
     }
@@ -113,10 +114,13 @@ TEST(Kinematics, JacobianMatchesFiniteDifferencesOnEveryShippedArm) {
 TEST(Kinematics, ModifiedDhPlanarArm) {
   const RobotModel arm = LoadRobotModel("config/robots/planar3.yaml");
   // Base at height 0.5, rolled 90 degrees: frame-0 x is world x, frame-0 y is world up.
-  EXPECT_TRUE(ToolPose(arm, Deg({0, 0, 0})).translation().isApprox(Eigen::Vector3d(0.7, 0, 0.5), 1e-12));
-  EXPECT_TRUE(ToolPose(arm, Deg({90, 0, 0})).translation().isApprox(Eigen::Vector3d(0, 0, 1.2), 1e-12));
   EXPECT_TRUE(
-      ToolPose(arm, Deg({0, 90, -90})).translation().isApprox(Eigen::Vector3d(0.45, 0, 0.75), 1e-12));
+      ToolPose(arm, Deg({0, 0, 0})).translation().isApprox(Eigen::Vector3d(0.7, 0, 0.5), 1e-12));
+  EXPECT_TRUE(
+      ToolPose(arm, Deg({90, 0, 0})).translation().isApprox(Eigen::Vector3d(0, 0, 1.2), 1e-12));
+  EXPECT_TRUE(ToolPose(arm, Deg({0, 90, -90}))
+                  .translation()
+                  .isApprox(Eigen::Vector3d(0.45, 0, 0.75), 1e-12));
 }
 
 TEST(Kinematics, PrismaticJointMovesAlongItsAxis) {
@@ -137,17 +141,20 @@ TEST_F(PumaKinematics, ManipulabilityVanishesAtTheWristSingularity) {
 }
 
 TEST(Kinematics, RollPitchYawRoundTrip) {
-  for (const Eigen::Vector3d& rpy : {Eigen::Vector3d(0.1, 0.2, 0.3), Eigen::Vector3d(-2.5, 1.2, 3.0),
-                                     Eigen::Vector3d(0.3, -0.7, -1.1)}) {
+  for (const Eigen::Vector3d& rpy :
+       {Eigen::Vector3d(0.1, 0.2, 0.3), Eigen::Vector3d(-2.5, 1.2, 3.0),
+        Eigen::Vector3d(0.3, -0.7, -1.1)}) {
     const Eigen::Matrix3d r = QuaternionFromRpy(rpy.x(), rpy.y(), rpy.z()).toRotationMatrix();
     EXPECT_TRUE(RollPitchYaw(r).isApprox(rpy, 1e-12)) << RollPitchYaw(r).transpose();
     const Eigen::Vector3d back = RollPitchYaw(r);
-    EXPECT_TRUE(QuaternionFromRpy(back.x(), back.y(), back.z()).toRotationMatrix().isApprox(r, 1e-12));
+    EXPECT_TRUE(
+        QuaternionFromRpy(back.x(), back.y(), back.z()).toRotationMatrix().isApprox(r, 1e-12));
   }
   // Gimbal lock: the rotation is still reproduced.
   const Eigen::Matrix3d lock = QuaternionFromRpy(0.4, M_PI / 2, 0).toRotationMatrix();
   const Eigen::Vector3d back = RollPitchYaw(lock);
-  EXPECT_TRUE(QuaternionFromRpy(back.x(), back.y(), back.z()).toRotationMatrix().isApprox(lock, 1e-9));
+  EXPECT_TRUE(
+      QuaternionFromRpy(back.x(), back.y(), back.z()).toRotationMatrix().isApprox(lock, 1e-9));
 }
 
 }  // namespace

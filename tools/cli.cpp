@@ -8,6 +8,7 @@
 #include "core/errors.hpp"
 #include "core/model_loader.hpp"
 #include "core/model_report.hpp"
+#include "tools/kinematics_commands.hpp"
 
 #ifndef SIRUPP_SOURCE_DIR
 #define SIRUPP_SOURCE_DIR "."
@@ -28,6 +29,8 @@ const char* const kUsage =
     "  demo [--model FILE]        the main job: load the PUMA 260 model and print it\n"
     "  model check FILE...        validate robot model files; exit 2 on the first bad one\n"
     "  model show FILE            print the DH table and link data, in SI and the file's units\n"
+    "  fk --model FILE --deg Q..  tool pose for joint positions (see sirupp fk --help)\n"
+    "  ik --model FILE --pose X Y Z ROLL PITCH YAW   joint solutions (see sirupp ik --help)\n"
     "  help                       this text\n"
     "\n"
     "Model files: config/robots/*.yaml, format in docs/model-format.md.\n"
@@ -87,6 +90,15 @@ int RunCli(const Args& args, std::ostream& out, std::ostream& err) {
     const std::string& command = args[0];
     const Args rest(args.begin() + 1, args.end());
     if (command == "demo") return Demo(rest, out);
+    const bool wants_help = !rest.empty() && (rest[0] == "--help" || rest[0] == "-h");
+    if (command == "fk") {
+      if (wants_help) return out << kFkUsage, kExitOk;
+      return RunFk(rest, out);
+    }
+    if (command == "ik") {
+      if (wants_help) return out << kIkUsage, kExitOk;
+      return RunIk(rest, out);
+    }
     if (command == "model") {
       if (rest.empty()) throw core::UsageError("model: expected a subcommand: check or show");
       const Args files(rest.begin() + 1, rest.end());

@@ -1,0 +1,293 @@
+#include "tools/kinematics_commands.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <ostream>
+#include <sstream>
+
+#include "core/errors.hpp"
+#include "core/inverse_kinematics.hpp"
+#include "core/model_loader.hpp"
+#include "tools/args.hpp"
+
+namespace sirupp::tools {
+
+const char* const kFkUsage =
+    "usage: sirupp fk --model FILE (--deg Q1 .. QN | --rad Q1 .. QN) [--json]\n"
+    "  Tool pose for the given joints. --deg: revolute joints in degrees; --rad: in radians;\n"
+    "  prismatic joints in metres either way. Joint i follows the model's DH convention.\n"
+    "  Prints the position in metres and in the model file's length unit, the rotation matrix,\n"
+    "  roll-pitch-yaw in degrees (R = Rz(yaw) Ry(pitch) Rx(roll), fixed axes) and the quaternion\n"
+    "  (w x y z), all in the world frame (the frame the model's base pose is given in).\n";
+
+const char* const kIkUsage =
+    "usage: sirupp ik --model FILE --pose X Y Z ROLL PITCH YAW [--config NAME|all|nearest]\n"
+    "                 [--from Q1 .. QN] [--numeric] [--position-only] [--json]\n"
+    "  Joint solutions that put the tool at the pose: X Y Z in metres, ROLL PITCH YAW in degrees\n"
+    "  (R = Rz(yaw) Ry(pitch) Rx(roll)), world frame. PUMA-type arms use the closed-form solver\n"
+    "  (8 configurations, named SHOULDER-ELBOW-WRIST: left|right, up|down, noflip|flip); other "
+    "arms,\n"
+    "  or --numeric, the damped-least-squares solver.\n"
+    "  --config all (default): every solution; nearest: the one nearest --from (degrees / metres,\n"
+    "  default the home pose); or a configuration name such as right-up-noflip.\n"
+    "  --position-only: ignore the orientation (numeric solver; for arms with fewer than 6 "
+    "joints).\n"
+    "  Exit code 0 with solutions, 1 with the reason when there is none, 2 for bad arguments.\n";
+
+namespace {
+
+std::string Num(double value) { return std::isfinite(value) ? core::FormatNumber(value) : "null"; }
+
+std::string JsonArray(const std::vector<double>& values) {
+  std::string text = "[";
+  for (size_t i = 0; i < values.size(); ++i) text += (i ? ", " : "") + Num(values[i]);
+  return text + "]";
+}
+
+std::string JsonString(const std::string& text) {
+  std::string quoted = "\"";
+  for (char c : text) {
+    if (c == '"' || c == '\\') quoted += '\\';
+    quoted += c;
+  }
+  return quoted + "\"";
+}
+
+std::string JsonStrings(const std::vector<std::string>& texts) {
+  std::string list = "[";
+  for (size_t i = 0; i < texts.size(); ++i) list += (i ? ", " : "") + JsonString(texts[i]);
+  return list + "]";
+}
+
+std::string Fixed(double value, int decimals = 4) {
+  char buffer[64];
+  std::snprintf(buffer, sizeof buffer, "%.*f", decimals, value);
+  const std::string text = buffer;
+  // "-0.000" reads as a sign that is not there.
+  return text.find_first_not_of("-0.") == std::string::npos && text[0] == '-' ? text.substr(1)
+                                                                              : text;
+}
+
+// Joint values for people: degrees for revolute joints, metres for prismatic ones.
+std::vector<double> ForPeople(const core::RobotModel& model, const core::JointVector& q) {
+  std::vector<double> values;
+  for (int i = 0; i < q.size(); ++i) {
+    const bool revolute = model.joints[static_cast<size_t>(i)].type == core::JointType::kRevolute;
+    values.push_back(revolute ? q[i] * 180.0 / M_PI : q[i]);
+  }
+  return values;
+}
+
+core::JointVector FromPeople(const core::RobotModel& model, const std::vector<double>& values,
+                             bool degrees) {
+  core::JointVector q(static_cast<Eigen::Index>(values.size()));
+  for (size_t i = 0; i < values.size(); ++i) {
+    const bool revolute = model.joints[i].type == core::JointType::kRevolute;
+    q[static_cast<Eigen::Index>(i)] = revolute && degrees ? values[i] * M_PI / 180.0 : values[i];
+  }
+  return q;
+}
+
+// Names of the joints of q outside their limits, "" when none.
+std::string OutsideLimits(const core::RobotModel& model, const core::JointVector& q) {
+  std::string names;
+  for (int i = 0; i < q.size(); ++i) {
+    const core::Joint& joint = model.joints[static_cast<size_t>(i)];
+    if (q[i] < joint.position_min || q[i] > joint.position_max) {
+      names += (names.empty() ? "" : ", ") + joint.name;
+    }
+  }
+  return names;
+}
+
+std::string JointText(const std::vector<double>& values) {
+  std::string text;
+  for (double v : values) text += (text.empty() ? "" : " ") + Fixed(v, 3);
+  return "[" + text + "]";
+}
+
+}  // namespace
+
+int RunFk(const std::vector<std::string>& raw, std::ostream& out) {
+  const Args args(raw, "fk",
+                  {{"model", "FILE"}, {"deg", "Q1 .. QN"}, {"rad", "Q1 .. QN"}, {"json", ""}});
+  const core::RobotModel model = core::LoadRobotModel(args.String("model"));
+  const int n = model.num_joints();
+  if (args.Has("deg") == args.Has("rad")) {
+    throw core::UsageError("fk: give the joints with exactly one of --deg or --rad (" +
+                           std::to_string(n) + " values for " + model.name + ")");
+  }
+  const bool degrees = args.Has("deg");
+  const core::JointVector q = FromPeople(model, args.Numbers(degrees ? "deg" : "rad", n), degrees);
+  const bool json = args.Switch("json");
+
+  const Eigen::Isometry3d tool = core::ToolPose(model, q);
+  const Eigen::Vector3d p = tool.translation();
+  const Eigen::Matrix3d r = tool.linear();
+  const Eigen::Vector3d rpy = core::RollPitchYaw(r) * 180.0 / M_PI;
+  const Eigen::Quaterniond quat(r);
+  const double manipulability = core::Manipulability(core::GeometricJacobian(model, q));
+  const std::vector<std::string> singular = core::Singularities(model, q);
+  const double unit = model.file_length_unit_m;
+
+  if (json) {
+    out << "{\"model\": " << JsonString(model.name)
+        << ", \"joints\": " << JsonArray(ForPeople(model, q))
+        << ", \"joint_units\": \"deg (revolute), m (prismatic)\", \"position_m\": "
+        << JsonArray({p.x(), p.y(), p.z()})
+        << ", \"position_file_units\": " << JsonArray({p.x() / unit, p.y() / unit, p.z() / unit})
+        << ", \"file_length_unit\": " << JsonString(model.file_length_unit) << ", \"rotation\": ["
+        << JsonArray({r(0, 0), r(0, 1), r(0, 2)}) << ", " << JsonArray({r(1, 0), r(1, 1), r(1, 2)})
+        << ", " << JsonArray({r(2, 0), r(2, 1), r(2, 2)})
+        << "], \"rpy_deg\": " << JsonArray({rpy.x(), rpy.y(), rpy.z()})
+        << ", \"quaternion_wxyz\": " << JsonArray({quat.w(), quat.x(), quat.y(), quat.z()})
+        << ", \"manipulability\": " << Num(manipulability)
+        << ", \"singularities\": " << JsonStrings(singular) << "}\n";
+    return 0;
+  }
+  out << model.name << " at joints " << JointText(ForPeople(model, q))
+      << " (deg for revolute, m for prismatic)\n";
+  out << "tool position     [" << Fixed(p.x(), 6) << " " << Fixed(p.y(), 6) << " "
+      << Fixed(p.z(), 6) << "] m = [" << Fixed(p.x() / unit) << " " << Fixed(p.y() / unit) << " "
+      << Fixed(p.z() / unit) << "] " << model.file_length_unit << "\n";
+  out << "rotation matrix   ";
+  for (int row = 0; row < 3; ++row) {
+    out << (row ? "                  " : "") << "[" << Fixed(r(row, 0), 6) << " "
+        << Fixed(r(row, 1), 6) << " " << Fixed(r(row, 2), 6) << "]\n";
+  }
+  out << "roll pitch yaw    [" << Fixed(rpy.x()) << " " << Fixed(rpy.y()) << " " << Fixed(rpy.z())
+      << "] deg (R = Rz(yaw) Ry(pitch) Rx(roll))\n";
+  out << "quaternion w x y z [" << Fixed(quat.w(), 6) << " " << Fixed(quat.x(), 6) << " "
+      << Fixed(quat.y(), 6) << " " << Fixed(quat.z(), 6) << "]\n";
+  out << "manipulability    " << core::FormatApprox(manipulability) << "\n";
+  std::string names;
+  for (const std::string& name : singular) names += (names.empty() ? "" : ", ") + name;
+  out << "singularities     " << (names.empty() ? "none" : names) << "\n";
+  return 0;
+}
+
+int RunIk(const std::vector<std::string>& raw, std::ostream& out) {
+  const Args args(raw, "ik",
+                  {{"model", "FILE"},
+                   {"pose", "X Y Z ROLL PITCH YAW"},
+                   {"config", "NAME|all|nearest"},
+                   {"from", "Q1 .. QN"},
+                   {"numeric", ""},
+                   {"position-only", ""},
+                   {"json", ""}});
+  const core::RobotModel model = core::LoadRobotModel(args.String("model"));
+  const int n = model.num_joints();
+  const std::vector<double> pose = args.Numbers("pose", 6);
+  const std::string config_text = args.Has("config") ? args.String("config") : "all";
+  std::optional<core::IkConfiguration> wanted;
+  if (config_text != "all" && config_text != "nearest") {
+    wanted = core::IkConfiguration::Parse(config_text);
+    if (!wanted) {
+      throw core::UsageError(
+          "ik: --config '" + config_text +
+          "' is not allowed; expected all, nearest, or SHOULDER-ELBOW-WRIST with "
+          "left|right, up|down, noflip|flip (e.g. right-up-noflip)");
+    }
+  }
+  core::JointVector reference(n);
+  for (int i = 0; i < n; ++i) reference[i] = model.joints[static_cast<size_t>(i)].home;
+  if (args.Has("from")) reference = FromPeople(model, args.Numbers("from", n), true);
+  const bool numeric = args.Switch("numeric");
+  const bool position_only = args.Switch("position-only");
+  const bool json = args.Switch("json");
+
+  Eigen::Isometry3d target = Eigen::Isometry3d::Identity();
+  target.translation() << pose[0], pose[1], pose[2];
+  target.linear() =
+      core::QuaternionFromRpy(pose[3] * M_PI / 180, pose[4] * M_PI / 180, pose[5] * M_PI / 180)
+          .toRotationMatrix();
+
+  const bool closed_form = !numeric && !position_only && !core::PumaIkNotApplicable(model);
+  if (wanted && !closed_form) {
+    throw core::UsageError("ik: --config " + config_text +
+                           " needs the closed-form solver, which does not apply here (" +
+                           (numeric || position_only
+                                ? std::string("--numeric/--position-only given")
+                                : *core::PumaIkNotApplicable(model)) +
+                           "); use all or nearest");
+  }
+  core::IkResult result;
+  if (closed_form) {
+    result = core::SolvePumaIk(model, target, reference);
+  } else {
+    core::NumericIkOptions options;
+    options.position_only = position_only;
+    result = core::SolveNumericIk(model, target, reference, options);
+  }
+
+  std::vector<const core::IkSolution*> shown;
+  for (const core::IkSolution& s : result.solutions) {
+    if (!s.within_limits) continue;
+    if (wanted && !(s.config && *s.config == *wanted)) continue;
+    shown.push_back(&s);
+  }
+  if (config_text == "nearest" && !shown.empty()) shown.resize(1);  // sorted nearest first
+  std::string failure = result.ok() ? "" : result.reason;
+  if (result.ok() && shown.empty() && wanted) {
+    failure = "configuration " + config_text + " has no solution inside the joint limits";
+  }
+
+  if (json) {
+    out << "{\"model\": " << JsonString(model.name)
+        << ", \"solver\": " << JsonString(closed_form ? "closed-form" : "numeric")
+        << ", \"ok\": " << (failure.empty() ? "true" : "false") << ", \"reason\": "
+        << (failure.empty()
+                ? std::string("null")
+                : JsonString(std::string(core::IkFailureName(result.failure)) + ": " + failure))
+        << ", \"joint_units\": \"deg (revolute), m (prismatic)\", \"solutions\": [";
+    for (size_t i = 0; i < shown.size(); ++i) {
+      const core::IkSolution& s = *shown[i];
+      out << (i ? ", " : "")
+          << "{\"config\": " << (s.config ? JsonString(s.config->Name()) : std::string("null"))
+          << ", \"joints\": " << JsonArray(ForPeople(model, s.q))
+          << ", \"position_error_m\": " << Num(s.error.position_m)
+          << ", \"rotation_error_rad\": " << Num(s.error.rotation_rad)
+          << ", \"singularities\": " << JsonStrings(s.singularities) << "}";
+    }
+    out << "]}\n";
+    return failure.empty() ? 0 : 1;
+  }
+  out << model.name << ": target [" << Fixed(pose[0], 4) << " " << Fixed(pose[1], 4) << " "
+      << Fixed(pose[2], 4) << "] m, rpy [" << Fixed(pose[3], 2) << " " << Fixed(pose[4], 2) << " "
+      << Fixed(pose[5], 2) << "] deg; " << (closed_form ? "closed-form" : "numeric") << " solver\n";
+  if (!failure.empty()) {
+    out << "no solution: " << core::IkFailureName(result.failure) << ": " << failure << "\n";
+    for (const core::IkSolution& s : result.solutions) {
+      out << "  " << (s.config ? s.config->Name() : std::string("solution")) << "  "
+          << JointText(ForPeople(model, s.q)) << " deg  (outside: " << OutsideLimits(model, s.q)
+          << ")\n";
+    }
+    return 1;
+  }
+  for (const core::IkSolution* s : shown) {
+    char error[96];
+    std::snprintf(error, sizeof error, "  |error| %.1e m %.1e rad", s->error.position_m,
+                  s->error.rotation_rad);
+    out << "  " << (s->config ? s->config->Name() : std::string("solution")) << "  "
+        << JointText(ForPeople(model, s->q)) << " deg" << error;
+    std::string names;
+    for (const std::string& name : s->singularities) names += (names.empty() ? "" : ", ") + name;
+    if (!names.empty()) out << "  singular: " << names;
+    out << "\n";
+  }
+  const size_t outside =
+      result.solutions.size() -
+      static_cast<size_t>(std::count_if(result.solutions.begin(), result.solutions.end(),
+                                        [](const core::IkSolution& s) { return s.within_limits; }));
+  if (outside > 0 && config_text == "all") {
+    out << "  outside the joint limits:\n";
+    for (const core::IkSolution& s : result.solutions) {
+      if (s.within_limits) continue;
+      out << "  " << (s.config ? s.config->Name() : std::string("solution")) << "  "
+          << JointText(ForPeople(model, s.q)) << " deg  (" << OutsideLimits(model, s.q) << ")\n";
+    }
+  }
+  return 0;
+}
+
+}  // namespace sirupp::tools
