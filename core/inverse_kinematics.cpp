@@ -98,40 +98,17 @@ Eigen::Vector3d WristCentreInBase(const RobotModel& model, const Eigen::Isometry
   return frame6.translation() - j6.dh.d_m * z5;
 }
 
-IkConfiguration LabelOf(const RobotModel& model, const JointVector& q) {
-  const ForwardResult fk = ForwardKinematics(model, q);
-  const Eigen::Isometry3d base_inv = model.base.ToIsometry().inverse();
-  auto in_base = [&](size_t i) { return Eigen::Isometry3d(base_inv * fk.frames[i]); };
-  const Eigen::Isometry3d f1 = in_base(1), f2 = in_base(2), f4 = in_base(4);
-  const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();  // the waist axis, z of frame 0
-  const Eigen::Vector3d z1 = f1.linear().col(2);
-  const Eigen::Vector3d shoulder = f1.translation();
-  const Eigen::Vector3d elbow = f2.translation();
-  const Eigen::Vector3d wrist = f4.translation();
-  Eigen::Vector3d reach(wrist.x(), wrist.y(), 0);
-  if (reach.norm() < kAngleEps) reach = f1.linear().col(0);  // wrist on the waist axis
-  reach.normalize();
-
-  IkConfiguration config;
+// Named singularities of a PUMA-type arm, given the wrist centre in the base frame.
+std::vector<std::string> PumaSingularities(const RobotModel& model, const JointVector& q,
+                                           const Eigen::Vector3d& wrist_in_base, double tolerance) {
+  const auto& j = model.joints;
   const PumaGeometry g = GeometryOf(model);
-  if (std::abs(g.lateral) > 1e-9) {
-    config.shoulder_left = up.cross(reach).dot(g.lateral * z1) > 0;
-  } else {
-    config.shoulder_left = !(z1.cross(wrist - shoulder).dot(up) > 0);
-  }
-  // Elbow: which side of the shoulder-wrist line, with "up" the side towards +z (or, for a vertical
-  // line, away from the waist axis).
-  const Eigen::Vector3d line = wrist - shoulder;
-  Eigen::Vector3d side = z1.cross(line);
-  const double upward = side.dot(up);
-  if (std::abs(upward) > 1e-9 * side.norm()) {
-    if (upward < 0) side = -side;
-  } else if (side.dot(reach) < 0) {
-    side = -side;
-  }
-  config.elbow_up = (elbow - shoulder).dot(side) > 0;
-  config.wrist_flip = WrapPi(q[4] + model.joints[4].dh.theta_rad) < 0;
-  return config;
+  std::vector<std::string> names;
+  if (std::abs(std::sin(q[4] + j[4].dh.theta_rad)) < tolerance) names.push_back("wrist");
+  if (std::abs(std::sin(q[2] + j[2].dh.theta_rad + g.beta)) < tolerance) names.push_back("elbow");
+  const double r = std::hypot(wrist_in_base.x(), wrist_in_base.y());
+  if (std::sqrt(std::max(0.0, r * r - g.lateral * g.lateral)) < tolerance) names.push_back("shoulder");
+  return names;
 }
 
 }  // namespace
@@ -200,9 +177,11 @@ IkResult SolvePumaIk(const RobotModel& model, const Eigen::Isometry3d& target,
     return result;
   }
   const auto& j = model.joints;
+  const KinematicChain chain(model);
   const PumaGeometry g = GeometryOf(model);
   const Eigen::Isometry3d frame6 = Frame6InBase(model, target);
-  const Eigen::Vector3d p = WristCentreInBase(model, frame6) - Eigen::Vector3d(0, 0, g.d1);
+  const Eigen::Vector3d wrist_centre = WristCentreInBase(model, frame6);
+  const Eigen::Vector3d p = wrist_centre - Eigen::Vector3d(0, 0, g.d1);
 
   // Joint 1: the wrist centre's offset along z1 must equal the arm's lateral offset.
   const double k = g.lateral / g.s1;
@@ -219,12 +198,33 @@ IkResult SolvePumaIk(const RobotModel& model, const Eigen::Isometry3d& target,
   const double offset_angle = std::asin(std::clamp(k / std::max(r, kAngleEps), -1.0, 1.0));
   const double theta1_options[2] = {phi + offset_angle, phi + M_PI - offset_angle};
 
+  // Direction from the waist axis to the wrist centre, seen from above.
+  const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
+  const Eigen::Vector3d reach =
+      r > kAngleEps ? Eigen::Vector3d(p.x() / r, p.y() / r, 0) : Eigen::Vector3d(std::cos(phi), std::sin(phi), 0);
+
   for (double theta1 : theta1_options) {
     // Wrist centre in frame 1: the planar two-link problem of joints 2 and 3.
     const Eigen::Isometry3d a1 =
         DhTransform(DhConvention::kStandard, j[0], theta1 - j[0].dh.theta_rad);
-    const Eigen::Vector3d p1 =
-        a1.linear().transpose() * (p + Eigen::Vector3d(0, 0, g.d1) - a1.translation());
+    const Eigen::Matrix3d& r01 = a1.linear();
+    const Eigen::Vector3d p1 = r01.transpose() * (wrist_centre - a1.translation());
+    const Eigen::Vector3d z1 = r01.col(2);
+    // Shoulder label (see the header): the side of the reach line the lateral offset lies on.
+    const bool shoulder_left = std::abs(g.lateral) > 1e-9
+                                   ? up.cross(reach).dot(g.lateral * z1) > 0
+                                   : !(z1.cross(wrist_centre - a1.translation()).dot(up) > 0);
+    // Elbow label, in frame 1's plane: the side of the shoulder-wrist line that points up (or, for
+    // a vertical line, away from the waist axis).
+    Eigen::Vector2d side(-p1.y(), p1.x());
+    const Eigen::Vector3d up_in_1 = r01.transpose() * up;
+    const Eigen::Vector3d reach_in_1 = r01.transpose() * reach;
+    const double upward = side.dot(up_in_1.head<2>());
+    if (std::abs(upward) > 1e-9 * side.norm()) {
+      if (upward < 0) side = -side;
+    } else if (side.dot(reach_in_1.head<2>()) < 0) {
+      side = -side;
+    }
     const double reach2 = p1.x() * p1.x() + p1.y() * p1.y();
     double cos_elbow = (reach2 - g.a2 * g.a2 - g.l3 * g.l3) / (2 * g.a2 * g.l3);
     if (std::abs(cos_elbow) > 1 + 1e-12) {
@@ -241,17 +241,18 @@ IkResult SolvePumaIk(const RobotModel& model, const Eigen::Isometry3d& target,
       const double theta3 = gamma - g.beta;
       const double theta2 = std::atan2(p1.y(), p1.x()) -
                             std::atan2(g.l3 * std::sin(gamma), g.a2 + g.l3 * std::cos(gamma));
+      const bool elbow_up = Eigen::Vector2d(std::cos(theta2), std::sin(theta2)).dot(side) > 0;
       JointVector q = JointVector::Zero(6);
       q[0] = theta1 - j[0].dh.theta_rad;
       q[1] = theta2 - j[1].dh.theta_rad;
       q[2] = theta3 - j[2].dh.theta_rad;
-      // Wrist: R36 = Rz(t4) Rx(a4) Rz(t5) Rx(-a4) Rz(t6) Rx(a6) = Rz(t4) Ry(-s4 t5) Rz(t6) Rx(a6).
-      Eigen::Isometry3d t03 = Eigen::Isometry3d::Identity();
-      for (int i = 0; i < 3; ++i)
-        t03 = t03 * DhTransform(DhConvention::kStandard, j[static_cast<size_t>(i)], q[i]);
-      const Eigen::Matrix3d w =
-          t03.linear().transpose() * frame6.linear() *
-          Eigen::AngleAxisd(-j[5].dh.alpha_rad, Eigen::Vector3d::UnitX()).toRotationMatrix();
+      // Wrist: R36 = Rz(t4) Rx(a4) Rz(t5) Rx(-a4) Rz(t6) Rx(a6) = Rz(t4) Ry(-s4 t5) Rz(t6) Rx(a6),
+      // with R03 = R01 Rz(theta2 + theta3) Rx(alpha3) since alpha2 = 0.
+      const Eigen::Matrix3d r03 = r01 *
+                                  Eigen::AngleAxisd(theta2 + theta3, Eigen::Vector3d::UnitZ()) *
+                                  Eigen::AngleAxisd(j[2].dh.alpha_rad, Eigen::Vector3d::UnitX());
+      const Eigen::Matrix3d w = r03.transpose() * frame6.linear() *
+                                Eigen::AngleAxisd(-j[5].dh.alpha_rad, Eigen::Vector3d::UnitX());
       const double s4 = std::sin(j[3].dh.alpha_rad);
       const double sin_b = std::hypot(w(0, 2), w(1, 2));
       for (double wrist_sign : {1.0, -1.0}) {
@@ -277,10 +278,11 @@ IkResult SolvePumaIk(const RobotModel& model, const Eigen::Isometry3d& target,
         solution.q = q;
         for (int i = 0; i < 6; ++i) solution.q[i] = WrapPi(solution.q[i]);
         solution.within_limits = UnwrapIntoLimits(model, reference, solution.q);
-        solution.error = ComparePoses(ToolPose(model, solution.q), target);
+        solution.error = ComparePoses(chain.ToolPose(solution.q), target);
         if (!Reaches(solution.error, tolerance)) continue;  // never claim what FK does not confirm
-        solution.config = LabelOf(model, solution.q);
-        solution.singularities = Singularities(model, solution.q);
+        solution.config = IkConfiguration{shoulder_left, elbow_up,
+                                          WrapPi(solution.q[4] + j[4].dh.theta_rad) < 0};
+        solution.singularities = PumaSingularities(model, solution.q, wrist_centre, 1e-6);
         result.solutions.push_back(solution);
       }
     }
@@ -315,7 +317,7 @@ Eigen::Matrix<double, 6, 1> TaskError(const Eigen::Isometry3d& current,
   return e;
 }
 
-Descent Descend(const RobotModel& model, const Eigen::Isometry3d& target, JointVector q,
+Descent Descend(const RobotModel& model, const KinematicChain& chain, const Eigen::Isometry3d& target, JointVector q,
                 const NumericIkOptions& options, bool enforce_limits) {
   const int n = model.num_joints();
   const int rows = options.position_only ? 3 : 6;
@@ -327,7 +329,7 @@ Descent Descend(const RobotModel& model, const Eigen::Isometry3d& target, JointV
     }
   };
   clamp(q);
-  Eigen::Isometry3d pose = ToolPose(model, q);
+  Eigen::Isometry3d pose = chain.ToolPose(q);
   Eigen::VectorXd e = TaskError(pose, target).head(rows);
   double cost = e.squaredNorm();
   double lambda = 1e-3;
@@ -338,7 +340,7 @@ Descent Descend(const RobotModel& model, const Eigen::Isometry3d& target, JointV
       result.converged = true;
       break;
     }
-    const Eigen::MatrixXd jac = GeometricJacobian(model, q).topRows(rows);
+    const Eigen::MatrixXd jac = chain.GeometricJacobian(q).topRows(rows);
     const Eigen::MatrixXd jjt = jac * jac.transpose();
     bool improved = false;
     // Levenberg-Marquardt: raise the damping until a step lowers the error. The damping keeps steps
@@ -348,7 +350,7 @@ Descent Descend(const RobotModel& model, const Eigen::Isometry3d& target, JointV
       JointVector step = jac.transpose() * damped.ldlt().solve(e);
       JointVector next = q + step;
       clamp(next);
-      const Eigen::Isometry3d next_pose = ToolPose(model, next);
+      const Eigen::Isometry3d next_pose = chain.ToolPose(next);
       const Eigen::VectorXd next_e = TaskError(next_pose, target).head(rows);
       if (next_e.squaredNorm() < cost) {
         q = next;
@@ -422,10 +424,11 @@ IkResult SolveNumericIk(const RobotModel& model, const Eigen::Isometry3d& target
                     model.name + " reaches at most " + FormatApprox(ReachBound(model)) + " m";
     return result;
   }
+  const KinematicChain chain(model);
   Descent best;
   best.error.position_m = best.error.rotation_rad = INFINITY;
   for (const JointVector& seed : Seeds(model, reference, options)) {
-    Descent descent = Descend(model, target, seed, options, /*enforce_limits=*/true);
+    Descent descent = Descend(model, chain, target, seed, options, /*enforce_limits=*/true);
     if (descent.error.position_m + descent.error.rotation_rad <
         best.error.position_m + best.error.rotation_rad) {
       best = descent;
@@ -447,7 +450,7 @@ IkResult SolveNumericIk(const RobotModel& model, const Eigen::Isometry3d& target
 
   // No solution inside the limits: tell apart "only outside the limits" from the rest.
   for (const JointVector& seed : Seeds(model, reference, options)) {
-    const Descent free = Descend(model, target, seed, options, /*enforce_limits=*/false);
+    const Descent free = Descend(model, chain, target, seed, options, /*enforce_limits=*/false);
     if (free.converged) {
       result.failure = IkFailure::kOutsideJointLimits;
       result.reason = "the target is reachable only with joints outside their limits";
@@ -455,7 +458,7 @@ IkResult SolveNumericIk(const RobotModel& model, const Eigen::Isometry3d& target
     }
   }
   const Eigen::MatrixXd jac =
-      GeometricJacobian(model, best.q).topRows(options.position_only ? 3 : 6);
+      chain.GeometricJacobian(best.q).topRows(options.position_only ? 3 : 6);
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(jac);
   const double smallest = svd.singularValues()(svd.singularValues().size() - 1);
   if (smallest < 1e-4) {
@@ -472,27 +475,18 @@ IkResult SolveNumericIk(const RobotModel& model, const Eigen::Isometry3d& target
   return result;
 }
 
-std::vector<std::string> Singularities(const RobotModel& model, const JointVector& q,
-                                       double tolerance) {
-  std::vector<std::string> names;
+std::vector<std::string> Singularities(const RobotModel& model, const JointVector& q, double tolerance) {
+  const KinematicChain chain(model);
+  const ForwardResult fk = chain.Forward(q);
   if (!PumaIkNotApplicable(model)) {
-    const auto& j = model.joints;
-    const PumaGeometry g = GeometryOf(model);
-    if (std::abs(std::sin(q[4] + j[4].dh.theta_rad)) < tolerance) names.push_back("wrist");
-    if (std::abs(std::sin(q[2] + j[2].dh.theta_rad + g.beta)) < tolerance) names.push_back("elbow");
-    const ForwardResult fk = ForwardKinematics(model, q);
     const Eigen::Vector3d wrist = model.base.ToIsometry().inverse() * fk.frames[4].translation();
-    const double r = std::hypot(wrist.x(), wrist.y());
-    const double k = g.lateral;
-    if (std::sqrt(std::max(0.0, r * r - k * k)) < tolerance) names.push_back("shoulder");
-    return names;
+    return PumaSingularities(model, q, wrist, tolerance);
   }
-  const Jacobian jac = GeometricJacobian(model, q);
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(jac);
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(chain.GeometricJacobian(q));
   const Eigen::VectorXd values = svd.singularValues();
-  const Eigen::Index rank_wanted = std::min<Eigen::Index>(6, jac.cols());
-  if (values(rank_wanted - 1) < tolerance) names.push_back("rank-deficient Jacobian");
-  return names;
+  const Eigen::Index rank_wanted = std::min<Eigen::Index>(6, q.size());
+  if (values(rank_wanted - 1) < tolerance) return {"rank-deficient Jacobian"};
+  return {};
 }
 
 const IkSolution* NearestSolution(const IkResult& result, const JointVector& reference) {

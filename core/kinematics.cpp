@@ -31,43 +31,107 @@ Eigen::Isometry3d DhTransform(DhConvention convention, const Joint& joint, doubl
   return transform;
 }
 
-ForwardResult ForwardKinematics(const RobotModel& model, const JointVector& q) {
-  ForwardResult result;
-  result.frames.reserve(model.joints.size() + 1);
-  result.frames.push_back(model.base.ToIsometry());
-  for (size_t i = 0; i < model.joints.size(); ++i) {
-    result.frames.push_back(result.frames.back() * DhTransform(model.dh_convention, model.joints[i],
-                                                               q[static_cast<Eigen::Index>(i)]));
+KinematicChain::KinematicChain(const RobotModel& model)
+    : convention_(model.dh_convention), base_(model.base.ToIsometry()), tool_(model.tool.ToIsometry()) {
+  for (const Joint& joint : model.joints) {
+    links_.push_back(Link{joint.dh.a_m, joint.dh.d_m, joint.dh.theta_rad, std::cos(joint.dh.alpha_rad),
+                          std::sin(joint.dh.alpha_rad), joint.type == JointType::kRevolute});
   }
-  result.tool = result.frames.back() * model.tool.ToIsometry();
+}
+
+// Multiplies (r, p) by the link's DH transform column by column, without forming the 4x4 matrix.
+void KinematicChain::Step(const Link& link, double q, Eigen::Matrix3d& r, Eigen::Vector3d& p) const {
+  const double theta = link.theta + (link.revolute ? q : 0.0);
+  const double d = link.d + (link.revolute ? 0.0 : q);
+  const double ct = std::cos(theta), st = std::sin(theta);
+  const double ca = link.cos_alpha, sa = link.sin_alpha;
+  const Eigen::Vector3d x = r.col(0), y = r.col(1), z = r.col(2);
+  if (convention_ == DhConvention::kStandard) {
+    // Rz(theta) Tz(d) Tx(a) Rx(alpha)
+    const Eigen::Vector3d new_x = ct * x + st * y;
+    const Eigen::Vector3d across = -st * x + ct * y;
+    p += link.a * new_x + d * z;
+    r.col(0) = new_x;
+    r.col(1) = ca * across + sa * z;
+    r.col(2) = -sa * across + ca * z;
+  } else {
+    // Rx(alpha) Tx(a) Rz(theta) Tz(d)
+    const Eigen::Vector3d u = ca * y + sa * z;
+    const Eigen::Vector3d v = -sa * y + ca * z;
+    p += link.a * x + d * v;
+    r.col(0) = ct * x + st * u;
+    r.col(1) = -st * x + ct * u;
+    r.col(2) = v;
+  }
+}
+
+Eigen::Isometry3d KinematicChain::ToolPose(const JointVector& q) const {
+  Eigen::Matrix3d r = base_.linear();
+  Eigen::Vector3d p = base_.translation();
+  for (size_t i = 0; i < links_.size(); ++i) Step(links_[i], q[static_cast<Eigen::Index>(i)], r, p);
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = r * tool_.linear();
+  pose.translation() = p + r * tool_.translation();
+  return pose;
+}
+
+ForwardResult KinematicChain::Forward(const JointVector& q) const {
+  ForwardResult result;
+  result.frames.reserve(links_.size() + 1);
+  result.frames.push_back(base_);
+  Eigen::Matrix3d r = base_.linear();
+  Eigen::Vector3d p = base_.translation();
+  for (size_t i = 0; i < links_.size(); ++i) {
+    Step(links_[i], q[static_cast<Eigen::Index>(i)], r, p);
+    Eigen::Isometry3d frame = Eigen::Isometry3d::Identity();
+    frame.linear() = r;
+    frame.translation() = p;
+    result.frames.push_back(frame);
+  }
+  result.tool = result.frames.back() * tool_;
   return result;
 }
 
-Eigen::Isometry3d ToolPose(const RobotModel& model, const JointVector& q) {
-  Eigen::Isometry3d pose = model.base.ToIsometry();
-  for (size_t i = 0; i < model.joints.size(); ++i) {
-    pose =
-        pose * DhTransform(model.dh_convention, model.joints[i], q[static_cast<Eigen::Index>(i)]);
+Jacobian KinematicChain::GeometricJacobian(const JointVector& q) const {
+  const int n = num_joints();
+  // Joint i turns about z of frame i (standard DH, frames counted from 0) or of frame i+1 (modified).
+  Eigen::Matrix<double, 3, Eigen::Dynamic> axes(3, n), origins(3, n);
+  Eigen::Matrix3d r = base_.linear();
+  Eigen::Vector3d p = base_.translation();
+  for (int i = 0; i < n; ++i) {
+    if (convention_ == DhConvention::kStandard) {
+      axes.col(i) = r.col(2);
+      origins.col(i) = p;
+    }
+    Step(links_[static_cast<size_t>(i)], q[i], r, p);
+    if (convention_ == DhConvention::kModified) {
+      axes.col(i) = r.col(2);
+      origins.col(i) = p;
+    }
   }
-  return pose * model.tool.ToIsometry();
-}
-
-Jacobian GeometricJacobian(const RobotModel& model, const JointVector& q) {
-  const ForwardResult fk = ForwardKinematics(model, q);
-  const Eigen::Vector3d tip = fk.tool.translation();
-  Jacobian jacobian(6, model.num_joints());
-  for (int i = 0; i < model.num_joints(); ++i) {
-    // Standard DH: joint i+1 moves about z of frame i; modified DH: about z of frame i+1.
-    const Eigen::Isometry3d& axis_frame =
-        fk.frames[static_cast<size_t>(model.dh_convention == DhConvention::kStandard ? i : i + 1)];
-    const Eigen::Vector3d z = axis_frame.linear().col(2);
-    if (model.joints[static_cast<size_t>(i)].type == JointType::kRevolute) {
-      jacobian.col(i) << z.cross(tip - axis_frame.translation()), z;
+  const Eigen::Vector3d tip = p + r * tool_.translation();
+  Jacobian jacobian(6, n);
+  for (int i = 0; i < n; ++i) {
+    const Eigen::Vector3d z = axes.col(i);
+    if (links_[static_cast<size_t>(i)].revolute) {
+      jacobian.col(i) << z.cross(tip - origins.col(i)), z;
     } else {
       jacobian.col(i) << z, Eigen::Vector3d::Zero();
     }
   }
   return jacobian;
+}
+
+ForwardResult ForwardKinematics(const RobotModel& model, const JointVector& q) {
+  return KinematicChain(model).Forward(q);
+}
+
+Eigen::Isometry3d ToolPose(const RobotModel& model, const JointVector& q) {
+  return KinematicChain(model).ToolPose(q);
+}
+
+Jacobian GeometricJacobian(const RobotModel& model, const JointVector& q) {
+  return KinematicChain(model).GeometricJacobian(q);
 }
 
 double Manipulability(const Jacobian& jacobian) {

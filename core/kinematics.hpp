@@ -23,6 +23,32 @@ struct ForwardResult {
   Eigen::Isometry3d tool;                 // world pose of the tool point
 };
 
+// The kinematic part of a model prepared for repeated evaluation: each joint's constant DH terms
+// (including cos and sin of the twist) computed once. Build one per model and reuse it in loops; the
+// free functions below build a temporary one per call.
+class KinematicChain {
+ public:
+  explicit KinematicChain(const RobotModel& model);
+
+  int num_joints() const { return static_cast<int>(links_.size()); }
+  Eigen::Isometry3d ToolPose(const JointVector& q) const;
+  ForwardResult Forward(const JointVector& q) const;
+  Jacobian GeometricJacobian(const JointVector& q) const;
+
+ private:
+  struct Link {
+    double a, d, theta, cos_alpha, sin_alpha;
+    bool revolute;
+  };
+  // Pose of frame i (rotation r, origin p) becomes that of frame i+1.
+  void Step(const Link& link, double q, Eigen::Matrix3d& r, Eigen::Vector3d& p) const;
+
+  std::vector<Link> links_;
+  DhConvention convention_;
+  Eigen::Isometry3d base_;
+  Eigen::Isometry3d tool_;
+};
+
 // Every link frame and the tool. `q` must have model.num_joints() entries.
 ForwardResult ForwardKinematics(const RobotModel& model, const JointVector& q);
 // Only the tool's world pose.

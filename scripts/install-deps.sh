@@ -1,8 +1,19 @@
 #!/usr/bin/env bash
 # Installs every Debian 12 package SIRUPP-LCM needs to build, test and run.
 # Idempotent: when everything is present it only runs dpkg-query (well under a second).
-# Usage: scripts/install-deps.sh [--check]   (--check: list what is missing, install nothing)
+# Usage: scripts/install-deps.sh [--check] [--peers]
+#   --check  list what is missing, install nothing
+#   --peers  also install the benchmark peers (KDL, compared against in bench/); never needed to build
 set -euo pipefail
+check=0
+peers=0
+for arg in "$@"; do
+  case "$arg" in
+    --check) check=1 ;;
+    --peers) peers=1 ;;
+    *) echo "install-deps: unknown option '$arg'; allowed: --check, --peers" >&2; exit 2 ;;
+  esac
+done
 
 packages=(
   # build tools
@@ -23,6 +34,9 @@ packages=(
   # multi-host tests (network namespaces), process tools
   iproute2 procps
 )
+if [[ $peers -eq 1 ]]; then
+  packages+=(liborocos-kdl-dev)
+fi
 
 missing=()
 for p in "${packages[@]}"; do
@@ -33,7 +47,7 @@ done
 if [[ ${#missing[@]} -eq 0 ]]; then
   exit 0
 fi
-if [[ "${1:-}" == "--check" ]]; then
+if [[ $check -eq 1 ]]; then
   printf 'missing: %s\n' "${missing[*]}"
   exit 1
 fi

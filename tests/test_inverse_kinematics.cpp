@@ -36,6 +36,27 @@ bool SameUpToTurns(const RobotModel& model, const JointVector& a, const JointVec
   return true;
 }
 
+// The configuration of q by the geometric definitions in inverse_kinematics.hpp, measured on the
+// frames that forward kinematics gives (independent of the solver's own bookkeeping).
+IkConfiguration MeasuredConfiguration(const RobotModel& model, const JointVector& q) {
+  const ForwardResult fk = ForwardKinematics(model, q);
+  const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();  // base at identity in these tests
+  const Eigen::Vector3d shoulder = fk.frames[1].translation();
+  const Eigen::Vector3d z1 = fk.frames[1].linear().col(2);
+  const Eigen::Vector3d elbow = fk.frames[2].translation();
+  const Eigen::Vector3d wrist = fk.frames[4].translation();
+  const Eigen::Vector3d reach = Eigen::Vector3d(wrist.x(), wrist.y(), 0).normalized();
+  // The lateral offset of the arm: the wrist centre's component along z1, from the waist axis.
+  const Eigen::Vector3d offset = wrist.dot(z1) * z1;
+  IkConfiguration config;
+  config.shoulder_left = up.cross(reach).dot(offset) > 0;
+  Eigen::Vector3d side = z1.cross(wrist - shoulder);
+  if (side.dot(up) < 0) side = -side;
+  config.elbow_up = (elbow - shoulder).dot(side) > 0;
+  config.wrist_flip = std::remainder(q[4], 2 * M_PI) < 0;
+  return config;
+}
+
 class PumaIk : public ::testing::Test {
  protected:
   RobotModel puma = LoadRobotModel("config/robots/puma260.yaml");
@@ -72,6 +93,7 @@ TEST_F(PumaIk, RandomPosesRoundTripOnAllEightBranches) {
       worst_position = std::max(worst_position, e.position_m);
       worst_rotation = std::max(worst_rotation, e.rotation_rad);
       ASSERT_TRUE(s.config.has_value());
+      EXPECT_EQ(s.config->Name(), MeasuredConfiguration(puma, s.q).Name()) << "trial " << trial;
       labels.insert(s.config->Name());
       label_counts[s.config->Name()]++;
       found_original = found_original || SameUpToTurns(puma, s.q, q, 1e-7);
