@@ -1,8 +1,8 @@
-// Time per call of forward kinematics, the Jacobian, closed-form IK (all 8 solutions) and numeric IK
-// for the PUMA 260, and, when built with KDL (liborocos-kdl-dev; scripts/install-deps.sh --peers),
-// KDL's ChainFkSolverPos_recursive and ChainIkSolverPos_LMA on the same arm in the same run, printed
-// as ratios. Goals: FK at least as fast as KDL; closed-form IK at least 10x faster than KDL's
-// numeric IK.
+// Time per call of forward kinematics, the Jacobian, closed-form IK (all 8 solutions) and numeric
+// IK for the PUMA 260, and, when built with KDL (liborocos-kdl-dev; scripts/install-deps.sh
+// --peers), KDL's ChainFkSolverPos_recursive and ChainIkSolverPos_LMA on the same arm in the same
+// run, printed as ratios. Goals: FK at least as fast as KDL; closed-form IK at least 10x faster
+// than KDL's numeric IK.
 //
 //   build/bin/bench_kinematics [--calls N]
 #include <algorithm>
@@ -35,7 +35,8 @@ double NanosecondsPerCall(int calls, Body body) {
   for (int round = 0; round < 5; ++round) {
     const auto start = Clock::now();
     for (int i = 0; i < calls; ++i) body(i);
-    rounds.push_back(std::chrono::duration<double, std::nano>(Clock::now() - start).count() / calls);
+    rounds.push_back(std::chrono::duration<double, std::nano>(Clock::now() - start).count() /
+                     calls);
   }
   std::sort(rounds.begin(), rounds.end());
   return rounds[2];
@@ -46,18 +47,19 @@ volatile double sink = 0;  // keeps results alive so the optimiser cannot drop t
 #ifdef SIRUPP_HAVE_KDL
 KDL::Frame ToKdl(const Eigen::Isometry3d& pose) {
   const Eigen::Matrix3d& r = pose.linear();
-  return KDL::Frame(KDL::Rotation(r(0, 0), r(0, 1), r(0, 2), r(1, 0), r(1, 1), r(1, 2), r(2, 0),
-                                  r(2, 1), r(2, 2)),
-                    KDL::Vector(pose.translation().x(), pose.translation().y(), pose.translation().z()));
+  return KDL::Frame(
+      KDL::Rotation(r(0, 0), r(0, 1), r(0, 2), r(1, 0), r(1, 1), r(1, 2), r(2, 0), r(2, 1),
+                    r(2, 2)),
+      KDL::Vector(pose.translation().x(), pose.translation().y(), pose.translation().z()));
 }
 
 KDL::Chain ToKdlChain(const sirupp::core::RobotModel& model) {
   KDL::Chain chain;
   chain.addSegment(KDL::Segment(KDL::Joint(KDL::Joint::None), ToKdl(model.base.ToIsometry())));
   for (const sirupp::core::Joint& joint : model.joints) {
-    chain.addSegment(KDL::Segment(KDL::Joint(KDL::Joint::RotZ),
-                                  KDL::Frame::DH(joint.dh.a_m, joint.dh.alpha_rad, joint.dh.d_m,
-                                                 joint.dh.theta_rad)));
+    chain.addSegment(KDL::Segment(
+        KDL::Joint(KDL::Joint::RotZ),
+        KDL::Frame::DH(joint.dh.a_m, joint.dh.alpha_rad, joint.dh.d_m, joint.dh.theta_rad)));
   }
   chain.addSegment(KDL::Segment(KDL::Joint(KDL::Joint::None), ToKdl(model.tool.ToIsometry())));
   return chain;
@@ -91,15 +93,15 @@ int main(int argc, char** argv) {
     targets.push_back(sirupp::core::ToolPose(puma, q));
   }
   auto q_of = [&](int i) -> const JointVector& { return qs[static_cast<size_t>(i % poses)]; };
-  auto t_of = [&](int i) -> const Eigen::Isometry3d& { return targets[static_cast<size_t>(i % poses)]; };
+  auto t_of = [&](int i) -> const Eigen::Isometry3d& {
+    return targets[static_cast<size_t>(i % poses)];
+  };
 
   const sirupp::core::KinematicChain chain(puma);
-  const double fk_ns = NanosecondsPerCall(calls, [&](int i) {
-    sink = chain.ToolPose(q_of(i)).translation().x();
-  });
-  const double jac_ns = NanosecondsPerCall(calls, [&](int i) {
-    sink = chain.GeometricJacobian(q_of(i))(0, 0);
-  });
+  const double fk_ns =
+      NanosecondsPerCall(calls, [&](int i) { sink = chain.ToolPose(q_of(i)).translation().x(); });
+  const double jac_ns =
+      NanosecondsPerCall(calls, [&](int i) { sink = chain.GeometricJacobian(q_of(i))(0, 0); });
   const double ik_ns = NanosecondsPerCall(calls / 4, [&](int i) {
     sink = static_cast<double>(sirupp::core::SolvePumaIk(puma, t_of(i), q_of(i)).solutions.size());
   });
@@ -107,7 +109,8 @@ int main(int argc, char** argv) {
   numeric_options.stop_at_first = true;
   const double numeric_ns = NanosecondsPerCall(std::max(50, calls / 100), [&](int i) {
     const JointVector seed = q_of(i) + JointVector::Constant(6, 0.1);
-    sink = static_cast<double>(sirupp::core::SolveNumericIk(puma, t_of(i), seed, numeric_options).solutions.size());
+    sink = static_cast<double>(
+        sirupp::core::SolveNumericIk(puma, t_of(i), seed, numeric_options).solutions.size());
   });
 
   std::printf("SIRUPP-LCM kinematics, PUMA 260, %d random poses, median of 5 rounds\n", poses);
@@ -158,8 +161,9 @@ int main(int argc, char** argv) {
               kdl_ik_ns / ik_ns);
   std::printf("  KDL LMA IK / our numeric IK          %8.2f\n", kdl_ik_ns / numeric_ns);
 #else
-  std::printf("KDL not found at build time: install liborocos-kdl-dev (scripts/install-deps.sh --peers)\n"
-              "and rebuild to measure the ratios against KDL.\n");
+  std::printf(
+      "KDL not found at build time: install liborocos-kdl-dev (scripts/install-deps.sh --peers)\n"
+      "and rebuild to measure the ratios against KDL.\n");
 #endif
   return 0;
 }

@@ -107,7 +107,8 @@ std::vector<std::string> PumaSingularities(const RobotModel& model, const JointV
   if (std::abs(std::sin(q[4] + j[4].dh.theta_rad)) < tolerance) names.push_back("wrist");
   if (std::abs(std::sin(q[2] + j[2].dh.theta_rad + g.beta)) < tolerance) names.push_back("elbow");
   const double r = std::hypot(wrist_in_base.x(), wrist_in_base.y());
-  if (std::sqrt(std::max(0.0, r * r - g.lateral * g.lateral)) < tolerance) names.push_back("shoulder");
+  if (std::sqrt(std::max(0.0, r * r - g.lateral * g.lateral)) < tolerance)
+    names.push_back("shoulder");
   return names;
 }
 
@@ -200,8 +201,8 @@ IkResult SolvePumaIk(const RobotModel& model, const Eigen::Isometry3d& target,
 
   // Direction from the waist axis to the wrist centre, seen from above.
   const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
-  const Eigen::Vector3d reach =
-      r > kAngleEps ? Eigen::Vector3d(p.x() / r, p.y() / r, 0) : Eigen::Vector3d(std::cos(phi), std::sin(phi), 0);
+  const Eigen::Vector3d reach = r > kAngleEps ? Eigen::Vector3d(p.x() / r, p.y() / r, 0)
+                                              : Eigen::Vector3d(std::cos(phi), std::sin(phi), 0);
 
   for (double theta1 : theta1_options) {
     // Wrist centre in frame 1: the planar two-link problem of joints 2 and 3.
@@ -280,8 +281,8 @@ IkResult SolvePumaIk(const RobotModel& model, const Eigen::Isometry3d& target,
         solution.within_limits = UnwrapIntoLimits(model, reference, solution.q);
         solution.error = ComparePoses(chain.ToolPose(solution.q), target);
         if (!Reaches(solution.error, tolerance)) continue;  // never claim what FK does not confirm
-        solution.config = IkConfiguration{shoulder_left, elbow_up,
-                                          WrapPi(solution.q[4] + j[4].dh.theta_rad) < 0};
+        solution.config =
+            IkConfiguration{shoulder_left, elbow_up, WrapPi(solution.q[4] + j[4].dh.theta_rad) < 0};
         solution.singularities = PumaSingularities(model, solution.q, wrist_centre, 1e-6);
         result.solutions.push_back(solution);
       }
@@ -317,8 +318,9 @@ Eigen::Matrix<double, 6, 1> TaskError(const Eigen::Isometry3d& current,
   return e;
 }
 
-Descent Descend(const RobotModel& model, const KinematicChain& chain, const Eigen::Isometry3d& target, JointVector q,
-                const NumericIkOptions& options, bool enforce_limits) {
+Descent Descend(const RobotModel& model, const KinematicChain& chain,
+                const Eigen::Isometry3d& target, JointVector q, const NumericIkOptions& options,
+                bool enforce_limits) {
   const int n = model.num_joints();
   const int rows = options.position_only ? 3 : 6;
   auto clamp = [&](JointVector& v) {
@@ -475,7 +477,8 @@ IkResult SolveNumericIk(const RobotModel& model, const Eigen::Isometry3d& target
   return result;
 }
 
-std::vector<std::string> Singularities(const RobotModel& model, const JointVector& q, double tolerance) {
+std::vector<std::string> Singularities(const RobotModel& model, const JointVector& q,
+                                       double tolerance) {
   const KinematicChain chain(model);
   const ForwardResult fk = chain.Forward(q);
   if (!PumaIkNotApplicable(model)) {

@@ -32,15 +32,19 @@ Eigen::Isometry3d DhTransform(DhConvention convention, const Joint& joint, doubl
 }
 
 KinematicChain::KinematicChain(const RobotModel& model)
-    : convention_(model.dh_convention), base_(model.base.ToIsometry()), tool_(model.tool.ToIsometry()) {
+    : convention_(model.dh_convention),
+      base_(model.base.ToIsometry()),
+      tool_(model.tool.ToIsometry()) {
   for (const Joint& joint : model.joints) {
-    links_.push_back(Link{joint.dh.a_m, joint.dh.d_m, joint.dh.theta_rad, std::cos(joint.dh.alpha_rad),
-                          std::sin(joint.dh.alpha_rad), joint.type == JointType::kRevolute});
+    links_.push_back(Link{joint.dh.a_m, joint.dh.d_m, joint.dh.theta_rad,
+                          std::cos(joint.dh.alpha_rad), std::sin(joint.dh.alpha_rad),
+                          joint.type == JointType::kRevolute});
   }
 }
 
 // Multiplies (r, p) by the link's DH transform column by column, without forming the 4x4 matrix.
-void KinematicChain::Step(const Link& link, double q, Eigen::Matrix3d& r, Eigen::Vector3d& p) const {
+void KinematicChain::Step(const Link& link, double q, Eigen::Matrix3d& r,
+                          Eigen::Vector3d& p) const {
   const double theta = link.theta + (link.revolute ? q : 0.0);
   const double d = link.d + (link.revolute ? 0.0 : q);
   const double ct = std::cos(theta), st = std::sin(theta);
@@ -94,7 +98,8 @@ ForwardResult KinematicChain::Forward(const JointVector& q) const {
 
 Jacobian KinematicChain::GeometricJacobian(const JointVector& q) const {
   const int n = num_joints();
-  // Joint i turns about z of frame i (standard DH, frames counted from 0) or of frame i+1 (modified).
+  // Joint i turns about z of frame i (standard DH, frames counted from 0) or of frame i+1
+  // (modified).
   Eigen::Matrix<double, 3, Eigen::Dynamic> axes(3, n), origins(3, n);
   Eigen::Matrix3d r = base_.linear();
   Eigen::Vector3d p = base_.translation();

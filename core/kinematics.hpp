@@ -24,8 +24,8 @@ struct ForwardResult {
 };
 
 // The kinematic part of a model prepared for repeated evaluation: each joint's constant DH terms
-// (including cos and sin of the twist) computed once. Build one per model and reuse it in loops; the
-// free functions below build a temporary one per call.
+// (including cos and sin of the twist) computed once. Build one per model and reuse it in loops;
+// the free functions below build a temporary one per call.
 class KinematicChain {
  public:
   explicit KinematicChain(const RobotModel& model);
