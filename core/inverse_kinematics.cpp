@@ -99,10 +99,10 @@ Eigen::Vector3d WristCentreInBase(const RobotModel& model, const Eigen::Isometry
 }
 
 // Named singularities of a PUMA-type arm, given the wrist centre in the base frame.
-std::vector<std::string> PumaSingularities(const RobotModel& model, const JointVector& q,
+std::vector<std::string> PumaSingularities(const RobotModel& model, const PumaGeometry& g,
+                                           const JointVector& q,
                                            const Eigen::Vector3d& wrist_in_base, double tolerance) {
   const auto& j = model.joints;
-  const PumaGeometry g = GeometryOf(model);
   std::vector<std::string> names;
   if (std::abs(std::sin(q[4] + j[4].dh.theta_rad)) < tolerance) names.push_back("wrist");
   if (std::abs(std::sin(q[2] + j[2].dh.theta_rad + g.beta)) < tolerance) names.push_back("elbow");
@@ -283,7 +283,7 @@ IkResult SolvePumaIk(const RobotModel& model, const Eigen::Isometry3d& target,
         if (!Reaches(solution.error, tolerance)) continue;  // never claim what FK does not confirm
         solution.config =
             IkConfiguration{shoulder_left, elbow_up, WrapPi(solution.q[4] + j[4].dh.theta_rad) < 0};
-        solution.singularities = PumaSingularities(model, solution.q, wrist_centre, 1e-6);
+        solution.singularities = PumaSingularities(model, g, solution.q, wrist_centre, 1e-6);
         result.solutions.push_back(solution);
       }
     }
@@ -429,7 +429,8 @@ IkResult SolveNumericIk(const RobotModel& model, const Eigen::Isometry3d& target
   const KinematicChain chain(model);
   Descent best;
   best.error.position_m = best.error.rotation_rad = INFINITY;
-  for (const JointVector& seed : Seeds(model, reference, options)) {
+  const std::vector<JointVector> seeds = Seeds(model, reference, options);
+  for (const JointVector& seed : seeds) {
     Descent descent = Descend(model, chain, target, seed, options, /*enforce_limits=*/true);
     if (descent.error.position_m + descent.error.rotation_rad <
         best.error.position_m + best.error.rotation_rad) {
@@ -451,7 +452,7 @@ IkResult SolveNumericIk(const RobotModel& model, const Eigen::Isometry3d& target
   if (!result.solutions.empty()) return result;
 
   // No solution inside the limits: tell apart "only outside the limits" from the rest.
-  for (const JointVector& seed : Seeds(model, reference, options)) {
+  for (const JointVector& seed : seeds) {
     const Descent free = Descend(model, chain, target, seed, options, /*enforce_limits=*/false);
     if (free.converged) {
       result.failure = IkFailure::kOutsideJointLimits;
@@ -480,10 +481,10 @@ IkResult SolveNumericIk(const RobotModel& model, const Eigen::Isometry3d& target
 std::vector<std::string> Singularities(const RobotModel& model, const JointVector& q,
                                        double tolerance) {
   const KinematicChain chain(model);
-  const ForwardResult fk = chain.Forward(q);
   if (!PumaIkNotApplicable(model)) {
+    const ForwardResult fk = chain.Forward(q);
     const Eigen::Vector3d wrist = model.base.ToIsometry().inverse() * fk.frames[4].translation();
-    return PumaSingularities(model, q, wrist, tolerance);
+    return PumaSingularities(model, GeometryOf(model), q, wrist, tolerance);
   }
   const Eigen::JacobiSVD<Eigen::MatrixXd> svd(chain.GeometricJacobian(q));
   const Eigen::VectorXd values = svd.singularValues();

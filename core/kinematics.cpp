@@ -6,28 +6,12 @@
 namespace sirupp::core {
 
 Eigen::Isometry3d DhTransform(DhConvention convention, const Joint& joint, double q) {
-  const bool revolute = joint.type == JointType::kRevolute;
-  const double theta = joint.dh.theta_rad + (revolute ? q : 0.0);
-  const double d = joint.dh.d_m + (revolute ? 0.0 : q);
-  const double ct = std::cos(theta), st = std::sin(theta);
-  const double ca = std::cos(joint.dh.alpha_rad), sa = std::sin(joint.dh.alpha_rad);
-  const double a = joint.dh.a_m;
-  Eigen::Matrix4d m;
-  if (convention == DhConvention::kStandard) {
-    // Rz(theta) Tz(d) Tx(a) Rx(alpha)
-    m << ct, -st * ca, st * sa, a * ct,  //
-        st, ct * ca, -ct * sa, a * st,   //
-        0, sa, ca, d,                    //
-        0, 0, 0, 1;
-  } else {
-    // Rx(alpha) Tx(a) Rz(theta) Tz(d)
-    m << ct, -st, 0, a,                  //
-        st * ca, ct * ca, -sa, -sa * d,  //
-        st * sa, ct * sa, ca, ca * d,    //
-        0, 0, 0, 1;
-  }
-  Eigen::Isometry3d transform;
-  transform.matrix() = m;
+  Eigen::Matrix3d r = Eigen::Matrix3d::Identity();
+  Eigen::Vector3d p = Eigen::Vector3d::Zero();
+  ApplyDh(convention, DhLink::From(joint), q, r, p);
+  Eigen::Isometry3d transform = Eigen::Isometry3d::Identity();
+  transform.linear() = r;
+  transform.translation() = p;
   return transform;
 }
 
@@ -35,22 +19,26 @@ KinematicChain::KinematicChain(const RobotModel& model)
     : convention_(model.dh_convention),
       base_(model.base.ToIsometry()),
       tool_(model.tool.ToIsometry()) {
-  for (const Joint& joint : model.joints) {
-    links_.push_back(Link{joint.dh.a_m, joint.dh.d_m, joint.dh.theta_rad,
-                          std::cos(joint.dh.alpha_rad), std::sin(joint.dh.alpha_rad),
-                          joint.type == JointType::kRevolute});
-  }
+  for (const Joint& joint : model.joints) links_.push_back(DhLink::From(joint));
 }
 
-// Multiplies (r, p) by the link's DH transform column by column, without forming the 4x4 matrix.
-void KinematicChain::Step(const Link& link, double q, Eigen::Matrix3d& r,
-                          Eigen::Vector3d& p) const {
+DhLink DhLink::From(const Joint& joint) {
+  return DhLink{joint.dh.a_m,
+                joint.dh.d_m,
+                joint.dh.theta_rad,
+                std::cos(joint.dh.alpha_rad),
+                std::sin(joint.dh.alpha_rad),
+                joint.type == JointType::kRevolute};
+}
+
+void ApplyDh(DhConvention convention, const DhLink& link, double q, Eigen::Matrix3d& r,
+             Eigen::Vector3d& p) {
   const double theta = link.theta + (link.revolute ? q : 0.0);
   const double d = link.d + (link.revolute ? 0.0 : q);
   const double ct = std::cos(theta), st = std::sin(theta);
   const double ca = link.cos_alpha, sa = link.sin_alpha;
   const Eigen::Vector3d x = r.col(0), y = r.col(1), z = r.col(2);
-  if (convention_ == DhConvention::kStandard) {
+  if (convention == DhConvention::kStandard) {
     // Rz(theta) Tz(d) Tx(a) Rx(alpha)
     const Eigen::Vector3d new_x = ct * x + st * y;
     const Eigen::Vector3d across = -st * x + ct * y;
@@ -72,7 +60,8 @@ void KinematicChain::Step(const Link& link, double q, Eigen::Matrix3d& r,
 Eigen::Isometry3d KinematicChain::ToolPose(const JointVector& q) const {
   Eigen::Matrix3d r = base_.linear();
   Eigen::Vector3d p = base_.translation();
-  for (size_t i = 0; i < links_.size(); ++i) Step(links_[i], q[static_cast<Eigen::Index>(i)], r, p);
+  for (size_t i = 0; i < links_.size(); ++i)
+    ApplyDh(convention_, links_[i], q[static_cast<Eigen::Index>(i)], r, p);
   Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
   pose.linear() = r * tool_.linear();
   pose.translation() = p + r * tool_.translation();
@@ -86,7 +75,7 @@ ForwardResult KinematicChain::Forward(const JointVector& q) const {
   Eigen::Matrix3d r = base_.linear();
   Eigen::Vector3d p = base_.translation();
   for (size_t i = 0; i < links_.size(); ++i) {
-    Step(links_[i], q[static_cast<Eigen::Index>(i)], r, p);
+    ApplyDh(convention_, links_[i], q[static_cast<Eigen::Index>(i)], r, p);
     Eigen::Isometry3d frame = Eigen::Isometry3d::Identity();
     frame.linear() = r;
     frame.translation() = p;
@@ -108,7 +97,7 @@ Jacobian KinematicChain::GeometricJacobian(const JointVector& q) const {
       axes.col(i) = r.col(2);
       origins.col(i) = p;
     }
-    Step(links_[static_cast<size_t>(i)], q[i], r, p);
+    ApplyDh(convention_, links_[static_cast<size_t>(i)], q[i], r, p);
     if (convention_ == DhConvention::kModified) {
       axes.col(i) = r.col(2);
       origins.col(i) = p;

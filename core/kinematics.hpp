@@ -15,6 +15,19 @@ namespace sirupp::core {
 using JointVector = Eigen::VectorXd;
 using Jacobian = Eigen::Matrix<double, 6, Eigen::Dynamic>;
 
+// One joint's constant DH terms, with cos and sin of the twist computed once.
+struct DhLink {
+  double a, d, theta, cos_alpha, sin_alpha;
+  bool revolute;
+
+  static DhLink From(const Joint& joint);
+};
+
+// Multiplies the pose (r, p) of frame i-1 by the DH transform of `link` at position q, giving the
+// pose of frame i; column by column, without forming a 4x4 matrix.
+void ApplyDh(DhConvention convention, const DhLink& link, double q, Eigen::Matrix3d& r,
+             Eigen::Vector3d& p);
+
 // The transform from DH frame i-1 to frame i for joint `joint` at position q.
 Eigen::Isometry3d DhTransform(DhConvention convention, const Joint& joint, double q);
 
@@ -36,14 +49,7 @@ class KinematicChain {
   Jacobian GeometricJacobian(const JointVector& q) const;
 
  private:
-  struct Link {
-    double a, d, theta, cos_alpha, sin_alpha;
-    bool revolute;
-  };
-  // Pose of frame i (rotation r, origin p) becomes that of frame i+1.
-  void Step(const Link& link, double q, Eigen::Matrix3d& r, Eigen::Vector3d& p) const;
-
-  std::vector<Link> links_;
+  std::vector<DhLink> links_;
   DhConvention convention_;
   Eigen::Isometry3d base_;
   Eigen::Isometry3d tool_;

@@ -106,6 +106,18 @@ std::string JointText(const std::vector<double>& values) {
   return "[" + text + "]";
 }
 
+std::string Join(const std::vector<std::string>& names) {
+  std::string text;
+  for (const std::string& name : names) text += (text.empty() ? "" : ", ") + name;
+  return text;
+}
+
+// "  NAME  [q1 .. qn] deg" for one solution.
+std::string SolutionText(const core::RobotModel& model, const core::IkSolution& s) {
+  return "  " + (s.config ? s.config->Name() : std::string("solution")) + "  " +
+         JointText(ForPeople(model, s.q)) + " deg";
+}
+
 }  // namespace
 
 int RunFk(const std::vector<std::string>& raw, std::ostream& out) {
@@ -160,9 +172,7 @@ int RunFk(const std::vector<std::string>& raw, std::ostream& out) {
   out << "quaternion w x y z [" << Fixed(quat.w(), 6) << " " << Fixed(quat.x(), 6) << " "
       << Fixed(quat.y(), 6) << " " << Fixed(quat.z(), 6) << "]\n";
   out << "manipulability    " << core::FormatApprox(manipulability) << "\n";
-  std::string names;
-  for (const std::string& name : singular) names += (names.empty() ? "" : ", ") + name;
-  out << "singularities     " << (names.empty() ? "none" : names) << "\n";
+  out << "singularities     " << (singular.empty() ? "none" : Join(singular)) << "\n";
   return 0;
 }
 
@@ -258,9 +268,7 @@ int RunIk(const std::vector<std::string>& raw, std::ostream& out) {
   if (!failure.empty()) {
     out << "no solution: " << core::IkFailureName(result.failure) << ": " << failure << "\n";
     for (const core::IkSolution& s : result.solutions) {
-      out << "  " << (s.config ? s.config->Name() : std::string("solution")) << "  "
-          << JointText(ForPeople(model, s.q)) << " deg  (outside: " << OutsideLimits(model, s.q)
-          << ")\n";
+      out << SolutionText(model, s) << "  (outside: " << OutsideLimits(model, s.q) << ")\n";
     }
     return 1;
   }
@@ -268,23 +276,17 @@ int RunIk(const std::vector<std::string>& raw, std::ostream& out) {
     char error[96];
     std::snprintf(error, sizeof error, "  |error| %.1e m %.1e rad", s->error.position_m,
                   s->error.rotation_rad);
-    out << "  " << (s->config ? s->config->Name() : std::string("solution")) << "  "
-        << JointText(ForPeople(model, s->q)) << " deg" << error;
-    std::string names;
-    for (const std::string& name : s->singularities) names += (names.empty() ? "" : ", ") + name;
-    if (!names.empty()) out << "  singular: " << names;
+    out << SolutionText(model, *s) << error;
+    if (!s->singularities.empty()) out << "  singular: " << Join(s->singularities);
     out << "\n";
   }
-  const size_t outside =
-      result.solutions.size() -
-      static_cast<size_t>(std::count_if(result.solutions.begin(), result.solutions.end(),
-                                        [](const core::IkSolution& s) { return s.within_limits; }));
-  if (outside > 0 && config_text == "all") {
-    out << "  outside the joint limits:\n";
+  if (config_text == "all") {
+    bool header = false;
     for (const core::IkSolution& s : result.solutions) {
       if (s.within_limits) continue;
-      out << "  " << (s.config ? s.config->Name() : std::string("solution")) << "  "
-          << JointText(ForPeople(model, s.q)) << " deg  (" << OutsideLimits(model, s.q) << ")\n";
+      if (!header) out << "  outside the joint limits:\n";
+      header = true;
+      out << SolutionText(model, s) << "  (" << OutsideLimits(model, s.q) << ")\n";
     }
   }
   return 0;
