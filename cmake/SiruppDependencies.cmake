@@ -28,3 +28,16 @@ if(SIRUPP_BUILD_TESTS)
   find_package(GTest REQUIRED)
   include(GoogleTest)
 endif()
+
+# ODE 0.16 (libode-dev): Debian builds it in double precision; ode/precision.h selects dDOUBLE.
+find_path(ODE_INCLUDE_DIR ode/ode.h)
+find_library(ODE_LIBRARY ode)
+if(NOT ODE_INCLUDE_DIR OR NOT ODE_LIBRARY)
+  message(FATAL_ERROR "ODE not found (need libode-dev): run scripts/install-deps.sh")
+endif()
+add_library(sirupp_ode_external INTERFACE)
+target_include_directories(sirupp_ode_external SYSTEM INTERFACE ${ODE_INCLUDE_DIR})
+target_link_libraries(sirupp_ode_external INTERFACE ${ODE_LIBRARY})
+
+# TinyXML-2 (libtinyxml2-dev) for environment files; its CMake config defines tinyxml2::tinyxml2.
+find_package(tinyxml2 REQUIRED)

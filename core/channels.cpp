@@ -28,7 +28,7 @@ Channels Channels::WithPrefix(const std::string& prefix) {
   Channels channels;
   for (std::string* name :
        {&channels.robot_model, &channels.environment, &channels.sim_arm_state,
-        &channels.sim_arm_command, &channels.arm_move, &channels.arm_setpoint, &channels.arm_gains,
+        &channels.sim_arm_command, &channels.sim_reset, &channels.arm_move, &channels.arm_setpoint, &channels.arm_gains,
         &channels.arm_target, &channels.arm_pose_target, &channels.arm_plan,
         &channels.controller_status, &channels.real_arm_state, &channels.hardware_status,
         &channels.hardware_command, &channels.estop, &channels.heartbeat, &channels.viewer_image}) {
@@ -38,7 +38,7 @@ Channels Channels::WithPrefix(const std::string& prefix) {
 }
 
 std::vector<std::string> Channels::All() const {
-  return {robot_model,       environment,    sim_arm_state,   sim_arm_command,  arm_move,
+  return {robot_model,       environment,    sim_arm_state,   sim_arm_command,  sim_reset, arm_move,
           arm_setpoint,      arm_gains,      arm_target,      arm_pose_target,  arm_plan,
           controller_status, real_arm_state, hardware_status, hardware_command, estop,
           heartbeat,         viewer_image};
@@ -76,6 +76,8 @@ const std::vector<ChannelInfo>& ChannelTable() {
       {"SIM_ARM_COMMAND", "sirupp.arm_command_t", "sirupp-control (or a student's controller)",
        "sirupp-sim", "one per SIM_ARM_STATE",
        "joint efforts for the tick it answers, or hold / limp"},
+      {"SIM_RESET", "sirupp.sim_reset_t", "sirupp CLI, lesson scripts, tests", "sirupp-sim",
+       "on demand", "teleport: joint positions (and speeds) set at once, objects optionally reset"},
       {"ARM_MOVE", "sirupp.servo_move_t", "sirupp-control", "sirupp-hardware, sirupp-logger",
        "one per move",
        "per-joint goal, maximum velocity and acceleration: the PIC-SERVO LOAD_TRAJ analogue"},

@@ -3,7 +3,7 @@
 # Idempotent: when everything is present it only runs dpkg-query (well under a second).
 # Usage: scripts/install-deps.sh [--check] [--peers]
 #   --check  list what is missing, install nothing
-#   --peers  also install the benchmark peers (KDL, compared against in bench/); never needed to build
+#   --peers  also install the benchmark peers (KDL, MuJoCo; compared against in bench/); never needed to build
 set -euo pipefail
 check=0
 peers=0
@@ -35,7 +35,7 @@ packages=(
   iproute2 procps
 )
 if [[ $peers -eq 1 ]]; then
-  packages+=(liborocos-kdl-dev)
+  packages+=(liborocos-kdl-dev libmujoco-dev)
 fi
 
 missing=()

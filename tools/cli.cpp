@@ -8,6 +8,7 @@
 #include "core/errors.hpp"
 #include "core/model_loader.hpp"
 #include "core/model_report.hpp"
+#include "tools/environment_commands.hpp"
 #include "tools/kinematics_commands.hpp"
 
 #ifndef SIRUPP_SOURCE_DIR
@@ -31,9 +32,14 @@ const char* const kUsage =
     "  model show FILE            print the DH table and link data, in SI and the file's units\n"
     "  fk --model FILE --deg Q..  tool pose for joint positions (see sirupp fk --help)\n"
     "  ik --model FILE --pose X Y Z ROLL PITCH YAW   joint solutions (see sirupp ik --help)\n"
+    "  env check FILE...          validate environment files (objects around the robot); exit 1 on "
+    "a bad one\n"
+    "  env show FILE              list an environment's objects: shape, size, pose, static or "
+    "mass\n"
     "  help                       this text\n"
     "\n"
     "Model files: config/robots/*.yaml, format in docs/model-format.md.\n"
+    "Environment files: config/environments/*.xml, format in docs/environment-format.md.\n"
     "Exit codes: 0 success, 1 failure while running, 2 bad arguments or bad input.\n";
 
 using Args = std::vector<std::string>;
@@ -98,6 +104,10 @@ int RunCli(const Args& args, std::ostream& out, std::ostream& err) {
     if (command == "ik") {
       if (wants_help) return out << kIkUsage, kExitOk;
       return RunIk(rest, out);
+    }
+    if (command == "env") {
+      if (wants_help) return out << kEnvUsage, kExitOk;
+      return RunEnv(rest, out, err);
     }
     if (command == "model") {
       if (rest.empty()) throw core::UsageError("model: expected a subcommand: check or show");

@@ -1,0 +1,101 @@
+#include "core/heartbeat.hpp"
+
+#include <unistd.h>
+
+#include <array>
+#include <utility>
+
+namespace sirupp::core {
+namespace {
+
+int64_t WallMicros() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+std::string HostName() {
+  std::array<char, 256> buffer{};
+  if (gethostname(buffer.data(), buffer.size() - 1) != 0) return "unknown";
+  return std::string(buffer.data());
+}
+
+}  // namespace
+
+const char* ProcessStateName(ProcessState state) {
+  switch (state) {
+    case ProcessState::kStarting:
+      return "starting";
+    case ProcessState::kRunning:
+      return "running";
+    case ProcessState::kDegraded:
+      return "degraded";
+    case ProcessState::kFault:
+      return "fault";
+    case ProcessState::kStopping:
+      return "stopping";
+  }
+  return "unknown";
+}
+
+Heartbeat::Heartbeat(Bus& bus, std::string process_name, std::string channel, double period_s)
+    : bus_(bus),
+      process_(std::move(process_name)),
+      channel_(std::move(channel)),
+      host_(HostName()),
+      pid_(static_cast<int32_t>(getpid())),
+      period_(std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(period_s))),
+      started_(Clock::now()),
+      previous_time_(started_) {}
+
+bool Heartbeat::PublishIfDue(ProcessState state, const std::string& detail) {
+  if (sent_any_ && Clock::now() - last_sent_ < period_) return false;
+  Publish(state, detail);
+  return true;
+}
+
+void Heartbeat::Publish(ProcessState state, const std::string& detail) {
+  const sirupp::heartbeat_t message = Build(state, detail);
+  bus_.Publish(channel_, message);
+  ++seq_;
+  sent_any_ = true;
+  last_sent_ = Clock::now();
+}
+
+sirupp::heartbeat_t Heartbeat::Build(ProcessState state, const std::string& detail) {
+  const Clock::time_point now = Clock::now();
+  const double since_previous = std::chrono::duration<double>(now - previous_time_).count();
+  sirupp::heartbeat_t message{};
+  message.utime = WallMicros();
+  message.seq = seq_;
+  message.process = process_;
+  message.host = host_;
+  message.pid = pid_;
+  message.state = static_cast<int8_t>(state);
+  message.detail = detail;
+  message.uptime_s = std::chrono::duration<double>(now - started_).count();
+  std::map<std::string, int64_t> counts;
+  for (const ChannelStats& stats : bus_.Stats()) {
+    sirupp::channel_stats_t entry{};
+    entry.channel = stats.channel;
+    entry.publishing = stats.publishing ? 1 : 0;
+    entry.messages = stats.messages;
+    entry.decode_errors = stats.decode_errors;
+    entry.rejected = stats.rejected;
+    entry.late = stats.late;
+    entry.gaps = stats.gaps;
+    const std::string key = (stats.publishing ? "tx " : "rx ") + stats.channel;
+    const auto previous = previous_counts_.find(key);
+    const int64_t before = previous == previous_counts_.end() ? 0 : previous->second;
+    entry.rate_hz =
+        since_previous > 0 ? static_cast<double>(stats.messages - before) / since_previous : 0.0;
+    counts[key] = stats.messages;
+    message.channels.push_back(entry);
+  }
+  message.num_channels = static_cast<int32_t>(message.channels.size());
+  previous_counts_ = std::move(counts);
+  previous_time_ = now;
+  return message;
+}
+
+}  // namespace sirupp::core

@@ -1,0 +1,781 @@
+#include "sim/arm_world.hpp"
+
+#include <ode/ode.h>
+
+#include <Eigen/Eigenvalues>
+
+#include <algorithm>
+#include <cmath>
+#include <cstdarg>
+#include <cstdio>
+#include <limits>
+#include <mutex>
+#include <stdexcept>
+
+#include "core/errors.hpp"
+#include "core/kinematics.hpp"
+#include <sirupp/arm_state_t.hpp>
+
+namespace sirupp::sim {
+namespace {
+
+using core::FormatNumber;
+
+constexpr double kPi = 3.14159265358979323846;
+// A hinge is re-zeroed once its ODE angle passes this, so that ODE's angle (which wraps at +-pi)
+// never wraps and stops within pi of the joint can always be expressed in ODE's range.
+constexpr double kRezeroAngle = kPi / 2;
+// Safety factor on the speed above which kinetic friction is applied explicitly (see
+// ExplicitFrictionSpeed).
+constexpr double kExplicitFrictionMargin = 4.0;
+// The brake of kHold holds up to this multiple of the joint's effort limit.
+constexpr double kBrakeEffortFactor = 10.0;
+constexpr int kMaxContactsPerPair = 8;
+
+void OdeMessage(int errnum, const char* msg, va_list ap) {
+  std::fprintf(stderr, "sirupp-sim: ODE message %d: ", errnum);
+  std::vfprintf(stderr, msg, ap);
+  std::fputc('\n', stderr);
+}
+
+// ODE's global state: initialised once per process, on first use, and never torn down (worlds may
+// be created and destroyed at any time).
+void EnsureOdeInitialised() {
+  static std::once_flag once;
+  std::call_once(once, [] {
+    dInitODE2(0);
+    dAllocateODEDataForThread(dAllocateMaskAll);
+    dSetMessageHandler(&OdeMessage);
+  });
+}
+
+void ToOde(const Eigen::Matrix3d& r, dMatrix3 out) {
+  for (int row = 0; row < 3; ++row) {
+    for (int col = 0; col < 3; ++col) out[row * 4 + col] = r(row, col);
+    out[row * 4 + 3] = 0;
+  }
+}
+
+Eigen::Matrix3d FromOde(const dReal* r) {
+  Eigen::Matrix3d out;
+  for (int row = 0; row < 3; ++row) {
+    for (int col = 0; col < 3; ++col) out(row, col) = r[row * 4 + col];
+  }
+  return out;
+}
+
+void ToOdeQuaternion(const Eigen::Quaterniond& q, dQuaternion out) {
+  out[0] = q.w();
+  out[1] = q.x();
+  out[2] = q.y();
+  out[3] = q.z();
+}
+
+Eigen::Vector3d FromOdeVector(const dReal* v) { return {v[0], v[1], v[2]}; }
+
+double WrapToPi(double angle) {
+  angle = std::fmod(angle + kPi, 2 * kPi);
+  if (angle < 0) angle += 2 * kPi;
+  return angle - kPi;
+}
+
+bool PositiveDefinite(const Eigen::Matrix3d& inertia) {
+  const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(inertia);
+  return solver.info() == Eigen::Success && solver.eigenvalues().minCoeff() > 0;
+}
+
+// Surface properties carried by each geom (dGeomSetData).
+struct Material {
+  double friction = 1.0;
+  double restitution = 0.0;
+  bool arm = false;  // the arm's links: neutral, the other surface decides
+};
+
+// Everything the sim keeps per joint between steps.
+struct JointSim {
+  dJointID id = nullptr;
+  bool revolute = true;
+  // Model constants (SI).
+  double position_min = 0, position_max = 0, effort_max = 0;
+  double static_effort = 0, coulomb_positive = 0, coulomb_negative = 0, viscous = 0;
+  double stribeck_velocity = 1;
+  bool has_friction = false;
+  double explicit_friction_speed = 0;  // above this speed kinetic friction is an explicit torque
+  // State.
+  double q = 0;      // unwrapped joint position, DH convention
+  double qd = 0;     // joint speed
+  double raw = 0;    // ODE's reading (hinge angle or slider position) at the last update
+  double offset = 0; // q = offset + ODE reading accumulated since the last re-zero
+  bool stuck = true;
+  double q_stick = 0;
+  double effort = 0;  // actuator effort applied in the last step
+  bool braked = false;
+  bool friction_row = false;  // the last step had a friction (or brake) row
+  bool at_lower = false, at_upper = false;
+  // Stop parameters last given to ODE (in ODE's coordinates), to avoid redundant calls.
+  double lo_stop = -dInfinity, hi_stop = dInfinity;
+};
+
+}  // namespace
+
+struct ArmWorld::Impl {
+  core::RobotModel model;
+  core::KinematicChain chain;
+  WorldOptions options;
+  double step_s = 0;
+  int64_t tick = 0;
+
+  dWorldID world = nullptr;
+  dSpaceID arm_space = nullptr;
+  dSpaceID env_space = nullptr;
+  dJointGroupID contact_group = nullptr;
+
+  std::vector<dBodyID> bodies;  // bodies[i - 1] is link i
+  std::vector<JointSim> joints;
+  std::vector<std::string> omissions;
+
+  struct Object {
+    std::string name;
+    dBodyID body = nullptr;  // null for static objects
+    dGeomID geom = nullptr;
+    core::Pose start;
+  };
+  std::vector<Object> objects;
+  std::vector<std::unique_ptr<Material>> materials;
+  int last_rows = 0;
+  int contact_rows = 0;
+  std::vector<Eigen::Vector3d> scratch_points, scratch_axes;
+
+  Impl(const core::RobotModel& robot, const core::Environment& environment,
+       const WorldOptions& opts)
+      : model(robot), chain(robot), options(opts) {
+    EnsureOdeInitialised();
+    step_s = options.step_s > 0 ? options.step_s : model.servo_tick_s;
+    CheckInputs();
+    world = dWorldCreate();
+    dWorldSetGravity(world, model.gravity_m_s2.x(), model.gravity_m_s2.y(), model.gravity_m_s2.z());
+    dWorldSetERP(world, options.erp);
+    dWorldSetCFM(world, options.cfm);
+    dWorldSetAutoDisableFlag(world, 0);
+    dWorldSetContactSurfaceLayer(world, 0.0005);
+    dWorldSetContactMaxCorrectingVel(world, 1.0);
+    arm_space = dSimpleSpaceCreate(nullptr);
+    env_space = dSimpleSpaceCreate(nullptr);
+    contact_group = dJointGroupCreate(0);
+    BuildArm();
+    BuildEnvironment(environment);
+  }
+
+  ~Impl() {
+    if (contact_group != nullptr) dJointGroupDestroy(contact_group);
+    if (arm_space != nullptr) dSpaceDestroy(arm_space);  // destroys its geoms
+    if (env_space != nullptr) dSpaceDestroy(env_space);
+    if (world != nullptr) dWorldDestroy(world);  // destroys bodies and joints
+  }
+
+  void CheckInputs() const {
+    auto bad = [](const std::string& what) { throw std::invalid_argument(what); };
+    if (!(step_s > 0 && step_s <= 0.01)) {
+      bad("step " + FormatNumber(step_s) + " s: allowed 0 < step <= 0.01 s");
+    }
+    if (!(options.erp > 0 && options.erp <= 1)) {
+      bad("erp " + FormatNumber(options.erp) + ": allowed 0 < erp <= 1");
+    }
+    if (!(options.cfm >= 0 && std::isfinite(options.cfm))) {
+      bad("cfm " + FormatNumber(options.cfm) + ": allowed a finite value >= 0");
+    }
+    if (!(options.stick_speed > 0 && std::isfinite(options.stick_speed))) {
+      bad("stick_speed " + FormatNumber(options.stick_speed) + ": allowed a finite value > 0");
+    }
+    if (model.num_joints() < 1 || model.links.size() != model.joints.size() + 1) {
+      bad("model " + model.name + ": needs at least one joint and one link per joint plus the base");
+    }
+    for (int i = 1; i <= model.num_joints(); ++i) {
+      const core::Link& link = model.links[static_cast<size_t>(i)];
+      if (!(link.mass_kg > 0) || !PositiveDefinite(link.inertia_kg_m2)) {
+        bad("links[" + std::to_string(i) + "] (" + link.name + "): mass " +
+            FormatNumber(link.mass_kg) +
+            " kg and its inertia must be positive for a simulated body");
+      }
+    }
+  }
+
+  // Joint i's axis (unit vector) and a point on it, in the world, from the DH frames at q.
+  void JointAxis(const core::ForwardResult& fk, int i, Eigen::Vector3d& point,
+                 Eigen::Vector3d& axis) const {
+    const Eigen::Isometry3d& frame = model.dh_convention == core::DhConvention::kStandard
+                                         ? fk.frames[static_cast<size_t>(i - 1)]
+                                         : fk.frames[static_cast<size_t>(i)];
+    point = frame.translation();
+    axis = frame.linear().col(2);
+  }
+
+  void BuildArm() {
+    const int n = model.num_joints();
+    core::JointVector q0(n);
+    for (int j = 0; j < n; ++j) q0[j] = model.joints[static_cast<size_t>(j)].home;
+    const core::ForwardResult fk = chain.Forward(q0);
+
+    // Base shapes: fixed geoms in the arm's space (nothing to collide with among the arm itself).
+    AddArmGeoms(nullptr, model.links[0], fk.frames[0]);
+
+    for (int i = 1; i <= n; ++i) {
+      const core::Link& link = model.links[static_cast<size_t>(i)];
+      const core::Joint& joint = model.joints[static_cast<size_t>(i - 1)];
+      Eigen::Vector3d point, axis;
+      JointAxis(fk, i, point, axis);
+      Eigen::Matrix3d inertia = link.inertia_kg_m2;
+      if (options.armature && joint.armature > 0) {
+        if (joint.type == core::JointType::kRevolute) {
+          // Rotor inertia about the joint axis, added to the child link (docs/physics.md).
+          const Eigen::Vector3d axis_body =
+              fk.frames[static_cast<size_t>(i)].linear().transpose() * axis;
+          inertia += joint.armature * axis_body * axis_body.transpose();
+        } else {
+          omissions.push_back("joints[" + std::to_string(i - 1) + "] (" + joint.name +
+                              "): armature " + FormatNumber(joint.armature) +
+                              " kg on a prismatic joint is not simulated");
+        }
+      }
+      dBodyID body = dBodyCreate(world);
+      dMass mass;
+      dMassSetParameters(&mass, link.mass_kg, 0, 0, 0, inertia(0, 0), inertia(1, 1), inertia(2, 2),
+                         inertia(0, 1), inertia(0, 2), inertia(1, 2));
+      dBodySetMass(body, &mass);
+      dBodySetGyroscopicMode(body, 1);
+      bodies.push_back(body);
+      PlaceBody(i, fk.frames[static_cast<size_t>(i)]);
+      AddArmGeoms(body, link, fk.frames[static_cast<size_t>(i)]);
+
+      JointSim sim;
+      sim.revolute = joint.type == core::JointType::kRevolute;
+      sim.position_min = joint.position_min;
+      sim.position_max = joint.position_max;
+      sim.effort_max = joint.effort_max;
+      if (options.friction) {
+        sim.static_effort = joint.friction.static_effort;
+        sim.coulomb_positive = joint.friction.coulomb_positive;
+        sim.coulomb_negative = joint.friction.coulomb_negative;
+        sim.viscous = joint.friction.viscous;
+        sim.stribeck_velocity = joint.friction.stribeck_velocity;
+      }
+      sim.has_friction =
+          sim.static_effort > 0 || sim.coulomb_positive > 0 || sim.coulomb_negative > 0;
+      sim.q = q0[i - 1];
+      sim.q_stick = sim.q;
+      dBodyID parent = i > 1 ? bodies[static_cast<size_t>(i - 2)] : nullptr;
+      sim.id = sim.revolute ? dJointCreateHinge(world, nullptr) : dJointCreateSlider(world, nullptr);
+      dJointAttach(sim.id, body, parent);
+      joints.push_back(sim);
+      AttachJointFrame(i - 1, point, axis);
+    }
+    for (int i = 1; i <= n; ++i) {
+      joints[static_cast<size_t>(i - 1)].explicit_friction_speed = ExplicitFrictionSpeed(i);
+    }
+  }
+
+  // Sets joint j's anchor and axis at the current pose; ODE's reading restarts from zero there.
+  void AttachJointFrame(int j, const Eigen::Vector3d& point, const Eigen::Vector3d& axis) {
+    JointSim& sim = joints[static_cast<size_t>(j)];
+    if (sim.revolute) {
+      dJointSetHingeAnchor(sim.id, point.x(), point.y(), point.z());
+      dJointSetHingeAxis(sim.id, axis.x(), axis.y(), axis.z());
+    } else {
+      dJointSetSliderAxis(sim.id, axis.x(), axis.y(), axis.z());
+    }
+    sim.offset = sim.q;
+    sim.raw = 0;
+    sim.lo_stop = -dInfinity;
+    sim.hi_stop = dInfinity;
+    SetParam(sim, dParamLoStop, -dInfinity);
+    SetParam(sim, dParamHiStop, dInfinity);
+  }
+
+  static void SetParam(const JointSim& sim, int parameter, double value) {
+    if (sim.revolute) {
+      dJointSetHingeParam(sim.id, parameter, value);
+    } else {
+      dJointSetSliderParam(sim.id, parameter, value);
+    }
+  }
+
+  // Speed above which joint i's friction can be applied as an explicit torque without a constraint
+  // row: from that speed the joint cannot reach zero speed within one step, even under its largest
+  // effort, its break-away friction and the full weight of every link beyond it pulling the same
+  // way, with only the rotor and the child link's smallest inertia resisting; times a margin.
+  double ExplicitFrictionSpeed(int i) const {
+    const core::Joint& joint = model.joints[static_cast<size_t>(i - 1)];
+    const JointSim& sim = joints[static_cast<size_t>(i - 1)];
+    if (!sim.has_friction) return 0;
+    const double g = model.gravity_m_s2.norm();
+    double load = 0;   // bound on the gravity effort at joint i
+    double reach = 0;  // bound on the distance from joint i's axis to a later frame origin
+    for (int l = i; l <= model.num_joints(); ++l) {
+      const core::Link& link = model.links[static_cast<size_t>(l)];
+      const core::DhRow& dh = model.joints[static_cast<size_t>(l - 1)].dh;
+      const core::Joint& later = model.joints[static_cast<size_t>(l - 1)];
+      reach += std::abs(dh.a_m) + std::abs(dh.d_m) +
+               (later.type == core::JointType::kPrismatic
+                    ? std::max(std::abs(later.position_min), std::abs(later.position_max))
+                    : 0.0);
+      const double arm = sim.revolute ? reach + link.com_m.norm() : 1.0;
+      load += link.mass_kg * g * arm;
+    }
+    const double effort = joint.effort_max + sim.static_effort + load;
+    double inertia;
+    if (sim.revolute) {
+      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(
+          model.links[static_cast<size_t>(i)].inertia_kg_m2);
+      inertia = solver.eigenvalues().minCoeff() + (options.armature ? joint.armature : 0.0);
+    } else {
+      double mass = 0;
+      for (int l = i; l <= model.num_joints(); ++l) mass += model.links[static_cast<size_t>(l)].mass_kg;
+      inertia = mass;
+    }
+    return kExplicitFrictionMargin * effort / inertia * step_s;
+  }
+
+  void PlaceBody(int i, const Eigen::Isometry3d& frame) {
+    const core::Link& link = model.links[static_cast<size_t>(i)];
+    const Eigen::Vector3d com = frame * link.com_m;
+    dBodyID body = bodies[static_cast<size_t>(i - 1)];
+    dBodySetPosition(body, com.x(), com.y(), com.z());
+    dMatrix3 rotation;
+    ToOde(frame.linear(), rotation);
+    dBodySetRotation(body, rotation);
+  }
+
+  dGeomID CreateGeom(dSpaceID space, const core::Shape& shape) {
+    switch (shape.type) {
+      case core::ShapeType::kBox:
+        return dCreateBox(space, shape.size_m.x(), shape.size_m.y(), shape.size_m.z());
+      case core::ShapeType::kCylinder:
+        return dCreateCylinder(space, shape.size_m.x(), shape.size_m.y());
+      case core::ShapeType::kCapsule:
+        return dCreateCapsule(space, shape.size_m.x(), shape.size_m.y());
+      case core::ShapeType::kSphere:
+        return dCreateSphere(space, shape.size_m.x());
+    }
+    throw std::logic_error("unknown shape type");
+  }
+
+  Material* NewMaterial(double friction, double restitution, bool arm = false) {
+    materials.push_back(std::make_unique<Material>(Material{friction, restitution, arm}));
+    return materials.back().get();
+  }
+
+  // The link's shapes as geoms riding on its body (or fixed, for the base).
+  void AddArmGeoms(dBodyID body, const core::Link& link, const Eigen::Isometry3d& frame) {
+    Material* material = NewMaterial(1.0, 0.0, /*arm=*/true);
+    for (const core::Shape& shape : link.shapes) {
+      dGeomID geom = CreateGeom(arm_space, shape);
+      dGeomSetData(geom, material);
+      dQuaternion rotation;
+      if (body != nullptr) {
+        dGeomSetBody(geom, body);
+        const Eigen::Vector3d offset = shape.pose.position_m - link.com_m;  // body axes = frame axes
+        dGeomSetOffsetPosition(geom, offset.x(), offset.y(), offset.z());
+        ToOdeQuaternion(shape.pose.orientation, rotation);
+        dGeomSetOffsetQuaternion(geom, rotation);
+      } else {
+        const Eigen::Isometry3d pose = frame * shape.pose.ToIsometry();
+        dGeomSetPosition(geom, pose.translation().x(), pose.translation().y(),
+                         pose.translation().z());
+        ToOdeQuaternion(Eigen::Quaterniond(pose.linear()), rotation);
+        dGeomSetQuaternion(geom, rotation);
+      }
+    }
+  }
+
+  void BuildEnvironment(const core::Environment& environment) {
+    for (const core::EnvironmentObject& object : environment.objects) {
+      Object sim_object;
+      sim_object.name = object.name;
+      sim_object.start = object.shape.pose;
+      sim_object.geom = CreateGeom(env_space, object.shape);
+      dGeomSetData(sim_object.geom, NewMaterial(object.friction, object.restitution));
+      if (!object.is_static) {
+        sim_object.body = dBodyCreate(world);
+        dMass mass;
+        const Eigen::Vector3d& size = object.shape.size_m;
+        switch (object.shape.type) {
+          case core::ShapeType::kBox:
+            dMassSetBoxTotal(&mass, object.mass_kg, size.x(), size.y(), size.z());
+            break;
+          case core::ShapeType::kCylinder:
+            dMassSetCylinderTotal(&mass, object.mass_kg, 3, size.x(), size.y());
+            break;
+          case core::ShapeType::kCapsule:
+            dMassSetCapsuleTotal(&mass, object.mass_kg, 3, size.x(), size.y());
+            break;
+          case core::ShapeType::kSphere:
+            dMassSetSphereTotal(&mass, object.mass_kg, size.x());
+            break;
+        }
+        dBodySetMass(sim_object.body, &mass);
+        dGeomSetBody(sim_object.geom, sim_object.body);
+      }
+      objects.push_back(sim_object);
+      PlaceObject(objects.back());
+    }
+  }
+
+  static void PlaceObject(Object& object) {
+    const Eigen::Vector3d& p = object.start.position_m;
+    dQuaternion rotation;
+    ToOdeQuaternion(object.start.orientation, rotation);
+    if (object.body != nullptr) {
+      dBodySetPosition(object.body, p.x(), p.y(), p.z());
+      dBodySetQuaternion(object.body, rotation);
+      dBodySetLinearVel(object.body, 0, 0, 0);
+      dBodySetAngularVel(object.body, 0, 0, 0);
+    } else {
+      dGeomSetPosition(object.geom, p.x(), p.y(), p.z());
+      dGeomSetQuaternion(object.geom, rotation);
+    }
+  }
+
+  // Puts every link's body where forward kinematics puts it at q, moving as the joint speeds qd
+  // make it move; optionally returns each joint's axis point and direction.
+  void PlaceArm(const core::JointVector& q, const core::JointVector& qd,
+                std::vector<Eigen::Vector3d>* points_out = nullptr,
+                std::vector<Eigen::Vector3d>* axes_out = nullptr) {
+    const int n = model.num_joints();
+    const core::ForwardResult fk = chain.Forward(q);
+    std::vector<Eigen::Vector3d>& points = scratch_points;
+    std::vector<Eigen::Vector3d>& axes = scratch_axes;
+    points.resize(static_cast<size_t>(n));
+    axes.resize(static_cast<size_t>(n));
+    for (int i = 1; i <= n; ++i) {
+      JointAxis(fk, i, points[static_cast<size_t>(i - 1)], axes[static_cast<size_t>(i - 1)]);
+    }
+    Eigen::Vector3d omega = Eigen::Vector3d::Zero();
+    for (int i = 1; i <= n; ++i) {
+      PlaceBody(i, fk.frames[static_cast<size_t>(i)]);
+      const Eigen::Vector3d com =
+          fk.frames[static_cast<size_t>(i)] * model.links[static_cast<size_t>(i)].com_m;
+      const Eigen::Vector3d& z = axes[static_cast<size_t>(i - 1)];
+      if (model.joints[static_cast<size_t>(i - 1)].type == core::JointType::kRevolute) {
+        omega += z * qd[i - 1];
+      }
+      // Velocity of this link's centre: every joint up to i contributes.
+      Eigen::Vector3d v = Eigen::Vector3d::Zero();
+      for (int k = 1; k <= i; ++k) {
+        const Eigen::Vector3d& zk = axes[static_cast<size_t>(k - 1)];
+        if (model.joints[static_cast<size_t>(k - 1)].type == core::JointType::kRevolute) {
+          v += zk.cross(com - points[static_cast<size_t>(k - 1)]) * qd[k - 1];
+        } else {
+          v += zk * qd[k - 1];
+        }
+      }
+      dBodyID body = bodies[static_cast<size_t>(i - 1)];
+      dBodySetLinearVel(body, v.x(), v.y(), v.z());
+      dBodySetAngularVel(body, omega.x(), omega.y(), omega.z());
+    }
+    if (points_out != nullptr) *points_out = points;
+    if (axes_out != nullptr) *axes_out = axes;
+  }
+
+  void Teleport(const std::vector<double>& position, const std::vector<double>& velocity,
+                bool reset_objects) {
+    const int n = model.num_joints();
+    auto joint_label = [&](int j) {
+      return "joints[" + std::to_string(j) + "] (" + model.joints[static_cast<size_t>(j)].name + ")";
+    };
+    if (static_cast<int>(position.size()) != n) {
+      throw std::invalid_argument("position has " + std::to_string(position.size()) +
+                                  " values; the model has " + std::to_string(n) + " joints");
+    }
+    if (!velocity.empty() && static_cast<int>(velocity.size()) != n) {
+      throw std::invalid_argument("velocity has " + std::to_string(velocity.size()) +
+                                  " values; give none or " + std::to_string(n));
+    }
+    for (int j = 0; j < n; ++j) {
+      const core::Joint& joint = model.joints[static_cast<size_t>(j)];
+      const double q = position[static_cast<size_t>(j)];
+      if (!std::isfinite(q) || q < joint.position_min || q > joint.position_max) {
+        throw std::invalid_argument(joint_label(j) + ": position " + FormatNumber(q) +
+                                    " is outside the limits [" + FormatNumber(joint.position_min) +
+                                    ", " + FormatNumber(joint.position_max) + "]");
+      }
+      if (!velocity.empty() && !std::isfinite(velocity[static_cast<size_t>(j)])) {
+        throw std::invalid_argument(joint_label(j) + ": velocity " +
+                                    FormatNumber(velocity[static_cast<size_t>(j)]) +
+                                    " is not a finite number");
+      }
+    }
+    std::vector<Eigen::Vector3d> points, axes;
+    PlaceArm(core::ToJointVector(position),
+             velocity.empty() ? core::JointVector::Zero(n) : core::ToJointVector(velocity), &points,
+             &axes);
+    for (int j = 0; j < n; ++j) {
+      JointSim& sim = joints[static_cast<size_t>(j)];
+      sim.q = position[static_cast<size_t>(j)];
+      sim.qd = velocity.empty() ? 0.0 : velocity[static_cast<size_t>(j)];
+      sim.stuck = sim.qd == 0;
+      sim.q_stick = sim.q;
+      sim.effort = 0;
+      sim.braked = false;
+      AttachJointFrame(j, points[static_cast<size_t>(j)], axes[static_cast<size_t>(j)]);
+      UpdateLimitFlags(sim);
+    }
+    if (reset_objects) {
+      for (Object& object : objects) PlaceObject(object);
+    }
+  }
+
+  static void UpdateLimitFlags(JointSim& sim) {
+    constexpr double kAtLimit = 1e-4;  // rad or m
+    sim.at_lower = sim.q <= sim.position_min + kAtLimit;
+    sim.at_upper = sim.q >= sim.position_max - kAtLimit;
+  }
+
+  double SlidingFriction(const JointSim& sim, double speed) const {
+    const double coulomb = speed >= 0 ? sim.coulomb_positive : sim.coulomb_negative;
+    const double ratio = std::abs(speed) / sim.stribeck_velocity;
+    return coulomb + (sim.static_effort - coulomb) * std::exp(-ratio * ratio);
+  }
+
+  void AddJointEffort(const JointSim& sim, double effort) {
+    if (sim.revolute) {
+      dJointAddHingeTorque(sim.id, effort);
+    } else {
+      dJointAddSliderForce(sim.id, effort);
+    }
+  }
+
+  // Before a step: position stops, the friction (or brake) row and the explicit efforts of joint j.
+  // Returns the number of constraint rows the joint adds beyond its 5 fixed ones.
+  int PrepareJoint(JointSim& sim, core::CommandMode mode, double commanded) {
+    // Stops in ODE's coordinates, when they lie within ODE's reach.
+    const double reading_now = sim.q - sim.offset;
+    double lo = sim.position_min - sim.q + reading_now;
+    double hi = sim.position_max - sim.q + reading_now;
+    if (sim.revolute) {
+      if (lo < -kPi) lo = -dInfinity;
+      if (hi > kPi) hi = dInfinity;
+    }
+    if (lo != sim.lo_stop || hi != sim.hi_stop) {
+      // Widen first so that ODE never sees lo > hi in between.
+      SetParam(sim, dParamLoStop, -dInfinity);
+      SetParam(sim, dParamHiStop, hi);
+      SetParam(sim, dParamLoStop, lo);
+      sim.lo_stop = lo;
+      sim.hi_stop = hi;
+    }
+    const bool at_stop = reading_now <= lo || reading_now >= hi;
+
+    sim.braked = mode == core::CommandMode::kHold;
+    sim.effort = mode == core::CommandMode::kEffort
+                     ? std::clamp(commanded, -sim.effort_max, sim.effort_max)
+                     : 0.0;
+    double explicit_effort = sim.effort;
+    double row_max = 0;  // FMax of the joint's motor row; 0 = no row
+    double row_speed = 0;
+    if (sim.braked) {
+      row_max = kBrakeEffortFactor * sim.effort_max;
+      row_speed = at_stop ? 0.0 : options.erp * (sim.q_stick - sim.q) / step_s;
+    } else if (sim.has_friction) {
+      if (sim.stuck) {
+        row_max = sim.static_effort;
+        row_speed = at_stop ? 0.0 : options.erp * (sim.q_stick - sim.q) / step_s;
+      } else if (std::abs(sim.qd) > sim.explicit_friction_speed) {
+        explicit_effort -= std::copysign(SlidingFriction(sim, sim.qd), sim.qd);
+      } else {
+        row_max = SlidingFriction(sim, sim.qd);
+      }
+    }
+    explicit_effort -= sim.viscous * sim.qd;
+    SetParam(sim, dParamFMax, row_max);
+    SetParam(sim, dParamVel, row_speed);
+    if (explicit_effort != 0) AddJointEffort(sim, explicit_effort);
+    sim.friction_row = row_max > 0;
+    return (row_max > 0 || at_stop) ? 1 : 0;
+  }
+
+  // After a step: the joint's unwrapped position and speed, and its friction state.
+  void UpdateJoint(JointSim& sim) {
+    const double reading =
+        sim.revolute ? dJointGetHingeAngle(sim.id) : dJointGetSliderPosition(sim.id);
+    sim.qd = sim.revolute ? dJointGetHingeAngleRate(sim.id) : dJointGetSliderPositionRate(sim.id);
+    const double step = sim.revolute ? WrapToPi(reading - sim.raw) : reading - sim.raw;
+    sim.raw = reading;
+    sim.q += step;
+    if (sim.revolute && std::abs(reading) > kRezeroAngle) {
+      // Re-zero the hinge so that its angle stays far from ODE's wrap at +-pi.
+      dVector3 axis;
+      dJointGetHingeAxis(sim.id, axis);
+      dJointSetHingeAxis(sim.id, axis[0], axis[1], axis[2]);
+      sim.offset = sim.q;
+      sim.raw = 0;
+      sim.lo_stop = std::numeric_limits<double>::quiet_NaN();  // force new stops next step
+    } else {
+      sim.offset = sim.q - reading;
+    }
+    const bool still = std::abs(sim.qd) <= options.stick_speed;
+    if (sim.braked || (sim.has_friction && sim.friction_row && still)) {
+      if (!sim.stuck) sim.q_stick = sim.q;
+      sim.stuck = true;
+    } else {
+      sim.stuck = false;
+    }
+    UpdateLimitFlags(sim);
+  }
+
+  // Contact generation (ODE near callback).
+  static void NearCallback(void* data, dGeomID a, dGeomID b) {
+    auto* self = static_cast<Impl*>(data);
+    dBodyID body_a = dGeomGetBody(a);
+    dBodyID body_b = dGeomGetBody(b);
+    if (body_a == nullptr && body_b == nullptr) return;  // two fixed geoms
+    dContact contacts[kMaxContactsPerPair];
+    const int count = dCollide(a, b, kMaxContactsPerPair, &contacts[0].geom, sizeof(dContact));
+    if (count == 0) return;
+    const auto* material_a = static_cast<const Material*>(dGeomGetData(a));
+    const auto* material_b = static_cast<const Material*>(dGeomGetData(b));
+    // An object's own surface decides against the arm (whose material is neutral: friction 1);
+    // between two objects the geometric mean of frictions and the larger restitution.
+    const Material& surface_a = *material_a;
+    const Material& surface_b = *material_b;
+    double friction = std::sqrt(surface_a.friction * surface_b.friction);
+    double restitution = std::max(surface_a.restitution, surface_b.restitution);
+    if (surface_a.arm || surface_b.arm) {
+      const Material& object = surface_a.arm ? surface_b : surface_a;
+      friction = object.friction;
+      restitution = object.restitution;
+    }
+    for (int k = 0; k < count; ++k) {
+      dContact& contact = contacts[k];
+      contact.surface.mode = dContactApprox1 | dContactSoftCFM | dContactSoftERP;
+      contact.surface.mu = friction;
+      contact.surface.soft_cfm = 1e-6;
+      contact.surface.soft_erp = 0.2;
+      if (restitution > 0) {
+        contact.surface.mode |= dContactBounce;
+        contact.surface.bounce = restitution;
+        contact.surface.bounce_vel = 0.05;
+      }
+      dJointID joint = dJointCreateContact(self->world, self->contact_group, &contact);
+      dJointAttach(joint, body_a, body_b);
+      self->contact_rows += friction > 0 ? 3 : 1;
+    }
+  }
+
+  void Step(const core::ArmCommand& command) {
+    const int n = model.num_joints();
+    if (static_cast<int>(command.effort.size()) != n && command.mode == core::CommandMode::kEffort) {
+      throw std::invalid_argument("command has " + std::to_string(command.effort.size()) +
+                                  " efforts; the model has " + std::to_string(n) + " joints");
+    }
+    if (command.mode == core::CommandMode::kEffort) {
+      for (int j = 0; j < n; ++j) {
+        if (!std::isfinite(command.effort[static_cast<size_t>(j)])) {
+          throw std::invalid_argument("effort[" + std::to_string(j) + "] " +
+                                      FormatNumber(command.effort[static_cast<size_t>(j)]) +
+                                      " is not a finite number");
+        }
+      }
+    }
+    int rows = 0;
+    for (int j = 0; j < n; ++j) {
+      const double commanded =
+          command.mode == core::CommandMode::kEffort ? command.effort[static_cast<size_t>(j)] : 0;
+      rows += 5 + PrepareJoint(joints[static_cast<size_t>(j)], command.mode, commanded);
+    }
+    contact_rows = 0;
+    if (options.contacts && !objects.empty()) {
+      dSpaceCollide2(reinterpret_cast<dGeomID>(arm_space), reinterpret_cast<dGeomID>(env_space),
+                     this, &NearCallback);
+      dSpaceCollide(env_space, this, &NearCallback);
+    }
+    dWorldStep(world, step_s);
+    dJointGroupEmpty(contact_group);
+    for (int j = 0; j < n; ++j) {
+      UpdateJoint(joints[static_cast<size_t>(j)]);
+    }
+    last_rows = rows + contact_rows;
+    ++tick;
+  }
+
+  core::ArmState State() const {
+    core::ArmState state;
+    state.tick = tick;
+    state.utime = static_cast<int64_t>(std::llround(static_cast<double>(tick) * step_s * 1e6));
+    state.source = core::StateSource::kSim;
+    for (const JointSim& sim : joints) {
+      state.position.push_back(sim.q);
+      state.velocity.push_back(sim.qd);
+      state.effort.push_back(sim.effort);
+      int flags = 0;
+      if (sim.at_lower) flags |= sirupp::arm_state_t::FLAG_AT_LOWER_LIMIT;
+      if (sim.at_upper) flags |= sirupp::arm_state_t::FLAG_AT_UPPER_LIMIT;
+      if (sim.braked) {
+        flags |= sirupp::arm_state_t::FLAG_BRAKED;
+      } else if (sim.stuck && sim.has_friction) {
+        flags |= sirupp::arm_state_t::FLAG_STICKING;
+      }
+      state.flags.push_back(static_cast<int8_t>(flags));
+    }
+    return state;
+  }
+};
+
+ArmWorld::ArmWorld(const core::RobotModel& model, const core::Environment& environment,
+                   const WorldOptions& options)
+    : impl_(std::make_unique<Impl>(model, environment, options)) {}
+
+ArmWorld::~ArmWorld() = default;
+
+const core::RobotModel& ArmWorld::model() const { return impl_->model; }
+double ArmWorld::step_s() const { return impl_->step_s; }
+int64_t ArmWorld::tick() const { return impl_->tick; }
+double ArmWorld::time_s() const { return static_cast<double>(impl_->tick) * impl_->step_s; }
+
+void ArmWorld::SetJointState(const std::vector<double>& position,
+                             const std::vector<double>& velocity, bool reset_objects) {
+  impl_->Teleport(position, velocity, reset_objects);
+}
+
+void ArmWorld::Step(const core::ArmCommand& command) { impl_->Step(command); }
+
+core::ArmState ArmWorld::State() const { return impl_->State(); }
+
+Eigen::Isometry3d ArmWorld::LinkBodyPose(int link) const {
+  if (link < 1 || link > impl_->model.num_joints()) {
+    throw std::out_of_range("link " + std::to_string(link) + ": allowed 1.." +
+                            std::to_string(impl_->model.num_joints()));
+  }
+  dBodyID body = impl_->bodies[static_cast<size_t>(link - 1)];
+  Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+  pose.linear() = FromOde(dBodyGetRotation(body));
+  pose.translation() = FromOdeVector(dBodyGetPosition(body));
+  return pose;
+}
+
+Eigen::Vector3d ArmWorld::LinkLinearVelocity(int link) const {
+  LinkBodyPose(link);  // range check
+  return FromOdeVector(dBodyGetLinearVel(impl_->bodies[static_cast<size_t>(link - 1)]));
+}
+
+Eigen::Vector3d ArmWorld::LinkAngularVelocity(int link) const {
+  LinkBodyPose(link);
+  return FromOdeVector(dBodyGetAngularVel(impl_->bodies[static_cast<size_t>(link - 1)]));
+}
+
+std::vector<ObjectPose> ArmWorld::ObjectPoses() const {
+  std::vector<ObjectPose> poses;
+  for (const Impl::Object& object : impl_->objects) {
+    ObjectPose pose;
+    pose.name = object.name;
+    pose.pose.linear() = FromOde(dGeomGetRotation(object.geom));
+    pose.pose.translation() = FromOdeVector(dGeomGetPosition(object.geom));
+    poses.push_back(pose);
+  }
+  return poses;
+}
+
+const std::vector<std::string>& ArmWorld::Omissions() const { return impl_->omissions; }
+
+int ArmWorld::LastStepRows() const { return impl_->last_rows; }
+
+}  // namespace sirupp::sim

@@ -1,0 +1,177 @@
+// sirupp-sim: the arm in ODE as an LCM process. Thin main: arguments in, SimNode loop, summary out.
+// Usage and options: sim/README.md, or `sirupp-sim --help`.
+
+#include <atomic>
+#include <csignal>
+#include <iostream>
+#include <sstream>
+
+#include "core/bus.hpp"
+#include "core/environment.hpp"
+#include "core/errors.hpp"
+#include "core/model_loader.hpp"
+#include "sim/arm_world.hpp"
+#include "sim/sim_node.hpp"
+#include "tools/args.hpp"
+#include "tools/cli.hpp"
+
+namespace {
+
+constexpr const char* kUsage =
+    "usage: sirupp-sim [--model FILE] [--environment FILE] [--mode lockstep|realtime|fast]\n"
+    "                  [--participants NAME...] [--step SECONDS] [--state-every N]\n"
+    "                  [--lockstep-timeout SECONDS] [--watchdog SECONDS] [--duration SECONDS]\n"
+    "                  [--idle hold|limp] [--pose NAME | --position VALUES...] [--no-friction]\n"
+    "                  [--lcm-url URL] [--prefix PREFIX]\n"
+    "The ODE physics of a robot model: takes SIM_ARM_COMMAND, publishes SIM_ARM_STATE every tick,\n"
+    "ROBOT_MODEL and ENVIRONMENT at 1 Hz and HEARTBEAT. Positions for --position are in the model\n"
+    "file's angle unit. Defaults: config/robots/puma260.yaml, lockstep with participant\n"
+    "sirupp-control, the model's servo tick (0.512 ms for the PUMA 260). See sim/README.md.\n";
+
+std::atomic<bool> g_stop{false};
+extern "C" void OnSignal(int /*signal*/) { g_stop = true; }
+
+int Run(const std::vector<std::string>& argv) {
+  using sirupp::tools::Args;
+  const Args args(argv, "sirupp-sim",
+                  {{"model", "robot model file"},
+                   {"environment", "environment XML file"},
+                   {"mode", "lockstep, realtime or fast"},
+                   {"participants", "lockstep participant names"},
+                   {"step", "physics step in seconds"},
+                   {"state-every", "publish the state every N ticks"},
+                   {"lockstep-timeout", "seconds before a silent participant is reported"},
+                   {"watchdog", "realtime command timeout in seconds"},
+                   {"duration", "simulated seconds to run (0 = until stopped)"},
+                   {"idle", "hold or limp before the first command"},
+                   {"pose", "named pose to start in"},
+                   {"position", "start positions, in the model file's angle unit"},
+                   {"no-friction", "switch joint friction off"},
+                   {"lcm-url", "LCM URL"},
+                   {"prefix", "channel prefix of the rig"}});
+  const std::string model_file = sirupp::tools::ResolveDataPath(
+      args.Has("model") ? args.String("model") : "config/robots/puma260.yaml");
+  const sirupp::core::RobotModel model = sirupp::core::LoadRobotModel(model_file);
+  sirupp::core::Environment environment;
+  if (args.Has("environment")) {
+    environment =
+        sirupp::core::LoadEnvironment(sirupp::tools::ResolveDataPath(args.String("environment")));
+  }
+
+  sirupp::sim::WorldOptions world_options;
+  if (args.Has("step")) world_options.step_s = args.Numbers("step", 1)[0];
+  world_options.friction = !args.Switch("no-friction");
+
+  sirupp::sim::NodeOptions options;
+  try {
+    if (args.Has("mode")) options.mode = sirupp::sim::ParseTimingMode(args.String("mode"));
+    if (args.Has("idle")) {
+      const std::string idle = args.String("idle");
+      if (idle != "hold" && idle != "limp") {
+        throw std::invalid_argument("--idle '" + idle + "': allowed hold, limp");
+      }
+      options.idle = idle == "hold" ? sirupp::core::CommandMode::kHold
+                                    : sirupp::core::CommandMode::kLimp;
+    }
+  } catch (const std::invalid_argument& error) {
+    throw sirupp::core::UsageError(std::string("sirupp-sim: ") + error.what());
+  }
+  if (args.Has("participants")) options.participants = args.Values("participants", -1);
+  if (args.Has("state-every")) {
+    const double every = args.Numbers("state-every", 1)[0];
+    if (every < 1 || every != static_cast<int>(every)) {
+      throw sirupp::core::UsageError("sirupp-sim: --state-every " +
+                                     sirupp::core::FormatNumber(every) +
+                                     ": allowed a whole number >= 1");
+    }
+    options.state_every = static_cast<int>(every);
+  }
+  if (args.Has("lockstep-timeout")) {
+    options.lockstep_timeout_s = args.Numbers("lockstep-timeout", 1)[0];
+  }
+  if (args.Has("watchdog")) options.watchdog_s = args.Numbers("watchdog", 1)[0];
+  if (args.Has("duration")) options.duration_s = args.Numbers("duration", 1)[0];
+
+  std::vector<double> start;
+  if (args.Has("pose") && args.Has("position")) {
+    throw sirupp::core::UsageError("sirupp-sim: give --pose or --position, not both");
+  }
+  if (args.Has("pose")) {
+    const sirupp::core::NamedPose* pose = model.FindNamedPose(args.String("pose"));
+    if (pose == nullptr) {
+      std::string names;
+      for (const auto& named : model.named_poses) names += (names.empty() ? "" : ", ") + named.name;
+      throw sirupp::core::UsageError("sirupp-sim: --pose '" + args.String("pose") +
+                                     "': the model has " + names);
+    }
+    start = pose->position;
+  } else if (args.Has("position")) {
+    start = args.Numbers("position", model.num_joints());
+    const double scale = model.file_angle_unit == "deg" ? 3.14159265358979323846 / 180 : 1.0;
+    for (int j = 0; j < model.num_joints(); ++j) {
+      if (model.joints[static_cast<size_t>(j)].type == sirupp::core::JointType::kRevolute) {
+        start[static_cast<size_t>(j)] *= scale;
+      } else {
+        start[static_cast<size_t>(j)] *= model.file_length_unit_m;
+      }
+    }
+  }
+
+  sirupp::sim::ArmWorld world(model, environment, world_options);
+  for (const std::string& omission : world.Omissions()) {
+    std::cerr << "sirupp-sim: note: " << omission << "\n";
+  }
+  if (!start.empty()) {
+    try {
+      world.SetJointState(start);
+    } catch (const std::invalid_argument& error) {
+      throw sirupp::core::UsageError(std::string("sirupp-sim: start pose: ") + error.what());
+    }
+  }
+  sirupp::core::Bus bus(args.Has("lcm-url") ? args.String("lcm-url") : "",
+                        args.Has("prefix") ? args.String("prefix") : "");
+  sirupp::sim::SimNode node(bus, world, environment, options);
+  std::cerr << "sirupp-sim: " << model.name << " (" << model.num_joints() << " joints), "
+            << environment.objects.size() << " environment objects, "
+            << sirupp::sim::TimingModeName(options.mode) << " mode, step "
+            << sirupp::core::FormatNumber(world.step_s() * 1e3) << " ms, on " << bus.url() << "\n";
+  std::signal(SIGINT, OnSignal);
+  std::signal(SIGTERM, OnSignal);
+  while (!g_stop) {
+    try {
+      if (!node.Service(50)) break;
+    } catch (const sirupp::core::BusError&) {
+      if (g_stop) break;  // a signal interrupted LCM's wait: stop cleanly
+      throw;
+    }
+  }
+  const sirupp::sim::NodeCounters& c = node.counters();
+  std::cerr << "sirupp-sim: stopped at tick " << world.tick() << " (t = "
+            << sirupp::core::FormatApprox(world.time_s()) << " s): " << c.steps << " steps, "
+            << c.states_published << " states sent, " << c.commands_accepted
+            << " commands accepted, " << c.commands_rejected << " rejected, " << c.commands_late
+            << " late, " << c.lockstep_timeouts << " lockstep timeouts, " << c.watchdog_holds
+            << " watchdog holds, " << c.resets << " resets\n";
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const std::vector<std::string> args(argv + 1, argv + argc);
+  for (const std::string& arg : args) {
+    if (arg == "--help" || arg == "-h") {
+      std::cout << kUsage;
+      return 0;
+    }
+  }
+  try {
+    return Run(args);
+  } catch (const sirupp::core::UsageError& error) {
+    std::cerr << error.what() << "\n" << kUsage;
+    return 2;
+  } catch (const std::exception& error) {
+    std::cerr << "sirupp-sim: " << error.what() << "\n";
+    return 1;
+  }
+}

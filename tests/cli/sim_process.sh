@@ -1,0 +1,59 @@
+#!/bin/bash
+# sirupp-sim as a real process over UDP multicast, inside a network namespace made for this test (no
+# traffic leaves it): lockstep runs with a participant process are bit-identical, a silent
+# participant is reported by name and the sim waits, bad arguments exit 2 with one clear line.
+# Needs: SIRUPP_SIM and SIM_PROBE (paths of the two programs); run as root or with user namespaces.
+set -u
+fail() { echo "FAIL: $*"; exit 1; }
+
+if [ -z "${IN_TEST_NETNS:-}" ]; then
+  # Re-run this script in a fresh network namespace with multicast on the loopback interface.
+  exec unshare -rn env IN_TEST_NETNS=1 bash "$0" "$@" ||
+    fail "cannot create a network namespace (run as root or enable user namespaces)"
+fi
+ip link set lo up && ip link set lo multicast on && ip route add 224.0.0.0/4 dev lo ||
+  fail "cannot set up multicast on lo in the test namespace"
+URL="udpm://239.255.76.67:7731?ttl=0"
+work=$(mktemp -d)
+trap 'kill $(jobs -p) 2>/dev/null; rm -rf "$work"' EXIT
+
+run_pair() {  # $1: output prefix
+  "$SIRUPP_SIM" --lcm-url "$URL" --mode lockstep --participants probe --lockstep-timeout 0.5 \
+    --duration 0.4 2>"$work/$1.sim" &
+  local sim=$!
+  "$SIM_PROBE" --lcm-url "$URL" --name probe --ticks 700 >"$work/$1.probe" || fail "probe: $(cat "$work/$1.probe")"
+  kill "$sim" 2>/dev/null
+  wait "$sim" 2>/dev/null
+}
+run_pair first
+run_pair second
+cat "$work/first.probe" "$work/second.probe"
+grep -q "^states 70[01] " "$work/first.probe" || fail "first run saw: $(cat "$work/first.probe")"
+cmp -s "$work/first.probe" "$work/second.probe" || fail "the two lockstep runs differ"
+
+# A registered participant that never answers: named on stderr, and the sim does not step.
+"$SIRUPP_SIM" --lcm-url "$URL" --mode lockstep --participants probe ghost --lockstep-timeout 0.2 \
+  2>"$work/ghost.sim" &
+sim=$!
+"$SIM_PROBE" --lcm-url "$URL" --name probe --ticks 5 >"$work/ghost.probe" &
+probe=$!
+sleep 1.5
+kill "$probe" "$sim" 2>/dev/null
+wait "$sim" 2>/dev/null
+cat "$work/ghost.sim"
+grep -q "tick 0: no answer from ghost" "$work/ghost.sim" || fail "silent participant not reported"
+grep -q "stopped at tick 0 " "$work/ghost.sim" || fail "the sim stepped without ghost's answer"
+
+# Bad arguments: exit 2, one line naming the problem.
+"$SIRUPP_SIM" --mode warp >"$work/out" 2>&1; code=$?
+[ "$code" = 2 ] || fail "--mode warp exited $code"
+grep -q "timing mode 'warp': allowed lockstep, realtime, fast" "$work/out" || fail "$(cat "$work/out")"
+"$SIRUPP_SIM" --model tests/data/bad_models/$(ls tests/data/bad_models | head -1) >"$work/out" 2>&1; code=$?
+[ "$code" = 1 ] || fail "bad model exited $code"
+"$SIRUPP_SIM" --environment /nonexistent.xml >"$work/out" 2>&1; code=$?
+[ "$code" = 1 ] || fail "missing environment exited $code"
+grep -q "/nonexistent.xml" "$work/out" || fail "$(cat "$work/out")"
+"$SIRUPP_SIM" --position 0 0 0 400 0 0 >"$work/out" 2>&1; code=$?
+[ "$code" = 2 ] || fail "--position beyond limits exited $code"
+grep -q "joints\[3\] (wrist_roll)" "$work/out" || fail "$(cat "$work/out")"
+echo "sim process: OK"

@@ -1,0 +1,294 @@
+// The sirupp-sim process logic (sim/sim_node.hpp) on an in-process memq:// bus: lockstep waiting and
+// late-participant reports, command checks, teleports, realtime watchdog, fast mode, latched and
+// heartbeat messages, and bit-identical lockstep runs. tests/test_sim_process.cpp runs the real
+// process over UDP.
+
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstring>
+#include <sirupp/arm_state_t.hpp>
+#include <sirupp/environment_t.hpp>
+#include <sirupp/heartbeat_t.hpp>
+#include <sirupp/robot_model_t.hpp>
+#include <thread>
+
+#include "core/bus.hpp"
+#include "core/model_loader.hpp"
+#include "core/translate.hpp"
+#include "sim/sim_node.hpp"
+
+namespace sirupp::sim {
+namespace {
+
+core::RobotModel Puma() { return core::LoadRobotModel("config/robots/puma260.yaml"); }
+
+// A participant on the same bus: answers every state with a PD law towards `target`, or with
+// whatever `make` returns.
+class Participant {
+ public:
+  Participant(core::Bus& bus, std::string name, std::vector<double> target)
+      : bus_(bus), name_(std::move(name)), target_(std::move(target)) {
+    bus_.Subscribe<sirupp::arm_state_t>(
+        "SIM_ARM_STATE", [this](const sirupp::arm_state_t& state, const core::ReceiveInfo&) {
+          states.push_back(state);
+          if (silent) return;
+          sirupp::arm_command_t command{};
+          command.tick = state.tick;
+          command.utime = state.utime;
+          command.seq = seq_++;
+          command.sender = name_;
+          command.mode = sirupp::arm_command_t::MODE_EFFORT;
+          command.num_joints = state.num_joints;
+          for (int j = 0; j < state.num_joints; ++j) {
+            command.effort.push_back(20.0 * (target_[static_cast<size_t>(j)] -
+                                             state.position[static_cast<size_t>(j)]) -
+                                     0.5 * state.velocity[static_cast<size_t>(j)]);
+          }
+          if (tamper) tamper(command);
+          bus_.Publish("SIM_ARM_COMMAND", command);
+        });
+  }
+  std::vector<sirupp::arm_state_t> states;
+  bool silent = false;
+  std::function<void(sirupp::arm_command_t&)> tamper;
+
+ private:
+  core::Bus& bus_;
+  std::string name_;
+  std::vector<double> target_;
+  int64_t seq_ = 0;
+};
+
+NodeOptions Lockstep(std::vector<std::string> participants) {
+  NodeOptions options;
+  options.mode = TimingMode::kLockstep;
+  options.participants = std::move(participants);
+  options.lockstep_timeout_s = 0.05;
+  return options;
+}
+
+void ServiceUntil(SimNode& node, int64_t tick, const ArmWorld& world) {
+  for (int k = 0; k < 100000 && world.tick() < tick; ++k) node.Service(0);
+}
+
+TEST(SimNode, LockstepStepsOnlyWhenEveryParticipantHasAnswered) {
+  core::Bus bus("memq://");
+  ArmWorld world(Puma(), core::Environment{});
+  SimNode node(bus, world, core::Environment{}, Lockstep({"a", "b"}));
+  Participant a(bus, "a", {0, 0.2, 0, 0, 0, 0});
+  Participant b(bus, "b", {0, 0, 0, 0, 0, 0});
+  ServiceUntil(node, 200, world);
+  EXPECT_EQ(world.tick(), 200);
+  // Every tick was published once, in order.
+  ASSERT_GE(a.states.size(), 200U);
+  for (size_t k = 0; k < 200; ++k) EXPECT_EQ(a.states[k].tick, static_cast<int64_t>(k));
+  EXPECT_EQ(node.counters().commands_accepted, 400);
+  EXPECT_EQ(node.counters().lockstep_timeouts, 0);
+}
+
+TEST(SimNode, ALateParticipantIsNamedAndNeverSkipped) {
+  core::Bus bus("memq://");
+  ArmWorld world(Puma(), core::Environment{});
+  SimNode node(bus, world, core::Environment{}, Lockstep({"a", "slowpoke"}));
+  Participant a(bus, "a", {0, 0, 0, 0, 0, 0});
+  Participant slow(bus, "slowpoke", {0, 0, 0, 0, 0, 0});
+  slow.silent = true;
+  const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(200);
+  while (std::chrono::steady_clock::now() < until) node.Service(5);
+  EXPECT_EQ(world.tick(), 0) << "stepped without slowpoke's answer";
+  EXPECT_GE(node.counters().lockstep_timeouts, 1);
+  EXPECT_NE(node.detail().find("no answer from slowpoke"), std::string::npos) << node.detail();
+  EXPECT_EQ(node.detail().find("no answer from a"), std::string::npos);
+  // The state was sent again, so a participant that starts late still gets it.
+  EXPECT_GE(a.states.size(), 2U);
+  slow.silent = false;
+  // It answers the re-sent state: the run goes on.
+  const auto later = std::chrono::steady_clock::now() + std::chrono::milliseconds(500);
+  while (world.tick() < 10 && std::chrono::steady_clock::now() < later) node.Service(5);
+  EXPECT_EQ(world.tick(), 10);
+}
+
+TEST(SimNode, BadCommandsAreRefusedCountedAndBrakeTheArm) {
+  struct Case {
+    const char* name;
+    std::function<void(sirupp::arm_command_t&)> tamper;
+    const char* reason;
+  };
+  const std::vector<Case> cases = {
+      {"nan", [](sirupp::arm_command_t& c) { c.effort[2] = NAN; }, "effort"},
+      {"infinity", [](sirupp::arm_command_t& c) { c.effort[0] = INFINITY; }, "effort"},
+      {"joint count",
+       [](sirupp::arm_command_t& c) {
+         c.num_joints = 5;
+         c.effort.resize(5);
+       },
+       "num_joints"},
+      {"mode", [](sirupp::arm_command_t& c) { c.mode = 7; }, "mode"},
+      {"sender", [](sirupp::arm_command_t& c) { c.sender = "intruder"; }, "not a registered"},
+      {"future tick", [](sirupp::arm_command_t& c) { c.tick += 5; }, "ahead of the sim"},
+  };
+  for (const Case& bad : cases) {
+    core::Bus bus("memq://");
+    ArmWorld world(Puma(), core::Environment{});
+    const std::vector<double> q0 = world.State().position;
+    SimNode node(bus, world, core::Environment{}, Lockstep({"a"}));
+    Participant a(bus, "a", {1, 1, 1, 1, 1, 1});  // would move the arm a lot
+    a.tamper = bad.tamper;
+    for (int k = 0; k < 300; ++k) node.Service(0);
+    const core::ChannelStats stats =
+        bus.StatsFor("SIM_ARM_COMMAND", core::ChannelSide::kReceiving);
+    EXPECT_GT(stats.rejected, 0) << bad.name;
+    EXPECT_NE(stats.last_error.find(bad.reason), std::string::npos)
+        << bad.name << ": " << stats.last_error;
+    EXPECT_GT(node.counters().commands_rejected, 0) << bad.name;
+    EXPECT_EQ(node.counters().commands_accepted, 0) << bad.name;
+    const core::ArmState state = world.State();
+    for (int j = 0; j < 6; ++j) {
+      EXPECT_NEAR(state.position[static_cast<size_t>(j)], q0[static_cast<size_t>(j)], 1e-6)
+          << bad.name << " moved joint " << j;
+    }
+    if (std::string(bad.name) != "sender" && std::string(bad.name) != "future tick") {
+      // The refused answer counts as hold: the sim went on, braked.
+      EXPECT_GT(world.tick(), 0) << bad.name;
+      EXPECT_TRUE(state.flags[1] & sirupp::arm_state_t::FLAG_BRAKED) << bad.name;
+    }
+  }
+}
+
+TEST(SimNode, AnswersToTicksAlreadySteppedAreCountedLate) {
+  core::Bus bus("memq://");
+  ArmWorld world(Puma(), core::Environment{});
+  SimNode node(bus, world, core::Environment{}, Lockstep({"a"}));
+  Participant a(bus, "a", {0, 0, 0, 0, 0, 0});
+  ServiceUntil(node, 5, world);
+  sirupp::arm_command_t old{};
+  old.tick = 1;
+  old.sender = "a";
+  old.mode = sirupp::arm_command_t::MODE_EFFORT;
+  old.num_joints = 6;
+  old.effort.assign(6, 0.0);
+  bus.Publish("SIM_ARM_COMMAND", old);
+  node.Service(0);
+  EXPECT_EQ(node.counters().commands_late, 1);
+  EXPECT_EQ(bus.StatsFor("SIM_ARM_COMMAND", core::ChannelSide::kReceiving).late, 1);
+}
+
+sirupp::sim_reset_t Reset(std::vector<double> position) {
+  sirupp::sim_reset_t reset{};
+  reset.sender = "test";
+  reset.num_joints = static_cast<int32_t>(position.size());
+  reset.position = std::move(position);
+  return reset;
+}
+
+TEST(SimNode, ResetTeleportsTheArmAndBadResetsAreRefused) {
+  core::Bus bus("memq://");
+  ArmWorld world(Puma(), core::Environment{});
+  SimNode node(bus, world, core::Environment{}, Lockstep({"a"}));
+  Participant a(bus, "a", {0.5, 0.5, 0.5, 0.5, 0.5, 0.5});
+  ServiceUntil(node, 20, world);
+  bus.Publish("SIM_RESET", Reset({0.5, 0.5, 0.5, 0.5, 0.5, 0.5}));
+  node.Service(0);
+  EXPECT_EQ(node.counters().resets, 1);
+  // The teleported state went out, exactly, for the tick it happened at.
+  bool seen = false;
+  for (const auto& state : a.states) {
+    seen = seen || (state.tick == 20 &&
+                    state.position == std::vector<double>({0.5, 0.5, 0.5, 0.5, 0.5, 0.5}));
+  }
+  EXPECT_TRUE(seen);
+  const std::vector<double> before = world.State().position;
+  bus.Publish("SIM_RESET", Reset({0, 0, 0, 9, 0, 0}));  // wrist roll beyond +-310 degrees
+  bus.Publish("SIM_RESET", Reset({0, 0, 0}));
+  node.Service(0);
+  const core::ChannelStats stats = bus.StatsFor("SIM_RESET", core::ChannelSide::kReceiving);
+  EXPECT_EQ(stats.rejected, 2);
+  EXPECT_NE(stats.last_error.find("num_joints"), std::string::npos) << stats.last_error;
+  EXPECT_EQ(node.counters().resets, 1);
+}
+
+TEST(SimNode, RealtimeBrakesTheArmWhenCommandsStop) {
+  core::Bus bus("memq://");
+  ArmWorld world(Puma(), core::Environment{});
+  NodeOptions options;
+  options.mode = TimingMode::kRealtime;
+  options.watchdog_s = 0.02;
+  options.idle = core::CommandMode::kLimp;
+  SimNode node(bus, world, core::Environment{}, options);
+  // One command, then silence: for 20 ms it is held, then the watchdog brakes.
+  sirupp::arm_command_t command{};
+  command.sender = "student";
+  command.mode = sirupp::arm_command_t::MODE_EFFORT;
+  command.num_joints = 6;
+  command.effort.assign(6, 0.0);
+  bus.Publish("SIM_ARM_COMMAND", command);
+  const auto start = std::chrono::steady_clock::now();
+  while (std::chrono::steady_clock::now() - start < std::chrono::milliseconds(150)) node.Service(1);
+  EXPECT_GT(world.tick(), 100);  // paced at about 1953 ticks per second
+  EXPECT_LT(world.tick(), 600);
+  EXPECT_GT(node.counters().watchdog_holds, 0);
+  EXPECT_TRUE(world.State().flags[1] & sirupp::arm_state_t::FLAG_BRAKED);
+  EXPECT_NE(node.detail().find("watchdog"), std::string::npos);
+}
+
+TEST(SimNode, FastModeRunsFreeAndPublishesModelEnvironmentAndHeartbeat) {
+  core::Bus bus("memq://");
+  int models = 0, environments = 0, heartbeats = 0;
+  bus.Subscribe<sirupp::robot_model_t>(
+      "ROBOT_MODEL", [&](const sirupp::robot_model_t& m, const core::ReceiveInfo&) {
+        EXPECT_EQ(m.name, "puma260");
+        ++models;
+      });
+  bus.Subscribe<sirupp::environment_t>("ENVIRONMENT",
+                                       [&](const sirupp::environment_t&, const core::ReceiveInfo&) {
+                                         ++environments;
+                                       });
+  bus.Subscribe<sirupp::heartbeat_t>("HEARTBEAT",
+                                     [&](const sirupp::heartbeat_t& h, const core::ReceiveInfo&) {
+                                       EXPECT_EQ(h.process, "sirupp-sim");
+                                       ++heartbeats;
+                                     });
+  ArmWorld world(Puma(), core::Environment{});
+  const double q1 = world.State().position[1];
+  NodeOptions options;
+  options.mode = TimingMode::kFast;
+  options.idle = core::CommandMode::kLimp;
+  options.duration_s = 0.5;
+  SimNode node(bus, world, core::Environment{}, options);
+  while (node.Service(0)) {
+  }
+  bus.HandleAvailable();
+  EXPECT_NEAR(world.time_s(), 0.5, world.step_s());
+  EXPECT_GT(std::abs(world.State().position[1] - q1), 0.01) << "a limp arm falls";
+  EXPECT_GE(models, 1);
+  EXPECT_GE(environments, 1);
+  EXPECT_GE(heartbeats, 1);
+}
+
+TEST(SimNode, LockstepRunsAreBitIdentical) {
+  auto run = [] {
+    core::Bus bus("memq://");
+    ArmWorld world(Puma(), core::Environment{});
+    SimNode node(bus, world, core::Environment{}, Lockstep({"a", "b"}));
+    Participant a(bus, "a", {0.3, 0.5, -0.4, 0.2, 0.3, 0.1});
+    Participant b(bus, "b", {0, 0, 0, 0, 0, 0});
+    ServiceUntil(node, 1500, world);
+    std::vector<double> trace;
+    for (const auto& state : a.states) {
+      trace.insert(trace.end(), state.position.begin(), state.position.end());
+      trace.insert(trace.end(), state.velocity.begin(), state.velocity.end());
+      trace.insert(trace.end(), state.effort.begin(), state.effort.end());
+    }
+    return trace;
+  };
+  const std::vector<double> first = run();
+  const std::vector<double> second = run();
+  ASSERT_EQ(first.size(), second.size());
+  ASSERT_GE(first.size(), 1500U * 18);
+  EXPECT_EQ(std::memcmp(first.data(), second.data(), first.size() * sizeof(double)), 0);
+}
+
+}  // namespace
+}  // namespace sirupp::sim
