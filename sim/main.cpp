@@ -170,6 +170,9 @@ int main(int argc, char** argv) {
   } catch (const sirupp::core::UsageError& error) {
     std::cerr << error.what() << "\n" << kUsage;
     return 2;
+  } catch (const sirupp::core::ConfigError& error) {
+    std::cerr << "sirupp-sim: " << error.what() << "\n";  // bad model or environment file
+    return 2;
   } catch (const std::exception& error) {
     std::cerr << "sirupp-sim: " << error.what() << "\n";
     return 1;

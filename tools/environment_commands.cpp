@@ -19,13 +19,13 @@ const char* const kEnvUsage =
     "  check: one line per file, 'FILE: ok: ...' or 'error: FILE:LINE: path: problem'.\n"
     "  show:  every object's shape, size, pose, static or mass, friction and restitution, in SI\n"
     "         units (m, kg) with roll-pitch-yaw in degrees (R = Rz(yaw) Ry(pitch) Rx(roll)).\n"
-    "  Exit code 0 when every file is valid, 1 when one is not, 2 for bad arguments.\n"
+    "  Exit code 0 when every file is valid, 2 when one is not or the arguments are bad.\n"
     "  Format: docs/environment-format.md.\n";
 
 namespace {
 
 constexpr int kExitOk = 0;
-constexpr int kExitBadFile = 1;
+constexpr int kExitBadFile = 2;  // bad input, as `sirupp model check`
 
 std::string Fixed(double value, int decimals, int width = 0) {
   // "-0.0000" reads as a sign that is not there.

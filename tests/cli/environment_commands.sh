@@ -40,12 +40,12 @@ has "show ball bounces" "$out" "free 0.030 kg   0.5       0.6"
 run "show empty" 0 env show config/environments/empty.xml
 has "show empty" "$out" "No objects: the robot stands alone."
 
-# The malformed corpus: exit 1 and one line, "error: FILE:LINE: ...", with the text of line 2.
+# The malformed corpus: exit 2 and one line, "error: FILE:LINE: ...", with the text of line 2.
 count=0
 for bad in tests/data/bad_environments/*.xml; do
   expect=$(sed -n '2s/^<!-- expect: \(.*\) -->$/\1/p' "$bad")
   [[ -n $expect ]] || { echo "FAIL $bad: no expect line"; fail=1; }
-  run "check $bad" 1 env check "$bad"
+  run "check $bad" 2 env check "$bad"
   has "message of $bad" "$err" "error: $bad:$expect"
   lines "no ok line for $bad" "$out" 0
   lines "message of $bad is one line" "$err" 1
@@ -53,13 +53,13 @@ for bad in tests/data/bad_environments/*.xml; do
 done
 [[ $count -ge 15 ]] || { echo "FAIL corpus has only $count files"; fail=1; }
 
-# Several files: each gets its line, and one bad file makes the exit code 1.
-run "check several" 1 env check config/environments/table.xml tests/data/bad_environments/18_size_zero.xml config/environments/empty.xml
+# Several files: each gets its line, and one bad file makes the exit code 2.
+run "check several" 2 env check config/environments/table.xml tests/data/bad_environments/18_size_zero.xml config/environments/empty.xml
 lines "check several ok lines" "$out" 2
 has "check several error" "$err" "error: tests/data/bad_environments/18_size_zero.xml:4: box \"table_top\".size: z = 0 is not allowed"
-run "show bad" 1 env show tests/data/bad_environments/31_color_out_of_range.xml
+run "show bad" 2 env show tests/data/bad_environments/31_color_out_of_range.xml
 has "show bad" "$err" "error: tests/data/bad_environments/31_color_out_of_range.xml:4: box \"table_top\".color: r = 140 is not allowed"
-run "missing file" 1 env check /nonexistent/env.xml
+run "missing file" 2 env check /nonexistent/env.xml
 has "missing file" "$err" "error: /nonexistent/env.xml: cannot read the file: No such file or directory"
 
 # Usage errors: exit 2.

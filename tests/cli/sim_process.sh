@@ -49,9 +49,9 @@ grep -q "stopped at tick 0 " "$work/ghost.sim" || fail "the sim stepped without 
 [ "$code" = 2 ] || fail "--mode warp exited $code"
 grep -q "timing mode 'warp': allowed lockstep, realtime, fast" "$work/out" || fail "$(cat "$work/out")"
 "$SIRUPP_SIM" --model tests/data/bad_models/$(ls tests/data/bad_models | head -1) >"$work/out" 2>&1; code=$?
-[ "$code" = 1 ] || fail "bad model exited $code"
+[ "$code" = 2 ] || fail "bad model exited $code"
 "$SIRUPP_SIM" --environment /nonexistent.xml >"$work/out" 2>&1; code=$?
-[ "$code" = 1 ] || fail "missing environment exited $code"
+[ "$code" = 2 ] || fail "missing environment exited $code"
 grep -q "/nonexistent.xml" "$work/out" || fail "$(cat "$work/out")"
 "$SIRUPP_SIM" --position 0 0 0 400 0 0 >"$work/out" 2>&1; code=$?
 [ "$code" = 2 ] || fail "--position beyond limits exited $code"
