@@ -25,9 +25,6 @@ constexpr double kPi = 3.14159265358979323846;
 // A hinge is re-zeroed once its ODE angle passes this, so that ODE's angle (which wraps at +-pi)
 // never wraps and stops within pi of the joint can always be expressed in ODE's range.
 constexpr double kRezeroAngle = kPi / 2;
-// Safety factor on the speed above which kinetic friction is applied explicitly (see
-// ExplicitFrictionSpeed).
-constexpr double kExplicitFrictionMargin = 4.0;
 // The brake of kHold holds up to this multiple of the joint's effort limit.
 constexpr double kBrakeEffortFactor = 10.0;
 constexpr int kMaxContactsPerPair = 8;
@@ -100,7 +97,6 @@ struct JointSim {
   double static_effort = 0, coulomb_positive = 0, coulomb_negative = 0, viscous = 0;
   double stribeck_velocity = 1;
   bool has_friction = false;
-  double explicit_friction_speed = 0;  // above this speed kinetic friction is an explicit torque
   // State.
   double q = 0;      // unwrapped joint position, DH convention
   double qd = 0;     // joint speed
@@ -110,7 +106,9 @@ struct JointSim {
   double q_stick = 0;
   double effort = 0;  // actuator effort applied in the last step
   bool braked = false;
-  bool friction_row = false;  // the last step had a friction (or brake) row
+  bool friction_row = false;       // the last step had a friction (or brake) row
+  bool explicit_friction = false;  // the last step applied sliding friction as a plain torque
+  double qd_before = 0;            // speed at the start of the step
   bool at_lower = false, at_upper = false;
   // Stop parameters last given to ODE (in ODE's coordinates), to avoid redundant calls.
   double lo_stop = -dInfinity, hi_stop = dInfinity;
@@ -145,6 +143,14 @@ struct ArmWorld::Impl {
   int last_rows = 0;
   int contact_rows = 0;
   std::vector<Eigen::Vector3d> scratch_points, scratch_axes;
+  std::vector<char> scratch_force_row;
+  // Position, orientation and velocities of every moving body, to undo a step.
+  struct BodyState {
+    dBodyID body;
+    dReal position[3], quaternion[4], linear[3], angular[3];
+  };
+  std::vector<BodyState> saved_bodies;
+  int64_t redone_steps = 0;
 
   Impl(const core::RobotModel& robot, const core::Environment& environment,
        const WorldOptions& opts)
@@ -269,9 +275,6 @@ struct ArmWorld::Impl {
       joints.push_back(sim);
       AttachJointFrame(i - 1, point, axis);
     }
-    for (int i = 1; i <= n; ++i) {
-      joints[static_cast<size_t>(i - 1)].explicit_friction_speed = ExplicitFrictionSpeed(i);
-    }
   }
 
   // Sets joint j's anchor and axis at the current pose; ODE's reading restarts from zero there.
@@ -297,42 +300,6 @@ struct ArmWorld::Impl {
     } else {
       dJointSetSliderParam(sim.id, parameter, value);
     }
-  }
-
-  // Speed above which joint i's friction can be applied as an explicit torque without a constraint
-  // row: from that speed the joint cannot reach zero speed within one step, even under its largest
-  // effort, its break-away friction and the full weight of every link beyond it pulling the same
-  // way, with only the rotor and the child link's smallest inertia resisting; times a margin.
-  double ExplicitFrictionSpeed(int i) const {
-    const core::Joint& joint = model.joints[static_cast<size_t>(i - 1)];
-    const JointSim& sim = joints[static_cast<size_t>(i - 1)];
-    if (!sim.has_friction) return 0;
-    const double g = model.gravity_m_s2.norm();
-    double load = 0;   // bound on the gravity effort at joint i
-    double reach = 0;  // bound on the distance from joint i's axis to a later frame origin
-    for (int l = i; l <= model.num_joints(); ++l) {
-      const core::Link& link = model.links[static_cast<size_t>(l)];
-      const core::DhRow& dh = model.joints[static_cast<size_t>(l - 1)].dh;
-      const core::Joint& later = model.joints[static_cast<size_t>(l - 1)];
-      reach += std::abs(dh.a_m) + std::abs(dh.d_m) +
-               (later.type == core::JointType::kPrismatic
-                    ? std::max(std::abs(later.position_min), std::abs(later.position_max))
-                    : 0.0);
-      const double arm = sim.revolute ? reach + link.com_m.norm() : 1.0;
-      load += link.mass_kg * g * arm;
-    }
-    const double effort = joint.effort_max + sim.static_effort + load;
-    double inertia;
-    if (sim.revolute) {
-      const Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d> solver(
-          model.links[static_cast<size_t>(i)].inertia_kg_m2);
-      inertia = solver.eigenvalues().minCoeff() + (options.armature ? joint.armature : 0.0);
-    } else {
-      double mass = 0;
-      for (int l = i; l <= model.num_joints(); ++l) mass += model.links[static_cast<size_t>(l)].mass_kg;
-      inertia = mass;
-    }
-    return kExplicitFrictionMargin * effort / inertia * step_s;
   }
 
   void PlaceBody(int i, const Eigen::Isometry3d& frame) {
@@ -545,8 +512,10 @@ struct ArmWorld::Impl {
   }
 
   // Before a step: position stops, the friction (or brake) row and the explicit efforts of joint j.
+  // A sliding joint's kinetic friction is a plain torque (no constraint row) unless `force_row`;
+  // Step() redoes the step with the row if the joint's speed would reach or cross zero.
   // Returns the number of constraint rows the joint adds beyond its 5 fixed ones.
-  int PrepareJoint(JointSim& sim, core::CommandMode mode, double commanded) {
+  int PrepareJoint(JointSim& sim, core::CommandMode mode, double commanded, bool force_row) {
     // Stops in ODE's coordinates, when they lie within ODE's reach.
     const double reading_now = sim.q - sim.offset;
     double lo = sim.position_min - sim.q + reading_now;
@@ -566,6 +535,8 @@ struct ArmWorld::Impl {
     const bool at_stop = reading_now <= lo || reading_now >= hi;
 
     sim.braked = mode == core::CommandMode::kHold;
+    sim.explicit_friction = false;
+    sim.qd_before = sim.qd;
     sim.effort = mode == core::CommandMode::kEffort
                      ? std::clamp(commanded, -sim.effort_max, sim.effort_max)
                      : 0.0;
@@ -579,8 +550,9 @@ struct ArmWorld::Impl {
       if (sim.stuck) {
         row_max = sim.static_effort;
         row_speed = at_stop ? 0.0 : options.erp * (sim.q_stick - sim.q) / step_s;
-      } else if (std::abs(sim.qd) > sim.explicit_friction_speed) {
+      } else if (!force_row && !options.always_friction_rows && sim.qd != 0) {
         explicit_effort -= std::copysign(SlidingFriction(sim, sim.qd), sim.qd);
+        sim.explicit_friction = true;
       } else {
         row_max = SlidingFriction(sim, sim.qd);
       }
@@ -661,6 +633,36 @@ struct ArmWorld::Impl {
     }
   }
 
+  void SaveBodies() {
+    saved_bodies.clear();
+    auto save = [this](dBodyID body) {
+      BodyState state{};
+      state.body = body;
+      const dReal* p = dBodyGetPosition(body);
+      const dReal* q = dBodyGetQuaternion(body);
+      const dReal* v = dBodyGetLinearVel(body);
+      const dReal* w = dBodyGetAngularVel(body);
+      std::copy(p, p + 3, state.position);
+      std::copy(q, q + 4, state.quaternion);
+      std::copy(v, v + 3, state.linear);
+      std::copy(w, w + 3, state.angular);
+      saved_bodies.push_back(state);
+    };
+    for (dBodyID body : bodies) save(body);
+    for (const Object& object : objects) {
+      if (object.body != nullptr) save(object.body);
+    }
+  }
+
+  void RestoreBodies() {
+    for (const BodyState& state : saved_bodies) {
+      dBodySetPosition(state.body, state.position[0], state.position[1], state.position[2]);
+      dBodySetQuaternion(state.body, state.quaternion);
+      dBodySetLinearVel(state.body, state.linear[0], state.linear[1], state.linear[2]);
+      dBodySetAngularVel(state.body, state.angular[0], state.angular[1], state.angular[2]);
+    }
+  }
+
   void Step(const core::ArmCommand& command) {
     const int n = model.num_joints();
     if (static_cast<int>(command.effort.size()) != n && command.mode == core::CommandMode::kEffort) {
@@ -676,20 +678,47 @@ struct ArmWorld::Impl {
         }
       }
     }
+    // Sliding joints take their kinetic friction as a plain torque, which saves the constraint
+    // row; that is exact as long as the joint keeps sliding the same way through the step. If one
+    // reached or crossed zero speed, the step is undone and redone with that joint's row, so the
+    // LCP can stop it exactly (each pass adds rows, so this ends).
+    std::vector<char>& force_row = scratch_force_row;
+    force_row.assign(static_cast<size_t>(n), 0);
     int rows = 0;
-    for (int j = 0; j < n; ++j) {
-      const double commanded =
-          command.mode == core::CommandMode::kEffort ? command.effort[static_cast<size_t>(j)] : 0;
-      rows += 5 + PrepareJoint(joints[static_cast<size_t>(j)], command.mode, commanded);
+    for (int pass = 0;; ++pass) {
+      rows = 0;
+      for (int j = 0; j < n; ++j) {
+        const double commanded =
+            command.mode == core::CommandMode::kEffort ? command.effort[static_cast<size_t>(j)] : 0;
+        rows += 5 + PrepareJoint(joints[static_cast<size_t>(j)], command.mode, commanded,
+                                 force_row[static_cast<size_t>(j)] != 0);
+      }
+      bool any_explicit = false;
+      for (const JointSim& sim : joints) any_explicit = any_explicit || sim.explicit_friction;
+      if (any_explicit) SaveBodies();
+      contact_rows = 0;
+      if (options.contacts && !objects.empty()) {
+        dSpaceCollide2(reinterpret_cast<dGeomID>(arm_space), reinterpret_cast<dGeomID>(env_space),
+                       this, &NearCallback);
+        dSpaceCollide(env_space, this, &NearCallback);
+      }
+      dWorldStep(world, step_s);
+      dJointGroupEmpty(contact_group);
+      bool redo = false;
+      for (int j = 0; j < n; ++j) {
+        const JointSim& sim = joints[static_cast<size_t>(j)];
+        if (!sim.explicit_friction) continue;
+        const double after =
+            sim.revolute ? dJointGetHingeAngleRate(sim.id) : dJointGetSliderPositionRate(sim.id);
+        if (after * sim.qd_before <= 0) {
+          force_row[static_cast<size_t>(j)] = 1;
+          redo = true;
+        }
+      }
+      if (!redo) break;
+      RestoreBodies();
+      ++redone_steps;
     }
-    contact_rows = 0;
-    if (options.contacts && !objects.empty()) {
-      dSpaceCollide2(reinterpret_cast<dGeomID>(arm_space), reinterpret_cast<dGeomID>(env_space),
-                     this, &NearCallback);
-      dSpaceCollide(env_space, this, &NearCallback);
-    }
-    dWorldStep(world, step_s);
-    dJointGroupEmpty(contact_group);
     for (int j = 0; j < n; ++j) {
       UpdateJoint(joints[static_cast<size_t>(j)]);
     }

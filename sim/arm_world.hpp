@@ -32,6 +32,9 @@ struct WorldOptions {
   double cfm = 1e-10;     // ODE constraint force mixing (softness), >= 0
   // A joint whose speed ends a step below this counts as stuck (static friction holds it).
   double stick_speed = 1e-6;  // rad/s or m/s
+  // Keep every joint's friction row even while it slides (slower; the default gives the same
+  // motion with fewer constraint rows, see docs/physics.md). For tests and comparisons.
+  bool always_friction_rows = false;
 };
 
 // The world pose of one environment object (free objects move; static ones never do).
