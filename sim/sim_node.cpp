@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <iostream>
 #include <sirupp/sim_reset_t.hpp>
 #include <stdexcept>
@@ -286,9 +287,10 @@ void SimNode::ServiceLockstep(int max_wait_ms) {
       if (answers_.count(name) == 0) missing.push_back(name);
     }
     ++counters_.lockstep_timeouts;
+    char waited[32];
+    std::snprintf(waited, sizeof waited, "%.2f", Seconds(now - waiting_since_));
     detail_ = "lockstep: tick " + std::to_string(awaited_tick_) + ": no answer from " +
-              JoinNames(missing) + " for " + core::FormatApprox(Seconds(now - waiting_since_)) +
-              " s; waiting (state sent again)";
+              JoinNames(missing) + " for " + waited + " s; waiting (state sent again)";
     last_problem_ = now;
     std::cerr << options_.process_name << ": " << detail_ << "\n";
     PublishState();
