@@ -10,6 +10,7 @@
 #include "core/model_report.hpp"
 #include "tools/environment_commands.hpp"
 #include "tools/kinematics_commands.hpp"
+#include "tools/sim_commands.hpp"
 
 #ifndef SIRUPP_SOURCE_DIR
 #define SIRUPP_SOURCE_DIR "."
@@ -32,10 +33,11 @@ const char* const kUsage =
     "  model show FILE            print the DH table and link data, in SI and the file's units\n"
     "  fk --model FILE --deg Q..  tool pose for joint positions (see sirupp fk --help)\n"
     "  ik --model FILE --pose X Y Z ROLL PITCH YAW   joint solutions (see sirupp ik --help)\n"
-    "  env check FILE...          validate environment files (objects around the robot); exit 1 on "
+    "  env check FILE...          validate environment files (objects around the robot); exit 2 on "
     "a bad one\n"
     "  env show FILE              list an environment's objects: shape, size, pose, static or "
     "mass\n"
+    "  reset (--pose NAME | --position Q..)  teleport the simulated arm (see sirupp reset --help)\n"
     "  help                       this text\n"
     "\n"
     "Model files: config/robots/*.yaml, format in docs/model-format.md.\n"
@@ -104,6 +106,10 @@ int RunCli(const Args& args, std::ostream& out, std::ostream& err) {
     if (command == "ik") {
       if (wants_help) return out << kIkUsage, kExitOk;
       return RunIk(rest, out);
+    }
+    if (command == "reset") {
+      if (wants_help) return out << kResetUsage, kExitOk;
+      return RunReset(rest, out);
     }
     if (command == "env") {
       if (wants_help) return out << kEnvUsage, kExitOk;

@@ -10,7 +10,7 @@ namespace sirupp::tools {
 
 extern const char* const kEnvUsage;
 
-// args: the words after "env". Exit 0 when every file loads, 1 with one error line per bad file;
+// args: the words after "env". Exit 0 when every file loads, 2 with one error line per bad file;
 // bad arguments throw core::UsageError (exit 2).
 int RunEnv(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
 

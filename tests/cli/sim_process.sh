@@ -2,7 +2,7 @@
 # sirupp-sim as a real process over UDP multicast, inside a network namespace made for this test (no
 # traffic leaves it): lockstep runs with a participant process are bit-identical, a silent
 # participant is reported by name and the sim waits, bad arguments exit 2 with one clear line.
-# Needs: SIRUPP_SIM and SIM_PROBE (paths of the two programs); run as root or with user namespaces.
+# Needs: SIRUPP_SIM, SIRUPP and SIM_PROBE (paths of the programs); run as root or with user namespaces.
 set -u
 fail() { echo "FAIL: $*"; exit 1; }
 
@@ -43,6 +43,24 @@ wait "$sim" 2>/dev/null
 cat "$work/ghost.sim"
 grep -q "tick 0: no answer from ghost" "$work/ghost.sim" || fail "silent participant not reported"
 grep -q "stopped at tick 0 " "$work/ghost.sim" || fail "the sim stepped without ghost's answer"
+
+# Teleport from the command line: the running sim applies it and says so.
+"$SIRUPP_SIM" --lcm-url "$URL" --mode realtime 2>"$work/reset.sim" &
+sim=$!
+sleep 0.5
+"$SIRUPP" reset --lcm-url "$URL" --deg 10 20 30 40 50 60 >"$work/reset.out" || fail "sirupp reset failed"
+"$SIRUPP" reset --lcm-url "$URL" --pose ready --objects >>"$work/reset.out" || fail "sirupp reset --pose failed"
+sleep 0.5
+kill "$sim"
+wait "$sim" 2>/dev/null
+cat "$work/reset.out" "$work/reset.sim"
+[ "$(grep -c "reset by 'sirupp reset'" "$work/reset.sim")" = 2 ] || fail "the sim did not apply both resets"
+grep -q "2 resets" "$work/reset.sim" || fail "reset count missing from the summary"
+"$SIRUPP" reset --lcm-url "$URL" --deg 0 0 0 400 0 0 >"$work/out" 2>&1; code=$?
+[ "$code" = 2 ] || fail "reset beyond the limits exited $code"
+grep -q "joint 4 (wrist_roll)" "$work/out" || fail "$(cat "$work/out")"
+"$SIRUPP" reset --lcm-url "$URL" --pose nowhere >"$work/out" 2>&1; code=$?
+[ "$code" = 2 ] || fail "reset to an unknown pose exited $code"
 
 # Bad arguments: exit 2, one line naming the problem.
 "$SIRUPP_SIM" --mode warp >"$work/out" 2>&1; code=$?
