@@ -3,11 +3,16 @@
 #include <filesystem>
 #include <functional>
 #include <map>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
 #include <ostream>
+#include <sirupp/arm_state_t.hpp>
 
 #include "core/errors.hpp"
 #include "core/model_loader.hpp"
 #include "core/model_report.hpp"
+#include "sim/arm_world.hpp"
 #include "tools/environment_commands.hpp"
 #include "tools/kinematics_commands.hpp"
 #include "tools/sim_commands.hpp"
@@ -64,6 +69,47 @@ int ModelShow(const Args& files, std::ostream& out) {
   return kExitOk;
 }
 
+// The arm in ODE: released limp from its home pose, one second with joint friction.
+void DemoPhysics(const core::RobotModel& model, std::ostream& out) {
+  sim::ArmWorld world(model, core::Environment{});
+  char line[256];
+  std::snprintf(line, sizeof line,
+                "Physics (ODE, step %.3f ms, joint friction on): brakes released at the home pose, "
+                "motors off, 1 s:\n",
+                world.step_s() * 1e3);
+  out << line;
+  out << "   t (s)   joint positions (deg; mm for prismatic)           flags\n";
+  core::ArmCommand limp;
+  limp.mode = core::CommandMode::kLimp;
+  const auto steps_per_row = static_cast<int64_t>(std::lround(0.2 / world.step_s()));
+  const auto start = std::chrono::steady_clock::now();
+  for (int row = 0; row <= 5; ++row) {
+    if (row > 0) {
+      for (int64_t k = 0; k < steps_per_row; ++k) world.Step(limp);
+    }
+    const core::ArmState state = world.State();
+    std::snprintf(line, sizeof line, "  %6.3f  ", world.time_s());
+    out << line;
+    for (int j = 0; j < model.num_joints(); ++j) {
+      const bool revolute = model.joints[static_cast<size_t>(j)].type == core::JointType::kRevolute;
+      std::snprintf(line, sizeof line, "%8.2f", state.position[static_cast<size_t>(j)] *
+                                                    (revolute ? 180 / 3.14159265358979323846 : 1e3));
+      out << line;
+    }
+    std::string flags;
+    for (int8_t f : state.flags) {
+      flags += (f & sirupp::arm_state_t::FLAG_STICKING) ? 'S' : (f & 3) ? 'L' : '.';
+    }
+    out << "   " << flags << "\n";
+  }
+  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  std::snprintf(line, sizeof line,
+                "  (S = held by static friction, L = at a limit; %lld steps in %.3f s of wall "
+                "time)\n",
+                static_cast<long long>(world.tick()), wall);
+  out << line;
+}
+
 int Demo(const Args& args, std::ostream& out) {
   std::string model_file = ResolveDataPath(kDefaultModel);
   for (size_t i = 0; i < args.size(); ++i) {
@@ -74,9 +120,11 @@ int Demo(const Args& args, std::ostream& out) {
     }
   }
   out << "SIRUPP-LCM demo: loading " << model_file << "\n\n";
-  out << core::ModelReport(core::LoadRobotModel(model_file));
-  out << "\nThe model loaded and validated. (Physics, control, logging and rendering join the demo "
-         "as their processes arrive.)\n";
+  const core::RobotModel model = core::LoadRobotModel(model_file);
+  out << core::ModelReport(model);
+  out << "\nThe model loaded and validated.\n\n";
+  DemoPhysics(model, out);
+  out << "\n(Control, logging and rendering join the demo as their processes arrive.)\n";
   return kExitOk;
 }
 

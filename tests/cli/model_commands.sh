@@ -43,6 +43,7 @@ check "demo bad flag" 2 "$SIRUPP" demo --speed 3
 check "help" 0 "$SIRUPP" help
 check "demo" 0 "$SIRUPP" demo
 contains "demo" /tmp/sirupp_cli_out.$$ "Robot model puma260"
+contains "demo physics" /tmp/sirupp_cli_out.$$ "brakes released at the home pose"
 # The demo finds its model from any working directory.
 (cd /tmp && check "demo elsewhere" 0 "$SIRUPP" demo)
 
