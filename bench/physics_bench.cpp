@@ -65,7 +65,8 @@ Figure RunOde(const RobotModel& model, bool friction, double seconds, sirupp::co
     rows += world.LastStepRows();
   }
   const double wall = std::chrono::duration<double>(Clock::now() - start).count();
-  return {static_cast<double>(steps) / wall, static_cast<double>(rows) / static_cast<double>(steps)};
+  return {static_cast<double>(steps) / wall,
+          static_cast<double>(rows) / static_cast<double>(steps)};
 }
 
 #ifdef SIRUPP_HAVE_MUJOCO
@@ -83,8 +84,8 @@ Figure RunMujoco(const RobotModel& model, bool friction, double seconds) {
 #endif
 
 void Print(const char* label, const Figure& figure, double step_s) {
-  std::printf("  %-46s %9.0f steps/s  %6.2f us/step  %6.0fx real time", label,
-              figure.steps_per_s, 1e6 / figure.steps_per_s, figure.steps_per_s * step_s);
+  std::printf("  %-46s %9.0f steps/s  %6.2f us/step  %6.0fx real time", label, figure.steps_per_s,
+              1e6 / figure.steps_per_s, figure.steps_per_s * step_s);
   if (figure.mean_rows > 0) std::printf("  %4.1f rows", figure.mean_rows);
   std::printf("\n");
 }
@@ -161,7 +162,8 @@ int main(int argc, char** argv) {
   std::printf("Ratio with LCM publishing / MuJoCo (friction): %.2f\n",
               ode_publish.steps_per_s / mj_friction.steps_per_s);
 #else
-  std::printf("MuJoCo not installed (scripts/install-deps.sh --peers adds libmujoco-dev): no ratio\n");
+  std::printf(
+      "MuJoCo not installed (scripts/install-deps.sh --peers adds libmujoco-dev): no ratio\n");
 #endif
   return 0;
 }

@@ -3,18 +3,17 @@
 #include <ode/ode.h>
 
 #include <Eigen/Eigenvalues>
-
 #include <algorithm>
 #include <cmath>
 #include <cstdarg>
 #include <cstdio>
 #include <limits>
 #include <mutex>
+#include <sirupp/arm_state_t.hpp>
 #include <stdexcept>
 
 #include "core/errors.hpp"
 #include "core/kinematics.hpp"
-#include <sirupp/arm_state_t.hpp>
 
 namespace sirupp::sim {
 namespace {
@@ -98,10 +97,10 @@ struct JointSim {
   double stribeck_velocity = 1;
   bool has_friction = false;
   // State.
-  double q = 0;      // unwrapped joint position, DH convention
-  double qd = 0;     // joint speed
-  double raw = 0;    // ODE's reading (hinge angle or slider position) at the last update
-  double offset = 0; // q = offset + ODE reading accumulated since the last re-zero
+  double q = 0;       // unwrapped joint position, DH convention
+  double qd = 0;      // joint speed
+  double raw = 0;     // ODE's reading (hinge angle or slider position) at the last update
+  double offset = 0;  // q = offset + ODE reading accumulated since the last re-zero
   bool stuck = true;
   double q_stick = 0;
   double effort = 0;  // actuator effort applied in the last step
@@ -194,7 +193,8 @@ struct ArmWorld::Impl {
       bad("stick_speed " + FormatNumber(options.stick_speed) + ": allowed a finite value > 0");
     }
     if (model.num_joints() < 1 || model.links.size() != model.joints.size() + 1) {
-      bad("model " + model.name + ": needs at least one joint and one link per joint plus the base");
+      bad("model " + model.name +
+          ": needs at least one joint and one link per joint plus the base");
     }
     for (int i = 1; i <= model.num_joints(); ++i) {
       const core::Link& link = model.links[static_cast<size_t>(i)];
@@ -270,7 +270,8 @@ struct ArmWorld::Impl {
       sim.q = q0[i - 1];
       sim.q_stick = sim.q;
       dBodyID parent = i > 1 ? bodies[static_cast<size_t>(i - 2)] : nullptr;
-      sim.id = sim.revolute ? dJointCreateHinge(world, nullptr) : dJointCreateSlider(world, nullptr);
+      sim.id =
+          sim.revolute ? dJointCreateHinge(world, nullptr) : dJointCreateSlider(world, nullptr);
       dJointAttach(sim.id, body, parent);
       joints.push_back(sim);
       AttachJointFrame(i - 1, point, axis);
@@ -340,7 +341,8 @@ struct ArmWorld::Impl {
       dQuaternion rotation;
       if (body != nullptr) {
         dGeomSetBody(geom, body);
-        const Eigen::Vector3d offset = shape.pose.position_m - link.com_m;  // body axes = frame axes
+        const Eigen::Vector3d offset =
+            shape.pose.position_m - link.com_m;  // body axes = frame axes
         dGeomSetOffsetPosition(geom, offset.x(), offset.y(), offset.z());
         ToOdeQuaternion(shape.pose.orientation, rotation);
         dGeomSetOffsetQuaternion(geom, rotation);
@@ -447,7 +449,8 @@ struct ArmWorld::Impl {
                 bool reset_objects) {
     const int n = model.num_joints();
     auto joint_label = [&](int j) {
-      return "joints[" + std::to_string(j) + "] (" + model.joints[static_cast<size_t>(j)].name + ")";
+      return "joints[" + std::to_string(j) + "] (" + model.joints[static_cast<size_t>(j)].name +
+             ")";
     };
     if (static_cast<int>(position.size()) != n) {
       throw std::invalid_argument("position has " + std::to_string(position.size()) +
@@ -665,7 +668,8 @@ struct ArmWorld::Impl {
 
   void Step(const core::ArmCommand& command) {
     const int n = model.num_joints();
-    if (static_cast<int>(command.effort.size()) != n && command.mode == core::CommandMode::kEffort) {
+    if (static_cast<int>(command.effort.size()) != n &&
+        command.mode == core::CommandMode::kEffort) {
       throw std::invalid_argument("command has " + std::to_string(command.effort.size()) +
                                   " efforts; the model has " + std::to_string(n) + " joints");
     }
@@ -721,6 +725,16 @@ struct ArmWorld::Impl {
     }
     for (int j = 0; j < n; ++j) {
       UpdateJoint(joints[static_cast<size_t>(j)]);
+    }
+    for (int j = 0; j < n; ++j) {
+      const JointSim& sim = joints[static_cast<size_t>(j)];
+      if (!std::isfinite(sim.q) || !std::isfinite(sim.qd)) {
+        throw std::runtime_error("the simulation became unstable at tick " + std::to_string(tick) +
+                                 ": joint " + std::to_string(j + 1) + " (" +
+                                 model.joints[static_cast<size_t>(j)].name + ") position " +
+                                 FormatNumber(sim.q) + ", speed " + FormatNumber(sim.qd) +
+                                 "; try a smaller step or check the model's masses and inertias");
+      }
     }
     last_rows = rows + contact_rows;
     ++tick;

@@ -1,13 +1,14 @@
 #pragma once
-// The virtual robot in ODE: one rigid body per link, one hinge (or slider) per joint, joint friction
-// with exact sticking, joint and torque limits, optional rotor inertia, and the environment's objects
-// with contacts. No LCM here: SimNode (sim_node.hpp) feeds it commands and publishes its state; tests
-// and benchmarks drive it directly. The physics are described in docs/physics.md.
+// The virtual robot in ODE: one rigid body per link, one hinge (or slider) per joint, joint
+// friction with exact sticking, joint and torque limits, optional rotor inertia, and the
+// environment's objects with contacts. No LCM here: SimNode (sim_node.hpp) feeds it commands and
+// publishes its state; tests and benchmarks drive it directly. The physics are described in
+// docs/physics.md.
 //
 // Frames and conventions: every body sits at its link's centre of mass with the axes of the link's
 // DH frame (so the model's inertia tensor applies unchanged). Joint positions are reported in the
-// model's DH convention, unwrapped (a revolute joint may read beyond +-pi), and every position limit
-// is enforced whatever its range.
+// model's DH convention, unwrapped (a revolute joint may read beyond +-pi), and every position
+// limit is enforced whatever its range.
 //
 // Not thread-safe: one ArmWorld is used by one thread at a time. Several worlds may exist at once.
 
@@ -24,12 +25,12 @@
 namespace sirupp::sim {
 
 struct WorldOptions {
-  double step_s = 0;      // physics step; 0 = the model's servo tick (PIC-SERVO SC: 0.512 ms)
-  bool friction = true;   // joint friction from the model (static, Coulomb, viscous)
-  bool armature = true;   // the model's rotor inertia, added to each joint's child link
-  bool contacts = true;   // contacts between the arm and the environment's objects
-  double erp = 0.2;       // ODE error reduction for joints and limits (0..1)
-  double cfm = 1e-10;     // ODE constraint force mixing (softness), >= 0
+  double step_s = 0;     // physics step; 0 = the model's servo tick (PIC-SERVO SC: 0.512 ms)
+  bool friction = true;  // joint friction from the model (static, Coulomb, viscous)
+  bool armature = true;  // the model's rotor inertia, added to each joint's child link
+  bool contacts = true;  // contacts between the arm and the environment's objects
+  double erp = 0.2;      // ODE error reduction for joints and limits (0..1)
+  double cfm = 1e-10;    // ODE constraint force mixing (softness), >= 0
   // A joint whose speed ends a step below this counts as stuck (static friction holds it).
   double stick_speed = 1e-6;  // rad/s or m/s
   // Keep every joint's friction row even while it slides (slower; the default gives the same
@@ -69,7 +70,8 @@ class ArmWorld {
   // Advances one step under `command`: efforts (clamped to each joint's effort_max) in
   // kEffort mode, every joint braked still in kHold, no actuator effort in kLimp. Throws
   // std::invalid_argument if the command's joint count is wrong or an effort is not finite; the
-  // world is then unchanged.
+  // world is then unchanged. Throws std::runtime_error naming the joint if the integration blew up
+  // (a non-finite position or speed); the world is then unusable.
   void Step(const core::ArmCommand& command);
 
   // The state after the last step (or teleport): utime = tick * step, source kSim, effort = the

@@ -70,8 +70,8 @@ int Run(const std::vector<std::string>& argv) {
       if (idle != "hold" && idle != "limp") {
         throw std::invalid_argument("--idle '" + idle + "': allowed hold, limp");
       }
-      options.idle = idle == "hold" ? sirupp::core::CommandMode::kHold
-                                    : sirupp::core::CommandMode::kLimp;
+      options.idle =
+          idle == "hold" ? sirupp::core::CommandMode::kHold : sirupp::core::CommandMode::kLimp;
     }
   } catch (const std::invalid_argument& error) {
     throw sirupp::core::UsageError(std::string("sirupp-sim: ") + error.what());
@@ -146,9 +146,9 @@ int Run(const std::vector<std::string>& argv) {
     }
   }
   const sirupp::sim::NodeCounters& c = node.counters();
-  std::cerr << "sirupp-sim: stopped at tick " << world.tick() << " (t = "
-            << sirupp::core::FormatApprox(world.time_s()) << " s): " << c.steps << " steps, "
-            << c.states_published << " states sent, " << c.commands_accepted
+  std::cerr << "sirupp-sim: stopped at tick " << world.tick()
+            << " (t = " << sirupp::core::FormatApprox(world.time_s()) << " s): " << c.steps
+            << " steps, " << c.states_published << " states sent, " << c.commands_accepted
             << " commands accepted, " << c.commands_rejected << " rejected, " << c.commands_late
             << " late, " << c.lockstep_timeouts << " lockstep timeouts, " << c.watchdog_holds
             << " watchdog holds, " << c.resets << " resets\n";

@@ -65,8 +65,7 @@ SimNode::SimNode(core::Bus& bus, ArmWorld& world, core::Environment environment,
     bad("state_every " + std::to_string(options_.state_every) + ": allowed 1 or more ticks");
   }
   if (!(options_.lockstep_timeout_s > 0)) {
-    bad("lockstep timeout " + core::FormatNumber(options_.lockstep_timeout_s) +
-        " s: allowed > 0");
+    bad("lockstep timeout " + core::FormatNumber(options_.lockstep_timeout_s) + " s: allowed > 0");
   }
   if (!(options_.watchdog_s > 0)) {
     bad("watchdog " + core::FormatNumber(options_.watchdog_s) + " s: allowed > 0");
@@ -116,8 +115,10 @@ void SimNode::OnCommand(const sirupp::arm_command_t& message, const core::Receiv
     }
     if (lockstep && message.tick > awaited_tick_) {
       throw core::MessageError(info.channel, "tick",
-                               std::to_string(message.tick) + " is ahead of the sim, which waits "
-                               "for answers to tick " + std::to_string(awaited_tick_));
+                               std::to_string(message.tick) +
+                                   " is ahead of the sim, which waits "
+                                   "for answers to tick " +
+                                   std::to_string(awaited_tick_));
     }
   } catch (const core::MessageError& error) {
     ++counters_.commands_rejected;
@@ -152,14 +153,14 @@ void SimNode::OnReset(const sirupp::sim_reset_t& message, const core::ReceiveInf
   const int n = world_.model().num_joints();
   try {
     if (message.num_joints != n || static_cast<int>(message.position.size()) != n) {
-      throw core::MessageError(info.channel, "num_joints",
-                               std::to_string(message.num_joints) + " joints; the model has " +
-                                   std::to_string(n));
+      throw core::MessageError(
+          info.channel, "num_joints",
+          std::to_string(message.num_joints) + " joints; the model has " + std::to_string(n));
     }
     if (message.num_velocities != 0 && message.num_velocities != n) {
-      throw core::MessageError(info.channel, "num_velocities",
-                               std::to_string(message.num_velocities) + ": allowed 0 or " +
-                                   std::to_string(n));
+      throw core::MessageError(
+          info.channel, "num_velocities",
+          std::to_string(message.num_velocities) + ": allowed 0 or " + std::to_string(n));
     }
     if (message.reset_objects != 0 && message.reset_objects != 1) {
       throw core::MessageError(info.channel, "reset_objects",
@@ -248,8 +249,7 @@ bool SimNode::Service(int max_wait_ms) {
     ServiceFree(max_wait_ms);
   }
   PublishLatched(false);
-  const bool troubled =
-      !detail_.empty() && Seconds(Clock::now() - last_problem_) < kProblemMemoryS;
+  const bool troubled = !detail_.empty() && Seconds(Clock::now() - last_problem_) < kProblemMemoryS;
   heartbeat_.PublishIfDue(troubled ? core::ProcessState::kDegraded : core::ProcessState::kRunning,
                           troubled ? detail_ : "");
   return !Finished();
@@ -275,7 +275,8 @@ void SimNode::ServiceLockstep(int max_wait_ms) {
     for (const std::string& name : options_.participants) in_order.push_back(&answers_.at(name));
     const core::ArmCommand combined = Combine(in_order);
     answers_.clear();
-    StepTicks(combined, options_.state_every - static_cast<int>(world_.tick() % options_.state_every));
+    StepTicks(combined,
+              options_.state_every - static_cast<int>(world_.tick() % options_.state_every));
     awaited_tick_ = world_.tick();
     waiting_since_ = Clock::now();
     return;

@@ -1,7 +1,7 @@
 #pragma once
-// The sirupp-sim process around an ArmWorld: takes joint-effort commands and teleports from the bus,
-// steps the world in one of the three timing modes of docs/timing.md, and publishes the arm's state
-// every tick (or every N ticks), the robot model and environment at 1 Hz, and a heartbeat.
+// The sirupp-sim process around an ArmWorld: takes joint-effort commands and teleports from the
+// bus, steps the world in one of the three timing modes of docs/timing.md, and publishes the arm's
+// state every tick (or every N ticks), the robot model and environment at 1 Hz, and a heartbeat.
 //
 //  - lockstep: state of tick k goes out, then the node waits until every registered participant
 //    has answered tick k, then steps. Same inputs, bit-identical outputs. A participant that has
@@ -71,7 +71,7 @@ struct NodeCounters {
   int64_t lockstep_timeouts = 0;  // times a participant was reported late
   int64_t watchdog_holds = 0;     // realtime ticks braked because no command was fresh
   int64_t resets = 0;
-  int64_t overruns = 0;           // realtime: ticks that started later than one step behind
+  int64_t overruns = 0;  // realtime: ticks that started later than one step behind
 };
 
 class SimNode {

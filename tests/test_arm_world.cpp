@@ -45,8 +45,8 @@ void WidenLimits(core::RobotModel& model) {
 }
 
 // One revolute joint from the two-link test arm: link 1 is a 0.3 m bar along x1 (1 kg, centre of
-// mass 0.15 m from the axis). The joint axis is vertical, or horizontal when `pendulum` (the base is
-// rolled 90 degrees, so gravity swings the bar).
+// mass 0.15 m from the axis). The joint axis is vertical, or horizontal when `pendulum` (the base
+// is rolled 90 degrees, so gravity swings the bar).
 core::RobotModel OneJoint(bool pendulum) {
   core::RobotModel model = core::LoadRobotModel("tests/data/good_two_link.yaml");
   model.joints.resize(1);
@@ -70,7 +70,8 @@ std::vector<Eigen::Vector3d> Centres(const core::RobotModel& model, const core::
   const core::ForwardResult fk = core::ForwardKinematics(model, q);
   std::vector<Eigen::Vector3d> centres;
   for (int i = 1; i <= model.num_joints(); ++i) {
-    centres.push_back(fk.frames[static_cast<size_t>(i)] * model.links[static_cast<size_t>(i)].com_m);
+    centres.push_back(fk.frames[static_cast<size_t>(i)] *
+                      model.links[static_cast<size_t>(i)].com_m);
   }
   return centres;
 }
@@ -104,7 +105,8 @@ RigidBody RigidBodyAt(const core::RobotModel& model, const core::JointVector& q)
     const core::Link& link = model.links[static_cast<size_t>(l)];
     const Eigen::MatrixXd& j_v = jv[static_cast<size_t>(l - 1)];
     Eigen::MatrixXd j_w = Eigen::MatrixXd::Zero(3, n);
-    for (int j = 1; j <= l; ++j) j_w.col(j - 1) = fk.frames[static_cast<size_t>(j - 1)].linear().col(2);
+    for (int j = 1; j <= l; ++j)
+      j_w.col(j - 1) = fk.frames[static_cast<size_t>(j - 1)].linear().col(2);
     const Eigen::Matrix3d r = fk.frames[static_cast<size_t>(l)].linear();
     const Eigen::Matrix3d inertia_world = r * link.inertia_kg_m2 * r.transpose();
     rb.mass_matrix += link.mass_kg * j_v.transpose() * j_v + j_w.transpose() * inertia_world * j_w;
@@ -129,10 +131,12 @@ double Energy(const ArmWorld& world) {
   return energy;
 }
 
-void ExpectBodiesOnForwardKinematics(const ArmWorld& world, double tolerance_m, double tolerance_rad) {
+void ExpectBodiesOnForwardKinematics(const ArmWorld& world, double tolerance_m,
+                                     double tolerance_rad) {
   const core::RobotModel& model = world.model();
   const core::ArmState state = world.State();
-  const core::ForwardResult fk = core::ForwardKinematics(model, core::ToJointVector(state.position));
+  const core::ForwardResult fk =
+      core::ForwardKinematics(model, core::ToJointVector(state.position));
   for (int i = 1; i <= model.num_joints(); ++i) {
     Eigen::Isometry3d expected = fk.frames[static_cast<size_t>(i)];
     expected.translation() = expected * model.links[static_cast<size_t>(i)].com_m;
@@ -152,8 +156,8 @@ TEST(ArmWorld, BodiesSitWhereForwardKinematicsPutsEachLinksCentreOfMass) {
     for (int trial = 0; trial < 20; ++trial) {
       std::vector<double> q;
       for (const core::Joint& joint : model.joints) {
-        q.push_back(std::uniform_real_distribution<double>(joint.position_min,
-                                                           joint.position_max)(random));
+        q.push_back(
+            std::uniform_real_distribution<double>(joint.position_min, joint.position_max)(random));
       }
       world.SetJointState(q);
       ExpectBodiesOnForwardKinematics(world, 1e-12, 1e-12);
@@ -222,7 +226,8 @@ TEST(ArmWorld, EffortIsClampedToTheJointsLimit) {
   // The clamped effort is what accelerates the arm: alpha = effort_max / inertia.
   world.SetJointState({0.0});
   world.Step(Effort({1000.0}));
-  EXPECT_NEAR(world.State().velocity[0] / world.step_s(), model.joints[0].effort_max / AxisInertia(model),
+  EXPECT_NEAR(world.State().velocity[0] / world.step_s(),
+              model.joints[0].effort_max / AxisInertia(model),
               1e-6 * model.joints[0].effort_max / AxisInertia(model));
 }
 
@@ -255,8 +260,7 @@ TEST(ArmWorld, GravitySagGoesWhereOurOwnRigidBodyModelSays) {
   const RigidBody rb = RigidBodyAt(model, core::ToJointVector(q0));
   // Released from rest, the joints accelerate at M^-1 * (-G): compare ODE's first step with ours.
   world.Step(Limp(6));
-  const Eigen::VectorXd accel =
-      core::ToJointVector(world.State().velocity) / world.step_s();
+  const Eigen::VectorXd accel = core::ToJointVector(world.State().velocity) / world.step_s();
   const Eigen::VectorXd expected = rb.mass_matrix.ldlt().solve(-rb.gravity_torque);
   for (int j = 0; j < 6; ++j) {
     EXPECT_NEAR(accel[j], expected[j], 0.01 * expected.cwiseAbs().maxCoeff()) << "joint " << j;
@@ -267,8 +271,9 @@ TEST(ArmWorld, GravitySagGoesWhereOurOwnRigidBodyModelSays) {
   const auto before = Centres(model, core::ToJointVector(q0));
   const auto after = Centres(model, core::ToJointVector(world.State().position));
   for (int l = 0; l < 6; ++l) {
-    potential_drop += model.links[static_cast<size_t>(l + 1)].mass_kg *
-                      model.gravity_m_s2.dot(after[static_cast<size_t>(l)] - before[static_cast<size_t>(l)]);
+    potential_drop +=
+        model.links[static_cast<size_t>(l + 1)].mass_kg *
+        model.gravity_m_s2.dot(after[static_cast<size_t>(l)] - before[static_cast<size_t>(l)]);
   }
   EXPECT_GT(potential_drop, 0) << "the arm must lose height";
   EXPECT_LT((world.State().position[1] - q0[1]) * rb.gravity_torque[1], 0);
@@ -282,7 +287,8 @@ double EnergyWithRotors(const ArmWorld& world) {
       core::ForwardKinematics(model, core::ToJointVector(world.State().position));
   double energy = Energy(world);
   for (int l = 1; l <= model.num_joints(); ++l) {
-    const double spin = world.LinkAngularVelocity(l).dot(fk.frames[static_cast<size_t>(l - 1)].linear().col(2));
+    const double spin =
+        world.LinkAngularVelocity(l).dot(fk.frames[static_cast<size_t>(l - 1)].linear().col(2));
     energy += 0.5 * model.joints[static_cast<size_t>(l - 1)].armature * spin * spin;
   }
   return energy;
@@ -308,8 +314,9 @@ double EnergyErrorOfSwing(double step_s, double seconds) {
     world.Step(Limp(6));
     if (k % 50 == 0) worst = std::max(worst, std::abs(EnergyWithRotors(world) - start));
   }
-  std::printf("energy: step %.3f ms, swing energy %.4f J, worst error over %.0f s %.4f J (%.2f%%)\n",
-              step_s * 1e3, start - rest, seconds, worst, 100 * worst / (start - rest));
+  std::printf(
+      "energy: step %.3f ms, swing energy %.4f J, worst error over %.0f s %.4f J (%.2f%%)\n",
+      step_s * 1e3, start - rest, seconds, worst, 100 * worst / (start - rest));
   return worst / (start - rest);
 }
 
@@ -444,7 +451,8 @@ TEST(ArmWorld, ASingleJointSwingHasThePendulumsPeriod) {
   }
   const double amplitude = 20 * kDeg;
   world.SetJointState({hang + amplitude});
-  // Our reference: RK4 on phi'' = -(m g l / I) sin(phi), period from successive upward zero crossings.
+  // Our reference: RK4 on phi'' = -(m g l / I) sin(phi), period from successive upward zero
+  // crossings.
   auto reference_period = [&] {
     double phi = amplitude, omega = 0, t = 0;
     const double dt = 1e-5;
@@ -531,9 +539,8 @@ TEST(ArmWorld, SameInputsGiveBitIdenticalStates) {
   EXPECT_EQ(std::memcmp(first.data(), second.data(), first.size() * sizeof(double)), 0);
 }
 
-core::EnvironmentObject Object(const std::string& name, core::ShapeType type,
-                               Eigen::Vector3d size, Eigen::Vector3d position, bool is_static,
-                               double mass = 0) {
+core::EnvironmentObject Object(const std::string& name, core::ShapeType type, Eigen::Vector3d size,
+                               Eigen::Vector3d position, bool is_static, double mass = 0) {
   core::EnvironmentObject object;
   object.name = name;
   object.shape.type = type;
@@ -546,10 +553,10 @@ core::EnvironmentObject Object(const std::string& name, core::ShapeType type,
 
 TEST(ArmWorld, AFreeBallComesToRestOnAStaticTable) {
   core::Environment environment;
-  environment.objects.push_back(Object("table", core::ShapeType::kBox, {0.4, 0.4, 0.1},
-                                       {0.8, 0, 0.05}, true));
-  environment.objects.push_back(Object("ball", core::ShapeType::kSphere, {0.03, 0, 0},
-                                       {0.8, 0, 0.3}, false, 0.1));
+  environment.objects.push_back(
+      Object("table", core::ShapeType::kBox, {0.4, 0.4, 0.1}, {0.8, 0, 0.05}, true));
+  environment.objects.push_back(
+      Object("ball", core::ShapeType::kSphere, {0.03, 0, 0}, {0.8, 0, 0.3}, false, 0.1));
   ArmWorld world(Puma(), environment);
   core::ArmCommand hold = Limp(6);
   hold.mode = core::CommandMode::kHold;
@@ -566,8 +573,8 @@ TEST(ArmWorld, AFreeBallComesToRestOnAStaticTable) {
 TEST(ArmWorld, ALimpArmFallsOntoATableAndStopsThere) {
   core::Environment environment;
   // A table top from z = 0.20 to 0.25 m under the forearm (which points along +x at z ~ 0.33 m).
-  environment.objects.push_back(Object("table", core::ShapeType::kBox, {0.4, 0.6, 0.05},
-                                       {0.35, 0, 0.225}, true));
+  environment.objects.push_back(
+      Object("table", core::ShapeType::kBox, {0.4, 0.6, 0.05}, {0.35, 0, 0.225}, true));
   core::RobotModel model = Puma();
   ArmWorld with_table(model, environment);
   ArmWorld without_table(model, core::Environment{});

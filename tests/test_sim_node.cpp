@@ -1,6 +1,6 @@
-// The sirupp-sim process logic (sim/sim_node.hpp) on an in-process memq:// bus: lockstep waiting and
-// late-participant reports, command checks, teleports, realtime watchdog, fast mode, latched and
-// heartbeat messages, and bit-identical lockstep runs. tests/test_sim_process.cpp runs the real
+// The sirupp-sim process logic (sim/sim_node.hpp) on an in-process memq:// bus: lockstep waiting
+// and late-participant reports, command checks, teleports, realtime watchdog, fast mode, latched
+// and heartbeat messages, and bit-identical lockstep runs. tests/test_sim_process.cpp runs the real
 // process over UDP.
 
 #include <gtest/gtest.h>
@@ -42,9 +42,9 @@ class Participant {
           command.mode = sirupp::arm_command_t::MODE_EFFORT;
           command.num_joints = state.num_joints;
           for (int j = 0; j < state.num_joints; ++j) {
-            command.effort.push_back(20.0 * (target_[static_cast<size_t>(j)] -
-                                             state.position[static_cast<size_t>(j)]) -
-                                     0.5 * state.velocity[static_cast<size_t>(j)]);
+            command.effort.push_back(
+                20.0 * (target_[static_cast<size_t>(j)] - state.position[static_cast<size_t>(j)]) -
+                0.5 * state.velocity[static_cast<size_t>(j)]);
           }
           if (tamper) tamper(command);
           bus_.Publish("SIM_ARM_COMMAND", command);
@@ -137,8 +137,7 @@ TEST(SimNode, BadCommandsAreRefusedCountedAndBrakeTheArm) {
     Participant a(bus, "a", {1, 1, 1, 1, 1, 1});  // would move the arm a lot
     a.tamper = bad.tamper;
     for (int k = 0; k < 300; ++k) node.Service(0);
-    const core::ChannelStats stats =
-        bus.StatsFor("SIM_ARM_COMMAND", core::ChannelSide::kReceiving);
+    const core::ChannelStats stats = bus.StatsFor("SIM_ARM_COMMAND", core::ChannelSide::kReceiving);
     EXPECT_GT(stats.rejected, 0) << bad.name;
     EXPECT_NE(stats.last_error.find(bad.reason), std::string::npos)
         << bad.name << ": " << stats.last_error;
@@ -241,10 +240,9 @@ TEST(SimNode, FastModeRunsFreeAndPublishesModelEnvironmentAndHeartbeat) {
         EXPECT_EQ(m.name, "puma260");
         ++models;
       });
-  bus.Subscribe<sirupp::environment_t>("ENVIRONMENT",
-                                       [&](const sirupp::environment_t&, const core::ReceiveInfo&) {
-                                         ++environments;
-                                       });
+  bus.Subscribe<sirupp::environment_t>(
+      "ENVIRONMENT",
+      [&](const sirupp::environment_t&, const core::ReceiveInfo&) { ++environments; });
   bus.Subscribe<sirupp::heartbeat_t>("HEARTBEAT",
                                      [&](const sirupp::heartbeat_t& h, const core::ReceiveInfo&) {
                                        EXPECT_EQ(h.process, "sirupp-sim");

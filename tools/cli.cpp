@@ -1,11 +1,11 @@
 #include "tools/cli.hpp"
 
-#include <filesystem>
-#include <functional>
-#include <map>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <filesystem>
+#include <functional>
+#include <map>
 #include <ostream>
 #include <sirupp/arm_state_t.hpp>
 
@@ -92,8 +92,9 @@ void DemoPhysics(const core::RobotModel& model, std::ostream& out) {
     out << line;
     for (int j = 0; j < model.num_joints(); ++j) {
       const bool revolute = model.joints[static_cast<size_t>(j)].type == core::JointType::kRevolute;
-      std::snprintf(line, sizeof line, "%8.2f", state.position[static_cast<size_t>(j)] *
-                                                    (revolute ? 180 / 3.14159265358979323846 : 1e3));
+      std::snprintf(
+          line, sizeof line, "%8.2f",
+          state.position[static_cast<size_t>(j)] * (revolute ? 180 / 3.14159265358979323846 : 1e3));
       out << line;
     }
     std::string flags;
@@ -102,7 +103,8 @@ void DemoPhysics(const core::RobotModel& model, std::ostream& out) {
     }
     out << "   " << flags << "\n";
   }
-  const double wall = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  const double wall =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
   std::snprintf(line, sizeof line,
                 "  (S = held by static friction, L = at a limit; %lld steps in %.3f s of wall "
                 "time)\n",

@@ -31,8 +31,8 @@ int RunReset(const std::vector<std::string>& args, std::ostream& out) {
                      {"objects", "reset the free objects too"},
                      {"lcm-url", "LCM URL"},
                      {"prefix", "channel prefix of the rig"}});
-  const int given = (parsed.Has("pose") ? 1 : 0) + (parsed.Has("deg") ? 1 : 0) +
-                    (parsed.Has("rad") ? 1 : 0);
+  const int given =
+      (parsed.Has("pose") ? 1 : 0) + (parsed.Has("deg") ? 1 : 0) + (parsed.Has("rad") ? 1 : 0);
   if (given != 1) throw core::UsageError("reset: give exactly one of --pose, --deg, --rad");
   const core::RobotModel model = core::LoadRobotModel(
       ResolveDataPath(parsed.Has("model") ? parsed.String("model") : "config/robots/puma260.yaml"));

@@ -1,7 +1,8 @@
-// sim_probe: a minimal lockstep participant for process tests. Answers every SIM_ARM_STATE with a PD
-// effort towards a fixed pose until it has seen the state of tick --ticks, then prints the number of
-// states and an FNV-1a hash of their bytes (positions, velocities, efforts, flags), so two runs can
-// be compared for bit-identical output. Exit 0 on success, 1 on timeout, 2 on bad arguments.
+// sim_probe: a minimal lockstep participant for process tests. Answers every SIM_ARM_STATE with a
+// PD effort towards a fixed pose until it has seen the state of tick --ticks, then prints the
+// number of states and an FNV-1a hash of their bytes (positions, velocities, efforts, flags), so
+// two runs can be compared for bit-identical output. Exit 0 on success, 1 on timeout, 2 on bad
+// arguments.
 
 #include <chrono>
 #include <cstdint>
