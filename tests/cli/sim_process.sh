@@ -1,19 +1,30 @@
 #!/bin/bash
-# sirupp-sim as a real process over UDP multicast, inside a network namespace made for this test (no
-# traffic leaves it): lockstep runs with a participant process are bit-identical, a silent
-# participant is reported by name and the sim waits, bad arguments exit 2 with one clear line.
-# Needs: SIRUPP_SIM, SIRUPP and SIM_PROBE (paths of the programs); run as root or with user namespaces.
+# sirupp-sim as a real process over UDP multicast, in a network namespace made for this test (or,
+# where none is allowed, with ttl=0 on this host): lockstep runs with a participant process are
+# bit-identical, a silent participant is reported by name and the sim waits, teleports apply, bad
+# arguments exit 2 with one clear line. Needs SIRUPP_SIM, SIRUPP and SIM_PROBE (program paths).
 set -u
 fail() { echo "FAIL: $*"; exit 1; }
 
-if [ -z "${IN_TEST_NETNS:-}" ]; then
-  # Re-run this script in a fresh network namespace with multicast on the loopback interface.
-  exec unshare -rn env IN_TEST_NETNS=1 bash "$0" "$@" ||
-    fail "cannot create a network namespace (run as root or enable user namespaces)"
+# Where it can, the script re-runs itself in a fresh network namespace with multicast on its loopback
+# interface, so no datagram can leave. Where namespaces are not allowed (some containers), it uses
+# this host's network with ttl=0: multicast that never leaves the machine.
+if [ -z "${TEST_NET:-}" ]; then
+  if unshare -n true 2>/dev/null; then
+    exec unshare -n env TEST_NET=namespace bash "$0" "$@"
+  elif unshare -rn true 2>/dev/null; then
+    exec unshare -rn env TEST_NET=namespace bash "$0" "$@"
+  fi
+  TEST_NET=host
+  echo "note: no network namespace allowed here; multicast with ttl=0 on this host"
 fi
-ip link set lo up && ip link set lo multicast on && ip route add 224.0.0.0/4 dev lo ||
-  fail "cannot set up multicast on lo in the test namespace"
-URL="udpm://239.255.76.67:7731?ttl=0"
+if [ "$TEST_NET" = namespace ]; then
+  ip link set lo up && ip link set lo multicast on && ip route add 224.0.0.0/4 dev lo ||
+    fail "cannot set up multicast on lo in the test namespace"
+  URL="udpm://239.255.76.67:7731?ttl=0"
+else
+  URL="udpm://239.255.76.67:$((7800 + $$ % 150))?ttl=0"
+fi
 work=$(mktemp -d)
 trap 'kill $(jobs -p) 2>/dev/null; rm -rf "$work"' EXIT
 
