@@ -28,8 +28,8 @@ Channels Channels::WithPrefix(const std::string& prefix) {
   Channels channels;
   for (std::string* name :
        {&channels.robot_model, &channels.environment, &channels.sim_arm_state,
-        &channels.sim_arm_command, &channels.sim_reset, &channels.arm_move, &channels.arm_setpoint, &channels.arm_gains,
-        &channels.arm_target, &channels.arm_pose_target, &channels.arm_plan,
+        &channels.sim_arm_command, &channels.sim_reset, &channels.arm_move, &channels.arm_setpoint,
+        &channels.arm_gains, &channels.arm_target, &channels.arm_pose_target, &channels.arm_plan,
         &channels.controller_status, &channels.real_arm_state, &channels.hardware_status,
         &channels.hardware_command, &channels.estop, &channels.heartbeat, &channels.viewer_image}) {
     name->insert(0, prefix);
@@ -38,10 +38,10 @@ Channels Channels::WithPrefix(const std::string& prefix) {
 }
 
 std::vector<std::string> Channels::All() const {
-  return {robot_model,       environment,    sim_arm_state,   sim_arm_command,  sim_reset, arm_move,
-          arm_setpoint,      arm_gains,      arm_target,      arm_pose_target,  arm_plan,
-          controller_status, real_arm_state, hardware_status, hardware_command, estop,
-          heartbeat,         viewer_image};
+  return {robot_model, environment,       sim_arm_state,  sim_arm_command, sim_reset,
+          arm_move,    arm_setpoint,      arm_gains,      arm_target,      arm_pose_target,
+          arm_plan,    controller_status, real_arm_state, hardware_status, hardware_command,
+          estop,       heartbeat,         viewer_image};
 }
 
 void ValidateChannelPrefix(const std::string& prefix) {

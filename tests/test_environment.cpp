@@ -13,6 +13,7 @@
 
 #include "core/environment.hpp"
 #include "core/errors.hpp"
+#include "tests/wire.hpp"
 
 namespace sirupp::core {
 namespace {
@@ -283,16 +284,7 @@ TEST(ShippedEnvironments, TableStandsInFrontOfThePumaBelowItsArm) {
 
 // ---- messages -----------------------------------------------------------------------------------
 
-template <class Msg>
-Msg ThroughTheWire(const Msg& message) {
-  std::vector<uint8_t> buffer(static_cast<size_t>(message.getEncodedSize()));
-  EXPECT_EQ(message.encode(buffer.data(), 0, static_cast<int>(buffer.size())),
-            static_cast<int>(buffer.size()));
-  Msg decoded;
-  EXPECT_EQ(decoded.decode(buffer.data(), 0, static_cast<int>(buffer.size())),
-            static_cast<int>(buffer.size()));
-  return decoded;
-}
+using sirupp::testing::ThroughTheWire;
 
 Environment RichEnvironment() {
   Environment environment = LoadEnvironment("config/environments/table.xml");

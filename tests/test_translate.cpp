@@ -6,21 +6,12 @@
 #include "core/errors.hpp"
 #include "core/model_loader.hpp"
 #include "core/translate.hpp"
+#include "tests/wire.hpp"
 
 namespace sirupp::core {
 namespace {
 
-// Encodes and decodes through the wire format, as a message crossing the network would.
-template <class Msg>
-Msg ThroughTheWire(const Msg& message) {
-  std::vector<uint8_t> buffer(static_cast<size_t>(message.getEncodedSize()));
-  EXPECT_EQ(message.encode(buffer.data(), 0, static_cast<int>(buffer.size())),
-            static_cast<int>(buffer.size()));
-  Msg decoded;
-  EXPECT_EQ(decoded.decode(buffer.data(), 0, static_cast<int>(buffer.size())),
-            static_cast<int>(buffer.size()));
-  return decoded;
-}
+using sirupp::testing::ThroughTheWire;
 
 template <class Body>
 std::string MessageErrorOf(Body body) {

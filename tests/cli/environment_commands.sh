@@ -3,21 +3,7 @@
 # and the message for every file of the malformed-environment corpus. Run by CTest from the source
 # root with SIRUPP set to the binary.
 set -u
-fail=0
-out=/tmp/sirupp_env_out.$$ err=/tmp/sirupp_env_err.$$
-run() {  # run NAME EXPECTED_EXIT ARGS...
-  local name=$1 expected=$2; shift 2
-  "$SIRUPP" "$@" >"$out" 2>"$err"
-  local rc=$?
-  [[ $rc -eq $expected ]] || { echo "FAIL $name: exit $rc, expected $expected"; cat "$out" "$err"; fail=1; }
-}
-has() {  # has NAME FILE TEXT
-  grep -qF -- "$3" "$2" || { echo "FAIL $1: lacks '$3'"; head -5 "$2"; fail=1; }
-}
-lines() {  # lines NAME FILE COUNT
-  local n; n=$(wc -l <"$2")
-  [[ $n -eq $3 ]] || { echo "FAIL $1: $n lines, expected $3"; cat "$2"; fail=1; }
-}
+source "$(dirname "$0")/lib.sh"
 
 # Every shipped environment is valid.
 for env in config/environments/*.xml; do
@@ -76,6 +62,4 @@ has "env help" "$out" "usage: sirupp env check FILE..."
 run "help lists env" 0 help
 has "help lists env" "$out" "env check FILE..."
 
-rm -f "$out" "$err"
-if [[ $fail -ne 0 ]]; then echo "cli_environment_commands: FAILED"; exit 1; fi
-echo "cli_environment_commands: all checks passed ($count malformed environments)"
+finish cli_environment_commands "$count malformed environments"

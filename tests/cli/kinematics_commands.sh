@@ -1,17 +1,7 @@
 #!/usr/bin/env bash
 # `sirupp fk` and `sirupp ik` as a user meets them: values, exit codes and messages.
 set -u
-fail=0
-out=/tmp/sirupp_kin_out.$$ err=/tmp/sirupp_kin_err.$$
-run() {  # run NAME EXPECTED_EXIT ARGS...
-  local name=$1 expected=$2; shift 2
-  "$SIRUPP" "$@" >"$out" 2>"$err"
-  local rc=$?
-  [[ $rc -eq $expected ]] || { echo "FAIL $name: exit $rc, expected $expected"; cat "$out" "$err"; fail=1; }
-}
-has() {  # has NAME FILE TEXT
-  grep -qF -- "$3" "$2" || { echo "FAIL $1: lacks '$3'"; cat "$2"; fail=1; }
-}
+source "$(dirname "$0")/lib.sh"
 puma=config/robots/puma260.yaml
 
 # Zero pose worked out by hand from Table I: (8, -5.6, 23.2) inches, identity rotation.
@@ -59,6 +49,4 @@ has "ik config not applicable" "$err" "it uses modified DH"
 run "ik bad model" 2 ik --model tests/data/bad_models/07_mass_negative.yaml --pose 0 0 0 0 0 0
 has "ik bad model" "$err" "07_mass_negative.yaml:29:14: links[1].mass_kg"
 
-rm -f "$out" "$err"
-[[ $fail -eq 0 ]] || { echo "cli_kinematics_commands: FAILED"; exit 1; }
-echo "cli_kinematics_commands: all checks passed"
+finish cli_kinematics_commands
