@@ -1,0 +1,128 @@
+#pragma once
+// The virtual PIC-SERVO SC: one joint's trapezoidal profile generator and PID position filter,
+// stepped once per servo tick (0.512 ms), in the chip's own units, so that the controller and the
+// hardware emulator (issue 6) run the same code. Units (shared/reference/picservo.md section 3):
+//
+//   position      encoder counts, kept in 16.16 fixed point (int64: counts << 16)
+//   velocity      counts per tick << 16         (LOAD_TRAJ's 32-bit velocity word)
+//   acceleration  counts per tick^2 << 16       (LOAD_TRAJ's 32-bit acceleration word)
+//   output        PWM, -output_limit..+output_limit (at most 255)
+//
+// Conversions to the virtual arm's SI values live in control/servo_units.hpp and
+// docs/servo-units.md.
+//
+// The PID arithmetic follows the model recommended in the reference, with the two scale factors
+// the datasheet leaves open as named constants (kIntegralScale, kOutputShift):
+//   e[k]   = command[k] - actual[k]                                  (whole counts)
+//   I[k]   = clamp(I[k-1] + e[k], -IL * kIntegralScale, +IL * kIntegralScale)
+//   u[k]   = Kp * e[k] + Kd * (e[k] - e[k-1]) + Ki * I[k] / kIntegralScale
+//   pwm[k] = clamp(u[k] >> kOutputShift, -OL, +OL); nonzero pwm gets +DB in its own direction
+//   |e[k]| > EL: servo off, POS_ERROR latched until the next servo-on.
+
+#include <cstdint>
+
+namespace sirupp::control {
+
+// SET_GAIN values, chip units (servo_gains_t carries the same numbers).
+struct ServoGains {
+  int kp = 100;
+  int kd = 1000;
+  int ki = 0;
+  int integration_limit = 0;  // IL
+  int output_limit = 255;     // OL, 0..255
+  int error_limit = 4000;     // EL, counts
+  int deadband = 0;           // DB, PWM units added to a nonzero output
+};
+
+// Throws std::invalid_argument naming the field, the value and the allowed range.
+void CheckGains(const ServoGains& gains);
+
+inline constexpr int kIntegralScale = 256;  // [UNVERIFIED on the chip] 1 or 256
+inline constexpr int kOutputShift = 8;      // [UNVERIFIED on the chip] u / 256 = PWM
+
+// Status bits, as servo_setpoint_t::STATUS_*.
+enum ServoStatus : uint8_t {
+  kMoveDone = 1,
+  kServoOn = 2,
+  kPositionError = 4,
+  kAccelerating = 8,
+  kSlewing = 16,
+  kDecelerating = 32,
+  kSaturated = 64,
+};
+
+// The profile generator alone: where the command position goes, tick by tick.
+class TrapezoidalProfile {
+ public:
+  // Starts at rest at `position_fixed` (counts << 16).
+  explicit TrapezoidalProfile(int64_t position_fixed = 0);
+
+  // A new goal (counts << 16), top speed and acceleration (fixed point, > 0). Accepted mid-move:
+  // the profile continues from its present command position and velocity. Throws
+  // std::invalid_argument if velocity or acceleration is not positive.
+  void SetGoal(int64_t goal_fixed, int64_t velocity_fixed, int64_t acceleration_fixed);
+  // STOP_SMOOTH: decelerate at the loaded acceleration to rest, wherever that is.
+  void StopSmooth();
+  // Rest at `position_fixed` at once (STOP_ABRUPT, servo-on, reset).
+  void HoldAt(int64_t position_fixed);
+
+  // Advances one tick; returns the new command position.
+  int64_t Tick();
+
+  int64_t position() const { return position_; }
+  int64_t velocity() const { return velocity_; }
+  int64_t goal() const { return goal_; }
+  bool done() const { return done_; }
+  // kAccelerating, kSlewing or kDecelerating for the last tick (0 when done).
+  uint8_t phase() const { return phase_; }
+
+ private:
+  int64_t position_;
+  int64_t velocity_ = 0;
+  int64_t goal_;
+  int64_t max_velocity_ = 1;
+  int64_t acceleration_ = 1;
+  bool done_ = true;
+  bool stopping_ = false;
+  uint8_t phase_ = 0;
+};
+
+// One joint's servo: profile + PID + the chip's status, stepped each tick with the encoder reading.
+class PicServo {
+ public:
+  PicServo();
+
+  void SetGains(const ServoGains& gains);
+  const ServoGains& gains() const { return gains_; }
+
+  // Servo on at the present actual position (clears a latched position error).
+  void ServoOn(int64_t actual_counts);
+  // LOAD_TRAJ in position mode: goal in counts, velocity and acceleration in fixed point. Ignored
+  // (returns false) while the servo is off.
+  bool LoadTrajectory(int64_t goal_counts, int64_t velocity_fixed, int64_t acceleration_fixed);
+  void StopSmooth();
+  // Command position = actual position, at rest.
+  void StopAbrupt(int64_t actual_counts);
+  // Servo off: output 0 until the next ServoOn.
+  void MotorOff();
+
+  // One servo tick: advance the profile, run the PID against `actual_counts`; returns the PWM.
+  int Tick(int64_t actual_counts);
+
+  int output() const { return output_; }
+  uint8_t status() const { return status_; }
+  bool servo_on() const { return (status_ & kServoOn) != 0; }
+  int64_t position_error() const { return error_; }  // counts, last tick
+  const TrapezoidalProfile& profile() const { return profile_; }
+
+ private:
+  ServoGains gains_;
+  TrapezoidalProfile profile_;
+  int64_t error_ = 0;
+  int64_t previous_error_ = 0;
+  int64_t integral_ = 0;
+  int output_ = 0;
+  uint8_t status_ = kMoveDone;
+};
+
+}  // namespace sirupp::control
