@@ -1,0 +1,104 @@
+#include "control/servo_bank.hpp"
+
+#include <cmath>
+#include <stdexcept>
+#include <string>
+
+#include "core/errors.hpp"
+
+namespace sirupp::control {
+
+ServoGains GainsFromModel(const core::ServoParams& servo) {
+  ServoGains gains;
+  gains.kp = static_cast<int>(std::lround(servo.kp));
+  gains.kd = static_cast<int>(std::lround(servo.kd));
+  gains.ki = static_cast<int>(std::lround(servo.ki));
+  gains.integration_limit = static_cast<int>(std::lround(servo.integration_limit));
+  gains.output_limit = static_cast<int>(std::lround(servo.output_limit));
+  gains.error_limit = static_cast<int>(std::lround(servo.error_limit));
+  gains.deadband = static_cast<int>(std::lround(servo.deadband));
+  return gains;
+}
+
+ServoBank::ServoBank(const core::RobotModel& model) {
+  for (const core::Joint& joint : model.joints) {
+    drives_.emplace_back(joint, model.servo_tick_s);
+    servos_.emplace_back();
+    servos_.back().SetGains(GainsFromModel(joint.servo));
+  }
+  efforts_.assign(servos_.size(), 0.0);
+}
+
+void ServoBank::ServoOn(const std::vector<double>& positions) {
+  for (size_t j = 0; j < servos_.size(); ++j) servos_[j].ServoOn(drives_[j].ToCounts(positions[j]));
+}
+
+bool ServoBank::Load(const std::vector<JointMove>& moves) {
+  if (moves.size() != servos_.size()) {
+    throw std::invalid_argument("move has " + std::to_string(moves.size()) +
+                                " joints; the arm has " + std::to_string(servos_.size()));
+  }
+  for (size_t j = 0; j < moves.size(); ++j) {
+    const JointMove& move = moves[j];
+    if (!move.active) continue;
+    if (!std::isfinite(move.goal) || !(move.velocity > 0) || !(move.acceleration > 0) ||
+        !std::isfinite(move.velocity) || !std::isfinite(move.acceleration)) {
+      throw std::invalid_argument("joint " + std::to_string(j + 1) + ": goal " +
+                                  core::FormatNumber(move.goal) + ", velocity " +
+                                  core::FormatNumber(move.velocity) + ", acceleration " +
+                                  core::FormatNumber(move.acceleration) +
+                                  ": goal must be finite, velocity and acceleration > 0");
+    }
+  }
+  bool all_on = true;
+  for (size_t j = 0; j < moves.size(); ++j) {
+    const JointMove& move = moves[j];
+    if (!move.active) continue;
+    all_on = servos_[j].LoadTrajectory(drives_[j].ToCounts(move.goal),
+                                       drives_[j].VelocityWord(move.velocity),
+                                       drives_[j].AccelerationWord(move.acceleration)) &&
+             all_on;
+  }
+  return all_on;
+}
+
+void ServoBank::StopSmooth() {
+  for (PicServo& servo : servos_) servo.StopSmooth();
+}
+
+void ServoBank::MotorOff() {
+  for (PicServo& servo : servos_) servo.MotorOff();
+}
+
+void ServoBank::SetGains(int joint, const ServoGains& gains) {
+  servos_.at(static_cast<size_t>(joint)).SetGains(gains);
+}
+
+const std::vector<double>& ServoBank::Tick(const std::vector<double>& positions) {
+  for (size_t j = 0; j < servos_.size(); ++j) {
+    const int pwm = servos_[j].Tick(drives_[j].ToCounts(positions[j]));
+    efforts_[j] = drives_[j].EffortFromPwm(pwm);
+  }
+  return efforts_;
+}
+
+bool ServoBank::AllDone() const {
+  for (const PicServo& servo : servos_) {
+    if (!(servo.status() & kMoveDone)) return false;
+  }
+  return true;
+}
+
+double ServoBank::SetpointPosition(int joint) const {
+  const auto j = static_cast<size_t>(joint);
+  return static_cast<double>(servos_[j].profile().position()) / 65536.0 /
+         drives_[j].counts_per_unit();
+}
+
+double ServoBank::SetpointVelocity(int joint) const {
+  const auto j = static_cast<size_t>(joint);
+  return static_cast<double>(servos_[j].profile().velocity()) / 65536.0 /
+         drives_[j].counts_per_unit() / drives_[j].tick_s();
+}
+
+}  // namespace sirupp::control

@@ -1,0 +1,58 @@
+#pragma once
+// One virtual PIC-SERVO per joint of an arm, in SI at its edges: moves in (rad or m, per joint),
+// joint state in, joint efforts out, once per servo tick. What sirupp-control runs for the
+// simulated arm, and what the hardware emulator runs per module.
+
+#include <cstdint>
+#include <vector>
+
+#include "control/picservo.hpp"
+#include "control/servo_units.hpp"
+#include "core/arm_state.hpp"
+#include "core/robot_model.hpp"
+
+namespace sirupp::control {
+
+// One joint's part of a move (a LOAD_TRAJ): absolute goal, top speed and acceleration, SI.
+struct JointMove {
+  bool active = false;
+  double goal = 0;          // rad or m
+  double velocity = 0;      // rad/s or m/s, > 0
+  double acceleration = 0;  // rad/s^2 or m/s^2, > 0
+};
+
+class ServoBank {
+ public:
+  // Gains from each joint's servo parameters (chip units); servos off until ServoOn.
+  explicit ServoBank(const core::RobotModel& model);
+
+  int num_joints() const { return static_cast<int>(servos_.size()); }
+  // Every servo on at the arm's present positions.
+  void ServoOn(const std::vector<double>& positions);
+  // Loads the active joints' moves; throws std::invalid_argument naming the joint if a speed or
+  // acceleration is not positive or a goal is not finite. Returns false if a servo was off.
+  bool Load(const std::vector<JointMove>& moves);
+  void StopSmooth();
+  void MotorOff();
+  void SetGains(int joint, const ServoGains& gains);
+
+  // One servo tick against the measured positions; returns the joint efforts (N*m or N).
+  const std::vector<double>& Tick(const std::vector<double>& positions);
+
+  bool AllDone() const;
+  const PicServo& servo(int joint) const { return servos_[static_cast<size_t>(joint)]; }
+  const JointDrive& drive(int joint) const { return drives_[static_cast<size_t>(joint)]; }
+  // The profiled set-point of a joint, SI.
+  double SetpointPosition(int joint) const;
+  double SetpointVelocity(int joint) const;
+
+ private:
+  std::vector<JointDrive> drives_;
+  std::vector<PicServo> servos_;
+  std::vector<double> efforts_;
+};
+
+// ServoGains from a joint's servo parameters in the model (rounded to the chip's integers).
+ServoGains GainsFromModel(const core::ServoParams& servo);
+
+}  // namespace sirupp::control
