@@ -152,6 +152,9 @@ int Run(const std::vector<std::string>& argv) {
             << " commands accepted, " << c.commands_rejected << " rejected, " << c.commands_late
             << " late, " << c.lockstep_timeouts << " lockstep timeouts, " << c.watchdog_holds
             << " watchdog holds, " << c.resets << " resets\n";
+  std::cerr << "sirupp-sim: final joint positions (rad or m):";
+  for (double q : world.State().position) std::cerr << " " << sirupp::core::FormatApprox(q);
+  std::cerr << "\n";
   return 0;
 }
 

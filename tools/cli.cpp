@@ -42,7 +42,8 @@ const char* const kUsage =
     "a bad one\n"
     "  env show FILE              list an environment's objects: shape, size, pose, static or "
     "mass\n"
-    "  reset (--pose NAME | --position Q..)  teleport the simulated arm (see sirupp reset --help)\n"
+    "  reset (--pose NAME | --deg Q..)  teleport the simulated arm (see sirupp reset --help)\n"
+    "  move joints (--pose NAME | --deg Q..)  a joint target for sirupp-control\n"
     "  help                       this text\n"
     "\n"
     "Model files: config/robots/*.yaml, format in docs/model-format.md.\n"
@@ -156,6 +157,10 @@ int RunCli(const Args& args, std::ostream& out, std::ostream& err) {
     if (command == "ik") {
       if (wants_help) return out << kIkUsage, kExitOk;
       return RunIk(rest, out);
+    }
+    if (command == "move") {
+      if (wants_help) return out << kMoveUsage, kExitOk;
+      return RunMove(rest, out);
     }
     if (command == "reset") {
       if (wants_help) return out << kResetUsage, kExitOk;

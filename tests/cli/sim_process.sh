@@ -2,7 +2,8 @@
 # sirupp-sim as a real process over UDP multicast, in a network namespace made for this test (or,
 # where none is allowed, with ttl=0 on this host): lockstep runs with a participant process are
 # bit-identical, a silent participant is reported by name and the sim waits, teleports apply, bad
-# arguments exit 2 with one clear line. Needs SIRUPP_SIM, SIRUPP and SIM_PROBE (program paths).
+# arguments exit 2 with one clear line, sirupp-control closes the loop. Needs SIRUPP_SIM,
+# SIRUPP_CONTROL, SIRUPP and SIM_PROBE (program paths).
 set -u
 fail() { echo "FAIL: $*"; exit 1; }
 
@@ -72,6 +73,25 @@ grep -q "2 resets" "$work/reset.sim" || fail "reset count missing from the summa
 grep -q "joint 4 (wrist_roll)" "$work/out" || fail "$(cat "$work/out")"
 "$SIRUPP" reset --lcm-url "$URL" --pose nowhere >"$work/out" 2>&1; code=$?
 [ "$code" = 2 ] || fail "reset to an unknown pose exited $code"
+
+# The controller process closes the loop: a joint target from the command line moves the
+# simulated joint 1 to 90 degrees (within 1 degree: P control against static friction).
+"$SIRUPP_SIM" --lcm-url "$URL" --mode lockstep --duration 12 --lockstep-timeout 5 2>"$work/loop.sim" &
+sim=$!
+"$SIRUPP_CONTROL" --lcm-url "$URL" 2>"$work/loop.control" &
+control=$!
+sleep 0.5
+"$SIRUPP" move joints --lcm-url "$URL" --deg 90 0 0 0 0 0 >"$work/move.out" || fail "sirupp move failed"
+for _ in $(seq 1 300); do kill -0 "$sim" 2>/dev/null || break; sleep 0.1; done
+kill "$control" 2>/dev/null
+wait "$sim" "$control" 2>/dev/null
+cat "$work/move.out" "$work/loop.sim" "$work/loop.control"
+q1=$(sed -n 's/^sirupp-sim: final joint positions (rad or m): \([^ ]*\).*/\1/p' "$work/loop.sim")
+[ -n "$q1" ] || fail "the sim did not finish its 12 s"
+awk -v q="$q1" 'BEGIN { d = q - 1.5707963; exit !(d < 0.0175 && d > -0.0175) }' ||
+  fail "joint 1 ended at $q1 rad, not within 1 degree of 90"
+"$SIRUPP" move joints --lcm-url "$URL" --deg 0 0 0 400 0 0 >"$work/out" 2>&1; code=$?
+[ "$code" = 2 ] || fail "move beyond the limits exited $code"
 
 # Bad arguments: exit 2, one line naming the problem.
 "$SIRUPP_SIM" --mode warp >"$work/out" 2>&1; code=$?
