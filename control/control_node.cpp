@@ -48,6 +48,8 @@ void ControlNode::OnState(const sirupp::arm_state_t& message, const core::Receiv
   if (!servos_on_) {
     bank_.ServoOn(state.position);
     servos_on_ = true;
+    if (!pending_.empty()) bank_.Load(pending_);
+    pending_.clear();
   }
   core::ArmCommand command;
   command.utime = state.utime;
@@ -114,11 +116,11 @@ void ControlNode::OnTarget(const sirupp::joint_target_t& message, const core::Re
                   speed > 0 ? std::min(speed, joint.velocity_max) : joint.servo.default_velocity,
                   acceleration > 0 ? acceleration : joint.servo.default_acceleration};
     }
-    if (!servos_on_) {
-      throw core::MessageError(info.channel, "target",
-                               "no arm state received yet, so the servos are not on");
+    if (servos_on_) {
+      bank_.Load(moves);
+    } else {
+      pending_ = moves;  // loaded when the first arm state switches the servos on
     }
-    bank_.Load(moves);
   } catch (const core::MessageError& error) {
     last_error_ = error.what();
     PublishStatus(true);

@@ -7,7 +7,8 @@
 //
 // A target is refused whole, counted on ARM_TARGET and named in CONTROLLER_STATUS.last_error if it
 // has the wrong joint count, a non-finite value, a position outside a joint's limits, or a negative
-// speed or acceleration (0 = the joint's default from the model); nothing moves then.
+// speed or acceleration (0 = the joint's default from the model); nothing moves then. A target that
+// arrives before the first arm state is kept and loaded when the servos come on.
 
 #include <chrono>
 #include <cstdint>
@@ -54,6 +55,7 @@ class ControlNode {
   ServoBank bank_;
   core::Heartbeat heartbeat_;
   bool servos_on_ = false;
+  std::vector<JointMove> pending_;  // a target that arrived before the first arm state
   int64_t last_tick_ = -1;
   int64_t move_id_ = 0;
   int64_t states_answered_ = 0;

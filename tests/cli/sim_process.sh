@@ -76,18 +76,20 @@ grep -q "joint 4 (wrist_roll)" "$work/out" || fail "$(cat "$work/out")"
 
 # The controller process closes the loop: a joint target from the command line moves the
 # simulated joint 1 to 90 degrees (within 1 degree: P control against static friction).
-"$SIRUPP_SIM" --lcm-url "$URL" --mode lockstep --duration 12 --lockstep-timeout 5 2>"$work/loop.sim" &
-sim=$!
 "$SIRUPP_CONTROL" --lcm-url "$URL" 2>"$work/loop.control" &
 control=$!
 sleep 0.5
+# Sent before the sim starts: the controller keeps it and starts the move with the first state.
 "$SIRUPP" move joints --lcm-url "$URL" --deg 90 0 0 0 0 0 >"$work/move.out" || fail "sirupp move failed"
+sleep 0.2
+"$SIRUPP_SIM" --lcm-url "$URL" --mode lockstep --duration 5 --lockstep-timeout 5 2>"$work/loop.sim" &
+sim=$!
 for _ in $(seq 1 300); do kill -0 "$sim" 2>/dev/null || break; sleep 0.1; done
 kill "$control" 2>/dev/null
 wait "$sim" "$control" 2>/dev/null
 cat "$work/move.out" "$work/loop.sim" "$work/loop.control"
 q1=$(sed -n 's/^sirupp-sim: final joint positions (rad or m): \([^ ]*\).*/\1/p' "$work/loop.sim")
-[ -n "$q1" ] || fail "the sim did not finish its 12 s"
+[ -n "$q1" ] || fail "the sim did not finish its 5 s"
 awk -v q="$q1" 'BEGIN { d = q - 1.5707963; exit !(d < 0.0175 && d > -0.0175) }' ||
   fail "joint 1 ended at $q1 rad, not within 1 degree of 90"
 "$SIRUPP" move joints --lcm-url "$URL" --deg 0 0 0 400 0 0 >"$work/out" 2>&1; code=$?
