@@ -129,7 +129,7 @@ void PicServo::SetGains(const ServoGains& gains) {
 }
 
 void PicServo::ServoOn(int64_t actual_counts) {
-  profile_.HoldAt(actual_counts << 16);
+  profile_.HoldAt(ToFixed(actual_counts));
   error_ = 0;
   previous_error_ = 0;
   integral_ = 0;
@@ -140,7 +140,7 @@ void PicServo::ServoOn(int64_t actual_counts) {
 bool PicServo::LoadTrajectory(int64_t goal_counts, int64_t velocity_fixed,
                               int64_t acceleration_fixed) {
   if (!servo_on()) return false;
-  profile_.SetGoal(goal_counts << 16, velocity_fixed, acceleration_fixed);
+  profile_.SetGoal(ToFixed(goal_counts), velocity_fixed, acceleration_fixed);
   if (!profile_.done()) status_ = static_cast<uint8_t>(status_ & ~kMoveDone);  // MOVE_DONE drops
   return true;
 }
@@ -148,7 +148,7 @@ bool PicServo::LoadTrajectory(int64_t goal_counts, int64_t velocity_fixed,
 void PicServo::StopSmooth() { profile_.StopSmooth(); }
 
 void PicServo::StopAbrupt(int64_t actual_counts) {
-  profile_.HoldAt(actual_counts << 16);
+  profile_.HoldAt(ToFixed(actual_counts));
   previous_error_ = 0;
 }
 
@@ -159,12 +159,12 @@ void PicServo::MotorOff() {
 
 int PicServo::Tick(int64_t actual_counts) {
   if (!servo_on()) {
-    profile_.HoldAt(actual_counts << 16);  // the command follows the arm while the servo is off
+    profile_.HoldAt(ToFixed(actual_counts));  // the command follows the arm while the servo is off
     error_ = 0;
     output_ = 0;
     return 0;
   }
-  const int64_t command = profile_.Tick() >> 16;  // whole counts
+  const int64_t command = WholeCounts(profile_.Tick());
   error_ = command - actual_counts;
   if (Abs(error_) > gains_.error_limit) {
     status_ = kPositionError | kMoveDone;  // servo off, latched

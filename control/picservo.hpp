@@ -37,6 +37,14 @@ struct ServoGains {
 // Throws std::invalid_argument naming the field, the value and the allowed range.
 void CheckGains(const ServoGains& gains);
 
+inline constexpr int64_t kFixedOne = 65536;  // 1.0 in 16.16 fixed point
+
+// Whole counts to 16.16 fixed point, and back (rounding down, as the chip's integer part does).
+constexpr int64_t ToFixed(int64_t counts) { return counts * kFixedOne; }
+constexpr int64_t WholeCounts(int64_t fixed) {
+  return fixed >= 0 ? fixed / kFixedOne : -((-fixed + kFixedOne - 1) / kFixedOne);
+}
+
 inline constexpr int kIntegralScale = 256;  // [UNVERIFIED on the chip] 1 or 256
 inline constexpr int kOutputShift = 8;      // [UNVERIFIED on the chip] u / 256 = PWM
 

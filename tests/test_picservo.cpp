@@ -167,10 +167,10 @@ TEST(PicServo, FollowsItsProfileAndReportsMoveDone) {
   int ticks = 0;
   while (!(servo.status() & kMoveDone) && ticks < 10000) {
     // A perfect plant: the arm is where the command was.
-    servo.Tick(servo.profile().position() >> 16);
+    servo.Tick(WholeCounts(servo.profile().position()));
     ++ticks;
   }
-  EXPECT_EQ(servo.profile().position() >> 16, 1000);
+  EXPECT_EQ(WholeCounts(servo.profile().position()), 1000);
   EXPECT_NEAR(ticks, 1000 / 10 + 10, 2);
   servo.MotorOff();
   EXPECT_EQ(servo.Tick(0), 0);

@@ -85,7 +85,7 @@ sleep 0.2
 "$SIRUPP_SIM" --lcm-url "$URL" --mode lockstep --duration 5 --lockstep-timeout 5 2>"$work/loop.sim" &
 sim=$!
 for _ in $(seq 1 300); do kill -0 "$sim" 2>/dev/null || break; sleep 0.1; done
-kill "$control" 2>/dev/null
+kill "$sim" "$control" 2>/dev/null  # the sim has normally ended by itself; never wait forever
 wait "$sim" "$control" 2>/dev/null
 cat "$work/move.out" "$work/loop.sim" "$work/loop.control"
 q1=$(sed -n 's/^sirupp-sim: final joint positions (rad or m): \([^ ]*\).*/\1/p' "$work/loop.sim")
