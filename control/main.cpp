@@ -1,7 +1,5 @@
 // sirupp-control: the virtual PIC-SERVOs as an LCM process (first slice: joint targets). Thin main.
 
-#include <atomic>
-#include <csignal>
 #include <iostream>
 
 #include "control/control_node.hpp"
@@ -10,6 +8,7 @@
 #include "core/model_loader.hpp"
 #include "tools/args.hpp"
 #include "tools/cli.hpp"
+#include "tools/process_main.hpp"
 
 namespace {
 
@@ -19,9 +18,6 @@ constexpr const char* kUsage =
     "The virtual PIC-SERVOs: answers every SIM_ARM_STATE with joint efforts on SIM_ARM_COMMAND\n"
     "(as participant NAME, default sirupp-control), takes joint targets on ARM_TARGET (see\n"
     "`sirupp move`), publishes ARM_MOVE, ARM_SETPOINT, CONTROLLER_STATUS and HEARTBEAT.\n";
-
-std::atomic<bool> g_stop{false};
-extern "C" void OnSignal(int /*signal*/) { g_stop = true; }
 
 int Run(const std::vector<std::string>& argv) {
   const sirupp::tools::Args args(argv, "sirupp-control",
@@ -41,16 +37,10 @@ int Run(const std::vector<std::string>& argv) {
   sirupp::control::ControlNode node(bus, model, options);
   std::cerr << "sirupp-control: " << model.name << ", participant '" << options.name << "', on "
             << bus.url() << "\n";
-  std::signal(SIGINT, OnSignal);
-  std::signal(SIGTERM, OnSignal);
-  while (!g_stop) {
-    try {
-      node.Service(50);
-    } catch (const sirupp::core::BusError&) {
-      if (g_stop) break;
-      throw;
-    }
-  }
+  sirupp::tools::ServiceUntilSignal([&node] {
+    node.Service(50);
+    return true;
+  });
   std::cerr << "sirupp-control: stopped after answering " << node.states_answered() << " states, "
             << node.move_id() << " moves\n";
   return 0;
@@ -59,23 +49,5 @@ int Run(const std::vector<std::string>& argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const std::vector<std::string> args(argv + 1, argv + argc);
-  for (const std::string& arg : args) {
-    if (arg == "--help" || arg == "-h") {
-      std::cout << kUsage;
-      return 0;
-    }
-  }
-  try {
-    return Run(args);
-  } catch (const sirupp::core::UsageError& error) {
-    std::cerr << error.what() << "\n" << kUsage;
-    return 2;
-  } catch (const sirupp::core::ConfigError& error) {
-    std::cerr << "sirupp-control: " << error.what() << "\n";
-    return 2;
-  } catch (const std::exception& error) {
-    std::cerr << "sirupp-control: " << error.what() << "\n";
-    return 1;
-  }
+  return sirupp::tools::ProcessMain(argc, argv, "sirupp-control", kUsage, Run);
 }

@@ -1,8 +1,6 @@
 // sirupp-sim: the arm in ODE as an LCM process. Thin main: arguments in, SimNode loop, summary out.
 // Usage and options: sim/README.md, or `sirupp-sim --help`.
 
-#include <atomic>
-#include <csignal>
 #include <iostream>
 #include <sstream>
 
@@ -14,6 +12,7 @@
 #include "sim/sim_node.hpp"
 #include "tools/args.hpp"
 #include "tools/cli.hpp"
+#include "tools/process_main.hpp"
 
 namespace {
 
@@ -27,9 +26,6 @@ constexpr const char* kUsage =
     "ROBOT_MODEL and ENVIRONMENT at 1 Hz and HEARTBEAT. Positions for --position are in the model\n"
     "file's angle unit. Defaults: config/robots/puma260.yaml, lockstep with participant\n"
     "sirupp-control, the model's servo tick (0.512 ms for the PUMA 260). See sim/README.md.\n";
-
-std::atomic<bool> g_stop{false};
-extern "C" void OnSignal(int /*signal*/) { g_stop = true; }
 
 int Run(const std::vector<std::string>& argv) {
   using sirupp::tools::Args;
@@ -135,16 +131,7 @@ int Run(const std::vector<std::string>& argv) {
             << environment.objects.size() << " environment objects, "
             << sirupp::sim::TimingModeName(options.mode) << " mode, step "
             << sirupp::core::FormatNumber(world.step_s() * 1e3) << " ms, on " << bus.url() << "\n";
-  std::signal(SIGINT, OnSignal);
-  std::signal(SIGTERM, OnSignal);
-  while (!g_stop) {
-    try {
-      if (!node.Service(50)) break;
-    } catch (const sirupp::core::BusError&) {
-      if (g_stop) break;  // a signal interrupted LCM's wait: stop cleanly
-      throw;
-    }
-  }
+  sirupp::tools::ServiceUntilSignal([&node] { return node.Service(50); });
   const sirupp::sim::NodeCounters& c = node.counters();
   std::cerr << "sirupp-sim: stopped at tick " << world.tick()
             << " (t = " << sirupp::core::FormatApprox(world.time_s()) << " s): " << c.steps
@@ -161,23 +148,5 @@ int Run(const std::vector<std::string>& argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  const std::vector<std::string> args(argv + 1, argv + argc);
-  for (const std::string& arg : args) {
-    if (arg == "--help" || arg == "-h") {
-      std::cout << kUsage;
-      return 0;
-    }
-  }
-  try {
-    return Run(args);
-  } catch (const sirupp::core::UsageError& error) {
-    std::cerr << error.what() << "\n" << kUsage;
-    return 2;
-  } catch (const sirupp::core::ConfigError& error) {
-    std::cerr << "sirupp-sim: " << error.what() << "\n";  // bad model or environment file
-    return 2;
-  } catch (const std::exception& error) {
-    std::cerr << "sirupp-sim: " << error.what() << "\n";
-    return 1;
-  }
+  return sirupp::tools::ProcessMain(argc, argv, "sirupp-sim", kUsage, Run);
 }

@@ -13,35 +13,17 @@
 
 #include "core/environment.hpp"
 #include "core/errors.hpp"
-#include "tests/wire.hpp"
+#include "tests/helpers.hpp"
 
 namespace sirupp::core {
 namespace {
 
+using sirupp::testing::ErrorText;
+
 constexpr double kDeg = M_PI / 180.0;
 
-template <class Body>
-std::string ConfigErrorOf(Body body) {
-  try {
-    body();
-  } catch (const ConfigError& error) {
-    return error.what();
-  }
-  return "";
-}
-
-template <class Body>
-std::string MessageErrorOf(Body body) {
-  try {
-    body();
-  } catch (const MessageError& error) {
-    return error.what();
-  }
-  return "";
-}
-
 std::string ParseError(const std::string& xml) {
-  return ConfigErrorOf([&] { ParseEnvironment(xml, "test.xml"); });
+  return ErrorText<ConfigError>([&] { ParseEnvironment(xml, "test.xml"); });
 }
 
 // ---- parsing ----------------------------------------------------------------------------------
@@ -201,9 +183,9 @@ TEST(ParseEnvironment, ErrorsCarryPlaceAndKeyPath) {
 }
 
 TEST(LoadEnvironment, UnreadableFiles) {
-  EXPECT_EQ(ConfigErrorOf([] { LoadEnvironment("tests/data/no_such_environment.xml"); }),
+  EXPECT_EQ(ErrorText<ConfigError>([] { LoadEnvironment("tests/data/no_such_environment.xml"); }),
             "tests/data/no_such_environment.xml: cannot read the file: No such file or directory");
-  EXPECT_EQ(ConfigErrorOf([] { LoadEnvironment("tests/data"); }),
+  EXPECT_EQ(ErrorText<ConfigError>([] { LoadEnvironment("tests/data"); }),
             "tests/data: cannot read the file: it is a directory; expected an environment file");
 }
 
@@ -394,7 +376,7 @@ TEST(EnvironmentMessage, BadMessagesAreRefused) {
     SCOPED_TRACE(c.expected);
     sirupp::environment_t bad = good;
     c.spoil(bad);
-    EXPECT_EQ(MessageErrorOf([&] { EnvironmentFromMessage(bad, "ENVIRONMENT"); }),
+    EXPECT_EQ(ErrorText<MessageError>([&] { EnvironmentFromMessage(bad, "ENVIRONMENT"); }),
               "channel ENVIRONMENT: " + c.expected);
   }
 }

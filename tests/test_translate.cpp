@@ -6,22 +6,14 @@
 #include "core/errors.hpp"
 #include "core/model_loader.hpp"
 #include "core/translate.hpp"
-#include "tests/wire.hpp"
+#include "tests/helpers.hpp"
 
 namespace sirupp::core {
 namespace {
 
-using sirupp::testing::ThroughTheWire;
+using sirupp::testing::ErrorText;
 
-template <class Body>
-std::string MessageErrorOf(Body body) {
-  try {
-    body();
-  } catch (const MessageError& error) {
-    return error.what();
-  }
-  return "";
-}
+using sirupp::testing::ThroughTheWire;
 
 void ExpectSameModel(const RobotModel& a, const RobotModel& b) {
   EXPECT_EQ(a.name, b.name);
@@ -77,7 +69,7 @@ TEST(Translate, ModelMessageWithBadInertiaIsRefused) {
   message.links[3].inertia[2] = 0.0125;
   message.links[3].inertia[3] = message.links[3].inertia[4] = message.links[3].inertia[5] = 0;
   const std::string error =
-      MessageErrorOf([&] { RobotModelFromMessage(message, "RIG1_ROBOT_MODEL"); });
+      ErrorText<MessageError>([&] { RobotModelFromMessage(message, "RIG1_ROBOT_MODEL"); });
   EXPECT_EQ(
       error.rfind("channel RIG1_ROBOT_MODEL: links[3].shapes: give an inertia that breaks the "
                   "triangle inequality",
@@ -89,11 +81,11 @@ TEST(Translate, ModelMessageWithBadInertiaIsRefused) {
 TEST(Translate, ModelMessageWithWrongCountsIsRefused) {
   sirupp::robot_model_t message = ToMessage(LoadRobotModel("config/robots/planar3.yaml"), 0, 0);
   message.num_links = 2;
-  EXPECT_EQ(MessageErrorOf([&] { RobotModelFromMessage(message, "ROBOT_MODEL"); }),
+  EXPECT_EQ(ErrorText<MessageError>([&] { RobotModelFromMessage(message, "ROBOT_MODEL"); }),
             "channel ROBOT_MODEL: num_links: count 2 does not match the 4 entries sent");
   message = ToMessage(LoadRobotModel("config/robots/planar3.yaml"), 0, 0);
   message.joints[1].position_min = std::nan("");
-  EXPECT_EQ(MessageErrorOf([&] { RobotModelFromMessage(message, "ROBOT_MODEL"); }),
+  EXPECT_EQ(ErrorText<MessageError>([&] { RobotModelFromMessage(message, "ROBOT_MODEL"); }),
             "channel ROBOT_MODEL: joints[1].limits: are not finite; expected two finite numbers, "
             "min < max");
 }
@@ -130,10 +122,10 @@ TEST(Translate, BadArmStatesAreRefused) {
   ArmState state;
   state.position = {0, 0};
   sirupp::arm_state_t message = ToMessage(state, 0);
-  EXPECT_EQ(MessageErrorOf([&] { ArmStateFromMessage(message, "SIM_ARM_STATE", 6); }),
+  EXPECT_EQ(ErrorText<MessageError>([&] { ArmStateFromMessage(message, "SIM_ARM_STATE", 6); }),
             "channel SIM_ARM_STATE: num_joints: 2 is not allowed; expected 6 (the model's joints)");
   message.velocity[1] = std::nan("");
-  EXPECT_EQ(MessageErrorOf([&] { ArmStateFromMessage(message, "SIM_ARM_STATE", 2); }),
+  EXPECT_EQ(ErrorText<MessageError>([&] { ArmStateFromMessage(message, "SIM_ARM_STATE", 2); }),
             "channel SIM_ARM_STATE: velocity[1]: nan is not allowed; expected a finite number");
   EXPECT_NO_THROW(ArmStateFromMessage(ToMessage(state, 0), "SIM_ARM_STATE", -1));
 }
@@ -153,11 +145,11 @@ TEST(Translate, ArmCommandRoundTripAndChecks) {
 
   sirupp::arm_command_t message = ToMessage(command, 0);
   message.mode = 9;
-  EXPECT_EQ(MessageErrorOf([&] { ArmCommandFromMessage(message, "SIM_ARM_COMMAND", 2); }),
+  EXPECT_EQ(ErrorText<MessageError>([&] { ArmCommandFromMessage(message, "SIM_ARM_COMMAND", 2); }),
             "channel SIM_ARM_COMMAND: mode: 9 is not allowed; expected 0..2 (MODE_*)");
   message = ToMessage(command, 0);
   message.effort[0] = INFINITY;
-  EXPECT_EQ(MessageErrorOf([&] { ArmCommandFromMessage(message, "SIM_ARM_COMMAND", 2); }),
+  EXPECT_EQ(ErrorText<MessageError>([&] { ArmCommandFromMessage(message, "SIM_ARM_COMMAND", 2); }),
             "channel SIM_ARM_COMMAND: effort[0]: inf is not allowed; expected a finite number");
 }
 

@@ -1,26 +1,19 @@
 #include <gtest/gtest.h>
 
 #include "core/yaml_reader.hpp"
+#include "tests/helpers.hpp"
 
 namespace sirupp::core {
 namespace {
 
-// Runs `body` and returns the ConfigError text it throws ("" if none).
-template <class Body>
-std::string ErrorOf(Body body) {
-  try {
-    body();
-  } catch (const ConfigError& error) {
-    return error.what();
-  }
-  return "";
-}
+using sirupp::testing::ErrorText;
 
+// Runs `body` and returns the ConfigError text it throws ("" if none).
 TEST(YamlReader, ReadsNumbersWithRules) {
   const YamlDocument doc = YamlDocument::Parse("mass: 2.5\nspeed: -1\n", "t.yaml");
   const YamlMap map = doc.Root().Map({"mass", "speed"});
   EXPECT_DOUBLE_EQ(map.Number("mass", PositiveNumber("kg")), 2.5);
-  EXPECT_EQ(ErrorOf([&] { map.Number("speed", NonNegativeNumber("m/s")); }),
+  EXPECT_EQ(ErrorText<ConfigError>([&] { map.Number("speed", NonNegativeNumber("m/s")); }),
             "t.yaml:2:8: speed: -1 is not allowed; expected a finite number >= 0 (m/s)");
 }
 
@@ -33,44 +26,48 @@ TEST(YamlReader, DescribesRanges) {
 
 TEST(YamlReader, UnknownKeyNamesAllowedOnes) {
   const YamlDocument doc = YamlDocument::Parse("a: 1\nb: 2\n", "t.yaml");
-  EXPECT_EQ(ErrorOf([&] { doc.Root().Map({"a"}); }),
+  EXPECT_EQ(ErrorText<ConfigError>([&] { doc.Root().Map({"a"}); }),
             "t.yaml:2:1: b: unknown key 'b'; allowed keys: a");
 }
 
 TEST(YamlReader, DuplicateKeyIsAnError) {
   const YamlDocument doc = YamlDocument::Parse("a: 1\na: 2\n", "t.yaml");
-  EXPECT_EQ(ErrorOf([&] { doc.Root().Map({"a"}); }),
+  EXPECT_EQ(ErrorText<ConfigError>([&] { doc.Root().Map({"a"}); }),
             "t.yaml:2:1: a: duplicate key 'a'; each key may appear once");
 }
 
 TEST(YamlReader, MissingKeyPointsAtTheMapping) {
   const YamlDocument doc = YamlDocument::Parse("outer:\n  a: 1\n", "t.yaml");
   const YamlMap outer = doc.Root().Map({"outer"}).Get("outer", "a mapping").Map({"a", "b"});
-  EXPECT_EQ(ErrorOf([&] { outer.Number("b", AnyNumber("s")); }),
+  EXPECT_EQ(ErrorText<ConfigError>([&] { outer.Number("b", AnyNumber("s")); }),
             "t.yaml:2:3: outer: missing required key 'b' (a finite number (s))");
 }
 
 TEST(YamlReader, QuotedNumbersAreText) {
   const YamlDocument doc = YamlDocument::Parse("a: \"3\"\n", "t.yaml");
-  EXPECT_EQ(ErrorOf([&] { doc.Root().Map({"a"}).Number("a", AnyNumber()); }),
+  EXPECT_EQ(ErrorText<ConfigError>([&] { doc.Root().Map({"a"}).Number("a", AnyNumber()); }),
             "t.yaml:1:4: a: the text \"3\" is not a number; expected a finite number");
 }
 
 TEST(YamlReader, NonFiniteNumbersAreRefused) {
   const YamlDocument doc = YamlDocument::Parse("a: .nan\nb: -.inf\nc: 1e999\n", "t.yaml");
   const YamlMap map = doc.Root().Map({"a", "b", "c"});
-  EXPECT_NE(ErrorOf([&] { map.Number("a", AnyNumber()); }).find(".nan is not allowed"),
-            std::string::npos);
-  EXPECT_NE(ErrorOf([&] { map.Number("b", AnyNumber()); }).find("-.inf is not allowed"),
-            std::string::npos);
-  EXPECT_NE(ErrorOf([&] { map.Number("c", AnyNumber()); }).find("1e999 is not allowed"),
-            std::string::npos);
+  EXPECT_NE(
+      ErrorText<ConfigError>([&] { map.Number("a", AnyNumber()); }).find(".nan is not allowed"),
+      std::string::npos);
+  EXPECT_NE(
+      ErrorText<ConfigError>([&] { map.Number("b", AnyNumber()); }).find("-.inf is not allowed"),
+      std::string::npos);
+  EXPECT_NE(
+      ErrorText<ConfigError>([&] { map.Number("c", AnyNumber()); }).find("1e999 is not allowed"),
+      std::string::npos);
 }
 
 TEST(YamlReader, ListsHaveIndexedPaths) {
   const YamlDocument doc = YamlDocument::Parse("v: [1, 2, x]\n", "t.yaml");
-  EXPECT_EQ(ErrorOf([&] { doc.Root().Map({"v"}).Get("v", "").Numbers(3, AnyNumber()); }),
-            "t.yaml:1:11: v[2]: x is not a number; expected a finite number");
+  EXPECT_EQ(
+      ErrorText<ConfigError>([&] { doc.Root().Map({"v"}).Get("v", "").Numbers(3, AnyNumber()); }),
+      "t.yaml:1:11: v[2]: x is not a number; expected a finite number");
 }
 
 TEST(YamlReader, MergeKeysResolveWithOverrides) {
@@ -90,7 +87,7 @@ TEST(YamlReader, MergeKeysResolveWithOverrides) {
 TEST(YamlReader, MergedUnknownKeyPointsIntoTheAnchor) {
   const YamlDocument doc = YamlDocument::Parse("a: &x {kq: 1}\nb: {<<: *x}\n", "t.yaml");
   const YamlMap root = doc.Root().Map({"a", "b"});
-  EXPECT_EQ(ErrorOf([&] { root.Get("b", "").Map({"kp"}); }),
+  EXPECT_EQ(ErrorText<ConfigError>([&] { root.Get("b", "").Map({"kp"}); }),
             "t.yaml:1:8: b.kq: unknown key 'kq'; allowed keys: kp");
 }
 
@@ -103,7 +100,9 @@ TEST(YamlReader, EntriesKeepFileOrder) {
 }
 
 TEST(YamlReader, SyntaxErrorsHaveALine) {
-  EXPECT_EQ(ErrorOf([] { YamlDocument::Parse("a: [1, 2\nb: 3\n", "t.yaml"); }).substr(0, 9),
+  EXPECT_EQ(ErrorText<ConfigError>([] {
+              YamlDocument::Parse("a: [1, 2\nb: 3\n", "t.yaml");
+            }).substr(0, 9),
             "t.yaml:2:");
 }
 

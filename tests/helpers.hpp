@@ -1,12 +1,15 @@
 #pragma once
-// Test helper: a message through the LCM wire format and back, as if it had crossed the network.
+// Helpers shared by the unit tests.
 
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <string>
 #include <vector>
 
 namespace sirupp::testing {
+
+// A message through the LCM wire format and back, as if it had crossed the network.
 
 template <class Msg>
 Msg ThroughTheWire(const Msg& message) {
@@ -17,6 +20,17 @@ Msg ThroughTheWire(const Msg& message) {
   EXPECT_EQ(decoded.decode(buffer.data(), 0, static_cast<int>(buffer.size())),
             static_cast<int>(buffer.size()));
   return decoded;
+}
+
+// The what() of the Error that body() throws, or "" if it throws none.
+template <class Error, class Body>
+std::string ErrorText(Body body) {
+  try {
+    body();
+  } catch (const Error& error) {
+    return error.what();
+  }
+  return "";
 }
 
 }  // namespace sirupp::testing
