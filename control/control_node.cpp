@@ -1,10 +1,13 @@
 #include "control/control_node.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <iostream>
 #include <sirupp/arm_command_t.hpp>
 #include <sirupp/controller_status_t.hpp>
 #include <sirupp/servo_move_t.hpp>
 #include <sirupp/servo_setpoint_t.hpp>
+#include <stdexcept>
 #include <utility>
 
 #include "core/errors.hpp"
@@ -57,6 +60,10 @@ void ControlNode::OnState(const sirupp::arm_state_t& message, const core::Receiv
   command.sender = options_.name;
   command.mode = core::CommandMode::kEffort;
   command.effort = bank_.Tick(state.position);
+  if (options_.effort_law && !StudentEfforts(state, command.effort)) {
+    command.mode = core::CommandMode::kHold;
+    command.effort.assign(command.effort.size(), 0.0);
+  }
   bus_.Publish(options_.channels.sim_arm_command, core::ToMessage(command, command_seq_++));
   ++states_answered_;
   if (options_.publish_setpoints) {
@@ -143,8 +150,59 @@ void ControlNode::OnTarget(const sirupp::joint_target_t& message, const core::Re
   PublishStatus(true);
 }
 
+bool ControlNode::StudentEfforts(const core::ArmState& state, std::vector<double>& effort) {
+  if (law_failed_) return false;
+  const int n = model_.num_joints();
+  ControlInput& input = law_input_;
+  input.time_s = static_cast<double>(state.utime) * 1e-6;
+  input.tick = state.tick;
+  input.state = &state;
+  input.setpoint_position.resize(static_cast<size_t>(n));
+  input.setpoint_velocity.resize(static_cast<size_t>(n));
+  input.setpoint_acceleration.resize(static_cast<size_t>(n));
+  input.goal.resize(static_cast<size_t>(n));
+  for (int j = 0; j < n; ++j) {
+    const auto i = static_cast<size_t>(j);
+    input.setpoint_position[i] = bank_.SetpointPosition(j);
+    input.setpoint_velocity[i] = bank_.SetpointVelocity(j);
+    input.setpoint_acceleration[i] = bank_.SetpointAcceleration(j);
+    input.goal[i] = bank_.Goal(j);
+  }
+  const std::string& name = options_.effort_law->name();
+  try {
+    if (!law_reset_) {
+      options_.effort_law->Reset(input);
+      law_reset_ = true;
+    }
+    effort.assign(static_cast<size_t>(n), 0.0);
+    options_.effort_law->Update(input, effort);
+    if (effort.size() != static_cast<size_t>(n)) {
+      throw std::runtime_error("returned " + std::to_string(effort.size()) + " efforts for " +
+                               std::to_string(n) + " joints");
+    }
+    for (int j = 0; j < n; ++j) {
+      const double value = effort[static_cast<size_t>(j)];
+      if (!std::isfinite(value)) {
+        throw std::runtime_error("returned effort " + core::FormatNumber(value) + " for joint " +
+                                 std::to_string(j + 1) + " (allowed: finite values)");
+      }
+      const double limit = model_.joints[static_cast<size_t>(j)].effort_max;
+      effort[static_cast<size_t>(j)] = std::clamp(value, -limit, limit);
+    }
+  } catch (const std::exception& error) {
+    law_failed_ = true;
+    last_error_ = "controller '" + name + "' at tick " + std::to_string(state.tick) + ": " +
+                  error.what() + "; the arm is held";
+    std::cerr << "sirupp-control: " << last_error_ << "\n";
+    PublishStatus(true);
+    return false;
+  }
+  return true;
+}
+
 int8_t ControlNode::State() const {
   if (!servos_on_) return sirupp::controller_status_t::STATE_OFF;
+  if (law_failed_) return sirupp::controller_status_t::STATE_FAULT;
   for (int j = 0; j < bank_.num_joints(); ++j) {
     if (bank_.servo(j).status() & kPositionError) return sirupp::controller_status_t::STATE_FAULT;
   }

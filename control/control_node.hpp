@@ -12,11 +12,13 @@
 
 #include <chrono>
 #include <cstdint>
+#include <memory>
 #include <sirupp/arm_state_t.hpp>
 #include <sirupp/joint_target_t.hpp>
 #include <string>
 #include <vector>
 
+#include "control/effort_law.hpp"
 #include "control/servo_bank.hpp"
 #include "core/bus.hpp"
 #include "core/channels.hpp"
@@ -29,6 +31,8 @@ struct ControlOptions {
   std::string name = "sirupp-control";  // arm_command_t.sender: the sim's participant name
   core::Channels channels;
   bool publish_setpoints = true;  // ARM_SETPOINT every tick
+  // A student's controller in place of the PID filter; null = the PIC-SERVO PID (effort_law.hpp).
+  std::shared_ptr<EffortLaw> effort_law;
 };
 
 class ControlNode {
@@ -47,6 +51,8 @@ class ControlNode {
   void OnState(const sirupp::arm_state_t& message, const core::ReceiveInfo& info);
   void OnTarget(const sirupp::joint_target_t& message, const core::ReceiveInfo& info);
   void PublishStatus(bool force);
+  // Efforts from the student's law for this tick; false (and last_error_ set) if it failed.
+  bool StudentEfforts(const core::ArmState& state, std::vector<double>& effort);
   int8_t State() const;
 
   core::Bus& bus_;
@@ -65,6 +71,9 @@ class ControlNode {
   int64_t status_seq_ = 0;
   int64_t last_state_utime_ = 0;
   std::string last_error_;
+  bool law_reset_ = false;
+  bool law_failed_ = false;  // the student's law threw or returned a non-finite effort: arm held
+  ControlInput law_input_;
   int8_t last_reported_state_ = -1;
   std::chrono::steady_clock::time_point last_status_;
 };

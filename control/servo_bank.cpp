@@ -27,6 +27,7 @@ ServoBank::ServoBank(const core::RobotModel& model) {
     servos_.back().SetGains(GainsFromModel(joint.servo));
   }
   efforts_.assign(servos_.size(), 0.0);
+  previous_velocity_.assign(servos_.size(), 0);
 }
 
 void ServoBank::ServoOn(const std::vector<double>& positions) {
@@ -76,6 +77,7 @@ void ServoBank::SetGains(int joint, const ServoGains& gains) {
 
 const std::vector<double>& ServoBank::Tick(const std::vector<double>& positions) {
   for (size_t j = 0; j < servos_.size(); ++j) {
+    previous_velocity_[j] = servos_[j].profile().velocity();
     const int pwm = servos_[j].Tick(drives_[j].ToCounts(positions[j]));
     efforts_[j] = drives_[j].EffortFromPwm(pwm);
   }
@@ -99,6 +101,18 @@ double ServoBank::SetpointVelocity(int joint) const {
   const auto j = static_cast<size_t>(joint);
   return static_cast<double>(servos_[j].profile().velocity()) / 65536.0 /
          drives_[j].counts_per_unit() / drives_[j].tick_s();
+}
+
+double ServoBank::SetpointAcceleration(int joint) const {
+  const auto j = static_cast<size_t>(joint);
+  const double tick_s = drives_[j].tick_s();
+  return static_cast<double>(servos_[j].profile().velocity() - previous_velocity_[j]) / 65536.0 /
+         drives_[j].counts_per_unit() / (tick_s * tick_s);
+}
+
+double ServoBank::Goal(int joint) const {
+  const auto j = static_cast<size_t>(joint);
+  return static_cast<double>(servos_[j].profile().goal()) / 65536.0 / drives_[j].counts_per_unit();
 }
 
 }  // namespace sirupp::control

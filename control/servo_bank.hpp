@@ -45,11 +45,16 @@ class ServoBank {
   // The profiled set-point of a joint, SI.
   double SetpointPosition(int joint) const;
   double SetpointVelocity(int joint) const;
+  // The set-point's change of velocity over the last tick, per second (rad/s^2 or m/s^2).
+  double SetpointAcceleration(int joint) const;
+  // Where the joint's present move ends, SI.
+  double Goal(int joint) const;
 
  private:
   std::vector<JointDrive> drives_;
   std::vector<PicServo> servos_;
   std::vector<double> efforts_;
+  std::vector<int64_t> previous_velocity_;  // profile velocity before the last tick, fixed point
 };
 
 // ServoGains from a joint's servo parameters in the model (rounded to the chip's integers).
