@@ -1,27 +1,37 @@
 #pragma once
-// The sirupp-control process logic over a core::Bus (first slice of issue 5): the virtual
-// PIC-SERVOs answer every SIM_ARM_STATE with joint efforts on SIM_ARM_COMMAND (same tick, so
-// sirupp-sim can run in lockstep), joint targets arrive on ARM_TARGET and go out as moves on
-// ARM_MOVE, the servos' set-points on ARM_SETPOINT every tick, and CONTROLLER_STATUS at 10 Hz and
-// on change.
+// The sirupp-control process logic over a core::Bus: the sequencer and the virtual PIC-SERVOs.
 //
-// A target is refused whole, counted on ARM_TARGET and named in CONTROLLER_STATUS.last_error if it
-// has the wrong joint count, a non-finite value, a position outside a joint's limits, or a negative
-// speed or acceleration (0 = the joint's default from the model); nothing moves then. A target that
-// arrives before the first arm state is kept and loaded when the servos come on.
+// In:  SIM_ARM_STATE (answered on SIM_ARM_COMMAND with the same tick, so sirupp-sim can run in
+//      lockstep), ARM_TARGET (joint targets), ARM_POSE_TARGET (tool targets through IK), ARM_PLAN
+//      (movement plans: run, pause, resume, abort; manual/automatic mode), ARM_GAINS (live gains).
+// Out: ARM_MOVE (every move and stop, as LOAD_TRAJ), ARM_SETPOINT (every tick), CONTROLLER_STATUS
+//      (10 Hz and on every change), HEARTBEAT.
+//
+// Modes: MANUAL takes targets; a plan run switches to AUTOMATIC until the plan ends or is aborted.
+// COMMAND_AUTOMATIC also locks out targets with no plan running (until COMMAND_MANUAL), so a
+// class's plan cannot be disturbed. Anything refused (bad values, unreachable pose, bad plan, a
+// target in automatic mode) is counted as rejected on its channel and named in last_error; nothing
+// moves then. A servo that trips its position-error limit aborts the plan; the next accepted
+// target or plan switches the servos on again where the arm is.
 
 #include <chrono>
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <sirupp/arm_state_t.hpp>
 #include <sirupp/joint_target_t.hpp>
+#include <sirupp/plan_command_t.hpp>
+#include <sirupp/pose_target_t.hpp>
+#include <sirupp/servo_gains_t.hpp>
 #include <string>
 #include <vector>
 
 #include "control/effort_law.hpp"
+#include "control/plan.hpp"
 #include "control/servo_bank.hpp"
 #include "core/bus.hpp"
 #include "core/channels.hpp"
+#include "core/errors.hpp"
 #include "core/heartbeat.hpp"
 #include "core/robot_model.hpp"
 
@@ -46,14 +56,36 @@ class ControlNode {
   int64_t move_id() const { return move_id_; }
   int64_t states_answered() const { return states_answered_; }
   const std::string& last_error() const { return last_error_; }
+  int8_t mode() const;   // controller_status_t::MODE_*
+  int8_t state() const;  // controller_status_t::STATE_*
+  // The plan loaded (running, paused or ended), or null.
+  const Plan* plan() const { return plan_ ? &*plan_ : nullptr; }
+  int plan_step() const { return plan_step_; }
+  bool plan_running() const { return plan_running_; }
 
  private:
   void OnState(const sirupp::arm_state_t& message, const core::ReceiveInfo& info);
   void OnTarget(const sirupp::joint_target_t& message, const core::ReceiveInfo& info);
+  void OnPoseTarget(const sirupp::pose_target_t& message, const core::ReceiveInfo& info);
+  void OnPlan(const sirupp::plan_command_t& message, const core::ReceiveInfo& info);
+  void OnGains(const sirupp::servo_gains_t& message, const core::ReceiveInfo& info);
+
+  // Throws MessageError on `channel` if targets are not taken now (automatic mode, no arm yet).
+  void RequireManual(const std::string& channel) const;
+  // Loads the moves into the servos (switching them on again after a fault) and publishes them.
+  void StartMove(const std::vector<JointMove>& moves);
+  void PublishStop(int8_t command);
+  // Runs plan steps due at sim time `utime` (called once per tick before the servos tick).
+  void AdvancePlan(int64_t utime);
+  void EndPlan(const std::string& error);
+  // Records a refusal: last_error, a status at once; the caller throws to count it.
+  void Refuse(const core::MessageError& error);
+  void PublishSetpoint(const core::ArmState& state, const std::vector<double>& effort);
   void PublishStatus(bool force);
   // Efforts from the student's law for this tick; false (and last_error_ set) if it failed.
   bool StudentEfforts(const core::ArmState& state, std::vector<double>& effort);
-  int8_t State() const;
+  // The servo that tripped its position-error limit (0-based), or -1.
+  int TrippedJoint() const;
 
   core::Bus& bus_;
   core::RobotModel model_;
@@ -62,14 +94,26 @@ class ControlNode {
   core::Heartbeat heartbeat_;
   bool servos_on_ = false;
   std::vector<JointMove> pending_;  // a target that arrived before the first arm state
+  std::vector<double> positions_;   // the last measured joint positions
   int64_t last_tick_ = -1;
+  int64_t last_state_utime_ = 0;
+
+  // Sequencer.
+  bool locked_automatic_ = false;  // COMMAND_AUTOMATIC given (until COMMAND_MANUAL)
+  std::optional<Plan> plan_;
+  bool plan_running_ = false;  // from RUN until its last move is done, an abort or a fault
+  int plan_step_ = 0;          // next step to run; == steps.size() when the plan has ended
+  bool plan_paused_ = false;
+  int64_t wait_until_utime_ = -1;  // end of the present `wait SECONDS`, -1 when none
+  int64_t paused_at_utime_ = 0;
+  bool trip_reported_ = false;
+
   int64_t move_id_ = 0;
   int64_t states_answered_ = 0;
   int64_t command_seq_ = 0;
   int64_t setpoint_seq_ = 0;
   int64_t move_seq_ = 0;
   int64_t status_seq_ = 0;
-  int64_t last_state_utime_ = 0;
   std::string last_error_;
   bool law_reset_ = false;
   bool law_failed_ = false;  // the student's law threw or returned a non-finite effort: arm held

@@ -1,0 +1,409 @@
+#include "control/plan.hpp"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <optional>
+#include <sstream>
+
+#include "control/pose_goal.hpp"
+#include "core/errors.hpp"
+#include "core/geometry.hpp"
+
+namespace sirupp::control {
+namespace {
+
+constexpr double kDegree = M_PI / 180.0;
+
+struct Token {
+  std::string text;
+  int column = 0;  // 1-based
+};
+
+// Splits a line (comment already removed) at spaces and tabs, keeping each token's column.
+std::vector<Token> Tokenize(const std::string& line) {
+  std::vector<Token> tokens;
+  size_t i = 0;
+  while (i < line.size()) {
+    while (i < line.size() && (line[i] == ' ' || line[i] == '\t' || line[i] == '\r')) ++i;
+    if (i >= line.size()) break;
+    const size_t begin = i;
+    while (i < line.size() && line[i] != ' ' && line[i] != '\t' && line[i] != '\r') ++i;
+    tokens.push_back({line.substr(begin, i - begin), static_cast<int>(begin) + 1});
+  }
+  return tokens;
+}
+
+// A speed or acceleration as written: a fraction of each joint's default, or a value in the
+// plan's units per second (or per second squared).
+struct Rate {
+  bool percent = true;
+  double value = 100;
+  int column = 0;  // where it was written on a move line; 0 for the plan-wide setting
+};
+
+struct Units {
+  std::string angle = "deg";
+  double angle_si = kDegree;
+  std::string length = "m";
+  double length_si = 1;
+};
+
+class Parser {
+ public:
+  Parser(const std::string& name, const core::RobotModel& model, const std::vector<double>& start)
+      : name_(name), model_(model), reached_(start) {
+    if (static_cast<int>(start.size()) != model.num_joints()) {
+      throw std::invalid_argument("plan start has " + std::to_string(start.size()) +
+                                  " joints; the model has " + std::to_string(model.num_joints()));
+    }
+  }
+
+  Plan Parse(const std::string& text) {
+    Plan plan;
+    plan.name = name_;
+    std::istringstream lines(text);
+    std::string raw;
+    while (std::getline(lines, raw)) {
+      ++line_;
+      const std::string content = raw.substr(0, raw.find('#'));
+      tokens_ = Tokenize(content);
+      if (tokens_.empty()) continue;
+      text_ = content.substr(static_cast<size_t>(tokens_.front().column - 1));
+      while (!text_.empty() && (text_.back() == ' ' || text_.back() == '\t' ||
+                                text_.back() == '\r')) {
+        text_.pop_back();
+      }
+      Statement(plan);
+    }
+    if (plan.moves() == 0) {
+      throw core::ConfigError({name_, line_ > 0 ? line_ : 1, 0}, "",
+                              "the plan has no move; write at least one `move` line "
+                              "(docs/plan-format.md)");
+    }
+    plan.final_goal = reached_;
+    return plan;
+  }
+
+ private:
+  [[noreturn]] void Fail(const Token& at, const std::string& problem) const {
+    throw core::ConfigError({name_, line_, at.column}, tokens_.front().text, problem);
+  }
+
+  double Number(const Token& token, const std::string& what) const {
+    const char* begin = token.text.c_str();
+    char* end = nullptr;
+    errno = 0;
+    const double value = std::strtod(begin, &end);
+    if (end == begin || *end != '\0' || errno == ERANGE || !std::isfinite(value)) {
+      Fail(token, what + " '" + token.text + "' is not a finite number");
+    }
+    return value;
+  }
+
+  void Statement(Plan& plan) {
+    const std::string& word = tokens_.front().text;
+    if (word == "units") return UnitsLine();
+    if (word == "speed" || word == "accel") {
+      if (tokens_.size() != 2) {
+        Fail(tokens_.front(), "expected one value, e.g. `" + word + " 50%` or `" + word + " " +
+                                  (word == "speed" ? "30` (deg/s)" : "60` (deg/s^2)"));
+      }
+      (word == "speed" ? speed_ : accel_) = ParseRate(tokens_[1], word);
+      (word == "speed" ? speed_ : accel_).column = 0;
+      return;
+    }
+    if (word == "wait") return WaitLine(plan);
+    if (word == "move") return MoveLine(plan);
+    Fail(tokens_.front(), "unknown statement '" + word +
+                              "'; allowed: move, wait, speed, accel, units (lines starting with # "
+                              "are comments)");
+  }
+
+  void UnitsLine() {
+    if (tokens_.size() < 2) Fail(tokens_.front(), "expected deg|rad and/or m|mm|cm|inch");
+    for (size_t i = 1; i < tokens_.size(); ++i) {
+      const std::string& unit = tokens_[i].text;
+      if (unit == "deg" || unit == "rad") {
+        units_.angle = unit;
+        units_.angle_si = unit == "deg" ? kDegree : 1.0;
+      } else if (unit == "m" || unit == "mm" || unit == "cm" || unit == "inch") {
+        units_.length = unit;
+        units_.length_si = unit == "m" ? 1.0 : unit == "mm" ? 1e-3 : unit == "cm" ? 1e-2 : 0.0254;
+      } else {
+        Fail(tokens_[i], "unknown unit '" + unit + "'; allowed: deg, rad, m, mm, cm, inch");
+      }
+    }
+  }
+
+  Rate ParseRate(const Token& token, const std::string& what) const {
+    Rate rate;
+    Token number = token;
+    rate.percent = !token.text.empty() && token.text.back() == '%';
+    if (rate.percent) number.text.pop_back();
+    rate.value = Number(number, what);
+    rate.column = token.column;
+    if (!(rate.value > 0)) {
+      Fail(token, what + " " + token.text + " must be greater than 0");
+    }
+    return rate;
+  }
+
+  void WaitLine(Plan& plan) {
+    PlanStep step;
+    step.line = line_;
+    step.text = text_;
+    if (tokens_.size() != 2) {
+      Fail(tokens_.front(), "expected `wait done` or `wait SECONDS` (e.g. `wait 0.5`)");
+    }
+    if (tokens_[1].text == "done") {
+      step.kind = PlanStep::Kind::kWaitDone;
+    } else {
+      Token seconds = tokens_[1];
+      if (!seconds.text.empty() && seconds.text.back() == 's') seconds.text.pop_back();
+      step.kind = PlanStep::Kind::kWaitTime;
+      step.wait_s = Number(seconds, "wait time");
+      if (step.wait_s < 0 || step.wait_s > 3600) {
+        Fail(tokens_[1], "wait time " + tokens_[1].text + " is outside 0..3600 s");
+      }
+    }
+    plan.steps.push_back(step);
+  }
+
+  // The unit a joint's values are written in, and the factor to SI.
+  double JointUnit(const core::Joint& joint) const {
+    return joint.type == core::JointType::kRevolute ? units_.angle_si : units_.length_si;
+  }
+  std::string JointUnitName(const core::Joint& joint) const {
+    return joint.type == core::JointType::kRevolute ? units_.angle : units_.length;
+  }
+
+  // The joint named by `j3` (1-based) or by its name in the model; -1 if none.
+  int FindJoint(const std::string& key) const {
+    for (int j = 0; j < model_.num_joints(); ++j) {
+      if (model_.joints[static_cast<size_t>(j)].name == key) return j;
+    }
+    if (key.size() >= 2 && key[0] == 'j') {
+      const std::string digits = key.substr(1);
+      if (digits.find_first_not_of("0123456789") == std::string::npos && digits.size() <= 3) {
+        const int number = std::stoi(digits);
+        if (number >= 1 && number <= model_.num_joints()) return number - 1;
+      }
+    }
+    return -1;
+  }
+
+  std::string JointNames() const {
+    std::string names = "j1..j" + std::to_string(model_.num_joints());
+    std::string list;
+    for (const core::Joint& joint : model_.joints) {
+      if (joint.name.empty()) continue;
+      list += (list.empty() ? "" : ", ") + joint.name;
+    }
+    return list.empty() ? names : names + " or " + list;
+  }
+
+  void MoveLine(Plan& plan) {
+    if (tokens_.size() < 2) {
+      Fail(tokens_.front(), "expected what to move: `move J=VALUE ...`, `move joints V1 .. VN`, "
+                            "`move pose NAME` or `move tool X Y Z [ROLL PITCH YAW]`");
+    }
+    const size_t n = static_cast<size_t>(model_.num_joints());
+    std::vector<std::optional<double>> goal(n);      // SI, for the joints that move
+    std::vector<int> goal_column(n, 0);
+    Rate speed = speed_;
+    Rate accel = accel_;
+    std::optional<core::IkConfiguration> config;
+    bool config_given = false;
+    // Options (KEY=VALUE with KEY speed, accel, config) may follow any form.
+    std::vector<Token> words;
+    for (size_t i = 1; i < tokens_.size(); ++i) {
+      const Token& token = tokens_[i];
+      const size_t equals = token.text.find('=');
+      if (equals == std::string::npos) {
+        words.push_back(token);
+        continue;
+      }
+      const std::string key = token.text.substr(0, equals);
+      Token value{token.text.substr(equals + 1), token.column + static_cast<int>(equals) + 1};
+      if (value.text.empty()) Fail(token, "'" + key + "=' has no value");
+      if (key == "speed") {
+        speed = ParseRate(value, "speed");
+      } else if (key == "accel") {
+        accel = ParseRate(value, "accel");
+      } else if (key == "config") {
+        config_given = true;
+        if (value.text != "nearest") {
+          config = core::IkConfiguration::Parse(value.text);
+          if (!config) {
+            Fail(value, "configuration '" + value.text +
+                            "' is not allowed; expected nearest or SHOULDER-ELBOW-WRIST with "
+                            "left|right, up|down, noflip|flip (e.g. right-up-noflip)");
+          }
+        }
+      } else {
+        const int joint = FindJoint(key);
+        if (joint < 0) {
+          Fail(token, "'" + key + "' is neither a joint (" + JointNames() +
+                          ") nor an option (speed, accel, config)");
+        }
+        const auto j = static_cast<size_t>(joint);
+        if (goal[j]) Fail(token, "joint " + key + " is given twice on this line");
+        goal[j] = Number(value, "joint " + key + " value") * JointUnit(model_.joints[j]);
+        goal_column[j] = value.column;
+      }
+    }
+
+    const bool by_joint = words.empty();
+    if (by_joint) {
+      bool any = false;
+      for (const auto& g : goal) any = any || g.has_value();
+      if (!any) Fail(tokens_.front(), "no joint to move; e.g. `move j1=90`");
+    } else {
+      for (const auto& g : goal) {
+        if (g) Fail(words.front(), "mixes J=VALUE with `" + words.front().text + " ...`");
+      }
+      const std::string& form = words.front().text;
+      if (form == "joints") {
+        if (words.size() != n + 1) {
+          Fail(words.front(), "expected " + std::to_string(n) + " values (one per joint), got " +
+                                  std::to_string(words.size() - 1));
+        }
+        for (size_t j = 0; j < n; ++j) {
+          goal[j] = Number(words[j + 1], "joint j" + std::to_string(j + 1) + " value") *
+                    JointUnit(model_.joints[j]);
+          goal_column[j] = words[j + 1].column;
+        }
+      } else if (form == "pose") {
+        if (words.size() != 2) Fail(words.front(), "expected one pose name, e.g. `move pose ready`");
+        const core::NamedPose* pose = model_.FindNamedPose(words[1].text);
+        if (pose == nullptr && words[1].text != "home") {
+          std::string names = "home";
+          for (const core::NamedPose& p : model_.named_poses) names += ", " + p.name;
+          Fail(words[1], "no pose named '" + words[1].text + "' in model " + model_.name +
+                             "; allowed: " + names);
+        }
+        for (size_t j = 0; j < n; ++j) {
+          goal[j] = pose != nullptr ? pose->position[j] : model_.joints[j].home;
+          goal_column[j] = words[1].column;
+        }
+      } else if (form == "tool") {
+        ToolGoal(words, config, goal, goal_column);
+      } else {
+        Fail(words.front(), "unknown move form '" + form +
+                                "'; allowed: J=VALUE ..., joints, pose, tool");
+      }
+    }
+    if (config_given && (words.empty() || words.front().text != "tool")) {
+      Fail(tokens_.front(), "config= applies only to `move tool`");
+    }
+
+    PlanStep step;
+    step.kind = PlanStep::Kind::kMove;
+    step.line = line_;
+    step.text = text_;
+    step.moves.resize(n);
+    for (size_t j = 0; j < n; ++j) {
+      if (!goal[j]) continue;
+      const core::Joint& joint = model_.joints[j];
+      const double unit = JointUnit(joint);
+      const std::string label = "joint j" + std::to_string(j + 1) +
+                                (joint.name.empty() ? "" : " (" + joint.name + ")");
+      if (*goal[j] < joint.position_min || *goal[j] > joint.position_max) {
+        throw core::ConfigError(
+            {name_, line_, goal_column[j]}, tokens_.front().text,
+            label + " goal " + core::FormatApprox(*goal[j] / unit) + " " + JointUnitName(joint) +
+                " is outside its limits [" + core::FormatApprox(joint.position_min / unit) + ", " +
+                core::FormatApprox(joint.position_max / unit) + "] " + JointUnitName(joint));
+      }
+      JointMove& move = step.moves[j];
+      move.active = true;
+      move.goal = *goal[j];
+      move.velocity = speed.percent ? joint.servo.default_velocity * speed.value / 100.0
+                                    : speed.value * unit;
+      move.acceleration = accel.percent ? joint.servo.default_acceleration * accel.value / 100.0
+                                        : accel.value * unit;
+      if (move.velocity > joint.velocity_max * (1 + 1e-12)) {
+        Fail(Token{"", speed.column > 0 ? speed.column : 1}, label + " speed " + core::FormatApprox(move.velocity / unit) + " " +
+                                  JointUnitName(joint) + "/s is above its maximum " +
+                                  core::FormatApprox(joint.velocity_max / unit) + " " +
+                                  JointUnitName(joint) + "/s");
+      }
+      reached_[j] = move.goal;
+    }
+    plan.steps.push_back(step);
+  }
+
+  // `move tool X Y Z [ROLL PITCH YAW]`: the IK solution (by configuration, or nearest the joints
+  // the plan has reached) becomes every joint's goal.
+  void ToolGoal(const std::vector<Token>& words, const std::optional<core::IkConfiguration>& config,
+                std::vector<std::optional<double>>& goal, std::vector<int>& goal_column) {
+    if (words.size() != 4 && words.size() != 7) {
+      Fail(words.front(), "expected X Y Z (position only) or X Y Z ROLL PITCH YAW, got " +
+                              std::to_string(words.size() - 1) + " values");
+    }
+    const char* names[] = {"X", "Y", "Z", "ROLL", "PITCH", "YAW"};
+    double v[6] = {0, 0, 0, 0, 0, 0};
+    for (size_t i = 1; i < words.size(); ++i) {
+      v[i - 1] = Number(words[i], std::string("tool ") + names[i - 1]);
+    }
+    PoseRequest request;
+    request.target.translation() << v[0] * units_.length_si, v[1] * units_.length_si,
+        v[2] * units_.length_si;
+    request.target.linear() =
+        core::QuaternionFromRpy(v[3] * units_.angle_si, v[4] * units_.angle_si,
+                                v[5] * units_.angle_si)
+            .toRotationMatrix();
+    request.position_only = words.size() == 4;
+    if (config) request.SetConfig(*config);
+    const PoseGoal solved =
+        SolvePoseGoal(model_, request, core::ToJointVector(reached_));
+    if (!solved.ok) Fail(words.front(), "no joint solution for this tool pose: " + solved.reason);
+    for (size_t j = 0; j < goal.size(); ++j) {
+      goal[j] = solved.q[static_cast<Eigen::Index>(j)];
+      goal_column[j] = words.front().column;
+    }
+  }
+
+  std::string name_;
+  const core::RobotModel& model_;
+  std::vector<double> reached_;  // each joint's goal after the steps so far, SI
+  Units units_;
+  Rate speed_;
+  Rate accel_;
+  int line_ = 0;
+  std::vector<Token> tokens_;
+  std::string text_;
+};
+
+}  // namespace
+
+int Plan::moves() const {
+  int count = 0;
+  for (const PlanStep& step : steps) count += step.kind == PlanStep::Kind::kMove ? 1 : 0;
+  return count;
+}
+
+Plan ParsePlan(const std::string& text, const std::string& name, const core::RobotModel& model,
+               const std::vector<double>& start) {
+  Parser parser(name, model, start);
+  return parser.Parse(text);
+}
+
+Plan LoadPlan(const std::string& path, const core::RobotModel& model,
+              const std::vector<double>& start) {
+  std::ifstream file(path, std::ios::binary);
+  if (!file) throw core::ConfigError({path, 0, 0}, "", "cannot open the plan file");
+  std::ostringstream text;
+  text << file.rdbuf();
+  return ParsePlan(text.str(), path, model, start);
+}
+
+std::vector<double> HomePositions(const core::RobotModel& model) {
+  std::vector<double> home;
+  for (const core::Joint& joint : model.joints) home.push_back(joint.home);
+  return home;
+}
+
+}  // namespace sirupp::control
