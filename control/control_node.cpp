@@ -589,7 +589,7 @@ void ControlNode::Service(int max_wait_ms) {
   PublishStatus(false);
   const bool fault = state() == Status::STATE_FAULT;
   heartbeat_.PublishIfDue(fault ? core::ProcessState::kFault : core::ProcessState::kRunning,
-                          last_error_);
+                          fault ? last_error_ : "");
 }
 
 }  // namespace sirupp::control

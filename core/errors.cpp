@@ -32,7 +32,8 @@ ConfigError::ConfigError(SourceLocation where, std::string key_path, std::string
       problem_(std::move(problem)) {}
 
 MessageError::MessageError(std::string channel, std::string field_path, std::string problem)
-    : std::runtime_error("channel " + channel + ": " + field_path + ": " + problem),
+    : std::runtime_error("channel " + channel + ": " +
+                         (field_path.empty() ? "" : field_path + ": ") + problem),
       channel_(std::move(channel)),
       field_path_(std::move(field_path)) {}
 

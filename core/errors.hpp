@@ -35,7 +35,8 @@ class ConfigError : public std::runtime_error {
 };
 
 // A received message that decoded but holds values we refuse. what() is
-// "channel CHANNEL: field.path: problem".
+// "channel CHANNEL: field.path: problem" ("channel CHANNEL: problem" when the whole message is
+// refused, e.g. a target in automatic mode).
 class MessageError : public std::runtime_error {
  public:
   MessageError(std::string channel, std::string field_path, std::string problem);

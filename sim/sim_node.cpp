@@ -282,6 +282,13 @@ void SimNode::ServiceLockstep(int max_wait_ms) {
     return;
   }
   const Clock::time_point now = Clock::now();
+  // A state sent before a participant subscribed (the usual start-up order) or lost on the way is
+  // sent again every 0.1 s without a report; only the full timeout is reported.
+  if (Seconds(now - last_resend_) >= kResendPeriodS &&
+      Seconds(now - waiting_since_) >= kResendPeriodS) {
+    PublishState();
+    last_resend_ = now;
+  }
   if (Seconds(now - waiting_since_) >= options_.lockstep_timeout_s) {
     std::vector<std::string> missing;
     for (const std::string& name : options_.participants) {

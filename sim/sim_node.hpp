@@ -130,6 +130,8 @@ class SimNode {
   int64_t awaited_tick_ = 0;
   std::map<std::string, core::ArmCommand> answers_;
   std::chrono::steady_clock::time_point waiting_since_;
+  std::chrono::steady_clock::time_point last_resend_;
+  static constexpr double kResendPeriodS = 0.1;  // lockstep: unanswered state sent again
   // Realtime and fast: the newest command of each sender.
   std::map<std::string, Answer> newest_;
   std::chrono::steady_clock::time_point start_wall_;

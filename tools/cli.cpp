@@ -13,6 +13,7 @@
 #include "core/model_loader.hpp"
 #include "core/model_report.hpp"
 #include "sim/arm_world.hpp"
+#include "tools/control_commands.hpp"
 #include "tools/environment_commands.hpp"
 #include "tools/kinematics_commands.hpp"
 #include "tools/sim_commands.hpp"
@@ -43,11 +44,18 @@ const char* const kUsage =
     "  env show FILE              list an environment's objects: shape, size, pose, static or "
     "mass\n"
     "  reset (--pose NAME | --deg Q..)  teleport the simulated arm (see sirupp reset --help)\n"
-    "  move joints (--pose NAME | --deg Q..)  a joint target for sirupp-control\n"
+    "  move joints (--pose NAME | --deg Q..) [--wait]  a joint target for sirupp-control\n"
+    "  move pose --pose X Y Z R P Y [--config C]    a tool target, through IK\n"
+    "  plan check FILE...         validate movement plans; exit 2 naming file:line\n"
+    "  plan run FILE [--wait]     run a plan in sirupp-control (also pause, resume, abort,\n"
+    "                             manual, automatic)\n"
+    "  gains [--joint N] [--kp V] [--kd V] ...   set the servo gains live\n"
+    "  status                     what the controller, the arm and every process report\n"
     "  help                       this text\n"
     "\n"
     "Model files: config/robots/*.yaml, format in docs/model-format.md.\n"
     "Environment files: config/environments/*.xml, format in docs/environment-format.md.\n"
+    "Plan files: config/plans/*.plan, format in docs/plan-format.md.\n"
     "Exit codes: 0 success, 1 failure while running, 2 bad arguments or bad input.\n";
 
 using Args = std::vector<std::string>;
@@ -161,6 +169,18 @@ int RunCli(const Args& args, std::ostream& out, std::ostream& err) {
     if (command == "move") {
       if (wants_help) return out << kMoveUsage, kExitOk;
       return RunMove(rest, out);
+    }
+    if (command == "plan") {
+      if (wants_help) return out << kPlanUsage, kExitOk;
+      return RunPlan(rest, out);
+    }
+    if (command == "gains") {
+      if (wants_help) return out << kGainsUsage, kExitOk;
+      return RunGains(rest, out);
+    }
+    if (command == "status") {
+      if (wants_help) return out << kStatusUsage, kExitOk;
+      return RunStatus(rest, out);
     }
     if (command == "reset") {
       if (wants_help) return out << kResetUsage, kExitOk;

@@ -7,25 +7,7 @@
 set -u
 fail() { echo "FAIL: $*"; exit 1; }
 
-# Where it can, the script re-runs itself in a fresh network namespace with multicast on its loopback
-# interface, so no datagram can leave. Where namespaces are not allowed (some containers), it uses
-# this host's network with ttl=0: multicast that never leaves the machine.
-if [ -z "${TEST_NET:-}" ]; then
-  if unshare -n true 2>/dev/null; then
-    exec unshare -n env TEST_NET=namespace bash "$0" "$@"
-  elif unshare -rn true 2>/dev/null; then
-    exec unshare -rn env TEST_NET=namespace bash "$0" "$@"
-  fi
-  TEST_NET=host
-  echo "note: no network namespace allowed here; multicast with ttl=0 on this host"
-fi
-if [ "$TEST_NET" = namespace ]; then
-  ip link set lo up && ip link set lo multicast on && ip route add 224.0.0.0/4 dev lo ||
-    fail "cannot set up multicast on lo in the test namespace"
-  URL="udpm://239.255.76.67:7731?ttl=0"
-else
-  URL="udpm://239.255.76.67:$((7800 + $$ % 150))?ttl=0"
-fi
+source "$(dirname "$0")/private_net.sh"
 work=$(mktemp -d)
 trap 'kill $(jobs -p) 2>/dev/null; rm -rf "$work"' EXIT
 

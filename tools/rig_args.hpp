@@ -1,0 +1,34 @@
+#pragma once
+// Helpers shared by the `sirupp` commands that talk to a running rig (reset, move, plan, gains,
+// status): the model, the bus and joint positions from the command line, and a wall clock.
+
+#include <cstdint>
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+#include "core/bus.hpp"
+#include "core/robot_model.hpp"
+#include "tools/args.hpp"
+
+namespace sirupp::tools {
+
+// --model FILE, default config/robots/puma260.yaml (found from any working directory).
+core::RobotModel ModelFromArgs(const Args& parsed);
+
+// --lcm-url URL and --prefix PREFIX (defaults: LCM's default URL, no prefix).
+core::Bus BusFromArgs(const Args& parsed);
+
+// Joint positions (rad or m) from exactly one of --pose NAME, --deg Q.., --rad Q.., each within the
+// joint's limits; throws core::UsageError naming `command`, the joint and the allowed range.
+std::vector<double> PositionsFromArgs(const Args& parsed, const core::RobotModel& model,
+                                      const std::string& command);
+
+// Microseconds since the epoch (utime of messages sent by people).
+int64_t WallMicros();
+
+// "sent CHANNEL: MODEL to Q1 .. QN (rad or m)" without a line end.
+void PrintSent(std::ostream& out, const core::Bus& bus, const std::string& channel,
+               const core::RobotModel& model, const std::vector<double>& position);
+
+}  // namespace sirupp::tools
