@@ -75,18 +75,29 @@ class RigWatch {
         channels.heartbeat, [this](const sirupp::heartbeat_t& message, const core::ReceiveInfo&) {
           heartbeats[message.process + "@" + message.host] = message;
         });
-    if (!joints) return;
-    // Per-tick channels: keep only the newest message.
-    bus_.Subscribe<sirupp::servo_setpoint_t>(
+    if (joints) ListenToJoints(true);
+  }
+
+  // Per-tick channels (ARM_SETPOINT, SIM_ARM_STATE), newest message only. A command that waits
+  // long turns them off, so it does not take CPU from the loop it watches.
+  void ListenToJoints(bool on) {
+    if (!on) {
+      for (core::Subscription* subscription : joint_subscriptions_) subscription->Unsubscribe();
+      joint_subscriptions_.clear();
+      return;
+    }
+    if (!joint_subscriptions_.empty()) return;
+    const core::Channels channels;
+    joint_subscriptions_.push_back(&bus_.Subscribe<sirupp::servo_setpoint_t>(
         channels.arm_setpoint,
         [this](const sirupp::servo_setpoint_t& message, const core::ReceiveInfo&) {
           setpoint = message;
         },
-        2);
-    bus_.Subscribe<sirupp::arm_state_t>(
+        2));
+    joint_subscriptions_.push_back(&bus_.Subscribe<sirupp::arm_state_t>(
         channels.sim_arm_state,
         [this](const sirupp::arm_state_t& message, const core::ReceiveInfo&) { state = message; },
-        2);
+        2));
   }
 
   // Handles messages until done() holds or timeout_s passed; returns done().
@@ -118,6 +129,7 @@ class RigWatch {
 
  private:
   core::Bus& bus_;
+  std::vector<core::Subscription*> joint_subscriptions_;
 };
 
 // The controller's answer to what was just sent on `channel`: accepted() on a newer status, or a
@@ -395,6 +407,7 @@ int PlanRun(const std::vector<std::string>& args, std::ostream& out) {
   if (code != 0) return code;
   out << "running " << file << "\n";
   if (!wait) return 0;
+  watch.ListenToJoints(false);
 
   int shown_step = -1;
   const auto steps = static_cast<int>(plan.steps.size());
@@ -424,7 +437,9 @@ int PlanRun(const std::vector<std::string>& args, std::ostream& out) {
     out << "plan ended at step " << s.plan_step + 1 << " of " << steps << " (aborted)\n";
     return kExitFailed;
   }
-  if (watch.state) {
+  watch.state.reset();
+  watch.ListenToJoints(true);
+  if (watch.Until([&] { return watch.state.has_value(); }, 0.5)) {
     out << "finished; joints [" << Degrees(model, watch.state->position) << "] deg\n";
   } else {
     out << "finished\n";
