@@ -2,8 +2,9 @@
 // times it for the physics benchmark:
 //   1. for random positions within the limits, every link's centre-of-mass frame in MuJoCo against
 //      SIRUPP forward kinematics (base * DH frames * com), and MuJoCo's gravity load (mj_inverse
-//      at rest) against a Jacobian-transpose sum computed here from SIRUPP frames, and MuJoCo's
-//      mass matrix against one summed here from the links' Jacobians, inertias and armatures;
+//      at rest) and joint-space mass matrix against SIRUPP's rigid-body dynamics
+//      (core/dynamics.hpp: Newton-Euler gravity effort, composite-rigid-body mass matrix with the
+//      armature on the diagonal);
 //   2. one second of free swing from q = 0 (no friction, damping or limits): total energy drift
 //      with MuJoCo's Euler integrator (and RK4 for scale);
 //   3. mj_step calls per second on the PUMA 260 at its servo tick, following the reference motion
@@ -24,6 +25,7 @@
 #include <vector>
 
 #include "bench/mujoco_arm.hpp"
+#include "core/dynamics.hpp"
 #include "core/kinematics.hpp"
 #include "core/model_loader.hpp"
 
@@ -41,63 +43,10 @@ struct CheckResult {
   double mass_matrix = 0;  // kg*m^2, kg*m or kg
 };
 
-// Effort at each joint that holds the arm still against gravity at q:
-// tau_i = -sum over links l moved by joint i of m_l * g . d(p_com_l)/d(q_i), where the derivative
-// is z x (p_com - o) for a revolute joint about axis z through o, and z for a prismatic joint.
-// Standard DH: joint i (0-based) acts about z of frame i; modified DH: about z of frame i+1.
-std::vector<double> GravityEffort(const RobotModel& model,
-                                  const std::vector<Eigen::Isometry3d>& frames) {
-  const size_t n = model.joints.size();
-  std::vector<Eigen::Vector3d> com(n + 1);
-  for (size_t l = 0; l <= n; ++l) com[l] = frames[l] * model.links[l].com_m;
-  std::vector<double> tau(n, 0.0);
-  for (size_t i = 0; i < n; ++i) {
-    const Eigen::Isometry3d& axis_frame =
-        frames[model.dh_convention == sirupp::core::DhConvention::kStandard ? i : i + 1];
-    const Eigen::Vector3d z = axis_frame.linear().col(2);
-    const Eigen::Vector3d o = axis_frame.translation();
-    const bool revolute = model.joints[i].type == sirupp::core::JointType::kRevolute;
-    for (size_t l = i + 1; l <= n; ++l) {
-      const Eigen::Vector3d dp = revolute ? Eigen::Vector3d(z.cross(com[l] - o)) : z;
-      tau[i] -= model.links[l].mass_kg * model.gravity_m_s2.dot(dp);
-    }
-  }
-  return tau;
-}
-
-// Joint-space mass matrix at the frames' pose: sum over links of m Jv^T Jv + Jw^T (R I R^T) Jw
-// with each link's centre-of-mass Jacobian, plus the armature on the diagonal. Checks what the
-// gravity load cannot see: the orientation of the inertia tensors and the armature.
-Eigen::MatrixXd MassMatrix(const RobotModel& model, const std::vector<Eigen::Isometry3d>& frames) {
-  const int n = model.num_joints();
-  Eigen::MatrixXd mass = Eigen::MatrixXd::Zero(n, n);
-  for (int l = 1; l <= n; ++l) {
-    const sirupp::core::Link& link = model.links[static_cast<size_t>(l)];
-    const Eigen::Isometry3d& frame = frames[static_cast<size_t>(l)];
-    const Eigen::Vector3d com = frame * link.com_m;
-    Eigen::MatrixXd jv = Eigen::MatrixXd::Zero(3, n), jw = Eigen::MatrixXd::Zero(3, n);
-    for (int i = 0; i < l; ++i) {  // joints 0..l-1 move link l
-      const Eigen::Isometry3d& axis_frame = frames[static_cast<size_t>(
-          model.dh_convention == sirupp::core::DhConvention::kStandard ? i : i + 1)];
-      const Eigen::Vector3d z = axis_frame.linear().col(2);
-      if (model.joints[static_cast<size_t>(i)].type == sirupp::core::JointType::kRevolute) {
-        jv.col(i) = z.cross(com - axis_frame.translation());
-        jw.col(i) = z;
-      } else {
-        jv.col(i) = z;
-      }
-    }
-    const Eigen::Matrix3d world_inertia =
-        frame.linear() * link.inertia_kg_m2 * frame.linear().transpose();
-    mass += link.mass_kg * jv.transpose() * jv + jw.transpose() * world_inertia * jw;
-  }
-  for (int i = 0; i < n; ++i) mass(i, i) += model.joints[static_cast<size_t>(i)].armature;
-  return mass;
-}
-
 CheckResult CheckPoses(const RobotModel& model, int poses) {
   MujocoArm arm(model, model.servo_tick_s, false);
   const sirupp::core::KinematicChain chain(model);
+  const sirupp::core::Dynamics dynamics(model);
   std::mt19937 random(42);
   CheckResult worst;
   const int n = model.num_joints();
@@ -109,8 +58,8 @@ CheckResult CheckPoses(const RobotModel& model, int poses) {
           std::uniform_real_distribution<double>(joint.position_min, joint.position_max)(random);
     }
     arm.SetPositions(q);
-    const std::vector<Eigen::Isometry3d> frames =
-        chain.Forward(sirupp::core::ToJointVector(q)).frames;
+    const sirupp::core::JointVector joints = sirupp::core::ToJointVector(q);
+    const std::vector<Eigen::Isometry3d> frames = chain.Forward(joints).frames;
     for (int l = 0; l <= n; ++l) {
       const sirupp::core::Link& link = model.links[static_cast<size_t>(l)];
       if (link.mass_kg <= 0) continue;  // a massless base has no inertial in MuJoCo
@@ -125,15 +74,15 @@ CheckResult CheckPoses(const RobotModel& model, int poses) {
     // acceleration there), mj_inverse's qfrc_inverse is the effort that holds the arm still.
     for (int j = 0; j < n; ++j) arm.data()->qacc[arm.DofIndex(j)] = 0;
     mj_inverse(arm.model(), arm.data());
-    const std::vector<double> tau = GravityEffort(model, frames);
+    const sirupp::core::JointVector tau = dynamics.GravityEffort(joints);
     for (int j = 0; j < n; ++j) {
-      worst.gravity = std::max(worst.gravity, std::abs(arm.data()->qfrc_inverse[arm.DofIndex(j)] -
-                                                       tau[static_cast<size_t>(j)]));
+      worst.gravity =
+          std::max(worst.gravity, std::abs(arm.data()->qfrc_inverse[arm.DofIndex(j)] - tau[j]));
     }
     // MuJoCo's joint-space mass matrix (qM, expanded to n x n in dof order).
     Eigen::Matrix<mjtNum, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> full(n, n);
     mj_fullM(arm.model(), full.data(), arm.data()->qM);
-    const Eigen::MatrixXd expected_mass = MassMatrix(model, frames);
+    const Eigen::MatrixXd expected_mass = dynamics.MassMatrix(joints);
     for (int r = 0; r < n; ++r) {
       for (int c = 0; c < n; ++c) {
         worst.mass_matrix =

@@ -1,8 +1,11 @@
 // sirupp-control: the virtual PIC-SERVOs as an LCM process (first slice: joint targets). Thin main.
 
 #include <iostream>
+#include <memory>
+#include <string>
 
 #include "control/control_node.hpp"
+#include "control/plugin_controller.hpp"
 #include "core/bus.hpp"
 #include "core/errors.hpp"
 #include "core/model_loader.hpp"
@@ -14,10 +17,13 @@ namespace {
 
 constexpr const char* kUsage =
     "usage: sirupp-control [--model FILE] [--name NAME] [--no-setpoints] [--lcm-url URL]\n"
-    "                      [--prefix PREFIX]\n"
+    "                      [--prefix PREFIX] [--controller LIB.so [--controller-args TEXT]]\n"
     "The virtual PIC-SERVOs: answers every SIM_ARM_STATE with joint efforts on SIM_ARM_COMMAND\n"
     "(as participant NAME, default sirupp-control), takes joint targets on ARM_TARGET (see\n"
-    "`sirupp move`), publishes ARM_MOVE, ARM_SETPOINT, CONTROLLER_STATUS and HEARTBEAT.\n";
+    "`sirupp move`), publishes ARM_MOVE, ARM_SETPOINT, CONTROLLER_STATUS and HEARTBEAT.\n"
+    "--controller: a student's controller library (built against sirupp/controller.h) computes\n"
+    "the efforts from the profiles' set-points instead of the PID; --controller-args is passed\n"
+    "to its constructor. See docs/student-controllers.md.\n";
 
 int Run(const std::vector<std::string>& argv) {
   const sirupp::tools::Args args(argv, "sirupp-control",
@@ -25,13 +31,33 @@ int Run(const std::vector<std::string>& argv) {
                                   {"name", "participant name"},
                                   {"no-setpoints", "do not publish ARM_SETPOINT"},
                                   {"lcm-url", "LCM URL"},
-                                  {"prefix", "channel prefix of the rig"}});
+                                  {"prefix", "channel prefix of the rig"},
+                                  {"controller", "controller library (.so)"},
+                                  {"controller-args", "arguments for the controller library"}});
   const sirupp::core::RobotModel model =
       sirupp::core::LoadRobotModel(sirupp::tools::ResolveDataPath(
           args.Has("model") ? args.String("model") : "config/robots/puma260.yaml"));
   sirupp::control::ControlOptions options;
   if (args.Has("name")) options.name = args.String("name");
   options.publish_setpoints = !args.Switch("no-setpoints");
+  if (args.Has("controller-args") && !args.Has("controller")) {
+    throw sirupp::core::UsageError("sirupp-control: --controller-args needs --controller LIB.so");
+  }
+  if (args.Has("controller")) {
+    // Loaded before joining the bus: a library that cannot be used stops the process here (exit
+    // 2, one line), before it answers any state, so nothing moves.
+    std::string controller_args;
+    if (args.Has("controller-args")) {
+      for (const std::string& word : args.Values("controller-args", -1)) {
+        controller_args += (controller_args.empty() ? "" : " ") + word;
+      }
+    }
+    options.effort_law = std::make_shared<sirupp::control::PluginEffortLaw>(
+        args.String("controller"), controller_args, model);
+    std::cerr << "sirupp-control: controller " << options.effort_law->name() << " ("
+              << (controller_args.empty() ? "no arguments" : "'" + controller_args + "'")
+              << ") in place of the PID\n";
+  }
   sirupp::core::Bus bus(args.Has("lcm-url") ? args.String("lcm-url") : "",
                         args.Has("prefix") ? args.String("prefix") : "");
   sirupp::control::ControlNode node(bus, model, options);

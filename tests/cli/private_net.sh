@@ -19,5 +19,5 @@ if [ "$TEST_NET" = namespace ]; then
   }
   URL="udpm://239.255.76.67:${PRIVATE_NET_PORT:-7731}?ttl=0"
 else
-  URL="udpm://239.255.76.67:$((7800 + $$ % 150))?ttl=0"
+  URL="udpm://239.255.76.67:$((20000 + $$ % 20000))?ttl=0"  # per process: scripts run in parallel
 fi

@@ -1,0 +1,112 @@
+// SIRUPP student controller interface: the only file a controller library needs.
+//
+// A controller replaces the PIC-SERVO PID filter inside sirupp-control. The profile generators keep
+// running, so `sirupp move joints ...` still produces smooth set-points; each servo tick (0.512 ms
+// on the PUMA 260) your Update gets the measured joint state, the set-points and the arm's
+// dynamics at the measured state, and writes one effort per joint. Plain C++17, no other
+// dependency: build it into a shared library and load it with
+//
+//   g++ -std=c++17 -O2 -shared -fPIC -I PREFIX/include my_controller.cpp -o my_controller.so
+//   sirupp-control --controller ./my_controller.so --controller-args "kp=100 kd=5"
+//
+// Units: SI, joint by joint: rad, rad/s, rad/s^2 and N*m for revolute joints; m, m/s, m/s^2 and N
+// for prismatic ones. Positive effort drives the joint positive. Tutorial:
+// docs/student-controllers.md.
+//
+// Rules the host enforces: efforts are clamped to ArmInfo::effort_max; a non-finite effort, or an
+// exception from Reset or Update, stops the controller for the rest of the run: the arm is held by
+// its brakes and CONTROLLER_STATUS reports STATE_FAULT naming the controller.
+
+#ifndef SIRUPP_CONTROLLER_H_
+#define SIRUPP_CONTROLLER_H_
+
+#include <cstddef>
+#include <cstdint>
+#include <cstdio>
+#include <exception>
+#include <string>
+
+// Changes whenever a struct, the class or a factory function below changes layout or meaning.
+// sirupp-control refuses a library built against another version.
+#define SIRUPP_CONTROLLER_ABI_VERSION 1
+
+namespace sirupp {
+
+// The arm, fixed for the whole run. Arrays have num_joints entries and stay valid until the
+// controller is destroyed.
+struct ArmInfo {
+  int num_joints;
+  const char* model_name;      // e.g. "puma260"
+  double servo_tick_s;         // time between Update calls (simulated time in lockstep)
+  const double* effort_max;    // N*m or N; larger efforts are clamped
+  const double* position_min;  // rad or m
+  const double* position_max;
+};
+
+// One servo tick. Every array has num_joints entries and is valid only during the call.
+struct State {
+  double time_s;  // time of the measurement (sim: simulated time since the start)
+  int64_t tick;   // the tick the measurement belongs to (the sim's physics tick)
+  int num_joints;
+  // Measured.
+  const double* position;  // rad or m, unwrapped
+  const double* velocity;  // rad/s or m/s
+  const double* effort;    // effort applied during the last tick, after the limits
+  // From the profile generators (trapezoidal moves from `sirupp move` and plans).
+  const double* setpoint_position;
+  const double* setpoint_velocity;
+  const double* setpoint_acceleration;
+  const double* goal;  // where each joint's present move ends
+  // The arm's rigid-body dynamics at the measured position and velocity, computed by the host:
+  //   effort = mass_matrix * acceleration + bias_effort
+  const double* gravity_effort;  // G(q): holds the arm still
+  const double* bias_effort;     // C(q, qd) qd + G(q): Coriolis, centrifugal and gravity
+  const double* mass_matrix;     // M(q), row-major num_joints x num_joints, armature included
+};
+
+// Derive from this and export the class with SIRUPP_EXPORT_CONTROLLER(YourClass). The class needs
+// a constructor taking `const std::string& args` (the text of --controller-args, "" if none);
+// throw std::invalid_argument from it to refuse bad arguments.
+class Controller {
+ public:
+  virtual ~Controller() = default;
+  // Called once, with the first state, before the first Update.
+  virtual void Reset(const ArmInfo& arm, const State& state) = 0;
+  // Writes num_joints efforts into `effort` (which arrives filled with zeros).
+  virtual void Update(const State& state, double* effort) = 0;
+};
+
+}  // namespace sirupp
+
+// The factory functions sirupp-control looks up in the library (made by the macro below).
+extern "C" {
+// SIRUPP_CONTROLLER_ABI_VERSION as compiled into the library.
+int sirupp_controller_abi_version();
+// A new controller for `args`, or null with a message in `error` (error_size bytes).
+sirupp::Controller* sirupp_controller_create(const char* args, char* error, std::size_t error_size);
+void sirupp_controller_destroy(sirupp::Controller* controller);
+}
+
+// Exports the three factory functions for `ControllerClass`. Write it once, at file scope, in one
+// source file of the library.
+#define SIRUPP_EXPORT_CONTROLLER(ControllerClass)                                                 \
+  extern "C" __attribute__((visibility("default"))) int sirupp_controller_abi_version() {         \
+    return SIRUPP_CONTROLLER_ABI_VERSION;                                                         \
+  }                                                                                               \
+  extern "C" __attribute__((visibility("default"))) sirupp::Controller* sirupp_controller_create( \
+      const char* args, char* error, std::size_t error_size) {                                    \
+    try {                                                                                         \
+      return new ControllerClass(std::string(args != nullptr ? args : ""));                       \
+    } catch (const std::exception& exception) {                                                   \
+      std::snprintf(error, error_size, "%s", exception.what());                                   \
+    } catch (...) {                                                                               \
+      std::snprintf(error, error_size, "the constructor threw a non-standard exception");         \
+    }                                                                                             \
+    return nullptr;                                                                               \
+  }                                                                                               \
+  extern "C" __attribute__((visibility("default"))) void sirupp_controller_destroy(               \
+      sirupp::Controller* controller) {                                                           \
+    delete controller;                                                                            \
+  }
+
+#endif  // SIRUPP_CONTROLLER_H_
