@@ -18,9 +18,9 @@
 //
 // The three are measured in R rounds, each with all of them, so that a burst of other work on the
 // machine falls on a round rather than on one figure. Per round: limit = 1 / (mean round trip +
-// mean step), ratio = loop ticks/s / limit; the ratio printed is the median over rounds, goal >= 0.7
-// (issue item 7). The stricter ratio against the median round trip is printed too. The replica in
-// (b) must end where the sim ends (the sim's printed final joint positions); the program says so
+// mean step), ratio = loop ticks/s / limit; the ratio printed is the median over rounds, goal >=
+// 0.7 (issue item 7). The stricter ratio against the median round trip is printed too. The replica
+// in (b) must end where the sim ends (the sim's printed final joint positions); the program says so
 // if it does not.
 //
 // Usage: bench_loop [--port P] [--round-trips N] [--warmup W] [--duration D] [--rounds R]
@@ -245,9 +245,7 @@ class Child {
   std::string output_;
 };
 
-std::string SelfPath() {
-  return std::filesystem::read_symlink("/proc/self/exe").string();
-}
+std::string SelfPath() { return std::filesystem::read_symlink("/proc/self/exe").string(); }
 
 // ---- Messages -----------------------------------------------------------------------------------
 
@@ -388,17 +386,17 @@ RoundTrips MeasureRoundTrips(const std::string& url, const std::string& model_fi
 // ---- (b) physics step, on the loop's own trajectory ---------------------------------------------
 
 struct Scenario {
-  std::string name;                             // "hold" or "move"
+  std::string name;                               // "hold" or "move"
   std::vector<sirupp::control::JointMove> moves;  // empty: hold the start pose
-  std::vector<double> goal;                     // the move's goal positions (for ARM_TARGET)
+  std::vector<double> goal;                       // the move's goal positions (for ARM_TARGET)
 };
 
 struct PhysicsRun {
   long steps = 0;
-  double step_us = 0;      // ArmWorld::Step, mean
-  double state_us = 0;     // ArmWorld::State, mean
-  double control_us = 0;   // ServoBank::Tick, mean
-  double rows = 0;         // constraint rows per step, mean
+  double step_us = 0;     // ArmWorld::Step, mean
+  double state_us = 0;    // ArmWorld::State, mean
+  double control_us = 0;  // ServoBank::Tick, mean
+  double rows = 0;        // constraint rows per step, mean
   std::vector<double> final_position;
 };
 
@@ -555,8 +553,7 @@ LoopRun RunLoop(const LoopSetup& setup, const Scenario& scenario, bool setpoints
   const size_t summary = text.find("stopped at tick");
   if (status != 0 || summary == std::string::npos) {
     throw std::runtime_error("sirupp-sim exited with status " + std::to_string(status) +
-                             "; its output:\n" + text + "\nsirupp-control's:\n" +
-                             control.output());
+                             "; its output:\n" + text + "\nsirupp-control's:\n" + control.output());
   }
   const std::string tail = text.substr(summary);
   run.steps = NumberBefore(tail, " steps,");
@@ -689,9 +686,8 @@ int Run(const Options& options) {
   if (!options.pong_url.empty()) return RunPong(options.pong_url, options.pong_setpoint, model);
 
   LoopSetup setup;
-  setup.bin_dir = options.bin_dir.empty()
-                      ? std::filesystem::path(SelfPath()).parent_path().string()
-                      : options.bin_dir;
+  setup.bin_dir = options.bin_dir.empty() ? std::filesystem::path(SelfPath()).parent_path().string()
+                                          : options.bin_dir;
   setup.url = "udpm://239.255.76.67:" + std::to_string(options.port) + "?ttl=0";
   setup.model_file = model_file;
   setup.joints = model.num_joints();
@@ -728,12 +724,14 @@ int Run(const Options& options) {
 
   std::printf("Loop benchmark: %s (%d joints), step %.3f ms, on %s\n", model.name.c_str(),
               model.num_joints(), model.servo_tick_s * 1e3, setup.url.c_str());
-  std::printf("%d rounds, each: %d round trips (after %d), the physics replica, one loop run of "
-              "%.3g simulated s per case\n",
-              options.rounds, options.round_trips, options.warmup, options.duration_s);
-  std::printf("Load average at start: %s (%u CPUs; other work on the machine inflates every "
-              "figure)\n",
-              LoadAverage().c_str(), std::thread::hardware_concurrency());
+  std::printf(
+      "%d rounds, each: %d round trips (after %d), the physics replica, one loop run of "
+      "%.3g simulated s per case\n",
+      options.rounds, options.round_trips, options.warmup, options.duration_s);
+  std::printf(
+      "Load average at start: %s (%u CPUs; other work on the machine inflates every "
+      "figure)\n",
+      LoadAverage().c_str(), std::thread::hardware_concurrency());
 
   // The window the loop is timed in also holds a fixed cost (the sim's last messages, summary and
   // exit): measured once with a 1-tick run.
@@ -746,8 +744,8 @@ int Run(const Options& options) {
   for (int round = 0; round < options.rounds; ++round) {
     trips.push_back(MeasureRoundTrips(setup.url, model_file, model, options.round_trips,
                                       options.warmup, false));
-    trips_setpoint.push_back(MeasureRoundTrips(setup.url, model_file, model, options.round_trips,
-                                               options.warmup, true));
+    trips_setpoint.push_back(
+        MeasureRoundTrips(setup.url, model_file, model, options.round_trips, options.warmup, true));
     if (!options.dump.empty()) {
       FILE* file = std::fopen(options.dump.c_str(), round == 0 ? "w" : "a");
       if (file == nullptr) throw std::runtime_error("cannot write " + options.dump);
@@ -776,76 +774,84 @@ int Run(const Options& options) {
   }
 
   std::vector<double> pooled;
-  for (const RoundTrips& round : trips) pooled.insert(pooled.end(), round.us.begin(), round.us.end());
+  for (const RoundTrips& round : trips)
+    pooled.insert(pooled.end(), round.us.begin(), round.us.end());
   const double rtt_mean = Mean(pooled);
   const double rtt_median = Median(pooled);
 
-  std::printf("\n(a) LCM round trip over udpm, arm_state_t out, arm_command_t back (%d joints), "
-              "rounds pooled\n",
-              model.num_joints());
+  std::printf(
+      "\n(a) LCM round trip over udpm, arm_state_t out, arm_command_t back (%d joints), "
+      "rounds pooled\n",
+      model.num_joints());
   PrintRoundTrips("state -> command", trips);
   PrintRoundTrips("state -> command, then ARM_SETPOINT (diagnostic)", trips_setpoint);
 
-  std::printf("\n(b) physics step (ArmWorld::Step, friction on) on the loop's own trajectory, mean "
-              "per step, median of rounds\n");
+  std::printf(
+      "\n(b) physics step (ArmWorld::Step, friction on) on the loop's own trajectory, mean "
+      "per step, median of rounds\n");
   std::vector<double> step_median(scenarios.size());
   for (size_t s = 0; s < scenarios.size(); ++s) {
     step_median[s] = Median(step_us[s]);
-    std::printf("  %-5s step %6.2f us (rounds: %s; %4.1f constraint rows); also per tick: "
-                "ArmWorld::State %.2f us, ServoBank::Tick %.2f us\n",
-                scenarios[s].name.c_str(), step_median[s], Join(step_us[s], 2).c_str(),
-                physics[s].rows, Median(state_us[s]), Median(control_us[s]));
+    std::printf(
+        "  %-5s step %6.2f us (rounds: %s; %4.1f constraint rows); also per tick: "
+        "ArmWorld::State %.2f us, ServoBank::Tick %.2f us\n",
+        scenarios[s].name.c_str(), step_median[s], Join(step_us[s], 2).c_str(), physics[s].rows,
+        Median(state_us[s]), Median(control_us[s]));
   }
 
-  std::printf("\n(c) the loop: sirupp-sim --mode lockstep + sirupp-control as processes; ticks/s = "
-              "steps / wall time from the sim's start line to its exit (includes %.1f ms of "
-              "fixed cost, measured with a %ld-tick run)\n",
-              fixed.wall_s * 1e3, fixed.steps);
-  std::printf("    limit = 1 / (that round's mean round trip + step); ratio = loop / limit, "
-              "median of rounds\n");
+  std::printf(
+      "\n(c) the loop: sirupp-sim --mode lockstep + sirupp-control as processes; ticks/s = "
+      "steps / wall time from the sim's start line to its exit (includes %.1f ms of "
+      "fixed cost, measured with a %ld-tick run)\n",
+      fixed.wall_s * 1e3, fixed.steps);
+  std::printf(
+      "    limit = 1 / (that round's mean round trip + step); ratio = loop / limit, "
+      "median of rounds\n");
   const double message_us = MessageWorkUs(model, false, 20000);
   const double message_setpoint_us = MessageWorkUs(model, true, 20000);
   bool all_met = true;
   bool all_same = true;
   for (const Case& one : cases) {
-    const std::string label = scenarios[one.scenario].name +
-                              (one.setpoints ? ", set-points on " : ", set-points off");
+    const std::string label =
+        scenarios[one.scenario].name + (one.setpoints ? ", set-points on " : ", set-points off");
     const double ratio = Median(one.ratios);
     const bool met = ratio >= kGoal;
     all_met = all_met && met;
     all_same = all_same && one.same_trajectory;
     const double strict_limit = 1e6 / (rtt_median + step_median[one.scenario]);
-    std::printf("  %s %6.0f ticks/s (rounds: %s)  limit %6.0f  ratio %.2f (rounds: %s)  goal %.1f: "
-                "%s\n",
-                label.c_str(), Median(one.rates), Join(one.rates, 0).c_str(),
-                Median(one.limits), ratio, Join(one.ratios, 2).c_str(), kGoal,
-                met ? "met" : "NOT met");
+    std::printf(
+        "  %s %6.0f ticks/s (rounds: %s)  limit %6.0f  ratio %.2f (rounds: %s)  goal %.1f: "
+        "%s\n",
+        label.c_str(), Median(one.rates), Join(one.rates, 0).c_str(), Median(one.limits), ratio,
+        Join(one.ratios, 2).c_str(), kGoal, met ? "met" : "NOT met");
     std::printf("  %*s against the median round trip instead: limit %6.0f, ratio %.2f%s\n",
                 static_cast<int>(label.size()), "", strict_limit, Median(one.rates) / strict_limit,
                 one.timeouts > 0
                     ? ("; " + std::to_string(one.timeouts) + " lockstep timeouts").c_str()
                     : "");
     if (!one.same_trajectory) {
-      std::printf("  %*s the sim ended at%s, the replica in (b) at%s: (b) did not time the same "
-                  "trajectory\n",
-                  static_cast<int>(label.size()), "", one.sim_final.c_str(),
-                  one.replica_final.c_str());
+      std::printf(
+          "  %*s the sim ended at%s, the replica in (b) at%s: (b) did not time the same "
+          "trajectory\n",
+          static_cast<int>(label.size()), "", one.sim_final.c_str(), one.replica_final.c_str());
     }
   }
 
-  std::printf("\nPer tick, us (1 / median ticks/s) = physics step + the rest; the round trip is "
-              "median %.1f, mean %.1f\n",
-              rtt_median, rtt_mean);
+  std::printf(
+      "\nPer tick, us (1 / median ticks/s) = physics step + the rest; the round trip is "
+      "median %.1f, mean %.1f\n",
+      rtt_median, rtt_mean);
   for (const Case& one : cases) {
-    const std::string label = scenarios[one.scenario].name +
-                              (one.setpoints ? ", set-points on " : ", set-points off");
+    const std::string label =
+        scenarios[one.scenario].name + (one.setpoints ? ", set-points on " : ", set-points off");
     const double loop_us = 1e6 / Median(one.rates);
     const double step = step_median[one.scenario];
     const double cpu_us = Median(state_us[one.scenario]) + Median(control_us[one.scenario]) +
                           (one.setpoints ? message_setpoint_us : message_us);
-    std::printf("  %s %6.1f = %5.1f + %5.1f   (of the rest, %.1f is computing: ArmWorld::State, "
-                "ServoBank::Tick, message translation and coding)\n",
-                label.c_str(), loop_us, step, loop_us - step, cpu_us);
+    std::printf(
+        "  %s %6.1f = %5.1f + %5.1f   (of the rest, %.1f is computing: ArmWorld::State, "
+        "ServoBank::Tick, message translation and coding)\n",
+        label.c_str(), loop_us, step, loop_us - step, cpu_us);
   }
   for (size_t s = 0; s < scenarios.size(); ++s) {
     const double on = 1e6 / Median(cases[2 * s].rates);

@@ -52,25 +52,19 @@ ControlNode::ControlNode(core::Bus& bus, const core::RobotModel& model, ControlO
       },
       1000);
   bus_.Subscribe<sirupp::joint_target_t>(
-      channels.arm_target,
-      [this](const sirupp::joint_target_t& message, const core::ReceiveInfo& info) {
-        OnTarget(message, info);
-      });
+      channels.arm_target, [this](const sirupp::joint_target_t& message,
+                                  const core::ReceiveInfo& info) { OnTarget(message, info); });
   bus_.Subscribe<sirupp::pose_target_t>(
       channels.arm_pose_target,
       [this](const sirupp::pose_target_t& message, const core::ReceiveInfo& info) {
         OnPoseTarget(message, info);
       });
   bus_.Subscribe<sirupp::plan_command_t>(
-      channels.arm_plan,
-      [this](const sirupp::plan_command_t& message, const core::ReceiveInfo& info) {
-        OnPlan(message, info);
-      });
+      channels.arm_plan, [this](const sirupp::plan_command_t& message,
+                                const core::ReceiveInfo& info) { OnPlan(message, info); });
   bus_.Subscribe<sirupp::servo_gains_t>(
-      channels.arm_gains,
-      [this](const sirupp::servo_gains_t& message, const core::ReceiveInfo& info) {
-        OnGains(message, info);
-      });
+      channels.arm_gains, [this](const sirupp::servo_gains_t& message,
+                                 const core::ReceiveInfo& info) { OnGains(message, info); });
   heartbeat_.Publish(core::ProcessState::kStarting, "");
 }
 
@@ -150,11 +144,12 @@ void ControlNode::Refuse(const core::MessageError& error) {
 
 void ControlNode::RequireManual(const std::string& channel) const {
   if (plan_running_) {
-    throw core::MessageError(channel, "", "plan " + plan_->name + " is running (step " +
-                                              std::to_string(plan_step_ + 1) + " of " +
-                                              std::to_string(plan_->steps.size()) +
-                                              "); targets are taken in manual mode only: abort "
-                                              "the plan first (sirupp plan abort)");
+    throw core::MessageError(channel, "",
+                             "plan " + plan_->name + " is running (step " +
+                                 std::to_string(plan_step_ + 1) + " of " +
+                                 std::to_string(plan_->steps.size()) +
+                                 "); targets are taken in manual mode only: abort "
+                                 "the plan first (sirupp plan abort)");
   }
   if (locked_automatic_) {
     throw core::MessageError(channel, "",
@@ -260,9 +255,9 @@ void ControlNode::OnPoseTarget(const sirupp::pose_target_t& message,
     RequireManual(info.channel);
     for (int i = 0; i < 3; ++i) {
       if (!std::isfinite(message.position[i])) {
-        throw core::MessageError(info.channel, "position" + Index(i),
-                                 core::FormatNumber(message.position[i]) +
-                                     ": allowed finite metres");
+        throw core::MessageError(
+            info.channel, "position" + Index(i),
+            core::FormatNumber(message.position[i]) + ": allowed finite metres");
       }
     }
     const Eigen::Quaterniond q(message.orientation[0], message.orientation[1],
@@ -288,9 +283,9 @@ void ControlNode::OnPoseTarget(const sirupp::pose_target_t& message,
     check_enum("wrist", message.wrist);
     const double scale = message.speed_scale == 0 ? 1.0 : message.speed_scale;
     if (!std::isfinite(scale) || scale <= 0 || scale > 1) {
-      throw core::MessageError(info.channel, "speed_scale",
-                               core::FormatNumber(message.speed_scale) +
-                                   ": allowed (0, 1], or 0 for 1");
+      throw core::MessageError(
+          info.channel, "speed_scale",
+          core::FormatNumber(message.speed_scale) + ": allowed (0, 1], or 0 for 1");
     }
     if (!servos_on_) {
       throw core::MessageError(info.channel, "",
@@ -298,8 +293,7 @@ void ControlNode::OnPoseTarget(const sirupp::pose_target_t& message,
                                    ": the IK needs the present joints (is sirupp-sim running?)");
     }
     PoseRequest request;
-    request.target.translation() << message.position[0], message.position[1],
-        message.position[2];
+    request.target.translation() << message.position[0], message.position[1], message.position[2];
     if (message.position_only == 0) request.target.linear() = q.normalized().toRotationMatrix();
     request.position_only = message.position_only == 1;
     using Pose = sirupp::pose_target_t;
@@ -356,8 +350,8 @@ void ControlNode::OnPlan(const sirupp::plan_command_t& message, const core::Rece
         plan_paused_ = false;
         wait_until_utime_ = -1;
         last_error_.clear();
-        std::cerr << "sirupp-control: running plan " << plan_->name << " ("
-                  << plan_->steps.size() << " steps)\n";
+        std::cerr << "sirupp-control: running plan " << plan_->name << " (" << plan_->steps.size()
+                  << " steps)\n";
         break;
       }
       case Command::COMMAND_PAUSE:
@@ -395,9 +389,10 @@ void ControlNode::OnPlan(const sirupp::plan_command_t& message, const core::Rece
         break;
       default:
         throw core::MessageError(info.channel, "command",
-                                 std::to_string(message.command) + ": allowed 0..5 (run, pause, "
-                                                                   "resume, abort, manual, "
-                                                                   "automatic)");
+                                 std::to_string(message.command) +
+                                     ": allowed 0..5 (run, pause, "
+                                     "resume, abort, manual, "
+                                     "automatic)");
     }
   } catch (const core::MessageError& error) {
     Refuse(error);
@@ -422,8 +417,8 @@ void ControlNode::OnGains(const sirupp::servo_gains_t& message, const core::Rece
       g.kp = WholeGain(channel, "kp", j, message.kp[i], 0, 32767);
       g.kd = WholeGain(channel, "kd", j, message.kd[i], 0, 32767);
       g.ki = WholeGain(channel, "ki", j, message.ki[i], 0, 32767);
-      g.integration_limit = WholeGain(channel, "integration_limit", j,
-                                      message.integration_limit[i], 0, 32767);
+      g.integration_limit =
+          WholeGain(channel, "integration_limit", j, message.integration_limit[i], 0, 32767);
       g.output_limit = WholeGain(channel, "output_limit", j, message.output_limit[i], 0, 255);
       WholeGain(channel, "current_limit", j, message.current_limit[i], 0, 255);
       g.error_limit = WholeGain(channel, "error_limit", j, message.error_limit[i], 0, 16383);

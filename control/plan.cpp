@@ -71,8 +71,8 @@ class Parser {
       tokens_ = Tokenize(content);
       if (tokens_.empty()) continue;
       text_ = content.substr(static_cast<size_t>(tokens_.front().column - 1));
-      while (!text_.empty() && (text_.back() == ' ' || text_.back() == '\t' ||
-                                text_.back() == '\r')) {
+      while (!text_.empty() &&
+             (text_.back() == ' ' || text_.back() == '\t' || text_.back() == '\r')) {
         text_.pop_back();
       }
       Statement(plan);
@@ -206,11 +206,12 @@ class Parser {
 
   void MoveLine(Plan& plan) {
     if (tokens_.size() < 2) {
-      Fail(tokens_.front(), "expected what to move: `move J=VALUE ...`, `move joints V1 .. VN`, "
-                            "`move pose NAME` or `move tool X Y Z [ROLL PITCH YAW]`");
+      Fail(tokens_.front(),
+           "expected what to move: `move J=VALUE ...`, `move joints V1 .. VN`, "
+           "`move pose NAME` or `move tool X Y Z [ROLL PITCH YAW]`");
     }
     const size_t n = static_cast<size_t>(model_.num_joints());
-    std::vector<std::optional<double>> goal(n);      // SI, for the joints that move
+    std::vector<std::optional<double>> goal(n);  // SI, for the joints that move
     std::vector<int> goal_column(n, 0);
     Rate speed = speed_;
     Rate accel = accel_;
@@ -276,7 +277,8 @@ class Parser {
           goal_column[j] = words[j + 1].column;
         }
       } else if (form == "pose") {
-        if (words.size() != 2) Fail(words.front(), "expected one pose name, e.g. `move pose ready`");
+        if (words.size() != 2)
+          Fail(words.front(), "expected one pose name, e.g. `move pose ready`");
         const core::NamedPose* pose = model_.FindNamedPose(words[1].text);
         if (pose == nullptr && words[1].text != "home") {
           std::string names = "home";
@@ -291,8 +293,8 @@ class Parser {
       } else if (form == "tool") {
         ToolGoal(words, config, goal, goal_column);
       } else {
-        Fail(words.front(), "unknown move form '" + form +
-                                "'; allowed: J=VALUE ..., joints, pose, tool");
+        Fail(words.front(),
+             "unknown move form '" + form + "'; allowed: J=VALUE ..., joints, pose, tool");
       }
     }
     if (config_given && (words.empty() || words.front().text != "tool")) {
@@ -308,8 +310,8 @@ class Parser {
       if (!goal[j]) continue;
       const core::Joint& joint = model_.joints[j];
       const double unit = JointUnit(joint);
-      const std::string label = "joint j" + std::to_string(j + 1) +
-                                (joint.name.empty() ? "" : " (" + joint.name + ")");
+      const std::string label =
+          "joint j" + std::to_string(j + 1) + (joint.name.empty() ? "" : " (" + joint.name + ")");
       if (*goal[j] < joint.position_min || *goal[j] > joint.position_max) {
         throw core::ConfigError(
             {name_, line_, goal_column[j]}, tokens_.front().text,
@@ -320,15 +322,15 @@ class Parser {
       JointMove& move = step.moves[j];
       move.active = true;
       move.goal = *goal[j];
-      move.velocity = speed.percent ? joint.servo.default_velocity * speed.value / 100.0
-                                    : speed.value * unit;
+      move.velocity =
+          speed.percent ? joint.servo.default_velocity * speed.value / 100.0 : speed.value * unit;
       move.acceleration = accel.percent ? joint.servo.default_acceleration * accel.value / 100.0
                                         : accel.value * unit;
       if (move.velocity > joint.velocity_max * (1 + 1e-12)) {
-        Fail(Token{"", speed.column > 0 ? speed.column : 1}, label + " speed " + core::FormatApprox(move.velocity / unit) + " " +
-                                  JointUnitName(joint) + "/s is above its maximum " +
-                                  core::FormatApprox(joint.velocity_max / unit) + " " +
-                                  JointUnitName(joint) + "/s");
+        Fail(Token{"", speed.column > 0 ? speed.column : 1},
+             label + " speed " + core::FormatApprox(move.velocity / unit) + " " +
+                 JointUnitName(joint) + "/s is above its maximum " +
+                 core::FormatApprox(joint.velocity_max / unit) + " " + JointUnitName(joint) + "/s");
       }
       reached_[j] = move.goal;
     }
@@ -357,8 +359,7 @@ class Parser {
             .toRotationMatrix();
     request.position_only = words.size() == 4;
     if (config) request.SetConfig(*config);
-    const PoseGoal solved =
-        SolvePoseGoal(model_, request, core::ToJointVector(reached_));
+    const PoseGoal solved = SolvePoseGoal(model_, request, core::ToJointVector(reached_));
     if (!solved.ok) Fail(words.front(), "no joint solution for this tool pose: " + solved.reason);
     for (size_t j = 0; j < goal.size(); ++j) {
       goal[j] = solved.q[static_cast<Eigen::Index>(j)];

@@ -18,10 +18,10 @@ namespace sirupp::control {
 struct PlanStep {
   enum class Kind { kMove, kWaitDone, kWaitTime };
   Kind kind = Kind::kMove;
-  int line = 0;              // 1-based line of the plan text
-  std::string text;          // the line as written, without its comment
+  int line = 0;                  // 1-based line of the plan text
+  std::string text;              // the line as written, without its comment
   std::vector<JointMove> moves;  // kMove: one entry per joint (active = takes part), SI
-  double wait_s = 0;         // kWaitTime: seconds of sim time
+  double wait_s = 0;             // kWaitTime: seconds of sim time
 };
 
 struct Plan {
@@ -32,8 +32,8 @@ struct Plan {
 };
 
 // Parses `text` (named `name` in messages, e.g. the file name) for `model`. `start` holds the joint
-// positions the plan starts from (SI, one per joint): `move tool` steps pick the IK solution nearest
-// the joints the plan has reached, starting there.
+// positions the plan starts from (SI, one per joint): `move tool` steps pick the IK solution
+// nearest the joints the plan has reached, starting there.
 Plan ParsePlan(const std::string& text, const std::string& name, const core::RobotModel& model,
                const std::vector<double>& start);
 

@@ -49,8 +49,8 @@ PoseGoal SolvePoseGoal(const core::RobotModel& model, const PoseRequest& request
     goal.config_name = solution.config ? solution.config->Name() : "";
     return goal;
   }
-  goal.reason = "configuration " + request.ConfigName() +
-                " has no solution inside the joint limits";
+  goal.reason =
+      "configuration " + request.ConfigName() + " has no solution inside the joint limits";
   return goal;
 }
 

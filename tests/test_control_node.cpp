@@ -9,10 +9,10 @@
 #include <cmath>
 #include <fstream>
 #include <iostream>
-#include <sstream>
 #include <sirupp/controller_status_t.hpp>
 #include <sirupp/servo_move_t.hpp>
 #include <sirupp/servo_setpoint_t.hpp>
+#include <sstream>
 
 #include "control/control_node.hpp"
 #include "core/kinematics.hpp"
@@ -302,8 +302,8 @@ TEST(ControlNode, BadPoseTargetsAreRefusedAndNothingMoves) {
   squashed.orientation[0] = 0.5;  // not a unit quaternion
   rig.bus.Publish("ARM_POSE_TARGET", squashed);
   sirupp::pose_target_t wrong_config =
-      PoseTarget(0.254, -0.142, 0.4, Eigen::Quaterniond(Eigen::AngleAxisd(
-                                         M_PI / 2, Eigen::Vector3d::UnitY())));
+      PoseTarget(0.254, -0.142, 0.4,
+                 Eigen::Quaterniond(Eigen::AngleAxisd(M_PI / 2, Eigen::Vector3d::UnitY())));
   wrong_config.shoulder = sirupp::pose_target_t::SHOULDER_RIGHT;
   wrong_config.elbow = sirupp::pose_target_t::ELBOW_UP;  // outside the elbow's limits here
   rig.bus.Publish("ARM_POSE_TARGET", wrong_config);

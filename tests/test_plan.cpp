@@ -52,8 +52,8 @@ TEST(Plan, TheSevenMovementSetsOfTableTwo) {
     ASSERT_EQ(move.kind, PlanStep::Kind::kMove);
     EXPECT_EQ(move.text.rfind("move j1=90", 0) == 0, joints[set].front() == 1) << move.text;
     for (int j = 0; j < 6; ++j) {
-      const bool moves = std::find(joints[set].begin(), joints[set].end(), j + 1) !=
-                         joints[set].end();
+      const bool moves =
+          std::find(joints[set].begin(), joints[set].end(), j + 1) != joints[set].end();
       const JointMove& joint_move = move.moves[static_cast<size_t>(j)];
       EXPECT_EQ(joint_move.active, moves) << "joint " << j + 1;
       EXPECT_NEAR(plan.final_goal[static_cast<size_t>(j)], moves ? 90 * kDeg : 0, 1e-12);

@@ -47,17 +47,26 @@ std::map<std::string, std::string> WithRigFlags(std::map<std::string, std::strin
   return flags;
 }
 
-const char* ModeName(int8_t mode) { return mode == Status::MODE_AUTOMATIC ? "automatic" : "manual"; }
+const char* ModeName(int8_t mode) {
+  return mode == Status::MODE_AUTOMATIC ? "automatic" : "manual";
+}
 
 const char* StateName(int8_t state) {
   switch (state) {
-    case Status::STATE_IDLE: return "idle";
-    case Status::STATE_MOVING: return "moving";
-    case Status::STATE_WAITING: return "waiting";
-    case Status::STATE_PAUSED: return "paused";
-    case Status::STATE_FAULT: return "fault";
-    case Status::STATE_OFF: return "off";
-    default: return "unknown";
+    case Status::STATE_IDLE:
+      return "idle";
+    case Status::STATE_MOVING:
+      return "moving";
+    case Status::STATE_WAITING:
+      return "waiting";
+    case Status::STATE_PAUSED:
+      return "paused";
+    case Status::STATE_FAULT:
+      return "fault";
+    case Status::STATE_OFF:
+      return "off";
+    default:
+      return "unknown";
   }
 }
 
@@ -115,9 +124,8 @@ class RigWatch {
   // Waits for the first CONTROLLER_STATUS; false (and a message on `out`) if none came.
   bool FirstStatus(std::ostream& out) {
     if (Until([this] { return status.has_value(); }, kFirstStatusS)) return true;
-    out << "no " << bus_.FullName(core::Channels{}.controller_status) << " within "
-        << kFirstStatusS << " s on " << bus_.url()
-        << ": is sirupp-control running (same --lcm-url and --prefix)?\n";
+    out << "no " << bus_.FullName(core::Channels{}.controller_status) << " within " << kFirstStatusS
+        << " s on " << bus_.url() << ": is sirupp-control running (same --lcm-url and --prefix)?\n";
     return false;
   }
 
@@ -275,15 +283,18 @@ int MovePose(const std::vector<std::string>& args, std::ostream& out) {
                                   {"timeout", "seconds to wait"}}));
   const core::RobotModel model = ModelFromArgs(parsed);
   if (parsed.Has("pose") == parsed.Has("position")) {
-    throw core::UsageError("move pose: give exactly one of --pose X Y Z ROLL PITCH YAW or "
-                           "--position X Y Z");
+    throw core::UsageError(
+        "move pose: give exactly one of --pose X Y Z ROLL PITCH YAW or "
+        "--position X Y Z");
   }
   const bool position_only = parsed.Has("position");
-  std::vector<double> v = parsed.Numbers(position_only ? "position" : "pose", position_only ? 3 : 6);
+  std::vector<double> v =
+      parsed.Numbers(position_only ? "position" : "pose", position_only ? 3 : 6);
   v.resize(6, 0.0);
   control::PoseRequest request;
   request.target.translation() << v[0], v[1], v[2];
-  const Eigen::Quaterniond orientation = core::QuaternionFromRpy(v[3] * kDeg, v[4] * kDeg, v[5] * kDeg);
+  const Eigen::Quaterniond orientation =
+      core::QuaternionFromRpy(v[3] * kDeg, v[4] * kDeg, v[5] * kDeg);
   request.target.linear() = orientation.toRotationMatrix();
   request.position_only = position_only;
   const std::string config_text = parsed.Has("config") ? parsed.String("config") : "nearest";
@@ -304,9 +315,9 @@ int MovePose(const std::vector<std::string>& args, std::ostream& out) {
   RigWatch watch(bus, true);
   // Checked here from the arm's present joints, as sirupp-control will.
   watch.Until([&] { return watch.state.has_value(); }, 0.5);
-  const std::vector<double> reference =
-      watch.state && watch.state->num_joints == model.num_joints() ? watch.state->position
-                                                                   : control::HomePositions(model);
+  const std::vector<double> reference = watch.state && watch.state->num_joints == model.num_joints()
+                                            ? watch.state->position
+                                            : control::HomePositions(model);
   const control::PoseGoal goal =
       control::SolvePoseGoal(model, request, core::ToJointVector(reference));
   if (!goal.ok) throw core::UsageError("move pose: no joint solution: " + goal.reason);
@@ -325,17 +336,18 @@ int MovePose(const std::vector<std::string>& args, std::ostream& out) {
     target.shoulder = *request.shoulder_left ? Pose::SHOULDER_LEFT : Pose::SHOULDER_RIGHT;
   }
   if (request.elbow_up) target.elbow = *request.elbow_up ? Pose::ELBOW_UP : Pose::ELBOW_DOWN;
-  if (request.wrist_flip) target.wrist = *request.wrist_flip ? Pose::WRIST_FLIP : Pose::WRIST_NO_FLIP;
+  if (request.wrist_flip)
+    target.wrist = *request.wrist_flip ? Pose::WRIST_FLIP : Pose::WRIST_NO_FLIP;
   target.speed_scale = scale;
   const int64_t base_move = watch.status->move_id;
   bus.Publish(core::Channels{}.arm_pose_target, target);
   out << "sent " << bus.FullName(core::Channels{}.arm_pose_target) << ": tool to [" << v[0] << " "
       << v[1] << " " << v[2] << "] m"
-      << (position_only ? "" : ", rpy [" + core::FormatApprox(v[3]) + " " +
-                                   core::FormatApprox(v[4]) + " " + core::FormatApprox(v[5]) +
-                                   "] deg")
-      << "; expected joints [" << Degrees(model, std::vector<double>(goal.q.data(),
-                                                                     goal.q.data() + goal.q.size()))
+      << (position_only ? ""
+                        : ", rpy [" + core::FormatApprox(v[3]) + " " + core::FormatApprox(v[4]) +
+                              " " + core::FormatApprox(v[5]) + "] deg")
+      << "; expected joints ["
+      << Degrees(model, std::vector<double>(goal.q.data(), goal.q.data() + goal.q.size()))
       << "] deg" << (goal.config_name.empty() ? "" : " (" + goal.config_name + ")") << "\n";
   const int code = Confirm(
       watch, bus, core::Channels{}.arm_pose_target,
@@ -368,8 +380,8 @@ int PlanCheck(const std::vector<std::string>& args, std::ostream& out) {
   if (files.empty()) throw core::UsageError("plan check: missing FILE");
   const core::RobotModel model = ModelFromArgs(parsed);
   for (const std::string& file : files) {
-    PrintPlan(out, model, control::ParsePlan(ReadPlanFile(file), file, model,
-                                             control::HomePositions(model)));
+    PrintPlan(out, model,
+              control::ParsePlan(ReadPlanFile(file), file, model, control::HomePositions(model)));
   }
   return 0;
 }
@@ -461,11 +473,16 @@ int PlanControl(int8_t command, const std::string& word, const std::vector<std::
       watch, bus, core::Channels{}.arm_plan,
       [&](const Status& s) {
         switch (command) {
-          case sirupp::plan_command_t::COMMAND_PAUSE: return s.state == Status::STATE_PAUSED;
-          case sirupp::plan_command_t::COMMAND_RESUME: return s.state != Status::STATE_PAUSED;
-          case sirupp::plan_command_t::COMMAND_MANUAL: return s.mode == Status::MODE_MANUAL;
-          case sirupp::plan_command_t::COMMAND_AUTOMATIC: return s.mode == Status::MODE_AUTOMATIC;
-          default: return true;
+          case sirupp::plan_command_t::COMMAND_PAUSE:
+            return s.state == Status::STATE_PAUSED;
+          case sirupp::plan_command_t::COMMAND_RESUME:
+            return s.state != Status::STATE_PAUSED;
+          case sirupp::plan_command_t::COMMAND_MANUAL:
+            return s.mode == Status::MODE_MANUAL;
+          case sirupp::plan_command_t::COMMAND_AUTOMATIC:
+            return s.mode == Status::MODE_AUTOMATIC;
+          default:
+            return true;
         }
       },
       out);
@@ -630,8 +647,9 @@ int RunGains(const std::vector<std::string>& args, std::ostream& out) {
 }
 
 int RunStatus(const std::vector<std::string>& args, std::ostream& out) {
-  const Args parsed(args, "status", WithRigFlags({{"timeout", "seconds to listen"},
-                                                  {"model", "robot model file"}}));
+  const Args parsed(
+      args, "status",
+      WithRigFlags({{"timeout", "seconds to listen"}, {"model", "robot model file"}}));
   const double listen = TimeoutFrom(parsed, 1.5);
   const core::RobotModel model = ModelFromArgs(parsed);
   core::Bus bus = BusFromArgs(parsed);
