@@ -1,4 +1,4 @@
-// sirupp-control: the virtual PIC-SERVOs as an LCM process (first slice: joint targets). Thin main.
+// sirupp-control: the sequencer and the virtual PIC-SERVOs as an LCM process. Thin main.
 
 #include <iostream>
 #include <memory>
@@ -18,9 +18,11 @@ namespace {
 constexpr const char* kUsage =
     "usage: sirupp-control [--model FILE] [--name NAME] [--no-setpoints] [--lcm-url URL]\n"
     "                      [--prefix PREFIX] [--controller LIB.so [--controller-args TEXT]]\n"
-    "The virtual PIC-SERVOs: answers every SIM_ARM_STATE with joint efforts on SIM_ARM_COMMAND\n"
-    "(as participant NAME, default sirupp-control), takes joint targets on ARM_TARGET (see\n"
-    "`sirupp move`), publishes ARM_MOVE, ARM_SETPOINT, CONTROLLER_STATUS and HEARTBEAT.\n"
+    "The sequencer and the virtual PIC-SERVOs: answers every SIM_ARM_STATE with joint efforts on\n"
+    "SIM_ARM_COMMAND (as participant NAME, default sirupp-control); takes joint targets\n"
+    "(ARM_TARGET), tool targets through IK (ARM_POSE_TARGET), movement plans and modes (ARM_PLAN)\n"
+    "and gains (ARM_GAINS), see `sirupp move|plan|gains|status --help`; publishes ARM_MOVE,\n"
+    "ARM_SETPOINT, CONTROLLER_STATUS and HEARTBEAT.\n"
     "--controller: a student's controller library (built against sirupp/controller.h) computes\n"
     "the efforts from the profiles' set-points instead of the PID; --controller-args is passed\n"
     "to its constructor. See docs/student-controllers.md.\n";
