@@ -137,6 +137,14 @@ void ControlNode::PublishSetpoint(const core::ArmState& state, const std::vector
   bus_.Publish(options_.channels.arm_setpoint, setpoint);
 }
 
+void ControlNode::CheckJointCount(const std::string& channel, int32_t num_joints) const {
+  if (num_joints != model_.num_joints()) {
+    throw core::MessageError(channel, "num_joints",
+                             std::to_string(num_joints) + " joints; the model has " +
+                                 std::to_string(model_.num_joints()));
+  }
+}
+
 void ControlNode::Refuse(const core::MessageError& error) {
   last_error_ = error.what();
   PublishStatus(true);
@@ -169,11 +177,25 @@ void ControlNode::StartMove(const std::vector<JointMove>& moves) {
     pending_ = moves;  // loaded when the first arm state switches the servos on
   }
   ++move_id_;
+  PublishMove(sirupp::servo_move_t::COMMAND_MOVE, moves);
+}
+
+void ControlNode::PublishStop(int8_t command) {
+  std::vector<JointMove> stops;
+  for (int j = 0; j < model_.num_joints(); ++j) {
+    const core::Joint& joint = model_.joints[static_cast<size_t>(j)];
+    stops.push_back({true, bank_.SetpointPosition(j), joint.servo.default_velocity,
+                     joint.servo.default_acceleration});
+  }
+  PublishMove(command, stops);
+}
+
+void ControlNode::PublishMove(int8_t command, const std::vector<JointMove>& moves) {
   sirupp::servo_move_t move{};
   move.utime = last_state_utime_;
   move.seq = move_seq_++;
   move.move_id = move_id_;
-  move.command = sirupp::servo_move_t::COMMAND_MOVE;
+  move.command = command;
   move.num_joints = model_.num_joints();
   for (const JointMove& joint_move : moves) {
     move.goal.push_back(joint_move.goal);
@@ -184,33 +206,12 @@ void ControlNode::StartMove(const std::vector<JointMove>& moves) {
   bus_.Publish(options_.channels.arm_move, move);
 }
 
-void ControlNode::PublishStop(int8_t command) {
-  sirupp::servo_move_t move{};
-  move.utime = last_state_utime_;
-  move.seq = move_seq_++;
-  move.move_id = move_id_;
-  move.command = command;
-  move.num_joints = model_.num_joints();
-  for (int j = 0; j < model_.num_joints(); ++j) {
-    const core::Joint& joint = model_.joints[static_cast<size_t>(j)];
-    move.goal.push_back(bank_.SetpointPosition(j));
-    move.max_velocity.push_back(joint.servo.default_velocity);
-    move.acceleration.push_back(joint.servo.default_acceleration);
-    move.flags.push_back(sirupp::servo_move_t::FLAG_ACTIVE);
-  }
-  bus_.Publish(options_.channels.arm_move, move);
-}
-
 void ControlNode::OnTarget(const sirupp::joint_target_t& message, const core::ReceiveInfo& info) {
   const int n = model_.num_joints();
   std::vector<JointMove> moves(static_cast<size_t>(n));
   try {
     RequireManual(info.channel);
-    if (message.num_joints != n) {
-      throw core::MessageError(
-          info.channel, "num_joints",
-          std::to_string(message.num_joints) + " joints; the model has " + std::to_string(n));
-    }
+    CheckJointCount(info.channel, message.num_joints);
     bool any = false;
     for (int j = 0; j < n; ++j) {
       const auto i = static_cast<size_t>(j);
@@ -405,11 +406,7 @@ void ControlNode::OnGains(const sirupp::servo_gains_t& message, const core::Rece
   const int n = model_.num_joints();
   std::vector<ServoGains> gains(static_cast<size_t>(n));
   try {
-    if (message.num_joints != n) {
-      throw core::MessageError(
-          info.channel, "num_joints",
-          std::to_string(message.num_joints) + " joints; the model has " + std::to_string(n));
-    }
+    CheckJointCount(info.channel, message.num_joints);
     const std::string& channel = info.channel;
     for (int j = 0; j < n; ++j) {
       const auto i = static_cast<size_t>(j);

@@ -74,7 +74,11 @@ class ControlNode {
   void RequireManual(const std::string& channel) const;
   // Loads the moves into the servos (switching them on again after a fault) and publishes them.
   void StartMove(const std::vector<JointMove>& moves);
+  // A stop (servo_move_t::COMMAND_STOP_*) for every joint, at its present set-point.
   void PublishStop(int8_t command);
+  void PublishMove(int8_t command, const std::vector<JointMove>& moves);
+  // Throws MessageError on `channel` unless the message has the model's joint count.
+  void CheckJointCount(const std::string& channel, int32_t num_joints) const;
   // Runs plan steps due at sim time `utime` (called once per tick before the servos tick).
   void AdvancePlan(int64_t utime);
   void EndPlan(const std::string& error);

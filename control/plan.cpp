@@ -392,13 +392,17 @@ Plan ParsePlan(const std::string& text, const std::string& name, const core::Rob
   return parser.Parse(text);
 }
 
-Plan LoadPlan(const std::string& path, const core::RobotModel& model,
-              const std::vector<double>& start) {
+std::string ReadPlanText(const std::string& path) {
   std::ifstream file(path, std::ios::binary);
   if (!file) throw core::ConfigError({path, 0, 0}, "", "cannot open the plan file");
   std::ostringstream text;
   text << file.rdbuf();
-  return ParsePlan(text.str(), path, model, start);
+  return text.str();
+}
+
+Plan LoadPlan(const std::string& path, const core::RobotModel& model,
+              const std::vector<double>& start) {
+  return ParsePlan(ReadPlanText(path), path, model, start);
 }
 
 std::vector<double> HomePositions(const core::RobotModel& model) {

@@ -37,6 +37,9 @@ struct Plan {
 Plan ParsePlan(const std::string& text, const std::string& name, const core::RobotModel& model,
                const std::vector<double>& start);
 
+// The file's text; throws core::ConfigError naming the file if it cannot be read.
+std::string ReadPlanText(const std::string& path);
+
 // Reads the file (errors name it) and parses it with the file's path as its name.
 Plan LoadPlan(const std::string& path, const core::RobotModel& model,
               const std::vector<double>& start);

@@ -7,12 +7,10 @@
 
 #include <algorithm>
 #include <cmath>
-#include <fstream>
 #include <iostream>
 #include <sirupp/controller_status_t.hpp>
 #include <sirupp/servo_move_t.hpp>
 #include <sirupp/servo_setpoint_t.hpp>
-#include <sstream>
 
 #include "control/control_node.hpp"
 #include "core/kinematics.hpp"
@@ -66,13 +64,6 @@ struct Rig {
     return bus.StatsFor(channel, core::ChannelSide::kReceiving).rejected;
   }
 };
-
-std::string ReadFile(const std::string& path) {
-  std::ifstream file(path);
-  std::ostringstream text;
-  text << file.rdbuf();
-  return text.str();
-}
 
 using Command = sirupp::plan_command_t;
 using Status = sirupp::controller_status_t;
@@ -143,7 +134,7 @@ TEST(ControlNode, TheSevenMovementSetsReachNinetyDegreesAndSettle) {
     SCOPED_TRACE(path);
     Rig rig;
     rig.RunFor(0.01);
-    rig.Plan(Command::COMMAND_RUN, path, ReadFile(path));
+    rig.Plan(Command::COMMAND_RUN, path, ReadPlanText(path));
     rig.RunFor(0.01);
     ASSERT_TRUE(rig.control.plan_running()) << rig.control.last_error();
     const double took = rig.RunPlan(20);

@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <fstream>
 #include <functional>
 #include <map>
 #include <optional>
@@ -142,8 +141,10 @@ class RigWatch {
 
 // The controller's answer to what was just sent on `channel`: accepted() on a newer status, or a
 // new last_error naming the channel (refused). Prints the outcome; returns the exit code.
+// With no `accepted` (a message that leaves no trace when taken), silence for timeout_s is taken.
 int Confirm(RigWatch& watch, const core::Bus& bus, const std::string& channel,
-            const std::function<bool(const Status&)>& accepted, std::ostream& out) {
+            const std::function<bool(const Status&)>& accepted, std::ostream& out,
+            double timeout_s = 2.0) {
   const int64_t base_seq = watch.status->seq;
   const std::string base_error = watch.status->last_error;
   const std::string prefix = "channel " + bus.FullName(channel) + ":";
@@ -153,15 +154,15 @@ int Confirm(RigWatch& watch, const core::Bus& bus, const std::string& channel,
         if (watch.status->seq <= base_seq) return false;
         const std::string& error = watch.status->last_error;
         if (error.rfind(prefix, 0) == 0 && error != base_error) return refused = true;
-        return accepted(*watch.status);
+        return accepted && accepted(*watch.status);
       },
-      2.0);
+      timeout_s);
   if (refused) {
     out << "refused by sirupp-control: " << watch.status->last_error << "\n";
     return kExitFailed;
   }
-  if (!answered) {
-    out << "sirupp-control did not confirm within 2 s (last error: "
+  if (!answered && accepted) {
+    out << "sirupp-control did not confirm within " << timeout_s << " s (last error: "
         << (watch.status->last_error.empty() ? "none" : watch.status->last_error) << ")\n";
     return kExitFailed;
   }
@@ -357,14 +358,6 @@ int MovePose(const std::vector<std::string>& args, std::ostream& out) {
   return wait ? WaitForMove(watch, watch.status->move_id, timeout, out) : 0;
 }
 
-std::string ReadPlanFile(const std::string& path) {
-  std::ifstream file(path, std::ios::binary);
-  if (!file) throw core::ConfigError({path, 0, 0}, "", "cannot open the plan file");
-  std::ostringstream text;
-  text << file.rdbuf();
-  return text.str();
-}
-
 void PrintPlan(std::ostream& out, const core::RobotModel& model, const control::Plan& plan) {
   out << plan.name << ": ok: " << plan.steps.size() << " steps, " << plan.moves()
       << " moves; ends at [" << Degrees(model, plan.final_goal) << "] deg\n";
@@ -381,7 +374,8 @@ int PlanCheck(const std::vector<std::string>& args, std::ostream& out) {
   const core::RobotModel model = ModelFromArgs(parsed);
   for (const std::string& file : files) {
     PrintPlan(out, model,
-              control::ParsePlan(ReadPlanFile(file), file, model, control::HomePositions(model)));
+              control::ParsePlan(control::ReadPlanText(file), file, model,
+                                 control::HomePositions(model)));
   }
   return 0;
 }
@@ -396,7 +390,7 @@ int PlanRun(const std::vector<std::string>& args, std::ostream& out) {
   const core::RobotModel model = ModelFromArgs(parsed);
   const bool wait = parsed.Switch("wait");
   const double timeout = TimeoutFrom(parsed, 3600);
-  const std::string text = ReadPlanFile(file);
+  const std::string text = control::ReadPlanText(file);
   core::Bus bus = BusFromArgs(parsed);
   RigWatch watch(bus, true);
   std::string start_source;
@@ -627,23 +621,11 @@ int RunGains(const std::vector<std::string>& args, std::ostream& out) {
   RigWatch watch(bus, false);
   if (!watch.FirstStatus(out)) return kExitFailed;
   bus.Publish(core::Channels{}.arm_gains, message);
-  out << "sent " << bus.FullName(core::Channels{}.arm_gains);
+  out << "sent " << bus.FullName(core::Channels{}.arm_gains) << "\n";
   // Accepted gains leave no trace in the status; a refusal names the channel. Give it 0.3 s.
-  const int64_t base_seq = watch.status->seq;
-  const std::string base_error = watch.status->last_error;
-  const std::string prefix = "channel " + bus.FullName(core::Channels{}.arm_gains) + ":";
-  watch.Until(
-      [&] {
-        return watch.status->seq > base_seq && watch.status->last_error.rfind(prefix, 0) == 0 &&
-               watch.status->last_error != base_error;
-      },
-      0.3);
-  if (watch.status->last_error.rfind(prefix, 0) == 0 && watch.status->last_error != base_error) {
-    out << "\nrefused by sirupp-control: " << watch.status->last_error << "\n";
-    return kExitFailed;
-  }
-  out << " (no refusal within 0.3 s)\n";
-  return 0;
+  const int code = Confirm(watch, bus, core::Channels{}.arm_gains, nullptr, out, 0.3);
+  if (code == 0) out << "no refusal within 0.3 s\n";
+  return code;
 }
 
 int RunStatus(const std::vector<std::string>& args, std::ostream& out) {
