@@ -426,7 +426,7 @@ void ControlNode::OnGains(const sirupp::servo_gains_t& message, const core::Rece
                                      ": the virtual servos run every physics tick; allowed 1");
       }
       try {
-        CheckGains(g);
+        servo::CheckGains(g);
       } catch (const std::invalid_argument& error) {
         throw core::MessageError(channel, "joint" + Index(j), error.what());
       }
@@ -530,7 +530,7 @@ bool ControlNode::StudentEfforts(const core::ArmState& state, std::vector<double
 
 int ControlNode::TrippedJoint() const {
   for (int j = 0; j < bank_.num_joints(); ++j) {
-    if (bank_.servo(j).status() & kPositionError) return j;
+    if (bank_.servo(j).status() & servo::kPositionError) return j;
   }
   return -1;
 }

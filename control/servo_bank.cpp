@@ -86,7 +86,7 @@ const std::vector<double>& ServoBank::Tick(const std::vector<double>& positions)
 
 bool ServoBank::AllDone() const {
   for (const PicServo& servo : servos_) {
-    if (!(servo.status() & kMoveDone)) return false;
+    if (!(servo.status() & servo::kMoveDone)) return false;
   }
   return true;
 }

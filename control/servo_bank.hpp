@@ -1,17 +1,21 @@
 #pragma once
 // One virtual PIC-SERVO per joint of an arm, in SI at its edges: moves in (rad or m, per joint),
 // joint state in, joint efforts out, once per servo tick. What sirupp-control runs for the
-// simulated arm, and what the hardware emulator runs per module.
+// simulated arm. The chip model itself (PicServo, JointDrive) lives in servo/.
 
 #include <cstdint>
 #include <vector>
 
-#include "control/picservo.hpp"
-#include "control/servo_units.hpp"
+#include "servo/picservo.hpp"
+#include "servo/servo_units.hpp"
 #include "core/arm_state.hpp"
 #include "core/robot_model.hpp"
 
 namespace sirupp::control {
+
+using JointDrive = servo::JointDrive;
+using PicServo = servo::PicServo;
+using ServoGains = servo::ServoGains;
 
 // One joint's part of a move (a LOAD_TRAJ): absolute goal, top speed and acceleration, SI.
 struct JointMove {

@@ -1,4 +1,4 @@
-// The virtual PIC-SERVO (control/picservo.hpp): profile properties and the PID against sequences
+// The virtual PIC-SERVO (servo/picservo.hpp): profile properties and the PID against sequences
 // computed by hand.
 
 #include <gtest/gtest.h>
@@ -6,9 +6,9 @@
 #include <cmath>
 #include <vector>
 
-#include "control/picservo.hpp"
+#include "servo/picservo.hpp"
 
-namespace sirupp::control {
+namespace sirupp::servo {
 namespace {
 
 constexpr int64_t kOne = int64_t{1} << 16;  // one count (or count/tick, count/tick^2) in 16.16
@@ -188,4 +188,4 @@ TEST(PicServo, RefusesGainsOutOfTheChipsRange) {
 }
 
 }  // namespace
-}  // namespace sirupp::control
+}  // namespace sirupp::servo

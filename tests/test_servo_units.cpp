@@ -1,14 +1,14 @@
-// SI <-> PIC-SERVO unit conversions (control/servo_units.hpp), checked on the PUMA 260's drives
+// SI <-> PIC-SERVO unit conversions (servo/servo_units.hpp), checked on the PUMA 260's drives
 // with numbers worked out by hand.
 
 #include <gtest/gtest.h>
 
 #include <cmath>
 
-#include "control/servo_units.hpp"
+#include "servo/servo_units.hpp"
 #include "core/model_loader.hpp"
 
-namespace sirupp::control {
+namespace sirupp::servo {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
@@ -58,4 +58,4 @@ TEST(JointDrive, RefusesADriveThatCannotBeConverted) {
 }
 
 }  // namespace
-}  // namespace sirupp::control
+}  // namespace sirupp::servo

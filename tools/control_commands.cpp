@@ -17,7 +17,7 @@
 #include <sirupp/servo_setpoint_t.hpp>
 #include <sstream>
 
-#include "control/picservo.hpp"
+#include "servo/picservo.hpp"
 #include "control/plan.hpp"
 #include "control/pose_goal.hpp"
 #include "control/servo_bank.hpp"
@@ -598,7 +598,7 @@ int RunGains(const std::vector<std::string>& args, std::ostream& out) {
       g.deadband = value("db", g.deadband);
     }
     try {
-      control::CheckGains(g);
+      servo::CheckGains(g);
     } catch (const std::invalid_argument& error) {
       throw core::UsageError("gains: joint " + std::to_string(j + 1) + ": " + error.what());
     }

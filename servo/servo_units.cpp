@@ -1,4 +1,4 @@
-#include "control/servo_units.hpp"
+#include "servo/servo_units.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -6,7 +6,7 @@
 
 #include "core/errors.hpp"
 
-namespace sirupp::control {
+namespace sirupp::servo {
 namespace {
 
 constexpr double kTwoPi = 6.28318530717958647692;
@@ -58,4 +58,4 @@ double JointDrive::AccelerationFromWord(int64_t word) const {
 
 double JointDrive::EffortFromPwm(int pwm) const { return effort_per_pwm_ * pwm; }
 
-}  // namespace sirupp::control
+}  // namespace sirupp::servo

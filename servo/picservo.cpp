@@ -1,11 +1,11 @@
-#include "control/picservo.hpp"
+#include "servo/picservo.hpp"
 
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
 #include <string>
 
-namespace sirupp::control {
+namespace sirupp::servo {
 namespace {
 
 int64_t Sign(int64_t value) { return (value > 0) - (value < 0); }
@@ -186,4 +186,4 @@ int PicServo::Tick(int64_t actual_counts) {
   return output_;
 }
 
-}  // namespace sirupp::control
+}  // namespace sirupp::servo

@@ -8,7 +8,7 @@
 //   acceleration  counts per tick^2 << 16       (LOAD_TRAJ's 32-bit acceleration word)
 //   output        PWM, -output_limit..+output_limit (at most 255)
 //
-// Conversions to the virtual arm's SI values live in control/servo_units.hpp and
+// Conversions to the virtual arm's SI values live in servo/servo_units.hpp and
 // docs/servo-units.md.
 //
 // The PID arithmetic follows the model recommended in the reference, with the two scale factors
@@ -21,7 +21,7 @@
 
 #include <cstdint>
 
-namespace sirupp::control {
+namespace sirupp::servo {
 
 // SET_GAIN values, chip units (servo_gains_t carries the same numbers).
 struct ServoGains {
@@ -133,4 +133,4 @@ class PicServo {
   uint8_t status_ = kMoveDone;
 };
 
-}  // namespace sirupp::control
+}  // namespace sirupp::servo

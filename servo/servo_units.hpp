@@ -10,7 +10,7 @@
 
 #include "core/robot_model.hpp"
 
-namespace sirupp::control {
+namespace sirupp::servo {
 
 class JointDrive {
  public:
@@ -39,4 +39,4 @@ class JointDrive {
   double effort_per_pwm_;
 };
 
-}  // namespace sirupp::control
+}  // namespace sirupp::servo
