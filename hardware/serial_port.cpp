@@ -1,0 +1,175 @@
+#include "hardware/serial_port.hpp"
+
+#include <fcntl.h>
+#include <poll.h>
+#include <sys/stat.h>
+#include <termios.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstdlib>
+#include <cstring>
+
+namespace sirupp::hardware {
+namespace {
+
+std::string Reason() { return std::strerror(errno); }
+
+speed_t SpeedFor(int baud, const std::string& device) {
+  switch (baud) {
+    case 9600:
+      return B9600;
+    case 19200:
+      return B19200;
+    case 57600:
+      return B57600;
+    case 115200:
+      return B115200;
+    case 230400:
+      return B230400;
+    default:
+      throw SerialError(device + ": baud " + std::to_string(baud) +
+                        " is not allowed; allowed: 9600, 19200, 57600, 115200, 230400");
+  }
+}
+
+void MakeRaw(int fd, speed_t speed, const std::string& device) {
+  termios t{};
+  if (tcgetattr(fd, &t) != 0) {
+    throw SerialError(device + ": not a serial device (tcgetattr: " + Reason() + ")");
+  }
+  cfmakeraw(&t);
+  t.c_cflag |= CLOCAL | CREAD;
+  t.c_cflag &= ~static_cast<tcflag_t>(CSTOPB | PARENB | CRTSCTS);
+  t.c_iflag &= ~static_cast<tcflag_t>(IXON | IXOFF | IXANY);
+  t.c_cc[VMIN] = 0;
+  t.c_cc[VTIME] = 0;
+  cfsetispeed(&t, speed);
+  cfsetospeed(&t, speed);
+  if (tcsetattr(fd, TCSANOW, &t) != 0) {
+    throw SerialError(device + ": cannot set raw 8N1 (tcsetattr: " + Reason() + ")");
+  }
+}
+
+}  // namespace
+
+SerialPort::SerialPort(const std::string& device, int baud) : device_(device) {
+  const speed_t speed = SpeedFor(baud, device);
+  fd_ = ::open(device.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
+  if (fd_ < 0) throw SerialError(device + ": cannot open (" + Reason() + ")");
+  try {
+    MakeRaw(fd_, speed, device);
+  } catch (...) {
+    ::close(fd_);
+    fd_ = -1;
+    throw;
+  }
+  baud_ = baud;
+  tcflush(fd_, TCIOFLUSH);
+}
+
+SerialPort::~SerialPort() {
+  if (fd_ >= 0) ::close(fd_);
+}
+
+void SerialPort::Write(const uint8_t* bytes, size_t n) {
+  size_t done = 0;
+  while (done < n) {
+    const ssize_t w = ::write(fd_, bytes + done, n - done);
+    if (w > 0) {
+      done += static_cast<size_t>(w);
+      continue;
+    }
+    if (w < 0 && errno != EAGAIN && errno != EINTR) {
+      throw SerialError(device_ + ": write failed (" + Reason() + ")");
+    }
+    pollfd p{fd_, POLLOUT, 0};
+    if (::poll(&p, 1, 1000) == 0) throw SerialError(device_ + ": write blocked for 1 s");
+  }
+}
+
+size_t SerialPort::Read(uint8_t* bytes, size_t max, std::chrono::microseconds timeout) {
+  const auto deadline = std::chrono::steady_clock::now() + timeout;
+  for (;;) {
+    const ssize_t r = ::read(fd_, bytes, max);
+    if (r > 0) return static_cast<size_t>(r);
+    if (r < 0 && errno != EAGAIN && errno != EINTR) {
+      throw SerialError(device_ + ": read failed (" + Reason() + ")");
+    }
+    const auto left = std::chrono::duration_cast<std::chrono::microseconds>(
+        deadline - std::chrono::steady_clock::now());
+    if (left.count() <= 0) return 0;
+    // poll's resolution is a millisecond; round up so short waits are not busy loops.
+    pollfd p{fd_, POLLIN, 0};
+    const int ms = static_cast<int>((left.count() + 999) / 1000);
+    const int ready = ::poll(&p, 1, ms);
+    if (ready < 0 && errno != EINTR)
+      throw SerialError(device_ + ": poll failed (" + Reason() + ")");
+    if (ready > 0 && (p.revents & (POLLERR | POLLNVAL))) {
+      throw SerialError(device_ + ": the device went away");
+    }
+    if (ready > 0 && (p.revents & POLLHUP) && !(p.revents & POLLIN)) {
+      throw SerialError(device_ + ": the other end hung up");
+    }
+  }
+}
+
+void SerialPort::SetBaud(int baud) {
+  const speed_t speed = SpeedFor(baud, device_);
+  termios t{};
+  if (tcgetattr(fd_, &t) != 0) throw SerialError(device_ + ": tcgetattr: " + Reason());
+  cfsetispeed(&t, speed);
+  cfsetospeed(&t, speed);
+  if (tcsetattr(fd_, TCSADRAIN, &t) != 0) {
+    throw SerialError(device_ + ": cannot switch to " + std::to_string(baud) + " baud (" +
+                      Reason() + ")");
+  }
+  baud_ = baud;
+}
+
+void SerialPort::DiscardInput() { tcflush(fd_, TCIFLUSH); }
+
+PseudoTerminal::PseudoTerminal() {
+  master_ = ::posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);
+  if (master_ < 0) throw SerialError("cannot open a pseudo-terminal (" + Reason() + ")");
+  if (::grantpt(master_) != 0 || ::unlockpt(master_) != 0) {
+    ::close(master_);
+    throw SerialError("cannot unlock the pseudo-terminal (" + Reason() + ")");
+  }
+  char name[128];
+  if (::ptsname_r(master_, name, sizeof name) != 0) {
+    ::close(master_);
+    throw SerialError("cannot name the pseudo-terminal (" + Reason() + ")");
+  }
+  slave_path_ = name;
+  slave_ = ::open(name, O_RDWR | O_NOCTTY | O_CLOEXEC);
+  if (slave_ < 0) {
+    ::close(master_);
+    throw SerialError(slave_path_ + ": cannot open (" + Reason() + ")");
+  }
+  MakeRaw(slave_, B19200, slave_path_);
+  const int flags = ::fcntl(master_, F_GETFL);
+  ::fcntl(master_, F_SETFL, flags | O_NONBLOCK);
+}
+
+PseudoTerminal::~PseudoTerminal() {
+  if (!link_.empty()) ::unlink(link_.c_str());
+  if (slave_ >= 0) ::close(slave_);
+  if (master_ >= 0) ::close(master_);
+}
+
+void PseudoTerminal::LinkTo(const std::string& link) {
+  struct stat st {};
+  if (::lstat(link.c_str(), &st) == 0) {
+    if (!S_ISLNK(st.st_mode)) {
+      throw SerialError(link + ": exists and is not a symbolic link; not replacing it");
+    }
+    ::unlink(link.c_str());
+  }
+  if (::symlink(slave_path_.c_str(), link.c_str()) != 0) {
+    throw SerialError(link + ": cannot link to " + slave_path_ + " (" + Reason() + ")");
+  }
+  link_ = link;
+}
+
+}  // namespace sirupp::hardware

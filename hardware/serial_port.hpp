@@ -1,0 +1,84 @@
+#pragma once
+// Byte streams for the NMC bus: the POSIX serial port the bridge opens (a USB-RS485 adapter, or the
+// emulator's pseudo-terminal), and the pseudo-terminal the emulator serves. Raw 8N1, no flow
+// control, no line discipline. Errors throw SerialError naming the device and the system's reason.
+
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <stdexcept>
+#include <string>
+
+namespace sirupp::hardware {
+
+class SerialError : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// What NmcBus talks through; tests may supply their own.
+class BytePort {
+ public:
+  virtual ~BytePort() = default;
+  // Writes every byte (blocking until the kernel took them).
+  virtual void Write(const uint8_t* bytes, size_t n) = 0;
+  // Reads up to `max` bytes, waiting at most `timeout` for the first; returns 0 on timeout.
+  virtual size_t Read(uint8_t* bytes, size_t max, std::chrono::microseconds timeout) = 0;
+  // Switches the line speed (the host side of SET_BAUD).
+  virtual void SetBaud(int baud) = 0;
+  virtual int baud() const = 0;
+  // Throws away whatever has arrived and not been read.
+  virtual void DiscardInput() = 0;
+  virtual std::string name() const = 0;
+};
+
+// A serial device opened raw 8N1 at `baud` (one of 9600, 19200, 57600, 115200, 230400).
+class SerialPort : public BytePort {
+ public:
+  SerialPort(const std::string& device, int baud);
+  ~SerialPort() override;
+  SerialPort(const SerialPort&) = delete;
+  SerialPort& operator=(const SerialPort&) = delete;
+
+  void Write(const uint8_t* bytes, size_t n) override;
+  size_t Read(uint8_t* bytes, size_t max, std::chrono::microseconds timeout) override;
+  void SetBaud(int baud) override;
+  int baud() const override { return baud_; }
+  void DiscardInput() override;
+  std::string name() const override { return device_; }
+  int fd() const { return fd_; }
+
+ private:
+  std::string device_;
+  int fd_ = -1;
+  int baud_ = 0;
+};
+
+// The master side of a new pseudo-terminal, raw. The slave stays open here too, so that the
+// master keeps working while no client has the device open (and after a client closes it).
+class PseudoTerminal {
+ public:
+  PseudoTerminal();
+  ~PseudoTerminal();
+  PseudoTerminal(const PseudoTerminal&) = delete;
+  PseudoTerminal& operator=(const PseudoTerminal&) = delete;
+
+  int master_fd() const { return master_; }
+  // /dev/pts/N: what a client opens.
+  const std::string& slave_path() const { return slave_path_; }
+  // Makes `link` a symbolic link to the slave (replacing an old link, never a regular file); it
+  // is removed again by the destructor.
+  void LinkTo(const std::string& link);
+  const std::string& link() const { return link_; }
+
+ private:
+  int master_ = -1;
+  int slave_ = -1;
+  std::string slave_path_;
+  std::string link_;
+};
+
+// Seconds one byte takes on the line at `baud`: 10 bits (start, 8 data, stop).
+inline double ByteSeconds(int baud) { return 10.0 / baud; }
+
+}  // namespace sirupp::hardware
