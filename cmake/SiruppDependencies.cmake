@@ -41,3 +41,21 @@ target_link_libraries(sirupp_ode_external INTERFACE ${ODE_LIBRARY})
 
 # TinyXML-2 (libtinyxml2-dev) for environment files; its CMake config defines tinyxml2::tinyxml2.
 find_package(tinyxml2 REQUIRED)
+
+# OpenCV 4 (libopencv-core-dev, -imgproc-dev, -imgcodecs-dev): the report's PNG plots. Debian ships
+# OpenCVConfig.cmake only with the full libopencv-dev, so the three modules are found by hand.
+if(NOT TARGET sirupp_opencv_external)
+  find_path(OpenCV_CORE_INCLUDE_DIR opencv2/core.hpp PATH_SUFFIXES opencv4)
+  find_library(OpenCV_CORE_LIBRARY opencv_core)
+  find_library(OpenCV_IMGPROC_LIBRARY opencv_imgproc)
+  find_library(OpenCV_IMGCODECS_LIBRARY opencv_imgcodecs)
+  if(NOT OpenCV_CORE_INCLUDE_DIR OR NOT OpenCV_CORE_LIBRARY OR NOT OpenCV_IMGPROC_LIBRARY
+     OR NOT OpenCV_IMGCODECS_LIBRARY)
+    message(FATAL_ERROR "OpenCV not found (need libopencv-core-dev, libopencv-imgproc-dev, "
+                        "libopencv-imgcodecs-dev): run scripts/install-deps.sh")
+  endif()
+  add_library(sirupp_opencv_external INTERFACE)
+  target_include_directories(sirupp_opencv_external SYSTEM INTERFACE ${OpenCV_CORE_INCLUDE_DIR})
+  target_link_libraries(sirupp_opencv_external INTERFACE ${OpenCV_IMGCODECS_LIBRARY}
+                        ${OpenCV_IMGPROC_LIBRARY} ${OpenCV_CORE_LIBRARY})
+endif()

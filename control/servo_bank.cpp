@@ -8,18 +8,6 @@
 
 namespace sirupp::control {
 
-ServoGains GainsFromModel(const core::ServoParams& servo) {
-  ServoGains gains;
-  gains.kp = static_cast<int>(std::lround(servo.kp));
-  gains.kd = static_cast<int>(std::lround(servo.kd));
-  gains.ki = static_cast<int>(std::lround(servo.ki));
-  gains.integration_limit = static_cast<int>(std::lround(servo.integration_limit));
-  gains.output_limit = static_cast<int>(std::lround(servo.output_limit));
-  gains.error_limit = static_cast<int>(std::lround(servo.error_limit));
-  gains.deadband = static_cast<int>(std::lround(servo.deadband));
-  return gains;
-}
-
 ServoBank::ServoBank(const core::RobotModel& model) {
   for (const core::Joint& joint : model.joints) {
     drives_.emplace_back(joint, model.servo_tick_s);

@@ -6,10 +6,10 @@
 #include <cstdint>
 #include <vector>
 
-#include "servo/picservo.hpp"
-#include "servo/servo_units.hpp"
 #include "core/arm_state.hpp"
 #include "core/robot_model.hpp"
+#include "servo/picservo.hpp"
+#include "servo/servo_units.hpp"
 
 namespace sirupp::control {
 
@@ -61,7 +61,6 @@ class ServoBank {
   std::vector<int64_t> previous_velocity_;  // profile velocity before the last tick, fixed point
 };
 
-// ServoGains from a joint's servo parameters in the model (rounded to the chip's integers).
-ServoGains GainsFromModel(const core::ServoParams& servo);
+using servo::GainsFromModel;
 
 }  // namespace sirupp::control

@@ -30,18 +30,20 @@ Channels Channels::WithPrefix(const std::string& prefix) {
        {&channels.robot_model, &channels.environment, &channels.sim_arm_state,
         &channels.sim_arm_command, &channels.sim_reset, &channels.arm_move, &channels.arm_setpoint,
         &channels.arm_gains, &channels.arm_target, &channels.arm_pose_target, &channels.arm_plan,
-        &channels.controller_status, &channels.real_arm_state, &channels.hardware_status,
-        &channels.hardware_command, &channels.estop, &channels.heartbeat, &channels.viewer_image}) {
+        &channels.controller_status, &channels.real_arm_state, &channels.real_arm_setpoint,
+        &channels.hardware_status, &channels.hardware_command, &channels.estop, &channels.heartbeat,
+        &channels.viewer_image}) {
     name->insert(0, prefix);
   }
   return channels;
 }
 
 std::vector<std::string> Channels::All() const {
-  return {robot_model, environment,       sim_arm_state,  sim_arm_command, sim_reset,
-          arm_move,    arm_setpoint,      arm_gains,      arm_target,      arm_pose_target,
-          arm_plan,    controller_status, real_arm_state, hardware_status, hardware_command,
-          estop,       heartbeat,         viewer_image};
+  return {robot_model,    environment,       sim_arm_state,   sim_arm_command,
+          sim_reset,      arm_move,          arm_setpoint,    arm_gains,
+          arm_target,     arm_pose_target,   arm_plan,        controller_status,
+          real_arm_state, real_arm_setpoint, hardware_status, hardware_command,
+          estop,          heartbeat,         viewer_image};
 }
 
 void ValidateChannelPrefix(const std::string& prefix) {
@@ -85,8 +87,9 @@ const std::vector<ChannelInfo>& ChannelTable() {
        "every servo tick",
        "profiled set-point position and velocity, goal, position error, effort, move-done per "
        "joint"},
-      {"ARM_GAINS", "sirupp.servo_gains_t", "sirupp CLI or user", "sirupp-control, sirupp-hardware",
-       "on change", "Kp, Kd, Ki, integration, output and error limits per joint, in chip units"},
+      {"ARM_GAINS", "sirupp.servo_gains_t", "sirupp CLI or user",
+       "sirupp-control, sirupp-hardware, sirupp-logger", "on change",
+       "Kp, Kd, Ki, integration, output and error limits per joint, in chip units"},
       {"ARM_TARGET", "sirupp.joint_target_t", "sirupp CLI or user", "sirupp-control", "on demand",
        "a joint-space target with per-joint speed and acceleration"},
       {"ARM_POSE_TARGET", "sirupp.pose_target_t", "sirupp CLI", "sirupp-control", "on demand",
@@ -99,6 +102,9 @@ const std::vector<ChannelInfo>& ChannelTable() {
       {"REAL_ARM_STATE", "sirupp.arm_state_t", "sirupp-hardware",
        "sirupp-logger, sirupp-viewer, sirupp-control", "every status poll (about 100-500 Hz)",
        "real arm: joint positions and velocities from the encoders, estimated efforts"},
+      {"REAL_ARM_SETPOINT", "sirupp.servo_setpoint_t", "sirupp-hardware",
+       "sirupp-logger, sirupp-viewer", "with every REAL_ARM_STATE",
+       "the real chips' own command positions (position + position error), goals, status"},
       {"HARDWARE_STATUS", "sirupp.hardware_status_t", "sirupp-hardware",
        "sirupp CLI, sirupp launch", "10 Hz and on change",
        "bridge state (connected, armed, linked, fault), module status, serial errors"},

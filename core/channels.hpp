@@ -28,6 +28,7 @@ struct Channels {
   std::string arm_plan = "ARM_PLAN";
   std::string controller_status = "CONTROLLER_STATUS";
   std::string real_arm_state = "REAL_ARM_STATE";
+  std::string real_arm_setpoint = "REAL_ARM_SETPOINT";
   std::string hardware_status = "HARDWARE_STATUS";
   std::string hardware_command = "HARDWARE_COMMAND";
   std::string estop = "ESTOP";

@@ -57,12 +57,26 @@ void TrapezoidalProfile::SetGoal(int64_t goal_fixed, int64_t velocity_fixed,
   max_velocity_ = velocity_fixed;
   acceleration_ = acceleration_fixed;
   stopping_ = false;
+  velocity_mode_ = false;
   done_ = goal_ == position_ && velocity_ == 0;
 }
 
+void TrapezoidalProfile::SetVelocity(int64_t velocity_fixed, int64_t acceleration_fixed) {
+  if (acceleration_fixed <= 0) {
+    throw std::invalid_argument("profile acceleration " + std::to_string(acceleration_fixed) +
+                                ": must be > 0");
+  }
+  target_velocity_ = velocity_fixed;
+  acceleration_ = acceleration_fixed;
+  stopping_ = false;
+  velocity_mode_ = true;
+  done_ = velocity_ == target_velocity_;
+}
+
 void TrapezoidalProfile::StopSmooth() {
-  if (done_) return;
+  if (done_ && !velocity_mode_) return;
   stopping_ = true;
+  done_ = false;
 }
 
 void TrapezoidalProfile::HoldAt(int64_t position_fixed) {
@@ -71,11 +85,12 @@ void TrapezoidalProfile::HoldAt(int64_t position_fixed) {
   velocity_ = 0;
   done_ = true;
   stopping_ = false;
+  velocity_mode_ = false;
   phase_ = 0;
 }
 
 int64_t TrapezoidalProfile::Tick() {
-  if (done_) {
+  if (done_ && !velocity_mode_) {
     phase_ = 0;
     return position_;
   }
@@ -89,7 +104,19 @@ int64_t TrapezoidalProfile::Tick() {
       goal_ = position_;
       done_ = true;
       stopping_ = false;
+      velocity_mode_ = false;
     }
+    return position_;
+  }
+  if (velocity_mode_) {
+    const int64_t step = std::clamp(target_velocity_ - velocity_, -a, a);
+    velocity_ += step;
+    position_ += velocity_;
+    goal_ = position_;
+    const int64_t new_speed = Abs(velocity_);
+    phase_ = new_speed > speed ? kAccelerating : new_speed < speed ? kDecelerating : kSlewing;
+    if (new_speed == 0 && speed == 0) phase_ = 0;
+    done_ = velocity_ == target_velocity_;
     return position_;
   }
   const int64_t distance = goal_ - position_;
@@ -134,6 +161,7 @@ void PicServo::ServoOn(int64_t actual_counts) {
   previous_error_ = 0;
   integral_ = 0;
   output_ = 0;
+  pwm_mode_ = false;
   status_ = kServoOn | kMoveDone;
 }
 
@@ -145,30 +173,87 @@ bool PicServo::LoadTrajectory(int64_t goal_counts, int64_t velocity_fixed,
   return true;
 }
 
-void PicServo::StopSmooth() { profile_.StopSmooth(); }
+bool PicServo::LoadVelocity(int64_t velocity_fixed, int64_t acceleration_fixed) {
+  if (!servo_on()) return false;
+  profile_.SetVelocity(velocity_fixed, acceleration_fixed);
+  if (!profile_.done()) status_ = static_cast<uint8_t>(status_ & ~kMoveDone);
+  return true;
+}
+
+void PicServo::StopSmooth() {
+  profile_.StopSmooth();
+  if (servo_on() && !profile_.done()) status_ = static_cast<uint8_t>(status_ & ~kMoveDone);
+}
 
 void PicServo::StopAbrupt(int64_t actual_counts) {
   profile_.HoldAt(ToFixed(actual_counts));
   previous_error_ = 0;
+  if (servo_on()) status_ = static_cast<uint8_t>(status_ | kMoveDone);
+}
+
+void PicServo::StopHere(int64_t position_counts, int64_t actual_counts) {
+  if (!servo_on()) ServoOn(actual_counts);
+  profile_.HoldAt(ToFixed(position_counts));
+  status_ = static_cast<uint8_t>(status_ | kMoveDone);
 }
 
 void PicServo::MotorOff() {
   status_ = static_cast<uint8_t>((status_ & kPositionError) | kMoveDone);
   output_ = 0;
+  pwm_ = 0;
+  pwm_mode_ = false;
+  position_error_latched_ = true;
+}
+
+void PicServo::SetPwm(int pwm) {
+  status_ = static_cast<uint8_t>((status_ & kPositionError) | kMoveDone);
+  pwm_ = std::clamp(pwm, -kMaxPwm, kMaxPwm);
+  output_ = pwm_;
+  pwm_mode_ = true;
+  position_error_latched_ = true;
+}
+
+void PicServo::ResetPosition(int64_t counts) {
+  profile_.HoldAt(ToFixed(counts));
+  error_ = 0;
+  previous_error_ = 0;
+  if (servo_on()) status_ = static_cast<uint8_t>(status_ | kMoveDone);
+}
+
+void PicServo::TripPositionError() {
+  status_ = kPositionError | kMoveDone;
+  output_ = 0;
+  pwm_ = 0;
+  pwm_mode_ = false;
+  position_error_latched_ = true;
+}
+
+void PicServo::ClearLatches() { position_error_latched_ = !servo_on(); }
+
+PicServo::ChipFlags PicServo::chip_flags() const {
+  ChipFlags flags;
+  flags.servo_on = servo_on();
+  flags.move_done = !flags.servo_on || (status_ & kMoveDone) != 0;
+  flags.position_error = position_error_latched_ || !flags.servo_on;
+  flags.accel_done = accel_done_;
+  flags.slew_done = !flags.servo_on || profile_.phase() == kSlewing || profile_.phase() == 0;
+  return flags;
 }
 
 int PicServo::Tick(int64_t actual_counts) {
   if (!servo_on()) {
     profile_.HoldAt(ToFixed(actual_counts));  // the command follows the arm while the servo is off
     error_ = 0;
-    output_ = 0;
-    return 0;
+    output_ = pwm_mode_ ? pwm_ : 0;
+    position_error_latched_ = true;
+    return output_;
   }
   const int64_t command = WholeCounts(profile_.Tick());
+  if (profile_.phase() == kAccelerating) accel_done_ = true;
+  if (profile_.phase() == kDecelerating) accel_done_ = false;
   error_ = command - actual_counts;
   if (Abs(error_) > gains_.error_limit) {
-    status_ = kPositionError | kMoveDone;  // servo off, latched
-    output_ = 0;
+    TripPositionError();  // servo off, latched
     return 0;
   }
   const int64_t integral_limit = static_cast<int64_t>(gains_.integration_limit) * kIntegralScale;

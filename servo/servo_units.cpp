@@ -10,7 +10,7 @@ namespace sirupp::servo {
 namespace {
 
 constexpr double kTwoPi = 6.28318530717958647692;
-constexpr double kFixedOne = 65536.0;  // 16.16 fixed point
+constexpr double kFixedScale = 65536.0;  // 16.16 fixed point
 constexpr double kFullPwm = 255.0;
 
 }  // namespace
@@ -39,23 +39,35 @@ double JointDrive::FromCounts(int64_t counts) const {
 }
 
 int64_t JointDrive::VelocityWord(double speed) const {
-  const double word = std::abs(speed * counts_per_unit_) * tick_s_ * kFixedOne;
+  const double word = std::abs(speed * counts_per_unit_) * tick_s_ * kFixedScale;
   return std::max<int64_t>(1, std::llround(word));
 }
 
 double JointDrive::SpeedFromWord(int64_t word) const {
-  return static_cast<double>(word) / (kFixedOne * tick_s_ * std::abs(counts_per_unit_));
+  return static_cast<double>(word) / (kFixedScale * tick_s_ * std::abs(counts_per_unit_));
 }
 
 int64_t JointDrive::AccelerationWord(double acceleration) const {
-  const double word = std::abs(acceleration * counts_per_unit_) * tick_s_ * tick_s_ * kFixedOne;
+  const double word = std::abs(acceleration * counts_per_unit_) * tick_s_ * tick_s_ * kFixedScale;
   return std::max<int64_t>(1, std::llround(word));
 }
 
 double JointDrive::AccelerationFromWord(int64_t word) const {
-  return static_cast<double>(word) / (kFixedOne * tick_s_ * tick_s_ * std::abs(counts_per_unit_));
+  return static_cast<double>(word) / (kFixedScale * tick_s_ * tick_s_ * std::abs(counts_per_unit_));
 }
 
 double JointDrive::EffortFromPwm(int pwm) const { return effort_per_pwm_ * pwm; }
+
+ServoGains GainsFromModel(const core::ServoParams& servo) {
+  ServoGains gains;
+  gains.kp = static_cast<int>(std::lround(servo.kp));
+  gains.kd = static_cast<int>(std::lround(servo.kd));
+  gains.ki = static_cast<int>(std::lround(servo.ki));
+  gains.integration_limit = static_cast<int>(std::lround(servo.integration_limit));
+  gains.output_limit = static_cast<int>(std::lround(servo.output_limit));
+  gains.error_limit = static_cast<int>(std::lround(servo.error_limit));
+  gains.deadband = static_cast<int>(std::lround(servo.deadband));
+  return gains;
+}
 
 }  // namespace sirupp::servo

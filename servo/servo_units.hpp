@@ -9,6 +9,7 @@
 #include <cstdint>
 
 #include "core/robot_model.hpp"
+#include "servo/picservo.hpp"
 
 namespace sirupp::servo {
 
@@ -38,5 +39,8 @@ class JointDrive {
   double tick_s_;
   double effort_per_pwm_;
 };
+
+// ServoGains from a joint's servo parameters in the model (rounded to the chip's integers).
+ServoGains GainsFromModel(const core::ServoParams& servo);
 
 }  // namespace sirupp::servo

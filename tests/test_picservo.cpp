@@ -187,5 +187,140 @@ TEST(PicServo, RefusesGainsOutOfTheChipsRange) {
   EXPECT_THROW(servo.SetGains(gains), std::invalid_argument);
 }
 
+// ---- The chip's other modes (used by the hardware emulator). ------------------------------------
+
+TEST(TrapezoidalProfile, VelocityModeRampsToTheSpeedAndKeepsIt) {
+  TrapezoidalProfile profile(0);
+  profile.SetVelocity(-10 * kOne, kOne / 2);  // 20 ticks of ramp
+  EXPECT_FALSE(profile.done());
+  int ticks = 0;
+  while (!profile.done() && ticks < 1000) {
+    profile.Tick();
+    EXPECT_EQ(profile.phase(), kAccelerating);
+    ++ticks;
+  }
+  EXPECT_EQ(ticks, 20);
+  EXPECT_EQ(profile.velocity(), -10 * kOne);
+  // Ramp: 0.5 + 1 + ... + 10 counts = 105 counts down.
+  EXPECT_EQ(profile.position(), -105 * kOne);
+  const int64_t before = profile.position();
+  profile.Tick();
+  EXPECT_TRUE(profile.done()) << "done stays set at the target speed";
+  EXPECT_EQ(profile.phase(), kSlewing);
+  EXPECT_EQ(profile.position() - before, -10 * kOne) << "the position keeps moving";
+  // A new, lower speed of the other sign: it decelerates, then accelerates the other way.
+  profile.SetVelocity(4 * kOne, kOne);
+  profile.Tick();
+  EXPECT_EQ(profile.phase(), kDecelerating);
+  for (int k = 0; k < 20; ++k) profile.Tick();
+  EXPECT_TRUE(profile.done());
+  EXPECT_EQ(profile.velocity(), 4 * kOne);
+  // Stop smooth from velocity mode ends at rest in position mode.
+  profile.StopSmooth();
+  const std::vector<int64_t> rest = RunToEnd(profile);
+  EXPECT_EQ(rest.size(), 4U);
+  EXPECT_EQ(profile.velocity(), 0);
+  EXPECT_FALSE(profile.velocity_mode());
+  EXPECT_THROW(profile.SetVelocity(kOne, 0), std::invalid_argument);
+}
+
+TEST(TrapezoidalProfile, APositionGoalAfterVelocityModeStartsFromThePresentSpeed) {
+  TrapezoidalProfile profile(0);
+  profile.SetVelocity(20 * kOne, kOne);
+  for (int k = 0; k < 40; ++k) profile.Tick();
+  const int64_t start = profile.position();
+  profile.SetGoal(start + 10000 * kOne, 20 * kOne, kOne);
+  std::vector<int64_t> positions = RunToEnd(profile);
+  EXPECT_EQ(positions.back(), start + 10000 * kOne);
+  // The first tick continues at 20 counts/tick (no jump to 0).
+  EXPECT_EQ(positions.front() - start, 20 * kOne);
+}
+
+TEST(PicServo, VelocityModeReportsMoveDoneOnceTheSpeedIsReached) {
+  PicServo servo;
+  servo.ServoOn(0);
+  ASSERT_TRUE(servo.LoadVelocity(5 * kOne, kOne));
+  EXPECT_FALSE(servo.status() & kMoveDone);
+  EXPECT_FALSE(servo.chip_flags().move_done);
+  int64_t actual = 0;
+  int ticks = 0;
+  while (!(servo.status() & kMoveDone) && ticks < 100) {
+    servo.Tick(actual);
+    actual = WholeCounts(servo.profile().position());
+    ++ticks;
+  }
+  EXPECT_EQ(ticks, 5);
+  EXPECT_TRUE(servo.chip_flags().accel_done) << "the last phase change was an acceleration";
+  servo.Tick(actual);
+  EXPECT_TRUE(servo.chip_flags().slew_done);
+  servo.StopSmooth();
+  servo.Tick(actual);
+  EXPECT_FALSE(servo.chip_flags().move_done) << "braking";
+  EXPECT_FALSE(servo.chip_flags().accel_done) << "decelerating clears ACCEL_DONE";
+  EXPECT_FALSE(servo.chip_flags().slew_done);
+  servo.MotorOff();
+  EXPECT_FALSE(servo.LoadVelocity(kOne, kOne)) << "ignored while the servo is off";
+}
+
+TEST(PicServo, PwmModeDrivesOpenLoopWithoutTheServo) {
+  PicServo servo;
+  servo.SetPwm(-300);
+  EXPECT_EQ(servo.output(), -255) << "clamped to the PWM's full scale";
+  EXPECT_TRUE(servo.pwm_mode());
+  EXPECT_FALSE(servo.servo_on());
+  EXPECT_EQ(servo.Tick(1234), -255);
+  EXPECT_EQ(servo.Tick(-50), -255) << "no feedback in PWM mode";
+  EXPECT_TRUE(servo.chip_flags().move_done);
+  EXPECT_TRUE(servo.chip_flags().position_error) << "POS_ERR is set whenever the servo is off";
+  servo.ServoOn(-50);
+  EXPECT_FALSE(servo.pwm_mode());
+  EXPECT_EQ(servo.Tick(-50), 0);
+  servo.SetPwm(40);
+  servo.MotorOff();
+  EXPECT_EQ(servo.Tick(0), 0);
+}
+
+TEST(PicServo, PositionErrorIsLatchedUntilClearedAndWhileTheServoIsOff) {
+  PicServo servo;
+  EXPECT_TRUE(servo.chip_flags().position_error) << "power-up: servo off";
+  servo.ServoOn(0);
+  EXPECT_TRUE(servo.chip_flags().position_error) << "still latched: servo-on does not clear it";
+  servo.ClearLatches();
+  EXPECT_FALSE(servo.chip_flags().position_error);
+  servo.Tick(0);
+  EXPECT_FALSE(servo.chip_flags().position_error);
+  servo.TripPositionError();
+  EXPECT_FALSE(servo.servo_on());
+  EXPECT_TRUE(servo.chip_flags().position_error);
+  servo.ClearLatches();
+  EXPECT_TRUE(servo.chip_flags().position_error) << "the servo is still off";
+  servo.ServoOn(0);
+  servo.ClearLatches();
+  EXPECT_FALSE(servo.chip_flags().position_error);
+  servo.MotorOff();
+  EXPECT_TRUE(servo.chip_flags().position_error) << "MOTOR_OFF sets POS_ERR";
+}
+
+TEST(PicServo, StopHereJumpsTheCommandAndResetPositionMovesBoth) {
+  PicServo servo;
+  servo.StopHere(100, 90);  // servo off: switched on at 90, then the command jumps to 100
+  EXPECT_TRUE(servo.servo_on());
+  EXPECT_EQ(WholeCounts(servo.profile().position()), 100);
+  servo.Tick(90);
+  EXPECT_EQ(servo.position_error(), 10);
+  ASSERT_TRUE(servo.LoadTrajectory(5000, 10 * kOne, kOne));
+  for (int k = 0; k < 50; ++k) servo.Tick(WholeCounts(servo.profile().position()));
+  servo.StopHere(777, 700);
+  EXPECT_TRUE(servo.status() & kMoveDone);
+  EXPECT_TRUE(servo.profile().done());
+  EXPECT_EQ(servo.profile().velocity(), 0);
+  servo.Tick(777);
+  EXPECT_EQ(servo.position_error(), 0);
+  // RESET_POS: counter and command go to the new value together.
+  servo.ResetPosition(-20);
+  EXPECT_EQ(WholeCounts(servo.profile().position()), -20);
+  EXPECT_EQ(servo.Tick(-20), 0);
+}
+
 }  // namespace
 }  // namespace sirupp::servo

@@ -15,7 +15,9 @@
 #include "sim/arm_world.hpp"
 #include "tools/control_commands.hpp"
 #include "tools/environment_commands.hpp"
+#include "tools/hardware_commands.hpp"
 #include "tools/kinematics_commands.hpp"
+#include "tools/report_commands.hpp"
 #include "tools/sim_commands.hpp"
 
 #ifndef SIRUPP_SOURCE_DIR
@@ -51,6 +53,10 @@ const char* const kUsage =
     "                             manual, automatic)\n"
     "  gains [--joint N] [--kp V] [--kd V] ...   set the servo gains live\n"
     "  status                     what the controller, the arm and every process report\n"
+    "  hardware connect|calibrate|arm|disarm|link|unlink|home|clear-faults|status\n"
+    "                             the bridge to the real arm (or sirupp-picservo-emu)\n"
+    "  estop [--release]          emergency stop: real motors off, plans aborted\n"
+    "  report FILE...             Table II report, CSV and plots of logger data files or LCM logs\n"
     "  help                       this text\n"
     "\n"
     "Model files: config/robots/*.yaml, format in docs/model-format.md.\n"
@@ -178,9 +184,21 @@ int RunCli(const Args& args, std::ostream& out, std::ostream& err) {
       if (wants_help) return out << kGainsUsage, kExitOk;
       return RunGains(rest, out);
     }
+    if (command == "hardware") {
+      if (wants_help) return out << kHardwareUsage, kExitOk;
+      return RunHardware(rest, out);
+    }
+    if (command == "estop") {
+      if (wants_help) return out << kEstopUsage, kExitOk;
+      return RunEstop(rest, out);
+    }
     if (command == "status") {
       if (wants_help) return out << kStatusUsage, kExitOk;
       return RunStatus(rest, out);
+    }
+    if (command == "report") {
+      if (wants_help) return out << kReportUsage, kExitOk;
+      return RunReport(rest, out, err);
     }
     if (command == "reset") {
       if (wants_help) return out << kResetUsage, kExitOk;

@@ -17,7 +17,6 @@
 #include <sirupp/servo_setpoint_t.hpp>
 #include <sstream>
 
-#include "servo/picservo.hpp"
 #include "control/plan.hpp"
 #include "control/pose_goal.hpp"
 #include "control/servo_bank.hpp"
@@ -25,6 +24,7 @@
 #include "core/errors.hpp"
 #include "core/geometry.hpp"
 #include "core/heartbeat.hpp"
+#include "servo/picservo.hpp"
 #include "tools/args.hpp"
 #include "tools/cli.hpp"
 #include "tools/rig_args.hpp"
@@ -37,14 +37,6 @@ using Status = sirupp::controller_status_t;
 constexpr double kDeg = 3.14159265358979323846 / 180;
 constexpr double kFirstStatusS = 1.5;  // CONTROLLER_STATUS comes at 10 Hz: wait this long for one
 constexpr int kExitFailed = 1;
-
-const std::map<std::string, std::string> kRigFlags = {{"lcm-url", "LCM URL"},
-                                                      {"prefix", "channel prefix of the rig"}};
-
-std::map<std::string, std::string> WithRigFlags(std::map<std::string, std::string> flags) {
-  flags.insert(kRigFlags.begin(), kRigFlags.end());
-  return flags;
-}
 
 const char* ModeName(int8_t mode) {
   return mode == Status::MODE_AUTOMATIC ? "automatic" : "manual";
@@ -214,15 +206,6 @@ std::string Degrees(const core::RobotModel& model, const std::vector<double>& q)
     text << (j ? " " : "") << core::FormatApprox(revolute ? q[j] / kDeg : q[j]);
   }
   return text.str();
-}
-
-double TimeoutFrom(const Args& parsed, double fallback) {
-  if (!parsed.Has("timeout")) return fallback;
-  const double timeout = parsed.Numbers("timeout", 1)[0];
-  if (!(timeout > 0)) {
-    throw core::UsageError("--timeout " + core::FormatNumber(timeout) + ": allowed seconds > 0");
-  }
-  return timeout;
 }
 
 double ScaleFrom(const Args& parsed, const std::string& command) {
@@ -455,7 +438,7 @@ int PlanRun(const std::vector<std::string>& args, std::ostream& out) {
 
 int PlanControl(int8_t command, const std::string& word, const std::vector<std::string>& args,
                 std::ostream& out) {
-  const Args parsed(args, "plan " + word, kRigFlags);
+  const Args parsed(args, "plan " + word, WithRigFlags({}));
   core::Bus bus = BusFromArgs(parsed);
   RigWatch watch(bus, false);
   if (!watch.FirstStatus(out)) return kExitFailed;

@@ -71,4 +71,24 @@ void PrintSent(std::ostream& out, const core::Bus& bus, const std::string& chann
   out << " (rad or m)";
 }
 
+namespace {
+const std::map<std::string, std::string> kRigFlags = {{"lcm-url", "LCM URL"},
+                                                      {"prefix", "channel prefix of the rig"}};
+
+}  // namespace
+
+std::map<std::string, std::string> WithRigFlags(std::map<std::string, std::string> flags) {
+  flags.insert(kRigFlags.begin(), kRigFlags.end());
+  return flags;
+}
+
+double TimeoutFrom(const Args& parsed, double fallback) {
+  if (!parsed.Has("timeout")) return fallback;
+  const double timeout = parsed.Numbers("timeout", 1)[0];
+  if (!(timeout > 0)) {
+    throw core::UsageError("--timeout " + core::FormatNumber(timeout) + ": allowed seconds > 0");
+  }
+  return timeout;
+}
+
 }  // namespace sirupp::tools

@@ -4,6 +4,7 @@
 
 #include <cstdint>
 #include <iosfwd>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -12,6 +13,12 @@
 #include "tools/args.hpp"
 
 namespace sirupp::tools {
+
+// `flags` plus --lcm-url URL and --prefix PREFIX, for Args.
+std::map<std::string, std::string> WithRigFlags(std::map<std::string, std::string> flags);
+
+// --timeout S (seconds > 0), or `fallback` when absent; throws core::UsageError otherwise.
+double TimeoutFrom(const Args& parsed, double fallback);
 
 // --model FILE, default config/robots/puma260.yaml (found from any working directory).
 core::RobotModel ModelFromArgs(const Args& parsed);

@@ -1,0 +1,398 @@
+#include "hardware/arm_link.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+#include <thread>
+
+#include "core/errors.hpp"
+
+namespace sirupp::hardware {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using sirupp::servo_move_t;
+
+int64_t WallMicros() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+std::string JointName(const core::RobotModel& model, int j) {
+  return "joint j" + std::to_string(j + 1) + " (" + model.joints[static_cast<size_t>(j)].name + ")";
+}
+
+// Degrees for revolute joints, metres for prismatic, as people read them.
+std::string Shown(const core::Joint& joint, double v) {
+  if (joint.type == core::JointType::kRevolute) return core::FormatApprox(v * 180 / M_PI) + " deg";
+  return core::FormatApprox(v) + " m";
+}
+std::string ShownRate(const core::Joint& joint, double v, const char* per) {
+  if (joint.type == core::JointType::kRevolute) {
+    return core::FormatApprox(v * 180 / M_PI) + " deg/" + per;
+  }
+  return core::FormatApprox(v) + " m/" + per;
+}
+
+int32_t ClampCounts(int64_t counts) {
+  return static_cast<int32_t>(std::clamp<int64_t>(counts, INT32_MIN, INT32_MAX));
+}
+
+}  // namespace
+
+ArmLink::ArmLink(const core::RobotModel& model, const BridgeSettings& settings, BytePort& port)
+    : model_(model),
+      settings_(settings),
+      bus_(port, BusOptions{std::chrono::milliseconds(settings.reply_margin_ms), settings.retries,
+                            nullptr}) {
+  for (const core::Joint& joint : model.joints) drives_.emplace_back(joint, model.servo_tick_s);
+  goals_.assign(drives_.size(), 0.0);
+  velocity_mode_.assign(drives_.size(), false);
+  last_counts_.assign(drives_.size(), 0);
+}
+
+void ArmLink::Connect() {
+  connected_ = calibrated_ = armed_ = false;
+  const int n = num_joints();
+  const std::vector<ModuleInfo> found =
+      bus_.Initialize(n, settings_.baud, static_cast<uint8_t>(settings_.group_address));
+  if (static_cast<int>(found.size()) != n) {
+    throw std::runtime_error("found " + std::to_string(found.size()) + " PIC-SERVO module(s) on " +
+                             bus_.port().name() + "; the model " + model_.name + " has " +
+                             std::to_string(n) + " joints, one module each");
+  }
+  for (const ModuleInfo& m : found) {
+    if (m.type != nmc::kTypePicServo) {
+      throw std::runtime_error("module " + std::to_string(m.address) + " is of type " +
+                               std::to_string(m.type) + ", not a PIC-SERVO (type 0)");
+    }
+  }
+  for (int j = 0; j < n; ++j) {
+    const uint8_t a = Address(j);
+    const core::ServoParams& p = model_.joints[static_cast<size_t>(j)].servo;
+    const servo::ServoGains g = servo::GainsFromModel(p);
+    nmc::Gains chip;
+    chip.kp = static_cast<int16_t>(g.kp);
+    chip.kd = static_cast<int16_t>(g.kd);
+    chip.ki = static_cast<int16_t>(g.ki);
+    chip.integration_limit = static_cast<int16_t>(g.integration_limit);
+    chip.output_limit = static_cast<uint8_t>(g.output_limit);
+    chip.current_limit = static_cast<uint8_t>(std::lround(p.current_limit));
+    chip.error_limit = static_cast<int16_t>(g.error_limit);
+    chip.servo_rate = static_cast<uint8_t>(std::lround(p.servo_rate_divisor));
+    chip.deadband = static_cast<uint8_t>(g.deadband);
+    bus_.Command(nmc::StopMotor(a, nmc::kMotorOff));  // amplifier off while configuring
+    bus_.Command(nmc::SetGain(a, chip));
+    bus_.Command(nmc::StopMotor(a, nmc::kAmpEnable | nmc::kMotorOff));
+    bus_.Command(nmc::ClearBits(a));
+    bus_.Command(nmc::DefineStatus(a, kPollItems));
+  }
+  have_last_poll_ = false;
+  connected_ = true;
+}
+
+void ArmLink::Calibrate() {
+  if (!connected_) throw std::runtime_error("calibrate: not connected");
+  if (armed_) throw std::runtime_error("calibrate: disarm first (servos must be off)");
+  const core::NamedPose* pose = model_.FindNamedPose(settings_.calibration_pose);
+  if (!pose) {
+    throw std::runtime_error("calibrate: the model has no pose '" + settings_.calibration_pose +
+                             "'");
+  }
+  calibrated_ = false;
+  for (int j = 0; j < num_joints(); ++j) {
+    const JointHoming& h = settings_.homing[static_cast<size_t>(j)];
+    if (h.method == HomingMethod::kNone) {
+      const double q = pose->position[static_cast<size_t>(j)];
+      bus_.Command(
+          nmc::SetPosition(Address(j), ClampCounts(drives_[static_cast<size_t>(j)].ToCounts(q))));
+      goals_[static_cast<size_t>(j)] = q;
+    } else {
+      Home(j, h);
+    }
+  }
+  have_last_poll_ = false;
+  calibrated_ = true;
+}
+
+void ArmLink::Home(int j, const JointHoming& h) {
+  const uint8_t a = Address(j);
+  const auto& drive = drives_[static_cast<size_t>(j)];
+  uint8_t condition = nmc::kHomeOnIndex;
+  if (h.method == HomingMethod::kLimit1) condition = nmc::kHomeOnLimit1;
+  if (h.method == HomingMethod::kLimit2) condition = nmc::kHomeOnLimit2;
+  bus_.Command(nmc::StopMotor(a, nmc::kAmpEnable | nmc::kStopAbrupt));  // servo on, holding
+  bus_.Command(nmc::ClearBits(a));
+  bus_.Command(nmc::SetHoming(a, condition | nmc::kHomeStopSmooth));
+  // Motor counts run the other way when the gear ratio is negative.
+  const double motor_speed = h.speed * (drive.counts_per_unit() < 0 ? -1 : 1);
+  nmc::Trajectory t;
+  t.control = nmc::kLoadVelocity | nmc::kLoadAcceleration | nmc::kEnableServo | nmc::kVelocityMode |
+              nmc::kStartNow;
+  if (motor_speed < 0) t.control |= nmc::kReverse;
+  t.velocity = static_cast<uint32_t>(drive.VelocityWord(std::abs(h.speed)));
+  t.acceleration = static_cast<uint32_t>(drive.AccelerationWord(
+      std::max(model_.joints[static_cast<size_t>(j)].servo.default_acceleration, 0.1)));
+  bus_.Command(nmc::LoadTrajectory(a, t));
+  const auto deadline = Clock::now() + std::chrono::milliseconds(
+                                           static_cast<int64_t>(settings_.homing_timeout_s * 1000));
+  for (;;) {
+    const nmc::Status s = bus_.Command(nmc::Nop(a));
+    if (!(s.status & nmc::kStatusHomeInProgress) && (s.status & nmc::kStatusMoveDone)) break;
+    if (Clock::now() > deadline) {
+      bus_.Command(nmc::StopMotor(a, nmc::kAmpEnable | nmc::kMotorOff));
+      throw std::runtime_error("calibrate: " + JointName(model_, j) + ": no " +
+                               HomingMethodName(h.method) + " change within " +
+                               core::FormatNumber(settings_.homing_timeout_s) + " s of homing");
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  const nmc::Status home = bus_.Command(nmc::ReadStatus(a, nmc::kSendHome | nmc::kSendPosition));
+  // Where the joint is now, given that the home position is at home_angle.
+  const int64_t now_counts =
+      static_cast<int64_t>(home.position) - home.home + drive.ToCounts(h.home_angle);
+  bus_.Command(nmc::StopMotor(a, nmc::kAmpEnable | nmc::kMotorOff));
+  bus_.Command(nmc::SetPosition(a, ClampCounts(now_counts)));
+  bus_.Command(nmc::ClearBits(a));
+  goals_[static_cast<size_t>(j)] = drive.FromCounts(now_counts);
+}
+
+void ArmLink::Arm() {
+  if (!calibrated_) throw std::runtime_error("arm: calibrate first");
+  for (int j = 0; j < num_joints(); ++j) {
+    // Servo on first: POS_ERR is set for as long as the servo is off, so it is cleared after.
+    const nmc::Status s =
+        bus_.Command(nmc::StopMotor(Address(j), nmc::kAmpEnable | nmc::kStopAbrupt));
+    bus_.Command(nmc::ClearBits(Address(j)));
+    goals_[static_cast<size_t>(j)] = drives_[static_cast<size_t>(j)].FromCounts(s.position);
+    velocity_mode_[static_cast<size_t>(j)] = false;
+  }
+  armed_ = true;
+}
+
+void ArmLink::Disarm() {
+  if (!connected_) return;
+  StopAllSmoothly();
+  const auto deadline = Clock::now() + std::chrono::seconds(5);
+  for (int j = 0; j < num_joints(); ++j) {
+    while (Clock::now() < deadline) {
+      const nmc::Status s = bus_.Command(nmc::Nop(Address(j)));
+      if (s.status & nmc::kStatusMoveDone) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    bus_.Command(nmc::StopMotor(Address(j), nmc::kAmpEnable | nmc::kMotorOff));
+  }
+  armed_ = false;
+}
+
+std::string ArmLink::CheckMove(const servo_move_t& move) const {
+  const int n = num_joints();
+  if (move.num_joints != n || static_cast<int>(move.goal.size()) != n ||
+      static_cast<int>(move.max_velocity.size()) != n ||
+      static_cast<int>(move.acceleration.size()) != n || static_cast<int>(move.flags.size()) != n) {
+    return "num_joints: " + std::to_string(move.num_joints) + " joints; the arm has " +
+           std::to_string(n);
+  }
+  if (move.command < servo_move_t::COMMAND_MOVE || move.command > servo_move_t::COMMAND_SERVO_ON) {
+    return "command: " + std::to_string(move.command) +
+           " is not one of COMMAND_MOVE..SERVO_ON (0..4)";
+  }
+  if (!connected_ || !calibrated_ || !armed_) {
+    return std::string("the arm is not ") + (!connected_    ? "connected"
+                                             : !calibrated_ ? "calibrated"
+                                                            : "armed");
+  }
+  if (move.command != servo_move_t::COMMAND_MOVE) return "";
+  for (int j = 0; j < n; ++j) {
+    const auto i = static_cast<size_t>(j);
+    if (!(move.flags[i] & servo_move_t::FLAG_ACTIVE)) continue;
+    const core::Joint& joint = model_.joints[i];
+    const std::string where = JointName(model_, j) + ": ";
+    const double v = move.max_velocity[i];
+    const double a = move.acceleration[i];
+    const double v_cap = joint.velocity_max * settings_.velocity_cap_fraction;
+    const bool velocity_mode = move.flags[i] & servo_move_t::FLAG_VELOCITY_MODE;
+    if (!std::isfinite(v) || (velocity_mode ? v == 0 : v <= 0) || std::abs(v) > v_cap) {
+      return where + "speed " + ShownRate(joint, v, "s") + " is outside " +
+             (velocity_mode ? "(0, " : "(0, ") + ShownRate(joint, v_cap, "s") + "] (velocity cap)";
+    }
+    const double a_cap = settings_.acceleration_max[i];
+    if (!std::isfinite(a) || a <= 0 || a > a_cap) {
+      return where + "acceleration " + ShownRate(joint, a, "s^2") + " is outside (0, " +
+             ShownRate(joint, a_cap, "s^2") + "] (acceleration cap)";
+    }
+    if (velocity_mode) continue;  // watched against the soft limits while it runs
+    const double goal =
+        (move.flags[i] & servo_move_t::FLAG_RELATIVE) ? goals_[i] + move.goal[i] : move.goal[i];
+    const double lo = SoftMin(model_, settings_, j);
+    const double hi = SoftMax(model_, settings_, j);
+    if (!std::isfinite(goal) || goal < lo || goal > hi) {
+      return where + "goal " + Shown(joint, goal) + " is outside the soft limits [" +
+             Shown(joint, lo) + ", " + Shown(joint, hi) + "]";
+    }
+  }
+  return "";
+}
+
+nmc::Trajectory ArmLink::TrajectoryFor(int j, double goal, double velocity, double acceleration,
+                                       bool velocity_mode) const {
+  const auto& drive = drives_[static_cast<size_t>(j)];
+  nmc::Trajectory t;
+  t.control = nmc::kLoadVelocity | nmc::kLoadAcceleration | nmc::kEnableServo;
+  t.velocity = static_cast<uint32_t>(
+      std::min<int64_t>(drive.VelocityWord(std::abs(velocity)), nmc::kMaxVelocityWord));
+  t.acceleration = static_cast<uint32_t>(
+      std::min<int64_t>(drive.AccelerationWord(acceleration), nmc::kMaxAccelerationWord));
+  if (velocity_mode) {
+    t.control |= nmc::kVelocityMode;
+    const bool motor_negative = (velocity < 0) != (drive.counts_per_unit() < 0);
+    if (motor_negative) t.control |= nmc::kReverse;
+  } else {
+    t.control |= nmc::kLoadPosition;
+    t.position = ClampCounts(drive.ToCounts(goal));
+  }
+  return t;
+}
+
+void ArmLink::Execute(const servo_move_t& move) {
+  const int n = num_joints();
+  uint8_t stop = 0;
+  switch (move.command) {
+    case servo_move_t::COMMAND_MOVE: {
+      bool any = false;
+      for (int j = 0; j < n; ++j) {
+        const auto i = static_cast<size_t>(j);
+        if (!(move.flags[i] & servo_move_t::FLAG_ACTIVE)) continue;
+        const bool vel = move.flags[i] & servo_move_t::FLAG_VELOCITY_MODE;
+        const double goal =
+            (move.flags[i] & servo_move_t::FLAG_RELATIVE) ? goals_[i] + move.goal[i] : move.goal[i];
+        bus_.Command(nmc::LoadTrajectory(
+            Address(j), TrajectoryFor(j, goal, move.max_velocity[i], move.acceleration[i], vel)));
+        if (!vel) goals_[i] = goal;
+        velocity_mode_[i] = vel;
+        any = true;
+      }
+      if (any) bus_.GroupCommand(nmc::StartMove(0));  // every loaded joint starts on this packet
+      return;
+    }
+    case servo_move_t::COMMAND_STOP_SMOOTH:
+      stop = nmc::kAmpEnable | nmc::kStopSmooth;
+      break;
+    case servo_move_t::COMMAND_MOTOR_OFF:
+      stop = nmc::kAmpEnable | (settings_.pass_motor_off ? nmc::kMotorOff : nmc::kStopAbrupt);
+      break;
+    default:  // STOP_ABRUPT, SERVO_ON: hold the present position
+      stop = nmc::kAmpEnable | nmc::kStopAbrupt;
+      break;
+  }
+  for (int j = 0; j < n; ++j) {
+    const auto i = static_cast<size_t>(j);
+    if (!(move.flags[i] & servo_move_t::FLAG_ACTIVE)) continue;
+    const nmc::Status s = bus_.Command(nmc::StopMotor(Address(j), stop));
+    velocity_mode_[i] = false;
+    if (stop & nmc::kStopAbrupt) goals_[i] = drives_[i].FromCounts(s.position);
+  }
+}
+
+std::string ArmLink::MoveAllTo(const std::vector<double>& goal) {
+  servo_move_t move{};
+  const int n = num_joints();
+  move.command = servo_move_t::COMMAND_MOVE;
+  move.num_joints = n;
+  for (int j = 0; j < n; ++j) {
+    const core::ServoParams& p = model_.joints[static_cast<size_t>(j)].servo;
+    move.goal.push_back(goal[static_cast<size_t>(j)]);
+    move.max_velocity.push_back(p.default_velocity);
+    move.acceleration.push_back(p.default_acceleration);
+    move.flags.push_back(servo_move_t::FLAG_ACTIVE);
+  }
+  std::string refusal = CheckMove(move);
+  if (refusal.empty()) Execute(move);
+  return refusal;
+}
+
+ArmReading ArmLink::Poll() {
+  const int n = num_joints();
+  ArmReading r;
+  r.answered.assign(static_cast<size_t>(n), false);
+  r.errors.assign(static_cast<size_t>(n), "");
+  r.status.assign(static_cast<size_t>(n), 0);
+  r.aux.assign(static_cast<size_t>(n), 0);
+  r.counts.assign(static_cast<size_t>(n), 0);
+  r.position_error.assign(static_cast<size_t>(n), 0);
+  r.position.assign(static_cast<size_t>(n), 0.0);
+  r.velocity.assign(static_cast<size_t>(n), 0.0);
+  r.setpoint.assign(static_cast<size_t>(n), 0.0);
+  r.effort.assign(static_cast<size_t>(n), 0.0);
+  const auto now = Clock::now();
+  const double dt = have_last_poll_ ? std::chrono::duration<double>(now - last_poll_).count() : 0;
+  for (int j = 0; j < n; ++j) {
+    const auto i = static_cast<size_t>(j);
+    nmc::Status s;
+    try {
+      s = bus_.Command(nmc::Nop(Address(j)));
+    } catch (const BusError& e) {
+      r.errors[i] = e.what();
+      continue;
+    }
+    const auto& drive = drives_[i];
+    r.answered[i] = true;
+    r.status[i] = s.status;
+    r.aux[i] = s.aux;
+    r.counts[i] = s.position;
+    r.position_error[i] = s.position_error;
+    r.position[i] = drive.FromCounts(s.position);
+    r.setpoint[i] = drive.FromCounts(static_cast<int64_t>(s.position) + s.position_error);
+    if (dt > 0)
+      r.velocity[i] = (drive.FromCounts(s.position) - drive.FromCounts(last_counts_[i])) / dt;
+    if (s.aux & nmc::kAuxServoOn) {
+      const core::ServoParams& p = model_.joints[i].servo;
+      const double u = p.kp * s.position_error / double(1 << servo::kOutputShift);
+      const int pwm = static_cast<int>(
+          std::clamp(std::lround(u), -std::lround(p.output_limit), std::lround(p.output_limit)));
+      r.effort[i] = drive.EffortFromPwm(pwm);
+    }
+    last_counts_[i] = s.position;
+  }
+  last_poll_ = now;
+  have_last_poll_ = true;
+  r.wall_us = WallMicros();
+  return r;
+}
+
+void ArmLink::StopAllSmoothly() {
+  bus_.Broadcast(nmc::StopMotor(nmc::kBroadcast, nmc::kAmpEnable | nmc::kStopSmooth));
+  std::fill(velocity_mode_.begin(), velocity_mode_.end(), false);
+}
+
+void ArmLink::EmergencyStop() {
+  bus_.Broadcast(nmc::StopMotor(nmc::kBroadcast, nmc::kAmpEnable | nmc::kStopAbrupt));
+  bus_.Broadcast(nmc::StopMotor(nmc::kBroadcast, nmc::kMotorOff));  // amplifiers disabled
+  std::fill(velocity_mode_.begin(), velocity_mode_.end(), false);
+  armed_ = false;
+}
+
+void ArmLink::ClearFaults() {
+  for (int j = 0; j < num_joints(); ++j) {
+    try {
+      bus_.Command(nmc::ClearBits(Address(j)));
+    } catch (const BusError&) {
+      // reported by the next poll
+    }
+  }
+}
+
+void ArmLink::Shutdown() {
+  if (!connected_) return;
+  try {
+    bus_.Broadcast(nmc::StopMotor(nmc::kBroadcast, nmc::kAmpEnable | nmc::kStopAbrupt));
+    bus_.Broadcast(nmc::StopMotor(nmc::kBroadcast, nmc::kMotorOff));
+    bus_.HardReset();
+  } catch (const std::exception&) {
+    // the port itself failed: nothing more can be sent
+  }
+  connected_ = calibrated_ = armed_ = false;
+}
+
+}  // namespace sirupp::hardware

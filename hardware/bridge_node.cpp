@@ -1,0 +1,401 @@
+#include "hardware/bridge_node.hpp"
+
+#include <algorithm>
+#include <sirupp/arm_state_t.hpp>
+
+#include "core/errors.hpp"
+
+namespace sirupp::hardware {
+namespace {
+
+using sirupp::hardware_command_t;
+using sirupp::hardware_status_t;
+
+constexpr double kStatusPeriodS = 0.1;  // HARDWARE_STATUS at 10 Hz (and on every change)
+constexpr double kServoTickS = 0.000512;
+
+const char* CommandName(int8_t c) {
+  switch (c) {
+    case hardware_command_t::COMMAND_CONNECT:
+      return "connect";
+    case hardware_command_t::COMMAND_CALIBRATE:
+      return "calibrate";
+    case hardware_command_t::COMMAND_ARM:
+      return "arm";
+    case hardware_command_t::COMMAND_DISARM:
+      return "disarm";
+    case hardware_command_t::COMMAND_LINK:
+      return "link";
+    case hardware_command_t::COMMAND_UNLINK:
+      return "unlink";
+    case hardware_command_t::COMMAND_HOME:
+      return "home";
+    case hardware_command_t::COMMAND_CLEAR_FAULTS:
+      return "clear-faults";
+    default:
+      return nullptr;
+  }
+}
+
+std::string JointLabel(const core::RobotModel& model, size_t j) {
+  return "module " + std::to_string(j + 1) + " (j" + std::to_string(j + 1) + " " +
+         model.joints[j].name + ")";
+}
+
+}  // namespace
+
+BridgeNode::BridgeNode(core::Bus& bus, const core::RobotModel& model, ArmLink& link,
+                       BridgeSettings settings, BridgeOptions options)
+    : bus_(bus),
+      model_(model),
+      link_(link),
+      settings_(std::move(settings)),
+      options_(std::move(options)),
+      heartbeat_(bus, options_.name, options_.channels.heartbeat),
+      started_(Clock::now()),
+      next_cycle_(Clock::now()) {
+  const core::Channels& c = options_.channels;
+  bus_.Subscribe<hardware_command_t>(
+      c.hardware_command,
+      [this](const hardware_command_t& m, const core::ReceiveInfo& info) { OnCommand(m, info); });
+  bus_.Subscribe<sirupp::servo_move_t>(
+      c.arm_move,
+      [this](const sirupp::servo_move_t& m, const core::ReceiveInfo& info) { OnMove(m, info); },
+      100);
+  bus_.Subscribe<sirupp::estop_t>(
+      c.estop,
+      [this](const sirupp::estop_t& m, const core::ReceiveInfo& info) { OnEstop(m, info); });
+  bus_.Subscribe<sirupp::controller_status_t>(
+      c.controller_status,
+      [this](const sirupp::controller_status_t&, const core::ReceiveInfo&) { NoteController(); });
+  bus_.Subscribe<sirupp::servo_setpoint_t>(
+      c.arm_setpoint,
+      [this](const sirupp::servo_setpoint_t&, const core::ReceiveInfo&) { NoteController(); },
+      4000);
+  heartbeat_.Publish(core::ProcessState::kStarting, "");
+}
+
+int8_t BridgeNode::state() const {
+  if (estopped_) return hardware_status_t::STATE_ESTOPPED;
+  if (faulted_) return hardware_status_t::STATE_FAULT;
+  if (!link_.connected()) return hardware_status_t::STATE_DISCONNECTED;
+  if (!link_.armed()) return hardware_status_t::STATE_CONNECTED;
+  return linked_ ? hardware_status_t::STATE_LINKED : hardware_status_t::STATE_ARMED;
+}
+
+void BridgeNode::Connect() {
+  linked_ = false;
+  faulted_ = false;
+  link_.Connect();
+  last_error_.clear();
+}
+void BridgeNode::Calibrate() {
+  link_.Calibrate();
+  last_error_.clear();
+}
+void BridgeNode::Arm() {
+  if (estopped_) throw std::runtime_error("arm: the emergency stop is engaged; release it first");
+  if (faulted_) throw std::runtime_error("arm: clear the fault first (" + last_error_ + ")");
+  link_.Arm();
+  last_error_.clear();
+}
+void BridgeNode::Link() {
+  if (estopped_) throw std::runtime_error("link: the emergency stop is engaged");
+  if (faulted_) throw std::runtime_error("link: clear the fault first (" + last_error_ + ")");
+  if (!link_.armed()) throw std::runtime_error("link: arm first");
+  linked_ = true;
+  expired_ = false;
+  NoteController();
+}
+
+void BridgeNode::Refuse(const std::string& channel, const std::string& problem) {
+  last_error_ = core::MessageError(channel, "", problem).what();
+  PublishStatus();
+  throw core::MessageError(channel, "", problem);
+}
+
+void BridgeNode::CheckStartGuard(const std::string& channel) {
+  const double age = std::chrono::duration<double>(Clock::now() - started_).count();
+  if (age < settings_.start_guard_s) {
+    Refuse(channel, "start guard: commands are refused for the first " +
+                        core::FormatNumber(settings_.start_guard_s) + " s after start-up (" +
+                        core::FormatApprox(settings_.start_guard_s - age) + " s left)");
+  }
+}
+
+void BridgeNode::OnCommand(const hardware_command_t& m, const core::ReceiveInfo& info) {
+  const char* name = CommandName(m.command);
+  if (!name) {
+    Refuse(info.channel, "command " + std::to_string(m.command) +
+                             " is not one of 0..7 (connect, "
+                             "calibrate, arm, disarm, link, unlink, home, clear-faults)");
+  }
+  CheckStartGuard(info.channel);
+  const std::string what = std::string(name) + " from '" + m.sender + "'";
+  try {
+    switch (m.command) {
+      case hardware_command_t::COMMAND_CONNECT:
+        if (link_.armed()) Refuse(info.channel, what + ": disarm first");
+        Connect();
+        break;
+      case hardware_command_t::COMMAND_CALIBRATE:
+        if (link_.armed()) Refuse(info.channel, what + ": disarm first (servos must be off)");
+        Calibrate();
+        break;
+      case hardware_command_t::COMMAND_ARM:
+        Arm();
+        break;
+      case hardware_command_t::COMMAND_DISARM:
+        linked_ = false;
+        link_.Disarm();
+        break;
+      case hardware_command_t::COMMAND_LINK:
+        Link();
+        break;
+      case hardware_command_t::COMMAND_UNLINK:
+        linked_ = false;
+        break;
+      case hardware_command_t::COMMAND_HOME: {
+        if (estopped_ || faulted_ || !link_.armed()) {
+          Refuse(info.channel, what + ": the arm is not armed");
+        }
+        std::vector<double> home;
+        for (const core::Joint& j : model_.joints) home.push_back(j.home);
+        const std::string refusal = link_.MoveAllTo(home);
+        if (!refusal.empty()) Refuse(info.channel, what + ": " + refusal);
+        break;
+      }
+      case hardware_command_t::COMMAND_CLEAR_FAULTS:
+        link_.ClearFaults();
+        faulted_ = false;
+        if (link_.armed()) link_.Disarm();  // re-arm explicitly after a fault
+        break;
+    }
+  } catch (const core::MessageError&) {
+    throw;
+  } catch (const BusError& e) {
+    Fault(what + ": " + e.what());
+    throw core::MessageError(info.channel, "", what + ": " + e.what());
+  } catch (const std::exception& e) {
+    Refuse(info.channel, what + ": " + e.what());
+  }
+  last_error_.clear();
+  PublishStatus();
+}
+
+void BridgeNode::OnMove(const sirupp::servo_move_t& m, const core::ReceiveInfo& info) {
+  NoteController();
+  if (!linked_) return;  // the virtual arm's moves; mirrored only while linked
+  CheckStartGuard(info.channel);
+  if (estopped_)
+    Refuse(info.channel, "move " + std::to_string(m.move_id) + ": emergency stop engaged");
+  if (faulted_)
+    Refuse(info.channel, "move " + std::to_string(m.move_id) + ": fault: " + last_error_);
+  const std::string refusal = link_.CheckMove(m);
+  if (!refusal.empty()) Refuse(info.channel, "move " + std::to_string(m.move_id) + ": " + refusal);
+  try {
+    link_.Execute(m);
+  } catch (const BusError& e) {
+    Fault("move " + std::to_string(m.move_id) + ": " + e.what());
+    throw;
+  }
+  move_id_ = m.move_id;
+  expired_ = false;
+  ++moves_mirrored_;
+}
+
+void BridgeNode::OnEstop(const sirupp::estop_t& m, const core::ReceiveInfo&) {
+  if (m.engaged) {
+    linked_ = false;
+    estopped_ = true;
+    if (link_.connected()) link_.EmergencyStop();
+    last_error_ = "emergency stop from '" + m.sender + "': " + m.reason;
+  } else if (estopped_) {
+    estopped_ = false;  // the arm stays disarmed: nothing moves until ARM (and LINK)
+    last_error_.clear();
+  }
+  PublishStatus();
+}
+
+void BridgeNode::Fault(const std::string& problem) {
+  const bool first = !faulted_;
+  faulted_ = true;
+  linked_ = false;
+  last_error_ = problem;
+  if (first && link_.connected()) {
+    try {
+      link_.StopAllSmoothly();
+    } catch (const std::exception&) {
+      // the port itself failed; the next poll reports it
+    }
+  }
+  PublishStatus();
+}
+
+void BridgeNode::CheckSafety() {
+  const ArmReading& r = reading_;
+  const size_t n = r.answered.size();
+  for (size_t j = 0; j < n; ++j) {
+    if (!r.answered[j]) {
+      Fault(JointLabel(model_, j) + ": " + r.errors[j]);
+      return;
+    }
+  }
+  if (link_.armed() && !faulted_) {
+    for (size_t j = 0; j < n; ++j) {
+      if (r.status[j] & nmc::kStatusOvercurrent) {
+        Fault(JointLabel(model_, j) + ": OVERCURRENT (current limit tripped)");
+        return;
+      }
+      if (r.status[j] & nmc::kStatusPositionError) {
+        Fault(JointLabel(model_, j) + ": POS_ERR: position error over the limit of " +
+              std::to_string(std::lround(model_.joints[j].servo.error_limit)) +
+              " counts, servo off");
+        return;
+      }
+    }
+  }
+  // Velocity-mode joints stop at the soft limits.
+  for (size_t j = 0; j < n; ++j) {
+    if (!link_.velocity_mode()[j]) continue;
+    const int jj = static_cast<int>(j);
+    const double q = r.position[j];
+    if ((q < SoftMin(model_, settings_, jj) && r.velocity[j] < 0) ||
+        (q > SoftMax(model_, settings_, jj) && r.velocity[j] > 0)) {
+      link_.StopAllSmoothly();
+      last_error_ = JointLabel(model_, j) + ": reached its soft limit in velocity mode; stopped";
+    }
+  }
+  // Command expiry: linked and moving, with the controller silent.
+  bool moving = false;
+  for (size_t j = 0; j < n; ++j) moving |= !(r.status[j] & nmc::kStatusMoveDone);
+  const double silent = std::chrono::duration<double>(Clock::now() - last_controller_).count();
+  if (linked_ && moving && !expired_ && silent > settings_.command_timeout_s) {
+    expired_ = true;
+    link_.StopAllSmoothly();
+    last_error_ = "commands expired: nothing from the controller for " +
+                  core::FormatApprox(silent) + " s (limit " +
+                  core::FormatNumber(settings_.command_timeout_s) + " s); stopped smoothly";
+  }
+}
+
+void BridgeNode::Cycle() {
+  if (link_.connected()) {
+    try {
+      reading_ = link_.Poll();
+    } catch (const std::exception& e) {  // the port itself failed
+      Fault(std::string("serial port: ") + e.what());
+      return;
+    }
+    ++polls_;
+    if (first_poll_us_ == 0) first_poll_us_ = reading_.wall_us;
+    CheckSafety();
+    PublishState();
+  }
+  const double since = std::chrono::duration<double>(Clock::now() - last_status_).count();
+  if (since >= kStatusPeriodS || state() != last_published_state_) PublishStatus();
+  const bool bad = faulted_ || estopped_;
+  heartbeat_.PublishIfDue(bad ? core::ProcessState::kFault : core::ProcessState::kRunning,
+                          last_error_);
+}
+
+void BridgeNode::Service(int max_wait_ms) {
+  const auto now = Clock::now();
+  if (now >= next_cycle_) {
+    Cycle();
+    const auto period = std::chrono::duration_cast<Clock::duration>(
+        std::chrono::duration<double>(1.0 / settings_.poll_rate_hz));
+    next_cycle_ += period;
+    if (next_cycle_ < Clock::now()) next_cycle_ = Clock::now();  // late: no burst to catch up
+  }
+  const auto wait =
+      std::chrono::duration_cast<std::chrono::milliseconds>(next_cycle_ - Clock::now());
+  const int ms = static_cast<int>(std::clamp<int64_t>(wait.count(), 0, max_wait_ms));
+  if (bus_.Handle(ms) > 0) bus_.HandleAvailable();
+}
+
+void BridgeNode::PublishState() {
+  const ArmReading& r = reading_;
+  const int n = static_cast<int>(r.position.size());
+  sirupp::arm_state_t s{};
+  s.utime = r.wall_us;
+  s.seq = state_seq_++;
+  s.tick =
+      static_cast<int64_t>(static_cast<double>(r.wall_us - first_poll_us_) * 1e-6 / kServoTickS);
+  s.source =
+      settings_.emulated ? sirupp::arm_state_t::SOURCE_EMULATED : sirupp::arm_state_t::SOURCE_REAL;
+  s.num_joints = n;
+  s.position = r.position;
+  s.velocity = r.velocity;
+  s.effort = r.effort;
+  s.flags.assign(static_cast<size_t>(n), 0);
+  sirupp::servo_setpoint_t sp{};
+  sp.utime = r.wall_us;
+  sp.seq = setpoint_seq_++;
+  sp.tick = s.tick;
+  sp.move_id = move_id_;
+  sp.num_joints = n;
+  sp.position = r.setpoint;
+  sp.velocity.assign(static_cast<size_t>(n), 0.0);  // not reported by the chip
+  sp.goal = link_.goals();
+  sp.effort = r.effort;
+  sp.status.assign(static_cast<size_t>(n), 0);
+  for (size_t j = 0; j < static_cast<size_t>(n); ++j) {
+    sp.position_error.push_back(r.setpoint[j] - r.position[j]);
+    int8_t& f = s.flags[j];
+    if (r.status[j] & nmc::kStatusLimit1) f |= sirupp::arm_state_t::FLAG_AT_LOWER_LIMIT;
+    if (r.status[j] & nmc::kStatusLimit2) f |= sirupp::arm_state_t::FLAG_AT_UPPER_LIMIT;
+    if (!r.answered[j] ||
+        (r.status[j] & (nmc::kStatusOvercurrent | nmc::kStatusPositionError) && link_.armed())) {
+      f |= sirupp::arm_state_t::FLAG_FAULT;
+    }
+    int8_t& st = sp.status[j];
+    if (r.status[j] & nmc::kStatusMoveDone) st |= sirupp::servo_setpoint_t::STATUS_MOVE_DONE;
+    if (r.aux[j] & nmc::kAuxServoOn) st |= sirupp::servo_setpoint_t::STATUS_SERVO_ON;
+    if (r.status[j] & nmc::kStatusPositionError) st |= sirupp::servo_setpoint_t::STATUS_POS_ERROR;
+  }
+  bus_.Publish(options_.channels.real_arm_state, s);
+  bus_.Publish(options_.channels.real_arm_setpoint, sp);
+}
+
+void BridgeNode::PublishStatus() {
+  hardware_status_t m{};
+  m.utime = std::chrono::duration_cast<std::chrono::microseconds>(
+                std::chrono::system_clock::now().time_since_epoch())
+                .count();
+  m.seq = status_seq_++;
+  m.state = state();
+  m.calibrated = link_.calibrated() ? 1 : 0;
+  m.port = link_.bus().port().name();
+  m.baud = link_.bus().port().baud();
+  const int n = link_.num_joints();
+  m.num_joints = n;
+  for (size_t j = 0; j < static_cast<size_t>(n); ++j) {
+    const bool have = j < reading_.answered.size();
+    m.module_status.push_back(have ? reading_.status[j] : 0);
+    m.module_aux_status.push_back(have ? reading_.aux[j] : 0);
+    m.position_counts.push_back(have ? reading_.counts[j] : 0);
+    m.position_error_counts.push_back(have ? reading_.position_error[j] : 0);
+  }
+  const BusCounters& c = link_.bus().counters();
+  m.checksum_errors = c.checksum_errors + c.module_checksum_errors;
+  m.timeouts = c.timeouts;
+  m.resyncs = c.resyncs;
+  m.last_error = last_error_;
+  bus_.Publish(options_.channels.hardware_status, m);
+  last_status_ = Clock::now();
+  last_published_state_ = m.state;
+}
+
+void BridgeNode::Shutdown() {
+  linked_ = false;
+  link_.Shutdown();
+  try {
+    PublishStatus();
+    heartbeat_.Publish(core::ProcessState::kStopping, "motors off, amplifiers disabled");
+  } catch (const std::exception&) {
+    // the bus is going away too
+  }
+}
+
+}  // namespace sirupp::hardware

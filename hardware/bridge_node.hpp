@@ -1,0 +1,118 @@
+#pragma once
+// The sirupp-hardware process logic over a core::Bus: the real arm (ArmLink) on the bus, and the
+// safety layer.
+//
+// In:  HARDWARE_COMMAND (connect, calibrate, arm, disarm, link, unlink, home, clear faults),
+//      ARM_MOVE (mirrored to the boards while linked), ESTOP, and the controller's liveness
+//      (CONTROLLER_STATUS, ARM_SETPOINT, ARM_MOVE) for command expiry.
+// Out: REAL_ARM_STATE and REAL_ARM_SETPOINT every poll (poll_rate_hz), HARDWARE_STATUS (10 Hz and
+// on
+//      every change), HEARTBEAT.
+//
+// Safety (each threshold a setting, docs/hardware.md):
+//  - nothing moves unless connected, calibrated and armed; ARM_MOVE only while linked;
+//  - start guard: HARDWARE_COMMAND and ARM_MOVE are refused for start_guard_s after start-up;
+//  - moves outside the soft joint limits or above the velocity / acceleration caps are refused
+//    whole, before a byte is sent; velocity-mode joints are stopped at the soft limits;
+//  - linked and moving with nothing from the controller for command_timeout_s: smooth stop;
+//  - ESTOP: abrupt stop, servos off, amplifiers disabled; moves refused until released and
+//  re-armed;
+//  - a module that fails every retry, or reports POS_ERR / OVERCURRENT while armed, is a FAULT:
+//    every joint stops smoothly and stays stopped until CLEAR_FAULTS and ARM;
+//  - Shutdown() (SIGINT, SIGTERM, fatal error): stop, servos off, amplifiers disabled.
+// Every refusal is counted as rejected on its channel and named in last_error.
+
+#include <chrono>
+#include <cstdint>
+#include <sirupp/controller_status_t.hpp>
+#include <sirupp/estop_t.hpp>
+#include <sirupp/hardware_command_t.hpp>
+#include <sirupp/hardware_status_t.hpp>
+#include <sirupp/servo_move_t.hpp>
+#include <sirupp/servo_setpoint_t.hpp>
+#include <string>
+
+#include "core/bus.hpp"
+#include "core/channels.hpp"
+#include "core/heartbeat.hpp"
+#include "core/robot_model.hpp"
+#include "hardware/arm_link.hpp"
+
+namespace sirupp::hardware {
+
+struct BridgeOptions {
+  std::string name = "sirupp-hardware";
+  core::Channels channels;
+};
+
+class BridgeNode {
+ public:
+  using Clock = std::chrono::steady_clock;
+
+  // `link` must outlive the node. Subscribes at once; the start guard runs from here.
+  BridgeNode(core::Bus& bus, const core::RobotModel& model, ArmLink& link, BridgeSettings settings,
+             BridgeOptions options = {});
+
+  // The operator's own start-up steps (command-line flags), not subject to the start guard.
+  // Each throws what ArmLink throws.
+  void Connect();
+  void Calibrate();
+  void Arm();
+  void Link();
+
+  // Handles messages for up to max_wait_ms, then polls and publishes if a cycle is due.
+  void Service(int max_wait_ms);
+  // Before exit: stops the arm, servos off, amplifiers disabled; publishes the final status.
+  void Shutdown();
+
+  int8_t state() const;  // hardware_status_t::STATE_*
+  bool linked() const { return linked_; }
+  bool estopped() const { return estopped_; }
+  const std::string& last_error() const { return last_error_; }
+  const ArmReading& reading() const { return reading_; }
+  int64_t polls() const { return polls_; }
+  int64_t moves_mirrored() const { return moves_mirrored_; }
+
+ private:
+  void OnCommand(const sirupp::hardware_command_t& message, const core::ReceiveInfo& info);
+  void OnMove(const sirupp::servo_move_t& message, const core::ReceiveInfo& info);
+  void OnEstop(const sirupp::estop_t& message, const core::ReceiveInfo& info);
+  void NoteController() { last_controller_ = Clock::now(); }
+
+  // Refuses (counts on `channel`, last_error, throws MessageError) while the start guard runs.
+  void CheckStartGuard(const std::string& channel);
+  void Refuse(const std::string& channel, const std::string& problem);
+  void Fault(const std::string& problem);
+  void Cycle();
+  void CheckSafety();
+  void PublishState();
+  void PublishStatus();
+
+  core::Bus& bus_;
+  const core::RobotModel& model_;
+  ArmLink& link_;
+  BridgeSettings settings_;
+  BridgeOptions options_;
+  core::Heartbeat heartbeat_;
+
+  Clock::time_point started_;
+  Clock::time_point next_cycle_;
+  Clock::time_point last_status_{};
+  Clock::time_point last_controller_{};
+  bool linked_ = false;
+  bool estopped_ = false;
+  bool faulted_ = false;
+  bool expired_ = false;  // commands expired during the present motion (reported once)
+  std::string last_error_;
+  ArmReading reading_;
+  int64_t move_id_ = -1;
+  int64_t polls_ = 0;
+  int64_t moves_mirrored_ = 0;
+  int64_t state_seq_ = 0;
+  int64_t setpoint_seq_ = 0;
+  int64_t status_seq_ = 0;
+  int8_t last_published_state_ = -1;
+  int64_t first_poll_us_ = 0;
+};
+
+}  // namespace sirupp::hardware

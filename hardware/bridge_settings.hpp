@@ -1,0 +1,62 @@
+#pragma once
+// Settings of sirupp-hardware: the serial line, the polling rate and every safety threshold, read
+// from a YAML file (config/hardware/puma260.yaml; docs/hardware.md lists each setting with its
+// default and why). Angles in the file are degrees; here they are SI like everywhere else.
+
+#include <string>
+#include <vector>
+
+#include "core/robot_model.hpp"
+
+namespace sirupp::hardware {
+
+// How a joint's zero is found during calibration.
+enum class HomingMethod {
+  kNone,    // the joint is at the calibration pose's angle when calibrating
+  kIndex,   // move slowly until the encoder index changes
+  kLimit1,  // ... until limit switch 1 changes
+  kLimit2,  // ... until limit switch 2 changes
+};
+const char* HomingMethodName(HomingMethod method);
+
+struct JointHoming {
+  HomingMethod method = HomingMethod::kNone;
+  double speed = 0.05;    // rad/s; the sign gives the search direction
+  double home_angle = 0;  // rad: the joint angle at which the switch or index fires
+};
+
+struct BridgeSettings {
+  std::string port;           // serial device; empty: must come from --port
+  int baud = 230400;          // after start-up (modules power up at 19200)
+  double poll_rate_hz = 100;  // REAL_ARM_STATE rate; every module is polled each cycle
+  int reply_margin_ms = 10;   // wait for a reply beyond its line time
+  int retries = 2;            // further tries of a failed exchange before it is a fault
+  int group_address = 0x80;   // group of all joints (module 1 leads), for START_MOVE
+  bool emulated = false;      // REAL_ARM_STATE source = SOURCE_EMULATED
+
+  // Safety.
+  double start_guard_s = 2.0;            // bus commands refused this long after start-up
+  double command_timeout_s = 0.5;        // linked: controller silent this long while moving -> stop
+  double soft_limit_margin = 0.0349;     // rad inside the model's joint limits (2 deg)
+  double velocity_cap_fraction = 1.0;    // of each joint's velocity_max
+  std::vector<double> acceleration_max;  // rad/s^2 per joint; default 4 x default_acceleration
+  bool pass_motor_off = false;           // mirror MOTOR_OFF (arm goes limp) instead of holding
+
+  // Calibration.
+  std::string calibration_pose = "zero";  // named pose of the model the arm sits in
+  std::vector<JointHoming> homing;        // per joint; default none
+  double homing_timeout_s = 30;
+};
+
+// Defaults for `model` (every per-joint list sized to its joints).
+BridgeSettings DefaultBridgeSettings(const core::RobotModel& model);
+// Reads `file` over the defaults; throws core::ConfigError (file:line:col: key: problem).
+BridgeSettings LoadBridgeSettings(const std::string& file, const core::RobotModel& model);
+BridgeSettings ParseBridgeSettings(const std::string& text, const std::string& name,
+                                   const core::RobotModel& model);
+
+// Soft limits of joint j: the model's limits moved inward by the margin.
+double SoftMin(const core::RobotModel& model, const BridgeSettings& s, int j);
+double SoftMax(const core::RobotModel& model, const BridgeSettings& s, int j);
+
+}  // namespace sirupp::hardware

@@ -1,0 +1,220 @@
+// sirupp-picservo-emu: a bus of emulated PIC-SERVO SC modules and the arm behind them on a
+// pseudo-terminal (hardware/emulator.hpp). Thin main: arguments in, run until a signal, counters
+// out. docs/hardware-emulator.md describes it.
+
+#include <chrono>
+#include <iostream>
+#include <sstream>
+#include <thread>
+
+#include "core/errors.hpp"
+#include "core/model_loader.hpp"
+#include "hardware/emulator.hpp"
+#include "tools/args.hpp"
+#include "tools/cli.hpp"
+#include "tools/process_main.hpp"
+
+namespace {
+
+constexpr const char* kName = "sirupp-picservo-emu";
+constexpr const char* kUsage =
+    "usage: sirupp-picservo-emu [--model FILE] [--modules N] [--link PATH] [--friction-scale X]\n"
+    "                           [--start-pose NAME | --start-joints \"DEG DEG ...\"] [--seed S]\n"
+    "                           [--checksum-errors P] [--drop-bytes P] [--silent-module K[@T]...]\n"
+    "                           [--overcurrent K[@T]...] [--pos-error-trip K[@T]...]\n"
+    "A bus of N emulated PIC-SERVO SC modules (default: one per joint of the model, default\n"
+    "config/robots/puma260.yaml) on a pseudo-terminal, each driving one joint of the emulated "
+    "arm.\n"
+    "Prints the device to open (--link PATH: also a symbolic link there), runs until SIGINT or\n"
+    "SIGTERM, then prints its counters. The arm powers up at --start-pose or --start-joints\n"
+    "(degrees; default all joints at 0); the encoders read 0 there.\n"
+    "--friction-scale: static and Coulomb friction of the model times X (default 1.5).\n"
+    "Faults: --checksum-errors P (probability a command is seen with a bad checksum), "
+    "--drop-bytes\n"
+    "P (probability a reply byte is lost), --silent-module K (module K, 1..N, hears and answers\n"
+    "nothing), --overcurrent K and --pos-error-trip K (trip module K); K@T: T seconds after "
+    "start.\n"
+    "See docs/hardware-emulator.md.\n";
+
+using sirupp::core::UsageError;
+
+struct TimedFault {
+  enum Kind { kSilent, kOvercurrent, kPositionError } kind;
+  int module_index;
+  double at_s;
+  bool done = false;
+};
+
+double Probability(const sirupp::tools::Args& args, const std::string& flag) {
+  const double p = args.Numbers(flag, 1)[0];
+  if (!(p >= 0 && p <= 1)) {
+    throw UsageError(std::string(kName) + ": --" + flag + " " + sirupp::core::FormatNumber(p) +
+                     ": allowed a probability 0..1");
+  }
+  return p;
+}
+
+// "K" or "K@SECONDS", K = 1..modules.
+void ParseFaults(const sirupp::tools::Args& args, const std::string& flag, TimedFault::Kind kind,
+                 int modules, std::vector<TimedFault>* faults) {
+  if (!args.Has(flag)) return;
+  for (const std::string& text : args.Values(flag, -1)) {
+    const size_t at = text.find('@');
+    const std::string what = std::string(kName) + " --" + flag + " '" + text + "'";
+    const double k = sirupp::tools::ParseNumberArg(text.substr(0, at), what + " module");
+    double seconds = 0;
+    if (at != std::string::npos) {
+      seconds = sirupp::tools::ParseNumberArg(text.substr(at + 1), what + " seconds");
+    }
+    if (k < 1 || k > modules || k != static_cast<int>(k) || seconds < 0) {
+      throw UsageError(what + ": allowed K or K@SECONDS with K a module 1.." +
+                       std::to_string(modules) + " and SECONDS >= 0");
+    }
+    faults->push_back({kind, static_cast<int>(k) - 1, seconds});
+  }
+}
+
+int Run(const std::vector<std::string>& argv) {
+  const sirupp::tools::Args args(argv, kName,
+                                 {{"model", "robot model file"},
+                                  {"modules", "number of modules, 1..32"},
+                                  {"link", "symbolic link to the device"},
+                                  {"friction-scale", "static and Coulomb friction factor, >= 0"},
+                                  {"start-pose", "named pose of the model to power up in"},
+                                  {"start-joints", "joint angles to power up in, degrees"},
+                                  {"seed", "random seed of the faults"},
+                                  {"checksum-errors", "probability 0..1"},
+                                  {"drop-bytes", "probability 0..1"},
+                                  {"silent-module", "K or K@SECONDS"},
+                                  {"overcurrent", "K or K@SECONDS"},
+                                  {"pos-error-trip", "K or K@SECONDS"}});
+  sirupp::hardware::EmulatorOptions options;
+  options.model = sirupp::core::LoadRobotModel(sirupp::tools::ResolveDataPath(
+      args.Has("model") ? args.String("model") : "config/robots/puma260.yaml"));
+  const int joints = options.model.num_joints();
+  if (args.Has("modules")) {
+    const double n = args.Numbers("modules", 1)[0];
+    if (n < 1 || n > 32 || n != static_cast<int>(n)) {
+      throw UsageError(std::string(kName) + ": --modules " + sirupp::core::FormatNumber(n) +
+                       ": allowed a whole number 1..32");
+    }
+    options.modules = static_cast<int>(n);
+  }
+  const int modules = options.modules == 0 ? joints : options.modules;
+  if (args.Has("link")) options.link = args.String("link");
+  if (args.Has("friction-scale")) {
+    options.friction_scale = args.Numbers("friction-scale", 1)[0];
+    if (!(options.friction_scale >= 0)) {
+      throw UsageError(std::string(kName) + ": --friction-scale " +
+                       sirupp::core::FormatNumber(options.friction_scale) +
+                       ": allowed a number >= 0");
+    }
+  }
+  if (args.Has("start-pose") && args.Has("start-joints")) {
+    throw UsageError(std::string(kName) + ": give --start-pose or --start-joints, not both");
+  }
+  if (args.Has("start-pose")) {
+    const sirupp::core::NamedPose* pose = options.model.FindNamedPose(args.String("start-pose"));
+    if (pose == nullptr) {
+      std::string names;
+      for (const auto& named : options.model.named_poses) {
+        names += (names.empty() ? "" : ", ") + named.name;
+      }
+      throw UsageError(std::string(kName) + ": --start-pose '" + args.String("start-pose") +
+                       "': allowed " + names);
+    }
+    options.start_positions = pose->position;
+  }
+  if (args.Has("start-joints")) {
+    // One quoted value "a b c" or separate values.
+    std::vector<std::string> words;
+    for (const std::string& value : args.Values("start-joints", -1)) {
+      std::istringstream split(value);
+      for (std::string word; split >> word;) words.push_back(word);
+    }
+    if (static_cast<int>(words.size()) != joints) {
+      throw UsageError(std::string(kName) + ": --start-joints: " + std::to_string(words.size()) +
+                       " angles given; allowed exactly " + std::to_string(joints) +
+                       " (one per joint, degrees)");
+    }
+    for (size_t j = 0; j < words.size(); ++j) {
+      const double deg = sirupp::tools::ParseNumberArg(
+          words[j], std::string(kName) + " --start-joints value " + std::to_string(j + 1));
+      const sirupp::core::Joint& joint = options.model.joints[j];
+      const double min_deg = joint.position_min * 180 / 3.14159265358979323846;
+      const double max_deg = joint.position_max * 180 / 3.14159265358979323846;
+      if (!(deg >= min_deg && deg <= max_deg)) {
+        throw UsageError(std::string(kName) + ": --start-joints value " + std::to_string(j + 1) +
+                         " (" + joint.name + ") " + words[j] + " deg: allowed " +
+                         sirupp::core::FormatNumber(min_deg) + ".." +
+                         sirupp::core::FormatNumber(max_deg) + " deg");
+      }
+      options.start_positions.push_back(deg * 3.14159265358979323846 / 180);
+    }
+  }
+  if (args.Has("seed")) {
+    const double seed = args.Numbers("seed", 1)[0];
+    if (seed < 0 || seed > 4294967295.0 || seed != static_cast<double>(static_cast<long>(seed))) {
+      throw UsageError(std::string(kName) + ": --seed " + sirupp::core::FormatNumber(seed) +
+                       ": allowed a whole number 0..4294967295");
+    }
+    options.seed = static_cast<uint32_t>(seed);
+  }
+  if (args.Has("checksum-errors"))
+    options.checksum_error_rate = Probability(args, "checksum-errors");
+  if (args.Has("drop-bytes")) options.drop_rate = Probability(args, "drop-bytes");
+  std::vector<TimedFault> faults;
+  ParseFaults(args, "silent-module", TimedFault::kSilent, modules, &faults);
+  ParseFaults(args, "overcurrent", TimedFault::kOvercurrent, modules, &faults);
+  ParseFaults(args, "pos-error-trip", TimedFault::kPositionError, modules, &faults);
+  for (TimedFault& fault : faults) {
+    if (fault.kind == TimedFault::kSilent && fault.at_s == 0) {
+      options.silent_modules.push_back(fault.module_index);
+      fault.done = true;
+    }
+  }
+
+  std::unique_ptr<sirupp::hardware::Emulator> emulator;
+  try {
+    emulator = std::make_unique<sirupp::hardware::Emulator>(options);
+  } catch (const std::invalid_argument& error) {
+    throw UsageError(std::string(kName) + ": " + error.what());
+  }
+  emulator->Start();
+  std::cout << kName << ": " << emulator->num_modules() << " modules on " << emulator->slave_path();
+  if (!options.link.empty()) std::cout << " (linked as " << options.link << ")";
+  std::cout << std::endl;
+
+  const auto start = std::chrono::steady_clock::now();
+  sirupp::tools::ServiceUntilSignal([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    const double t =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    for (TimedFault& fault : faults) {
+      if (fault.done || t < fault.at_s) continue;
+      fault.done = true;
+      if (fault.kind == TimedFault::kSilent) emulator->SetSilent(fault.module_index, true);
+      if (fault.kind == TimedFault::kOvercurrent) emulator->TriggerOvercurrent(fault.module_index);
+      if (fault.kind == TimedFault::kPositionError) {
+        emulator->TriggerPositionErrorTrip(fault.module_index);
+      }
+      std::cerr << kName << ": fault at " << sirupp::core::FormatNumber(t) << " s on module "
+                << fault.module_index + 1 << "\n";
+    }
+    return true;
+  });
+  emulator->Stop();
+  const sirupp::hardware::EmulatorCounters c = emulator->counters();
+  std::cout << kName << ": stopped: " << c.commands_received << " commands, " << c.checksum_errors
+            << " checksum errors, " << c.replies_sent << " replies, " << c.bytes_dropped
+            << " bytes dropped, " << c.servo_ticks << " servo ticks, " << c.overruns
+            << " overruns, " << c.packet_timeouts << " packet timeouts, " << c.bytes_skipped
+            << " bytes skipped, line at " << c.baud << " baud" << std::endl;
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return sirupp::tools::ProcessMain(argc, argv, kName, kUsage, Run);
+}

@@ -1,0 +1,96 @@
+#pragma once
+// The motors and the load behind the emulated PIC-SERVO modules: the whole arm at once, coupled by
+// the model's rigid-body dynamics (core/dynamics.hpp), stepped at the servo tick. Reads each
+// joint's PWM; writes joint angles and speeds, and the sensor levels a module reads (encoder
+// counter since power-up, limit switches, encoder index, current-sense A/D). SI units, radians
+// (metres for prismatic joints). Semi-implicit Euler with exact stick-slip by an active set:
+// docs/hardware-emulator.md says how, and how it differs from sirupp-sim's ODE arm.
+//
+// Per joint j, per (sub)step of length h:
+//   tau_motor = JointDrive::EffortFromPwm(pwm)         (PWM/255 * motor_torque_max * gear_ratio)
+//   M(q) qdd = tau_motor + tau_ext - (C(q, qd) qd + G(q)) - viscous qd - friction
+//   friction: sliding  (coulomb(dir) + (static - coulomb(dir)) exp(-(v / v_s)^2)) sign(v), with
+//             static and Coulomb scaled by friction_scale; sticking joints are held (qdd = 0) while
+//             the effort needed is within friction_scale * static, else released
+//   qd += qdd h; a sliding joint whose speed reaches or crosses zero sticks; q += qd h
+//   hard stops at the joint limits (inelastic)
+
+#include <cstdint>
+#include <vector>
+
+#include "core/dynamics.hpp"
+#include "core/robot_model.hpp"
+#include "hardware/picservo_module.hpp"
+#include "servo/servo_units.hpp"
+
+namespace sirupp::hardware {
+
+struct ArmOptions {
+  // Static and Coulomb friction of the model times this (viscous unchanged). Above 1 by default,
+  // so that the emulated "real" arm sticks more than the sim's, as the paper's robot did.
+  double friction_scale = 1.5;
+  // Physical joint positions at power-up (rad or m), one per joint; empty = all zero.
+  std::vector<double> start_positions;
+  // Integration substeps per servo tick (the PWM is held over them).
+  int substeps = 2;
+  // A limit switch is active within this distance of its joint limit (rad; metres for prismatic
+  // joints use 1/100 of it).
+  double limit_switch_margin_rad = 0.035;  // 2 degrees
+  // CUR_SENSE A/D reading at |PWM| = 255 (proportional below).
+  double current_ad_full_scale = 200;
+  // Width of the encoder index pulse, in counts, once per motor revolution.
+  int index_width_counts = 4;
+  // Brakes: SetBrakes holds the chosen joints still whatever the effort (the PUMA's brakes, which
+  // hold the arm while its amplifiers are off). Off: SetBrakes is ignored.
+  bool brakes = true;
+};
+
+class EmulatedArm {
+ public:
+  // Throws std::invalid_argument on start positions of the wrong count, outside the joint limits,
+  // or a bad option.
+  EmulatedArm(const core::RobotModel& model, const ArmOptions& options);
+
+  int num_joints() const { return static_cast<int>(position_.size()); }
+  double tick_s() const { return tick_s_; }
+
+  // One servo tick: `pwm` (one per joint, -255..255, missing entries 0) held for the tick.
+  void Step(const std::vector<int>& pwm);
+  // An extra effort on each joint (N*m or N), added to the motors' until changed (tests).
+  void SetExternalEffort(const std::vector<double>& effort);
+  // Which joints are braked (held still; missing entries: released). The emulator brakes every
+  // joint whose module has its amplifier disabled.
+  void SetBrakes(const std::vector<bool>& engaged);
+
+  const std::vector<double>& positions() const { return position_; }
+  const std::vector<double>& velocities() const { return velocity_; }
+  bool sticking(int joint) const { return stuck_[static_cast<size_t>(joint)]; }
+  double time_s() const { return time_s_; }
+  // The joint effort of the motors at the last step (N*m or N).
+  const std::vector<double>& motor_effort() const { return motor_effort_; }
+
+  // What module `joint` reads at this tick: counter since power-up, switches, index, A/D.
+  MotorInputs Inputs(int joint) const;
+  const servo::JointDrive& drive(int joint) const { return drives_[static_cast<size_t>(joint)]; }
+
+ private:
+  void Substep(double h);
+  int64_t AbsoluteCounts(int joint) const;
+
+  core::RobotModel model_;
+  core::Dynamics dynamics_;
+  ArmOptions options_;
+  double tick_s_;
+  std::vector<servo::JointDrive> drives_;
+  std::vector<double> position_, velocity_, motor_effort_, external_;
+  std::vector<bool> stuck_;
+  std::vector<bool> braked_;
+  std::vector<int> pwm_;
+  std::vector<int64_t> power_up_counts_;  // absolute counts at power-up
+  std::vector<int64_t> previous_counts_;  // absolute counts at the previous tick
+  std::vector<int64_t> index_edge_;       // counter value at the last index edge
+  std::vector<bool> index_crossed_;       // during the last tick
+  double time_s_ = 0;
+};
+
+}  // namespace sirupp::hardware

@@ -1,0 +1,148 @@
+// sirupp-hardware: the bridge to the real PUMA (PIC-SERVO SC boards on an NMC serial bus), or to
+// sirupp-picservo-emu. Thin main: flags, settings, then BridgeNode until a signal.
+
+#include <cmath>
+#include <iostream>
+#include <memory>
+#include <string>
+
+#include "core/bus.hpp"
+#include "core/errors.hpp"
+#include "core/model_loader.hpp"
+#include "hardware/arm_link.hpp"
+#include "hardware/bridge_node.hpp"
+#include "hardware/bridge_settings.hpp"
+#include "hardware/serial_port.hpp"
+#include "tools/args.hpp"
+#include "tools/cli.hpp"
+#include "tools/process_main.hpp"
+
+namespace {
+
+constexpr const char* kUsage =
+    "usage: sirupp-hardware --port DEVICE [--settings FILE] [--model FILE] [--baud N]\n"
+    "                       [--rate HZ] [--emulated] [--calibrate] [--arm] [--link]\n"
+    "                       [--no-connect] [--trace] [--name NAME] [--lcm-url URL]\n"
+    "                       [--prefix PREFIX]\n"
+    "The bridge to the real arm: starts the PIC-SERVO modules as the vendor library does (reset,\n"
+    "address, ids, baud, gains), then obeys HARDWARE_COMMAND (connect, calibrate, arm, disarm,\n"
+    "link, unlink, home, clear-faults; `sirupp hardware --help`) and ESTOP, mirrors every\n"
+    "ARM_MOVE to the boards while linked, and publishes REAL_ARM_STATE and REAL_ARM_SETPOINT at\n"
+    "the poll rate and HARDWARE_STATUS at 10 Hz.\n"
+    "--settings: serial line, poll rate and every safety threshold (default\n"
+    "  config/hardware/puma260.yaml; docs/hardware.md). --port, --baud and --rate override it.\n"
+    "--calibrate, --arm, --link: do these steps at start-up, in that order (the operator's\n"
+    "  decision; the start guard applies to bus commands only).\n"
+    "--emulated: mark REAL_ARM_STATE as SOURCE_EMULATED (the arm is sirupp-picservo-emu).\n"
+    "--trace: print every packet and reply.\n"
+    "On SIGINT or SIGTERM, and on a fatal error: motors stop, servos off, amplifiers disabled.\n";
+
+int Run(const std::vector<std::string>& argv) {
+  using sirupp::core::UsageError;
+  const sirupp::tools::Args args(argv, "sirupp-hardware",
+                                 {{"port", "serial device"},
+                                  {"settings", "bridge settings file"},
+                                  {"model", "robot model file"},
+                                  {"baud", "baud rate"},
+                                  {"rate", "poll rate in Hz"},
+                                  {"emulated", "the arm is the emulator"},
+                                  {"calibrate", "calibrate at start-up"},
+                                  {"arm", "arm at start-up"},
+                                  {"link", "link at start-up"},
+                                  {"no-connect", "do not connect at start-up"},
+                                  {"trace", "print every packet"},
+                                  {"name", "process name"},
+                                  {"lcm-url", "LCM URL"},
+                                  {"prefix", "channel prefix of the rig"}});
+  const sirupp::core::RobotModel model =
+      sirupp::core::LoadRobotModel(sirupp::tools::ResolveDataPath(
+          args.Has("model") ? args.String("model") : "config/robots/puma260.yaml"));
+  sirupp::hardware::BridgeSettings settings = sirupp::hardware::LoadBridgeSettings(
+      sirupp::tools::ResolveDataPath(args.Has("settings") ? args.String("settings")
+                                                          : "config/hardware/puma260.yaml"),
+      model);
+  if (args.Has("port")) settings.port = args.String("port");
+  if (settings.port.empty()) {
+    throw UsageError(
+        "sirupp-hardware: no serial port: give --port DEVICE (or port: in the settings)");
+  }
+  if (args.Has("baud")) {
+    const double baud = args.Numbers("baud", 1)[0];
+    if (baud != 9600 && baud != 19200 && baud != 57600 && baud != 115200 && baud != 230400) {
+      throw UsageError("sirupp-hardware: --baud " + sirupp::core::FormatNumber(baud) +
+                       " is not allowed; allowed: 9600, 19200, 57600, 115200, 230400");
+    }
+    settings.baud = static_cast<int>(baud);
+  }
+  if (args.Has("rate")) {
+    const double rate = args.Numbers("rate", 1)[0];
+    if (!(rate >= 1 && rate <= 1000)) {
+      throw UsageError("sirupp-hardware: --rate " + sirupp::core::FormatNumber(rate) +
+                       " Hz is not allowed; allowed: 1 to 1000");
+    }
+    settings.poll_rate_hz = rate;
+  }
+  if (args.Switch("emulated")) settings.emulated = true;
+  const bool connect = !args.Switch("no-connect");
+  const bool calibrate = args.Switch("calibrate");
+  const bool arm = args.Switch("arm");
+  const bool link_at_start = args.Switch("link");
+  if ((calibrate || arm || link_at_start) && !connect) {
+    throw UsageError(
+        "sirupp-hardware: --calibrate, --arm and --link need the connection (drop --no-connect)");
+  }
+  if ((arm && !calibrate) || (link_at_start && !arm)) {
+    throw UsageError("sirupp-hardware: --link needs --arm, and --arm needs --calibrate");
+  }
+
+  sirupp::hardware::SerialPort port(settings.port, sirupp::hardware::nmc::kPowerUpBaud);
+  sirupp::hardware::ArmLink link(model, settings, port);
+  if (args.Switch("trace")) {
+    link.bus().set_trace([](const std::string& line) { std::cerr << line << "\n"; });
+  }
+  sirupp::core::Bus bus(args.Has("lcm-url") ? args.String("lcm-url") : "",
+                        args.Has("prefix") ? args.String("prefix") : "");
+  sirupp::hardware::BridgeOptions options;
+  if (args.Has("name")) options.name = args.String("name");
+  sirupp::hardware::BridgeNode node(bus, model, link, settings, options);
+  try {
+    if (connect) {
+      node.Connect();
+      std::cerr << "sirupp-hardware: " << link.bus().modules().size() << " modules on "
+                << settings.port << " at " << settings.baud << " baud\n";
+    }
+    if (calibrate) {
+      node.Calibrate();
+      std::cerr << "sirupp-hardware: calibrated (pose " << settings.calibration_pose << ")\n";
+    }
+    if (arm) node.Arm();
+    if (link_at_start) node.Link();
+    std::cerr << "sirupp-hardware: " << model.name << ", "
+              << (link_at_start ? "linked"
+                  : arm         ? "armed"
+                  : calibrate   ? "calibrated"
+                                : "ready")
+              << ", polling at " << settings.poll_rate_hz << " Hz, on " << bus.url() << "\n";
+    sirupp::tools::ServiceUntilSignal([&node] {
+      node.Service(20);
+      return true;
+    });
+  } catch (...) {
+    node.Shutdown();  // motors off before the error is reported
+    throw;
+  }
+  node.Shutdown();
+  const sirupp::hardware::BusCounters& c = link.bus().counters();
+  std::cerr << "sirupp-hardware: stopped (motors off, amplifiers disabled) after " << node.polls()
+            << " polls, " << node.moves_mirrored() << " moves mirrored; " << c.exchanges
+            << " exchanges, " << c.timeouts << " timeouts, "
+            << c.checksum_errors + c.module_checksum_errors << " checksum errors, " << c.resyncs
+            << " resyncs\n";
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return sirupp::tools::ProcessMain(argc, argv, "sirupp-hardware", kUsage, Run);
+}

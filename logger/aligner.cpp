@@ -1,0 +1,216 @@
+#include "logger/aligner.hpp"
+
+#include <algorithm>
+#include <climits>
+#include <utility>
+
+namespace sirupp::logger {
+
+namespace {
+
+constexpr int64_t kRestartJumpUs = 1000000;  // sim time going back this far: the sim restarted
+
+// Smallest multiple of period at or after t (t may be negative).
+int64_t CeilToPeriod(int64_t t, int64_t period) {
+  int64_t k = t / period;
+  if (k * period < t) ++k;
+  return k * period;
+}
+
+bool Running(const PlanStatus& status) {
+  return !status.plan_name.empty() && status.plan_step >= 0 && status.plan_step < status.plan_steps;
+}
+
+}  // namespace
+
+Aligner::Aligner(AlignerOptions options) : options_(options) {
+  if (options_.period_us < 1) options_.period_us = 1;
+}
+
+void Aligner::Add(Sample sample) {
+  const auto s = static_cast<size_t>(sample.stream);
+  ++samples_[s];
+  lost_total_[s] += sample.lost_before;
+  if (sample.stream == Stream::kReal) real_sources_ |= 1 << (sample.source & 7);
+  if (!pending_restart_.empty()) {
+    pending_restart_.push_back(std::move(sample));
+    return;
+  }
+  if (sample.clock == SampleClock::kSim) {
+    if (axis_ == Axis::kUndecided) axis_ = Axis::kSim;
+    if (axis_ == Axis::kSim) {
+      if (started_ && sample.utime < next_row_us_ - kRestartJumpUs) {
+        pending_restart_.push_back(std::move(sample));
+        return;
+      }
+      if (sample.stream != Stream::kReal && sample.recv_utime > 0) {
+        wall_offset_ = sample.utime - sample.recv_utime;
+        have_offset_ = true;
+      }
+    }
+    Place(std::move(sample));
+    if (have_offset_ && !pending_real_.empty()) {
+      std::vector<Sample> waiting;
+      waiting.swap(pending_real_);
+      for (Sample& real : waiting) Place(std::move(real));
+    }
+    return;
+  }
+  if (axis_ == Axis::kUndecided || (axis_ == Axis::kSim && !have_offset_)) {
+    pending_real_.push_back(std::move(sample));
+    return;
+  }
+  Place(std::move(sample));
+}
+
+int64_t Aligner::AxisTime(const Sample& sample) const {
+  if (sample.clock == SampleClock::kSim) {
+    return axis_ == Axis::kRealOnly ? sample.recv_utime + wall_offset_ : sample.utime;
+  }
+  return sample.utime + wall_offset_;
+}
+
+void Aligner::Place(Sample sample) {
+  StreamState& stream = streams_[static_cast<size_t>(sample.stream)];
+  Entry entry;
+  entry.axis_us = AxisTime(sample);
+  entry.sample = std::move(sample);
+  const int64_t axis = entry.axis_us;
+  if (stream.queue.empty() || stream.queue.back().axis_us <= axis) {
+    stream.queue.push_back(std::move(entry));
+  } else {  // a real-arm sample moved before its predecessor by a change of the clock offset
+    auto at = std::upper_bound(stream.queue.begin(), stream.queue.end(), axis,
+                               [](int64_t t, const Entry& e) { return t < e.axis_us; });
+    stream.queue.insert(at, std::move(entry));
+  }
+  stream.latest_axis = stream.seen ? std::max(stream.latest_axis, axis) : axis;
+  stream.last_recv = std::max(stream.last_recv, stream.queue.back().sample.recv_utime);
+  stream.seen = true;
+  if (!started_) {
+    started_ = true;
+    next_row_us_ = CeilToPeriod(axis, options_.period_us);
+  }
+}
+
+void Aligner::AddStatus(const PlanStatus& status) {
+  const bool running = Running(status);
+  const bool was_running = have_status_ && Running(last_status_);
+  const bool new_run = running && (!was_running || status.plan_name != last_status_.plan_name ||
+                                   status.plan_step < last_status_.plan_step);
+  last_status_ = status;
+  have_status_ = true;
+  if (!new_run) return;
+  PlanRun run;
+  run.plan_name = status.plan_name;
+  run.mode = status.mode;
+  run.start_us = axis_ == Axis::kRealOnly ? status.recv_utime + wall_offset_ : status.utime;
+  pending_plans_.push_back(run);
+}
+
+void Aligner::DecideAxis(int64_t now_utime) {
+  if (axis_ != Axis::kUndecided || pending_real_.empty()) return;
+  if (now_utime - pending_real_.front().recv_utime < options_.idle_us) return;
+  axis_ = Axis::kRealOnly;
+  wall_offset_ = -pending_real_.front().utime;
+  have_offset_ = true;
+  std::vector<Sample> waiting;
+  waiting.swap(pending_real_);
+  for (Sample& real : waiting) Place(std::move(real));
+}
+
+void Aligner::TakeRows(int64_t now_utime, bool final_flush,
+                       const std::function<void(const Row&)>& sink) {
+  DecideAxis(final_flush ? INT64_MAX / 2 : now_utime);
+  if (final_flush && !pending_real_.empty()) {  // sim offset never known: place them by receive
+    std::vector<Sample> waiting;
+    waiting.swap(pending_real_);
+    for (Sample& real : waiting) Place(std::move(real));
+  }
+  if (!pending_restart_.empty()) Restart(sink);
+
+  int64_t latest = INT64_MIN;
+  int64_t live_min = INT64_MAX;
+  for (const StreamState& stream : streams_) {
+    if (!stream.seen) continue;
+    latest = std::max(latest, stream.latest_axis);
+    if (now_utime - stream.last_recv < options_.idle_us) {
+      live_min = std::min(live_min, stream.latest_axis);
+    }
+  }
+  if (latest == INT64_MIN) return;
+  Produce(final_flush || live_min == INT64_MAX ? latest : live_min, sink);
+}
+
+void Aligner::Restart(const std::function<void(const Row&)>& sink) {
+  int64_t latest = INT64_MIN;
+  for (const StreamState& stream : streams_) {
+    if (stream.seen) latest = std::max(latest, stream.latest_axis);
+  }
+  if (latest != INT64_MIN) Produce(latest, sink);
+  for (StreamState& stream : streams_) {
+    stream.queue.clear();
+    stream.seen = false;
+  }
+  started_ = false;
+  last_row_us_ = INT64_MIN;
+  ++run_;
+  std::vector<Sample> waiting;
+  waiting.swap(pending_restart_);
+  for (Sample& sample : waiting) {
+    if (sample.stream != Stream::kReal && sample.recv_utime > 0) {
+      wall_offset_ = sample.utime - sample.recv_utime;
+    }
+    Place(std::move(sample));
+  }
+}
+
+void Aligner::Produce(int64_t frontier, const std::function<void(const Row&)>& sink) {
+  const int64_t period = options_.period_us;
+  while (started_ && next_row_us_ <= frontier) {
+    const int64_t t = next_row_us_;
+    while (!pending_plans_.empty() && pending_plans_.front().start_us <= t) {
+      plan_runs_.push_back(pending_plans_.front());
+      pending_plans_.erase(pending_plans_.begin());
+    }
+    Row row;
+    row.time_us = t;
+    row.run = run_;
+    row.plan_run = static_cast<int>(plan_runs_.size()) - 1;
+    bool any = false;
+    int64_t ahead = INT64_MAX;  // earliest sample after t, to skip empty stretches
+    for (int s = 0; s < kNumStreams; ++s) {
+      StreamState& stream = streams_[static_cast<size_t>(s)];
+      std::deque<Entry>& queue = stream.queue;
+      while (queue.size() >= 2 && queue[1].axis_us <= t) {
+        if (!queue.front().counted) stream.lost += queue.front().sample.lost_before;
+        queue.pop_front();
+      }
+      if (!queue.empty() && queue.front().axis_us <= t) {
+        Entry& current = queue.front();
+        if (!current.counted) {
+          stream.lost += current.sample.lost_before;
+          current.counted = true;
+        }
+        if (t - current.axis_us < options_.max_age_us) {
+          row.cell[static_cast<size_t>(s)] = &current.sample;
+          any = true;
+        }
+        if (queue.size() >= 2) ahead = std::min(ahead, queue[1].axis_us);
+      } else if (!queue.empty()) {
+        ahead = std::min(ahead, queue.front().axis_us);
+      }
+      row.lost[static_cast<size_t>(s)] = stream.lost;
+    }
+    if (any) {
+      sink(row);
+      last_row_us_ = t;
+      next_row_us_ = t + period;
+    } else if (ahead != INT64_MAX) {
+      next_row_us_ = std::max(t + period, CeilToPeriod(ahead, period));
+    } else {
+      next_row_us_ = t + period;
+    }
+  }
+}
+
+}  // namespace sirupp::logger

@@ -1,0 +1,219 @@
+#include "logger/analysis.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "core/errors.hpp"
+
+namespace sirupp::logger {
+
+namespace {
+
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+// The value of `values` at row i, or the nearest value before it within [begin, i].
+double LastFinite(const std::vector<double>& values, size_t begin, size_t i) {
+  for (size_t k = i + 1; k-- > begin;) {
+    if (std::isfinite(values[k])) return values[k];
+  }
+  return kNaN;
+}
+
+StreamResponse Respond(const RunTable& table, const std::vector<double>& q, size_t begin,
+                       size_t end, double travel, const AnalysisOptions& options) {
+  StreamResponse response;
+  for (size_t i = begin; i < end; ++i) response.samples += std::isfinite(q[i]) ? 1 : 0;
+  if (response.samples == 0) return response;
+  const double t0 = table.time_s[begin];
+  double baseline = begin > 0 && std::isfinite(q[begin - 1]) ? q[begin - 1] : kNaN;
+  for (size_t i = begin; std::isnan(baseline) && i < end; ++i) baseline = q[i];
+
+  response.start_delay_s = kNaN;
+  for (size_t i = begin; i < end; ++i) {
+    if (std::isfinite(q[i]) && std::abs(q[i] - baseline) >= options.start_threshold) {
+      response.start_delay_s = table.time_s[i] - t0;
+      break;
+    }
+  }
+  const double window_start = table.time_s[end - 1] - options.final_window_s;
+  double sum = 0;
+  int64_t count = 0;
+  for (size_t i = begin; i < end; ++i) {
+    if (table.time_s[i] >= window_start && std::isfinite(q[i])) {
+      sum += q[i];
+      ++count;
+    }
+  }
+  response.final_value =
+      count > 0 ? sum / static_cast<double>(count) : LastFinite(q, begin, end - 1);
+  const double band = options.settle_band_fraction * std::abs(travel);
+  size_t settled_from = begin;
+  for (size_t i = begin; i < end; ++i) {
+    if (std::isfinite(q[i]) && std::abs(q[i] - response.final_value) > band) settled_from = i + 1;
+  }
+  response.settling_s = settled_from < end ? table.time_s[settled_from] - t0 : kNaN;
+  const double direction = travel >= 0 ? 1.0 : -1.0;
+  double overshoot = 0;
+  for (size_t i = begin; i < end; ++i) {
+    if (std::isfinite(q[i]))
+      overshoot = std::max(overshoot, (q[i] - response.final_value) * direction);
+  }
+  response.overshoot = overshoot;
+  response.overshoot_percent = travel != 0 ? 100.0 * overshoot / std::abs(travel) : 0;
+  return response;
+}
+
+}  // namespace
+
+Stream PairFirst(Pair pair) {
+  return pair == Pair::kVirtReal ? Stream::kVirtual : Stream::kSetpoint;
+}
+Stream PairSecond(Pair pair) { return pair == Pair::kSetVirt ? Stream::kVirtual : Stream::kReal; }
+const char* PairTitle(Pair pair) {
+  switch (pair) {
+    case Pair::kSetVirt:
+      return "set-point vs virtual";
+    case Pair::kSetReal:
+      return "set-point vs real";
+    case Pair::kVirtReal:
+      return "virtual vs real";
+  }
+  return "?";
+}
+const char* PairKey(Pair pair) {
+  switch (pair) {
+    case Pair::kSetVirt:
+      return "set_virt";
+    case Pair::kSetReal:
+      return "set_real";
+    case Pair::kVirtReal:
+      return "virt_real";
+  }
+  return "?";
+}
+
+Analysis Analyze(const RunTable& table, const AnalysisOptions& options) {
+  Analysis analysis;
+  const int num_joints = static_cast<int>(table.joints.size());
+  std::vector<int> joints = options.joints;
+  for (int joint : joints) {
+    if (joint < 1 || joint > num_joints) {
+      throw core::ConfigError(core::SourceLocation{table.source, 0, 0}, "",
+                              "unknown joint " + std::to_string(joint) + ": this file has " +
+                                  std::to_string(num_joints) + " joints (1 to " +
+                                  std::to_string(num_joints) + ")");
+    }
+  }
+  if (joints.empty()) {
+    for (int j = 1; j <= num_joints; ++j) joints.push_back(j);
+  }
+  const size_t rows = table.rows();
+  if (table.cells[static_cast<size_t>(Stream::kSetpoint)] == 0 ||
+      std::all_of(table.move_id.begin(), table.move_id.end(), [](int64_t id) { return id < 0; })) {
+    analysis.notes.push_back(table.source + " (" + table.label +
+                             "): no set-point data (ARM_SETPOINT); moves are found by the "
+                             "set-point's move_id, so this part is not analysed");
+    return analysis;
+  }
+
+  // Move boundaries: rows where a known move_id differs from the previous known one.
+  std::vector<size_t> starts;
+  int64_t current = -2;
+  for (size_t i = 0; i < rows; ++i) {
+    const int64_t id = table.move_id[i];
+    if (id < 0) continue;
+    if (current != -2 && id != current) starts.push_back(i);
+    current = id;
+  }
+  if (starts.empty()) {
+    analysis.notes.push_back(table.source + " (" + table.label +
+                             "): no move starts in this data (move_id never changes)");
+  }
+  for (size_t m = 0; m < starts.size(); ++m) {
+    const size_t begin = starts[m];
+    const size_t end = m + 1 < starts.size() ? starts[m + 1] : rows;
+    for (int joint : joints) {
+      const auto j = static_cast<size_t>(joint - 1);
+      const std::vector<double>& set = table.position[j][static_cast<size_t>(Stream::kSetpoint)];
+      const double from = begin > 0 && std::isfinite(set[begin - 1])
+                              ? set[begin - 1]
+                              : LastFinite(set, begin, begin);
+      const double to = LastFinite(set, begin, end - 1);
+      if (!std::isfinite(from) || !std::isfinite(to) || std::abs(to - from) < options.min_travel) {
+        continue;
+      }
+      MoveResult result;
+      result.table = &table;
+      result.move_id = table.move_id[begin];
+      result.joint = joint;
+      result.begin = begin;
+      result.end = end;
+      result.start_s = table.time_s[begin];
+      result.end_s = table.time_s[end - 1];
+      result.from = from;
+      result.to = to;
+      // Move-done: the set-point's flag; without flags, the first row from which the set-point
+      // stays at its end value.
+      size_t done_row = end;
+      const bool have_flags =
+          std::any_of(table.done[j].begin() + static_cast<std::ptrdiff_t>(begin),
+                      table.done[j].begin() + static_cast<std::ptrdiff_t>(end),
+                      [](int8_t flag) { return flag >= 0; });
+      if (have_flags) {
+        for (size_t i = begin; i < end && done_row == end; ++i) {
+          if (table.done[j][i] == 1) done_row = i;
+        }
+      } else {
+        done_row = end;
+        for (size_t i = end; i-- > begin;) {
+          if (std::isfinite(set[i]) && std::abs(set[i] - to) > 1e-9) break;
+          done_row = i;
+        }
+      }
+      result.done_seen = done_row < end;
+      result.done_s = result.done_seen ? table.time_s[done_row] : result.end_s;
+      result.transient_end_s = std::min(result.done_s + options.settle_window_s, result.end_s);
+
+      for (Pair pair : kAllPairs) {
+        const std::vector<double>& a = table.position[j][static_cast<size_t>(PairFirst(pair))];
+        const std::vector<double>& b = table.position[j][static_cast<size_t>(PairSecond(pair))];
+        PairMetrics& metrics = result.pairs[static_cast<size_t>(pair)];
+        double sum_transient = 0, sum_steady = 0, sum_squares = 0;
+        for (size_t i = begin; i < end; ++i) {
+          if (!std::isfinite(a[i]) || !std::isfinite(b[i])) continue;
+          const double error = std::abs(b[i] - a[i]);
+          if (table.time_s[i] <= result.done_s + options.settle_window_s) {
+            sum_transient += error;
+            ++metrics.transient_samples;
+          } else {
+            sum_steady += error;
+            ++metrics.steady_samples;
+          }
+          sum_squares += error * error;
+          metrics.max = std::max(metrics.max, error);
+        }
+        const int64_t all = metrics.transient_samples + metrics.steady_samples;
+        metrics.mean_transient =
+            metrics.transient_samples > 0
+                ? sum_transient / static_cast<double>(metrics.transient_samples)
+                : kNaN;
+        metrics.mean_steady = metrics.steady_samples > 0
+                                  ? sum_steady / static_cast<double>(metrics.steady_samples)
+                                  : kNaN;
+        metrics.rms = all > 0 ? std::sqrt(sum_squares / static_cast<double>(all)) : kNaN;
+        if (all == 0) metrics.max = kNaN;
+      }
+      for (Stream stream : kAllStreams) {
+        StreamResponse& response = result.streams[static_cast<size_t>(stream)];
+        response = Respond(table, table.position[j][static_cast<size_t>(stream)], begin, end,
+                           to - from, options);
+        if (response.has()) response.final_error = response.final_value - to;
+      }
+      analysis.moves.push_back(result);
+    }
+  }
+  return analysis;
+}
+
+}  // namespace sirupp::logger

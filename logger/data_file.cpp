@@ -1,0 +1,552 @@
+#include "logger/data_file.hpp"
+
+#include <fcntl.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <limits>
+#include <map>
+#include <sstream>
+#include <stdexcept>
+#include <utility>
+
+#include "core/errors.hpp"
+
+namespace sirupp::logger {
+
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kNaN = std::numeric_limits<double>::quiet_NaN();
+
+void AppendFixed(std::string& out, double value, int decimals) {
+  if (std::abs(value) < 0.5 * std::pow(10.0, -decimals)) value = 0;  // "0.00000", not "-0.00000"
+  char buffer[64];
+  const auto result =
+      std::to_chars(buffer, buffer + sizeof buffer, value, std::chars_format::fixed, decimals);
+  if (result.ec == std::errc()) out.append(buffer, result.ptr);
+}
+
+void AppendInt(std::string& out, int64_t value) {
+  char buffer[32];
+  const auto result = std::to_chars(buffer, buffer + sizeof buffer, value);
+  out.append(buffer, result.ptr);
+}
+
+const char* VelocityUnit(const JointInfo& joint) { return joint.prismatic ? "mmps" : "dps"; }
+const char* EffortUnit(const JointInfo& joint) { return joint.prismatic ? "n" : "nm"; }
+
+std::vector<std::string> SplitFields(const std::string& line) {
+  std::vector<std::string> fields;
+  size_t start = 0;
+  while (true) {
+    const size_t comma = line.find(',', start);
+    fields.push_back(
+        line.substr(start, comma == std::string::npos ? std::string::npos : comma - start));
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return fields;
+}
+
+std::string Trim(const std::string& text) {
+  const size_t first = text.find_first_not_of(" \t\r");
+  if (first == std::string::npos) return "";
+  const size_t last = text.find_last_not_of(" \t\r");
+  return text.substr(first, last - first + 1);
+}
+
+// What a column of a data file holds.
+struct ColumnRole {
+  enum Kind { kTime, kPosition, kVelocity, kEffort, kMoveId, kDone, kLost } kind = kTime;
+  int joint = -1;  // 0-based
+  int stream = -1;
+};
+
+}  // namespace
+
+double JointInfo::scale() const { return prismatic ? 1000.0 : 180.0 / kPi; }
+
+std::vector<std::string> ColumnLayout::Names() const {
+  std::vector<std::string> names{"time_s"};
+  const auto n = joints.size();
+  for (size_t j = 0; j < n; ++j) {
+    for (Stream stream : kAllStreams) {
+      names.push_back("j" + std::to_string(j + 1) + "_" + StreamKey(stream) + "_" +
+                      joints[j].unit());
+    }
+  }
+  names.push_back("move_id");
+  for (size_t j = 0; j < n; ++j) names.push_back("j" + std::to_string(j + 1) + "_done");
+  for (Stream stream : kAllStreams) names.push_back(std::string(StreamKey(stream)) + "_lost");
+  if (velocities) {
+    for (size_t j = 0; j < n; ++j) {
+      for (Stream stream : kAllStreams) {
+        names.push_back("j" + std::to_string(j + 1) + "_" + StreamKey(stream) + "_vel_" +
+                        VelocityUnit(joints[j]));
+      }
+    }
+  }
+  if (efforts) {
+    for (size_t j = 0; j < n; ++j) {
+      for (Stream stream : kAllStreams) {
+        names.push_back("j" + std::to_string(j + 1) + "_" + StreamKey(stream) + "_effort_" +
+                        EffortUnit(joints[j]));
+      }
+    }
+  }
+  return names;
+}
+
+void ColumnLayout::AppendRow(const Row& row, std::string& out) const {
+  AppendFixed(out, static_cast<double>(row.time_us) * 1e-6, 6);
+  const size_t n = joints.size();
+  for (size_t j = 0; j < n; ++j) {
+    for (size_t s = 0; s < kNumStreams; ++s) {
+      const Sample* sample = row.cell[s];
+      out += ',';
+      if (sample != nullptr && j < sample->position.size() && std::isfinite(sample->position[j])) {
+        AppendFixed(out, sample->position[j] * joints[j].scale(), 5);
+      }
+    }
+  }
+  const Sample* set = row.cell[static_cast<size_t>(Stream::kSetpoint)];
+  out += ',';
+  if (set != nullptr) AppendInt(out, set->move_id);
+  for (size_t j = 0; j < n; ++j) {
+    out += ',';
+    if (set != nullptr && j < set->done.size()) out += set->done[j] ? '1' : '0';
+  }
+  for (size_t s = 0; s < kNumStreams; ++s) {
+    out += ',';
+    AppendInt(out, row.lost[s]);
+  }
+  if (velocities) {
+    for (size_t j = 0; j < n; ++j) {
+      for (size_t s = 0; s < kNumStreams; ++s) {
+        const Sample* sample = row.cell[s];
+        out += ',';
+        if (sample != nullptr && j < sample->velocity.size()) {
+          AppendFixed(out, sample->velocity[j] * joints[j].scale(), 4);
+        }
+      }
+    }
+  }
+  if (efforts) {
+    for (size_t j = 0; j < n; ++j) {
+      for (size_t s = 0; s < kNumStreams; ++s) {
+        const Sample* sample = row.cell[s];
+        out += ',';
+        if (sample != nullptr && j < sample->effort.size()) {
+          AppendFixed(out, sample->effort[j], 5);
+        }
+      }
+    }
+  }
+  out += '\n';
+}
+
+void RunTable::Reset(const std::vector<JointInfo>& joint_list) {
+  joints = joint_list;
+  time_s.clear();
+  position.assign(joints.size(), {});
+  move_id.clear();
+  done.assign(joints.size(), {});
+  lost = {};
+  cells = {};
+}
+
+void RunTable::Append(const Row& row) {
+  time_s.push_back(static_cast<double>(row.time_us) * 1e-6);
+  const Sample* set = row.cell[static_cast<size_t>(Stream::kSetpoint)];
+  move_id.push_back(set != nullptr ? set->move_id : -1);
+  for (size_t j = 0; j < joints.size(); ++j) {
+    for (size_t s = 0; s < kNumStreams; ++s) {
+      const Sample* sample = row.cell[s];
+      const bool has = sample != nullptr && j < sample->position.size();
+      position[j][s].push_back(has ? sample->position[j] * joints[j].scale() : kNaN);
+    }
+    done[j].push_back(set != nullptr && j < set->done.size() ? (set->done[j] ? 1 : 0) : -1);
+  }
+  for (size_t s = 0; s < kNumStreams; ++s) {
+    if (row.cell[s] != nullptr) ++cells[s];
+  }
+  lost = row.lost;
+}
+
+std::string PlanLabel(const std::string& plan_name) {
+  if (plan_name.empty()) return "manual";
+  std::string stem = std::filesystem::path(plan_name).stem().string();
+  for (char& c : stem) {
+    const bool ok = (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') ||
+                    c == '-' || c == '_';
+    if (!ok) c = '_';
+  }
+  return stem.empty() ? "plan" : stem;
+}
+
+// ---- Writer
+// --------------------------------------------------------------------------------------
+
+DataFileWriter::DataFileWriter(const std::string& path,
+                               const std::vector<std::string>& header_lines, ColumnLayout layout)
+    : path_(path), layout_(std::move(layout)) {
+  fd_ = ::open(path.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0644);
+  if (fd_ < 0) {
+    throw std::runtime_error(path + ": cannot create the data file: " + std::strerror(errno) +
+                             (errno == EEXIST ? " (choose another --name or --out)" : ""));
+  }
+  std::string text = std::string(kFileMagic) + "; the column line is line " +
+                     std::to_string(header_lines.size() + 2) + "\n";
+  for (const std::string& line : header_lines) text += "# " + line + "\n";
+  const std::vector<std::string> names = layout_.Names();
+  for (size_t i = 0; i < names.size(); ++i) text += (i ? "," : "") + names[i];
+  text += "\n";
+  WriteAll(text);
+}
+
+DataFileWriter::~DataFileWriter() {
+  if (fd_ >= 0) {
+    try {
+      Flush();
+    } catch (const std::exception&) {  // nothing sensible to do in a destructor
+    }
+    ::close(fd_);
+  }
+}
+
+void DataFileWriter::Append(const Row& row) {
+  const double t = static_cast<double>(row.time_us) * 1e-6;
+  if (rows_ == 0) first_time_s_ = t;
+  last_time_s_ = t;
+  ++rows_;
+  layout_.AppendRow(row, buffer_);
+}
+
+void DataFileWriter::Flush() {
+  if (buffer_.empty() || fd_ < 0) return;
+  std::string text;
+  text.swap(buffer_);
+  WriteAll(text);
+}
+
+void DataFileWriter::Close(const std::string& end_line) {
+  if (fd_ < 0) return;
+  Flush();
+  WriteAll("# end: " + end_line + "\n");
+  ::close(fd_);
+  fd_ = -1;
+}
+
+void DataFileWriter::WriteAll(const std::string& text) {
+  size_t done = 0;
+  while (done < text.size()) {
+    const ssize_t n = ::write(fd_, text.data() + done, text.size() - done);
+    if (n < 0) {
+      if (errno == EINTR) continue;
+      throw std::runtime_error(path_ + ": write failed: " + std::strerror(errno));
+    }
+    done += static_cast<size_t>(n);
+  }
+}
+
+// ---- Reader
+// --------------------------------------------------------------------------------------
+
+namespace {
+
+class FileReader {
+ public:
+  explicit FileReader(std::string path) : path_(std::move(path)) {}
+
+  RunTable Read() {
+    std::ifstream in(path_, std::ios::binary);
+    if (!in) Fail(0, "cannot open the file");
+    std::ostringstream content;
+    content << in.rdbuf();
+    const std::string text = content.str();
+    if (text.empty()) Fail(0, "the file is empty; expected a sirupp-logger data file");
+
+    std::vector<std::string> lines;
+    size_t start = 0;
+    bool partial_last = false;
+    while (start < text.size()) {
+      const size_t end = text.find('\n', start);
+      if (end == std::string::npos) {
+        lines.push_back(text.substr(start));
+        partial_last = true;
+        break;
+      }
+      lines.push_back(text.substr(start, end - start));
+      start = end + 1;
+    }
+    if (lines[0].rfind(kFileMagic, 0) != 0) {
+      Fail(1, "not a sirupp-logger data file: the first line must start with '" +
+                  std::string(kFileMagic) + "' (an LCM log starts with the sync word 0xEDA1DA01)");
+    }
+    table_.source = path_;
+    size_t index = 1;
+    int declared_joints = -1;
+    for (; index < lines.size() && !lines[index].empty() && lines[index][0] == '#'; ++index) {
+      const std::string& line = lines[index];
+      const size_t colon = line.find(':');
+      if (colon == std::string::npos) continue;
+      const std::string key = Trim(line.substr(1, colon - 1));
+      const std::string value = Trim(line.substr(colon + 1));
+      if (key == "joints") declared_joints = ParseJoints(static_cast<int>(index + 1), value);
+      if (key == "plan") table_.plan_name = value == "(none)" ? "" : value;
+    }
+    const int column_line = static_cast<int>(index + 1);
+    if (index >= lines.size() || (partial_last && index == lines.size() - 1)) {
+      Fail(column_line, "the file ends inside its header, before the column line (truncated)");
+    }
+    if (declared_joints < 0) {
+      Fail(column_line, "the header has no '# joints:' line; it is needed to check the columns");
+    }
+    ParseColumns(column_line, lines[index]);
+    table_.label = !table_.plan_name.empty() ? PlanLabel(table_.plan_name)
+                                             : std::filesystem::path(path_).stem().string();
+
+    const size_t last_complete = partial_last ? lines.size() - 1 : lines.size();
+    for (++index; index < last_complete; ++index) {
+      const int line_number = static_cast<int>(index + 1);
+      const std::string& line = lines[index];
+      if (line.empty()) Fail(line_number, "empty line inside the data");
+      if (line[0] == '#') {
+        if (line.rfind("# end:", 0) == 0) table_.closed = true;
+        continue;
+      }
+      if (table_.closed) Fail(line_number, "data after the '# end:' line");
+      ParseRow(line_number, line);
+    }
+    if (partial_last && lines.size() > static_cast<size_t>(column_line)) {
+      table_.notes.push_back(path_ + ":" + std::to_string(lines.size()) +
+                             ": the last line has no line end (the logger stopped while writing "
+                             "it); ignored");
+    }
+    if (table_.rows() == 0) Fail(column_line, "no data rows after the column line");
+    if (!table_.closed) {
+      table_.notes.push_back(path_ +
+                             ": no '# end:' line: the logger did not close this file "
+                             "(killed?); its " +
+                             std::to_string(table_.rows()) + " complete rows are used");
+    }
+    return std::move(table_);
+  }
+
+ private:
+  [[noreturn]] void Fail(int line, const std::string& problem) const {
+    throw core::ConfigError(core::SourceLocation{path_, line, 0}, "", problem);
+  }
+
+  // "6: j1 waist deg; j2 shoulder deg; ..." -> the joints; returns their count.
+  int ParseJoints(int line, const std::string& value) {
+    const size_t colon = value.find(':');
+    int count = -1;
+    const std::string count_text = Trim(value.substr(0, colon));
+    const auto result =
+        std::from_chars(count_text.data(), count_text.data() + count_text.size(), count);
+    if (colon == std::string::npos || result.ec != std::errc() ||
+        result.ptr != count_text.data() + count_text.size() || count < 1 || count > 64) {
+      Fail(line,
+           "joints: expected 'N: j1 NAME UNIT; ...' with N from 1 to 64, got '" + value + "'");
+    }
+    std::vector<JointInfo> joints(static_cast<size_t>(count));
+    std::stringstream entries(value.substr(colon + 1));
+    std::string entry;
+    int index = 0;
+    while (std::getline(entries, entry, ';')) {
+      std::istringstream words(entry);
+      std::string id, name, unit;
+      words >> id >> name >> unit;
+      if (index >= count || id != "j" + std::to_string(index + 1) ||
+          (unit != "deg" && unit != "mm")) {
+        Fail(line, "joints: entry " + std::to_string(index + 1) + " '" + Trim(entry) +
+                       "': expected 'j" + std::to_string(index + 1) + " NAME deg' or '... mm' (" +
+                       std::to_string(count) + " entries)");
+      }
+      joints[static_cast<size_t>(index)] = {name, unit == "mm"};
+      ++index;
+    }
+    if (index != count) {
+      Fail(line,
+           "joints: " + std::to_string(count) + " declared, " + std::to_string(index) + " listed");
+    }
+    table_.Reset(joints);
+    return count;
+  }
+
+  void ParseColumns(int line, const std::string& text) {
+    const std::vector<std::string> names = SplitFields(text);
+    const int n = static_cast<int>(table_.joints.size());
+    std::map<std::string, int> seen;
+    for (size_t c = 0; c < names.size(); ++c) {
+      const std::string& name = names[c];
+      const std::string where = "column " + std::to_string(c + 1) + " '" + name + "'";
+      if (seen.count(name)) {
+        Fail(line, where + ": repeats column " + std::to_string(seen[name] + 1));
+      }
+      seen[name] = static_cast<int>(c);
+      ColumnRole role;
+      if (c == 0) {
+        if (name != "time_s") Fail(line, where + ": the first column must be time_s");
+        roles_.push_back(role);
+        continue;
+      }
+      if (name == "move_id") {
+        role.kind = ColumnRole::kMoveId;
+      } else if (name.size() > 5 && name.compare(name.size() - 5, 5, "_lost") == 0) {
+        role.kind = ColumnRole::kLost;
+        role.stream = StreamIndex(name.substr(0, name.size() - 5));
+        if (role.stream < 0)
+          Fail(line, where + ": unknown; allowed set_lost, virt_lost, real_lost");
+      } else if (name.size() > 1 && name[0] == 'j') {
+        size_t pos = 1;
+        while (pos < name.size() && std::isdigit(static_cast<unsigned char>(name[pos]))) ++pos;
+        int joint = 0;
+        std::from_chars(name.data() + 1, name.data() + pos, joint);
+        if (pos == 1 || pos >= name.size() || name[pos] != '_') {
+          Fail(line, where + ": unknown column" + kAllowed);
+        }
+        if (joint < 1 || joint > n) {
+          Fail(line, where + ": unknown joint j" + name.substr(1, pos - 1) +
+                         ": the header declares " + std::to_string(n) + " joints (j1 to j" +
+                         std::to_string(n) + ")");
+        }
+        role.joint = joint - 1;
+        const JointInfo& info = table_.joints[static_cast<size_t>(role.joint)];
+        const std::string rest = name.substr(pos + 1);
+        if (rest == "done") {
+          role.kind = ColumnRole::kDone;
+        } else {
+          const size_t underscore = rest.find('_');
+          role.stream = StreamIndex(rest.substr(0, underscore));
+          const std::string what =
+              underscore == std::string::npos ? "" : rest.substr(underscore + 1);
+          if (role.stream < 0) Fail(line, where + ": unknown column" + kAllowed);
+          if (what == info.unit()) {
+            role.kind = ColumnRole::kPosition;
+          } else if (what == std::string("vel_") + VelocityUnit(info)) {
+            role.kind = ColumnRole::kVelocity;
+          } else if (what == std::string("effort_") + EffortUnit(info)) {
+            role.kind = ColumnRole::kEffort;
+          } else {
+            Fail(line, where + ": unknown column for joint j" + std::to_string(joint) + " (" +
+                           (info.prismatic ? "prismatic, positions in mm"
+                                           : "revolute, positions in deg") +
+                           ")" + kAllowed);
+          }
+        }
+      } else {
+        Fail(line, where + ": unknown column" + kAllowed);
+      }
+      roles_.push_back(role);
+      names_.push_back(name);
+    }
+    for (int j = 0; j < n; ++j) {
+      for (Stream stream : kAllStreams) {
+        const std::string want = "j" + std::to_string(j + 1) + "_" + StreamKey(stream) + "_" +
+                                 table_.joints[static_cast<size_t>(j)].unit();
+        if (!seen.count(want))
+          Fail(line, "no column " + want + " (every joint needs set, virt and real)");
+      }
+    }
+    if (!seen.count("move_id")) Fail(line, "no column move_id");
+  }
+
+  static int StreamIndex(const std::string& key) {
+    for (Stream stream : kAllStreams) {
+      if (key == StreamKey(stream)) return static_cast<int>(stream);
+    }
+    return -1;
+  }
+
+  void ParseRow(int line, const std::string& text) {
+    const std::vector<std::string> fields = SplitFields(text);
+    if (fields.size() != roles_.size()) {
+      Fail(line, std::to_string(fields.size()) + " fields; the column line has " +
+                     std::to_string(roles_.size()));
+    }
+    std::vector<double> row_position(table_.joints.size() * kNumStreams, kNaN);
+    int64_t move = -1;
+    std::vector<int8_t> row_done(table_.joints.size(), -1);
+    std::array<int64_t, kNumStreams> row_lost = table_.lost;
+    double time = kNaN;
+    for (size_t c = 0; c < fields.size(); ++c) {
+      const std::string& field = fields[c];
+      const ColumnRole& role = roles_[c];
+      if (field.empty()) {
+        if (role.kind == ColumnRole::kTime)
+          Fail(line, "column time_s: empty; every row needs a time");
+        continue;
+      }
+      if (role.kind == ColumnRole::kMoveId || role.kind == ColumnRole::kDone ||
+          role.kind == ColumnRole::kLost) {
+        int64_t value = 0;
+        const auto result = std::from_chars(field.data(), field.data() + field.size(), value);
+        const int64_t low = role.kind == ColumnRole::kMoveId ? -1 : 0;
+        const int64_t high = role.kind == ColumnRole::kDone ? 1 : INT64_MAX;
+        if (result.ec != std::errc() || result.ptr != field.data() + field.size() || value < low ||
+            value > high) {
+          Fail(line, "column " + std::to_string(c + 1) + " (" + names_[c] + "): '" + field +
+                         "' is not allowed; " +
+                         (role.kind == ColumnRole::kDone     ? "expected 0 or 1"
+                          : role.kind == ColumnRole::kMoveId ? "expected a whole number >= -1"
+                                                             : "expected a whole number >= 0"));
+        }
+        if (role.kind == ColumnRole::kMoveId) move = value;
+        if (role.kind == ColumnRole::kDone)
+          row_done[static_cast<size_t>(role.joint)] = static_cast<int8_t>(value);
+        if (role.kind == ColumnRole::kLost) row_lost[static_cast<size_t>(role.stream)] = value;
+        continue;
+      }
+      double value = 0;
+      const auto result = std::from_chars(field.data(), field.data() + field.size(), value);
+      if (result.ec != std::errc() || result.ptr != field.data() + field.size() ||
+          !std::isfinite(value)) {
+        Fail(line, "column " + std::to_string(c + 1) + " (" + names_[c] + "): '" + field +
+                       "' is not a finite decimal number");
+      }
+      if (role.kind == ColumnRole::kTime) time = value;
+      if (role.kind == ColumnRole::kPosition) {
+        row_position[static_cast<size_t>(role.joint) * kNumStreams +
+                     static_cast<size_t>(role.stream)] = value;
+      }
+    }
+    if (!table_.time_s.empty() && !(time > table_.time_s.back())) {
+      Fail(line, "time_s " + core::FormatNumber(time) + " is not after the previous row's " +
+                     core::FormatNumber(table_.time_s.back()) + " (rows must go forward in time)");
+    }
+    table_.time_s.push_back(time);
+    table_.move_id.push_back(move);
+    for (size_t j = 0; j < table_.joints.size(); ++j) {
+      for (size_t s = 0; s < kNumStreams; ++s) {
+        const double value = row_position[j * kNumStreams + s];
+        table_.position[j][s].push_back(value);
+        if (j == 0 && !std::isnan(value)) ++table_.cells[s];
+      }
+      table_.done[j].push_back(row_done[j]);
+    }
+    table_.lost = row_lost;
+  }
+
+  static constexpr const char* kAllowed =
+      "; allowed: time_s, jN_{set,virt,real}_{deg|mm}, jN_{set,virt,real}_vel_{dps|mmps}, "
+      "jN_{set,virt,real}_effort_{nm|n}, move_id, jN_done, {set,virt,real}_lost";
+
+  std::string path_;
+  RunTable table_;
+  std::vector<ColumnRole> roles_;
+  std::vector<std::string> names_;
+};
+
+}  // namespace
+
+RunTable ReadDataFile(const std::string& path) { return FileReader(path).Read(); }
+
+}  // namespace sirupp::logger

@@ -1,0 +1,111 @@
+#pragma once
+// The paper's data file: CSV with a commented header (docs/logging.md, "Data files").
+//
+//   # sirupp-logger data file, format 1; the column line is line 14
+//   # model: ...                        (one "# key: value" line each: model, joints, plan, ...)
+//   time_s,j1_set_deg,j1_virt_deg,j1_real_deg,...,move_id,j1_done,...,set_lost,virt_lost,real_lost
+//   12.345216,45.12345,45.01234,,...
+//   # end: 2048 rows, ...               (written on a clean close only)
+//
+// Writing: whole rows only, one write() per batch, so a killed logger leaves complete lines (a
+// kill inside that write() can leave one partial last line, which readers drop with a warning).
+// Reading: strict. Anything that is not our format stops with "FILE:LINE: what is wrong", so no
+// number is ever computed from a damaged file.
+
+#include <array>
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "logger/aligner.hpp"
+#include "logger/samples.hpp"
+
+namespace sirupp::logger {
+
+inline constexpr const char* kFileMagic = "# sirupp-logger data file, format 1";
+
+struct JointInfo {
+  std::string name;  // e.g. "waist"; may be empty
+  bool prismatic = false;
+
+  const char* unit() const { return prismatic ? "mm" : "deg"; }  // of positions in files
+  double scale() const;  // from SI (rad or m) to the file's unit
+};
+
+// Which columns a file has.
+struct ColumnLayout {
+  std::vector<JointInfo> joints;
+  bool velocities = false;  // jN_STREAM_vel_{dps,mmps}
+  bool efforts = false;     // jN_STREAM_effort_{nm,n}
+
+  std::vector<std::string> Names() const;
+  // Appends one CSV line (with '\n') for `row`.
+  void AppendRow(const Row& row, std::string& out) const;
+};
+
+// One movement set of one input, as columns: what the analysis reads, whether it came from our CSV
+// or an LCM log. Positions are in the file's units (deg, or mm for prismatic joints); NaN = empty.
+struct RunTable {
+  std::string source;     // the input file
+  std::string label;      // movement set: the plan file's stem ("set7"), else the file's stem
+  std::string plan_name;  // as the controller reported it; empty when none
+  std::vector<JointInfo> joints;
+  std::vector<double> time_s;
+  std::vector<std::array<std::vector<double>, kNumStreams>> position;  // [joint][stream][row]
+  std::vector<int64_t> move_id;                                        // -1 = empty
+  std::vector<std::vector<int8_t>> done;                               // [joint][row], -1 empty
+  std::array<int64_t, kNumStreams> lost{};   // missing messages per stream, at the last row
+  std::array<int64_t, kNumStreams> cells{};  // filled cells per stream
+  bool closed = false;                       // the writer's "# end" line is there
+  std::vector<std::string> notes;            // warnings worth showing with the report
+
+  size_t rows() const { return time_s.size(); }
+  // Prepares the columns for these joints (no rows).
+  void Reset(const std::vector<JointInfo>& joint_list);
+  // Appends an aligner row (SI values converted to file units).
+  void Append(const Row& row);
+};
+
+// The movement-set label of a plan name: the file stem ("config/plans/set7.plan" -> "set7"), made
+// of letters, digits, '-' and '_' only; "manual" when empty.
+std::string PlanLabel(const std::string& plan_name);
+
+// Writes one data file. Not thread-safe; the logger's writer thread owns it.
+class DataFileWriter {
+ public:
+  // Creates `path` (refusing to replace an existing file) and writes the magic line, the
+  // "# key: value" header lines and the column line. Throws std::runtime_error naming the path.
+  DataFileWriter(const std::string& path, const std::vector<std::string>& header_lines,
+                 ColumnLayout layout);
+  ~DataFileWriter();
+  DataFileWriter(const DataFileWriter&) = delete;
+  DataFileWriter& operator=(const DataFileWriter&) = delete;
+
+  void Append(const Row& row);
+  // Writes the buffered rows (whole lines) to the file.
+  void Flush();
+  // Flushes, writes "# end: ..." and closes.
+  void Close(const std::string& end_line);
+
+  const std::string& path() const { return path_; }
+  int64_t rows() const { return rows_; }
+  double first_time_s() const { return first_time_s_; }
+  double last_time_s() const { return last_time_s_; }
+
+ private:
+  void WriteAll(const std::string& text);
+
+  std::string path_;
+  ColumnLayout layout_;
+  int fd_ = -1;
+  std::string buffer_;
+  int64_t rows_ = 0;
+  double first_time_s_ = 0;
+  double last_time_s_ = 0;
+};
+
+// Reads one data file. Throws core::ConfigError "FILE:LINE: problem" for anything malformed; a
+// partial last line (the logger killed mid-write) and a missing "# end" line become notes.
+RunTable ReadDataFile(const std::string& path);
+
+}  // namespace sirupp::logger

@@ -1,0 +1,159 @@
+#include "logger/log_import.hpp"
+
+#include <filesystem>
+#include <sirupp/arm_state_t.hpp>
+#include <sirupp/controller_status_t.hpp>
+#include <sirupp/robot_model_t.hpp>
+#include <sirupp/servo_setpoint_t.hpp>
+
+#include "core/errors.hpp"
+#include "logger/lcm_log.hpp"
+
+namespace sirupp::logger {
+
+namespace {
+
+template <class Msg>
+Msg Decode(const LcmLogReader& reader, const LcmLogEvent& event) {
+  Msg message{};
+  int status = -1;
+  try {
+    status = message.decode(event.data.data(), 0, static_cast<int>(event.data.size()));
+  } catch (const std::exception&) {
+    status = -1;
+  }
+  if (status < 0) {
+    throw core::ConfigError(
+        core::SourceLocation{reader.path(), 0, 0},
+        "byte " + std::to_string(event.offset) + " (event " + std::to_string(event.index) + ")",
+        "channel " + event.channel + ": the data does not decode as sirupp." + Msg::getTypeName() +
+            " (another type, or damaged)");
+  }
+  return message;
+}
+
+class Importer {
+ public:
+  Importer(const std::string& path, const ImportOptions& options)
+      : path_(path), options_(options), aligner_(options.aligner) {}
+
+  std::vector<RunTable> Run() {
+    FindJoints();
+    LcmLogReader reader(path_);
+    LcmLogEvent event;
+    while (reader.Next(event)) {
+      const Channels& c = options_.channels;
+      if (event.channel == c.sim_arm_state || event.channel == c.real_arm_state) {
+        const auto message = Decode<sirupp::arm_state_t>(reader, event);
+        CheckJoints(reader, event, message.num_joints);
+        const bool real = event.channel == c.real_arm_state;
+        Sample sample = SampleFromArmState(message, real ? Stream::kReal : Stream::kVirtual,
+                                           event.timestamp_us);
+        sample.lost_before = (real ? real_seq_ : virt_seq_).Next(message.seq);
+        aligner_.Add(std::move(sample));
+      } else if (event.channel == c.arm_setpoint) {
+        const auto message = Decode<sirupp::servo_setpoint_t>(reader, event);
+        CheckJoints(reader, event, message.num_joints);
+        Sample sample = SampleFromSetpoint(message, event.timestamp_us);
+        sample.lost_before = set_seq_.Next(message.seq);
+        aligner_.Add(std::move(sample));
+      } else if (event.channel == c.controller_status) {
+        aligner_.AddStatus(StatusFromMessage(Decode<sirupp::controller_status_t>(reader, event),
+                                             event.timestamp_us));
+      } else {
+        continue;
+      }
+      aligner_.TakeRows(event.timestamp_us, false, [this](const Row& row) { Take(row); });
+    }
+    aligner_.TakeRows(0, true, [this](const Row& row) { Take(row); });
+    if (tables_.empty()) {
+      throw core::ConfigError(
+          core::SourceLocation{path_, 0, 0}, "",
+          "no joint states in this LCM log (channels " + options_.channels.arm_setpoint + ", " +
+              options_.channels.sim_arm_state + ", " + options_.channels.real_arm_state +
+              "); with a rig prefix, give it with --prefix");
+    }
+    for (RunTable& table : tables_) {
+      for (const std::string& note : reader.notes()) table.notes.push_back(note);
+      table.closed = true;
+    }
+    return std::move(tables_);
+  }
+
+ private:
+  using Channels = core::Channels;
+
+  // The joints from the first ROBOT_MODEL (names, prismatic or not), else revolute joints counted
+  // from the first joint-state message.
+  void FindJoints() {
+    LcmLogReader reader(path_);
+    LcmLogEvent event;
+    const Channels& c = options_.channels;
+    int count = -1;
+    while (reader.Next(event)) {
+      if (event.channel == c.robot_model) {
+        const auto model = Decode<sirupp::robot_model_t>(reader, event);
+        joints_.clear();
+        for (const auto& joint : model.joints) {
+          joints_.push_back({joint.name, joint.type == sirupp::joint_model_t::TYPE_PRISMATIC});
+        }
+        model_name_ = model.name;
+        return;
+      }
+      if (count < 0 && (event.channel == c.sim_arm_state || event.channel == c.real_arm_state)) {
+        count = Decode<sirupp::arm_state_t>(reader, event).num_joints;
+      } else if (count < 0 && event.channel == c.arm_setpoint) {
+        count = Decode<sirupp::servo_setpoint_t>(reader, event).num_joints;
+      }
+    }
+    if (count > 0 && count <= 64) joints_.assign(static_cast<size_t>(count), JointInfo{});
+  }
+
+  void CheckJoints(const LcmLogReader& reader, const LcmLogEvent& event, int32_t count) {
+    if (count != static_cast<int32_t>(joints_.size())) {
+      throw core::ConfigError(
+          core::SourceLocation{reader.path(), 0, 0},
+          "byte " + std::to_string(event.offset) + " (event " + std::to_string(event.index) + ")",
+          "channel " + event.channel + ": num_joints " + std::to_string(count) + "; the run's " +
+              (model_name_.empty() ? "first message has " : "model " + model_name_ + " has ") +
+              std::to_string(joints_.size()));
+    }
+  }
+
+  void Take(const Row& row) {
+    const int key_plan = options_.split_per_plan ? row.plan_run : 0;
+    if (tables_.empty() || row.run != current_run_ || key_plan != current_plan_) {
+      current_run_ = row.run;
+      current_plan_ = key_plan;
+      RunTable table;
+      table.Reset(joints_);
+      table.source = path_;
+      const std::string plan =
+          options_.split_per_plan
+              ? aligner_.plan_runs()[static_cast<size_t>(row.plan_run)].plan_name
+              : "";
+      table.plan_name = plan;
+      table.label = plan.empty() ? std::filesystem::path(path_).stem().string() : PlanLabel(plan);
+      tables_.push_back(std::move(table));
+    }
+    tables_.back().Append(row);
+  }
+
+  std::string path_;
+  ImportOptions options_;
+  Aligner aligner_;
+  std::vector<JointInfo> joints_;
+  std::string model_name_;
+  SequenceCounter set_seq_, virt_seq_, real_seq_;
+  std::vector<RunTable> tables_;
+  int current_run_ = -1;
+  int current_plan_ = -1;
+};
+
+}  // namespace
+
+std::vector<RunTable> ImportLcmLog(const std::string& path, const ImportOptions& options) {
+  return Importer(path, options).Run();
+}
+
+}  // namespace sirupp::logger

@@ -1,0 +1,371 @@
+#include "logger/logger_node.hpp"
+
+#include <chrono>
+#include <cstdio>
+#include <ctime>
+#include <filesystem>
+#include <sirupp/arm_state_t.hpp>
+#include <sirupp/controller_status_t.hpp>
+#include <sirupp/servo_gains_t.hpp>
+#include <sirupp/servo_setpoint_t.hpp>
+#include <stdexcept>
+#include <utility>
+
+#include "core/errors.hpp"
+
+namespace sirupp::logger {
+
+namespace {
+
+int64_t WallMicros() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+// The present local time, for file names (compact) or headers (ISO 8601 with the UTC offset).
+std::string LocalTimeText(bool compact) {
+  const std::time_t now = std::time(nullptr);
+  std::tm local{};
+  localtime_r(&now, &local);
+  char text[64];
+  if (compact) {
+    std::strftime(text, sizeof text, "%Y%m%d-%H%M%S", &local);
+  } else {
+    std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%S%z", &local);
+  }
+  return text;
+}
+
+std::string Seconds(int64_t utime) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.6f", static_cast<double>(utime) * 1e-6);
+  return text;
+}
+
+std::string JoinNumbers(const std::vector<double>& values) {
+  std::string text;
+  for (double value : values) text += (text.empty() ? "" : " ") + core::FormatNumber(value);
+  return text;
+}
+
+// Joint names go into "name unit; ..." lists: keep them one word without separators.
+std::string HeaderWord(const std::string& name) {
+  std::string word = name.empty() ? "-" : name;
+  for (char& c : word) {
+    if (c == ' ' || c == ';' || c == ',' || c == '\t') c = '_';
+  }
+  return word;
+}
+
+}  // namespace
+
+std::string DefaultRunName() { return "sirupp-" + LocalTimeText(true); }
+
+LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOptions options)
+    : bus_(bus),
+      model_(model),
+      options_(std::move(options)),
+      heartbeat_(bus, options_.process_name, options_.channels.heartbeat),
+      aligner_(options_.aligner) {
+  if (options_.name.empty()) options_.name = DefaultRunName();
+  for (const core::Joint& joint : model_.joints) {
+    layout_.joints.push_back({joint.name, joint.type == core::JointType::kPrismatic});
+  }
+  layout_.velocities = options_.velocities;
+  layout_.efforts = options_.efforts;
+  started_text_ = LocalTimeText(false);
+
+  namespace fs = std::filesystem;
+  std::error_code error;
+  fs::create_directories(options_.out_dir, error);
+  if (!fs::is_directory(options_.out_dir)) {
+    throw std::runtime_error("--out " + options_.out_dir + ": cannot create the directory" +
+                             (error ? ": " + error.message() : ""));
+  }
+  for (const auto& entry : fs::directory_iterator(options_.out_dir)) {
+    const std::string file = entry.path().filename().string();
+    if (entry.path().extension() == ".csv" &&
+        (file == options_.name + ".csv" || file.rfind(options_.name + "-", 0) == 0)) {
+      throw std::runtime_error(entry.path().string() +
+                               " exists: data files are never replaced; "
+                               "choose another --name or --out");
+    }
+  }
+
+  const int joints = model_.num_joints();
+  auto check = [joints](const std::string& channel, int32_t count) {
+    if (count != joints) {
+      throw core::MessageError(
+          channel, "num_joints",
+          std::to_string(count) + " joints; the model has " + std::to_string(joints));
+    }
+  };
+  constexpr int kQueue = 10000;  // LCM's own per-subscription queue between two Handle() calls
+  bus_.Subscribe<sirupp::servo_setpoint_t>(
+      options_.channels.arm_setpoint,
+      [this, check](const sirupp::servo_setpoint_t& message, const core::ReceiveInfo& info) {
+        check(info.channel, message.num_joints);
+        Sample sample = SampleFromSetpoint(message, info.recv_utime);
+        sample.lost_before = set_seq_.Next(message.seq);
+        Push(std::move(sample), Stream::kSetpoint);
+      },
+      kQueue);
+  bus_.Subscribe<sirupp::arm_state_t>(
+      options_.channels.sim_arm_state,
+      [this, check](const sirupp::arm_state_t& message, const core::ReceiveInfo& info) {
+        check(info.channel, message.num_joints);
+        Sample sample = SampleFromArmState(message, Stream::kVirtual, info.recv_utime);
+        sample.lost_before = virt_seq_.Next(message.seq);
+        Push(std::move(sample), Stream::kVirtual);
+      },
+      kQueue);
+  bus_.Subscribe<sirupp::arm_state_t>(
+      options_.channels.real_arm_state,
+      [this, check](const sirupp::arm_state_t& message, const core::ReceiveInfo& info) {
+        check(info.channel, message.num_joints);
+        Sample sample = SampleFromArmState(message, Stream::kReal, info.recv_utime);
+        sample.lost_before = real_seq_.Next(message.seq);
+        Push(std::move(sample), Stream::kReal);
+      },
+      kQueue);
+  bus_.Subscribe<sirupp::controller_status_t>(
+      options_.channels.controller_status,
+      [this](const sirupp::controller_status_t& message, const core::ReceiveInfo& info) {
+        Push(StatusFromMessage(message, info.recv_utime), Stream::kSetpoint);
+      },
+      kQueue);
+  bus_.Subscribe<sirupp::servo_gains_t>(
+      options_.channels.arm_gains,
+      [this, check](const sirupp::servo_gains_t& message, const core::ReceiveInfo& info) {
+        check(info.channel, message.num_joints);
+        Push(GainsFromMessage(message), Stream::kSetpoint);
+      });
+  heartbeat_.Publish(core::ProcessState::kStarting, "");
+  writer_ = std::thread([this] { WriterLoop(); });
+}
+
+LoggerNode::~LoggerNode() {
+  try {
+    Close();
+  } catch (const std::exception&) {  // Close() only throws if joining fails; nothing to add here
+  }
+}
+
+void LoggerNode::Push(Input input, Stream stream) {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (queue_.size() >= options_.queue_limit) {
+    if (std::holds_alternative<Sample>(input)) ++overflow_[static_cast<size_t>(stream)];
+    ++stats_.queue_overflow;
+    return;
+  }
+  queue_.push_back(std::move(input));
+}
+
+void LoggerNode::Service(int max_wait_ms) {
+  bus_.HandleAvailable();
+  bus_.Handle(max_wait_ms);
+  const LoggerStats now = stats();
+  if (!now.error.empty()) {
+    heartbeat_.PublishIfDue(core::ProcessState::kFault, now.error);
+  } else {
+    heartbeat_.PublishIfDue(
+        core::ProcessState::kRunning,
+        std::to_string(now.rows) + " rows" + (now.files.empty() ? "" : " in " + now.files.back()));
+  }
+}
+
+void LoggerNode::Close() {
+  if (closed_) return;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stop_ = true;
+  }
+  wake_.notify_all();
+  if (writer_.joinable()) writer_.join();
+  closed_ = true;
+}
+
+LoggerStats LoggerNode::stats() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return stats_;
+}
+
+bool LoggerNode::failed() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return !stats_.error.empty();
+}
+
+void LoggerNode::WriterLoop() {
+  std::vector<Input> batch;
+  std::array<int64_t, kNumStreams> carry{};
+  bool failed = false;
+  while (true) {
+    bool stopping = false;
+    {
+      std::unique_lock<std::mutex> lock(mutex_);
+      wake_.wait_for(lock, std::chrono::milliseconds(options_.flush_period_ms),
+                     [this] { return stop_; });
+      batch.swap(queue_);
+      for (size_t s = 0; s < kNumStreams; ++s) {
+        carry[s] += overflow_[s];
+        overflow_[s] = 0;
+      }
+      stopping = stop_;
+    }
+    for (Input& input : batch) {
+      if (auto* sample = std::get_if<Sample>(&input)) {
+        int64_t& pending = carry[static_cast<size_t>(sample->stream)];
+        sample->lost_before += pending;
+        pending = 0;
+        aligner_.Add(std::move(*sample));
+      } else if (auto* status = std::get_if<PlanStatus>(&input)) {
+        last_mode_ = status->mode;
+        aligner_.AddStatus(*status);
+      } else if (auto* gains = std::get_if<GainsRecord>(&input)) {
+        gains_ = *gains;
+        have_gains_ = true;
+      }
+    }
+    batch.clear();
+    std::string error;
+    if (!failed) {
+      try {
+        aligner_.TakeRows(WallMicros(), stopping, [this](const Row& row) { WriteRow(row); });
+        if (file_) file_->Flush();
+        if (stopping) CloseFile();
+      } catch (const std::exception& e) {
+        failed = true;
+        error = e.what();
+        file_.reset();
+      }
+    }
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      stats_.samples = aligner_.samples();
+      stats_.lost = aligner_.lost_total();
+      for (size_t s = 0; s < kNumStreams; ++s) stats_.lost[s] += carry[s];
+      if (!error.empty()) stats_.error = error;
+    }
+    if (stopping) break;
+  }
+}
+
+void LoggerNode::WriteRow(const Row& row) {
+  const int plan = options_.split_per_plan ? row.plan_run : 0;
+  if (!file_ || row.run != file_run_ || plan != file_plan_) {
+    CloseFile();
+    file_run_ = row.run;
+    file_plan_ = plan;
+    OpenFile(row);
+  }
+  file_->Append(row);
+  std::lock_guard<std::mutex> lock(mutex_);
+  ++stats_.rows;
+}
+
+void LoggerNode::OpenFile(const Row& row) {
+  ++file_count_;
+  std::string file_name = options_.name;
+  if (options_.split_per_plan) {
+    char number[16];
+    std::snprintf(number, sizeof number, "-%02d-", file_count_);
+    const std::string& plan = aligner_.plan_runs()[static_cast<size_t>(row.plan_run)].plan_name;
+    file_name += number + PlanLabel(plan);
+  } else if (row.run > 0) {
+    file_name += "-r" + std::to_string(row.run);
+  }
+  const std::string path =
+      (std::filesystem::path(options_.out_dir) / (file_name + ".csv")).string();
+  file_ = std::make_unique<DataFileWriter>(path, HeaderLines(row), layout_);
+  std::lock_guard<std::mutex> lock(mutex_);
+  stats_.files.push_back(path);
+}
+
+void LoggerNode::CloseFile() {
+  if (!file_) return;
+  file_->Close(EndLine());
+  file_.reset();
+}
+
+std::vector<std::string> LoggerNode::HeaderLines(const Row& row) const {
+  const PlanRun& run = aligner_.plan_runs()[static_cast<size_t>(row.plan_run)];
+  std::vector<std::string> lines;
+  lines.push_back("model: " + model_.name + " (" + model_.source_file + ", fnv1a " +
+                  model_.source_hash + ")");
+  std::string joints = std::to_string(layout_.joints.size()) + ":";
+  for (size_t j = 0; j < layout_.joints.size(); ++j) {
+    joints += std::string(j ? ";" : "") + " j" + std::to_string(j + 1) + " " +
+              HeaderWord(layout_.joints[j].name) + " " + layout_.joints[j].unit();
+  }
+  lines.push_back("joints: " + joints);
+  lines.push_back("plan: " + (run.plan_name.empty() ? std::string("(none)") : run.plan_name));
+  const int8_t mode = run.plan_name.empty() ? last_mode_ : run.mode;
+  const int sources = aligner_.real_sources();
+  std::string real = "none heard yet";
+  if (sources != 0) {
+    real.clear();
+    if (sources & (1 << sirupp::arm_state_t::SOURCE_REAL)) real += "real";
+    if (sources & (1 << sirupp::arm_state_t::SOURCE_EMULATED))
+      real += real.empty() ? "emulated" : ", emulated";
+    if (sources & (1 << sirupp::arm_state_t::SOURCE_SIM)) real += real.empty() ? "sim" : ", sim";
+  }
+  lines.push_back(std::string("mode: controller ") +
+                  (mode == sirupp::controller_status_t::MODE_AUTOMATIC ? "automatic"
+                   : mode == sirupp::controller_status_t::MODE_MANUAL  ? "manual"
+                                                                       : "unknown") +
+                  "; real arm: " + real);
+  std::vector<double> kp, kd, ki;
+  for (const core::Joint& joint : model_.joints) {
+    kp.push_back(joint.servo.kp);
+    kd.push_back(joint.servo.kd);
+    ki.push_back(joint.servo.ki);
+  }
+  lines.push_back(std::string("gains (chip units, ") +
+                  (have_gains_ ? "last ARM_GAINS" : "the model's; no ARM_GAINS heard") + "): kp " +
+                  JoinNumbers(have_gains_ ? gains_.kp : kp) + "; kd " +
+                  JoinNumbers(have_gains_ ? gains_.kd : kd) + "; ki " +
+                  JoinNumbers(have_gains_ ? gains_.ki : ki));
+  const std::string prefix = bus_.prefix();
+  const core::Channels& c = options_.channels;
+  lines.push_back("channels: set " + prefix + c.arm_setpoint + ", virt " + prefix +
+                  c.sim_arm_state + ", real " + prefix + c.real_arm_state + ", plans " + prefix +
+                  c.controller_status + ", gains " + prefix + c.arm_gains + "; LCM URL " +
+                  (bus_.url().empty() ? "(LCM default)" : bus_.url()));
+  const AlignerOptions& a = aligner_.options();
+  lines.push_back("sample clock: a row every " + std::to_string(a.period_us) +
+                  " us of time_s; a cell holds its stream's newest sample at or before the row "
+                  "time if younger than " +
+                  std::to_string(a.max_age_us) + " us, else it stays empty");
+  lines.push_back(
+      "time: time_s is sim time in s (the set-point's and the virtual arm's utime); real-arm "
+      "samples on the wall clock are moved onto it by the sim clock's offset (docs/logging.md)");
+  lines.push_back(
+      "units: positions in deg (mm for prismatic joints); jN_done 1 = the joint's set-point "
+      "profile has finished; *_lost = messages missing so far (sequence gaps, logger overflow)");
+  std::string config;
+  for (const std::string& line : lines) config += line + "\n";
+  lines.push_back("config hash: fnv1a " + core::Fnv1aHex(config) + " (of the lines above)");
+  lines.push_back("started: logger " + started_text_ + " (wall clock); this file from time_s " +
+                  Seconds(row.time_us));
+  if (!options_.note.empty()) lines.push_back("note: " + options_.note);
+  return lines;
+}
+
+std::string LoggerNode::EndLine() const {
+  const auto& lost = aligner_.lost_total();
+  const auto& samples = aligner_.samples();
+  std::string text = std::to_string(file_->rows()) + " rows, time_s " +
+                     core::FormatApprox(file_->first_time_s()) + " to " +
+                     core::FormatApprox(file_->last_time_s()) + "; run so far: messages";
+  for (Stream s : kAllStreams) {
+    text += std::string(" ") + StreamKey(s) + " " + std::to_string(samples[static_cast<size_t>(s)]);
+  }
+  text += ", lost";
+  for (Stream s : kAllStreams) {
+    text += std::string(" ") + StreamKey(s) + " " + std::to_string(lost[static_cast<size_t>(s)]);
+  }
+  return text + " (sequence gaps and logger overflow)";
+}
+
+}  // namespace sirupp::logger

@@ -1,0 +1,125 @@
+#pragma once
+// sirupp-logger's logic over a core::Bus: the paper's data files, written without ever blocking
+// the bus and without losing what was received (docs/logging.md).
+//
+// In:  ARM_SETPOINT (set-point), SIM_ARM_STATE (virtual arm), REAL_ARM_STATE (real arm, when a
+//      bridge runs), CONTROLLER_STATUS (plan runs: one file per movement set), ARM_GAINS (for the
+//      header).
+// Out: the data files; HEARTBEAT.
+//
+// Threads: the caller's thread runs the bus (Service); its handlers only copy each message into a
+// queue (never waiting on the disk). A writer thread aligns the streams (logger/aligner.hpp) and
+// appends whole rows to the file at least every flush period (25 ms by default), so a kill -9
+// loses at most the rows of the last ~100 ms (the idle timeout plus one flush period, for a
+// stream that has just gone quiet). Missing sequence numbers and queue overflow are counted per
+// stream and written in every row (*_lost) and in the closing line.
+
+#include <array>
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+#include <variant>
+#include <vector>
+
+#include "core/bus.hpp"
+#include "core/channels.hpp"
+#include "core/heartbeat.hpp"
+#include "core/robot_model.hpp"
+#include "logger/aligner.hpp"
+#include "logger/data_file.hpp"
+#include "logger/samples.hpp"
+
+namespace sirupp::logger {
+
+struct LoggerOptions {
+  std::string out_dir = "logs";
+  std::string name;            // file stem; "" = sirupp-YYYYmmdd-HHMMSS (local time at start)
+  bool split_per_plan = true;  // NAME-NN-LABEL.csv per movement set; false: NAME.csv
+  AlignerOptions aligner;
+  bool velocities = false;
+  bool efforts = false;
+  int flush_period_ms = 25;
+  size_t queue_limit = 1000000;  // messages waiting for the writer; beyond it they are counted lost
+  core::Channels channels;       // names without the rig prefix (the Bus adds it)
+  std::string note;              // free text for the header (e.g. the lab layout)
+  std::string process_name = "sirupp-logger";
+};
+
+struct LoggerStats {
+  int64_t rows = 0;
+  std::array<int64_t, kNumStreams> samples{};  // messages received per stream
+  std::array<int64_t, kNumStreams> lost{};     // missing per stream (gaps + overflow)
+  int64_t queue_overflow = 0;
+  std::vector<std::string> files;  // written so far, in order
+  std::string error;               // the writer's failure (disk full, ...), empty when fine
+};
+
+class LoggerNode {
+ public:
+  // Creates out_dir if needed and refuses (std::runtime_error) if a file NAME*.csv exists there.
+  LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOptions options);
+  ~LoggerNode();
+  LoggerNode(const LoggerNode&) = delete;
+  LoggerNode& operator=(const LoggerNode&) = delete;
+
+  // Handles bus traffic for at most max_wait_ms and publishes the heartbeat when due.
+  void Service(int max_wait_ms);
+  // Stops the writer after writing every row received, and closes the files with their "# end"
+  // line. Idempotent.
+  void Close();
+
+  LoggerStats stats() const;
+  bool failed() const;
+  const std::string& name() const { return options_.name; }
+
+ private:
+  using Input = std::variant<Sample, PlanStatus, GainsRecord>;
+
+  void Push(Input input, Stream stream);
+  void WriterLoop();
+  void WriteRow(const Row& row);
+  void OpenFile(const Row& row);
+  void CloseFile();
+  std::vector<std::string> HeaderLines(const Row& row) const;
+  std::string EndLine() const;
+
+  core::Bus& bus_;
+  core::RobotModel model_;
+  LoggerOptions options_;
+  ColumnLayout layout_;
+  core::Heartbeat heartbeat_;
+  std::string started_text_;
+
+  // Bus thread only.
+  SequenceCounter set_seq_, virt_seq_, real_seq_;
+
+  // Shared between the bus thread and the writer.
+  mutable std::mutex mutex_;
+  std::condition_variable wake_;
+  std::vector<Input> queue_;
+  std::array<int64_t, kNumStreams> overflow_{};  // dropped since the writer last looked
+  bool stop_ = false;
+  LoggerStats stats_;
+
+  // Writer thread only.
+  Aligner aligner_;
+  std::unique_ptr<DataFileWriter> file_;
+  int file_run_ = -1;
+  int file_plan_ = -1;
+  int file_count_ = 0;
+  GainsRecord gains_;
+  bool have_gains_ = false;
+  int8_t last_mode_ = -1;
+
+  std::thread writer_;
+  bool closed_ = false;
+};
+
+// "sirupp-YYYYmmdd-HHMMSS" for the present local time.
+std::string DefaultRunName();
+
+}  // namespace sirupp::logger

@@ -1,0 +1,148 @@
+// sirupp-logger: the paper's data files from a running rig. Thin main over logger/logger_node.hpp.
+
+#include <chrono>
+#include <cmath>
+#include <cstdlib>
+#include <iostream>
+#include <string>
+
+#include "core/bus.hpp"
+#include "core/errors.hpp"
+#include "core/model_loader.hpp"
+#include "logger/logger_node.hpp"
+#include "tools/args.hpp"
+#include "tools/cli.hpp"
+#include "tools/process_main.hpp"
+
+namespace {
+
+constexpr const char* kUsage =
+    "usage: sirupp-logger [--out DIR] [--name NAME] [--split plan|none] [--rate HZ]\n"
+    "                     [--max-age S] [--idle S] [--velocities] [--efforts] [--note TEXT]\n"
+    "                     [--duration S] [--recv-buf BYTES] [--model FILE] [--lcm-url URL]\n"
+    "                     [--prefix PREFIX]\n"
+    "Writes the paper's data files: per sample time the set-point (ARM_SETPOINT), the virtual\n"
+    "arm (SIM_ARM_STATE) and the real arm (REAL_ARM_STATE) joint positions, as CSV with a\n"
+    "commented header, one file per movement set (CONTROLLER_STATUS plan runs):\n"
+    "DIR/NAME-NN-SET.csv (--split none: DIR/NAME.csv). DIR default logs, NAME default\n"
+    "sirupp-YYYYmmdd-HHMMSS. Rows every servo tick of the model (--rate HZ for another clock);\n"
+    "a stream older than --max-age (0.01 s) leaves its cell empty. Rows reach the file within\n"
+    "0.1 s; stop with Ctrl-C (the files get their '# end' line). On udpm the socket asks for a\n"
+    "--recv-buf of 2097152 bytes (0: LCM's default), so a busy machine does not drop datagrams\n"
+    "(the kernel caps it at net.core.rmem_max). Raw traffic: lcm-logger, see\n"
+    "docs/logging.md. Report: sirupp report DIR/*.csv\n";
+
+double PositiveSeconds(const sirupp::tools::Args& args, const std::string& flag, double fallback) {
+  if (!args.Has(flag)) return fallback;
+  const double value = args.Numbers(flag, 1)[0];
+  if (!(value > 0)) {
+    throw sirupp::core::UsageError("sirupp-logger: --" + flag + " " +
+                                   sirupp::core::FormatNumber(value) + ": must be > 0 s");
+  }
+  return value;
+}
+
+// A udpm URL (given, else LCM_DEFAULT_URL, else LCM's default) with recv_buf_size=BYTES added
+// unless it names one; other providers (memq, file, tcpq) unchanged.
+std::string WithReceiveBuffer(std::string url, int64_t bytes) {
+  if (bytes <= 0) return url;
+  if (url.empty()) {
+    const char* from_env = std::getenv("LCM_DEFAULT_URL");
+    url = from_env != nullptr && *from_env != '\0' ? from_env : "udpm://239.255.76.67:7667?ttl=0";
+  }
+  if (url.rfind("udpm://", 0) != 0 || url.find("recv_buf_size=") != std::string::npos) return url;
+  return url + (url.find('?') == std::string::npos ? "?" : "&") +
+         "recv_buf_size=" + std::to_string(bytes);
+}
+
+int Run(const std::vector<std::string>& argv) {
+  const sirupp::tools::Args args(argv, "sirupp-logger",
+                                 {{"out", "DIR"},
+                                  {"name", "NAME"},
+                                  {"split", "plan|none"},
+                                  {"rate", "HZ"},
+                                  {"max-age", "S"},
+                                  {"idle", "S"},
+                                  {"velocities", "(switch)"},
+                                  {"efforts", "(switch)"},
+                                  {"note", "TEXT"},
+                                  {"duration", "S"},
+                                  {"recv-buf", "BYTES"},
+                                  {"model", "robot model file"},
+                                  {"lcm-url", "LCM URL"},
+                                  {"prefix", "channel prefix of the rig"}});
+  const sirupp::core::RobotModel model =
+      sirupp::core::LoadRobotModel(sirupp::tools::ResolveDataPath(
+          args.Has("model") ? args.String("model") : "config/robots/puma260.yaml"));
+  sirupp::logger::LoggerOptions options;
+  if (args.Has("out")) options.out_dir = args.String("out");
+  if (args.Has("name")) {
+    options.name = args.String("name");
+    if (options.name.empty() || options.name.find('/') != std::string::npos) {
+      throw sirupp::core::UsageError("sirupp-logger: --name '" + options.name +
+                                     "': a file name stem without '/' is needed");
+    }
+  }
+  if (args.Has("split")) {
+    const std::string split = args.String("split");
+    if (split != "plan" && split != "none") {
+      throw sirupp::core::UsageError("sirupp-logger: --split '" + split +
+                                     "' is not allowed; allowed: plan, none");
+    }
+    options.split_per_plan = split == "plan";
+  }
+  const double period_s = 1.0 / PositiveSeconds(args, "rate", 1.0 / model.servo_tick_s);
+  options.aligner.period_us = std::max<int64_t>(1, std::llround(period_s * 1e6));
+  options.aligner.max_age_us = std::llround(PositiveSeconds(args, "max-age", 0.01) * 1e6);
+  options.aligner.idle_us = std::llround(PositiveSeconds(args, "idle", 0.05) * 1e6);
+  options.velocities = args.Switch("velocities");
+  options.efforts = args.Switch("efforts");
+  if (args.Has("note")) {
+    for (const std::string& word : args.Values("note", -1)) {
+      options.note += (options.note.empty() ? "" : " ") + word;
+    }
+  }
+  const double duration_s = PositiveSeconds(args, "duration", 0);
+  double recv_buf = 2097152;
+  if (args.Has("recv-buf")) {
+    recv_buf = args.Numbers("recv-buf", 1)[0];
+    if (recv_buf < 0 || recv_buf != std::floor(recv_buf) || recv_buf > 1 << 30) {
+      throw sirupp::core::UsageError("sirupp-logger: --recv-buf " +
+                                     sirupp::core::FormatNumber(recv_buf) +
+                                     ": allowed whole bytes from 0 to 1073741824");
+    }
+  }
+  sirupp::core::Bus bus(WithReceiveBuffer(args.Has("lcm-url") ? args.String("lcm-url") : "",
+                                          static_cast<int64_t>(recv_buf)),
+                        args.Has("prefix") ? args.String("prefix") : "");
+  sirupp::logger::LoggerNode node(bus, model, options);
+  std::cerr << "sirupp-logger: " << model.name << ", files " << options.out_dir << "/"
+            << node.name() << (options.split_per_plan ? "-NN-SET.csv" : ".csv") << ", a row every "
+            << options.aligner.period_us << " us, on " << bus.url() << std::endl;
+  const auto start = std::chrono::steady_clock::now();
+  sirupp::tools::ServiceUntilSignal([&] {
+    node.Service(20);
+    if (node.failed()) return false;
+    return duration_s <= 0 ||
+           std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() <
+               duration_s;
+  });
+  node.Close();
+  const sirupp::logger::LoggerStats stats = node.stats();
+  std::cerr << "sirupp-logger: " << stats.rows << " rows in " << stats.files.size() << " file(s);"
+            << " messages set " << stats.samples[0] << ", virt " << stats.samples[1] << ", real "
+            << stats.samples[2] << "; lost set " << stats.lost[0] << ", virt " << stats.lost[1]
+            << ", real " << stats.lost[2] << "\n";
+  for (const std::string& file : stats.files) std::cerr << "  " << file << "\n";
+  if (!stats.error.empty()) {
+    std::cerr << "sirupp-logger: " << stats.error << "\n";
+    return 1;
+  }
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return sirupp::tools::ProcessMain(argc, argv, "sirupp-logger", kUsage, Run);
+}

@@ -1,0 +1,290 @@
+#include "logger/report.hpp"
+
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <stdexcept>
+
+#include "core/errors.hpp"
+#include "logger/lcm_log.hpp"
+#include "logger/plot.hpp"
+
+namespace sirupp::logger {
+
+namespace {
+
+const PlotColor kStreamColors[kNumStreams] = {{31, 119, 180}, {255, 127, 14}, {44, 160, 44}};
+const PlotColor kPairColors[kNumPairs] = {{255, 127, 14}, {44, 160, 44}, {214, 39, 40}};
+
+std::string Fixed(double value, int decimals) {
+  if (!std::isfinite(value)) return "";
+  if (std::abs(value) < 0.5 * std::pow(10.0, -decimals)) value = 0;  // never "-0.0"
+  char text[48];
+  std::snprintf(text, sizeof text, "%.*f", decimals, value);
+  return text;
+}
+
+// For Markdown cells: "-" where there is no value.
+std::string Cell(double value, int decimals) {
+  const std::string text = Fixed(value, decimals);
+  return text.empty() ? "-" : text;
+}
+
+std::string CsvText(const std::string& text) {
+  if (text.find_first_of(",\"\n") == std::string::npos) return text;
+  std::string quoted = "\"";
+  for (char c : text) quoted += c == '"' ? std::string("\"\"") : std::string(1, c);
+  return quoted + "\"";
+}
+
+void WriteText(const std::string& path, const std::string& text) {
+  std::ofstream out(path, std::ios::binary | std::ios::trunc);
+  out << text;
+  out.close();
+  if (!out) throw std::runtime_error(path + ": cannot write");
+}
+
+std::string JointName(const MoveResult& move) {
+  const JointInfo& info = move.table->joints[static_cast<size_t>(move.joint - 1)];
+  return info.name.empty() || info.name == "-" ? "" : info.name;
+}
+
+const char* Unit(const MoveResult& move) {
+  return move.table->joints[static_cast<size_t>(move.joint - 1)].prismatic ? "mm" : "deg";
+}
+
+}  // namespace
+
+std::vector<RunTable> ReadInputs(const std::vector<std::string>& paths,
+                                 const ImportOptions& import) {
+  std::vector<RunTable> tables;
+  for (const std::string& path : paths) {
+    if (!std::filesystem::is_regular_file(path)) {
+      throw core::ConfigError(
+          core::SourceLocation{path, 0, 0}, "",
+          std::filesystem::exists(path) ? "not a regular file" : "no such file");
+    }
+    if (LooksLikeLcmLog(path)) {
+      for (RunTable& table : ImportLcmLog(path, import)) tables.push_back(std::move(table));
+    } else {
+      tables.push_back(ReadDataFile(path));
+    }
+  }
+  return tables;
+}
+
+ReportOutput WriteReport(const std::vector<RunTable>& tables, const ReportOptions& options) {
+  std::vector<Analysis> analyses;
+  std::vector<std::string> notes;
+  size_t moves = 0;
+  for (const RunTable& table : tables) {
+    analyses.push_back(Analyze(table, options.analysis));
+    moves += analyses.back().moves.size();
+    for (const std::string& note : table.notes) notes.push_back(note);
+    for (const std::string& note : analyses.back().notes) notes.push_back(note);
+  }
+  if (moves == 0) {
+    std::string why;
+    for (const std::string& note : notes) why += "\n  " + note;
+    throw core::ConfigError(core::SourceLocation{tables.empty() ? "" : tables[0].source, 0, 0}, "",
+                            "no move with a joint travelling at least " +
+                                core::FormatApprox(options.analysis.min_travel) +
+                                " deg (mm) to report" + why);
+  }
+
+  namespace fs = std::filesystem;
+  std::error_code error;
+  fs::create_directories(options.out_dir, error);
+  if (!fs::is_directory(options.out_dir)) {
+    throw std::runtime_error("--out " + options.out_dir + ": cannot create the directory");
+  }
+  ReportOutput output;
+  output.moves = moves;
+  const fs::path out(options.out_dir);
+
+  // Labels must give distinct plot names even when two inputs hold the same set.
+  std::map<std::string, int> label_uses;
+  std::vector<std::string> keys;
+  for (const RunTable& table : tables) {
+    const int use = ++label_uses[table.label];
+    keys.push_back(use == 1 ? table.label : table.label + "-" + std::to_string(use));
+  }
+
+  const AnalysisOptions& a = options.analysis;
+  std::string md = "# SIRUPP report\n\n## Inputs\n\n";
+  md +=
+      "| input | set | rows | time_s (s) | set-point / virtual / real samples | lost (set / virt "
+      "/ real) | closed |\n|---|---|---|---|---|---|---|\n";
+  for (size_t t = 0; t < tables.size(); ++t) {
+    const RunTable& table = tables[t];
+    md += "| `" + table.source + "` | " + keys[t] + " | " + std::to_string(table.rows()) + " | " +
+          Fixed(table.time_s.front(), 3) + " to " + Fixed(table.time_s.back(), 3) + " | " +
+          std::to_string(table.cells[0]) + " / " + std::to_string(table.cells[1]) + " / " +
+          std::to_string(table.cells[2]) + " | " + std::to_string(table.lost[0]) + " / " +
+          std::to_string(table.lost[1]) + " / " + std::to_string(table.lost[2]) + " | " +
+          (table.closed ? "yes" : "no") + " |\n";
+  }
+
+  md += "\n## Table II: error per movement set and joint\n\n";
+  md +=
+      "Error = second stream minus first, at the same sample time; mean, RMS and maximum of its "
+      "magnitude. Transient: from the move command until the joint's set-point reports move-done, "
+      "plus " +
+      core::FormatApprox(a.settle_window_s) +
+      " s; steady state: from there until the next move or the end of the data. Degrees (mm for "
+      "prismatic joints). \"-\": no common samples. Definitions: docs/logging.md.\n\n";
+  md +=
+      "| Set | Move | Joint | Movement | Pair | Mean error, transient | Mean error, steady "
+      "state | RMS | Max |\n|---|---|---|---|---|---|---|---|---|\n";
+  std::string errors_csv =
+      "input,set,move_id,joint,joint_name,unit,from,to,pair,mean_transient,mean_steady,rms,max,"
+      "transient_samples,steady_samples,move_start_s,move_done_s,transient_end_s,move_end_s\n";
+  std::string response_md =
+      "| Set | Move | Joint | Stream | Start delay (s) | Settling time (s) | Overshoot | "
+      "Overshoot (%) | Final error |\n|---|---|---|---|---|---|---|---|---|\n";
+  std::string response_csv =
+      "input,set,move_id,joint,joint_name,unit,stream,samples,start_delay_s,settling_s,overshoot,"
+      "overshoot_percent,final_value,final_error\n";
+  std::string plots_md;
+
+  for (size_t t = 0; t < tables.size(); ++t) {
+    const RunTable& table = tables[t];
+    for (const MoveResult& move : analyses[t].moves) {
+      const std::string joint_text = std::to_string(move.joint) +
+                                     (JointName(move).empty() ? "" : " (" + JointName(move) + ")");
+      const std::string movement =
+          "from " + Fixed(move.from, 1) + " to " + Fixed(move.to, 1) + " " + Unit(move);
+      for (Pair pair : kAllPairs) {
+        const PairMetrics& m = move.pairs[static_cast<size_t>(pair)];
+        const bool first = pair == Pair::kSetVirt;
+        md += "| " + (first ? keys[t] : "") + " | " + (first ? std::to_string(move.move_id) : "") +
+              " | " + (first ? joint_text : "") + " | " + (first ? movement : "") + " | " +
+              PairTitle(pair) + " | " + Cell(m.mean_transient, 2) + " | " + Cell(m.mean_steady, 2) +
+              " | " + Cell(m.rms, 2) + " | " + Cell(m.max, 2) + " |\n";
+        errors_csv += CsvText(table.source) + "," + CsvText(keys[t]) + "," +
+                      std::to_string(move.move_id) + "," + std::to_string(move.joint) + "," +
+                      CsvText(JointName(move)) + "," + Unit(move) + "," + Fixed(move.from, 5) +
+                      "," + Fixed(move.to, 5) + "," + PairKey(pair) + "," +
+                      Fixed(m.mean_transient, 5) + "," + Fixed(m.mean_steady, 5) + "," +
+                      Fixed(m.rms, 5) + "," + Fixed(m.max, 5) + "," +
+                      std::to_string(m.transient_samples) + "," + std::to_string(m.steady_samples) +
+                      "," + Fixed(move.start_s, 6) + "," + Fixed(move.done_s, 6) + "," +
+                      Fixed(move.transient_end_s, 6) + "," + Fixed(move.end_s, 6) + "\n";
+      }
+      for (Stream stream : kAllStreams) {
+        const StreamResponse& r = move.streams[static_cast<size_t>(stream)];
+        const bool first = stream == Stream::kSetpoint;
+        if (!r.has()) {
+          response_md += "| " + (first ? keys[t] : "") + " | " +
+                         (first ? std::to_string(move.move_id) : "") + " | " +
+                         (first ? joint_text : "") + " | " + StreamTitle(stream) +
+                         " | no data | | | | |\n";
+        } else {
+          response_md +=
+              "| " + (first ? keys[t] : "") + " | " + (first ? std::to_string(move.move_id) : "") +
+              " | " + (first ? joint_text : "") + " | " + StreamTitle(stream) + " | " +
+              (std::isfinite(r.start_delay_s) ? Fixed(r.start_delay_s, 3) : "did not move") +
+              " | " + (std::isfinite(r.settling_s) ? Fixed(r.settling_s, 3) : "not settled") +
+              " | " + Cell(r.overshoot, 2) + " | " + Cell(r.overshoot_percent, 1) + " | " +
+              Cell(r.final_error, 2) + " |\n";
+        }
+        response_csv +=
+            CsvText(table.source) + "," + CsvText(keys[t]) + "," + std::to_string(move.move_id) +
+            "," + std::to_string(move.joint) + "," + CsvText(JointName(move)) + "," + Unit(move) +
+            "," + StreamTitle(stream) + "," + std::to_string(r.samples) + "," +
+            (r.has() ? Fixed(r.start_delay_s, 6) : "") + "," +
+            (r.has() ? Fixed(r.settling_s, 6) : "") + "," + (r.has() ? Fixed(r.overshoot, 5) : "") +
+            "," + (r.has() ? Fixed(r.overshoot_percent, 3) : "") + "," +
+            (r.has() ? Fixed(r.final_value, 5) : "") + "," +
+            (r.has() ? Fixed(r.final_error, 5) : "") + "\n";
+      }
+
+      if (options.plots) {
+        // From 0.1 s before the move command to its end, time relative to the command (Fig. 6).
+        size_t first_row = move.begin;
+        while (first_row > 0 && table.time_s[first_row - 1] >= move.start_s - 0.1) --first_row;
+        const auto j = static_cast<size_t>(move.joint - 1);
+        PlotSpec angle;
+        angle.title = keys[t] + ", move " + std::to_string(move.move_id) + ": joint " + joint_text +
+                      " " + movement;
+        angle.x_label = "time since the move command (s)";
+        angle.y_label =
+            std::string("joint ") + std::to_string(move.joint) + " position (" + Unit(move) + ")";
+        PlotSpec error_plot;
+        error_plot.title =
+            keys[t] + ", move " + std::to_string(move.move_id) + ": joint " + joint_text + " error";
+        error_plot.x_label = angle.x_label;
+        error_plot.y_label = std::string("error, second minus first (") + Unit(move) + ")";
+        std::vector<double> x;
+        for (size_t i = first_row; i < move.end; ++i) x.push_back(table.time_s[i] - move.start_s);
+        for (Stream stream : kAllStreams) {
+          const auto s = static_cast<size_t>(stream);
+          if (!move.streams[s].has()) continue;
+          PlotSeries series{StreamTitle(stream), x, {}, kStreamColors[s]};
+          for (size_t i = first_row; i < move.end; ++i) series.y.push_back(table.position[j][s][i]);
+          angle.series.push_back(std::move(series));
+        }
+        for (Pair pair : kAllPairs) {
+          const auto p = static_cast<size_t>(pair);
+          if (!move.pairs[p].has()) continue;
+          PlotSeries series{PairTitle(pair), x, {}, kPairColors[p]};
+          const auto& first = table.position[j][static_cast<size_t>(PairFirst(pair))];
+          const auto& second = table.position[j][static_cast<size_t>(PairSecond(pair))];
+          for (size_t i = first_row; i < move.end; ++i) series.y.push_back(second[i] - first[i]);
+          error_plot.series.push_back(std::move(series));
+        }
+        const std::vector<PlotMarker> markers = {
+            {0.0, "move"},
+            {move.done_s - move.start_s, "move-done"},
+            {move.transient_end_s - move.start_s, "steady state"}};
+        angle.markers = markers;
+        error_plot.markers = markers;
+        const std::string stem =
+            keys[t] + "-m" + std::to_string(move.move_id) + "-j" + std::to_string(move.joint);
+        const std::string angle_path = (out / (stem + "-angle.png")).string();
+        const std::string error_path = (out / (stem + "-error.png")).string();
+        WritePlot(angle, angle_path);
+        output.files.push_back(angle_path);
+        plots_md += "- " + keys[t] + ", move " + std::to_string(move.move_id) + ", joint " +
+                    std::to_string(move.joint) + ": `" + angle_path + "`";
+        if (!error_plot.series.empty()) {
+          WritePlot(error_plot, error_path);
+          output.files.push_back(error_path);
+          plots_md += ", `" + error_path + "`";
+        }
+        plots_md += "\n";
+      }
+    }
+  }
+  md +=
+      "\n## Response per stream\n\nStart delay: from the move command until the stream has "
+      "moved " +
+      core::FormatApprox(a.start_threshold) +
+      " deg (mm) from where it was. Settling time: from the move command until the stream stays "
+      "within " +
+      core::FormatApprox(a.settle_band_fraction * 100) +
+      " % of the travel of its final value (its mean over the move's last " +
+      core::FormatApprox(a.final_window_s) +
+      " s). Overshoot: the farthest it went past that final value. Final error: final value "
+      "minus the set-point's end.\n\n" +
+      response_md;
+  if (!plots_md.empty()) md += "\n## Plots\n\n" + plots_md;
+  if (!notes.empty()) {
+    md += "\n## Notes\n\n";
+    for (const std::string& note : notes) md += "- " + note + "\n";
+  }
+
+  const std::string md_path = (out / "report.md").string();
+  const std::string errors_path = (out / "report_errors.csv").string();
+  const std::string response_path = (out / "report_response.csv").string();
+  WriteText(md_path, md);
+  WriteText(errors_path, errors_csv);
+  WriteText(response_path, response_csv);
+  output.files.insert(output.files.begin(), {md_path, errors_path, response_path});
+  output.markdown = md;
+  return output;
+}
+
+}  // namespace sirupp::logger

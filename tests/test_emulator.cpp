@@ -1,0 +1,316 @@
+// The emulator over its real pseudo-terminal, talked to with hardware::SerialPort as the bridge
+// does: NmcInit's addressing, a three-joint move to its goal, SET_BAUD and the line's timing, the
+// inter-byte timeout, and every fault setting.
+
+#include <gtest/gtest.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <thread>
+
+#include "core/model_loader.hpp"
+#include "hardware/emulator.hpp"
+#include "hardware/nmc_protocol.hpp"
+#include "hardware/serial_port.hpp"
+#include "servo/servo_units.hpp"
+
+namespace sirupp::hardware {
+namespace {
+
+using namespace nmc;
+using Bytes = std::vector<uint8_t>;
+using Clock = std::chrono::steady_clock;
+
+constexpr double kDeg = 3.14159265358979323846 / 180;
+
+const core::RobotModel& Puma() {
+  static const core::RobotModel model = core::LoadRobotModel("config/robots/puma260.yaml");
+  return model;
+}
+
+EmulatorOptions Options() {
+  EmulatorOptions options;
+  options.model = Puma();
+  return options;
+}
+
+void Sleep(double seconds) { std::this_thread::sleep_for(std::chrono::duration<double>(seconds)); }
+
+// Sends a packet and reads `expect` reply bytes (fewer if none come within `timeout_s`).
+Bytes Transact(SerialPort& port, const Packet& packet, size_t expect, double timeout_s = 0.2) {
+  const Bytes out = Encode(packet);
+  port.Write(out.data(), out.size());
+  Bytes in;
+  const auto deadline = Clock::now() + std::chrono::duration<double>(timeout_s);
+  while (in.size() < expect && Clock::now() < deadline) {
+    uint8_t buffer[64];
+    const auto left =
+        std::chrono::duration_cast<std::chrono::microseconds>(deadline - Clock::now());
+    const size_t n = port.Read(buffer, std::min(sizeof buffer, expect - in.size()),
+                               std::max(left, std::chrono::microseconds(1)));
+    in.insert(in.end(), buffer, buffer + n);
+  }
+  return in;
+}
+
+// NmcInit: zeros and two hard resets, then SET_ADDR to address 0 until nobody answers; returns the
+// number of modules found (each checked for type 0, version 10).
+int NmcInit(SerialPort& port) {
+  const Bytes zeros(20, 0);
+  port.Write(zeros.data(), zeros.size());
+  for (int i = 0; i < 2; ++i) {
+    EXPECT_TRUE(Transact(port, HardReset(kBroadcast), 1, 0.05).empty());
+  }
+  port.DiscardInput();
+  int found = 0;
+  for (uint8_t a = 1; a <= kMaxModules; ++a) {
+    const Bytes r = Transact(port, SetAddress(0, a, 0xFF, false), 2, 0.1);
+    if (r.size() < 2) break;
+    EXPECT_EQ(r[0], r[1]) << "checksum = status";
+    const Bytes id = Transact(port, ReadStatus(a, kSendId), 4);
+    EXPECT_EQ(id.size(), 4U);
+    if (id.size() == 4) {
+      EXPECT_EQ(id[1], kTypePicServo);
+      EXPECT_EQ(id[2], kVersionPicServoSc);
+    }
+    ++found;
+  }
+  return found;
+}
+
+Gains ModelGains(const core::ServoParams& s) {
+  Gains g;
+  g.kp = static_cast<int16_t>(s.kp);
+  g.kd = static_cast<int16_t>(s.kd);
+  g.ki = static_cast<int16_t>(s.ki);
+  g.integration_limit = static_cast<int16_t>(s.integration_limit);
+  g.output_limit = static_cast<uint8_t>(s.output_limit);
+  g.current_limit = static_cast<uint8_t>(s.current_limit);
+  g.error_limit = static_cast<int16_t>(s.error_limit);
+  g.servo_rate = 1;
+  return g;
+}
+
+// Gains, amplifier on, servo on where each joint is, POS_ERR cleared.
+void ServoOn(SerialPort& port, int modules) {
+  for (int k = 0; k < modules; ++k) {
+    const auto a = static_cast<uint8_t>(k + 1);
+    ASSERT_EQ(Transact(port, SetGain(a, ModelGains(Puma().joints[k].servo)), 2).size(), 2U);
+    ASSERT_EQ(Transact(port, StopMotor(a, kAmpEnable | kStopAbrupt), 2).size(), 2U);
+    ASSERT_EQ(Transact(port, ClearBits(a), 2).size(), 2U);
+  }
+}
+
+TEST(Emulator, NmcInitFindsEveryModuleOverThePty) {
+  Emulator emulator(Options());
+  emulator.Start();
+  SerialPort port(emulator.device(), 19200);
+  EXPECT_EQ(NmcInit(port), 6);
+  const EmulatorCounters c = emulator.counters();
+  EXPECT_EQ(c.commands_received, 2U + 6 * 2 + 1);
+  EXPECT_EQ(c.replies_sent, 12U);
+  EXPECT_EQ(c.bytes_skipped, 20U) << "the zeros before the reset";
+  EXPECT_GT(c.servo_ticks, 0U);
+  emulator.Stop();
+}
+
+TEST(Emulator, AThreeJointMoveReachesItsGoal) {
+  // The paper's set VII: joints 1 to 3 from 0 to 90 degrees, one START_MOVE to the group.
+  Emulator emulator(Options());
+  emulator.Start();
+  SerialPort port(emulator.device(), 19200);
+  ASSERT_EQ(NmcInit(port), 6);
+  ServoOn(port, 6);
+  for (uint8_t a = 1; a <= 6; ++a) {
+    ASSERT_EQ(Transact(port, SetAddress(a, a, 0x80, a == 1), 2).size(), 2U);
+  }
+  for (int j = 0; j < 3; ++j) {
+    const core::Joint& joint = Puma().joints[static_cast<size_t>(j)];
+    const servo::JointDrive drive(joint, Puma().servo_tick_s);
+    Trajectory t;
+    t.control = kLoadPosition | kLoadVelocity | kLoadAcceleration | kEnableServo;
+    t.position = static_cast<int32_t>(drive.ToCounts(90 * kDeg));
+    t.velocity = static_cast<uint32_t>(drive.VelocityWord(joint.servo.default_velocity));
+    t.acceleration =
+        static_cast<uint32_t>(drive.AccelerationWord(joint.servo.default_acceleration));
+    ASSERT_EQ(Transact(port, LoadTrajectory(static_cast<uint8_t>(j + 1), t), 2).size(), 2U);
+  }
+  const auto start = Clock::now();
+  const Bytes started = Transact(port, StartMove(0x80), 2);
+  ASSERT_EQ(started.size(), 2U) << "the leader answers";
+  double done_s = -1;
+  double first_motion_s = -1;  // of the waist, which friction holds longest
+  while (done_s < 0 && Clock::now() - start < std::chrono::seconds(10)) {
+    if (first_motion_s < 0 && std::abs(emulator.JointPositions()[0]) > 1e-4) {
+      first_motion_s = std::chrono::duration<double>(Clock::now() - start).count();
+    }
+    bool all = true;
+    for (uint8_t a = 1; a <= 3; ++a) {
+      const Bytes r = Transact(port, Nop(a), 2);
+      all = all && r.size() == 2 && (r[0] & kStatusMoveDone);
+    }
+    if (all) done_s = std::chrono::duration<double>(Clock::now() - start).count();
+  }
+  ASSERT_GT(done_s, 0) << "MOVE_DONE on joints 1-3";
+  // Settled: within 0.5 degree of the goal, and still.
+  double settled_s = -1;
+  while (Clock::now() - start < std::chrono::seconds(12)) {
+    const std::vector<double> q = emulator.JointPositions();
+    bool near = true;
+    for (int j = 0; j < 3; ++j)
+      near = near && std::abs(q[static_cast<size_t>(j)] - 90 * kDeg) < 0.5 * kDeg;
+    if (near) {
+      settled_s = std::chrono::duration<double>(Clock::now() - start).count();
+      break;
+    }
+    Sleep(0.005);
+  }
+  Sleep(0.3);
+  const std::vector<double> q = emulator.JointPositions();
+  std::printf(
+      "set VII on the emulator: waist moves after %.3f s, MOVE_DONE after %.3f s, within 0.5 deg "
+      "after %.3f s; "
+      "final %.3f %.3f %.3f deg; others %.3f %.3f %.3f deg; %llu overruns\n",
+      done_s, settled_s, q[0] / kDeg, q[1] / kDeg, q[2] / kDeg, q[3] / kDeg, q[4] / kDeg,
+      q[5] / kDeg, static_cast<unsigned long long>(emulator.counters().overruns));
+  for (int j = 0; j < 3; ++j) EXPECT_NEAR(q[static_cast<size_t>(j)], 90 * kDeg, 0.5 * kDeg);
+  for (int j = 3; j < 6; ++j) EXPECT_NEAR(q[static_cast<size_t>(j)], 0, 0.5 * kDeg);
+  // The encoders agree with the arm.
+  const Bytes pos = Transact(port, ReadStatus(2, kSendPosition), ReplyLength(kSendPosition));
+  ASSERT_EQ(pos.size(), ReplyLength(kSendPosition));
+  const servo::JointDrive shoulder(Puma().joints[1], Puma().servo_tick_s);
+  EXPECT_NEAR(DecodeStatus(pos.data(), pos.size(), kSendPosition).position, shoulder.ToCounts(q[1]),
+              2);
+}
+
+TEST(Emulator, SetBaudSwitchesTheLineAndRepliesTakeTheLinesTime) {
+  Emulator emulator(Options());
+  emulator.Start();
+  SerialPort port(emulator.device(), 19200);
+  ASSERT_EQ(NmcInit(port), 6);
+  // At 19200 baud a NOP (4 bytes) and its reply (2 bytes) take 6 * 10 / 19200 = 3.1 ms.
+  auto round_trip = [&port]() {
+    double best = 1;
+    for (int i = 0; i < 5; ++i) {
+      const auto t0 = Clock::now();
+      EXPECT_EQ(Transact(port, Nop(1), 2).size(), 2U);
+      best = std::min(best, std::chrono::duration<double>(Clock::now() - t0).count());
+    }
+    return best;
+  };
+  const double slow = round_trip();
+  EXPECT_GE(slow, 6 * 10 / 19200.0);
+  EXPECT_TRUE(Transact(port, SetBaud(kBroadcast, BaudDivisor(115200)), 1, 0.1).empty());
+  port.SetBaud(115200);
+  EXPECT_EQ(emulator.counters().baud, 115200);
+  const double fast = round_trip();
+  EXPECT_GE(fast, 6 * 10 / 115200.0);
+  EXPECT_LT(fast, slow);
+  std::printf("NOP round trip: %.3f ms at 19200, %.3f ms at 115200 (line alone: %.3f, %.3f)\n",
+              slow * 1e3, fast * 1e3, 6e4 / 19200, 6e4 / 115200);
+  // HARD_RESET returns every module, and the line, to 19200.
+  EXPECT_TRUE(Transact(port, HardReset(kBroadcast), 1, 0.05).empty());
+  EXPECT_EQ(emulator.counters().baud, 19200);
+}
+
+TEST(Emulator, APartialPacketIsDroppedAfterTheInterByteTimeout) {
+  Emulator emulator(Options());
+  emulator.Start();
+  SerialPort port(emulator.device(), 19200);
+  ASSERT_EQ(NmcInit(port), 6);
+  const Bytes half = {0xAA, 0x01, 0x4E};  // promises 4 data bytes, never sends them
+  port.Write(half.data(), half.size());
+  Sleep(0.1);
+  EXPECT_EQ(Transact(port, Nop(1), 2).size(), 2U);
+  EXPECT_EQ(emulator.counters().packet_timeouts, 1U);
+}
+
+TEST(Emulator, EachFaultIsObservable) {
+  EmulatorOptions options = Options();
+  options.seed = 7;
+  Emulator emulator(options);
+  emulator.Start();
+  SerialPort port(emulator.device(), 19200);
+  ASSERT_EQ(NmcInit(port), 6);
+  ServoOn(port, 6);
+
+  // Checksum errors: every command seen as corrupted gets CKSUM_ERROR and is not executed.
+  emulator.SetChecksumErrorRate(1.0);
+  const uint64_t errors = emulator.counters().checksum_errors;
+  const Bytes bad = Transact(port, StopMotor(1, kAmpEnable | kMotorOff), 2);
+  ASSERT_EQ(bad.size(), 2U);
+  EXPECT_TRUE(bad[0] & kStatusChecksumError);
+  EXPECT_EQ(emulator.counters().checksum_errors, errors + 1);
+  emulator.SetChecksumErrorRate(0);
+  EXPECT_FALSE(Transact(port, Nop(1), 2)[0] & kStatusChecksumError);
+  EXPECT_TRUE(emulator.ModuleStatus(0).aux & kAuxServoOn) << "the MOTOR_OFF did not run";
+
+  // Dropped bytes: half the reply bytes lost on average; all of them at rate 1.
+  emulator.SetDropRate(1.0);
+  EXPECT_TRUE(Transact(port, Nop(1), 2, 0.05).empty());
+  EXPECT_GE(emulator.counters().bytes_dropped, 2U);
+  emulator.SetDropRate(0);
+  port.DiscardInput();
+  EXPECT_EQ(Transact(port, Nop(1), 2).size(), 2U);
+
+  // A silent module: no reply, the others answer.
+  emulator.SetSilent(1, true);
+  EXPECT_TRUE(Transact(port, Nop(2), 2, 0.05).empty());
+  EXPECT_EQ(Transact(port, Nop(3), 2).size(), 2U);
+  emulator.SetSilent(1, false);
+  EXPECT_EQ(Transact(port, Nop(2), 2).size(), 2U);
+
+  // Overcurrent: latched OVERCURRENT, the motor off.
+  emulator.TriggerOvercurrent(3);
+  Sleep(0.01);
+  const Bytes oc = Transact(port, Nop(4), 2);
+  ASSERT_EQ(oc.size(), 2U);
+  EXPECT_TRUE(oc[0] & kStatusOvercurrent);
+  EXPECT_TRUE(oc[0] & kStatusPositionError);
+
+  // Position-error trip: POS_ERR, the servo off (aux SERVO_ON clear).
+  emulator.TriggerPositionErrorTrip(4);
+  Sleep(0.01);
+  const Bytes pe = Transact(port, ReadStatus(5, kSendAux), 3);
+  ASSERT_EQ(pe.size(), 3U);
+  EXPECT_TRUE(pe[0] & kStatusPositionError);
+  EXPECT_FALSE(pe[1] & kAuxServoOn);
+  EXPECT_FALSE(Transact(port, Nop(1), 2)[0] & kStatusPositionError) << "only module 5 tripped";
+  EXPECT_THROW(emulator.SetSilent(6, true), std::invalid_argument);
+  EXPECT_THROW(emulator.SetDropRate(1.5), std::invalid_argument);
+}
+
+TEST(Emulator, ASilentModuleFromTheStartEndsTheDaisyChain) {
+  EmulatorOptions options = Options();
+  options.silent_modules = {2};
+  Emulator emulator(options);
+  emulator.Start();
+  SerialPort port(emulator.device(), 19200);
+  EXPECT_EQ(NmcInit(port), 2) << "module 3 never lowers its ADDR_OUT";
+}
+
+TEST(Emulator, StopsAndRestartsCleanlyAndLinksItsDevice) {
+  char dir_template[] = "/tmp/sirupp_emu_XXXXXX";
+  ASSERT_NE(mkdtemp(dir_template), nullptr);
+  const std::string link = std::string(dir_template) + "/bus";
+  {
+    EmulatorOptions options = Options();
+    options.link = link;
+    options.modules = 2;
+    Emulator emulator(options);
+    EXPECT_EQ(emulator.device(), link);
+    emulator.Start();
+    SerialPort port(link, 19200);
+    EXPECT_EQ(NmcInit(port), 2);
+    emulator.Stop();
+    emulator.Start();
+    EXPECT_EQ(Transact(port, Nop(1), 2).size(), 2U);
+  }
+  EXPECT_NE(::access(link.c_str(), F_OK), 0) << "the link goes with the emulator";
+  ::rmdir(dir_template);
+}
+
+}  // namespace
+}  // namespace sirupp::hardware

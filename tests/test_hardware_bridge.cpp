@@ -1,0 +1,395 @@
+// The bridge end to end: sirupp-hardware's logic (ArmLink + BridgeNode on an in-process memq://
+// bus) talking over a real pseudo-terminal to the PIC-SERVO emulator. Start-up as the vendor
+// library does it, calibration, the paper's set VII mirrored to the boards, the safety layer (start
+// guard, soft limits, velocity caps, e-stop, command expiry, shutdown), a module that stops
+// answering, and checksum errors and lost bytes under load.
+#include <gtest/gtest.h>
+
+#include <chrono>
+#include <cmath>
+#include <functional>
+#include <memory>
+#include <sirupp/arm_state_t.hpp>
+#include <sirupp/controller_status_t.hpp>
+#include <sirupp/estop_t.hpp>
+#include <sirupp/hardware_command_t.hpp>
+#include <sirupp/hardware_status_t.hpp>
+#include <sirupp/servo_move_t.hpp>
+#include <sirupp/servo_setpoint_t.hpp>
+#include <vector>
+
+#include "core/bus.hpp"
+#include "core/errors.hpp"
+#include "core/model_loader.hpp"
+#include "hardware/arm_link.hpp"
+#include "hardware/bridge_node.hpp"
+#include "hardware/emulator.hpp"
+#include "hardware/serial_port.hpp"
+
+namespace sirupp::hardware {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+using sirupp::hardware_command_t;
+using sirupp::hardware_status_t;
+using sirupp::servo_move_t;
+
+constexpr double kDeg = M_PI / 180;
+
+const core::RobotModel& Puma() {
+  static const core::RobotModel model = core::LoadRobotModel("config/robots/puma260.yaml");
+  return model;
+}
+
+// Emulator + serial port + bridge on one memq bus; the test plays the controller and the user.
+struct Rig {
+  explicit Rig(std::function<void(BridgeSettings&, EmulatorOptions&)> tweak = nullptr) {
+    EmulatorOptions eo;
+    eo.model = Puma();
+    settings = DefaultBridgeSettings(Puma());
+    settings.start_guard_s = 0;
+    settings.reply_margin_ms = 20;  // shared, loaded test machines
+    if (tweak) tweak(settings, eo);
+    emulator = std::make_unique<Emulator>(eo);
+    emulator->Start();
+    port = std::make_unique<SerialPort>(emulator->device(), nmc::kPowerUpBaud);
+    link = std::make_unique<ArmLink>(Puma(), settings, *port);
+    node = std::make_unique<BridgeNode>(bus, Puma(), *link, settings);
+    bus.Subscribe<sirupp::arm_state_t>(
+        "REAL_ARM_STATE",
+        [this](const sirupp::arm_state_t& m, const core::ReceiveInfo&) { states.push_back(m); },
+        1000);
+    bus.Subscribe<sirupp::servo_setpoint_t>(
+        "REAL_ARM_SETPOINT",
+        [this](const sirupp::servo_setpoint_t& m, const core::ReceiveInfo&) { setpoints = m; },
+        1000);
+    bus.Subscribe<hardware_status_t>(
+        "HARDWARE_STATUS",
+        [this](const hardware_status_t& m, const core::ReceiveInfo&) { status = m; }, 1000);
+  }
+  ~Rig() { emulator->Stop(); }
+
+  void Ready() {
+    node->Connect();
+    node->Calibrate();
+    node->Arm();
+    node->Link();
+  }
+  // Services the node (and plays a live controller unless `silent`) until `done` or `seconds`.
+  bool RunUntil(double seconds, const std::function<bool()>& done, bool silent = false) {
+    const auto end = Clock::now() + std::chrono::duration<double>(seconds);
+    auto next_status = Clock::now();
+    while (Clock::now() < end) {
+      if (!silent && Clock::now() >= next_status) {
+        sirupp::controller_status_t s{};
+        bus.Publish("CONTROLLER_STATUS", s);
+        next_status += std::chrono::milliseconds(100);
+      }
+      node->Service(5);
+      if (done && done()) return true;
+    }
+    return false;
+  }
+  void Command(int8_t command) {
+    hardware_command_t c{};
+    c.command = command;
+    c.sender = "test";
+    bus.Publish("HARDWARE_COMMAND", c);
+    node->Service(0);
+    RunUntil(0.05, nullptr);
+  }
+  int64_t Rejected(const std::string& channel) const { return bus.StatsFor(channel).rejected; }
+
+  core::Bus bus{"memq://"};
+  BridgeSettings settings;
+  std::unique_ptr<Emulator> emulator;
+  std::unique_ptr<SerialPort> port;
+  std::unique_ptr<ArmLink> link;
+  std::unique_ptr<BridgeNode> node;
+  std::vector<sirupp::arm_state_t> states;
+  sirupp::servo_setpoint_t setpoints{};
+  hardware_status_t status{};
+};
+
+// The paper's set VII (joints 1, 2, 3 from 0 to 90 deg) at the model's default speeds, or the
+// joints and goals given.
+servo_move_t Move(const std::vector<std::pair<int, double>>& goals_deg, int64_t id) {
+  servo_move_t m{};
+  m.move_id = id;
+  m.command = servo_move_t::COMMAND_MOVE;
+  m.num_joints = Puma().num_joints();
+  for (const core::Joint& j : Puma().joints) {
+    m.goal.push_back(0);
+    m.max_velocity.push_back(j.servo.default_velocity);
+    m.acceleration.push_back(j.servo.default_acceleration);
+    m.flags.push_back(0);
+  }
+  for (const auto& [joint, deg] : goals_deg) {
+    m.goal[static_cast<size_t>(joint)] = deg * kDeg;
+    m.flags[static_cast<size_t>(joint)] = servo_move_t::FLAG_ACTIVE;
+  }
+  return m;
+}
+servo_move_t SetSeven(int64_t id) { return Move({{0, 90}, {1, 90}, {2, 90}}, id); }
+
+bool AllDone(const Rig& rig) {
+  const ArmReading& r = rig.node->reading();
+  if (r.status.empty()) return false;
+  for (uint8_t s : r.status) {
+    if (!(s & nmc::kStatusMoveDone)) return false;
+  }
+  return true;
+}
+
+TEST(HardwareBridge, StartUpAddressesTheModulesAndCalibratesToThePose) {
+  Rig rig([](BridgeSettings& s, EmulatorOptions& e) {
+    s.calibration_pose = "ready";  // the arm was put in the ready pose by hand
+    e.start_positions = {0, -90 * kDeg, 90 * kDeg, 0, 45 * kDeg, 0};
+  });
+  rig.node->Connect();
+  const std::vector<ModuleInfo>& found = rig.link->bus().modules();
+  ASSERT_EQ(found.size(), 6u);
+  for (size_t i = 0; i < found.size(); ++i) {
+    EXPECT_EQ(found[i].address, i + 1);
+    EXPECT_EQ(found[i].type, nmc::kTypePicServo);
+    EXPECT_EQ(found[i].version, nmc::kVersionPicServoSc);
+  }
+  EXPECT_EQ(rig.port->baud(), 230400);
+  EXPECT_EQ(rig.emulator->counters().baud, 230400);
+  EXPECT_EQ(rig.node->state(), hardware_status_t::STATE_CONNECTED);
+  // Before calibration the counters read 0 wherever the arm is.
+  rig.RunUntil(0.05, nullptr);
+  EXPECT_EQ(rig.node->reading().counts[1], 0);
+  rig.node->Calibrate();
+  rig.RunUntil(0.1, nullptr);
+  const std::vector<double> ready = {0, -90, 90, 0, 45, 0};
+  for (size_t j = 0; j < 6; ++j) {
+    EXPECT_NEAR(rig.node->reading().position[j] / kDeg, ready[j], 0.05) << "joint " << j + 1;
+  }
+  EXPECT_EQ(rig.status.calibrated, 1);
+  EXPECT_EQ(rig.status.baud, 230400);
+}
+
+TEST(HardwareBridge, SetSevenMirroredReachesItsGoals) {
+  Rig rig;
+  rig.Ready();
+  EXPECT_EQ(rig.node->state(), hardware_status_t::STATE_LINKED);
+  rig.RunUntil(0.1, nullptr);
+  rig.bus.Publish("ARM_MOVE", SetSeven(7));
+  ASSERT_TRUE(rig.RunUntil(0.3, [&] { return !AllDone(rig); }))
+      << "the move never started: " << rig.node->last_error();
+  ASSERT_TRUE(rig.RunUntil(10, [&] { return AllDone(rig); })) << rig.node->last_error();
+  rig.RunUntil(0.5, nullptr);  // settle
+  const std::vector<double> q = rig.emulator->JointPositions();
+  EXPECT_NEAR(q[0] / kDeg, 90, 1.0);
+  EXPECT_NEAR(q[1] / kDeg, 90, 1.5);
+  EXPECT_NEAR(q[2] / kDeg, 90, 1.5);
+  EXPECT_NEAR(q[3] / kDeg, 0, 1.5);
+  EXPECT_EQ(rig.node->moves_mirrored(), 1);
+  EXPECT_EQ(rig.node->last_error(), "");
+  // What the bridge published agrees with the arm, and the chips' own set-points are at the goals.
+  ASSERT_FALSE(rig.states.empty());
+  const sirupp::arm_state_t& last = rig.states.back();
+  EXPECT_EQ(last.source, sirupp::arm_state_t::SOURCE_REAL);
+  for (size_t j = 0; j < 3; ++j) {
+    // Within the encoder's view of the arm: the calibration error (the limp arm settles a little
+    // while the modules are being set up) and the last poll's age.
+    EXPECT_NEAR(last.position[j], q[j], 0.5 * kDeg);
+    EXPECT_NEAR(rig.setpoints.position[j] / kDeg, 90, 0.01);
+    EXPECT_NEAR(rig.setpoints.goal[j] / kDeg, 90, 1e-9);
+  }
+  EXPECT_EQ(rig.setpoints.move_id, 7);
+  for (size_t i = 1; i < rig.states.size(); ++i) {
+    ASSERT_EQ(rig.states[i].seq, rig.states[i - 1].seq + 1);
+  }
+  EXPECT_EQ(rig.link->bus().counters().timeouts, 0);
+}
+
+TEST(HardwareBridge, NothingMovesUnlessArmedLinkedAndWithinLimits) {
+  Rig rig([](BridgeSettings& s, EmulatorOptions&) { s.start_guard_s = 1.0; });
+  // Start guard: bus commands refused in the first second.
+  rig.Command(hardware_command_t::COMMAND_CONNECT);
+  EXPECT_EQ(rig.Rejected("HARDWARE_COMMAND"), 1);
+  EXPECT_NE(rig.node->last_error().find("start guard"), std::string::npos)
+      << rig.node->last_error();
+  EXPECT_EQ(rig.node->state(), hardware_status_t::STATE_DISCONNECTED);
+  rig.RunUntil(1.0, nullptr);
+  rig.Command(hardware_command_t::COMMAND_CONNECT);
+  EXPECT_EQ(rig.node->state(), hardware_status_t::STATE_CONNECTED);
+  // Arming before calibration is refused; a move while not linked is not mirrored.
+  rig.Command(hardware_command_t::COMMAND_ARM);
+  EXPECT_EQ(rig.Rejected("HARDWARE_COMMAND"), 2);
+  EXPECT_NE(rig.node->last_error().find("calibrate first"), std::string::npos);
+  rig.bus.Publish("ARM_MOVE", SetSeven(1));
+  rig.RunUntil(0.2, nullptr);
+  EXPECT_EQ(rig.node->moves_mirrored(), 0);
+  rig.Command(hardware_command_t::COMMAND_CALIBRATE);
+  rig.Command(hardware_command_t::COMMAND_ARM);
+  rig.Command(hardware_command_t::COMMAND_LINK);
+  ASSERT_EQ(rig.node->state(), hardware_status_t::STATE_LINKED) << rig.node->last_error();
+  rig.RunUntil(0.5, nullptr);  // the servos take up the gravity load
+  const std::vector<double> held = rig.emulator->JointPositions();
+  // Outside the soft limits (j2 limit 157.5 deg, margin 2): refused whole, nothing sent.
+  rig.bus.Publish("ARM_MOVE", Move({{0, 10}, {1, 156}}, 2));
+  rig.node->Service(0);
+  EXPECT_EQ(rig.Rejected("ARM_MOVE"), 1);
+  EXPECT_EQ(rig.node->last_error(),
+            "channel ARM_MOVE: move 2: joint j2 (shoulder): goal 156 deg is outside the soft "
+            "limits [-155.5 deg, 155.5 deg]");
+  // Above the velocity cap.
+  servo_move_t fast = Move({{0, 10}}, 3);
+  fast.max_velocity[0] = 10;  // rad/s
+  rig.bus.Publish("ARM_MOVE", fast);
+  rig.node->Service(0);
+  EXPECT_EQ(rig.Rejected("ARM_MOVE"), 2);
+  EXPECT_NE(rig.node->last_error().find("velocity cap"), std::string::npos)
+      << rig.node->last_error();
+  rig.RunUntil(0.3, nullptr);
+  EXPECT_EQ(rig.node->moves_mirrored(), 0);
+  const std::vector<double> now = rig.emulator->JointPositions();
+  for (size_t j = 0; j < now.size(); ++j) EXPECT_NEAR(now[j], held[j], 0.5 * kDeg) << j;
+}
+
+TEST(HardwareBridge, EstopStopsAbruptlyAndTurnsTheMotorsOff) {
+  Rig rig;
+  rig.Ready();
+  rig.bus.Publish("ARM_MOVE", Move({{0, 90}}, 1));
+  rig.RunUntil(0.6, nullptr);  // j1 is at speed
+  const double moving_at = rig.emulator->JointPositions()[0];
+  ASSERT_GT(std::abs(moving_at), 5 * kDeg);
+  sirupp::estop_t stop{};
+  stop.engaged = 1;
+  stop.sender = "test";
+  stop.reason = "student in the cell";
+  rig.bus.Publish("ESTOP", stop);
+  rig.RunUntil(0.5, nullptr);
+  EXPECT_EQ(rig.node->state(), hardware_status_t::STATE_ESTOPPED);
+  EXPECT_EQ(rig.status.state, hardware_status_t::STATE_ESTOPPED);
+  EXPECT_EQ(rig.status.last_error, "emergency stop from 'test': student in the cell");
+  for (int m = 0; m < 6; ++m) {
+    EXPECT_FALSE(rig.emulator->ModuleStatus(m).aux & nmc::kAuxServoOn) << "module " << m + 1;
+    EXPECT_EQ(rig.emulator->Pwm()[static_cast<size_t>(m)], 0);
+  }
+  // j1 coasted to a stop well short of its goal (90 deg).
+  const double stopped_at = rig.emulator->JointPositions()[0];
+  EXPECT_LT(std::abs(stopped_at) / kDeg, 60);
+  rig.RunUntil(0.2, nullptr);
+  EXPECT_NEAR(rig.emulator->JointPositions()[0], stopped_at, 0.01 * kDeg);
+  // Arming is refused while engaged; after release the arm stays disarmed until armed again.
+  rig.Command(hardware_command_t::COMMAND_ARM);
+  EXPECT_NE(rig.node->last_error().find("emergency stop is engaged"), std::string::npos);
+  stop.engaged = 0;
+  rig.bus.Publish("ESTOP", stop);
+  rig.RunUntil(0.1, nullptr);
+  EXPECT_EQ(rig.node->state(), hardware_status_t::STATE_CONNECTED);
+  rig.Command(hardware_command_t::COMMAND_ARM);
+  EXPECT_EQ(rig.node->state(), hardware_status_t::STATE_ARMED) << rig.node->last_error();
+}
+
+TEST(HardwareBridge, ExpiredCommandsStopTheArmSmoothly) {
+  Rig rig;
+  rig.Ready();
+  rig.bus.Publish("ARM_MOVE", Move({{0, 90}}, 1));
+  // The controller falls silent: no status, no set-points.
+  ASSERT_TRUE(rig.RunUntil(
+      3, [&] { return rig.node->last_error().find("commands expired") != std::string::npos; },
+      true));
+  EXPECT_NE(rig.node->last_error().find("limit 0.5 s"), std::string::npos)
+      << rig.node->last_error();
+  ASSERT_TRUE(rig.RunUntil(
+      3, [&] { return AllDone(rig); }, true));
+  rig.RunUntil(0.3, nullptr, true);
+  const double q = rig.emulator->JointPositions()[0] / kDeg;
+  EXPECT_GT(std::abs(q), 5);
+  EXPECT_LT(std::abs(q), 60);  // stopped on the way, not at 90
+  // Smooth, not abrupt: the servo is still on and holding.
+  EXPECT_TRUE(rig.emulator->ModuleStatus(0).aux & nmc::kAuxServoOn);
+  EXPECT_EQ(rig.node->state(), hardware_status_t::STATE_LINKED);
+}
+
+TEST(HardwareBridge, ASilentModuleBecomesAFaultNotAHang) {
+  Rig rig;
+  rig.Ready();
+  rig.bus.Publish("ARM_MOVE", SetSeven(1));
+  rig.RunUntil(0.4, nullptr);
+  rig.emulator->SetSilent(2, true);  // module 3 (j3) stops answering
+  const auto t0 = Clock::now();
+  ASSERT_TRUE(rig.RunUntil(2, [&] { return rig.node->state() == hardware_status_t::STATE_FAULT; }));
+  EXPECT_LT(std::chrono::duration<double>(Clock::now() - t0).count(), 1.0);
+  EXPECT_NE(rig.node->last_error().find("module 3 (j3 elbow): module 3: NOP: no reply (3 tries"),
+            std::string::npos)
+      << rig.node->last_error();
+  EXPECT_EQ(rig.status.state, hardware_status_t::STATE_FAULT);
+  EXPECT_GE(rig.status.timeouts, 3);
+  // The others were stopped smoothly and hold; the bridge keeps polling and publishing.
+  ASSERT_TRUE(rig.RunUntil(3, [&] {
+    const ArmReading& r = rig.node->reading();
+    return (r.status[0] & nmc::kStatusMoveDone) && (r.status[1] & nmc::kStatusMoveDone);
+  }));
+  const double j1 = rig.emulator->JointPositions()[0] / kDeg;
+  EXPECT_LT(j1, 89);
+  const size_t published = rig.states.size();
+  rig.RunUntil(0.3, nullptr);
+  EXPECT_GT(rig.states.size(), published);
+  EXPECT_TRUE(rig.states.back().flags[2] & sirupp::arm_state_t::FLAG_FAULT);
+  // No linking (so no moves) until the fault is cleared and the arm armed again.
+  EXPECT_THROW(rig.node->Link(), std::runtime_error);
+}
+
+TEST(HardwareBridge, ChecksumErrorsAndLostBytesUnderLoadAreRetried) {
+  Rig rig([](BridgeSettings& s, EmulatorOptions&) { s.retries = 4; });
+  rig.Ready();
+  rig.emulator->SetChecksumErrorRate(0.03);
+  rig.emulator->SetDropRate(0.002);
+  rig.bus.Publish("ARM_MOVE", SetSeven(1));
+  ASSERT_TRUE(rig.RunUntil(0.5, [&] { return !AllDone(rig); }));
+  ASSERT_TRUE(rig.RunUntil(10, [&] { return AllDone(rig); })) << rig.node->last_error();
+  rig.RunUntil(0.3, nullptr);
+  EXPECT_NE(rig.node->state(), hardware_status_t::STATE_FAULT) << rig.node->last_error();
+  const BusCounters& c = rig.link->bus().counters();
+  EXPECT_GT(c.module_checksum_errors, 0);
+  EXPECT_GT(c.retries, 0);
+  EXPECT_GT(rig.emulator->counters().checksum_errors, 0u);
+  const std::vector<double> q = rig.emulator->JointPositions();
+  for (size_t j = 0; j < 3; ++j) EXPECT_NEAR(q[j] / kDeg, 90, 1.5) << "joint " << j + 1;
+  EXPECT_GT(rig.status.checksum_errors, 0);
+}
+
+TEST(HardwareBridge, ShutdownLeavesMotorsOffAndAmplifiersDisabled) {
+  Rig rig;
+  rig.Ready();
+  rig.RunUntil(0.1, nullptr);
+  rig.node->Shutdown();
+  rig.bus.HandleAvailable();
+  for (int m = 0; m < 6; ++m) {
+    EXPECT_FALSE(rig.emulator->ModuleStatus(m).aux & nmc::kAuxServoOn);
+    EXPECT_EQ(rig.emulator->Pwm()[static_cast<size_t>(m)], 0);
+  }
+  EXPECT_EQ(rig.status.state, hardware_status_t::STATE_DISCONNECTED);
+  EXPECT_EQ(rig.emulator->counters().baud, nmc::kPowerUpBaud);  // hard reset, as the vendor does
+}
+
+TEST(HardwareBridge, BadSettingsNameFileLineAndAllowedValues) {
+  const auto error = [](const std::string& text) {
+    try {
+      ParseBridgeSettings(text, "rig.yaml", Puma());
+    } catch (const core::ConfigError& e) {
+      return std::string(e.what());
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(error("baud: 38400\n"),
+            "rig.yaml:1:7: baud: 38400 baud; allowed: 9600, 19200, 57600, 115200, 230400");
+  EXPECT_NE(error("poll_rate_hz: 0\n").find("rig.yaml:1:15: poll_rate_hz"), std::string::npos);
+  EXPECT_NE(error("calibration: {pose: sideways}\n").find("'sideways' is not a named pose"),
+            std::string::npos);
+  EXPECT_NE(error("acceleration_max_deg_s2: [1, 2]\n").find("rig.yaml:1:26"), std::string::npos);
+  EXPECT_NE(error("speed: 3\n").find("unknown key"), std::string::npos) << error("speed: 3\n");
+  EXPECT_EQ(ParseBridgeSettings("retries: 1\n", "short.yaml", Puma()).baud, 230400);
+  const BridgeSettings shipped = LoadBridgeSettings("config/hardware/puma260.yaml", Puma());
+  EXPECT_EQ(shipped.calibration_pose, "zero");
+  EXPECT_NEAR(shipped.soft_limit_margin, 2 * kDeg, 1e-12);
+}
+
+}  // namespace
+}  // namespace sirupp::hardware

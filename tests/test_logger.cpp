@@ -1,0 +1,468 @@
+// The logger library: alignment of the three streams on the sample clock (logger/aligner.hpp), the
+// data file written and read back (logger/data_file.hpp), sirupp-logger's logic on an in-process
+// memq:// bus (one file per movement set, real-arm samples placed by the sim clock's offset, gaps
+// counted), and a kill -9 during logging that leaves a parseable file missing at most 100 ms.
+
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/mman.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <sirupp/arm_state_t.hpp>
+#include <sirupp/controller_status_t.hpp>
+#include <sirupp/servo_setpoint_t.hpp>
+#include <sstream>
+#include <thread>
+
+#include "core/bus.hpp"
+#include "core/errors.hpp"
+#include "core/model_loader.hpp"
+#include "logger/aligner.hpp"
+#include "logger/data_file.hpp"
+#include "logger/logger_node.hpp"
+#include "tests/helpers.hpp"
+
+namespace sirupp::logger {
+namespace {
+
+constexpr double kDeg = 3.14159265358979323846 / 180;
+constexpr int kJoints = 6;
+
+// A fresh directory under the system temp dir, removed at the end of the test.
+struct TempDir {
+  std::filesystem::path path;
+  TempDir() {
+    char pattern[] = "/tmp/sirupp_logger_test_XXXXXX";
+    path = mkdtemp(pattern);
+  }
+  ~TempDir() { std::filesystem::remove_all(path); }
+  std::string operator/(const std::string& name) const { return (path / name).string(); }
+};
+
+Sample SimSample(Stream stream, int64_t tick, double q1_deg, int64_t lost = 0) {
+  Sample sample;
+  sample.stream = stream;
+  sample.clock = SampleClock::kSim;
+  sample.utime = tick * 512;
+  sample.recv_utime = 1'000'000'000 + tick * 512;  // received at once, on a wall clock
+  sample.lost_before = lost;
+  sample.position.assign(kJoints, 0.0);
+  sample.position[0] = q1_deg * kDeg;
+  if (stream == Stream::kSetpoint) {
+    sample.move_id = 1;
+    sample.done.assign(kJoints, 1);
+  }
+  return sample;
+}
+
+std::vector<Row> Collect(Aligner& aligner, int64_t now, bool final_flush,
+                         std::vector<std::vector<double>>* q1 = nullptr) {
+  std::vector<Row> rows;
+  aligner.TakeRows(now, final_flush, [&](const Row& row) {
+    rows.push_back(row);
+    if (q1 != nullptr) {
+      std::vector<double> cells;
+      for (const Sample* cell : row.cell) cells.push_back(cell ? cell->position[0] / kDeg : NAN);
+      q1->push_back(cells);
+    }
+  });
+  return rows;
+}
+
+TEST(Aligner, PutsTheStreamsOnTheServoTickAndWaitsForTheSlowestLiveStream) {
+  Aligner aligner(AlignerOptions{});
+  for (int64_t tick = 0; tick < 10; ++tick) {
+    aligner.Add(SimSample(Stream::kVirtual, tick, static_cast<double>(tick)));
+    if (tick < 6)
+      aligner.Add(SimSample(Stream::kSetpoint, tick, 100.0 + static_cast<double>(tick)));
+  }
+  // Both streams are live (just heard): rows only up to the set-point's newest tick.
+  const int64_t now = 1'000'000'000 + 10 * 512;
+  std::vector<std::vector<double>> q1;
+  std::vector<Row> rows = Collect(aligner, now, false, &q1);
+  ASSERT_EQ(rows.size(), 6u);
+  for (size_t i = 0; i < rows.size(); ++i) {
+    EXPECT_EQ(rows[i].time_us, static_cast<int64_t>(i) * 512);
+    EXPECT_DOUBLE_EQ(q1[i][1], static_cast<double>(i));          // virtual
+    EXPECT_DOUBLE_EQ(q1[i][0], 100.0 + static_cast<double>(i));  // set-point
+    EXPECT_TRUE(std::isnan(q1[i][2]));                           // no real arm: empty
+  }
+  // 60 ms later the set-point counts as silent: the virtual rows go out, set-point cells empty
+  // once its last sample is older than max_age (10 ms) -- here it is not yet.
+  q1.clear();
+  rows = Collect(aligner, now + 60'000, false, &q1);
+  ASSERT_EQ(rows.size(), 4u);
+  EXPECT_DOUBLE_EQ(q1[3][1], 9.0);
+  EXPECT_DOUBLE_EQ(q1[3][0], 105.0);  // 2 ms old: still the newest set-point
+}
+
+TEST(Aligner, LeavesCellsOfAStaleStreamEmptyAndSkipsRowsWithNothing) {
+  AlignerOptions options;
+  options.max_age_us = 2000;
+  Aligner aligner(options);
+  aligner.Add(SimSample(Stream::kVirtual, 0, 1.0));
+  aligner.Add(SimSample(Stream::kSetpoint, 0, 2.0));
+  for (int64_t tick = 1; tick <= 20; ++tick) aligner.Add(SimSample(Stream::kVirtual, tick, 1.0));
+  aligner.Add(SimSample(Stream::kVirtual, 1000, 5.0));  // half a second without anything
+  std::vector<std::vector<double>> q1;
+  const std::vector<Row> rows = Collect(aligner, 0, true, &q1);
+  // Ticks 0..23 (tick 20's state held while younger than 2 ms) and 1000; nothing in between.
+  ASSERT_EQ(rows.size(), 25u);
+  EXPECT_EQ(rows.back().time_us, 1000 * 512);
+  EXPECT_DOUBLE_EQ(q1[3][0], 2.0);    // 1.5 ms old
+  EXPECT_TRUE(std::isnan(q1[4][0]));  // 2.048 ms old: too old, left empty
+  EXPECT_TRUE(std::isnan(q1.back()[0]));
+  EXPECT_DOUBLE_EQ(q1.back()[1], 5.0);
+}
+
+TEST(Aligner, CountsMissingMessagesIntoTheRows) {
+  Aligner aligner(AlignerOptions{});
+  aligner.Add(SimSample(Stream::kVirtual, 0, 0));
+  aligner.Add(SimSample(Stream::kVirtual, 1, 0));
+  aligner.Add(SimSample(Stream::kVirtual, 4, 0, 2));  // ticks 2 and 3 lost
+  const std::vector<Row> rows = Collect(aligner, 0, true);
+  ASSERT_EQ(rows.size(), 5u);
+  EXPECT_EQ(rows[1].lost[1], 0);
+  EXPECT_EQ(rows[3].lost[1], 0);  // held from tick 1: the gap shows with the sample after it
+  EXPECT_EQ(rows[4].lost[1], 2);
+  EXPECT_EQ(aligner.lost_total()[1], 2);
+}
+
+TEST(Aligner, MovesWallClockRealArmSamplesOntoSimTime) {
+  Aligner aligner(AlignerOptions{});
+  // The sim's tick 100 (51.2 ms of sim time) is received at wall clock 5 s.
+  Sample virt = SimSample(Stream::kVirtual, 100, 1.0);
+  virt.recv_utime = 5'000'000;
+  aligner.Add(virt);
+  Sample real;
+  real.stream = Stream::kReal;
+  real.clock = SampleClock::kWall;
+  real.source = sirupp::arm_state_t::SOURCE_EMULATED;
+  real.utime = 5'000'000 - 1024;  // measured two ticks before
+  real.recv_utime = 5'000'100;
+  real.position.assign(kJoints, 7 * kDeg);
+  aligner.Add(real);
+  std::vector<std::vector<double>> q1;
+  const std::vector<Row> rows = Collect(aligner, 0, true, &q1);
+  ASSERT_EQ(rows.size(), 1u);  // the clock starts with the first sim sample
+  EXPECT_EQ(rows[0].time_us, 100 * 512);
+  EXPECT_NEAR(q1[0][1], 1.0, 1e-12);
+  EXPECT_NEAR(q1[0][2], 7.0, 1e-12);  // at sim tick 98: 1 ms old
+  EXPECT_EQ(aligner.real_sources(), 1 << sirupp::arm_state_t::SOURCE_EMULATED);
+}
+
+TEST(Aligner, APlanStartBeginsANewMovementSet) {
+  Aligner aligner(AlignerOptions{});
+  for (int64_t tick = 0; tick < 10; ++tick) aligner.Add(SimSample(Stream::kVirtual, tick, 0));
+  PlanStatus status;
+  status.utime = 5 * 512;
+  status.plan_name = "config/plans/set7.plan";
+  status.plan_step = 0;
+  status.plan_steps = 6;
+  aligner.AddStatus(status);
+  status.plan_step = 3;  // the same run, later
+  aligner.AddStatus(status);
+  const std::vector<Row> rows = Collect(aligner, 0, true);
+  ASSERT_EQ(rows.size(), 10u);
+  EXPECT_EQ(rows[4].plan_run, 0);
+  EXPECT_EQ(rows[5].plan_run, 1);
+  EXPECT_EQ(rows[9].plan_run, 1);
+  ASSERT_EQ(aligner.plan_runs().size(), 2u);
+  EXPECT_EQ(aligner.plan_runs()[1].plan_name, "config/plans/set7.plan");
+}
+
+ColumnLayout TwoJoints() {
+  ColumnLayout layout;
+  layout.joints = {{"waist", false}, {"slide", true}};
+  return layout;
+}
+
+TEST(DataFile, RowsWrittenAreReadBackInTheFileUnits) {
+  TempDir dir;
+  const std::string path = dir / "run.csv";
+  {
+    DataFileWriter writer(path, {"joints: 2: j1 waist deg; j2 slide mm", "plan: set3.plan"},
+                          TwoJoints());
+    Sample set, virt;
+    set.stream = Stream::kSetpoint;
+    set.position = {90 * kDeg, 0.25};
+    set.move_id = 4;
+    set.done = {1, 0};
+    virt.stream = Stream::kVirtual;
+    virt.position = {89.5 * kDeg, 0.2495};
+    Row row;
+    row.time_us = 1'000'512;
+    row.cell = {&set, &virt, nullptr};
+    row.lost = {0, 3, 0};
+    writer.Append(row);
+    row.time_us += 512;
+    row.cell = {nullptr, &virt, nullptr};
+    writer.Append(row);
+    writer.Close("2 rows");
+  }
+  const RunTable table = ReadDataFile(path);
+  ASSERT_EQ(table.rows(), 2u);
+  EXPECT_TRUE(table.closed);
+  EXPECT_TRUE(table.notes.empty());
+  EXPECT_EQ(table.label, "set3");
+  EXPECT_NEAR(table.time_s[0], 1.000512, 1e-9);
+  EXPECT_NEAR(table.position[0][0][0], 90.0, 1e-5);
+  EXPECT_NEAR(table.position[0][1][0], 89.5, 1e-5);
+  EXPECT_NEAR(table.position[1][0][0], 250.0, 1e-5);  // mm
+  EXPECT_TRUE(std::isnan(table.position[0][2][0]));
+  EXPECT_TRUE(std::isnan(table.position[0][0][1]));
+  EXPECT_EQ(table.move_id[0], 4);
+  EXPECT_EQ(table.move_id[1], -1);
+  EXPECT_EQ(table.done[0][0], 1);
+  EXPECT_EQ(table.done[1][0], 0);
+  EXPECT_EQ(table.lost[1], 3);
+  // The first line says where the column line is, so Octave's dlmread can skip the header.
+  std::ifstream in(path);
+  std::string first;
+  std::getline(in, first);
+  EXPECT_EQ(first, std::string(kFileMagic) + "; the column line is line 4");
+}
+
+TEST(DataFile, APartialLastLineIsDroppedWithANoteAndAMissingEndIsNoted) {
+  TempDir dir;
+  const std::string path = dir / "killed.csv";
+  {
+    std::ofstream out(path);
+    out << kFileMagic << "; the column line is line 3\n# joints: 1: j1 waist deg\n"
+        << "time_s,j1_set_deg,j1_virt_deg,j1_real_deg,move_id,j1_done,set_lost,virt_lost,"
+           "real_lost\n0.000512,1,2,,1,0,0,0,0\n0.001024,1,2,,1,0,0,0,0\n0.00153";
+  }
+  const RunTable table = ReadDataFile(path);
+  EXPECT_EQ(table.rows(), 2u);
+  EXPECT_FALSE(table.closed);
+  ASSERT_EQ(table.notes.size(), 2u);
+  EXPECT_EQ(table.notes[0], path +
+                                ":6: the last line has no line end (the logger stopped while "
+                                "writing it); ignored");
+  EXPECT_NE(table.notes[1].find("no '# end:' line"), std::string::npos);
+}
+
+TEST(DataFile, AnExistingFileIsNeverReplaced) {
+  TempDir dir;
+  const std::string path = dir / "taken.csv";
+  std::ofstream(path) << "precious\n";
+  const std::string text = sirupp::testing::ErrorText<std::runtime_error>(
+      [&] { DataFileWriter(path, {}, TwoJoints()); });
+  EXPECT_NE(text.find("taken.csv: cannot create the data file: File exists"), std::string::npos)
+      << text;
+}
+
+// ---- sirupp-logger's logic on memq:// ----------------------------------------------------------
+
+sirupp::arm_state_t ArmState(int64_t tick, int64_t seq, double q1_deg) {
+  sirupp::arm_state_t state{};
+  state.utime = tick * 512;
+  state.seq = seq;
+  state.tick = tick;
+  state.source = sirupp::arm_state_t::SOURCE_SIM;
+  state.num_joints = kJoints;
+  state.position.assign(kJoints, 0.0);
+  state.position[0] = q1_deg * kDeg;
+  state.velocity.assign(kJoints, 0.0);
+  state.effort.assign(kJoints, 0.0);
+  state.flags.assign(kJoints, 0);
+  return state;
+}
+
+sirupp::servo_setpoint_t Setpoint(int64_t tick, int64_t seq, int64_t move_id, double q1_deg) {
+  sirupp::servo_setpoint_t setpoint{};
+  setpoint.utime = tick * 512;
+  setpoint.seq = seq;
+  setpoint.tick = tick;
+  setpoint.move_id = move_id;
+  setpoint.num_joints = kJoints;
+  setpoint.position.assign(kJoints, 0.0);
+  setpoint.position[0] = q1_deg * kDeg;
+  setpoint.velocity.assign(kJoints, 0.0);
+  setpoint.goal.assign(kJoints, 0.0);
+  setpoint.position_error.assign(kJoints, 0.0);
+  setpoint.effort.assign(kJoints, 0.0);
+  setpoint.status.assign(kJoints, sirupp::servo_setpoint_t::STATUS_SERVO_ON);
+  return setpoint;
+}
+
+sirupp::controller_status_t PlanStatusMessage(int64_t tick, const std::string& plan, int step) {
+  sirupp::controller_status_t status{};
+  status.utime = tick * 512;
+  status.mode = sirupp::controller_status_t::MODE_AUTOMATIC;
+  status.state = sirupp::controller_status_t::STATE_MOVING;
+  status.plan_name = plan;
+  status.plan_step = step;
+  status.plan_steps = 6;
+  return status;
+}
+
+struct LoggerRig {
+  core::RobotModel model = core::LoadRobotModel("config/robots/puma260.yaml");
+  core::Bus bus{"memq://"};
+  TempDir dir;
+  LoggerOptions Options() {
+    LoggerOptions options;
+    options.out_dir = dir.path.string();
+    options.name = "run";
+    return options;
+  }
+};
+
+TEST(LoggerNode, WritesOneFilePerMovementSetWithTheGapsCounted) {
+  LoggerRig rig;
+  LoggerNode node(rig.bus, rig.model, rig.Options());
+  int64_t virt_seq = 0;
+  for (int64_t tick = 0; tick < 2000; ++tick) {
+    if (tick == 1000)
+      rig.bus.Publish("CONTROLLER_STATUS", PlanStatusMessage(tick, "config/plans/set1.plan", 0));
+    if (tick == 1500) virt_seq += 3;  // three states lost on the way
+    rig.bus.Publish("SIM_ARM_STATE", ArmState(tick, virt_seq++, 0.01 * static_cast<double>(tick)));
+    rig.bus.Publish("ARM_SETPOINT",
+                    Setpoint(tick, tick, tick < 1000 ? 0 : 1, 0.02 * static_cast<double>(tick)));
+    rig.bus.HandleAvailable();
+  }
+  node.Close();
+  const LoggerStats stats = node.stats();
+  ASSERT_EQ(stats.files.size(), 2u);
+  EXPECT_EQ(stats.files[0], rig.dir / "run-01-manual.csv");
+  EXPECT_EQ(stats.files[1], rig.dir / "run-02-set1.csv");
+  EXPECT_EQ(stats.rows, 2000);
+  EXPECT_EQ(stats.lost[1], 3);
+  EXPECT_TRUE(stats.error.empty()) << stats.error;
+
+  const RunTable manual = ReadDataFile(stats.files[0]);
+  const RunTable set1 = ReadDataFile(stats.files[1]);
+  EXPECT_EQ(manual.rows(), 1000u);
+  EXPECT_EQ(set1.rows(), 1000u);
+  EXPECT_TRUE(set1.closed);
+  EXPECT_EQ(set1.plan_name, "config/plans/set1.plan");
+  EXPECT_EQ(set1.label, "set1");
+  EXPECT_NEAR(set1.time_s.front(), 1000 * 512e-6, 1e-9);
+  EXPECT_NEAR(set1.position[0][1][0], 10.0, 1e-5);
+  EXPECT_NEAR(set1.position[0][0][0], 20.0, 1e-5);
+  EXPECT_EQ(set1.move_id.back(), 1);
+  EXPECT_EQ(set1.lost[1], 3);
+  EXPECT_EQ(set1.cells[2], 0);  // no real arm: its column stays empty
+  std::ifstream in(stats.files[1]);
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_NE(text.str().find("# plan: config/plans/set1.plan\n"), std::string::npos);
+  EXPECT_NE(text.str().find("# mode: controller automatic; real arm: none heard yet\n"),
+            std::string::npos);
+  EXPECT_NE(text.str().find("# gains (chip units, the model's; no ARM_GAINS heard): kp 100"),
+            std::string::npos);
+  EXPECT_NE(text.str().find("# config hash: fnv1a "), std::string::npos);
+  EXPECT_NE(text.str().find("# end: 1000 rows"), std::string::npos);
+}
+
+TEST(LoggerNode, TakesTheRealArmWhenItIsThereAndRefusesWrongJointCounts) {
+  LoggerRig rig;
+  LoggerOptions options = rig.Options();
+  options.split_per_plan = false;
+  LoggerNode node(rig.bus, rig.model, options);
+  const auto wall = std::chrono::duration_cast<std::chrono::microseconds>(
+                        std::chrono::system_clock::now().time_since_epoch())
+                        .count();
+  for (int64_t tick = 0; tick < 400; ++tick) {
+    rig.bus.Publish("SIM_ARM_STATE", ArmState(tick, tick, 1.0));
+    if (tick % 4 == 0) {  // a real arm at a quarter of the rate, measured on the wall clock
+      sirupp::arm_state_t real = ArmState(tick, tick / 4, 3.0);
+      real.source = sirupp::arm_state_t::SOURCE_EMULATED;
+      real.utime = wall;
+      rig.bus.Publish("REAL_ARM_STATE", real);
+    }
+    rig.bus.HandleAvailable();
+  }
+  sirupp::arm_state_t three = ArmState(400, 400, 1.0);
+  three.num_joints = 3;
+  three.position.resize(3);
+  three.velocity.resize(3);
+  three.effort.resize(3);
+  three.flags.resize(3);
+  rig.bus.Publish("SIM_ARM_STATE", three);
+  rig.bus.HandleAvailable();
+  node.Close();
+  const core::ChannelStats refused = rig.bus.StatsFor("SIM_ARM_STATE");
+  EXPECT_EQ(refused.rejected, 1);
+  EXPECT_NE(refused.last_error.find("num_joints: 3 joints; the model has 6"), std::string::npos)
+      << refused.last_error;
+  const LoggerStats stats = node.stats();
+  ASSERT_EQ(stats.files.size(), 1u);
+  EXPECT_EQ(stats.files[0], rig.dir / "run.csv");
+  const RunTable table = ReadDataFile(stats.files[0]);
+  EXPECT_EQ(table.rows(), 400u);
+  EXPECT_GT(table.cells[2], 300);  // real samples held for up to 10 ms between their arrivals
+  EXPECT_EQ(stats.samples[2], 100);
+  EXPECT_NEAR(table.position[0][2].back(), 3.0, 1e-5);
+  std::ifstream in(stats.files[0]);
+  std::stringstream text;
+  text << in.rdbuf();
+  EXPECT_NE(text.str().find("real arm: emulated"), std::string::npos);
+}
+
+// A child process logs a stream it publishes itself, in step with the wall clock (one state and
+// one set-point per 0.512 ms tick, sim time = wall time since its start), and notes in shared
+// memory the newest sim time it has published. The parent kills it with SIGKILL mid-run. The file
+// must parse, and hold every row up to 100 ms before the newest published time.
+TEST(LoggerNode, AKillDuringLoggingLeavesAParseableFileMissingAtMost100ms) {
+  TempDir dir;
+  auto* published_us = static_cast<std::atomic<int64_t>*>(
+      mmap(nullptr, sizeof(std::atomic<int64_t>), PROT_READ | PROT_WRITE,
+           MAP_SHARED | MAP_ANONYMOUS, -1, 0));
+  ASSERT_NE(published_us, MAP_FAILED);
+  new (published_us) std::atomic<int64_t>(-1);
+  const pid_t child = fork();
+  ASSERT_GE(child, 0);
+  if (child == 0) {
+    core::RobotModel model = core::LoadRobotModel("config/robots/puma260.yaml");
+    core::Bus bus("memq://");
+    LoggerOptions options;
+    options.out_dir = dir.path.string();
+    options.name = "killed";
+    options.split_per_plan = false;
+    LoggerNode node(bus, model, options);
+    const auto start = std::chrono::steady_clock::now();
+    int64_t tick = 0;
+    while (true) {
+      const auto elapsed_us = std::chrono::duration_cast<std::chrono::microseconds>(
+                                  std::chrono::steady_clock::now() - start)
+                                  .count();
+      for (; tick * 512 <= elapsed_us; ++tick) {
+        bus.Publish("SIM_ARM_STATE", ArmState(tick, tick, 0.001 * static_cast<double>(tick)));
+        bus.Publish("ARM_SETPOINT", Setpoint(tick, tick, 1, 0.001 * static_cast<double>(tick)));
+        bus.HandleAvailable();
+        published_us->store(tick * 512);
+      }
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+    }
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(1500));
+  const int64_t at_kill_us = published_us->load();
+  kill(child, SIGKILL);
+  int status = 0;
+  waitpid(child, &status, 0);
+  EXPECT_TRUE(WIFSIGNALED(status));
+  ASSERT_GT(at_kill_us, 1'000'000);  // the child ran for more than a second
+  const RunTable table = ReadDataFile(dir / "killed.csv");
+  EXPECT_FALSE(table.closed);
+  const double missing_s = static_cast<double>(at_kill_us) * 1e-6 - table.time_s.back();
+  std::cout << "killed at sim time " << static_cast<double>(at_kill_us) * 1e-6 << " s; the file "
+            << "ends at " << table.time_s.back() << " s (" << table.rows()
+            << " rows): " << missing_s * 1e3 << " ms missing\n";
+  EXPECT_LE(missing_s, 0.1);
+  EXPECT_EQ(table.lost[0] + table.lost[1], 0);
+  // Every row up to the end is there: one per tick from the first.
+  EXPECT_NEAR(table.time_s.back() - table.time_s.front(),
+              static_cast<double>(table.rows() - 1) * 512e-6, 1e-6);
+  munmap(published_us, sizeof(std::atomic<int64_t>));
+}
+
+}  // namespace
+}  // namespace sirupp::logger

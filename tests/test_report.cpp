@@ -1,0 +1,410 @@
+// The report (logger/analysis.hpp, logger/report.hpp): its numbers on synthetic data with known
+// answers (a pure delay, a step with overshoot, a constant offset), LCM log files read like data
+// files, the malformed-input corpus tests/data/bad_logs/ with its messages, and the paper's set VII
+// run closed-loop (sirupp-sim and sirupp-control logic in lockstep, sirupp-logger logic writing the
+// file) then reported with plots.
+
+#include <gtest/gtest.h>
+#include <lcm/eventlog.h>
+
+#include <algorithm>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <opencv2/imgcodecs.hpp>
+#include <sirupp/arm_state_t.hpp>
+#include <sirupp/controller_status_t.hpp>
+#include <sirupp/plan_command_t.hpp>
+#include <sirupp/servo_setpoint_t.hpp>
+#include <sstream>
+
+#include "control/control_node.hpp"
+#include "control/plan.hpp"
+#include "core/errors.hpp"
+#include "core/model_loader.hpp"
+#include "logger/analysis.hpp"
+#include "logger/lcm_log.hpp"
+#include "logger/log_import.hpp"
+#include "logger/logger_node.hpp"
+#include "logger/report.hpp"
+#include "sim/sim_node.hpp"
+#include "tests/helpers.hpp"
+
+namespace sirupp::logger {
+namespace {
+
+constexpr double kDeg = 3.14159265358979323846 / 180;
+constexpr size_t kSet = 0, kVirt = 1, kReal = 2;
+
+struct TempDir {
+  std::filesystem::path path;
+  TempDir() {
+    char pattern[] = "/tmp/sirupp_report_test_XXXXXX";
+    path = mkdtemp(pattern);
+  }
+  ~TempDir() { std::filesystem::remove_all(path); }
+  std::string operator/(const std::string& name) const { return (path / name).string(); }
+};
+
+// One joint sampled every millisecond for 3 s; move 1 until 0.5 s, move 2 from then on.
+// Each stream is a function of time (NaN = no sample); done from `done_s` on.
+template <class Set, class Virt, class Real>
+RunTable Synthetic(Set set, Virt virt, Real real, double done_s) {
+  RunTable table;
+  table.source = "synthetic";
+  table.label = "synthetic";
+  table.Reset({{"waist", false}});
+  for (int i = 0; i <= 3000; ++i) {
+    const double t = i * 1e-3;
+    table.time_s.push_back(t);
+    table.position[0][kSet].push_back(set(t));
+    table.position[0][kVirt].push_back(virt(t));
+    table.position[0][kReal].push_back(real(t));
+    const bool second = i >= 500;
+    table.move_id.push_back(second ? 2 : 1);
+    table.done[0].push_back(!second || t >= done_s - 1e-9 ? 1 : 0);
+  }
+  for (size_t s = 0; s < 3; ++s) {
+    table.cells[s] = std::count_if(table.position[0][s].begin(), table.position[0][s].end(),
+                                   [](double v) { return !std::isnan(v); });
+  }
+  return table;
+}
+
+// 0 -> 90 deg at 90 deg/s from 0.5 s (done at 1.5 s).
+double Ramp(double t) { return std::clamp(90.0 * (t - 0.5), 0.0, 90.0); }
+double None(double) { return NAN; }
+
+const MoveResult& OnlyMove(const Analysis& analysis) {
+  EXPECT_EQ(analysis.moves.size(), 1u);
+  return analysis.moves.at(0);
+}
+
+TEST(ReportNumbers, APureDelay) {
+  const RunTable table = Synthetic(
+      Ramp, [](double t) { return Ramp(t - 0.1); }, None, 1.5);
+  const Analysis analysis = Analyze(table, AnalysisOptions{});
+  const MoveResult& move = OnlyMove(analysis);
+  EXPECT_EQ(move.move_id, 2);
+  EXPECT_EQ(move.joint, 1);
+  EXPECT_DOUBLE_EQ(move.start_s, 0.5);
+  EXPECT_DOUBLE_EQ(move.done_s, 1.5);
+  EXPECT_DOUBLE_EQ(move.from, 0.0);
+  EXPECT_DOUBLE_EQ(move.to, 90.0);
+  const PairMetrics& m = move.pairs[static_cast<size_t>(Pair::kSetVirt)];
+  // |error| = 9 deg while both ramp, 0 -> 9 -> 0 over 0.1 s at either end: 9 deg*s in the
+  // transient of 1.25 s (until done + 0.25 s): mean 7.2; steady state 0; RMS over the move
+  // (2.5 s): sqrt((81 * 0.9 + 2 * 8100 * 0.1^3 / 3) / 2.5) = 5.5964.
+  EXPECT_NEAR(m.mean_transient, 7.2, 0.01);
+  EXPECT_NEAR(m.mean_steady, 0.0, 1e-12);
+  EXPECT_NEAR(m.max, 9.0, 1e-9);
+  EXPECT_NEAR(m.rms, 5.5964, 0.005);
+  EXPECT_EQ(m.transient_samples, 1251);
+  EXPECT_FALSE(move.pairs[static_cast<size_t>(Pair::kSetReal)].has());
+  const StreamResponse& set = move.streams[kSet];
+  const StreamResponse& virt = move.streams[kVirt];
+  EXPECT_NEAR(virt.start_delay_s - set.start_delay_s, 0.1, 1e-9);  // the delay itself
+  EXPECT_NEAR(set.start_delay_s, 0.006, 1e-9);                     // 0.5 deg at 90 deg/s
+  EXPECT_NEAR(set.settling_s, 0.98, 1e-9);                         // within 2 % of 90 deg of 90 deg
+  EXPECT_NEAR(virt.settling_s, 1.08, 1e-9);
+  EXPECT_NEAR(virt.overshoot, 0.0, 1e-12);
+  EXPECT_NEAR(virt.final_error, 0.0, 1e-12);
+  EXPECT_FALSE(move.streams[kReal].has());
+}
+
+TEST(ReportNumbers, AStepWithOvershoot) {
+  // The set-point jumps to 90 at 0.5 s; the arm rises linearly to 99 at 1.0 s, returns to 90
+  // at 1.1 s and stays.
+  auto step = [](double t) { return t >= 0.5 - 1e-9 ? 90.0 : 0.0; };
+  auto arm = [](double t) {
+    if (t < 0.5) return 0.0;
+    if (t < 1.0) return 198.0 * (t - 0.5);
+    if (t < 1.1) return 99.0 - 90.0 * (t - 1.0);
+    return 90.0;
+  };
+  const MoveResult move = OnlyMove(Analyze(Synthetic(step, arm, None, 0.5), AnalysisOptions{}));
+  const StreamResponse& set = move.streams[kSet];
+  const StreamResponse& virt = move.streams[kVirt];
+  EXPECT_DOUBLE_EQ(set.start_delay_s, 0.0);
+  EXPECT_DOUBLE_EQ(set.settling_s, 0.0);
+  EXPECT_DOUBLE_EQ(set.overshoot, 0.0);
+  EXPECT_NEAR(virt.start_delay_s, 0.003, 1e-9);  // 0.5 deg at 198 deg/s: 2.5 ms, next sample
+  EXPECT_NEAR(virt.overshoot, 9.0, 1e-9);
+  EXPECT_NEAR(virt.overshoot_percent, 10.0, 1e-9);
+  EXPECT_NEAR(virt.settling_s, 0.58, 1e-9);  // 91.8 deg on the way back at 1.08 s
+  // Transient: 0.5 to 0.75 s (done at once + 0.25 s): |error| falls linearly 90 -> 40.5.
+  EXPECT_NEAR(move.pairs[0].mean_transient, 65.25, 1e-9);
+  EXPECT_NEAR(move.pairs[0].max, 90.0, 1e-9);
+}
+
+TEST(ReportNumbers, AConstantOffset) {
+  const RunTable table = Synthetic(
+      Ramp, Ramp, [](double t) { return Ramp(t) + 2.0; }, 1.5);
+  const MoveResult move = OnlyMove(Analyze(table, AnalysisOptions{}));
+  for (Pair pair : {Pair::kSetReal, Pair::kVirtReal}) {
+    const PairMetrics& m = move.pairs[static_cast<size_t>(pair)];
+    EXPECT_NEAR(m.mean_transient, 2.0, 1e-9) << PairTitle(pair);
+    EXPECT_NEAR(m.mean_steady, 2.0, 1e-9) << PairTitle(pair);
+    EXPECT_NEAR(m.rms, 2.0, 1e-9) << PairTitle(pair);
+    EXPECT_NEAR(m.max, 2.0, 1e-9) << PairTitle(pair);
+  }
+  EXPECT_NEAR(move.pairs[0].max, 0.0, 1e-12);
+  EXPECT_NEAR(move.streams[kReal].final_error, 2.0, 1e-9);
+  EXPECT_DOUBLE_EQ(move.streams[kReal].start_delay_s, move.streams[kVirt].start_delay_s);
+}
+
+TEST(ReportNumbers, JointsThatDoNotTravelAreLeftOutAndUnknownJointsAreRefused) {
+  RunTable table = Synthetic([](double) { return 0.2; }, Ramp, None, 1.5);
+  EXPECT_TRUE(Analyze(table, AnalysisOptions{}).moves.empty());
+  AnalysisOptions options;
+  options.joints = {2};
+  const std::string text =
+      sirupp::testing::ErrorText<core::ConfigError>([&] { Analyze(table, options); });
+  EXPECT_EQ(text, "synthetic: unknown joint 2: this file has 1 joints (1 to 1)");
+}
+
+TEST(ReportOutput, MarkdownCsvAndPlots) {
+  TempDir dir;
+  const std::vector<RunTable> tables = {Synthetic(
+      Ramp, [](double t) { return Ramp(t - 0.1); }, None, 1.5)};
+  ReportOptions options;
+  options.out_dir = dir.path.string();
+  const ReportOutput output = WriteReport(tables, options);
+  EXPECT_EQ(output.moves, 1u);
+  EXPECT_NE(output.markdown.find("| synthetic | 2 | 1 (waist) | from 0.0 to 90.0 deg | set-point "
+                                 "vs virtual | 7.19 | 0.00 | 5.60 | 9.00 |"),
+            std::string::npos)
+      << output.markdown;
+  EXPECT_NE(output.markdown.find("|  |  |  |  | set-point vs real | - | - | - | - |"),
+            std::string::npos);
+  std::ifstream csv(dir / "report_errors.csv");
+  std::string header, row;
+  std::getline(csv, header);
+  std::getline(csv, row);
+  EXPECT_EQ(row.substr(0, 48), "synthetic,synthetic,2,1,waist,deg,0.00000,90.000");
+  const cv::Mat angle = cv::imread(dir / "synthetic-m2-j1-angle.png");
+  const cv::Mat error = cv::imread(dir / "synthetic-m2-j1-error.png");
+  ASSERT_FALSE(angle.empty());
+  ASSERT_FALSE(error.empty());
+  EXPECT_EQ(angle.cols, 1000);
+  EXPECT_EQ(angle.rows, 560);
+}
+
+// ---- LCM log files
+// ---------------------------------------------------------------------------------
+
+template <class Msg>
+void WriteEvent(lcm_eventlog_t* log, const std::string& channel, const Msg& message,
+                int64_t timestamp) {
+  std::vector<uint8_t> data(static_cast<size_t>(message.getEncodedSize()));
+  message.encode(data.data(), 0, static_cast<int>(data.size()));
+  lcm_eventlog_event_t event{};
+  event.timestamp = timestamp;
+  event.channellen = static_cast<int32_t>(channel.size());
+  event.datalen = static_cast<int32_t>(data.size());
+  event.channel = const_cast<char*>(channel.c_str());
+  event.data = data.data();
+  ASSERT_EQ(lcm_eventlog_write_event(log, &event), 0);
+}
+
+sirupp::arm_state_t State(int64_t tick, double q1_deg) {
+  sirupp::arm_state_t state{};
+  state.utime = tick * 512;
+  state.seq = tick;
+  state.tick = tick;
+  state.num_joints = 2;
+  state.position = {q1_deg * kDeg, 0};
+  state.velocity = {0, 0};
+  state.effort = {0, 0};
+  state.flags = {0, 0};
+  return state;
+}
+
+sirupp::servo_setpoint_t SetpointAt(int64_t tick, int64_t move, double q1_deg, bool done) {
+  sirupp::servo_setpoint_t setpoint{};
+  setpoint.utime = tick * 512;
+  setpoint.seq = tick;
+  setpoint.tick = tick;
+  setpoint.move_id = move;
+  setpoint.num_joints = 2;
+  setpoint.position = {q1_deg * kDeg, 0};
+  setpoint.velocity = {0, 0};
+  setpoint.goal = {0, 0};
+  setpoint.position_error = {0, 0};
+  setpoint.effort = {0, 0};
+  const int8_t status = done ? sirupp::servo_setpoint_t::STATUS_MOVE_DONE : 0;
+  setpoint.status = {status, status};
+  return setpoint;
+}
+
+// A two-joint log: a plan starts at tick 100; its move (id 1) ramps joint 1 from 0 to 45 deg over
+// ticks 200..1199; the arm follows 10 ticks late.
+void WriteRampLog(const std::string& path, int64_t ticks = 3000) {
+  lcm_eventlog_t* log = lcm_eventlog_create(path.c_str(), "w");
+  ASSERT_NE(log, nullptr);
+  auto ramp = [](int64_t tick) {
+    return 45.0 * std::clamp(static_cast<double>(tick - 200) / 1000.0, 0.0, 1.0);
+  };
+  for (int64_t tick = 0; tick < ticks; ++tick) {
+    const int64_t wall = 1'700'000'000'000'000 + tick * 600;
+    if (tick == 100) {
+      sirupp::controller_status_t status{};
+      status.utime = tick * 512;
+      status.plan_name = "plans/ramp.plan";
+      status.plan_step = 0;
+      status.plan_steps = 3;
+      WriteEvent(log, "CONTROLLER_STATUS", status, wall);
+    }
+    WriteEvent(log, "SIM_ARM_STATE", State(tick, ramp(tick - 10)), wall);
+    WriteEvent(log, "ARM_SETPOINT",
+               SetpointAt(tick, tick >= 200 ? 1 : 0, ramp(tick), tick < 200 || tick >= 1200),
+               wall + 50);
+  }
+  lcm_eventlog_destroy(log);
+}
+
+TEST(LcmLog, IsReadLikeADataFileOneTablePerPlanRun) {
+  TempDir dir;
+  WriteRampLog(dir / "ramp.lcm");
+  const std::vector<RunTable> tables = ImportLcmLog(dir / "ramp.lcm", ImportOptions{});
+  ASSERT_EQ(tables.size(), 2u);
+  EXPECT_EQ(tables[0].label, "ramp");  // before the plan: the file's name
+  EXPECT_EQ(tables[1].label, "ramp");  // the plan plans/ramp.plan
+  EXPECT_EQ(tables[1].plan_name, "plans/ramp.plan");
+  EXPECT_EQ(tables[0].rows(), 100u);
+  EXPECT_EQ(tables[1].rows(), 2900u);
+  EXPECT_EQ(tables[1].cells[kSet], 2900);
+  EXPECT_EQ(tables[1].lost[kSet], 0);
+  const MoveResult move = OnlyMove(Analyze(tables[1], AnalysisOptions{}));
+  EXPECT_NEAR(move.to, 45.0, 1e-5);
+  // 10 ticks behind a ramp of 45 deg per 1000 ticks: 0.45 deg.
+  EXPECT_NEAR(move.pairs[0].max, 0.45, 1e-4);
+  EXPECT_NEAR(move.streams[kVirt].start_delay_s - move.streams[kSet].start_delay_s, 10 * 512e-6,
+              1e-9);
+}
+
+TEST(LcmLog, ACutLastEventIsANoteAndDamageInsideIsAnError) {
+  TempDir dir;
+  WriteRampLog(dir / "cut.lcm", 500);
+  const auto size = std::filesystem::file_size(dir / "cut.lcm");
+  std::filesystem::resize_file(dir / "cut.lcm", size - 7);
+  const std::vector<RunTable> tables = ImportLcmLog(dir / "cut.lcm", ImportOptions{});
+  ASSERT_FALSE(tables.empty());
+  ASSERT_EQ(tables.back().notes.size(), 1u);
+  EXPECT_NE(tables.back().notes[0].find("the last event is cut short"), std::string::npos);
+
+  WriteRampLog(dir / "damaged.lcm", 500);
+  {
+    std::fstream file(dir / "damaged.lcm", std::ios::in | std::ios::out | std::ios::binary);
+    LcmLogReader reader(dir / "damaged.lcm");
+    LcmLogEvent event;
+    for (int i = 0; i < 40; ++i) reader.Next(event);
+    file.seekp(event.offset);
+    file.write("JUNK", 4);
+  }
+  const std::string text = sirupp::testing::ErrorText<core::ConfigError>(
+      [&] { ImportLcmLog(dir / "damaged.lcm", ImportOptions{}); });
+  EXPECT_NE(text.find("damaged.lcm: byte "), std::string::npos) << text;
+  EXPECT_NE(text.find("expected the event sync word 0xEDA1DA01, found 0x4A554E4B: the log is "
+                      "corrupted here"),
+            std::string::npos)
+      << text;
+}
+
+// ---- The malformed-input corpus
+// ------------------------------------------------------------------
+
+TEST(BadLogs, EachFileFailsWithItsMessage) {
+  const std::string corpus = "tests/data/bad_logs";
+  std::ifstream expected_file(corpus + "/expected.txt");
+  ASSERT_TRUE(expected_file.good());
+  std::string line;
+  int checked = 0;
+  std::vector<std::string> listed;
+  while (std::getline(expected_file, line)) {
+    if (line.empty() || line[0] == '#') continue;
+    const size_t space = line.find(' ');
+    ASSERT_NE(space, std::string::npos) << line;
+    const std::string name = line.substr(0, space);
+    std::string message = line.substr(space + 1);
+    ASSERT_EQ(message.rfind("FILE", 0), 0u) << line;
+    const std::string path = corpus + "/" + name;
+    message = path + message.substr(4);
+    listed.push_back(name);
+    SCOPED_TRACE(path);
+    const std::string text =
+        sirupp::testing::ErrorText<core::ConfigError>([&] { ReadInputs({path}, ImportOptions{}); });
+    EXPECT_EQ(text, message);
+    ++checked;
+  }
+  EXPECT_GE(checked, 20);
+  for (const auto& entry : std::filesystem::directory_iterator(corpus)) {
+    const std::string name = entry.path().filename().string();
+    if (name == "expected.txt" || name == "README.md") continue;
+    EXPECT_NE(std::find(listed.begin(), listed.end(), name), listed.end())
+        << name << " has no line in expected.txt";
+  }
+}
+
+// ---- The paper's set VII, closed loop
+// ------------------------------------------------------------
+
+TEST(ReportOfASimRun, SetSevenInLockstepLoggedAndReported) {
+  TempDir dir;
+  const core::RobotModel model = core::LoadRobotModel("config/robots/puma260.yaml");
+  core::Bus bus("memq://");
+  sim::ArmWorld world(model, core::Environment{});
+  sim::SimNode sim(bus, world, core::Environment{}, sim::NodeOptions{});
+  control::ControlNode control(bus, model, control::ControlOptions{});
+  LoggerOptions options;
+  options.out_dir = dir.path.string();
+  options.name = "run";
+  LoggerNode logger(bus, model, options);
+  auto run_for = [&](double seconds) {
+    const double until = world.time_s() + seconds;
+    while (world.time_s() < until) sim.Service(0);
+  };
+  run_for(0.05);
+  const std::string plan = "config/plans/set7.plan";
+  sirupp::plan_command_t command{};
+  command.command = sirupp::plan_command_t::COMMAND_RUN;
+  command.name = plan;
+  command.text = control::ReadPlanText(plan);
+  bus.Publish("ARM_PLAN", command);
+  run_for(0.05);
+  ASSERT_TRUE(control.plan_running()) << control.last_error();
+  for (int i = 0; i < 2000 && control.plan_running(); ++i) run_for(0.01);
+  ASSERT_FALSE(control.plan_running());
+  run_for(0.2);
+  logger.Close();
+  const LoggerStats stats = logger.stats();
+  ASSERT_EQ(stats.files.size(), 2u);
+  EXPECT_EQ(stats.files[1], dir / "run-02-set7.csv");
+  EXPECT_EQ(stats.lost[kSet] + stats.lost[kVirt], 0);
+  EXPECT_GE(stats.samples[kVirt], world.tick());
+
+  ReportOptions report;
+  report.out_dir = dir / "report";
+  const ReportOutput output = WriteReport(ReadInputs({stats.files[1]}, ImportOptions{}), report);
+  std::cout << output.markdown;
+  ASSERT_EQ(output.moves, 3u);  // joints 1, 2 and 3 travel 90 deg in the plan's second move
+  const RunTable table = ReadDataFile(stats.files[1]);
+  const Analysis analysis = Analyze(table, AnalysisOptions{});
+  for (const MoveResult& move : analysis.moves) {
+    SCOPED_TRACE("joint " + std::to_string(move.joint));
+    EXPECT_NEAR(move.from, 0.0, 0.01);
+    EXPECT_NEAR(move.to, 90.0, 0.01);
+    const PairMetrics& m = move.pairs[static_cast<size_t>(Pair::kSetVirt)];
+    EXPECT_GT(m.mean_transient, m.mean_steady);  // the arm lags while moving, then settles
+    EXPECT_LT(m.mean_steady, 1.0);
+    EXPECT_GT(m.steady_samples, 500);
+    EXPECT_FALSE(move.pairs[static_cast<size_t>(Pair::kVirtReal)].has());  // no real arm
+    EXPECT_GT(move.streams[kVirt].start_delay_s, move.streams[kSet].start_delay_s);
+    EXPECT_LT(std::abs(move.streams[kVirt].final_error), 1.0);
+    EXPECT_FALSE(
+        cv::imread(dir / ("report/set7-m2-j" + std::to_string(move.joint) + "-angle.png")).empty());
+  }
+}
+
+}  // namespace
+}  // namespace sirupp::logger

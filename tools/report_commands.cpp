@@ -1,0 +1,113 @@
+#include "tools/report_commands.hpp"
+
+#include <cmath>
+#include <ostream>
+
+#include "core/channels.hpp"
+#include "core/errors.hpp"
+#include "logger/report.hpp"
+#include "tools/args.hpp"
+
+namespace sirupp::tools {
+
+const char* const kReportUsage =
+    "usage: sirupp report FILE... [--out DIR] [--no-plots] [--joints N..] [--settle-window S]\n"
+    "                     [--start-threshold DEG] [--band-percent P] [--min-travel DEG]\n"
+    "                     [--prefix PREFIX] [--rate HZ] [--max-age S] [--whole-log]\n"
+    "The paper's Table II for every movement set and joint in the files: mean error in the\n"
+    "transient and in the steady state, RMS and maximum error, for set-point vs virtual,\n"
+    "set-point vs real and virtual vs real; start delay, settling time and overshoot per stream.\n"
+    "FILE: data files of sirupp-logger (CSV) or LCM logs of lcm-logger, told apart by content.\n"
+    "Prints Markdown and writes DIR/report.md, report_errors.csv, report_response.csv and PNG\n"
+    "plots (angle and error against time per move and joint); DIR default report.\n"
+    "  --settle-window S     the transient ends S after move-done (0.25)\n"
+    "  --start-threshold DEG a stream has started once it moved this far (0.5)\n"
+    "  --band-percent P      settling band, percent of the travel (2)\n"
+    "  --min-travel DEG      joints whose set-point travels less are not reported (0.5)\n"
+    "  --joints N..          only these joints (1-based)\n"
+    "  LCM logs: --prefix (rig prefix of the channels), --rate HZ (sample clock, default the\n"
+    "  0.512 ms servo tick), --max-age S (0.01), --whole-log (one set, not one per plan run)\n"
+    "Definitions: docs/logging.md. Exit 0, or 2 naming FILE:LINE for bad input.\n";
+
+namespace {
+
+double NonNegative(const Args& args, const std::string& flag, double fallback) {
+  if (!args.Has(flag)) return fallback;
+  const double value = args.Numbers(flag, 1)[0];
+  if (value < 0) {
+    throw core::UsageError("report: --" + flag + " " + core::FormatNumber(value) +
+                           ": must be >= 0");
+  }
+  return value;
+}
+
+}  // namespace
+
+int RunReport(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
+  std::vector<std::string> files;
+  size_t i = 0;
+  for (; i < argv.size() && argv[i].rfind("--", 0) != 0; ++i) files.push_back(argv[i]);
+  const Args args(
+      std::vector<std::string>(argv.begin() + static_cast<std::ptrdiff_t>(i), argv.end()), "report",
+      {{"out", "DIR"},
+       {"no-plots", "(switch)"},
+       {"joints", "N.."},
+       {"settle-window", "S"},
+       {"start-threshold", "DEG"},
+       {"band-percent", "P"},
+       {"min-travel", "DEG"},
+       {"prefix", "PREFIX"},
+       {"rate", "HZ"},
+       {"max-age", "S"},
+       {"whole-log", "(switch)"}});
+  if (files.empty()) throw core::UsageError("report: give at least one FILE (before the options)");
+
+  logger::ReportOptions options;
+  if (args.Has("out")) options.out_dir = args.String("out");
+  options.plots = !args.Switch("no-plots");
+  logger::AnalysisOptions& a = options.analysis;
+  a.settle_window_s = NonNegative(args, "settle-window", a.settle_window_s);
+  a.start_threshold = NonNegative(args, "start-threshold", a.start_threshold);
+  a.settle_band_fraction = NonNegative(args, "band-percent", a.settle_band_fraction * 100) / 100;
+  a.min_travel = NonNegative(args, "min-travel", a.min_travel);
+  if (args.Has("joints")) {
+    for (double joint : args.Numbers("joints", -1)) {
+      if (joint != std::floor(joint) || joint < 1) {
+        throw core::UsageError("report: --joints " + core::FormatNumber(joint) +
+                               ": joints are numbered 1, 2, ...");
+      }
+      a.joints.push_back(static_cast<int>(joint));
+    }
+  }
+  logger::ImportOptions& import = options.import;
+  try {
+    import.channels = core::Channels::WithPrefix(args.Has("prefix") ? args.String("prefix") : "");
+  } catch (const std::invalid_argument& error) {
+    throw core::UsageError(std::string("report: --prefix: ") + error.what());
+  }
+  if (args.Has("rate")) {
+    const double rate = args.Numbers("rate", 1)[0];
+    if (!(rate > 0 && rate <= 1e6)) {
+      throw core::UsageError("report: --rate " + core::FormatNumber(rate) +
+                             ": allowed 0 < HZ <= 1000000");
+    }
+    import.aligner.period_us = std::max<int64_t>(1, std::llround(1e6 / rate));
+  }
+  if (args.Has("max-age")) {
+    import.aligner.max_age_us = std::llround(NonNegative(args, "max-age", 0.01) * 1e6);
+  }
+  import.split_per_plan = !args.Switch("whole-log");
+
+  const std::vector<logger::RunTable> tables = logger::ReadInputs(files, import);
+  for (const logger::RunTable& table : tables) {
+    for (const std::string& note : table.notes) err << "sirupp report: note: " << note << "\n";
+  }
+  const logger::ReportOutput output = logger::WriteReport(tables, options);
+  out << output.markdown;
+  err << "sirupp report: " << output.moves << " joint moves; wrote";
+  for (const std::string& file : output.files) err << " " << file;
+  err << "\n";
+  return 0;
+}
+
+}  // namespace sirupp::tools

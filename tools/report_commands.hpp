@@ -1,0 +1,17 @@
+#pragma once
+// `sirupp report FILE...`: the Table II report of data files written by sirupp-logger and of LCM
+// log files written by lcm-logger (logger/report.hpp).
+
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+namespace sirupp::tools {
+
+extern const char* const kReportUsage;
+
+// Prints the Markdown report and writes it with the CSV tables and the plots. Bad input files
+// throw core::ConfigError (exit 2), bad arguments core::UsageError (exit 2).
+int RunReport(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
+
+}  // namespace sirupp::tools
