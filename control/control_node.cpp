@@ -65,7 +65,40 @@ ControlNode::ControlNode(core::Bus& bus, const core::RobotModel& model, ControlO
   bus_.Subscribe<sirupp::servo_gains_t>(
       channels.arm_gains, [this](const sirupp::servo_gains_t& message,
                                  const core::ReceiveInfo& info) { OnGains(message, info); });
+  bus_.Subscribe<sirupp::estop_t>(
+      channels.estop, [this](const sirupp::estop_t& message, const core::ReceiveInfo& info) {
+        OnEstop(message, info);
+      });
   heartbeat_.Publish(core::ProcessState::kStarting, "");
+}
+
+void ControlNode::OnEstop(const sirupp::estop_t& message, const core::ReceiveInfo&) {
+  if (!message.engaged) {
+    if (estop_.empty()) return;
+    estop_.clear();
+    last_error_.clear();
+    PublishStatus(true);
+    return;
+  }
+  estop_ = "emergency stop from '" + message.sender + "': " + message.reason;
+  if (servos_on_) bank_.ServoOn(positions_);  // command position = actual: held where it is
+  pending_.clear();
+  PublishStop(sirupp::servo_move_t::COMMAND_STOP_ABRUPT);
+  if (plan_running_) {
+    EndPlan(estop_ + "; plan " + plan_->name + " aborted");
+  } else {
+    last_error_ = estop_;
+    PublishStatus(true);
+  }
+  std::cerr << "sirupp-control: " << estop_ << "\n";
+}
+
+void ControlNode::RequireNoEstop(const std::string& channel, const std::string& what) const {
+  if (!estop_.empty()) {
+    throw core::MessageError(
+        channel, "",
+        what + ": " + estop_ + " is engaged; release it first (sirupp estop --release)");
+  }
 }
 
 void ControlNode::OnState(const sirupp::arm_state_t& message, const core::ReceiveInfo& info) {
@@ -151,6 +184,7 @@ void ControlNode::Refuse(const core::MessageError& error) {
 }
 
 void ControlNode::RequireManual(const std::string& channel) const {
+  RequireNoEstop(channel, "target");
   if (plan_running_) {
     throw core::MessageError(channel, "",
                              "plan " + plan_->name + " is running (step " +
@@ -328,6 +362,7 @@ void ControlNode::OnPlan(const sirupp::plan_command_t& message, const core::Rece
     switch (message.command) {
       case Command::COMMAND_RUN: {
         const std::string name = message.name.empty() ? "plan" : message.name;
+        RequireNoEstop(info.channel, "run " + name);
         if (plan_running_) {
           throw core::MessageError(info.channel, "command",
                                    "run " + name + ": plan " + plan_->name +
@@ -365,6 +400,7 @@ void ControlNode::OnPlan(const sirupp::plan_command_t& message, const core::Rece
         paused_at_utime_ = last_state_utime_;
         break;
       case Command::COMMAND_RESUME:
+        RequireNoEstop(info.channel, "resume");
         if (!plan_running_ || !plan_paused_) {
           throw core::MessageError(info.channel, "command", "resume: no plan is paused");
         }

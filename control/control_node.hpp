@@ -11,14 +11,16 @@
 // COMMAND_AUTOMATIC also locks out targets with no plan running (until COMMAND_MANUAL), so a
 // class's plan cannot be disturbed. Anything refused (bad values, unreachable pose, bad plan, a
 // target in automatic mode) is counted as rejected on its channel and named in last_error; nothing
-// moves then. A servo that trips its position-error limit aborts the plan; the next accepted
-// target or plan switches the servos on again where the arm is.
+// moves then. ESTOP stops the arm at once where it is (STOP_ABRUPT on ARM_MOVE), aborts a plan
+// and refuses targets and plan runs until released. A servo that trips its position-error limit
+// aborts the plan; the next accepted target or plan switches the servos on again where the arm is.
 
 #include <chrono>
 #include <cstdint>
 #include <memory>
 #include <optional>
 #include <sirupp/arm_state_t.hpp>
+#include <sirupp/estop_t.hpp>
 #include <sirupp/joint_target_t.hpp>
 #include <sirupp/plan_command_t.hpp>
 #include <sirupp/pose_target_t.hpp>
@@ -69,6 +71,9 @@ class ControlNode {
   void OnPoseTarget(const sirupp::pose_target_t& message, const core::ReceiveInfo& info);
   void OnPlan(const sirupp::plan_command_t& message, const core::ReceiveInfo& info);
   void OnGains(const sirupp::servo_gains_t& message, const core::ReceiveInfo& info);
+  void OnEstop(const sirupp::estop_t& message, const core::ReceiveInfo& info);
+  // Throws MessageError on `channel` while the emergency stop is engaged.
+  void RequireNoEstop(const std::string& channel, const std::string& what) const;
 
   // Throws MessageError on `channel` if targets are not taken now (automatic mode, no arm yet).
   void RequireManual(const std::string& channel) const;
@@ -103,6 +108,7 @@ class ControlNode {
   int64_t last_state_utime_ = 0;
 
   // Sequencer.
+  std::string estop_;              // who engaged the emergency stop and why; empty when released
   bool locked_automatic_ = false;  // COMMAND_AUTOMATIC given (until COMMAND_MANUAL)
   std::optional<Plan> plan_;
   bool plan_running_ = false;  // from RUN until its last move is done, an abort or a fault

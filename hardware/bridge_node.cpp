@@ -1,6 +1,7 @@
 #include "hardware/bridge_node.hpp"
 
 #include <algorithm>
+#include <iostream>
 #include <sirupp/arm_state_t.hpp>
 
 #include "core/errors.hpp"
@@ -95,13 +96,13 @@ void BridgeNode::Calibrate() {
 }
 void BridgeNode::Arm() {
   if (estopped_) throw std::runtime_error("arm: the emergency stop is engaged; release it first");
-  if (faulted_) throw std::runtime_error("arm: clear the fault first (" + last_error_ + ")");
+  if (faulted_) throw std::runtime_error("arm: clear the fault first (" + fault_ + ")");
   link_.Arm();
   last_error_.clear();
 }
 void BridgeNode::Link() {
   if (estopped_) throw std::runtime_error("link: the emergency stop is engaged");
-  if (faulted_) throw std::runtime_error("link: clear the fault first (" + last_error_ + ")");
+  if (faulted_) throw std::runtime_error("link: clear the fault first (" + fault_ + ")");
   if (!link_.armed()) throw std::runtime_error("link: arm first");
   linked_ = true;
   expired_ = false;
@@ -190,7 +191,7 @@ void BridgeNode::OnMove(const sirupp::servo_move_t& m, const core::ReceiveInfo& 
   if (estopped_)
     Refuse(info.channel, "move " + std::to_string(m.move_id) + ": emergency stop engaged");
   if (faulted_)
-    Refuse(info.channel, "move " + std::to_string(m.move_id) + ": fault: " + last_error_);
+    Refuse(info.channel, "move " + std::to_string(m.move_id) + ": fault: " + fault_);
   const std::string refusal = link_.CheckMove(m);
   if (!refusal.empty()) Refuse(info.channel, "move " + std::to_string(m.move_id) + ": " + refusal);
   try {
@@ -210,9 +211,10 @@ void BridgeNode::OnEstop(const sirupp::estop_t& m, const core::ReceiveInfo&) {
     estopped_ = true;
     if (link_.connected()) link_.EmergencyStop();
     last_error_ = "emergency stop from '" + m.sender + "': " + m.reason;
+    std::cerr << options_.name << ": " << last_error_ << ": motors stopped and off\n";
   } else if (estopped_) {
     estopped_ = false;  // the arm stays disarmed: nothing moves until ARM (and LINK)
-    last_error_.clear();
+    last_error_ = faulted_ ? fault_ : "";
   }
   PublishStatus();
 }
@@ -222,6 +224,8 @@ void BridgeNode::Fault(const std::string& problem) {
   faulted_ = true;
   linked_ = false;
   last_error_ = problem;
+  if (first) fault_ = problem;
+  if (first) std::cerr << options_.name << ": FAULT: " << problem << "\n";
   if (first && link_.connected()) {
     try {
       link_.StopAllSmoothly();

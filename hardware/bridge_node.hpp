@@ -104,6 +104,7 @@ class BridgeNode {
   bool faulted_ = false;
   bool expired_ = false;  // commands expired during the present motion (reported once)
   std::string last_error_;
+  std::string fault_;  // the first problem of the present fault
   ArmReading reading_;
   int64_t move_id_ = -1;
   int64_t polls_ = 0;

@@ -200,22 +200,20 @@ std::vector<ModuleInfo> NmcBus::Initialize(int max_modules, int baud, uint8_t gr
   // As the vendor library: every module into the default group 0xFF (no leader), so that one
   // SET_BAUD reaches them all; then into `group`, module 1 leading, for START_MOVE.
   group_ = nmc::kBroadcast;
+  // Discovery waits longer than normal exchanges: a slow answer here would end the chain early.
+  struct Restore {
+    std::chrono::microseconds& margin;
+    std::chrono::microseconds normal;
+    ~Restore() { margin = normal; }
+  } restore{options_.reply_margin, options_.reply_margin};
+  options_.reply_margin = std::max(options_.reply_margin, std::chrono::microseconds(50000));
   for (int address = 1; address <= max_modules; ++address) {
     const auto a = static_cast<uint8_t>(address);
-    std::string problem;
-    nmc::Status reply;
-    const Outcome outcome =
-        TryExchange(nmc::Encode(nmc::SetAddress(nmc::kUnaddressed, a, nmc::kBroadcast, false)), 0,
-                    &reply, &problem);
-    if (outcome == Outcome::kTimeout) break;  // no unaddressed module left on the chain
-    if (outcome != Outcome::kOk) {
-      throw BusError(
-          a, nmc::kSetAddr,
-          "addressing module " + std::to_string(address) + ": " + problem + " on " + port_.name());
-    }
+    if (!AddressNext(a)) break;  // no unaddressed module left on the chain
     const nmc::Status id = Command(nmc::ReadStatus(a, nmc::kSendId));
     modules_.push_back(ModuleInfo{a, id.type, id.version});
   }
+  options_.reply_margin = restore.normal;
   if (modules_.empty()) return modules_;
   if (baud != nmc::kPowerUpBaud) ChangeBaud(baud);
   for (const ModuleInfo& m : modules_) {
@@ -224,6 +222,30 @@ std::vector<ModuleInfo> NmcBus::Initialize(int max_modules, int baud, uint8_t gr
   group_ = group;
   group_leader_ = 1;
   return modules_;
+}
+
+bool NmcBus::AddressNext(uint8_t address) {
+  const std::vector<uint8_t> set_address =
+      nmc::Encode(nmc::SetAddress(nmc::kUnaddressed, address, nmc::kBroadcast, false));
+  std::string problem;
+  nmc::Status reply;
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    const Outcome outcome = TryExchange(set_address, 0, &reply, &problem);
+    if (outcome == Outcome::kOk) return true;
+    if (outcome == Outcome::kTimeout) ++counters_.timeouts;
+    if (outcome == Outcome::kDamaged) ++counters_.checksum_errors;
+    if (outcome == Outcome::kModuleChecksum) {
+      ++counters_.module_checksum_errors;
+      continue;  // the module threw it away: the same module is still at address 0
+    }
+    Resync();
+    // The command may have been carried out with its answer lost: sending it again would give the
+    // next module the same address. Ask the new address first.
+    if (TryExchange(nmc::Encode(nmc::Nop(address)), 0, &reply, &problem) == Outcome::kOk) {
+      return true;
+    }
+  }
+  return false;
 }
 
 uint8_t NmcBus::defined_items(uint8_t address) const {

@@ -98,6 +98,8 @@ class NmcBus {
                       std::string* problem);
   nmc::Status Exchange(const nmc::Packet& packet, uint8_t items, uint8_t reply_address);
   void Resync();
+  // SET_ADDR to the next unaddressed module; false when none answers (end of the chain).
+  bool AddressNext(uint8_t address);
   void Send(const std::vector<uint8_t>& bytes);
 
   BytePort& port_;

@@ -9,6 +9,7 @@
 #include <cmath>
 #include <iostream>
 #include <sirupp/controller_status_t.hpp>
+#include <sirupp/estop_t.hpp>
 #include <sirupp/servo_move_t.hpp>
 #include <sirupp/servo_setpoint_t.hpp>
 
@@ -228,6 +229,51 @@ TEST(ControlNode, PauseFinishesThePresentMoveAndResumeRunsTheRest) {
   EXPECT_FALSE(rig.control.plan_running());
   EXPECT_EQ(rig.control.plan_step(), 5);
   EXPECT_NEAR(rig.Degrees(0), 40.0, 1.0);
+}
+
+// ESTOP: the arm stops where it is (STOP_ABRUPT on ARM_MOVE), the plan is aborted, targets and plan
+// runs are refused until the stop is released; the release itself moves nothing.
+TEST(ControlNode, EstopAbortsThePlanHoldsAndRefusesUntilReleased) {
+  Rig rig;
+  std::vector<int8_t> commands;
+  rig.bus.Subscribe<sirupp::servo_move_t>(
+      "ARM_MOVE", [&](const sirupp::servo_move_t& move, const core::ReceiveInfo&) {
+        commands.push_back(move.command);
+      });
+  rig.RunFor(0.01);
+  rig.Plan(Command::COMMAND_RUN, "config/plans/set1.plan", ReadPlanText("config/plans/set1.plan"));
+  rig.RunFor(0.8);
+  ASSERT_TRUE(rig.control.plan_running());
+  sirupp::estop_t stop{};
+  stop.engaged = 1;
+  stop.sender = "test";
+  stop.reason = "hand in the cell";
+  rig.bus.Publish("ESTOP", stop);
+  rig.RunFor(0.01);
+  const double at_stop = rig.Degrees(0);
+  EXPECT_FALSE(rig.control.plan_running());
+  EXPECT_EQ(rig.control.last_error(),
+            "emergency stop from 'test': hand in the cell; plan config/plans/set1.plan aborted");
+  ASSERT_FALSE(commands.empty());
+  EXPECT_EQ(commands.back(), sirupp::servo_move_t::COMMAND_STOP_ABRUPT);
+  rig.RunFor(1.0);
+  EXPECT_NEAR(rig.Degrees(0), at_stop, 3.0);  // held near where it was, far from 90
+  EXPECT_LT(rig.Degrees(0), 60);
+  rig.bus.Publish("ARM_TARGET", Target({10, 0, 0, 0, 0, 0}, {1, 0, 0, 0, 0, 0}));
+  rig.Plan(Command::COMMAND_RUN, "again", ReadPlanText("config/plans/set1.plan"));
+  rig.RunFor(0.01);
+  EXPECT_EQ(rig.Rejected("ARM_TARGET"), 1);
+  EXPECT_EQ(rig.Rejected("ARM_PLAN"), 1);
+  EXPECT_NE(rig.bus.StatsFor("ARM_PLAN").last_error.find("release it first"), std::string::npos);
+  const int64_t moves = rig.control.move_id();
+  stop.engaged = 0;
+  rig.bus.Publish("ESTOP", stop);
+  rig.RunFor(0.5);
+  EXPECT_EQ(rig.control.move_id(), moves);
+  EXPECT_EQ(rig.control.last_error(), "");
+  rig.bus.Publish("ARM_TARGET", Target({10, 0, 0, 0, 0, 0}, {1, 0, 0, 0, 0, 0}));
+  rig.RunFor(3.0);
+  EXPECT_NEAR(rig.Degrees(0), 10, 1.0);
 }
 
 TEST(ControlNode, AutomaticModeLocksOutTargetsUntilManual) {

@@ -80,6 +80,13 @@ int NmcInit(SerialPort& port) {
   return found;
 }
 
+// Waits until the emulator has run `ticks` more servo ticks (a trigger acts at the next one).
+void WaitTicks(const Emulator& emulator, uint64_t ticks) {
+  const uint64_t until = emulator.counters().servo_ticks + ticks;
+  const auto deadline = Clock::now() + std::chrono::seconds(5);
+  while (emulator.counters().servo_ticks < until && Clock::now() < deadline) Sleep(0.001);
+}
+
 Gains ModelGains(const core::ServoParams& s) {
   Gains g;
   g.kp = static_cast<int16_t>(s.kp);
@@ -173,8 +180,8 @@ TEST(Emulator, AThreeJointMoveReachesItsGoal) {
       "set VII on the emulator: waist moves after %.3f s, MOVE_DONE after %.3f s, within 0.5 deg "
       "after %.3f s; "
       "final %.3f %.3f %.3f deg; others %.3f %.3f %.3f deg; %llu overruns\n",
-      done_s, settled_s, q[0] / kDeg, q[1] / kDeg, q[2] / kDeg, q[3] / kDeg, q[4] / kDeg,
-      q[5] / kDeg, static_cast<unsigned long long>(emulator.counters().overruns));
+      first_motion_s, done_s, settled_s, q[0] / kDeg, q[1] / kDeg, q[2] / kDeg, q[3] / kDeg,
+      q[4] / kDeg, q[5] / kDeg, static_cast<unsigned long long>(emulator.counters().overruns));
   for (int j = 0; j < 3; ++j) EXPECT_NEAR(q[static_cast<size_t>(j)], 90 * kDeg, 0.5 * kDeg);
   for (int j = 3; j < 6; ++j) EXPECT_NEAR(q[static_cast<size_t>(j)], 0, 0.5 * kDeg);
   // The encoders agree with the arm.
@@ -263,16 +270,18 @@ TEST(Emulator, EachFaultIsObservable) {
   EXPECT_EQ(Transact(port, Nop(2), 2).size(), 2U);
 
   // Overcurrent: latched OVERCURRENT, the motor off.
+  EXPECT_FALSE(Transact(port, Nop(4), 2)[0] & kStatusOvercurrent);
   emulator.TriggerOvercurrent(3);
-  Sleep(0.01);
+  WaitTicks(emulator, 2);
   const Bytes oc = Transact(port, Nop(4), 2);
   ASSERT_EQ(oc.size(), 2U);
   EXPECT_TRUE(oc[0] & kStatusOvercurrent);
   EXPECT_TRUE(oc[0] & kStatusPositionError);
 
   // Position-error trip: POS_ERR, the servo off (aux SERVO_ON clear).
+  EXPECT_FALSE(Transact(port, Nop(5), 2)[0] & kStatusPositionError);
   emulator.TriggerPositionErrorTrip(4);
-  Sleep(0.01);
+  WaitTicks(emulator, 2);
   const Bytes pe = Transact(port, ReadStatus(5, kSendAux), 3);
   ASSERT_EQ(pe.size(), 3U);
   EXPECT_TRUE(pe[0] & kStatusPositionError);

@@ -151,7 +151,10 @@ TEST(NmcBus, GroupCommandsTakeTheLeadersReplyAndBroadcastsNone) {
                   nmc::EncodeStatus(s, nmc::kSendId),
                   nmc::EncodeStatus(s, 0),
                   nmc::EncodeStatus(s, nmc::kSendId),
-                  {},  // nobody left at address 0
+                  {},  // nobody left at address 0: SET_ADDR 3,
+                  {},  // NOP to 3 (did it take effect?),
+                  {},  // SET_ADDR 3 again,
+                  {},  // NOP to 3 again: the end of the chain
                   {},  // SET_BAUD: no reply
                   nmc::EncodeStatus(s, 0),
                   nmc::EncodeStatus(s, 0)};
