@@ -371,6 +371,38 @@ TEST(HardwareBridge, ShutdownLeavesMotorsOffAndAmplifiersDisabled) {
   EXPECT_EQ(rig.emulator->counters().baud, nmc::kPowerUpBaud);  // hard reset, as the vendor does
 }
 
+// Homing on the encoder index: joint 1 searches upwards from 3 deg; the emulator's index fires once
+// per motor turn, i.e. every 360 / 46.72 = 7.7055 deg of the joint, so the first one is there.
+TEST(HardwareBridge, HomingOnTheIndexFindsTheJointsZero) {
+  const double index_deg = 360.0 / 46.72;
+  Rig rig([&](BridgeSettings& s, EmulatorOptions& e) {
+    e.start_positions[0] = 3 * kDeg;
+    s.homing[0] = JointHoming{HomingMethod::kIndex, 5 * kDeg, index_deg * kDeg};
+  });
+  rig.node->Connect();
+  rig.node->Calibrate();
+  rig.RunUntil(0.1, nullptr);
+  const double physical = rig.emulator->JointPositions()[0] / kDeg;
+  EXPECT_GT(physical, index_deg - 0.5);  // it moved past the index and stopped smoothly
+  EXPECT_LT(physical, index_deg + 2);
+  EXPECT_NEAR(rig.node->reading().position[0] / kDeg, physical, 0.05);
+  EXPECT_FALSE(rig.emulator->ModuleStatus(0).aux & nmc::kAuxServoOn);  // servos end off
+  // A joint whose index never comes: the search gives up with a message naming it.
+  Rig stuck([](BridgeSettings& s, EmulatorOptions&) {
+    s.homing[0] = JointHoming{HomingMethod::kLimit2, 2 * kDeg, 0};
+    s.homing_timeout_s = 0.5;
+  });
+  stuck.node->Connect();
+  try {
+    stuck.node->Calibrate();
+    FAIL() << "no error";
+  } catch (const std::runtime_error& e) {
+    EXPECT_EQ(std::string(e.what()),
+              "calibrate: joint j1 (waist): no limit2 change within 0.5 s of homing");
+  }
+  EXPECT_FALSE(stuck.link->calibrated());
+}
+
 TEST(HardwareBridge, BadSettingsNameFileLineAndAllowedValues) {
   const auto error = [](const std::string& text) {
     try {
