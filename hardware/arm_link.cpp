@@ -84,7 +84,6 @@ void ArmLink::Connect() {
     chip.deadband = static_cast<uint8_t>(g.deadband);
     bus_.Command(nmc::StopMotor(a, nmc::kMotorOff));  // amplifier off while configuring
     bus_.Command(nmc::SetGain(a, chip));
-    bus_.Command(nmc::StopMotor(a, nmc::kAmpEnable | nmc::kMotorOff));
     bus_.Command(nmc::ClearBits(a));
     bus_.Command(nmc::DefineStatus(a, kPollItems));
   }
@@ -141,7 +140,7 @@ void ArmLink::Home(int j, const JointHoming& h) {
     const nmc::Status s = bus_.Command(nmc::Nop(a));
     if (!(s.status & nmc::kStatusHomeInProgress) && (s.status & nmc::kStatusMoveDone)) break;
     if (Clock::now() > deadline) {
-      bus_.Command(nmc::StopMotor(a, nmc::kAmpEnable | nmc::kMotorOff));
+      bus_.Command(nmc::StopMotor(a, nmc::kMotorOff));
       throw std::runtime_error("calibrate: " + JointName(model_, j) + ": no " +
                                HomingMethodName(h.method) + " change within " +
                                core::FormatNumber(settings_.homing_timeout_s) + " s of homing");
@@ -152,7 +151,7 @@ void ArmLink::Home(int j, const JointHoming& h) {
   // Where the joint is now, given that the home position is at home_angle.
   const int64_t now_counts =
       static_cast<int64_t>(home.position) - home.home + drive.ToCounts(h.home_angle);
-  bus_.Command(nmc::StopMotor(a, nmc::kAmpEnable | nmc::kMotorOff));
+  bus_.Command(nmc::StopMotor(a, nmc::kMotorOff));  // amplifier off again
   bus_.Command(nmc::SetPosition(a, ClampCounts(now_counts)));
   bus_.Command(nmc::ClearBits(a));
   goals_[static_cast<size_t>(j)] = drive.FromCounts(now_counts);
@@ -181,7 +180,7 @@ void ArmLink::Disarm() {
       if (s.status & nmc::kStatusMoveDone) break;
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
-    bus_.Command(nmc::StopMotor(Address(j), nmc::kAmpEnable | nmc::kMotorOff));
+    bus_.Command(nmc::StopMotor(Address(j), nmc::kMotorOff));  // servo and amplifier off
   }
   armed_ = false;
 }

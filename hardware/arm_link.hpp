@@ -42,7 +42,7 @@ class ArmLink {
   ArmLink(const core::RobotModel& model, const BridgeSettings& settings, BytePort& port);
 
   // Vendor start-up, then per module: amplifier off, SET_GAIN from the model, CLEAR_BITS,
-  // DEF_STAT(kPollItems). Throws BusError, or std::runtime_error when the modules found do not
+  // DEF_STAT(kPollItems). Amplifiers stay disabled until Arm() (an arm with brakes holds). Throws BusError, or std::runtime_error when the modules found do not
   // match the model (count or type).
   void Connect();
   // The calibration of BridgeSettings: joints without homing are defined to be at the calibration
@@ -51,7 +51,7 @@ class ArmLink {
   void Calibrate();
   // Servos on, holding the present positions. Requires Calibrate().
   void Arm();
-  // Smooth stop, then servos off (amplifiers stay enabled).
+  // Smooth stop, then servos and amplifiers off.
   void Disarm();
 
   // "" if the move may be sent, else why not (limits, speeds, joint count, state).
