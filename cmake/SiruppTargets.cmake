@@ -23,13 +23,19 @@ endfunction()
 #   One line per test file: builds tests/<name>.cpp with GoogleTest against the given libraries and
 #   registers every TEST in it with CTest. Tests run from the source root, so paths like
 #   config/robots/puma260.yaml work as written.
+# SERIAL: the test's cases run alone (RUN_SERIAL), for tests that keep real-time pace with a
+# thread or process of their own (the PIC-SERVO emulator) and would starve beside other tests.
 function(sirupp_add_test name)
-  cmake_parse_arguments(ARG "" "" "DEPS;SOURCES" ${ARGN})
+  cmake_parse_arguments(ARG "SERIAL" "" "DEPS;SOURCES" ${ARGN})
   add_executable(${name} ${name}.cpp ${ARG_SOURCES})
   target_link_libraries(${name} PRIVATE ${ARG_DEPS} GTest::gtest GTest::gtest_main)
   sirupp_set_warnings(${name})
+  set(serial FALSE)
+  if(ARG_SERIAL)
+    set(serial TRUE)
+  endif()
   gtest_discover_tests(${name}
     WORKING_DIRECTORY ${PROJECT_SOURCE_DIR}
-    PROPERTIES ENVIRONMENT "SIRUPP_BIN_DIR=${CMAKE_BINARY_DIR}/bin"
+    PROPERTIES ENVIRONMENT "SIRUPP_BIN_DIR=${CMAKE_BINARY_DIR}/bin" RUN_SERIAL ${serial}
     DISCOVERY_TIMEOUT 30)
 endfunction()

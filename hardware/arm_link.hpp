@@ -42,8 +42,8 @@ class ArmLink {
   ArmLink(const core::RobotModel& model, const BridgeSettings& settings, BytePort& port);
 
   // Vendor start-up, then per module: amplifier off, SET_GAIN from the model, CLEAR_BITS,
-  // DEF_STAT(kPollItems). Amplifiers stay disabled until Arm() (an arm with brakes holds). Throws BusError, or std::runtime_error when the modules found do not
-  // match the model (count or type).
+  // DEF_STAT(kPollItems). Amplifiers stay disabled until Arm() (an arm with brakes holds). Throws
+  // BusError, or std::runtime_error when the modules found do not match the model (count or type).
   void Connect();
   // The calibration of BridgeSettings: joints without homing are defined to be at the calibration
   // pose's angle (RESET_POS with SET_POS); joints with homing search their switch or index at the

@@ -69,10 +69,6 @@ BridgeNode::BridgeNode(core::Bus& bus, const core::RobotModel& model, ArmLink& l
   bus_.Subscribe<sirupp::controller_status_t>(
       c.controller_status,
       [this](const sirupp::controller_status_t&, const core::ReceiveInfo&) { NoteController(); });
-  bus_.Subscribe<sirupp::servo_setpoint_t>(
-      c.arm_setpoint,
-      [this](const sirupp::servo_setpoint_t&, const core::ReceiveInfo&) { NoteController(); },
-      4000);
   heartbeat_.Publish(core::ProcessState::kStarting, "");
 }
 
@@ -190,8 +186,7 @@ void BridgeNode::OnMove(const sirupp::servo_move_t& m, const core::ReceiveInfo& 
   CheckStartGuard(info.channel);
   if (estopped_)
     Refuse(info.channel, "move " + std::to_string(m.move_id) + ": emergency stop engaged");
-  if (faulted_)
-    Refuse(info.channel, "move " + std::to_string(m.move_id) + ": fault: " + fault_);
+  if (faulted_) Refuse(info.channel, "move " + std::to_string(m.move_id) + ": fault: " + fault_);
   const std::string refusal = link_.CheckMove(m);
   if (!refusal.empty()) Refuse(info.channel, "move " + std::to_string(m.move_id) + ": " + refusal);
   try {
@@ -293,6 +288,8 @@ void BridgeNode::Cycle() {
     }
     ++polls_;
     if (first_poll_us_ == 0) first_poll_us_ = reading_.wall_us;
+    // What arrived during a slow poll first: the controller's liveness is judged on it.
+    bus_.HandleAvailable();
     CheckSafety();
     PublishState();
   }

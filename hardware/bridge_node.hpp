@@ -4,7 +4,7 @@
 //
 // In:  HARDWARE_COMMAND (connect, calibrate, arm, disarm, link, unlink, home, clear faults),
 //      ARM_MOVE (mirrored to the boards while linked), ESTOP, and the controller's liveness
-//      (CONTROLLER_STATUS, ARM_SETPOINT, ARM_MOVE) for command expiry.
+//      (CONTROLLER_STATUS, sent at 10 Hz, and ARM_MOVE) for command expiry.
 // Out: REAL_ARM_STATE and REAL_ARM_SETPOINT every poll (poll_rate_hz), HARDWARE_STATUS (10 Hz and
 // on
 //      every change), HEARTBEAT.

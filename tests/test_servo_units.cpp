@@ -5,8 +5,8 @@
 
 #include <cmath>
 
-#include "servo/servo_units.hpp"
 #include "core/model_loader.hpp"
+#include "servo/servo_units.hpp"
 
 namespace sirupp::servo {
 namespace {

@@ -102,14 +102,7 @@ class RigWatch {
 
   // Handles messages until done() holds or timeout_s passed; returns done().
   bool Until(const std::function<bool()>& done, double timeout_s) {
-    const Clock::time_point end =
-        Clock::now() + std::chrono::microseconds(static_cast<int64_t>(timeout_s * 1e6));
-    while (!done()) {
-      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(end - Clock::now());
-      if (left.count() <= 0) return done();
-      bus_.Handle(static_cast<int>(std::min<int64_t>(left.count(), 50)));
-    }
-    return true;
+    return HandleUntil(bus_, done, timeout_s);
   }
 
   // Waits for the first CONTROLLER_STATUS; false (and a message on `out`) if none came.

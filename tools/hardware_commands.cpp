@@ -114,13 +114,7 @@ class StatusWatch {
         [this](const hardware_status_t& m, const core::ReceiveInfo&) { status = m; });
   }
   bool Until(const std::function<bool()>& done, double timeout_s) {
-    const auto end = Clock::now() + std::chrono::duration<double>(timeout_s);
-    while (!done()) {
-      const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(end - Clock::now());
-      if (left.count() <= 0) return done();
-      bus_.Handle(static_cast<int>(std::min<int64_t>(left.count(), 50)));
-    }
-    return true;
+    return HandleUntil(bus_, done, timeout_s);
   }
   std::optional<hardware_status_t> status;
 
@@ -230,11 +224,11 @@ int RunEstop(const std::vector<std::string>& args, std::ostream& out) {
         return watch.status &&
                (watch.status->state == hardware_status_t::STATE_ESTOPPED) == !release;
       },
-      1.0);
+      2.0);
   if (heard) {
     out << "bridge: " << StateName(watch.status->state) << "\n";
   } else {
-    out << "no bridge confirmed it within 1 s (none running, or it is on another --prefix)\n";
+    out << "no bridge confirmed it within 2 s (none running, or it is on another --prefix)\n";
   }
   return 0;
 }

@@ -1,5 +1,6 @@
 #include "tools/rig_args.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <ostream>
 
@@ -80,6 +81,19 @@ const std::map<std::string, std::string> kRigFlags = {{"lcm-url", "LCM URL"},
 std::map<std::string, std::string> WithRigFlags(std::map<std::string, std::string> flags) {
   flags.insert(kRigFlags.begin(), kRigFlags.end());
   return flags;
+}
+
+bool HandleUntil(core::Bus& bus, const std::function<bool()>& done, double timeout_s) {
+  const auto end = std::chrono::steady_clock::now() +
+                   std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                       std::chrono::duration<double>(timeout_s));
+  while (!done()) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+        end - std::chrono::steady_clock::now());
+    if (left.count() <= 0) return done();
+    bus.Handle(static_cast<int>(std::min<int64_t>(left.count(), 50)));
+  }
+  return true;
 }
 
 double TimeoutFrom(const Args& parsed, double fallback) {

@@ -3,6 +3,7 @@
 // status): the model, the bus and joint positions from the command line, and a wall clock.
 
 #include <cstdint>
+#include <functional>
 #include <iosfwd>
 #include <map>
 #include <string>
@@ -19,6 +20,9 @@ std::map<std::string, std::string> WithRigFlags(std::map<std::string, std::strin
 
 // --timeout S (seconds > 0), or `fallback` when absent; throws core::UsageError otherwise.
 double TimeoutFrom(const Args& parsed, double fallback);
+
+// Handles messages on `bus` until done() holds or timeout_s passed; returns done().
+bool HandleUntil(core::Bus& bus, const std::function<bool()>& done, double timeout_s);
 
 // --model FILE, default config/robots/puma260.yaml (found from any working directory).
 core::RobotModel ModelFromArgs(const Args& parsed);

@@ -56,19 +56,37 @@ has link "$out" "bridge linked"
 
 # The virtual arm moves; the emulated one follows through the bridge.
 run move 0 move joints --lcm-url "$URL" --deg 30 0 0 0 0 0 --wait
-sleep 0.5
-run status 0 hardware status --lcm-url "$URL"
+# Joint 1: 30 deg = 30/360 * 1000 * 46.72 counts, negative gear: about -3893. The real arm may
+# finish a little after the virtual one on a loaded machine: wait for it, up to 5 s.
+pos=""
+for _ in $(seq 25); do
+  "$SIRUPP" hardware status --lcm-url "$URL" >"$out" 2>"$err"
+  pos=$(sed -n 's/^  module 1: .*position \(-*[0-9]*\) counts.*/\1/p' "$out")
+  [[ -n "$pos" && $pos -lt -3800 && $pos -gt -3990 ]] && break
+  sleep 0.2
+done
 has status "$out" "bridge: linked, calibrated"
-# Joint 1: 30 deg = 30/360 * 1000 * 46.72 counts, negative gear: about -3893.
-pos=$(sed -n 's/^  module 1: .*position \(-*[0-9]*\) counts.*/\1/p' "$out")
 [[ -n "$pos" && $pos -lt -3800 && $pos -gt -3990 ]] || { echo "FAIL mirrored j1: '$pos' counts"; cat "$out"; fail=1; }
 
 run estop 0 estop --lcm-url "$URL" --reason "test stop"
-has estop "$out" "bridge: emergency stop"
+has estop "$out" "engaged ESTOP"
+for _ in $(seq 25); do
+  "$SIRUPP" hardware status --lcm-url "$URL" >"$out" 2>"$err"
+  grep -q "bridge: emergency stop" "$out" && break
+  sleep 0.2
+done
+has estopped "$out" "bridge: emergency stop"
+has estop_reason "$out" "emergency stop from 'sirupp CLI (pid"
 run arm_stopped 1 hardware arm --lcm-url "$URL"
 has arm_stopped "$out" "emergency stop is engaged"
 run release 0 estop --release --lcm-url "$URL"
-has release "$out" "bridge: connected (servos off)"
+has release "$out" "released ESTOP"
+for _ in $(seq 25); do
+  "$SIRUPP" hardware status --lcm-url "$URL" >"$out" 2>"$err"
+  grep -q "bridge: connected (servos off)" "$out" && break
+  sleep 0.2
+done
+has released "$out" "bridge: connected (servos off)"
 run rearm 0 hardware arm --lcm-url "$URL"
 
 kill -TERM $hw
