@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "core/yaml_reader.hpp"
+#include "hardware/nmc_protocol.hpp"
 
 namespace sirupp::hardware {
 namespace {
@@ -84,8 +85,8 @@ BridgeSettings ParseBridgeSettings(const std::string& text, const std::string& n
   s.port = map.StringOr("port", s.port);
   if (auto v = map.Find("baud")) {
     const int64_t baud = v->Integer(9600, 230400);
-    if (baud != 9600 && baud != 19200 && baud != 57600 && baud != 115200 && baud != 230400) {
-      v->Fail(std::to_string(baud) + " baud; allowed: 9600, 19200, 57600, 115200, 230400");
+    if (!nmc::IsSupportedBaud(static_cast<int>(baud))) {
+      v->Fail(std::to_string(baud) + " baud; allowed: " + nmc::SupportedBauds());
     }
     s.baud = static_cast<int>(baud);
   }

@@ -12,6 +12,7 @@
 #include "hardware/arm_link.hpp"
 #include "hardware/bridge_node.hpp"
 #include "hardware/bridge_settings.hpp"
+#include "hardware/nmc_protocol.hpp"
 #include "hardware/serial_port.hpp"
 #include "tools/args.hpp"
 #include "tools/cli.hpp"
@@ -68,9 +69,10 @@ int Run(const std::vector<std::string>& argv) {
   }
   if (args.Has("baud")) {
     const double baud = args.Numbers("baud", 1)[0];
-    if (baud != 9600 && baud != 19200 && baud != 57600 && baud != 115200 && baud != 230400) {
+    if (!(baud >= 0 && baud <= 1e7) || baud != std::floor(baud) ||
+        !sirupp::hardware::nmc::IsSupportedBaud(static_cast<int>(baud))) {
       throw UsageError("sirupp-hardware: --baud " + sirupp::core::FormatNumber(baud) +
-                       " is not allowed; allowed: 9600, 19200, 57600, 115200, 230400");
+                       " is not allowed; allowed: " + sirupp::hardware::nmc::SupportedBauds());
     }
     settings.baud = static_cast<int>(baud);
   }

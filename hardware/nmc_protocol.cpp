@@ -75,6 +75,13 @@ int BaudFromDivisor(uint8_t divisor) {
   return 0;
 }
 
+bool IsSupportedBaud(int baud) {
+  for (const BaudRow& row : kBauds) {
+    if (row.baud == baud) return true;
+  }
+  return false;
+}
+
 std::string SupportedBauds() {
   std::string s;
   for (const BaudRow& row : kBauds) {

@@ -134,6 +134,7 @@ inline constexpr uint8_t kVersionPicServoSc = 10;
 // allowed rates for any other value.
 uint8_t BaudDivisor(int baud);
 int BaudFromDivisor(uint8_t divisor);  // 0 if unknown
+bool IsSupportedBaud(int baud);
 inline constexpr int kPowerUpBaud = 19200;
 // "9600, 19200, 57600, 115200, 230400"
 std::string SupportedBauds();

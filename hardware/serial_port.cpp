@@ -10,6 +10,8 @@
 #include <cstdlib>
 #include <cstring>
 
+#include "hardware/nmc_protocol.hpp"
+
 namespace sirupp::hardware {
 namespace {
 
@@ -29,7 +31,7 @@ speed_t SpeedFor(int baud, const std::string& device) {
       return B230400;
     default:
       throw SerialError(device + ": baud " + std::to_string(baud) +
-                        " is not allowed; allowed: 9600, 19200, 57600, 115200, 230400");
+                        " is not allowed; allowed: " + nmc::SupportedBauds());
   }
 }
 
