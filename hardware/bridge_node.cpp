@@ -128,6 +128,7 @@ void BridgeNode::OnCommand(const hardware_command_t& m, const core::ReceiveInfo&
                              "calibrate, arm, disarm, link, unlink, home, clear-faults)");
   }
   CheckStartGuard(info.channel);
+  ++state_commands_;
   const std::string what = std::string(name) + " from '" + m.sender + "'";
   try {
     switch (m.command) {
@@ -201,6 +202,7 @@ void BridgeNode::OnMove(const sirupp::servo_move_t& m, const core::ReceiveInfo& 
 }
 
 void BridgeNode::OnEstop(const sirupp::estop_t& m, const core::ReceiveInfo&) {
+  ++state_commands_;
   if (m.engaged) {
     linked_ = false;
     estopped_ = true;
@@ -289,8 +291,11 @@ void BridgeNode::Cycle() {
     ++polls_;
     if (first_poll_us_ == 0) first_poll_us_ = reading_.wall_us;
     // What arrived during a slow poll first: the controller's liveness is judged on it.
+    const int64_t commands_before = state_commands_;
     bus_.HandleAvailable();
-    CheckSafety();
+    // A reading taken before a command changed the arm's state (arming clears POS_ERR, which is
+    // set while a servo is off) says nothing about the new state: the next poll is judged.
+    if (state_commands_ == commands_before) CheckSafety();
     PublishState();
   }
   const double since = std::chrono::duration<double>(Clock::now() - last_status_).count();

@@ -108,6 +108,7 @@ class BridgeNode {
   ArmReading reading_;
   int64_t move_id_ = -1;
   int64_t polls_ = 0;
+  int64_t state_commands_ = 0;  // hardware commands and stops handled, to spot stale readings
   int64_t moves_mirrored_ = 0;
   int64_t state_seq_ = 0;
   int64_t setpoint_seq_ = 0;
