@@ -25,7 +25,14 @@ function(sirupp_lcm_types)
     add_custom_command(
       OUTPUT ${outputs}
       COMMAND ${LCM_GEN_EXECUTABLE} --cpp --cpp-std c++11 --cpp-hpath ${cpp_dir} ${java_flags} ${abs}
-      DEPENDS ${abs}
+      # lcm-gen 1.3.1 checks string lengths against the bytes left but not array counts: a message
+      # with a valid fingerprint and num_joints = 2^31-1 would make decode allocate and zero-fill
+      # gigabytes first. Every element takes at least one byte, so a count above the bytes left is
+      # refused (decode returns -1) before the resize.
+      COMMAND sed -i -E
+        "s/^( *)(this->[A-Za-z0-9_]+)\\.resize\\((this->[A-Za-z0-9_]+)\\);/\\1if (\\3 < 0 || \\3 > maxlen - pos) return -1;\\n\\1\\2.resize(\\3);/"
+        ${hpp}
+      DEPENDS ${abs} ${CMAKE_CURRENT_FUNCTION_LIST_FILE}
       COMMENT "lcm-gen ${type}"
       VERBATIM)
     list(APPEND hpp_outputs ${hpp})

@@ -26,13 +26,16 @@ std::size_t LongestDefaultName() {
 Channels Channels::WithPrefix(const std::string& prefix) {
   ValidateChannelPrefix(prefix);
   Channels channels;
-  for (std::string* name :
-       {&channels.robot_model, &channels.environment, &channels.sim_arm_state,
-        &channels.sim_arm_command, &channels.sim_reset, &channels.arm_move, &channels.arm_setpoint,
-        &channels.arm_gains, &channels.arm_target, &channels.arm_pose_target, &channels.arm_plan,
-        &channels.controller_status, &channels.real_arm_state, &channels.real_arm_setpoint,
-        &channels.hardware_status, &channels.hardware_command, &channels.estop, &channels.heartbeat,
-        &channels.viewer_image}) {
+  for (std::string* name : {&channels.robot_model,     &channels.environment,
+                            &channels.sim_arm_state,   &channels.sim_arm_command,
+                            &channels.sim_reset,       &channels.arm_move,
+                            &channels.arm_setpoint,    &channels.arm_gains,
+                            &channels.arm_target,      &channels.arm_pose_target,
+                            &channels.arm_plan,        &channels.controller_status,
+                            &channels.real_arm_state,  &channels.real_arm_setpoint,
+                            &channels.hardware_status, &channels.hardware_command,
+                            &channels.estop,           &channels.heartbeat,
+                            &channels.viewer_image,    &channels.viewer_camera}) {
     name->insert(0, prefix);
   }
   return channels;
@@ -43,7 +46,7 @@ std::vector<std::string> Channels::All() const {
           sim_reset,      arm_move,          arm_setpoint,    arm_gains,
           arm_target,     arm_pose_target,   arm_plan,        controller_status,
           real_arm_state, real_arm_setpoint, hardware_status, hardware_command,
-          estop,          heartbeat,         viewer_image};
+          estop,          heartbeat,         viewer_image,    viewer_camera};
 }
 
 void ValidateChannelPrefix(const std::string& prefix) {
@@ -100,8 +103,8 @@ const std::vector<ChannelInfo>& ChannelTable() {
       {"REAL_ARM_STATE", "sirupp.arm_state_t", "sirupp-hardware",
        "sirupp-logger, sirupp-viewer, sirupp-control", "every status poll (about 100-500 Hz)",
        "real arm: joint positions and velocities from the encoders, estimated efforts"},
-      {"REAL_ARM_SETPOINT", "sirupp.servo_setpoint_t", "sirupp-hardware",
-       "sirupp-viewer (issue 8), lcm-spy", "with every REAL_ARM_STATE",
+      {"REAL_ARM_SETPOINT", "sirupp.servo_setpoint_t", "sirupp-hardware", "lcm-spy",
+       "with every REAL_ARM_STATE",
        "the real chips' own command positions (position + position error), goals, status"},
       {"HARDWARE_STATUS", "sirupp.hardware_status_t", "sirupp-hardware",
        "sirupp CLI, sirupp launch", "10 Hz and on change",
@@ -115,6 +118,10 @@ const std::vector<ChannelInfo>& ChannelTable() {
       {"VIEWER_IMAGE", "sirupp.image_t", "sirupp-viewer",
        "sirupp view, lcm-spy, sirupp-logger (optional)", "chosen rate (e.g. 10-30 Hz)",
        "rendered frames (JPEG or raw pixels) in the bot_core.image_t layout"},
+      {"VIEWER_CAMERA", "sirupp.viewer_camera_t", "sirupp view, lesson scripts or user",
+       "sirupp-viewer", "on demand",
+       "camera azimuth, elevation, distance and target; DH frames and ghost on or off; a PNG "
+       "snapshot"},
   };
   return table;
 }

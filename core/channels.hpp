@@ -34,6 +34,7 @@ struct Channels {
   std::string estop = "ESTOP";
   std::string heartbeat = "HEARTBEAT";
   std::string viewer_image = "VIEWER_IMAGE";
+  std::string viewer_camera = "VIEWER_CAMERA";
 
   // The defaults with `prefix` in front of each. Throws std::invalid_argument if the prefix is not
   // allowed (see ValidateChannelPrefix).

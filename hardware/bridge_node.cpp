@@ -68,7 +68,17 @@ BridgeNode::BridgeNode(core::Bus& bus, const core::RobotModel& model, ArmLink& l
       [this](const sirupp::estop_t& m, const core::ReceiveInfo& info) { OnEstop(m, info); });
   bus_.Subscribe<sirupp::controller_status_t>(
       c.controller_status,
-      [this](const sirupp::controller_status_t&, const core::ReceiveInfo&) { NoteController(); });
+      [this](const sirupp::controller_status_t& m, const core::ReceiveInfo& info) {
+        // Only a status a controller could have sent shows that one is alive; others are refused.
+        using Status = sirupp::controller_status_t;
+        if (m.mode < Status::MODE_MANUAL || m.mode > Status::MODE_AUTOMATIC ||
+            m.state < Status::STATE_IDLE || m.state > Status::STATE_OFF) {
+          throw core::MessageError(info.channel, "mode/state",
+                                   std::to_string(m.mode) + "/" + std::to_string(m.state) +
+                                       ": allowed mode 0..1, state 0..5");
+        }
+        NoteController();
+      });
   heartbeat_.Publish(core::ProcessState::kStarting, "");
 }
 

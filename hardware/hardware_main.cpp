@@ -1,6 +1,7 @@
 // sirupp-hardware: the bridge to the real PUMA (PIC-SERVO SC boards on an NMC serial bus), or to
 // sirupp-picservo-emu. Thin main: flags, settings, then BridgeNode until a signal.
 
+#include <algorithm>
 #include <cmath>
 #include <iostream>
 #include <memory>
@@ -34,7 +35,8 @@ constexpr const char* kUsage =
     "  config/hardware/puma260.yaml; docs/hardware.md). --port, --baud and --rate override it.\n"
     "--calibrate, --arm, --link: do these steps at start-up, in that order (the operator's\n"
     "  decision; the start guard applies to bus commands only).\n"
-    "--emulated: mark REAL_ARM_STATE as SOURCE_EMULATED (the arm is sirupp-picservo-emu).\n"
+    "--emulated: mark REAL_ARM_STATE as SOURCE_EMULATED (the arm is sirupp-picservo-emu), and\n"
+    "  wait at least 100 ms for a late reply (reply_margin_ms) before retrying.\n"
     "--trace: print every packet and reply.\n"
     "On SIGINT or SIGTERM, and on a fatal error: motors stop, servos off, amplifiers disabled.\n";
 
@@ -84,7 +86,12 @@ int Run(const std::vector<std::string>& argv) {
     }
     settings.poll_rate_hz = rate;
   }
-  if (args.Switch("emulated")) settings.emulated = true;
+  if (args.Switch("emulated")) {
+    settings.emulated = true;
+    // The emulator is a thread of a user process on a shared machine: a reply held up by the
+    // scheduler is not a broken line, so it gets longer to come (only failed exchanges wait it).
+    settings.reply_margin_ms = std::max(settings.reply_margin_ms, 100);
+  }
   const bool connect = !args.Switch("no-connect");
   const bool calibrate = args.Switch("calibrate");
   const bool arm = args.Switch("arm");

@@ -33,6 +33,8 @@ packages=(
   libgtest-dev libgmock-dev
   # multi-host tests (network namespaces), process tools
   iproute2 procps
+  # an X server without a screen, for the test that starts lcm-spy (sirupp spy)
+  xvfb xauth
 )
 if [[ $peers -eq 1 ]]; then
   packages+=(liborocos-kdl-dev libmujoco-dev)

@@ -138,7 +138,12 @@ int Run(const std::vector<std::string>& argv) {
             << " steps, " << c.states_published << " states sent, " << c.commands_accepted
             << " commands accepted, " << c.commands_rejected << " rejected, " << c.commands_late
             << " late, " << c.lockstep_timeouts << " lockstep timeouts, " << c.watchdog_holds
-            << " watchdog holds, " << c.resets << " resets\n";
+            << " watchdog holds, " << c.resets << " resets";
+  if (options.mode == sirupp::sim::TimingMode::kRealtime) {
+    std::cerr << ", " << c.ticks_late << " ticks with a late command, " << c.overruns
+              << " overruns";
+  }
+  std::cerr << "\n";
   std::cerr << "sirupp-sim: final joint positions (rad or m):";
   for (double q : world.State().position) std::cerr << " " << sirupp::core::FormatApprox(q);
   std::cerr << "\n";

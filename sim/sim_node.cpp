@@ -364,7 +364,19 @@ void SimNode::ServiceFree(int max_wait_ms) {
     return;
   }
   if (due > 1) counters_.overruns += due - 1;
-  for (int64_t k = 0; k < due && !Finished(); ++k) StepTicks(command_now(now), 1);
+  for (int64_t k = 0; k < due && !Finished(); ++k) {
+    // A command came late if no sender has answered the state of the tick being left yet.
+    if (!newest_.empty()) {
+      int64_t answered = -1;
+      for (const auto& [sender, answer] : newest_)
+        answered = std::max(answered, answer.command.tick);
+      if (answered < world_.tick()) {
+        ++counters_.ticks_late;
+        bus_.NoteLate(options_.channels.sim_arm_command);
+      }
+    }
+    StepTicks(command_now(now), 1);
+  }
   // Wait for the next tick, handling messages meanwhile.
   const Clock::time_point next =
       start_wall_ + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(

@@ -72,6 +72,9 @@ struct NodeCounters {
   int64_t watchdog_holds = 0;     // realtime ticks braked because no command was fresh
   int64_t resets = 0;
   int64_t overruns = 0;  // realtime: ticks that started later than one step behind
+  // realtime: ticks stepped before any answer to the latest state had arrived (counted as late on
+  // SIM_ARM_COMMAND too); the tick then holds an older command
+  int64_t ticks_late = 0;
 };
 
 class SimNode {

@@ -4,6 +4,7 @@
 #include <gtest/gtest.h>
 
 #include <cstdint>
+#include <fstream>
 #include <sirupp/arm_command_t.hpp>
 #include <sirupp/arm_state_t.hpp>
 #include <sirupp/image_t.hpp>
@@ -193,6 +194,41 @@ TEST(BusTest, WrongTypeAndGarbageAreDecodeErrorsAndNeverReachTheHandler) {
   bus.HandleAvailable();
   EXPECT_EQ(handler_calls, 1);
   EXPECT_EQ(bus.StatsFor("SIM_ARM_STATE").decode_errors, 4);
+}
+
+// Peak resident memory of this process so far, KiB (VmHWM).
+long PeakResidentKib() {
+  std::ifstream status("/proc/self/status");
+  for (std::string line; std::getline(status, line);) {
+    if (line.rfind("VmHWM:", 0) == 0) return std::stol(line.substr(6));
+  }
+  return 0;
+}
+
+TEST(BusTest, AbsurdArrayCountsAreDecodeErrorsWithoutAllocating) {
+  // Right fingerprint, num_joints patched to 50 million (400 MB per array once resized) or -1: the
+  // generated decoder, with the count check cmake/SiruppLcmGen.cmake adds, refuses it before it
+  // resizes any vector, so the peak memory does not grow.
+  Bus bus(kMemq);
+  int handler_calls = 0;
+  bus.Subscribe<sirupp::arm_state_t>(
+      "SIM_ARM_STATE", [&](const sirupp::arm_state_t&, const ReceiveInfo&) { ++handler_calls; });
+  const sirupp::arm_state_t state = MakeState(0);
+  std::vector<uint8_t> encoded(static_cast<std::size_t>(state.getEncodedSize()));
+  ASSERT_EQ(state.encode(encoded.data(), 0, static_cast<int>(encoded.size())),
+            static_cast<int>(encoded.size()));
+  const std::size_t count_at = 8 + 8 + 8 + 8 + 1;  // fingerprint, utime, seq, tick, source
+  ASSERT_EQ(encoded[count_at + 3], state.num_joints);
+  const long peak_before = PeakResidentKib();
+  for (const uint32_t count : {50000000u, 0xffffffffu}) {
+    std::vector<uint8_t> bad = encoded;
+    for (int b = 0; b < 4; ++b) bad[count_at + b] = static_cast<uint8_t>(count >> (24 - 8 * b));
+    bus.raw_lcm().publish("SIM_ARM_STATE", bad.data(), static_cast<unsigned>(bad.size()));
+  }
+  EXPECT_EQ(bus.HandleAvailable(), 2);
+  EXPECT_EQ(handler_calls, 0);
+  EXPECT_EQ(bus.StatsFor("SIM_ARM_STATE").decode_errors, 2);
+  EXPECT_LT(PeakResidentKib() - peak_before, 100 * 1024) << "decode allocated for the bad count";
 }
 
 TEST(BusTest, WrongTypeDescriptionNamesTheForeignFingerprint) {

@@ -14,6 +14,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <sirupp/arm_state_t.hpp>
 #include <sirupp/controller_status_t.hpp>
 #include <sirupp/servo_setpoint_t.hpp>
@@ -405,6 +406,50 @@ TEST(LoggerNode, TakesTheRealArmWhenItIsThereAndRefusesWrongJointCounts) {
   std::stringstream text;
   text << in.rdbuf();
   EXPECT_NE(text.str().find("real arm: emulated"), std::string::npos);
+}
+
+// Malformed traffic (a flood, a broken publisher): a NaN or infinite value, or a controller
+// status with a mode or state no controller sends, is refused and counted; the file keeps only
+// finite rows and no plan split comes from it.
+TEST(LoggerNode, RefusesNonFiniteValuesAndImpossibleStatuses) {
+  LoggerRig rig;
+  LoggerNode node(rig.bus, rig.model, rig.Options());
+  for (int64_t tick = 0; tick < 200; ++tick) {
+    rig.bus.Publish("SIM_ARM_STATE", ArmState(tick, tick, 1.0));
+    rig.bus.Publish("ARM_SETPOINT", Setpoint(tick, tick, 0, 2.0));
+    if (tick == 50) {
+      sirupp::arm_state_t nan = ArmState(tick, tick, 1.0);
+      nan.position[1] = std::numeric_limits<double>::quiet_NaN();
+      rig.bus.Publish("SIM_ARM_STATE", nan);
+      sirupp::servo_setpoint_t inf = Setpoint(tick, tick, 0, 2.0);
+      inf.velocity[2] = std::numeric_limits<double>::infinity();
+      rig.bus.Publish("ARM_SETPOINT", inf);
+      sirupp::arm_state_t real = ArmState(tick, 0, 3.0);
+      real.source = sirupp::arm_state_t::SOURCE_EMULATED;
+      real.effort[0] = -std::numeric_limits<double>::infinity();
+      rig.bus.Publish("REAL_ARM_STATE", real);
+      sirupp::controller_status_t status = PlanStatusMessage(tick, "config/plans/set1.plan", 0);
+      status.state = 99;
+      rig.bus.Publish("CONTROLLER_STATUS", status);
+    }
+    rig.bus.HandleAvailable();
+  }
+  node.Close();
+  for (const char* channel : {"SIM_ARM_STATE", "ARM_SETPOINT", "REAL_ARM_STATE"}) {
+    const core::ChannelStats stats = rig.bus.StatsFor(channel);
+    EXPECT_EQ(stats.rejected, 1) << channel;
+    EXPECT_NE(stats.last_error.find("allowed finite values"), std::string::npos)
+        << stats.last_error;
+  }
+  EXPECT_EQ(rig.bus.StatsFor("CONTROLLER_STATUS").rejected, 1);
+  EXPECT_NE(rig.bus.StatsFor("CONTROLLER_STATUS").last_error.find("state: 99: allowed 0..5"),
+            std::string::npos)
+      << rig.bus.StatsFor("CONTROLLER_STATUS").last_error;
+  const LoggerStats stats = node.stats();
+  ASSERT_EQ(stats.files.size(), 1u);  // no plan started by the refused status
+  const RunTable table = ReadDataFile(stats.files[0]);
+  EXPECT_EQ(table.rows(), 200u);
+  EXPECT_EQ(table.cells[2], 0);  // the refused real state left no trace
 }
 
 // A child process logs a stream it publishes itself, in step with the wall clock (one state and

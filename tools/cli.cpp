@@ -1,6 +1,5 @@
 #include "tools/cli.hpp"
 
-#include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -12,13 +11,16 @@
 #include "core/errors.hpp"
 #include "core/model_loader.hpp"
 #include "core/model_report.hpp"
-#include "sim/arm_world.hpp"
 #include "tools/control_commands.hpp"
+#include "tools/demo_commands.hpp"
 #include "tools/environment_commands.hpp"
 #include "tools/hardware_commands.hpp"
 #include "tools/kinematics_commands.hpp"
+#include "tools/launch_commands.hpp"
 #include "tools/report_commands.hpp"
 #include "tools/sim_commands.hpp"
+#include "tools/spy_commands.hpp"
+#include "tools/view_commands.hpp"
 
 #ifndef SIRUPP_SOURCE_DIR
 #define SIRUPP_SOURCE_DIR "."
@@ -36,7 +38,11 @@ const char* const kUsage =
     "usage: sirupp <command> [arguments]\n"
     "\n"
     "commands:\n"
-    "  demo [--model FILE]        the main job: load the PUMA 260 model and print it\n"
+    "  demo [--out DIR] [--sets N..]  the main job: the paper's experiment headless (sim, "
+    "control,\n"
+    "                             emulated real arm, logger, viewer; Table II report, images)\n"
+    "  launch LAYOUT [--host NAME]  run a lab layout's processes (config/labs/*.yaml), live table\n"
+    "  spy [--lcm-url URL]        lcm-spy with our types: every channel decodes by name\n"
     "  model check FILE...        validate robot model files; exit 2 on the first bad one\n"
     "  model show FILE            print the DH table and link data, in SI and the file's units\n"
     "  fk --model FILE --deg Q..  tool pose for joint positions (see sirupp fk --help)\n"
@@ -57,6 +63,7 @@ const char* const kUsage =
     "                             the bridge to the real arm (or sirupp-picservo-emu)\n"
     "  estop [--release]          emergency stop: real motors off, plans aborted\n"
     "  report FILE...             Table II report, CSV and plots of logger data files or LCM logs\n"
+    "  view [--channel NAME]      show sirupp-viewer's images in a window (needs a display)\n"
     "  help                       this text\n"
     "\n"
     "Model files: config/robots/*.yaml, format in docs/model-format.md.\n"
@@ -85,66 +92,6 @@ int ModelShow(const Args& files, std::ostream& out) {
 }
 
 // The arm in ODE: released limp from its home pose, one second with joint friction.
-void DemoPhysics(const core::RobotModel& model, std::ostream& out) {
-  sim::ArmWorld world(model, core::Environment{});
-  char line[256];
-  std::snprintf(line, sizeof line,
-                "Physics (ODE, step %.3f ms, joint friction on): brakes released at the home pose, "
-                "motors off, 1 s:\n",
-                world.step_s() * 1e3);
-  out << line;
-  out << "   t (s)   joint positions (deg; mm for prismatic)           flags\n";
-  core::ArmCommand limp;
-  limp.mode = core::CommandMode::kLimp;
-  const auto steps_per_row = static_cast<int64_t>(std::lround(0.2 / world.step_s()));
-  const auto start = std::chrono::steady_clock::now();
-  for (int row = 0; row <= 5; ++row) {
-    if (row > 0) {
-      for (int64_t k = 0; k < steps_per_row; ++k) world.Step(limp);
-    }
-    const core::ArmState state = world.State();
-    std::snprintf(line, sizeof line, "  %6.3f  ", world.time_s());
-    out << line;
-    for (int j = 0; j < model.num_joints(); ++j) {
-      const bool revolute = model.joints[static_cast<size_t>(j)].type == core::JointType::kRevolute;
-      std::snprintf(
-          line, sizeof line, "%8.2f",
-          state.position[static_cast<size_t>(j)] * (revolute ? 180 / 3.14159265358979323846 : 1e3));
-      out << line;
-    }
-    std::string flags;
-    for (int8_t f : state.flags) {
-      flags += (f & sirupp::arm_state_t::FLAG_STICKING) ? 'S' : (f & 3) ? 'L' : '.';
-    }
-    out << "   " << flags << "\n";
-  }
-  const double wall =
-      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-  std::snprintf(line, sizeof line,
-                "  (S = held by static friction, L = at a limit; %lld steps in %.3f s of wall "
-                "time)\n",
-                static_cast<long long>(world.tick()), wall);
-  out << line;
-}
-
-int Demo(const Args& args, std::ostream& out) {
-  std::string model_file = ResolveDataPath(kDefaultModel);
-  for (size_t i = 0; i < args.size(); ++i) {
-    if (args[i] == "--model" && i + 1 < args.size()) {
-      model_file = args[++i];
-    } else {
-      throw core::UsageError("demo: unknown argument '" + args[i] + "'; allowed: --model FILE");
-    }
-  }
-  out << "SIRUPP-LCM demo: loading " << model_file << "\n\n";
-  const core::RobotModel model = core::LoadRobotModel(model_file);
-  out << core::ModelReport(model);
-  out << "\nThe model loaded and validated.\n\n";
-  DemoPhysics(model, out);
-  out << "\n(Control, logging and rendering join the demo as their processes arrive.)\n";
-  return kExitOk;
-}
-
 }  // namespace
 
 std::string ResolveDataPath(const std::string& path) {
@@ -162,8 +109,19 @@ int RunCli(const Args& args, std::ostream& out, std::ostream& err) {
     }
     const std::string& command = args[0];
     const Args rest(args.begin() + 1, args.end());
-    if (command == "demo") return Demo(rest, out);
     const bool wants_help = !rest.empty() && (rest[0] == "--help" || rest[0] == "-h");
+    if (command == "demo") {
+      if (wants_help) return out << kDemoUsage, kExitOk;
+      return RunDemo(rest, out, err);
+    }
+    if (command == "launch") {
+      if (wants_help) return out << kLaunchUsage, kExitOk;
+      return RunLaunch(rest, out, err);
+    }
+    if (command == "spy") {
+      if (wants_help) return out << kSpyUsage, kExitOk;
+      return RunSpy(rest, out, err);
+    }
     if (command == "fk") {
       if (wants_help) return out << kFkUsage, kExitOk;
       return RunFk(rest, out);
@@ -195,6 +153,10 @@ int RunCli(const Args& args, std::ostream& out, std::ostream& err) {
     if (command == "status") {
       if (wants_help) return out << kStatusUsage, kExitOk;
       return RunStatus(rest, out);
+    }
+    if (command == "view") {
+      if (wants_help) return out << kViewUsage, kExitOk;
+      return RunView(rest, out, err);
     }
     if (command == "report") {
       if (wants_help) return out << kReportUsage, kExitOk;

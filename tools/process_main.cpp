@@ -39,9 +39,15 @@ int ProcessMain(int argc, char** argv, const char* name, const char* usage,
   }
 }
 
-void ServiceUntilSignal(const std::function<bool()>& service) {
+void InstallStopHandlers() {
   std::signal(SIGINT, OnStopSignal);
   std::signal(SIGTERM, OnStopSignal);
+}
+
+bool StopRequested() { return g_stop; }
+
+void ServiceUntilSignal(const std::function<bool()>& service) {
+  InstallStopHandlers();
   while (!g_stop) {
     try {
       if (!service()) break;

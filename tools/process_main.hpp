@@ -17,6 +17,10 @@ int ProcessMain(int argc, char** argv, const char* name, const char* usage,
 
 // Calls `service` until it returns false or SIGINT / SIGTERM arrives. A core::BusError raised
 // because the signal interrupted LCM's wait ends the loop quietly; any other error propagates.
+// Catches SIGINT and SIGTERM from now on; StopRequested() tells whether one arrived.
+void InstallStopHandlers();
+bool StopRequested();
+
 void ServiceUntilSignal(const std::function<bool()>& service);
 
 }  // namespace sirupp::tools

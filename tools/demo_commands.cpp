@@ -1,0 +1,283 @@
+#include "tools/demo_commands.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <ostream>
+#include <sirupp/hardware_status_t.hpp>
+#include <sstream>
+
+#include "core/bus.hpp"
+#include "core/channels.hpp"
+#include "core/errors.hpp"
+#include "core/model_loader.hpp"
+#include "core/model_report.hpp"
+#include "launch/layout.hpp"
+#include "launch/supervisor.hpp"
+#include "logger/report.hpp"
+#include "tools/args.hpp"
+#include "tools/cli.hpp"
+#include "tools/control_commands.hpp"
+#include "tools/launch_commands.hpp"
+#include "tools/process_main.hpp"
+#include "tools/rig_args.hpp"
+
+namespace sirupp::tools {
+
+namespace fs = std::filesystem;
+
+const char* const kDemoUsage =
+    "usage: sirupp demo [--out DIR] [--sets N...] [--layout FILE] [--lcm-url URL]\n"
+    "The main job: the SIRUPP paper's experiment, headless. Starts the processes of --layout\n"
+    "(default config/labs/demo.yaml: sirupp-picservo-emu, sirupp-sim, sirupp-control,\n"
+    "sirupp-hardware linked to the emulated arm, sirupp-logger, sirupp-viewer), runs the movement\n"
+    "sets (config/plans/setN.plan, default 1 to 7) on the virtual and the emulated real arm, "
+    "stops\n"
+    "the processes and writes the Table II report. Everything goes to --out (default\n"
+    "results/demo-YYYYmmdd-HHMMSS): data/ (the logger's files), report/ (report.md, CSV tables,\n"
+    "plots), images/ and video/ (the viewer), logs/ (each process's output).\n"
+    "  --lcm-url URL   the bus (default: a private udpm port with ttl=0, so a lab's traffic and\n"
+    "                  other demos never mix)\n"
+    "Exit: 0 every set ran and every process stopped cleanly, 1 otherwise, 2 bad arguments.\n";
+
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+double Since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
+
+std::string Fixed(double value, int digits) {
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(digits) << value;
+  return s.str();
+}
+
+std::string Timestamp() {
+  const std::time_t now = std::time(nullptr);
+  std::tm local{};
+  ::localtime_r(&now, &local);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y%m%d-%H%M%S", &local);
+  return text;
+}
+
+const char* Roman(int n) {
+  static const char* const kRoman[] = {"0", "I", "II", "III", "IV", "V", "VI", "VII", "VIII", "IX"};
+  return n >= 0 && n <= 9 ? kRoman[n] : "?";
+}
+
+// The first comment line of a plan file, without "# ": what the set does.
+std::string PlanTitle(const std::string& file) {
+  std::ifstream in(file);
+  std::string line;
+  if (std::getline(in, line) && line.rfind("# ", 0) == 0) {
+    // "Movement set I (SIRUPP paper, Table II): j1 from 0 to 90 degrees." -> after the colon
+    const size_t colon = line.find("): ");
+    return colon == std::string::npos ? line.substr(2) : line.substr(colon + 3);
+  }
+  return fs::path(file).filename().string();
+}
+
+std::string Size(uintmax_t bytes) {
+  if (bytes >= 10 * 1024 * 1024) return std::to_string(bytes / (1024 * 1024)) + " MiB";
+  if (bytes >= 10 * 1024) return std::to_string(bytes / 1024) + " KiB";
+  return std::to_string(bytes) + " B";
+}
+
+// What the results folder holds, one line per file (folders with many files summarised).
+void ListResults(const fs::path& dir, std::ostream& out) {
+  std::vector<fs::path> folders = {dir};
+  for (const auto& e : fs::directory_iterator(dir)) {
+    if (e.is_directory()) folders.push_back(e.path());
+  }
+  std::sort(folders.begin() + 1, folders.end());
+  for (const fs::path& folder : folders) {
+    std::vector<fs::directory_entry> files;
+    for (const auto& e : fs::directory_iterator(folder)) {
+      if (e.is_regular_file()) files.push_back(e);
+    }
+    std::sort(files.begin(), files.end(),
+              [](const auto& a, const auto& b) { return a.path() < b.path(); });
+    const std::string rel = folder == dir ? "" : fs::relative(folder, dir).string() + "/";
+    if (files.size() > 8) {
+      uintmax_t total = 0;
+      for (const auto& f : files) total += f.file_size();
+      out << "  " << std::left << std::setw(40)
+          << rel + files.front().path().filename().string() + " .. " +
+                 files.back().path().filename().string()
+          << std::right << " " << files.size() << " files, " << Size(total) << "\n";
+      continue;
+    }
+    for (const auto& f : files) {
+      out << "  " << std::left << std::setw(40) << rel + f.path().filename().string() << std::right
+          << " " << Size(f.file_size()) << "\n";
+    }
+  }
+}
+
+// Waits until the bridge reports the emulated arm linked and its start guard has passed.
+bool WaitLinked(const std::string& url, const std::string& prefix, double timeout_s,
+                std::string* last) {
+  core::Bus bus(url, prefix);
+  int8_t state = -1;
+  bus.Subscribe<sirupp::hardware_status_t>(
+      core::Channels{}.hardware_status,
+      [&](const sirupp::hardware_status_t& s, const core::ReceiveInfo&) {
+        state = s.state;
+        *last = s.last_error;
+      });
+  return HandleUntil(
+      bus, [&] { return state == sirupp::hardware_status_t::STATE_LINKED; }, timeout_s);
+}
+
+}  // namespace
+
+int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  const Args parsed(args, "demo",
+                    {{"out", "DIR"}, {"sets", "N..."}, {"layout", "FILE"}, {"lcm-url", "URL"}});
+  std::vector<int> sets = {1, 2, 3, 4, 5, 6, 7};
+  if (parsed.Has("sets")) {
+    sets.clear();
+    for (const std::string& text : parsed.Values("sets", -1)) {
+      const double n = ParseNumberArg(text, "--sets");
+      if (n != static_cast<int>(n) || n < 1 || n > 7) {
+        throw core::UsageError("--sets: '" + text + "' is not a movement set; allowed: 1 to 7");
+      }
+      sets.push_back(static_cast<int>(n));
+    }
+  }
+  const std::string layout_file =
+      ResolveDataPath(parsed.Has("layout") ? parsed.String("layout") : "config/labs/demo.yaml");
+  launch::Layout layout = launch::LoadLayout(layout_file);
+  layout.lcm_url =
+      parsed.Has("lcm-url")
+          ? parsed.String("lcm-url")
+          : "udpm://239.255.76.67:" + std::to_string(20000 + ::getpid() % 20000) + "?ttl=0";
+  const fs::path dir = parsed.Has("out") ? parsed.String("out") : "results/demo-" + Timestamp();
+  if (fs::exists(dir) && !fs::is_empty(dir)) {
+    throw core::UsageError("--out " + dir.string() +
+                           ": exists and is not empty; choose a new folder");
+  }
+  fs::create_directories(dir);
+  std::vector<std::string> plans;
+  for (int n : sets) {
+    plans.push_back(ResolveDataPath("config/plans/set" + std::to_string(n) + ".plan"));
+  }
+
+  const auto started = Clock::now();
+  const core::RobotModel model =
+      core::LoadRobotModel(ResolveDataPath("config/robots/puma260.yaml"));
+  out << "SIRUPP-LCM demo: the paper's experiment (Table II), headless\n"
+      << "  robot: " << core::ModelSummary(model) << "\n"
+      << "  sets: " << sets.size() << ", processes: " << layout.processes.size() << " ("
+      << layout_file << "), bus " << layout.lcm_url << "\n"
+      << "  results: " << dir.string() << "\n\n";
+
+  InstallStopHandlers();
+  launch::SupervisorOptions options;
+  options.machine = MachineName();
+  options.host = launch::ChooseHost(layout, "", options.machine);
+  options.bin_dir = ProgramDir();
+  options.run_dir = dir.string();
+  std::ostringstream events;  // the process log; shown when something goes wrong
+  options.events = &events;
+  launch::Supervisor supervisor(layout, options);
+  out << "[1/4] starting the processes ..." << std::flush;
+  bool ok = supervisor.Start([] { return !StopRequested(); });
+  if (ok) {
+    std::string last;
+    ok = WaitLinked(layout.lcm_url, layout.prefix, 20, &last);
+    if (!ok) err << "\nsirupp demo: the hardware bridge did not link the emulated arm: " << last;
+  }
+  if (ok) {
+    // The bridge refuses moves during its start guard (2 s after its start).
+    for (const auto t = Clock::now(); Since(t) < 2.2;) supervisor.Service(100);
+  }
+  out << (ok ? " up" : " FAILED") << " after " << Fixed(Since(started), 1) << " s\n";
+  std::vector<std::string> failed_sets;
+  if (ok) {
+    out << "[2/4] running " << sets.size() << " movement sets on the virtual and the emulated real "
+        << "arm\n";
+    for (size_t i = 0; i < sets.size() && !StopRequested(); ++i) {
+      const auto t0 = Clock::now();
+      out << "  set " << std::left << std::setw(4) << Roman(sets[i]) << std::right << " (" << i + 1
+          << "/" << sets.size() << ") " << PlanTitle(plans[i]) << " ..." << std::flush;
+      std::ostringstream plan_out;
+      int code = 1;
+      try {
+        code = RunPlan({"run", plans[i], "--wait", "--lcm-url", layout.lcm_url}, plan_out);
+      } catch (const std::exception& e) {
+        plan_out << e.what() << "\n";
+      }
+      supervisor.Service(0);
+      if (code == 0) {
+        out << " done in " << Fixed(Since(t0), 1) << " s\n";
+      } else {
+        out << " FAILED\n" << plan_out.str();
+        failed_sets.push_back(Roman(sets[i]));
+      }
+    }
+  }
+  out << "[3/4] stopping the processes ..." << std::flush;
+  supervisor.Stop();
+  out << (supervisor.failures().empty() ? " stopped cleanly\n" : " with problems:\n");
+  for (const std::string& f : supervisor.failures()) out << "  " << f << "\n";
+  if (!ok || !supervisor.failures().empty()) {
+    out << "process events:\n" << events.str();
+  }
+  { std::ofstream(dir / "logs" / "launch.log") << events.str(); }
+
+  std::vector<std::string> data;
+  if (fs::exists(dir / "data")) {
+    for (const auto& e : fs::directory_iterator(dir / "data")) {
+      // One file per movement set (NAME-NN-setK.csv); the file of the start-up, before the first
+      // set, holds no move and stays out of the report.
+      const std::string name = e.path().filename().string();
+      if (e.path().extension() == ".csv" && name.find("-set") != std::string::npos) {
+        data.push_back(e.path().string());
+      }
+    }
+  }
+  std::sort(data.begin(), data.end());
+  bool reported = false;
+  out << "[4/4] Table II report from " << data.size() << " data files\n\n";
+  if (!data.empty()) {
+    try {
+      logger::ReportOptions report;
+      report.out_dir = (dir / "report").string();
+      const logger::ReportOutput written =
+          logger::WriteReport(logger::ReadInputs(data, report.import), report);
+      // The paper's table here; the response table, the plots and the inputs are in report.md.
+      const std::string& md = written.markdown;
+      const size_t table = md.find("## Table II");
+      const size_t next = md.find("\n## ", table == std::string::npos ? 0 : table + 1);
+      out << (table == std::string::npos ? md : md.substr(table, next - table)) << "\n"
+          << "(response table, plots and inputs: " << (dir / "report" / "report.md").string()
+          << ")\n\n";
+      reported = true;
+    } catch (const std::exception& e) {
+      out << "report failed: " << e.what() << "\n";
+    }
+  }
+  out << "Results in " << dir.string() << " (" << Fixed(Since(started), 0) << " s in all):\n";
+  ListResults(dir, out);
+  const bool all =
+      ok && failed_sets.empty() && supervisor.failures().empty() && reported && !StopRequested();
+  if (!failed_sets.empty()) {
+    std::string list;
+    for (const std::string& s : failed_sets) list += " " + s;
+    out << "sets that failed:" << list << "\n";
+  }
+  out << (all ? "demo: done\n"
+              : "demo: INCOMPLETE (see above and " + (dir / "logs").string() + ")\n");
+  return all ? 0 : 1;
+}
+
+}  // namespace sirupp::tools

@@ -1,0 +1,161 @@
+#include "tools/launch_commands.hpp"
+
+#include <unistd.h>
+
+#include <chrono>
+#include <ctime>
+#include <filesystem>
+#include <iostream>
+#include <memory>
+#include <ostream>
+
+#include "core/bus.hpp"
+#include "core/errors.hpp"
+#include "launch/layout.hpp"
+#include "launch/supervisor.hpp"
+#include "tools/args.hpp"
+#include "tools/cli.hpp"
+#include "tools/process_main.hpp"
+
+namespace sirupp::tools {
+
+namespace fs = std::filesystem;
+
+const char* const kLaunchUsage =
+    "usage: sirupp launch LAYOUT [--host NAME] [--run-dir DIR] [--duration S]\n"
+    "                     [--status-every S] [--lcm-url URL] [--prefix PREFIX] [--dry-run]\n"
+    "Starts the processes LAYOUT (config/labs/*.yaml) puts on this host, in order, each once the\n"
+    "previous is ready, with the layout's LCM URL and channel prefix; restarts those the layout\n"
+    "says; shows a status table of every process heard on the bus (its own and other hosts');\n"
+    "Ctrl-C stops them all (SIGINT, then SIGKILL after each one's stop_timeout_s).\n"
+    "  --host NAME       which host of the layout this is (default: the only host, or the one\n"
+    "                    named like this machine)\n"
+    "  --run-dir DIR     ${RUN_DIR}: the processes' output (DIR/logs/NAME.log) and whatever the\n"
+    "                    layout writes there (default runs/LAB-HOST-YYYYmmdd-HHMMSS)\n"
+    "  --duration S      stop everything after S seconds\n"
+    "  --lcm-url URL, --prefix PREFIX   instead of the layout's (e.g. one port or prefix per\n"
+    "                    team with the same layout)\n"
+    "  --status-every S  print the table every S s when the output is not a terminal (default\n"
+    "                    10; on a terminal it is redrawn every second)\n"
+    "  --dry-run         check the layout and print the command lines, start nothing\n"
+    "Exit: 0 every process ran and stopped cleanly, 1 one failed, 2 bad layout or arguments.\n"
+    "Layouts: config/labs/single-pc.yaml, config/labs/multi-pc.yaml; format in docs/launch.md.\n";
+
+std::string MachineName() {
+  char name[256] = {};
+  if (::gethostname(name, sizeof name - 1) != 0) return "localhost";
+  return name;
+}
+
+std::string ProgramDir() {
+  std::error_code ec;
+  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+  return ec ? std::string() : self.parent_path().string();
+}
+
+namespace {
+
+std::string Timestamp() {
+  const std::time_t now = std::time(nullptr);
+  std::tm local{};
+  ::localtime_r(&now, &local);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y%m%d-%H%M%S", &local);
+  return text;
+}
+
+}  // namespace
+
+int RunLaunch(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  if (args.empty() || args[0].rfind("--", 0) == 0) {
+    throw core::UsageError("launch: missing LAYOUT (a file in config/labs/)");
+  }
+  const std::string file = ResolveDataPath(args[0]);
+  const Args parsed(std::vector<std::string>(args.begin() + 1, args.end()), "launch",
+                    {{"host", "NAME"},
+                     {"run-dir", "DIR"},
+                     {"duration", "S"},
+                     {"status-every", "S"},
+                     {"lcm-url", "URL"},
+                     {"prefix", "PREFIX"},
+                     {"dry-run", ""}});
+  double duration = 0;
+  if (parsed.Has("duration")) {
+    duration = ParseNumberArg(parsed.String("duration"), "--duration");
+    if (duration <= 0) throw core::UsageError("--duration: expected seconds > 0");
+  }
+  double status_every = 10;
+  if (parsed.Has("status-every")) {
+    status_every = ParseNumberArg(parsed.String("status-every"), "--status-every");
+    if (status_every <= 0) throw core::UsageError("--status-every: expected seconds > 0");
+  }
+  launch::Layout layout = launch::LoadLayout(file);
+  if (parsed.Has("lcm-url")) layout.lcm_url = parsed.String("lcm-url");
+  if (parsed.Has("prefix")) layout.prefix = parsed.String("prefix");
+  launch::SupervisorOptions options;
+  options.machine = MachineName();
+  options.host =
+      launch::ChooseHost(layout, parsed.Has("host") ? parsed.String("host") : "", options.machine);
+  options.bin_dir = ProgramDir();
+  options.run_dir = parsed.Has("run-dir")
+                        ? parsed.String("run-dir")
+                        : "runs/" + layout.lab + "-" + options.host + "-" + Timestamp();
+  options.events = &out;
+  // The supervisor checks every command line and opens the bus: a bad URL or prefix (from the
+  // flags or the layout) is bad input, exit 2.
+  auto make = [&] {
+    try {
+      return std::make_unique<launch::Supervisor>(layout, options);
+    } catch (const core::BusError& e) {
+      throw core::UsageError(std::string("launch: ") + e.what());
+    }
+  };
+  if (parsed.Switch("dry-run")) {
+    const std::unique_ptr<launch::Supervisor> checked = make();
+    const launch::Supervisor& supervisor = *checked;
+    out << file << ": ok: lab " << layout.lab << ", " << layout.processes.size() << " processes on "
+        << layout.hosts.size() << " host(s); host " << options.host << " runs:\n";
+    for (const launch::ProcessSpec& spec : layout.ProcessesOn(options.host)) {
+      std::string line;
+      for (const std::string& w : supervisor.CommandOf(spec)) line += " " + w;
+      out << "  " << spec.name << " (restart " << launch::RestartName(spec.restart)
+          << (spec.critical ? ", critical" : "") << "):" << line << "\n";
+    }
+    return 0;
+  }
+  InstallStopHandlers();
+  const std::unique_ptr<launch::Supervisor> owned = make();
+  launch::Supervisor& supervisor = *owned;
+  const auto started = std::chrono::steady_clock::now();
+  const bool tty = ::isatty(STDOUT_FILENO) == 1 && &out == &std::cout;
+  auto elapsed = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  };
+  if (supervisor.Start([] { return !StopRequested(); })) {
+    out << "all " << layout.ProcessesOn(options.host).size() << " processes of host "
+        << options.host << " are up; Ctrl-C stops them\n";
+    double next_table = 0;
+    while (!StopRequested() && (duration <= 0 || elapsed() < duration)) {
+      if (!supervisor.Service(200)) break;
+      if (elapsed() >= next_table) {
+        if (tty) out << "\033[H\033[J";  // redraw in place, like top
+        out << "-- " << layout.lab << " @ " << options.host << ", " << static_cast<int>(elapsed())
+            << " s --\n"
+            << launch::FormatTable(supervisor.Table()) << std::flush;
+        next_table = elapsed() + (tty ? 1.0 : status_every);
+      }
+    }
+    supervisor.Service(0);
+    out << "-- final --\n" << launch::FormatTable(supervisor.Table());
+  }
+  supervisor.Stop();
+  if (supervisor.failures().empty()) {
+    out << "every process ran and stopped cleanly; output in " << options.run_dir << "/logs\n";
+  } else {
+    err << "sirupp launch: " << supervisor.failures().size() << " problem(s):\n";
+    for (const std::string& f : supervisor.failures()) err << "  " << f << "\n";
+  }
+  return supervisor.ExitCode();
+}
+
+}  // namespace sirupp::tools

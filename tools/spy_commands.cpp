@@ -1,0 +1,151 @@
+#include "tools/spy_commands.hpp"
+
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <ostream>
+
+#include "core/errors.hpp"
+#include "tools/args.hpp"
+#include "tools/launch_commands.hpp"
+
+namespace sirupp::tools {
+
+namespace fs = std::filesystem;
+
+const char* const kSpyUsage =
+    "usage: sirupp spy [--lcm-url URL] [--jar FILE] [--check | --print-command]\n"
+    "Starts lcm-spy with this build's types (build/java/sirupp_lcmtypes.jar), so every SIRUPP\n"
+    "channel decodes by name. Needs a display (DISPLAY; over ssh use ssh -X, on a server\n"
+    "xvfb-run). Channels show with their rig prefix.\n"
+    "  --lcm-url URL     the bus to watch (default: LCM's default URL, or $LCM_DEFAULT_URL)\n"
+    "  --jar FILE        another types jar (e.g. a student's own types, colon-separated list)\n"
+    "  --check           no window: list the LCM types lcm-spy will find, exit 0 if ours are "
+    "there\n"
+    "  --print-command   print the Java command line instead of running it\n";
+
+namespace {
+
+constexpr const char* kLcmJar = "/usr/share/java/lcm.jar";
+constexpr const char* kChartJar = "/usr/share/java/jchart2d.jar";
+
+std::string FindOnPath(const std::string& program) {
+  const char* path = std::getenv("PATH");
+  std::string dirs = path ? path : "/usr/bin:/bin";
+  size_t start = 0;
+  while (start <= dirs.size()) {
+    const size_t end = dirs.find(':', start);
+    const std::string dir = dirs.substr(start, end == std::string::npos ? end : end - start);
+    if (!dir.empty() && ::access((fs::path(dir) / program).c_str(), X_OK) == 0) {
+      return (fs::path(dir) / program).string();
+    }
+    if (end == std::string::npos) break;
+    start = end + 1;
+  }
+  return "";
+}
+
+}  // namespace
+
+int RunSpy(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  const Args parsed(args, "spy",
+                    {{"lcm-url", "URL"}, {"jar", "FILE"}, {"check", ""}, {"print-command", ""}});
+  std::string jar = (fs::path(ProgramDir()) / ".." / "java" / "sirupp_lcmtypes.jar").string();
+  if (parsed.Has("jar")) jar = parsed.String("jar");
+  const bool check = parsed.Switch("check");
+  const bool print = parsed.Switch("print-command");
+  if (check && print) throw core::UsageError("spy: --check and --print-command exclude each other");
+  for (const std::string& file : {std::string(kLcmJar), std::string(kChartJar)}) {
+    if (!fs::exists(file)) {
+      err << "sirupp spy: " << file
+          << " is missing; install liblcm-java and libjchart2d-java (scripts/install-deps.sh)\n";
+      return 1;
+    }
+  }
+  size_t start = 0;
+  while (start <= jar.size()) {
+    const size_t end = jar.find(':', start);
+    const std::string one = jar.substr(start, end == std::string::npos ? end : end - start);
+    if (!fs::exists(one)) {
+      err << "sirupp spy: types jar " << one
+          << " not found; build the project (scripts/build.sh) or give --jar FILE\n";
+      return 1;
+    }
+    if (end == std::string::npos) break;
+    start = end + 1;
+  }
+  const std::string java = FindOnPath("java");
+  if (java.empty()) {
+    err << "sirupp spy: java not found on PATH; install default-jre-headless "
+           "(scripts/install-deps.sh)\n";
+    return 1;
+  }
+  const std::string classpath = std::string(kLcmJar) + ":" + kChartJar + ":" + jar;
+  std::vector<std::string> command = {java, "-Djava.net.preferIPv4Stack=true", "-cp", classpath};
+  if (check) {
+    command.push_back("lcm.util.ClassDiscoverer");
+  } else {
+    command.push_back("lcm.spy.Spy");
+    if (parsed.Has("lcm-url")) command.push_back("--lcm-url=" + parsed.String("lcm-url"));
+  }
+  if (print) {
+    std::string line;
+    for (const std::string& w : command) line += (line.empty() ? "" : " ") + w;
+    out << line << "\n";
+    return 0;
+  }
+  std::vector<char*> argv;
+  for (std::string& w : command) argv.push_back(w.data());
+  argv.push_back(nullptr);
+  if (check) {
+    // ClassDiscoverer prints "JAR class NAME" per class found; keep the LCM types of ours.
+    int fds[2];
+    if (::pipe(fds) != 0) throw std::runtime_error("spy --check: pipe failed");
+    const pid_t pid = ::fork();
+    if (pid == 0) {
+      ::dup2(fds[1], STDOUT_FILENO);
+      ::close(fds[0]);
+      ::close(fds[1]);
+      ::execv(argv[0], argv.data());
+      ::_exit(127);
+    }
+    ::close(fds[1]);
+    std::string text;
+    char buffer[4096];
+    for (ssize_t n; (n = ::read(fds[0], buffer, sizeof buffer)) > 0;) {
+      text.append(buffer, static_cast<size_t>(n));
+    }
+    ::close(fds[0]);
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    int found = 0;
+    size_t at = 0;
+    while ((at = text.find(" class sirupp.", at)) != std::string::npos) {
+      at += 14;
+      const size_t end = text.find('\n', at);
+      out << "  sirupp." << text.substr(at, end - at) << "\n";
+      ++found;
+    }
+    out << "lcm-spy finds " << found << " sirupp types in " << jar << "\n";
+    if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || found == 0) {
+      err << "sirupp spy --check: Java's class discovery failed or found none of our types\n";
+      return 1;
+    }
+    return 0;
+  }
+  const char* display = std::getenv("DISPLAY");
+  if (!display || !*display) {
+    err << "sirupp spy: lcm-spy needs a display and DISPLAY is not set; use ssh -X, or xvfb-run "
+           "on a server (sirupp spy --check works without one)\n";
+    return 1;
+  }
+  out << std::flush;
+  ::execv(argv[0], argv.data());
+  err << "sirupp spy: cannot start " << java << "\n";
+  return 1;
+}
+
+}  // namespace sirupp::tools

@@ -1,0 +1,195 @@
+#include "tools/view_commands.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <filesystem>
+#include <opencv2/highgui.hpp>
+#include <opencv2/imgcodecs.hpp>
+#include <optional>
+#include <ostream>
+#include <sirupp/image_t.hpp>
+#include <sirupp/viewer_camera_t.hpp>
+#include <sstream>
+
+#include "core/bus.hpp"
+#include "core/channels.hpp"
+#include "core/errors.hpp"
+#include "tools/args.hpp"
+#include "tools/rig_args.hpp"
+#include "viewer/image_codec.hpp"
+
+namespace sirupp::tools {
+
+const char* const kViewUsage =
+    "usage: sirupp view [--channel NAME] [--save DIR] [--duration S] [--lcm-url URL]\n"
+    "                   [--prefix PREFIX]\n"
+    "  Shows sirupp-viewer's images (--channel, default VIEWER_IMAGE) in a window; needs a\n"
+    "  display ($DISPLAY). Keys: j / l turn the camera left / right, i / k up / down, + / -\n"
+    "  closer / farther, f DH frames on / off, g ghost on / off, p the viewer writes a PNG\n"
+    "  snapshot (if started with --png DIR), s saves the shown image as DIR/view-NNN.png\n"
+    "  (--save, default the current directory), q or Esc quits.\n";
+
+namespace {
+
+constexpr double kDegToRad = M_PI / 180.0;
+
+bool HasDisplay() {
+  for (const char* name : {"DISPLAY", "WAYLAND_DISPLAY"}) {
+    const char* value = std::getenv(name);
+    if (value != nullptr && *value != '\0') return true;
+  }
+  return false;
+}
+
+// Camera of an image from its "camera" metadata ("AZ_DEG EL_DEG DIST X Y Z").
+std::optional<sirupp::viewer_camera_t> CameraOf(const sirupp::image_t& image) {
+  const std::optional<std::string> text = viewer::FindMetadata(image, "camera");
+  if (!text) return std::nullopt;
+  std::istringstream in(*text);
+  double az = 0, el = 0, dist = 0, x = 0, y = 0, z = 0;
+  if (!(in >> az >> el >> dist >> x >> y >> z)) return std::nullopt;
+  sirupp::viewer_camera_t camera{};
+  camera.set_camera = 1;
+  camera.azimuth = az * kDegToRad;
+  camera.elevation = el * kDegToRad;
+  camera.distance = dist;
+  camera.target[0] = x;
+  camera.target[1] = y;
+  camera.target[2] = z;
+  return camera;
+}
+
+}  // namespace
+
+int RunView(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  const Args parsed(args, "view",
+                    WithRigFlags({{"channel", "NAME"}, {"save", "DIR"}, {"duration", "S"}}));
+  const std::string channel =
+      parsed.Has("channel") ? parsed.String("channel") : core::Channels{}.viewer_image;
+  const std::string save_dir = parsed.Has("save") ? parsed.String("save") : ".";
+  double duration_s = 0;
+  if (parsed.Has("duration")) {
+    duration_s = parsed.Numbers("duration", 1)[0];
+    if (!(duration_s > 0)) {
+      throw core::UsageError("view: --duration " + core::FormatNumber(duration_s) +
+                             ": must be > 0 s");
+    }
+  }
+  if (!HasDisplay()) {
+    err << "sirupp view: no display ($DISPLAY is not set): run it on a PC with a screen, or "
+           "let sirupp-viewer write files (--png DIR, --video FILE.avi)\n";
+    return 1;
+  }
+  core::Bus bus = BusFromArgs(parsed);
+  const std::string title = "sirupp view: " + bus.FullName(channel);
+  try {
+    cv::namedWindow(title, cv::WINDOW_AUTOSIZE);
+  } catch (const cv::Exception& error) {
+    err << "sirupp view: cannot open a window: " << error.what() << "\n";
+    return 1;
+  }
+
+  cv::Mat shown;
+  bool fresh = false;
+  std::optional<sirupp::image_t> newest;  // for the camera and switch state in its metadata
+  bus.Subscribe<sirupp::image_t>(
+      channel, [&](const sirupp::image_t& image, const core::ReceiveInfo& info) {
+        shown = viewer::DecodeImage(image, info.channel);  // a bad image is counted, not shown
+        newest = image;
+        fresh = true;
+      });
+  int64_t camera_seq = 0;
+  int saved = 0;
+  auto send = [&](sirupp::viewer_camera_t message) {
+    message.utime = WallMicros();
+    message.seq = camera_seq++;
+    bus.Publish(core::Channels{}.viewer_camera, message);
+  };
+  out << "sirupp view: waiting for " << bus.FullName(channel) << " on " << bus.url() << " (q quits)"
+      << std::endl;
+  const auto start = std::chrono::steady_clock::now();
+  while (true) {
+    bus.HandleAvailable();
+    if (fresh) {
+      cv::imshow(title, shown);
+      fresh = false;
+    }
+    const int key = cv::waitKey(15) & 0xff;
+    if (key == 'q' || key == 27) break;
+    if (cv::getWindowProperty(title, cv::WND_PROP_VISIBLE) < 1) break;  // closed by the user
+    if (duration_s > 0 &&
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() >=
+            duration_s) {
+      break;
+    }
+    if (key == 's' && !shown.empty()) {
+      std::filesystem::create_directories(save_dir);
+      char name[32];
+      std::snprintf(name, sizeof name, "view-%03d.png", ++saved);
+      const std::string path = (std::filesystem::path(save_dir) / name).string();
+      if (cv::imwrite(path, shown)) {
+        out << "saved " << path << std::endl;
+      } else {
+        err << "sirupp view: cannot write " << path << "\n";
+      }
+      continue;
+    }
+    if (!newest) continue;
+    std::optional<sirupp::viewer_camera_t> camera = CameraOf(*newest);
+    if (!camera) continue;
+    sirupp::viewer_camera_t& c = *camera;
+    const bool frames_on = viewer::FindMetadata(*newest, "frames").value_or("0") == "1";
+    const bool ghost_on = viewer::FindMetadata(*newest, "ghost").value_or("1") == "1";
+    switch (key) {
+      case 'j':
+        c.azimuth -= 10 * kDegToRad;
+        break;
+      case 'l':
+        c.azimuth += 10 * kDegToRad;
+        break;
+      case 'i':
+        c.elevation = std::min(c.elevation + 5 * kDegToRad, 85 * kDegToRad);
+        break;
+      case 'k':
+        c.elevation = std::max(c.elevation - 5 * kDegToRad, -85 * kDegToRad);
+        break;
+      case '+':
+      case '=':
+        c.distance *= 0.9;
+        break;
+      case '-':
+        c.distance /= 0.9;
+        break;
+      case 'f':
+        c.set_camera = 0;
+        c.show_frames =
+            frames_on ? sirupp::viewer_camera_t::SWITCH_OFF : sirupp::viewer_camera_t::SWITCH_ON;
+        break;
+      case 'g':
+        c.set_camera = 0;
+        c.show_ghost =
+            ghost_on ? sirupp::viewer_camera_t::SWITCH_OFF : sirupp::viewer_camera_t::SWITCH_ON;
+        break;
+      case 'p':
+        c.set_camera = 0;
+        c.snapshot = 1;
+        break;
+      default:
+        continue;
+    }
+    send(c);
+  }
+  cv::destroyAllWindows();
+  const core::ChannelStats stats = bus.StatsFor(channel);
+  out << "sirupp view: " << stats.messages << " images received";
+  if (stats.rejected + stats.decode_errors > 0) {
+    out << ", " << stats.rejected + stats.decode_errors << " not shown (" << stats.last_error
+        << ")";
+  }
+  out << "\n";
+  return 0;
+}
+
+}  // namespace sirupp::tools

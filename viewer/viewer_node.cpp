@@ -1,0 +1,468 @@
+#include "viewer/viewer_node.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <sirupp/arm_state_t.hpp>
+#include <sirupp/controller_status_t.hpp>
+#include <sirupp/environment_t.hpp>
+#include <sirupp/robot_model_t.hpp>
+#include <sirupp/servo_setpoint_t.hpp>
+#include <sirupp/viewer_camera_t.hpp>
+#include <stdexcept>
+#include <utility>
+
+#include "core/errors.hpp"
+#include "core/translate.hpp"
+
+namespace sirupp::viewer {
+
+namespace {
+
+// A generous ceiling on what one frame is asked to draw; beyond it a message is refused rather
+// than slowing every frame down.
+constexpr size_t kMaxShapes = 20000;
+constexpr int kMaxJoints = 64;
+// How long the heartbeat reports "degraded" after a refused message.
+constexpr double kDegradedAfterRefusalS = 5.0;
+// Queue of the high-rate channels between two Handle() calls: a frame may take tens of
+// milliseconds at 2 kHz of states.
+constexpr int kStateQueue = 2000;
+
+size_t ShapeCount(const core::RobotModel& model) {
+  size_t count = 0;
+  for (const core::Link& link : model.links) count += link.shapes.size();
+  return count;
+}
+
+bool SameModel(const core::RobotModel& a, const core::RobotModel& b) {
+  return a.name == b.name && a.source_hash == b.source_hash && a.num_joints() == b.num_joints() &&
+         a.links.size() == b.links.size() && ShapeCount(a) == ShapeCount(b) &&
+         a.base.position_m == b.base.position_m &&
+         a.base.orientation.coeffs() == b.base.orientation.coeffs();
+}
+
+bool SameEnvironment(const core::Environment& a, const core::Environment& b) {
+  if (a.name != b.name || a.objects.size() != b.objects.size()) return false;
+  for (size_t i = 0; i < a.objects.size(); ++i) {
+    const core::Shape& x = a.objects[i].shape;
+    const core::Shape& y = b.objects[i].shape;
+    if (x.type != y.type || x.size_m != y.size_m || x.rgba != y.rgba ||
+        x.pose.position_m != y.pose.position_m ||
+        x.pose.orientation.coeffs() != y.pose.orientation.coeffs()) {
+      return false;
+    }
+  }
+  return true;
+}
+
+std::string Degrees(double rad) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.1f", rad * 180.0 / M_PI);
+  return text;
+}
+
+}  // namespace
+
+std::string ControllerStatusText(int8_t mode, int8_t state) {
+  std::string text;
+  switch (mode) {
+    case sirupp::controller_status_t::MODE_MANUAL:
+      text = "manual";
+      break;
+    case sirupp::controller_status_t::MODE_AUTOMATIC:
+      text = "automatic";
+      break;
+    default:
+      return "";
+  }
+  static const char* const kStates[] = {"idle", "moving", "waiting", "paused", "fault", "off"};
+  if (state >= 0 && state < 6) text += std::string(", ") + kStates[state];
+  return text;
+}
+
+std::string OptionsProblem(const ViewerOptions& options) {
+  using core::FormatNumber;
+  const RenderOptions& render = options.render;
+  if (render.width < 16 || render.width > OsmesaRenderer::kMaxSize) {
+    return "width " + std::to_string(render.width) + ": allowed 16..4096 pixels";
+  }
+  if (render.height < 16 || render.height > OsmesaRenderer::kMaxSize) {
+    return "height " + std::to_string(render.height) + ": allowed 16..4096 pixels";
+  }
+  if (render.supersample < 1 || render.supersample > 4) {
+    return "supersample " + std::to_string(render.supersample) + ": allowed 1..4";
+  }
+  if (!(options.rate_hz > 0 && options.rate_hz <= 1000)) {
+    return "rate " + FormatNumber(options.rate_hz) + " Hz: allowed > 0 and <= 1000";
+  }
+  if (options.jpeg_quality < 1 || options.jpeg_quality > 100) {
+    return "quality " + std::to_string(options.jpeg_quality) + ": allowed 1..100";
+  }
+  if (!(options.keepalive_s > 0)) {
+    return "keepalive " + FormatNumber(options.keepalive_s) + " s: must be > 0";
+  }
+  if (!(options.real_fresh_s > 0)) {
+    return "real arm freshness " + FormatNumber(options.real_fresh_s) + " s: must be > 0";
+  }
+  if (!(options.png_every_s >= 0) || !std::isfinite(options.png_every_s)) {
+    return "png-every " + FormatNumber(options.png_every_s) + " s: must be >= 0";
+  }
+  if (options.png_every_s > 0 && options.png_dir.empty()) {
+    return "png-every needs a PNG directory (--png DIR)";
+  }
+  const std::string camera = CameraProblem(options.camera);
+  if (!camera.empty()) return "camera " + camera;
+  return "";
+}
+
+ViewerNode::ViewerNode(core::Bus& bus, ViewerOptions options, std::optional<core::RobotModel> model,
+                       std::optional<core::Environment> environment)
+    : bus_(bus),
+      options_(std::move(options)),
+      heartbeat_(bus, options_.process_name, options_.channels.heartbeat),
+      model_(std::move(model)),
+      environment_(std::move(environment)) {
+  if (model_) stats_.model = model_->name;
+  const std::string problem = OptionsProblem(options_);
+  if (!problem.empty()) throw std::invalid_argument(problem);
+  renderer_ = std::make_unique<OsmesaRenderer>(options_.render);
+  if (!options_.png_dir.empty()) png_.emplace(options_.png_dir);
+  if (!options_.video_path.empty()) {
+    video_ = std::make_unique<VideoFile>(options_.video_path, options_.rate_hz,
+                                         cv::Size(options_.render.width, options_.render.height));
+  }
+  period_ = std::chrono::duration_cast<Clock::duration>(
+      std::chrono::duration<double>(1.0 / options_.rate_hz));
+  next_frame_ = Clock::now();
+  next_png_ = next_frame_;
+  Subscribe();
+  heartbeat_.Publish(core::ProcessState::kStarting, HeartbeatDetail());
+}
+
+ViewerNode::~ViewerNode() {
+  try {
+    Close();
+  } catch (const std::exception&) {  // a failing last heartbeat must not end the process here
+  }
+}
+
+void ViewerNode::Refuse(const core::MessageError& error) {
+  ++stats_.refused;
+  stats_.last_refusal = error.what();
+  last_refusal_time_ = Clock::now();
+  throw error;
+}
+
+void ViewerNode::CheckSource(const std::string& channel, int8_t source) {
+  if (source < sirupp::arm_state_t::SOURCE_SIM || source > sirupp::arm_state_t::SOURCE_EMULATED) {
+    Refuse(core::MessageError(
+        channel, "source", std::to_string(source) + ": allowed 0 (sim), 1 (real), 2 (emulated)"));
+  }
+}
+
+void ViewerNode::CheckPositions(const std::string& channel, int32_t count,
+                                const std::vector<double>& position) {
+  if (model_ && count != model_->num_joints()) {
+    Refuse(core::MessageError(channel, "num_joints",
+                              std::to_string(count) + " joints; the model " + model_->name +
+                                  " has " + std::to_string(model_->num_joints())));
+  }
+  for (size_t i = 0; i < position.size(); ++i) {
+    if (!std::isfinite(position[i])) {
+      Refuse(core::MessageError(
+          channel, "position[" + std::to_string(i) + "]",
+          core::FormatNumber(position[i]) + " is not allowed; expected a finite number"));
+    }
+  }
+}
+
+void ViewerNode::Subscribe() {
+  const core::Channels& channels = options_.channels;
+  bus_.Subscribe<sirupp::robot_model_t>(
+      channels.robot_model,
+      [this](const sirupp::robot_model_t& message, const core::ReceiveInfo& info) {
+        core::RobotModel model;
+        try {
+          model = core::RobotModelFromMessage(message, info.channel);
+        } catch (const core::MessageError& error) {
+          Refuse(error);
+        }
+        if (model.num_joints() < 1 || model.num_joints() > kMaxJoints) {
+          Refuse(core::MessageError(info.channel, "num_joints",
+                                    std::to_string(model.num_joints()) +
+                                        " joints cannot be drawn; allowed 1.." +
+                                        std::to_string(kMaxJoints)));
+        }
+        if (ShapeCount(model) > kMaxShapes) {
+          Refuse(core::MessageError(info.channel, "links[].shapes",
+                                    std::to_string(ShapeCount(model)) +
+                                        " shapes are too many to draw; allowed up to " +
+                                        std::to_string(kMaxShapes)));
+        }
+        if (model_ && SameModel(*model_, model)) return;
+        model_ = std::move(model);
+        stats_.model = model_->name;
+        // Held positions of another joint count belong to the previous model.
+        for (auto* held :
+             {&state_.virtual_position, &state_.setpoint_position, &state_.real_position}) {
+          if (*held && static_cast<int>((*held)->size()) != model_->num_joints()) held->reset();
+        }
+        dirty_ = true;
+      });
+  bus_.Subscribe<sirupp::environment_t>(
+      channels.environment,
+      [this](const sirupp::environment_t& message, const core::ReceiveInfo& info) {
+        if (message.num_objects > static_cast<int32_t>(kMaxShapes)) {
+          Refuse(core::MessageError(info.channel, "num_objects",
+                                    std::to_string(message.num_objects) +
+                                        " objects are too many to draw; allowed up to " +
+                                        std::to_string(kMaxShapes)));
+        }
+        core::Environment environment;
+        try {
+          environment = core::EnvironmentFromMessage(message, info.channel);
+        } catch (const core::MessageError& error) {
+          Refuse(error);
+        }
+        if (environment_ && SameEnvironment(*environment_, environment)) return;
+        environment_ = std::move(environment);
+        dirty_ = true;
+      });
+  bus_.Subscribe<sirupp::arm_state_t>(
+      channels.sim_arm_state,
+      [this](const sirupp::arm_state_t& message, const core::ReceiveInfo& info) {
+        CheckSource(info.channel, message.source);
+        CheckPositions(info.channel, message.num_joints, message.position);
+        if (!state_.virtual_position) state_.virtual_position.emplace();
+        state_.virtual_position->assign(message.position.begin(), message.position.end());
+        state_.utime = message.utime;
+        state_.tick = message.tick;
+        dirty_ = true;
+      },
+      kStateQueue);
+  bus_.Subscribe<sirupp::servo_setpoint_t>(
+      channels.arm_setpoint,
+      [this](const sirupp::servo_setpoint_t& message, const core::ReceiveInfo& info) {
+        CheckPositions(info.channel, message.num_joints, message.position);
+        if (!state_.setpoint_position) state_.setpoint_position.emplace();
+        state_.setpoint_position->assign(message.position.begin(), message.position.end());
+        if (options_.scene.show_ghost) dirty_ = true;
+      },
+      kStateQueue);
+  bus_.Subscribe<sirupp::arm_state_t>(
+      channels.real_arm_state,
+      [this](const sirupp::arm_state_t& message, const core::ReceiveInfo& info) {
+        CheckSource(info.channel, message.source);
+        CheckPositions(info.channel, message.num_joints, message.position);
+        if (!state_.real_position) state_.real_position.emplace();
+        state_.real_position->assign(message.position.begin(), message.position.end());
+        real_received_ = Clock::now();
+        dirty_ = true;
+      },
+      kStateQueue);
+  bus_.Subscribe<sirupp::controller_status_t>(
+      channels.controller_status,
+      [this](const sirupp::controller_status_t& message, const core::ReceiveInfo& info) {
+        if (message.mode != sirupp::controller_status_t::MODE_MANUAL &&
+            message.mode != sirupp::controller_status_t::MODE_AUTOMATIC) {
+          Refuse(core::MessageError(
+              info.channel, "mode",
+              std::to_string(message.mode) + ": allowed 0 (manual) or 1 (automatic)"));
+        }
+        if (message.state < sirupp::controller_status_t::STATE_IDLE ||
+            message.state > sirupp::controller_status_t::STATE_OFF) {
+          Refuse(core::MessageError(info.channel, "state",
+                                    std::to_string(message.state) + ": allowed 0..5 (STATE_*)"));
+        }
+        if (message.mode == controller_mode_ && message.state == controller_state_) return;
+        controller_mode_ = message.mode;
+        controller_state_ = message.state;
+        state_.status_text = ControllerStatusText(message.mode, message.state);
+        dirty_ = true;
+      });
+  bus_.Subscribe<sirupp::viewer_camera_t>(
+      channels.viewer_camera,
+      [this](const sirupp::viewer_camera_t& message, const core::ReceiveInfo& info) {
+        Camera camera = options_.camera;
+        if (message.set_camera != 0 && message.set_camera != 1) {
+          Refuse(core::MessageError(info.channel, "set_camera",
+                                    std::to_string(message.set_camera) + ": allowed 0 or 1"));
+        }
+        if (message.set_camera == 1) {
+          camera.azimuth_rad = message.azimuth;
+          camera.elevation_rad = message.elevation;
+          camera.distance_m = message.distance;
+          camera.target_m =
+              Eigen::Vector3d(message.target[0], message.target[1], message.target[2]);
+          const std::string problem = CameraProblem(camera);
+          if (!problem.empty()) Refuse(core::MessageError(info.channel, "camera", problem));
+        }
+        const std::pair<const char*, int8_t> switches[] = {{"show_frames", message.show_frames},
+                                                           {"show_ghost", message.show_ghost}};
+        for (const auto& [field, value] : switches) {
+          if (value < sirupp::viewer_camera_t::SWITCH_KEEP ||
+              value > sirupp::viewer_camera_t::SWITCH_OFF) {
+            Refuse(
+                core::MessageError(info.channel, field,
+                                   std::to_string(value) + ": allowed 0 (keep), 1 (on), 2 (off)"));
+          }
+        }
+        if (message.snapshot != 0 && message.snapshot != 1) {
+          Refuse(core::MessageError(info.channel, "snapshot",
+                                    std::to_string(message.snapshot) + ": allowed 0 or 1"));
+        }
+        if (message.snapshot == 1 && !png_) {
+          Refuse(core::MessageError(info.channel, "snapshot",
+                                    "this viewer writes no PNG files (start it with --png DIR)"));
+        }
+        options_.camera = camera;
+        auto apply = [](int8_t value, bool& flag) {
+          if (value == sirupp::viewer_camera_t::SWITCH_ON) flag = true;
+          if (value == sirupp::viewer_camera_t::SWITCH_OFF) flag = false;
+        };
+        apply(message.show_frames, options_.scene.show_frames);
+        apply(message.show_ghost, options_.scene.show_ghost);
+        if (message.snapshot == 1) snapshot_requested_ = true;
+        dirty_ = true;
+      });
+}
+
+void ViewerNode::Service(int max_wait_ms) {
+  Clock::time_point now = Clock::now();
+  const auto until_frame =
+      std::chrono::duration_cast<std::chrono::milliseconds>(next_frame_ - now).count();
+  const int wait_ms = static_cast<int>(std::clamp<int64_t>(until_frame, 0, max_wait_ms));
+  if (bus_.Handle(wait_ms) > 0) bus_.HandleAvailable();
+  now = Clock::now();
+  if (now >= next_frame_) {
+    Frame(now, false);
+    next_frame_ += period_;
+    if (next_frame_ <= now) next_frame_ = now + period_;  // fell behind: do not catch up in a burst
+  }
+  const bool degraded =
+      !stats_.output_error.empty() ||
+      (stats_.refused > 0 &&
+       std::chrono::duration<double>(now - last_refusal_time_).count() < kDegradedAfterRefusalS);
+  heartbeat_.PublishIfDue(degraded ? core::ProcessState::kDegraded : core::ProcessState::kRunning,
+                          HeartbeatDetail());
+}
+
+void ViewerNode::FrameNow() {
+  dirty_ = true;
+  Frame(Clock::now(), true);
+}
+
+bool ViewerNode::RequestSnapshot() {
+  if (!png_) return false;
+  snapshot_requested_ = true;
+  return true;
+}
+
+void ViewerNode::Frame(Clock::time_point now, bool forced) {
+  const bool real_fresh =
+      state_.real_position.has_value() &&
+      std::chrono::duration<double>(now - real_received_).count() <= options_.real_fresh_s;
+  if (real_fresh != real_drawn_) dirty_ = true;
+  const bool rendered = dirty_ || image_.empty() || snapshot_requested_;
+  if (rendered) Render(now);
+  const bool keepalive_due =
+      std::chrono::duration<double>(now - last_published_).count() >= options_.keepalive_s;
+  if (options_.publish_images && (rendered || keepalive_due || forced)) {
+    Publish();
+    last_published_ = now;
+  }
+  if (video_) {
+    video_->Write(image_);
+    ++stats_.video_frames;
+  }
+  // A PNG that cannot be written (disk full) is reported on the heartbeat; the images on LCM and
+  // the video go on.
+  if (png_ && options_.png_every_s > 0 && now >= next_png_) {
+    try {
+      stats_.last_png = png_->Write(image_, "frame", stats_.png_frames + 1, 6);
+      ++stats_.png_frames;
+    } catch (const OutputError& error) {
+      stats_.output_error = error.what();
+    }
+    next_png_ += std::chrono::duration_cast<Clock::duration>(
+        std::chrono::duration<double>(options_.png_every_s));
+    if (next_png_ <= now) {
+      next_png_ = now + std::chrono::duration_cast<Clock::duration>(
+                            std::chrono::duration<double>(options_.png_every_s));
+    }
+  }
+  if (snapshot_requested_ && png_) {
+    snapshot_requested_ = false;
+    try {
+      stats_.last_png = png_->Write(image_, "snapshot", stats_.snapshots + 1, 3);
+      ++stats_.snapshots;
+    } catch (const OutputError& error) {
+      stats_.output_error = error.what();
+    }
+  }
+}
+
+void ViewerNode::Render(Clock::time_point now) {
+  ViewState shown = state_;
+  real_drawn_ =
+      state_.real_position.has_value() &&
+      std::chrono::duration<double>(now - real_received_).count() <= options_.real_fresh_s;
+  if (!real_drawn_) shown.real_position.reset();
+  scene_ = BuildScene(model_ ? &*model_ : nullptr, environment_ ? &*environment_ : nullptr, shown,
+                      options_.scene);
+  image_ = renderer_->Render(scene_, options_.camera).clone();
+  ++stats_.frames_rendered;
+  dirty_ = false;
+}
+
+void ViewerNode::Publish() {
+  const Camera& camera = options_.camera;
+  char camera_text[160];
+  std::snprintf(camera_text, sizeof camera_text, "%s %s %.4g %.4g %.4g %.4g",
+                Degrees(camera.azimuth_rad).c_str(), Degrees(camera.elevation_rad).c_str(),
+                camera.distance_m, camera.target_m.x(), camera.target_m.y(), camera.target_m.z());
+  const Metadata metadata = {
+      {"seq", std::to_string(image_seq_)},
+      {"tick", std::to_string(state_.tick)},
+      {"camera", camera_text},
+      {"frames", options_.scene.show_frames ? "1" : "0"},
+      {"ghost", options_.scene.show_ghost ? "1" : "0"},
+      {"model", model_ ? model_->name : ""},
+  };
+  const sirupp::image_t message =
+      EncodeImage(image_, options_.format, options_.jpeg_quality, state_.utime, metadata);
+  bus_.Publish(options_.channels.viewer_image, message);
+  ++image_seq_;
+  ++stats_.images_published;
+}
+
+std::string ViewerNode::HeartbeatDetail() const {
+  std::string detail =
+      std::to_string(options_.render.width) + "x" + std::to_string(options_.render.height) + " " +
+      ImageFormatName(options_.format) + ", " + std::to_string(stats_.images_published) + " images";
+  if (video_) detail += ", video " + std::to_string(stats_.video_frames) + " frames";
+  detail += model_ ? ", model " + model_->name : ", waiting for ROBOT_MODEL";
+  const bool recent = stats_.refused > 0 &&
+                      std::chrono::duration<double>(Clock::now() - last_refusal_time_).count() <
+                          kDegradedAfterRefusalS;
+  if (recent) detail += "; refused: " + stats_.last_refusal;
+  if (!stats_.output_error.empty()) detail += "; " + stats_.output_error;
+  return detail;
+}
+
+void ViewerNode::Close() {
+  if (closed_) return;
+  closed_ = true;
+  if (video_) video_->Close();
+  heartbeat_.Publish(core::ProcessState::kStopping, HeartbeatDetail());
+}
+
+cv::Mat RenderStill(const core::RobotModel* model, const core::Environment* environment,
+                    const ViewState& state, const Camera& camera, const SceneOptions& scene,
+                    const RenderOptions& render) {
+  OsmesaRenderer renderer(render);
+  return renderer.Render(BuildScene(model, environment, state, scene), camera).clone();
+}
+
+}  // namespace sirupp::viewer
