@@ -8,6 +8,7 @@
 #include <iostream>
 #include <memory>
 #include <ostream>
+#include <sstream>
 
 #include "core/bus.hpp"
 #include "core/errors.hpp"
@@ -64,6 +65,20 @@ std::string Timestamp() {
   return text;
 }
 
+// The last `count` lines of `text`.
+std::string LastLines(const std::string& text, size_t count) {
+  size_t start = text.size();
+  for (size_t found = 0; start > 0 && found <= count;) {
+    --start;
+    if (text[start] == '\n' && start + 1 < text.size()) ++found;
+    if (found > count) {
+      ++start;
+      break;
+    }
+  }
+  return text.substr(start);
+}
+
 }  // namespace
 
 int RunLaunch(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
@@ -100,7 +115,11 @@ int RunLaunch(const std::vector<std::string>& args, std::ostream& out, std::ostr
   options.run_dir = parsed.Has("run-dir")
                         ? parsed.String("run-dir")
                         : "runs/" + layout.lab + "-" + options.host + "-" + Timestamp();
-  options.events = &out;
+  // On a terminal the table is redrawn in place; the events (start, ready, exit, restart, stop)
+  // are then kept and their latest lines shown under it.
+  const bool tty = ::isatty(STDOUT_FILENO) == 1 && &out == &std::cout;
+  std::ostringstream recent;
+  options.events = tty ? static_cast<std::ostream*>(&recent) : &out;
   // The supervisor checks every command line and opens the bus: a bad URL or prefix (from the
   // flags or the layout) is bad input, exit 2.
   auto make = [&] {
@@ -127,11 +146,12 @@ int RunLaunch(const std::vector<std::string>& args, std::ostream& out, std::ostr
   const std::unique_ptr<launch::Supervisor> owned = make();
   launch::Supervisor& supervisor = *owned;
   const auto started = std::chrono::steady_clock::now();
-  const bool tty = ::isatty(STDOUT_FILENO) == 1 && &out == &std::cout;
   auto elapsed = [&] {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   };
-  if (supervisor.Start([] { return !StopRequested(); })) {
+  const bool up = supervisor.Start([] { return !StopRequested(); });
+  if (tty) out << recent.str();
+  if (up) {
     out << "all " << layout.ProcessesOn(options.host).size() << " processes of host "
         << options.host << " are up; Ctrl-C stops them\n";
     double next_table = 0;
@@ -141,14 +161,18 @@ int RunLaunch(const std::vector<std::string>& args, std::ostream& out, std::ostr
         if (tty) out << "\033[H\033[J";  // redraw in place, like top
         out << "-- " << layout.lab << " @ " << options.host << ", " << static_cast<int>(elapsed())
             << " s --\n"
-            << launch::FormatTable(supervisor.Table()) << std::flush;
+            << launch::FormatTable(supervisor.Table());
+        if (tty) out << "recent events:\n" << LastLines(recent.str(), 8);
+        out << std::flush;
         next_table = elapsed() + (tty ? 1.0 : status_every);
       }
     }
     supervisor.Service(0);
     out << "-- final --\n" << launch::FormatTable(supervisor.Table());
   }
+  const size_t before_stop = recent.str().size();
   supervisor.Stop();
+  if (tty) out << recent.str().substr(before_stop);
   if (supervisor.failures().empty()) {
     out << "every process ran and stopped cleanly; output in " << options.run_dir << "/logs\n";
   } else {
