@@ -492,7 +492,7 @@ std::vector<ProcessRow> Supervisor::Table() const {
 
 std::string FormatTable(const std::vector<ProcessRow>& rows) {
   std::ostringstream out;
-  out << std::left << std::setw(16) << "process" << std::setw(14) << "host" << std::right
+  out << std::left << std::setw(20) << "process" << std::setw(12) << "host" << std::right
       << std::setw(8) << "pid"
       << "  " << std::left << std::setw(11) << "state" << std::right << std::setw(9) << "up s"
       << std::setw(5) << "rst" << std::setw(10) << "in/s" << std::setw(10) << "out/s"
@@ -505,8 +505,11 @@ std::string FormatTable(const std::vector<ProcessRow>& rows) {
     outr << std::fixed << std::setprecision(0) << r.out_hz;
     std::string detail = r.detail;
     if (detail.size() > 60) detail = detail.substr(0, 57) + "...";
-    out << std::left << std::setw(16) << (r.ours ? r.name : "(" + r.name + ")") << std::setw(14)
-        << r.host << std::right << std::setw(8) << (r.pid ? std::to_string(r.pid) : "-") << "  "
+    // Names and hosts are cut to their columns, so one long name cannot shift the row.
+    std::string name = r.ours ? r.name : "(" + r.name + ")";
+    if (name.size() > 19) name = name.substr(0, 18) + "~";
+    std::string host = r.host.size() > 11 ? r.host.substr(0, 10) + "~" : r.host;
+    out << std::left << std::setw(20) << name << std::setw(12) << host << std::right << std::setw(8) << (r.pid ? std::to_string(r.pid) : "-") << "  "
         << std::left << std::setw(11) << r.state << std::right << std::setw(9) << up.str()
         << std::setw(5) << (r.ours ? std::to_string(r.restarts) : "") << std::setw(10) << in.str()
         << std::setw(10) << outr.str() << std::setw(9) << r.rejected << std::setw(7) << r.late

@@ -451,6 +451,13 @@ int PlanControl(int8_t command, const std::string& word, const std::vector<std::
             return s.mode == Status::MODE_MANUAL;
           case sirupp::plan_command_t::COMMAND_AUTOMATIC:
             return s.mode == Status::MODE_AUTOMATIC;
+          case sirupp::plan_command_t::COMMAND_ABORT:
+            // A status sent before the controller took the abort may still be on its way: the
+            // plan has ended once the controller is manual again (or, locked in automatic, once
+            // the arm is at rest with no plan waiting or paused).
+            return s.mode == Status::MODE_MANUAL ||
+                   (s.state != Status::STATE_MOVING && s.state != Status::STATE_WAITING &&
+                    s.state != Status::STATE_PAUSED);
           default:
             return true;
         }

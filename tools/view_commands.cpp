@@ -188,7 +188,7 @@ int RunView(const std::vector<std::string>& args, std::ostream& out, std::ostrea
     out << ", " << stats.rejected + stats.decode_errors << " not shown (" << stats.last_error
         << ")";
   }
-  out << "\n";
+  out << std::endl;  // flushed: a sanitizer report at exit must not swallow it
   return 0;
 }
 

@@ -56,7 +56,7 @@ for _ in $(seq 1 100); do
 done
 has "up" "$dir/launch.out" "all 2 processes of host local are up"
 sleep 2.5
-has "table" "$dir/launch.out" "process         host"
+has "table" "$dir/launch.out" "process             host"
 grep -qE "^sim +[^ ]+ +[0-9]+  running" "$dir/launch.out" || { echo "FAIL table: sim not running"; cat "$dir/launch.out"; fail=1; }
 control_pid=$(awk '/^control / {print $3}' "$dir/launch.out" | tail -1)
 kill -KILL "$control_pid"

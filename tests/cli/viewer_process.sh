@@ -135,4 +135,19 @@ has view "$err" "sirupp view: no display (\$DISPLAY is not set)"
 [[ $rc -eq 2 ]] || { echo "FAIL view_args: exit $rc, expected 2"; fail=1; }
 has view_args "$err" "unknown option '--bogus'"
 
+# With a display (a virtual X server, xvfb-run): the window opens and shows the viewer's frames
+# (alone on the bus the viewer still sends one a second).
+if command -v xvfb-run >/dev/null; then
+  "$SIRUPP_VIEWER" --lcm-url "$URL" --duration 8 >"$work/shown.out" 2>&1 &
+  shown=$!; pids+=("$shown")
+  wait_for 30 grep -q " Hz on " "$work/shown.out" || { echo "FAIL view_x: viewer did not start"; fail=1; }
+  LSAN_OPTIONS="suppressions=$PWD/tests/cli/lsan-highgui.supp" DISPLAY= timeout 60 \
+    xvfb-run -a "$SIRUPP" view --lcm-url "$URL" --duration 4 >"$out" 2>"$err"
+  rc=$?
+  [[ $rc -eq 0 ]] || { echo "FAIL view_x: exit $rc"; cat "$out" "$err"; fail=1; }
+  n=$(sed -n 's/^sirupp view: \([0-9]*\) images received$/\1/p' "$out" "$err" | head -1)
+  [[ ${n:-0} -ge 2 ]] || { echo "FAIL view_x: ${n:-no} images shown"; cat "$out" "$err"; fail=1; }
+  kill -INT "$shown" 2>/dev/null; wait "$shown" 2>/dev/null
+fi
+
 finish viewer_process "$TEST_NET network"
