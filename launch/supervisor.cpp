@@ -509,11 +509,12 @@ std::string FormatTable(const std::vector<ProcessRow>& rows) {
     std::string name = r.ours ? r.name : "(" + r.name + ")";
     if (name.size() > 19) name = name.substr(0, 18) + "~";
     std::string host = r.host.size() > 11 ? r.host.substr(0, 10) + "~" : r.host;
-    out << std::left << std::setw(20) << name << std::setw(12) << host << std::right << std::setw(8) << (r.pid ? std::to_string(r.pid) : "-") << "  "
-        << std::left << std::setw(11) << r.state << std::right << std::setw(9) << up.str()
-        << std::setw(5) << (r.ours ? std::to_string(r.restarts) : "") << std::setw(10) << in.str()
-        << std::setw(10) << outr.str() << std::setw(9) << r.rejected << std::setw(7) << r.late
-        << "  " << detail << "\n";
+    out << std::left << std::setw(20) << name << std::setw(12) << host << std::right << std::setw(8)
+        << (r.pid ? std::to_string(r.pid) : "-") << "  " << std::left << std::setw(11) << r.state
+        << std::right << std::setw(9) << up.str() << std::setw(5)
+        << (r.ours ? std::to_string(r.restarts) : "") << std::setw(10) << in.str() << std::setw(10)
+        << outr.str() << std::setw(9) << r.rejected << std::setw(7) << r.late << "  " << detail
+        << "\n";
   }
   return out.str();
 }
