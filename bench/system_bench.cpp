@@ -4,7 +4,9 @@
 //      running movement set VII over and over: ticks per second, as a multiple of real time.
 //   2. realtime at the servo rate (1953 Hz for the PUMA 260) for --seconds (default 60) with the
 //      emulated real arm linked (sirupp-picservo-emu + sirupp-hardware) as well: the share of ticks
-//      whose command arrived late (goal below 0.1 %), from the sim's heartbeat counters.
+//      whose command arrived late (goal below 0.1 %), from the sim's heartbeat counters. The sim
+//      and the controller ask for --rt-priority 50 (SCHED_FIFO; granted to root), as a lab PC
+//      running the servo loop should; each one's log says whether it was granted.
 //   For each phase: CPU share (of one core) and resident memory of every process.
 // Prints figures only; it passes or fails nothing. Run it on a quiet machine.
 #include <unistd.h>
@@ -74,11 +76,12 @@ std::string Layout(const std::string& url, bool realtime, const std::string& bin
     y << "  - name: emulator\n    run: sirupp-picservo-emu --link ${RUN_DIR}/bus --start-pose "
          "ready\n"
          "    lcm: false\n    ready: file\n    ready_file: ${RUN_DIR}/bus\n";
-    y << "  - name: sim\n    run: sirupp-sim --mode realtime --pose ready\n";
+    y << "  - name: sim\n    run: sirupp-sim --mode realtime --pose ready --rt-priority 50\n";
   } else {
     y << "  - name: sim\n    run: sirupp-sim --mode lockstep --pose ready\n";
   }
-  y << "  - name: control\n    run: sirupp-control\n";
+  y << "  - name: control\n    run: sirupp-control" << (realtime ? " --rt-priority 50" : "")
+    << "\n";
   if (realtime) {
     y << "  - name: hardware\n    run: sirupp-hardware --port ${RUN_DIR}/bus --emulated "
          "--calibrate --arm --link\n";

@@ -18,6 +18,7 @@ namespace {
 constexpr const char* kUsage =
     "usage: sirupp-control [--model FILE] [--name NAME] [--no-setpoints] [--lcm-url URL]\n"
     "                      [--prefix PREFIX] [--controller LIB.so [--controller-args TEXT]]\n"
+    "                      [--rt-priority N]\n"
     "The sequencer and the virtual PIC-SERVOs: answers every SIM_ARM_STATE with joint efforts on\n"
     "SIM_ARM_COMMAND (as participant NAME, default sirupp-control); takes joint targets\n"
     "(ARM_TARGET), tool targets through IK (ARM_POSE_TARGET), movement plans and modes (ARM_PLAN)\n"
@@ -25,7 +26,9 @@ constexpr const char* kUsage =
     "ARM_SETPOINT, CONTROLLER_STATUS and HEARTBEAT.\n"
     "--controller: a student's controller library (built against sirupp/controller.h) computes\n"
     "the efforts from the profiles' set-points instead of the PID; --controller-args is passed\n"
-    "to its constructor. See docs/student-controllers.md.\n";
+    "to its constructor. See docs/student-controllers.md.\n"
+    "--rt-priority N: run under SCHED_FIFO at priority N (1..99; needs root or CAP_SYS_NICE),\n"
+    "so the servo loop answers each state at once on a busy machine (docs/timing.md).\n";
 
 int Run(const std::vector<std::string>& argv) {
   const sirupp::tools::Args args(argv, "sirupp-control",
@@ -34,8 +37,13 @@ int Run(const std::vector<std::string>& argv) {
                                   {"no-setpoints", "do not publish ARM_SETPOINT"},
                                   {"lcm-url", "LCM URL"},
                                   {"prefix", "channel prefix of the rig"},
+                                  {"rt-priority", "SCHED_FIFO priority 1..99 (0: off)"},
                                   {"controller", "controller library (.so)"},
                                   {"controller-args", "arguments for the controller library"}});
+  const int rt_priority =
+      args.Has("rt-priority")
+          ? sirupp::tools::ParseRtPriority(args.String("rt-priority"), "sirupp-control")
+          : 0;
   const sirupp::core::RobotModel model =
       sirupp::core::LoadRobotModel(sirupp::tools::ResolveDataPath(
           args.Has("model") ? args.String("model") : "config/robots/puma260.yaml"));
@@ -65,6 +73,7 @@ int Run(const std::vector<std::string>& argv) {
   sirupp::control::ControlNode node(bus, model, options);
   std::cerr << "sirupp-control: " << model.name << ", participant '" << options.name << "', on "
             << bus.url() << "\n";
+  sirupp::tools::RequestRealtimePriority(rt_priority, "sirupp-control");
   sirupp::tools::ServiceUntilSignal([&node] {
     node.Service(50);
     return true;

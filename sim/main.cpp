@@ -21,11 +21,13 @@ constexpr const char* kUsage =
     "                  [--participants NAME...] [--step SECONDS] [--state-every N]\n"
     "                  [--lockstep-timeout SECONDS] [--watchdog SECONDS] [--duration SECONDS]\n"
     "                  [--idle hold|limp] [--pose NAME | --position VALUES...] [--no-friction]\n"
-    "                  [--lcm-url URL] [--prefix PREFIX]\n"
+    "                  [--lcm-url URL] [--prefix PREFIX] [--rt-priority N]\n"
     "The ODE physics of a robot model: takes SIM_ARM_COMMAND, publishes SIM_ARM_STATE every tick,\n"
     "ROBOT_MODEL and ENVIRONMENT at 1 Hz and HEARTBEAT. Positions for --position are in the model\n"
     "file's angle unit. Defaults: config/robots/puma260.yaml, lockstep with participant\n"
-    "sirupp-control, the model's servo tick (0.512 ms for the PUMA 260). See sim/README.md.\n";
+    "sirupp-control, the model's servo tick (0.512 ms for the PUMA 260). See sim/README.md.\n"
+    "--rt-priority N: run under SCHED_FIFO at priority N (1..99; needs root or CAP_SYS_NICE), so\n"
+    "realtime ticks start on time on a busy machine (docs/timing.md).\n";
 
 int Run(const std::vector<std::string>& argv) {
   using sirupp::tools::Args;
@@ -44,7 +46,11 @@ int Run(const std::vector<std::string>& argv) {
                    {"position", "start positions, in the model file's angle unit"},
                    {"no-friction", "switch joint friction off"},
                    {"lcm-url", "LCM URL"},
-                   {"prefix", "channel prefix of the rig"}});
+                   {"prefix", "channel prefix of the rig"},
+                   {"rt-priority", "SCHED_FIFO priority 1..99 (0: off)"}});
+  const int rt_priority = args.Has("rt-priority") ? sirupp::tools::ParseRtPriority(
+                                                        args.String("rt-priority"), "sirupp-sim")
+                                                  : 0;
   const std::string model_file = sirupp::tools::ResolveDataPath(
       args.Has("model") ? args.String("model") : "config/robots/puma260.yaml");
   const sirupp::core::RobotModel model = sirupp::core::LoadRobotModel(model_file);
@@ -131,6 +137,7 @@ int Run(const std::vector<std::string>& argv) {
             << environment.objects.size() << " environment objects, "
             << sirupp::sim::TimingModeName(options.mode) << " mode, step "
             << sirupp::core::FormatNumber(world.step_s() * 1e3) << " ms, on " << bus.url() << "\n";
+  sirupp::tools::RequestRealtimePriority(rt_priority, "sirupp-sim");
   sirupp::tools::ServiceUntilSignal([&node] { return node.Service(50); });
   const sirupp::sim::NodeCounters& c = node.counters();
   std::cerr << "sirupp-sim: stopped at tick " << world.tick()

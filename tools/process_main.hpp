@@ -21,6 +21,15 @@ int ProcessMain(int argc, char** argv, const char* name, const char* usage,
 void InstallStopHandlers();
 bool StopRequested();
 
+// --rt-priority N (1..99) of sirupp-sim and sirupp-control: runs the calling process under
+// SCHED_FIFO at priority N, so a waking servo loop preempts ordinary processes at once instead of
+// waiting out the scheduler's wake-up granularity (milliseconds on two cores). Needs root,
+// CAP_SYS_NICE or an rtprio limit; when refused, one line on stderr and the process carries on at
+// normal priority. Returns whether it was granted. 0 does nothing.
+bool RequestRealtimePriority(int priority, const std::string& process_name);
+// The value of --rt-priority from a flag's text; throws core::UsageError outside 0..99.
+int ParseRtPriority(const std::string& text, const std::string& process_name);
+
 void ServiceUntilSignal(const std::function<bool()>& service);
 
 }  // namespace sirupp::tools

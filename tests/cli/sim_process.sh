@@ -89,4 +89,11 @@ grep -q "/nonexistent.xml" "$work/out" || fail "$(cat "$work/out")"
 "$SIRUPP_SIM" --position 0 0 0 400 0 0 >"$work/out" 2>&1; code=$?
 [ "$code" = 2 ] || fail "--position beyond limits exited $code"
 grep -q "joints\[3\] (wrist_roll)" "$work/out" || fail "$(cat "$work/out")"
+"$SIRUPP_SIM" --rt-priority 100 >"$work/out" 2>&1; code=$?
+[ "$code" = 2 ] || fail "--rt-priority 100 exited $code"
+grep -q "rt-priority '100' is not allowed; allowed: 0 (off) or 1 to 99" "$work/out" || fail "$(cat "$work/out")"
+# A granted or refused priority: either way the sim runs (one line says which).
+"$SIRUPP_SIM" --mode fast --duration 0.05 --rt-priority 10 >"$work/out" 2>&1; code=$?
+[ "$code" = 0 ] || fail "--rt-priority 10 exited $code: $(cat "$work/out")"
+grep -qE "SCHED_FIFO priority 10|--rt-priority 10 not granted" "$work/out" || fail "$(cat "$work/out")"
 echo "sim process: OK"
