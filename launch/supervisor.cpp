@@ -239,6 +239,10 @@ bool Supervisor::WaitReady(Child& child, const std::function<bool()>& keep_going
   const auto deadline =
       child.started + std::chrono::duration_cast<Clock::duration>(
                           std::chrono::duration<double>(child.spec.ready_timeout_s));
+  if (child.spec.ready == Ready::kStarted) {  // ready once started, even if it ends at once
+    child.state = "running";
+    return true;
+  }
   while (true) {
     Reap();
     if (child.pid == 0) {
@@ -247,7 +251,7 @@ bool Supervisor::WaitReady(Child& child, const std::function<bool()>& keep_going
     }
     bool ready = false;
     switch (child.spec.ready) {
-      case Ready::kStarted:
+      case Ready::kStarted:  // handled above
         ready = true;
         break;
       case Ready::kFile:
