@@ -368,15 +368,16 @@ TEST(LoggerNode, TakesTheRealArmWhenItIsThereAndRefusesWrongJointCounts) {
   LoggerOptions options = rig.Options();
   options.split_per_plan = false;
   LoggerNode node(rig.bus, rig.model, options);
-  const auto wall = std::chrono::duration_cast<std::chrono::microseconds>(
-                        std::chrono::system_clock::now().time_since_epoch())
-                        .count();
   for (int64_t tick = 0; tick < 400; ++tick) {
     rig.bus.Publish("SIM_ARM_STATE", ArmState(tick, tick, 1.0));
-    if (tick % 4 == 0) {  // a real arm at a quarter of the rate, measured on the wall clock
+    if (tick % 4 == 0) {  // a real arm at a quarter of the rate, stamped with the wall clock
       sirupp::arm_state_t real = ArmState(tick, tick / 4, 3.0);
       real.source = sirupp::arm_state_t::SOURCE_EMULATED;
-      real.utime = wall;
+      // As the bridge stamps it: the wall clock when it was read (a fixed stamp would fall behind
+      // the sim clock as fast as this loop is slow, and a slow sanitizer build lost the samples).
+      real.utime = std::chrono::duration_cast<std::chrono::microseconds>(
+                       std::chrono::system_clock::now().time_since_epoch())
+                       .count();
       rig.bus.Publish("REAL_ARM_STATE", real);
     }
     rig.bus.HandleAvailable();
