@@ -20,8 +20,8 @@ packages=(
   build-essential cmake ninja-build pkg-config git
   # messaging: C/C++ library, lcm-gen, lcm.jar, lcm-logger/lcm-logplayer, jchart2d for lcm-spy
   liblcm-dev liblcm-bin liblcm-java libjchart2d-java
-  # JDK to compile the Java types jar for lcm-spy
-  default-jdk-headless
+  # JDK to compile the Java types jar for lcm-spy; the full JRE (AWT for X11) to show lcm-spy's window
+  default-jdk-headless default-jre
   # physics, maths, images
   libode-dev libeigen3-dev
   libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev libopencv-videoio-dev libopencv-highgui-dev

@@ -136,6 +136,17 @@ int RunSpy(const std::vector<std::string>& args, std::ostream& out, std::ostream
     }
     return 0;
   }
+  // lcm-spy is a Swing window: a headless Java (default-jre-headless alone) cannot show it.
+  bool headful = false;
+  std::error_code ec;
+  for (const auto& jvm : fs::directory_iterator("/usr/lib/jvm", ec)) {
+    headful = headful || fs::exists(jvm.path() / "lib" / "libawt_xawt.so");
+  }
+  if (!headful) {
+    err << "sirupp spy: the installed Java is headless (no libawt_xawt.so under /usr/lib/jvm), so "
+           "lcm-spy cannot open its window; install default-jre (scripts/install-deps.sh)\n";
+    return 1;
+  }
   const char* display = std::getenv("DISPLAY");
   if (!display || !*display) {
     err << "sirupp spy: lcm-spy needs a display and DISPLAY is not set; use ssh -X, or xvfb-run "
