@@ -76,6 +76,12 @@ std::string DescribeStatus(int status) {
 
 bool CleanExit(int status) { return WIFEXITED(status) && WEXITSTATUS(status) == 0; }
 
+double Seconds(std::chrono::steady_clock::duration d) {
+  return std::chrono::duration<double>(d).count();
+}
+
+}  // namespace
+
 std::string ResolveProgram(const std::string& program, const std::string& bin_dir) {
   if (program.find('/') != std::string::npos) return program;
   if (!bin_dir.empty()) {
@@ -91,12 +97,6 @@ std::string ResolveProgram(const std::string& program, const std::string& bin_di
   }
   return "";
 }
-
-double Seconds(std::chrono::steady_clock::duration d) {
-  return std::chrono::duration<double>(d).count();
-}
-
-}  // namespace
 
 Supervisor::Supervisor(Layout layout, SupervisorOptions options)
     : layout_(std::move(layout)), options_(std::move(options)) {

@@ -104,6 +104,10 @@ class Supervisor {
   bool critical_ended_ = false;
 };
 
+// The program to run for `program`: itself if it has a '/', else the first executable of that name
+// in `bin_dir`, then on PATH; empty when there is none.
+std::string ResolveProgram(const std::string& program, const std::string& bin_dir);
+
 // Text of the status table: a header and one aligned line per row.
 std::string FormatTable(const std::vector<ProcessRow>& rows);
 

@@ -4,7 +4,6 @@
 
 #include <algorithm>
 #include <chrono>
-#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <iomanip>
@@ -57,15 +56,6 @@ std::string Fixed(double value, int digits) {
   std::ostringstream s;
   s << std::fixed << std::setprecision(digits) << value;
   return s.str();
-}
-
-std::string Timestamp() {
-  const std::time_t now = std::time(nullptr);
-  std::tm local{};
-  ::localtime_r(&now, &local);
-  char text[32];
-  std::strftime(text, sizeof text, "%Y%m%d-%H%M%S", &local);
-  return text;
 }
 
 const char* Roman(int n) {
@@ -160,7 +150,8 @@ int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostrea
       parsed.Has("lcm-url")
           ? parsed.String("lcm-url")
           : "udpm://239.255.76.67:" + std::to_string(20000 + ::getpid() % 20000) + "?ttl=0";
-  const fs::path dir = parsed.Has("out") ? parsed.String("out") : "results/demo-" + Timestamp();
+  const fs::path dir =
+      parsed.Has("out") ? parsed.String("out") : "results/demo-" + LocalTimestamp();
   if (fs::exists(dir) && !fs::is_empty(dir)) {
     throw core::UsageError("--out " + dir.string() +
                            ": exists and is not empty; choose a new folder");

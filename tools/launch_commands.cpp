@@ -48,15 +48,7 @@ std::string MachineName() {
   return name;
 }
 
-std::string ProgramDir() {
-  std::error_code ec;
-  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
-  return ec ? std::string() : self.parent_path().string();
-}
-
-namespace {
-
-std::string Timestamp() {
+std::string LocalTimestamp() {
   const std::time_t now = std::time(nullptr);
   std::tm local{};
   ::localtime_r(&now, &local);
@@ -64,6 +56,14 @@ std::string Timestamp() {
   std::strftime(text, sizeof text, "%Y%m%d-%H%M%S", &local);
   return text;
 }
+
+std::string ProgramDir() {
+  std::error_code ec;
+  const fs::path self = fs::read_symlink("/proc/self/exe", ec);
+  return ec ? std::string() : self.parent_path().string();
+}
+
+namespace {
 
 // The last `count` lines of `text`.
 std::string LastLines(const std::string& text, size_t count) {
@@ -114,7 +114,7 @@ int RunLaunch(const std::vector<std::string>& args, std::ostream& out, std::ostr
   options.bin_dir = ProgramDir();
   options.run_dir = parsed.Has("run-dir")
                         ? parsed.String("run-dir")
-                        : "runs/" + layout.lab + "-" + options.host + "-" + Timestamp();
+                        : "runs/" + layout.lab + "-" + options.host + "-" + LocalTimestamp();
   // On a terminal the table is redrawn in place; the events (start, ready, exit, restart, stop)
   // are then kept and their latest lines shown under it.
   const bool tty = ::isatty(STDOUT_FILENO) == 1 && &out == &std::cout;

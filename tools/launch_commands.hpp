@@ -17,5 +17,7 @@ int RunLaunch(const std::vector<std::string>& args, std::ostream& out, std::ostr
 // This machine's host name; the directory of the running program (where sirupp-* are looked up).
 std::string MachineName();
 std::string ProgramDir();
+// Local time as YYYYmmdd-HHMMSS, for the names of run and results folders.
+std::string LocalTimestamp();
 
 }  // namespace sirupp::tools

@@ -9,6 +9,7 @@
 #include <ostream>
 
 #include "core/errors.hpp"
+#include "launch/supervisor.hpp"
 #include "tools/args.hpp"
 #include "tools/launch_commands.hpp"
 
@@ -31,22 +32,6 @@ namespace {
 
 constexpr const char* kLcmJar = "/usr/share/java/lcm.jar";
 constexpr const char* kChartJar = "/usr/share/java/jchart2d.jar";
-
-std::string FindOnPath(const std::string& program) {
-  const char* path = std::getenv("PATH");
-  std::string dirs = path ? path : "/usr/bin:/bin";
-  size_t start = 0;
-  while (start <= dirs.size()) {
-    const size_t end = dirs.find(':', start);
-    const std::string dir = dirs.substr(start, end == std::string::npos ? end : end - start);
-    if (!dir.empty() && ::access((fs::path(dir) / program).c_str(), X_OK) == 0) {
-      return (fs::path(dir) / program).string();
-    }
-    if (end == std::string::npos) break;
-    start = end + 1;
-  }
-  return "";
-}
 
 }  // namespace
 
@@ -77,7 +62,7 @@ int RunSpy(const std::vector<std::string>& args, std::ostream& out, std::ostream
     if (end == std::string::npos) break;
     start = end + 1;
   }
-  const std::string java = FindOnPath("java");
+  const std::string java = launch::ResolveProgram("java", "");
   if (java.empty()) {
     err << "sirupp spy: java not found on PATH; install default-jre-headless "
            "(scripts/install-deps.sh)\n";
