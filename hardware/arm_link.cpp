@@ -325,6 +325,7 @@ ArmReading ArmLink::Poll() {
   r.setpoint.assign(static_cast<size_t>(n), 0.0);
   r.effort.assign(static_cast<size_t>(n), 0.0);
   const auto now = Clock::now();
+  const int64_t started_us = WallMicros();
   const double dt = have_last_poll_ ? std::chrono::duration<double>(now - last_poll_).count() : 0;
   for (int j = 0; j < n; ++j) {
     const auto i = static_cast<size_t>(j);
@@ -356,7 +357,9 @@ ArmReading ArmLink::Poll() {
   }
   last_poll_ = now;
   have_last_poll_ = true;
-  r.wall_us = WallMicros();
+  // The modules answer one after another (about 0.7 ms each at 230400 baud): the middle of the
+  // poll is the best single time for all six readings, off by at most half a poll for any joint.
+  r.wall_us = started_us + (WallMicros() - started_us) / 2;
   return r;
 }
 

@@ -24,7 +24,7 @@ inline constexpr uint8_t kPollItems = nmc::kSendPosition | nmc::kSendAux | nmc::
 
 // One poll of every module.
 struct ArmReading {
-  int64_t wall_us = 0;                  // when the poll finished, microseconds since the epoch
+  int64_t wall_us = 0;                  // the middle of the poll, microseconds since the epoch
   std::vector<bool> answered;           // false: the module failed every try (see errors)
   std::vector<std::string> errors;      // per joint, empty when it answered
   std::vector<uint8_t> status;          // raw status byte

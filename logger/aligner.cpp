@@ -9,6 +9,7 @@ namespace sirupp::logger {
 namespace {
 
 constexpr int64_t kRestartJumpUs = 1000000;  // sim time going back this far: the sim restarted
+constexpr int64_t kOffsetWindowUs = 200000;  // the sim clock's offset: the best of this long
 
 // Smallest multiple of period at or after t (t may be negative).
 int64_t CeilToPeriod(int64_t t, int64_t period) {
@@ -44,7 +45,7 @@ void Aligner::Add(Sample sample) {
         return;
       }
       if (sample.stream != Stream::kReal && sample.recv_utime > 0) {
-        wall_offset_ = sample.utime - sample.recv_utime;
+        NoteOffset(sample);
         have_offset_ = true;
       }
     }
@@ -61,6 +62,15 @@ void Aligner::Add(Sample sample) {
     return;
   }
   Place(std::move(sample));
+}
+
+void Aligner::NoteOffset(const Sample& sim_sample) {
+  const int64_t recv = sim_sample.recv_utime;
+  const int64_t offset = sim_sample.utime - recv;
+  while (!offsets_.empty() && offsets_.back().second <= offset) offsets_.pop_back();
+  offsets_.emplace_back(recv, offset);
+  while (offsets_.front().first < recv - kOffsetWindowUs) offsets_.pop_front();
+  wall_offset_ = offsets_.front().second;
 }
 
 int64_t Aligner::AxisTime(const Sample& sample) const {
@@ -153,13 +163,12 @@ void Aligner::Restart(const std::function<void(const Row&)>& sink) {
   }
   started_ = false;
   last_row_us_ = INT64_MIN;
+  offsets_.clear();
   ++run_;
   std::vector<Sample> waiting;
   waiting.swap(pending_restart_);
   for (Sample& sample : waiting) {
-    if (sample.stream != Stream::kReal && sample.recv_utime > 0) {
-      wall_offset_ = sample.utime - sample.recv_utime;
-    }
+    if (sample.stream != Stream::kReal && sample.recv_utime > 0) NoteOffset(sample);
     Place(std::move(sample));
   }
 }
@@ -193,6 +202,7 @@ void Aligner::Produce(int64_t frontier, const std::function<void(const Row&)>& s
         }
         if (t - current.axis_us < options_.max_age_us) {
           row.cell[static_cast<size_t>(s)] = &current.sample;
+          row.age_us[static_cast<size_t>(s)] = t - current.axis_us;
           any = true;
         }
         if (queue.size() >= 2) ahead = std::min(ahead, queue[1].axis_us);

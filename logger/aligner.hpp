@@ -5,8 +5,9 @@
 //
 // The time axis is sim time (microseconds) when a set-point or virtual stream is present: their
 // utime is on it already. A real arm's samples (wall clock, source REAL or EMULATED) are moved onto
-// it by the offset sim utime - receive time of the newest sim sample. Without any sim stream the
-// axis is the real arm's wall clock, zero at its first sample.
+// it by the offset sim utime - receive time of the sim samples (the largest over the last 0.2 s
+// of them, so that one sample delivered late does not move the real arm's samples). Without any sim
+// stream the axis is the real arm's wall clock, zero at its first sample.
 //
 // Row k is at time k * period. A stream's cell in a row is its newest sample at or before the row
 // time, if that sample is younger than max_age; otherwise the cell is empty (never interpolated).
@@ -18,6 +19,7 @@
 #include <array>
 #include <cstdint>
 #include <deque>
+#include <utility>
 #include <functional>
 #include <string>
 #include <vector>
@@ -28,7 +30,7 @@ namespace sirupp::logger {
 
 struct AlignerOptions {
   int64_t period_us = 512;     // the sample clock: one row per servo tick by default
-  int64_t max_age_us = 10000;  // older samples leave their cell empty
+  int64_t max_age_us = 25000;  // older samples leave their cell empty (2.5 polls at 100 Hz)
   int64_t idle_us = 50000;     // a stream silent this long (wall clock) stops holding rows back
 };
 
@@ -44,6 +46,7 @@ struct Row {
   int64_t time_us = 0;
   std::array<const Sample*, kNumStreams> cell{};  // null: empty cell
   std::array<int64_t, kNumStreams> lost{};        // cumulative missing messages per stream
+  std::array<int64_t, kNumStreams> age_us{};      // row time - the cell's sample time (0 if empty)
   int run = 0;                                    // sim restarts so far
   int plan_run = 0;                               // index into Aligner::plan_runs()
 };
@@ -91,6 +94,10 @@ class Aligner {
   AlignerOptions options_;
   Axis axis_ = Axis::kUndecided;
   int64_t wall_offset_ = 0;  // axis = wall utime + wall_offset_
+  // Recent sim samples' (receive time, utime - receive time), the offsets decreasing: a sample
+  // received late only lowers its offset, so the largest over a short window is the estimate.
+  std::deque<std::pair<int64_t, int64_t>> offsets_;
+  void NoteOffset(const Sample& sim_sample);
   bool have_offset_ = false;
   std::vector<Sample> pending_real_;  // real samples before the axis is decided
   std::vector<Sample> pending_restart_;

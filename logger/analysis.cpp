@@ -20,8 +20,8 @@ double LastFinite(const std::vector<double>& values, size_t begin, size_t i) {
   return kNaN;
 }
 
-StreamResponse Respond(const RunTable& table, const std::vector<double>& q, size_t begin,
-                       size_t end, double travel, const AnalysisOptions& options) {
+StreamResponse Respond(const RunTable& table, Stream stream, const std::vector<double>& q,
+                       size_t begin, size_t end, double travel, const AnalysisOptions& options) {
   StreamResponse response;
   for (size_t i = begin; i < end; ++i) response.samples += std::isfinite(q[i]) ? 1 : 0;
   if (response.samples == 0) return response;
@@ -32,7 +32,9 @@ StreamResponse Respond(const RunTable& table, const std::vector<double>& q, size
   response.start_delay_s = kNaN;
   for (size_t i = begin; i < end; ++i) {
     if (std::isfinite(q[i]) && std::abs(q[i] - baseline) >= options.start_threshold) {
-      response.start_delay_s = table.time_s[i] - t0;
+      // the time the sample was taken: a held sample (a real arm polled at 100 Hz) is older
+      // than its row
+      response.start_delay_s = std::max(0.0, table.time_s[i] - table.Age(stream, i) - t0);
       break;
     }
   }
@@ -109,6 +111,7 @@ Analysis Analyze(const RunTable& table, const AnalysisOptions& options) {
     for (int j = 1; j <= num_joints; ++j) joints.push_back(j);
   }
   const size_t rows = table.rows();
+  const double period = table.period_s();
   if (table.cells[static_cast<size_t>(Stream::kSetpoint)] == 0 ||
       std::all_of(table.move_id.begin(), table.move_id.end(), [](int64_t id) { return id < 0; })) {
     analysis.notes.push_back(table.source + " (" + table.label +
@@ -182,6 +185,12 @@ Analysis Analyze(const RunTable& table, const AnalysisOptions& options) {
         double sum_transient = 0, sum_steady = 0, sum_squares = 0;
         for (size_t i = begin; i < end; ++i) {
           if (!std::isfinite(a[i]) || !std::isfinite(b[i])) continue;
+          // Compare samples at their own time: a row holding an older sample of either stream
+          // (between two polls of the real arm) would count the motion since as error.
+          if (!table.Fresh(PairFirst(pair), i, period) ||
+              !table.Fresh(PairSecond(pair), i, period)) {
+            continue;
+          }
           const double error = std::abs(b[i] - a[i]);
           if (table.time_s[i] <= result.done_s + options.settle_window_s) {
             sum_transient += error;
@@ -206,8 +215,8 @@ Analysis Analyze(const RunTable& table, const AnalysisOptions& options) {
       }
       for (Stream stream : kAllStreams) {
         StreamResponse& response = result.streams[static_cast<size_t>(stream)];
-        response = Respond(table, table.position[j][static_cast<size_t>(stream)], begin, end,
-                           to - from, options);
+        response = Respond(table, stream, table.position[j][static_cast<size_t>(stream)], begin,
+                           end, to - from, options);
         if (response.has()) response.final_error = response.final_value - to;
       }
       analysis.moves.push_back(result);

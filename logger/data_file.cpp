@@ -63,7 +63,7 @@ std::string Trim(const std::string& text) {
 
 // What a column of a data file holds.
 struct ColumnRole {
-  enum Kind { kTime, kPosition, kVelocity, kEffort, kMoveId, kDone, kLost } kind = kTime;
+  enum Kind { kTime, kPosition, kVelocity, kEffort, kMoveId, kDone, kLost, kAge } kind = kTime;
   int joint = -1;  // 0-based
   int stream = -1;
 };
@@ -84,6 +84,7 @@ std::vector<std::string> ColumnLayout::Names() const {
   names.push_back("move_id");
   for (size_t j = 0; j < n; ++j) names.push_back("j" + std::to_string(j + 1) + "_done");
   for (Stream stream : kAllStreams) names.push_back(std::string(StreamKey(stream)) + "_lost");
+  for (Stream stream : kAllStreams) names.push_back(std::string(StreamKey(stream)) + "_age_us");
   if (velocities) {
     for (size_t j = 0; j < n; ++j) {
       for (Stream stream : kAllStreams) {
@@ -126,6 +127,10 @@ void ColumnLayout::AppendRow(const Row& row, std::string& out) const {
     out += ',';
     AppendInt(out, row.lost[s]);
   }
+  for (size_t s = 0; s < kNumStreams; ++s) {
+    out += ',';
+    if (row.cell[s] != nullptr) AppendInt(out, row.age_us[s]);
+  }
   if (velocities) {
     for (size_t j = 0; j < n; ++j) {
       for (size_t s = 0; s < kNumStreams; ++s) {
@@ -157,6 +162,7 @@ void RunTable::Reset(const std::vector<JointInfo>& joint_list) {
   position.assign(joints.size(), {});
   move_id.clear();
   done.assign(joints.size(), {});
+  for (std::vector<double>& ages : age_s) ages.clear();
   lost = {};
   cells = {};
 }
@@ -175,8 +181,28 @@ void RunTable::Append(const Row& row) {
   }
   for (size_t s = 0; s < kNumStreams; ++s) {
     if (row.cell[s] != nullptr) ++cells[s];
+    age_s[s].push_back(row.cell[s] != nullptr ? static_cast<double>(row.age_us[s]) * 1e-6 : kNaN);
   }
   lost = row.lost;
+}
+
+double RunTable::period_s() const {
+  double period = 0;
+  for (size_t i = 1; i < time_s.size(); ++i) {
+    const double step = time_s[i] - time_s[i - 1];
+    if (step > 0 && (period == 0 || step < period)) period = step;
+  }
+  return period;
+}
+
+double RunTable::Age(Stream stream, size_t i) const {
+  const std::vector<double>& ages = age_s[static_cast<size_t>(stream)];
+  return i < ages.size() && !std::isnan(ages[i]) ? ages[i] : 0.0;
+}
+
+bool RunTable::Fresh(Stream stream, size_t i, double period) const {
+  if (period <= 0) return true;             // a single row: nothing is held over
+  return Age(stream, i) < period - 0.5e-6;  // ages are whole microseconds, times have 6 decimals
 }
 
 std::string PlanLabel(const std::string& plan_name) {
@@ -396,6 +422,7 @@ class FileReader {
       if (c == 0) {
         if (name != "time_s") Fail(line, where + ": the first column must be time_s");
         roles_.push_back(role);
+        names_.push_back(name);
         continue;
       }
       if (name == "move_id") {
@@ -405,6 +432,11 @@ class FileReader {
         role.stream = StreamIndex(name.substr(0, name.size() - 5));
         if (role.stream < 0)
           Fail(line, where + ": unknown; allowed set_lost, virt_lost, real_lost");
+      } else if (name.size() > 7 && name.compare(name.size() - 7, 7, "_age_us") == 0) {
+        role.kind = ColumnRole::kAge;
+        role.stream = StreamIndex(name.substr(0, name.size() - 7));
+        if (role.stream < 0)
+          Fail(line, where + ": unknown; allowed set_age_us, virt_age_us, real_age_us");
       } else if (name.size() > 1 && name[0] == 'j') {
         size_t pos = 1;
         while (pos < name.size() && std::isdigit(static_cast<unsigned char>(name[pos]))) ++pos;
@@ -476,6 +508,7 @@ class FileReader {
     int64_t move = -1;
     std::vector<int8_t> row_done(table_.joints.size(), -1);
     std::array<int64_t, kNumStreams> row_lost = table_.lost;
+    std::array<double, kNumStreams> row_age = {kNaN, kNaN, kNaN};
     double time = kNaN;
     for (size_t c = 0; c < fields.size(); ++c) {
       const std::string& field = fields[c];
@@ -486,7 +519,7 @@ class FileReader {
         continue;
       }
       if (role.kind == ColumnRole::kMoveId || role.kind == ColumnRole::kDone ||
-          role.kind == ColumnRole::kLost) {
+          role.kind == ColumnRole::kLost || role.kind == ColumnRole::kAge) {
         int64_t value = 0;
         const auto result = std::from_chars(field.data(), field.data() + field.size(), value);
         const int64_t low = role.kind == ColumnRole::kMoveId ? -1 : 0;
@@ -503,6 +536,9 @@ class FileReader {
         if (role.kind == ColumnRole::kDone)
           row_done[static_cast<size_t>(role.joint)] = static_cast<int8_t>(value);
         if (role.kind == ColumnRole::kLost) row_lost[static_cast<size_t>(role.stream)] = value;
+        if (role.kind == ColumnRole::kAge) {
+          row_age[static_cast<size_t>(role.stream)] = static_cast<double>(value) * 1e-6;
+        }
         continue;
       }
       double value = 0;
@@ -532,12 +568,14 @@ class FileReader {
       }
       table_.done[j].push_back(row_done[j]);
     }
+    for (size_t s = 0; s < kNumStreams; ++s) table_.age_s[s].push_back(row_age[s]);
     table_.lost = row_lost;
   }
 
   static constexpr const char* kAllowed =
       "; allowed: time_s, jN_{set,virt,real}_{deg|mm}, jN_{set,virt,real}_vel_{dps|mmps}, "
-      "jN_{set,virt,real}_effort_{nm|n}, move_id, jN_done, {set,virt,real}_lost";
+      "jN_{set,virt,real}_effort_{nm|n}, move_id, jN_done, {set,virt,real}_lost, "
+      "{set,virt,real}_age_us";
 
   std::string path_;
   RunTable table_;

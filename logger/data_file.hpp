@@ -3,7 +3,7 @@
 //
 //   # sirupp-logger data file, format 1; the column line is line 14
 //   # model: ...                        (one "# key: value" line each: model, joints, plan, ...)
-//   time_s,j1_set_deg,j1_virt_deg,j1_real_deg,...,move_id,j1_done,...,set_lost,virt_lost,real_lost
+//   time_s,j1_set_deg,j1_virt_deg,j1_real_deg,...,move_id,j1_done,...,set_lost,...,real_age_us
 //   12.345216,45.12345,45.01234,,...
 //   # end: 2048 rows, ...               (written on a clean close only)
 //
@@ -56,14 +56,26 @@ struct RunTable {
   std::vector<std::vector<int8_t>> done;                               // [joint][row], -1 empty
   std::array<int64_t, kNumStreams> lost{};   // missing messages per stream, at the last row
   std::array<int64_t, kNumStreams> cells{};  // filled cells per stream
-  bool closed = false;                       // the writer's "# end" line is there
-  std::vector<std::string> notes;            // warnings worth showing with the report
+  // Per stream and row: how old the cell's sample was at the row time, in s (the *_age_us columns;
+  // a real arm polled at 100 Hz holds each sample for about 20 rows of 0.512 ms). NaN: empty cell,
+  // or a file without age columns.
+  std::array<std::vector<double>, kNumStreams> age_s;
+  bool closed = false;             // the writer's "# end" line is there
+  std::vector<std::string> notes;  // warnings worth showing with the report
 
   size_t rows() const { return time_s.size(); }
   // Prepares the columns for these joints (no rows).
   void Reset(const std::vector<JointInfo>& joint_list);
   // Appends an aligner row (SI values converted to file units).
   void Append(const Row& row);
+  // The sample clock: the smallest step between consecutive rows (rows lie on multiples of it);
+  // 0 with fewer than two rows.
+  double period_s() const;
+  // The age of row i's sample of `stream` in s; 0 when unknown.
+  double Age(Stream stream, size_t i) const;
+  // Whether row i holds a sample of `stream` taken within the row's own period, that is, not one
+  // held over from an earlier row. True when the age is unknown. period: period_s().
+  bool Fresh(Stream stream, size_t i, double period) const;
 };
 
 // The movement-set label of a plan name: the file stem ("config/plans/set7.plan" -> "set7"), made

@@ -26,7 +26,7 @@ constexpr const char* kUsage =
     "commented header, one file per movement set (CONTROLLER_STATUS plan runs):\n"
     "DIR/NAME-NN-SET.csv (--split none: DIR/NAME.csv). DIR default logs, NAME default\n"
     "sirupp-YYYYmmdd-HHMMSS. Rows every servo tick of the model (--rate HZ for another clock);\n"
-    "a stream older than --max-age (0.01 s) leaves its cell empty. Rows reach the file within\n"
+    "a stream older than --max-age (0.025 s) leaves its cell empty. Rows reach the file within\n"
     "0.1 s; stop with Ctrl-C (the files get their '# end' line). On udpm the socket asks for a\n"
     "--recv-buf of 2097152 bytes (0: LCM's default), so a busy machine does not drop datagrams\n"
     "(the kernel caps it at net.core.rmem_max). Raw traffic: lcm-logger, see\n"
@@ -93,7 +93,9 @@ int Run(const std::vector<std::string>& argv) {
   }
   const double period_s = 1.0 / PositiveSeconds(args, "rate", 1.0 / model.servo_tick_s);
   options.aligner.period_us = std::max<int64_t>(1, std::llround(period_s * 1e6));
-  options.aligner.max_age_us = std::llround(PositiveSeconds(args, "max-age", 0.01) * 1e6);
+  options.aligner.max_age_us = std::llround(
+      PositiveSeconds(args, "max-age", static_cast<double>(options.aligner.max_age_us) * 1e-6) *
+      1e6);
   options.aligner.idle_us = std::llround(PositiveSeconds(args, "idle", 0.05) * 1e6);
   options.velocities = args.Switch("velocities");
   options.efforts = args.Switch("efforts");

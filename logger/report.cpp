@@ -4,6 +4,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <stdexcept>
 
@@ -17,6 +18,17 @@ namespace {
 
 const PlotColor kStreamColors[kNumStreams] = {{31, 119, 180}, {255, 127, 14}, {44, 160, 44}};
 const PlotColor kPairColors[kNumPairs] = {{255, 127, 14}, {44, 160, 44}, {214, 39, 40}};
+constexpr double kPlotGapS = 0.05;  // samples further apart are not joined by a line
+
+// Appends a point, first breaking the line (a NaN) if the previous point is over kPlotGapS back.
+void AddPoint(PlotSeries& series, double x, double y) {
+  if (!series.x.empty() && x - series.x.back() > kPlotGapS) {
+    series.x.push_back(std::numeric_limits<double>::quiet_NaN());
+    series.y.push_back(std::numeric_limits<double>::quiet_NaN());
+  }
+  series.x.push_back(x);
+  series.y.push_back(y);
+}
 
 std::string Fixed(double value, int decimals) {
   if (!std::isfinite(value)) return "";
@@ -129,7 +141,8 @@ ReportOutput WriteReport(const std::vector<RunTable>& tables, const ReportOption
 
   md += "\n## Table II: error per movement set and joint\n\n";
   md +=
-      "Error = second stream minus first, at the same sample time; mean, RMS and maximum of its "
+      "Error = second stream minus first, at the same sample time (rows that only repeat an older "
+      "reading, as between two polls of a real arm, are left out); mean, RMS and maximum of its "
       "magnitude. Transient: from the move command until the joint's set-point reports move-done, "
       "plus " +
       core::FormatApprox(a.settle_window_s) +
@@ -217,22 +230,37 @@ ReportOutput WriteReport(const std::vector<RunTable>& tables, const ReportOption
             keys[t] + ", move " + std::to_string(move.move_id) + ": joint " + joint_text + " error";
         error_plot.x_label = angle.x_label;
         error_plot.y_label = std::string("error, second minus first (") + Unit(move) + ")";
-        std::vector<double> x;
-        for (size_t i = first_row; i < move.end; ++i) x.push_back(table.time_s[i] - move.start_s);
+        // Each sample is drawn once, at the time it was taken: rows that hold a sample over from
+        // an earlier row (a real arm polled at 100 Hz) are skipped, so the line joins the
+        // samples; a stretch without samples longer than kPlotGapS breaks it.
+        const double period = table.period_s();
         for (Stream stream : kAllStreams) {
           const auto s = static_cast<size_t>(stream);
           if (!move.streams[s].has()) continue;
-          PlotSeries series{StreamTitle(stream), x, {}, kStreamColors[s]};
-          for (size_t i = first_row; i < move.end; ++i) series.y.push_back(table.position[j][s][i]);
+          PlotSeries series{StreamTitle(stream), {}, {}, kStreamColors[s]};
+          for (size_t i = first_row; i < move.end; ++i) {
+            if (!std::isfinite(table.position[j][s][i]) || !table.Fresh(stream, i, period))
+              continue;
+            AddPoint(series, table.time_s[i] - table.Age(stream, i) - move.start_s,
+                     table.position[j][s][i]);
+          }
           angle.series.push_back(std::move(series));
         }
         for (Pair pair : kAllPairs) {
           const auto p = static_cast<size_t>(pair);
           if (!move.pairs[p].has()) continue;
-          PlotSeries series{PairTitle(pair), x, {}, kPairColors[p]};
+          PlotSeries series{PairTitle(pair), {}, {}, kPairColors[p]};
           const auto& first = table.position[j][static_cast<size_t>(PairFirst(pair))];
           const auto& second = table.position[j][static_cast<size_t>(PairSecond(pair))];
-          for (size_t i = first_row; i < move.end; ++i) series.y.push_back(second[i] - first[i]);
+          for (size_t i = first_row; i < move.end; ++i) {
+            // as in the analysis: errors only where both samples are current
+            if (!std::isfinite(first[i]) || !std::isfinite(second[i]) ||
+                !table.Fresh(PairFirst(pair), i, period) ||
+                !table.Fresh(PairSecond(pair), i, period)) {
+              continue;
+            }
+            AddPoint(series, table.time_s[i] - move.start_s, second[i] - first[i]);
+          }
           error_plot.series.push_back(std::move(series));
         }
         const std::vector<PlotMarker> markers = {

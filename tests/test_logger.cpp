@@ -95,7 +95,7 @@ TEST(Aligner, PutsTheStreamsOnTheServoTickAndWaitsForTheSlowestLiveStream) {
     EXPECT_TRUE(std::isnan(q1[i][2]));                           // no real arm: empty
   }
   // 60 ms later the set-point counts as silent: the virtual rows go out, set-point cells empty
-  // once its last sample is older than max_age (10 ms) -- here it is not yet.
+  // once its last sample is older than max_age (25 ms) -- here it is not yet.
   q1.clear();
   rows = Collect(aligner, now + 60'000, false, &q1);
   ASSERT_EQ(rows.size(), 4u);
@@ -154,10 +154,34 @@ TEST(Aligner, MovesWallClockRealArmSamplesOntoSimTime) {
   ASSERT_EQ(rows.size(), 1u);  // the clock starts with the first sim sample
   EXPECT_EQ(rows[0].time_us, 100 * 512);
   EXPECT_NEAR(q1[0][1], 1.0, 1e-12);
-  EXPECT_NEAR(q1[0][2], 7.0, 1e-12);  // at sim tick 98: 1 ms old
+  EXPECT_NEAR(q1[0][2], 7.0, 1e-12);   // at sim tick 98: 1 ms old
+  EXPECT_EQ(rows[0].age_us[2], 1024);  // and the row says how old
+  EXPECT_EQ(rows[0].age_us[1], 0);
   EXPECT_EQ(aligner.real_sources(), 1 << sirupp::arm_state_t::SOURCE_EMULATED);
 }
 
+TEST(Aligner, ASimSampleDeliveredLateDoesNotMoveTheRealArmsSamples) {
+  Aligner aligner(AlignerOptions{});
+  for (int64_t tick = 0; tick < 10; ++tick) aligner.Add(SimSample(Stream::kVirtual, tick, 1.0));
+  Sample late = SimSample(Stream::kVirtual, 10, 1.0);
+  late.recv_utime += 5000;  // the logger got tick 10 five milliseconds late
+  aligner.Add(late);
+  Sample real;
+  real.stream = Stream::kReal;
+  real.clock = SampleClock::kWall;
+  real.source = sirupp::arm_state_t::SOURCE_REAL;
+  real.utime = 1'000'000'000 + 10 * 512;  // measured as tick 10 was due
+  real.recv_utime = real.utime + 5000;
+  real.position.assign(kJoints, 7 * kDeg);
+  aligner.Add(real);
+  std::vector<std::vector<double>> q1;
+  const std::vector<Row> rows = Collect(aligner, 0, true, &q1);
+  ASSERT_EQ(rows.size(), 11u);
+  // On tick 10, not 5 ms (about ten ticks) before it, as the late sample's offset would put it.
+  EXPECT_TRUE(std::isnan(q1[9][2]));
+  EXPECT_DOUBLE_EQ(q1[10][2], 7.0);
+  EXPECT_EQ(rows[10].age_us[2], 0);
+}
 TEST(Aligner, APlanStartBeginsANewMovementSet) {
   Aligner aligner(AlignerOptions{});
   for (int64_t tick = 0; tick < 10; ++tick) aligner.Add(SimSample(Stream::kVirtual, tick, 0));
@@ -204,6 +228,7 @@ TEST(DataFile, RowsWrittenAreReadBackInTheFileUnits) {
     writer.Append(row);
     row.time_us += 512;
     row.cell = {nullptr, &virt, nullptr};
+    row.age_us = {0, 512, 0};  // the virtual sample held over from the row before
     writer.Append(row);
     writer.Close("2 rows");
   }
@@ -223,6 +248,12 @@ TEST(DataFile, RowsWrittenAreReadBackInTheFileUnits) {
   EXPECT_EQ(table.done[0][0], 1);
   EXPECT_EQ(table.done[1][0], 0);
   EXPECT_EQ(table.lost[1], 3);
+  EXPECT_DOUBLE_EQ(table.age_s[1][0], 0.0);
+  EXPECT_NEAR(table.age_s[1][1], 512e-6, 1e-12);
+  EXPECT_TRUE(std::isnan(table.age_s[0][1]));  // an empty cell has no age
+  EXPECT_NEAR(table.period_s(), 512e-6, 1e-9);
+  EXPECT_TRUE(table.Fresh(Stream::kVirtual, 0, table.period_s()));
+  EXPECT_FALSE(table.Fresh(Stream::kVirtual, 1, table.period_s()));
   // The first line says where the column line is, so Octave's dlmread can skip the header.
   std::ifstream in(path);
   std::string first;

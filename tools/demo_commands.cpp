@@ -1,5 +1,6 @@
 #include "tools/demo_commands.hpp"
 
+#include <strings.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -35,8 +36,8 @@ const char* const kDemoUsage =
     "The main job: the SIRUPP paper's experiment, headless. Starts the processes of --layout\n"
     "(default config/labs/demo.yaml: sirupp-picservo-emu, sirupp-sim, sirupp-control,\n"
     "sirupp-hardware linked to the emulated arm, sirupp-logger, sirupp-viewer), runs the movement\n"
-    "sets (config/plans/setN.plan, default 1 to 7) on the virtual and the emulated real arm, "
-    "stops\n"
+    "sets (config/plans/setN.plan; --sets 1 7 or I VII, default all seven) on the virtual and\n"
+    "the emulated real arm, stops "
     "the processes and writes the Table II report. Everything goes to --out (default\n"
     "results/demo-YYYYmmdd-HHMMSS): data/ (the logger's files), report/ (report.md, CSV tables,\n"
     "plots), images/ and video/ (the viewer), logs/ (each process's output).\n"
@@ -136,11 +137,15 @@ int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   if (parsed.Has("sets")) {
     sets.clear();
     for (const std::string& text : parsed.Values("sets", -1)) {
-      const double n = ParseNumberArg(text, "--sets");
-      if (n != static_cast<int>(n) || n < 1 || n > 7) {
-        throw core::UsageError("--sets: '" + text + "' is not a movement set; allowed: 1 to 7");
+      int n = 0;  // the paper numbers its sets I to VII; 1 to 7 works as well
+      for (int k = 1; k <= 7; ++k) {
+        if (strcasecmp(text.c_str(), Roman(k)) == 0 || text == std::to_string(k)) n = k;
       }
-      sets.push_back(static_cast<int>(n));
+      if (n == 0) {
+        throw core::UsageError("--sets: '" + text +
+                               "' is not a movement set; allowed: 1 to 7 or I to VII");
+      }
+      sets.push_back(n);
     }
   }
   const std::string layout_file =

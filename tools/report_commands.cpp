@@ -26,7 +26,7 @@ const char* const kReportUsage =
     "  --min-travel DEG      joints whose set-point travels less are not reported (0.5)\n"
     "  --joints N..          only these joints (1-based)\n"
     "  LCM logs: --prefix (rig prefix of the channels), --rate HZ (sample clock, default the\n"
-    "  0.512 ms servo tick), --max-age S (0.01), --whole-log (one set, not one per plan run)\n"
+    "  0.512 ms servo tick), --max-age S (0.025), --whole-log (one set, not one per plan run)\n"
     "Definitions: docs/logging.md. Exit 0, or 2 naming FILE:LINE for bad input.\n";
 
 namespace {
@@ -94,7 +94,7 @@ int RunReport(const std::vector<std::string>& argv, std::ostream& out, std::ostr
     import.aligner.period_us = std::max<int64_t>(1, std::llround(1e6 / rate));
   }
   if (args.Has("max-age")) {
-    import.aligner.max_age_us = std::llround(NonNegative(args, "max-age", 0.01) * 1e6);
+    import.aligner.max_age_us = std::llround(NonNegative(args, "max-age", 0.0) * 1e6);
   }
   import.split_per_plan = !args.Switch("whole-log");
 

@@ -15,7 +15,7 @@ run "out not empty" 2 demo --out "$dir/full"
 has "out not empty" "$err" "exists and is not empty"
 
 # From another working directory: the demo finds its layout, model and plans itself.
-(cd "$dir" && "$SIRUPP" demo --sets 1 7 --out r >"$dir/demo.out" 2>&1)
+(cd "$dir" && "$SIRUPP" demo --sets 1 VII --out r >"$dir/demo.out" 2>&1)
 rc=$?
 [[ $rc -eq 0 ]] || { echo "FAIL demo: exit $rc"; cat "$dir/demo.out"; for f in "$dir"/r/logs/*; do echo "== $f"; cat "$f"; done; fail=1; }
 has "progress" "$dir/demo.out" "set I    (1/2)"

@@ -27,7 +27,7 @@ command -v lcm-logger >/dev/null || { echo "FAIL: lcm-logger not found (liblcm-b
 [[ $rc -eq 2 ]] || { echo "FAIL split: exit $rc"; fail=1; }
 has split "$err" "--split 'bogus' is not allowed; allowed: plan, none"
 run bad_file 2 report tests/data/bad_logs/09_not_a_number.csv --out "$work/bad"
-has bad_file "$err" "09_not_a_number.csv:6: column 3 (j1_real_deg): 'abc' is not a finite decimal number"
+has bad_file "$err" "09_not_a_number.csv:6: column 3 (j1_virt_deg): 'abc' is not a finite decimal number"
 run bad_log 2 report tests/data/bad_logs/25_lcm_bad_sync_word.lcm --out "$work/bad"
 has bad_log "$err" "byte 37 (event 1): expected the event sync word 0xEDA1DA01"
 run no_file 2 report "$work/nothing.csv"
