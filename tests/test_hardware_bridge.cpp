@@ -7,7 +7,9 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <functional>
+#include <iostream>
 #include <memory>
 #include <sirupp/arm_state_t.hpp>
 #include <sirupp/controller_status_t.hpp>
@@ -16,6 +18,7 @@
 #include <sirupp/hardware_status_t.hpp>
 #include <sirupp/servo_move_t.hpp>
 #include <sirupp/servo_setpoint_t.hpp>
+#include <string>
 #include <vector>
 
 #include "core/bus.hpp"
@@ -148,6 +151,21 @@ bool AllDone(const Rig& rig) {
   return true;
 }
 
+std::string FormatFixed(double value, int decimals) {
+  char text[48];
+  std::snprintf(text, sizeof text, "%.*f", decimals, value);
+  return text;
+}
+
+// "89.58 89.81 89.70": the first n joints in degrees, for the figures the tests print.
+std::string Degrees(const std::vector<double>& radians, size_t n) {
+  std::string text;
+  for (size_t j = 0; j < n && j < radians.size(); ++j) {
+    text += (j ? " " : "") + FormatFixed(radians[j] / kDeg, 2);
+  }
+  return text;
+}
+
 TEST(HardwareBridge, StartUpAddressesTheModulesAndCalibratesToThePose) {
   Rig rig;  // the arm was put in the ready pose by hand
   rig.node->Connect();
@@ -204,6 +222,9 @@ TEST(HardwareBridge, SetSevenMirroredReachesItsGoals) {
     EXPECT_NEAR(rig.setpoints.goal[j] / kDeg, 90, 1e-9);
   }
   EXPECT_EQ(rig.setpoints.move_id, 7);
+  std::cout << "set VII mirrored: joints 1-3 at " << Degrees(q, 3)
+            << " deg (goal 90 90 90); the chips' set-points at "
+            << Degrees(rig.setpoints.position, 3) << "\n";
   for (size_t i = 1; i < rig.states.size(); ++i) {
     ASSERT_EQ(rig.states[i].seq, rig.states[i - 1].seq + 1);
   }
@@ -278,6 +299,8 @@ TEST(HardwareBridge, EstopStopsAbruptlyAndTurnsTheMotorsOff) {
   // j1 coasted to a stop well short of its goal (90 deg).
   const double stopped_at = rig.emulator->JointPositions()[0];
   EXPECT_LT(std::abs(stopped_at) / kDeg, 60);
+  std::cout << "e-stop: j1 moving at " << FormatFixed(moving_at / kDeg, 1) << " deg, stopped at "
+            << FormatFixed(stopped_at / kDeg, 1) << " deg (goal 90), every servo off, PWM 0\n";
   rig.RunUntil(0.2, nullptr);
   EXPECT_NEAR(rig.emulator->JointPositions()[0], stopped_at, 0.01 * kDeg);
   // Arming is refused while engaged; after release the arm stays disarmed until armed again.
@@ -307,6 +330,8 @@ TEST(HardwareBridge, ExpiredCommandsStopTheArmSmoothly) {
   const double q = rig.emulator->JointPositions()[0] / kDeg;
   EXPECT_GT(std::abs(q), 5);
   EXPECT_LT(std::abs(q), 60);  // stopped on the way, not at 90
+  std::cout << "controller silent: '" << rig.node->last_error() << "'; j1 stopped smoothly at "
+            << FormatFixed(q, 1) << " deg (goal 90), servo on and holding\n";
   // Smooth, not abrupt: the servo is still on and holding.
   EXPECT_TRUE(rig.emulator->ModuleStatus(0).aux & nmc::kAuxServoOn);
   EXPECT_EQ(rig.node->state(), hardware_status_t::STATE_LINKED);
@@ -320,7 +345,10 @@ TEST(HardwareBridge, ASilentModuleBecomesAFaultNotAHang) {
   rig.emulator->SetSilent(2, true);  // module 3 (j3) stops answering
   const auto t0 = Clock::now();
   ASSERT_TRUE(rig.RunUntil(2, [&] { return rig.node->state() == hardware_status_t::STATE_FAULT; }));
-  EXPECT_LT(std::chrono::duration<double>(Clock::now() - t0).count(), 2.0);
+  const double to_fault_s = std::chrono::duration<double>(Clock::now() - t0).count();
+  EXPECT_LT(to_fault_s, 2.0);
+  std::cout << "silent module 3: FAULT after " << FormatFixed(to_fault_s, 3) << " s, "
+            << rig.status.timeouts << " timeouts: '" << rig.node->last_error() << "'\n";
   EXPECT_NE(rig.node->last_error().find("module 3 (j3 elbow): module 3: NOP: no reply (5 tries"),
             std::string::npos)
       << rig.node->last_error();
@@ -358,6 +386,10 @@ TEST(HardwareBridge, ChecksumErrorsAndLostBytesUnderLoadAreRetried) {
   const std::vector<double> q = rig.emulator->JointPositions();
   for (size_t j = 0; j < 3; ++j) EXPECT_NEAR(q[j] / kDeg, 90, 1.5) << "joint " << j + 1;
   EXPECT_GT(rig.status.checksum_errors, 0);
+  std::cout << "3 % bad checksums, 0.2 % lost reply bytes: " << c.module_checksum_errors
+            << " commands refused by a module, " << rig.status.checksum_errors
+            << " damaged replies, " << c.retries << " retries, no fault; joints 1-3 at "
+            << Degrees(q, 3) << " deg (goal 90)\n";
 }
 
 TEST(HardwareBridge, ShutdownLeavesMotorsOffAndAmplifiersDisabled) {
