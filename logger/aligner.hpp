@@ -19,9 +19,9 @@
 #include <array>
 #include <cstdint>
 #include <deque>
-#include <utility>
 #include <functional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "logger/samples.hpp"
