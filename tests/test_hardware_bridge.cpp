@@ -387,9 +387,9 @@ TEST(HardwareBridge, ChecksumErrorsAndLostBytesUnderLoadAreRetried) {
   for (size_t j = 0; j < 3; ++j) EXPECT_NEAR(q[j] / kDeg, 90, 1.5) << "joint " << j + 1;
   EXPECT_GT(rig.status.checksum_errors, 0);
   std::cout << "3 % bad checksums, 0.2 % lost reply bytes: " << c.module_checksum_errors
-            << " commands refused by a module, " << rig.status.checksum_errors
-            << " damaged replies, " << c.retries << " retries, no fault; joints 1-3 at "
-            << Degrees(q, 3) << " deg (goal 90)\n";
+            << " commands refused by a module, " << c.checksum_errors << " damaged replies, "
+            << c.timeouts << " timeouts, " << c.resyncs << " resyncs, " << c.retries
+            << " retries, no fault; joints 1-3 at " << Degrees(q, 3) << " deg (goal 90)\n";
 }
 
 TEST(HardwareBridge, ShutdownLeavesMotorsOffAndAmplifiersDisabled) {
