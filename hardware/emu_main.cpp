@@ -22,6 +22,7 @@ constexpr const char* kUsage =
     "                           [--start-pose NAME | --start-joints \"DEG DEG ...\"] [--seed S]\n"
     "                           [--checksum-errors P] [--drop-bytes P] [--silent-module K[@T]...]\n"
     "                           [--overcurrent K[@T]...] [--pos-error-trip K[@T]...]\n"
+    "                           [--rt-priority N]\n"
     "A bus of N emulated PIC-SERVO SC modules (default: one per joint of the model, default\n"
     "config/robots/puma260.yaml) on a pseudo-terminal, each driving one joint of the emulated "
     "arm.\n"
@@ -34,6 +35,9 @@ constexpr const char* kUsage =
     "P (probability a reply byte is lost), --silent-module K (module K, 1..N, hears and answers\n"
     "nothing), --overcurrent K and --pos-error-trip K (trip module K); K@T: T seconds after "
     "start.\n"
+    "--rt-priority N: run the modules under SCHED_FIFO at priority N (1..99; needs root or\n"
+    "CAP_SYS_NICE): the emulator stands for boards with their own clock, so it should not wait\n"
+    "for the rest of the machine.\n"
     "See docs/hardware-emulator.md.\n";
 
 using sirupp::core::UsageError;
@@ -87,7 +91,11 @@ int Run(const std::vector<std::string>& argv) {
                                   {"drop-bytes", "probability 0..1"},
                                   {"silent-module", "K or K@SECONDS"},
                                   {"overcurrent", "K or K@SECONDS"},
-                                  {"pos-error-trip", "K or K@SECONDS"}});
+                                  {"pos-error-trip", "K or K@SECONDS"},
+                                  {"rt-priority", "SCHED_FIFO priority 1..99 (0: off)"}});
+  const int rt_priority = args.Has("rt-priority")
+                              ? sirupp::tools::ParseRtPriority(args.String("rt-priority"), kName)
+                              : 0;
   sirupp::hardware::EmulatorOptions options;
   options.model = sirupp::core::LoadRobotModel(sirupp::tools::ResolveDataPath(
       args.Has("model") ? args.String("model") : "config/robots/puma260.yaml"));
@@ -180,6 +188,7 @@ int Run(const std::vector<std::string>& argv) {
   } catch (const std::invalid_argument& error) {
     throw UsageError(std::string(kName) + ": " + error.what());
   }
+  sirupp::tools::RequestRealtimePriority(rt_priority, kName);  // before the thread: it inherits
   emulator->Start();
   std::cout << kName << ": " << emulator->num_modules() << " modules on " << emulator->slave_path();
   if (!options.link.empty()) std::cout << " (linked as " << options.link << ")";

@@ -25,7 +25,7 @@ constexpr const char* kUsage =
     "usage: sirupp-hardware --port DEVICE [--settings FILE] [--model FILE] [--baud N]\n"
     "                       [--rate HZ] [--emulated] [--calibrate] [--arm] [--link]\n"
     "                       [--no-connect] [--trace] [--name NAME] [--lcm-url URL]\n"
-    "                       [--prefix PREFIX]\n"
+    "                       [--prefix PREFIX] [--rt-priority N]\n"
     "The bridge to the real arm: starts the PIC-SERVO modules as the vendor library does (reset,\n"
     "address, ids, baud, gains), then obeys HARDWARE_COMMAND (connect, calibrate, arm, disarm,\n"
     "link, unlink, home, clear-faults; `sirupp hardware --help`) and ESTOP, mirrors every\n"
@@ -38,6 +38,8 @@ constexpr const char* kUsage =
     "--emulated: mark REAL_ARM_STATE as SOURCE_EMULATED (the arm is sirupp-picservo-emu), and\n"
     "  wait at least 100 ms for a late reply (reply_margin_ms) before retrying.\n"
     "--trace: print every packet and reply.\n"
+    "--rt-priority N: poll under SCHED_FIFO at priority N (1..99; needs root or CAP_SYS_NICE), so\n"
+    "  a busy machine does not delay the replies past their timeout (docs/timing.md).\n"
     "On SIGINT or SIGTERM, and on a fatal error: motors stop, servos off, amplifiers disabled.\n";
 
 int Run(const std::vector<std::string>& argv) {
@@ -56,7 +58,12 @@ int Run(const std::vector<std::string>& argv) {
                                   {"trace", "print every packet"},
                                   {"name", "process name"},
                                   {"lcm-url", "LCM URL"},
-                                  {"prefix", "channel prefix of the rig"}});
+                                  {"prefix", "channel prefix of the rig"},
+                                  {"rt-priority", "SCHED_FIFO priority 1..99 (0: off)"}});
+  const int rt_priority =
+      args.Has("rt-priority")
+          ? sirupp::tools::ParseRtPriority(args.String("rt-priority"), "sirupp-hardware")
+          : 0;
   const sirupp::core::RobotModel model =
       sirupp::core::LoadRobotModel(sirupp::tools::ResolveDataPath(
           args.Has("model") ? args.String("model") : "config/robots/puma260.yaml"));
@@ -104,6 +111,7 @@ int Run(const std::vector<std::string>& argv) {
     throw UsageError("sirupp-hardware: --link needs --arm, and --arm needs --calibrate");
   }
 
+  sirupp::tools::RequestRealtimePriority(rt_priority, "sirupp-hardware");
   sirupp::hardware::SerialPort port(settings.port, sirupp::hardware::nmc::kPowerUpBaud);
   sirupp::hardware::ArmLink link(model, settings, port);
   if (args.Switch("trace")) {

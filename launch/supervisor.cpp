@@ -389,46 +389,39 @@ bool Supervisor::Service(int wait_ms) {
 void Supervisor::Stop() {
   if (stopping_) return;
   stopping_ = true;
-  double grace = 0;
+  for (auto& child : children_) child->restart_pending = false;
+  // One at a time, last started first, each gone before the next is asked: the order of the
+  // layout is the order of dependence (sirupp-hardware must stop the motors through the boards'
+  // emulator before the emulator ends, as a real arm's boards outlive the bridge).
   for (auto it = children_.rbegin(); it != children_.rend(); ++it) {
     Child& child = **it;
-    child.restart_pending = false;
     if (child.pid == 0) continue;
     ::kill(-child.pid, SIGINT);
     child.state = "stopping";
-    grace = std::max(grace, child.spec.stop_timeout_s);
-  }
-  const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                                           std::chrono::duration<double>(grace));
-  while (Clock::now() < deadline) {
-    bool any = false;
-    for (auto& child : children_) {
-      if (child->pid == 0) continue;
-      int status = 0;
-      if (::waitpid(child->pid, &status, WNOHANG) == child->pid) {
-        const std::string how = DescribeStatus(status);
-        child->pid = 0;
-        child->state = "stopped";
-        const bool fine = CleanExit(status) || (WIFSIGNALED(status) && WTERMSIG(status) == SIGINT);
-        if (!fine) failures_.push_back(child->spec.name + ": stopped with " + how);
-        Event("stopped " + child->spec.name + " (" + how + ")");
-      } else {
-        any = true;
-      }
-    }
-    if (!any) return;
-    std::this_thread::sleep_for(std::chrono::milliseconds(20));
-  }
-  for (auto& child : children_) {
-    if (child->pid == 0) continue;
-    ::kill(-child->pid, SIGKILL);
+    const auto deadline =
+        Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                           std::chrono::duration<double>(child.spec.stop_timeout_s));
     int status = 0;
-    ::waitpid(child->pid, &status, 0);
-    failures_.push_back(child->spec.name + ": did not stop within " +
-                        core::FormatNumber(child->spec.stop_timeout_s) + " s of SIGINT; killed");
-    Event(failures_.back());
-    child->pid = 0;
-    child->state = "killed";
+    bool ended = false;
+    while (!(ended = ::waitpid(child.pid, &status, WNOHANG) == child.pid) &&
+           Clock::now() < deadline) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    }
+    if (ended) {
+      const std::string how = DescribeStatus(status);
+      const bool fine = CleanExit(status) || (WIFSIGNALED(status) && WTERMSIG(status) == SIGINT);
+      if (!fine) failures_.push_back(child.spec.name + ": stopped with " + how);
+      Event("stopped " + child.spec.name + " (" + how + ")");
+      child.state = "stopped";
+    } else {
+      ::kill(-child.pid, SIGKILL);
+      ::waitpid(child.pid, &status, 0);
+      failures_.push_back(child.spec.name + ": did not stop within " +
+                          core::FormatNumber(child.spec.stop_timeout_s) + " s of SIGINT; killed");
+      Event(failures_.back());
+      child.state = "killed";
+    }
+    child.pid = 0;
   }
 }
 

@@ -66,8 +66,8 @@ class Supervisor {
   // Handles heartbeats and ended children for about `wait_ms`: restarts those whose layout says so.
   // Returns false once a critical process has ended for good.
   bool Service(int wait_ms);
-  // SIGINT to every running child (last started first), up to each one's stop_timeout_s, then
-  // SIGKILL. Safe to call twice.
+  // Stops the running children one at a time, last started first: SIGINT, up to its
+  // stop_timeout_s for it to end, else SIGKILL; then the next. Safe to call twice.
   void Stop();
 
   std::vector<ProcessRow> Table() const;

@@ -129,6 +129,7 @@ Analysis Analyze(const RunTable& table, const AnalysisOptions& options) {
     if (current != -2 && id != current) starts.push_back(i);
     current = id;
   }
+  if (options.last_move_only && starts.size() > 1) starts.erase(starts.begin(), starts.end() - 1);
   if (starts.empty()) {
     analysis.notes.push_back(table.source + " (" + table.label +
                              "): no move starts in this data (move_id never changes)");

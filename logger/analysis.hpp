@@ -23,6 +23,9 @@ struct AnalysisOptions {
   double final_window_s = 0.1;         // final value: the stream's mean over the move's last ...
   double min_travel = 0.5;             // deg (mm): smaller set-point travel = joint not moving
   std::vector<int> joints;             // 1-based joints to report; empty = all
+  // Only each movement set's last move: the paper's sets first return the arm to zero, then make
+  // the move Table II measures.
+  bool last_move_only = false;
 };
 
 // The three comparisons of the report; error = second minus first.

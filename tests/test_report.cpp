@@ -201,6 +201,34 @@ TEST(ReportNumbers, JointsThatDoNotTravelAreLeftOutAndUnknownJointsAreRefused) {
   EXPECT_EQ(text, "synthetic: unknown joint 2: this file has 1 joints (1 to 1)");
 }
 
+// The paper's plans return the arm to zero, then make the measured move: --last-move keeps only
+// that one per movement set.
+TEST(ReportNumbers, LastMoveOnlyKeepsEachSetsFinalMove) {
+  RunTable table;
+  table.source = "synthetic";
+  table.label = "synthetic";
+  table.Reset({{"waist", false}});
+  for (int i = 0; i <= 4000; ++i) {
+    const double t = i * 1e-3;
+    const double q = t < 2.5 ? Ramp(t) : 90.0 - std::clamp(90.0 * (t - 2.5), 0.0, 90.0);
+    for (size_t s = 0; s < 2; ++s) table.position[0][s].push_back(q);
+    table.position[0][kReal].push_back(NAN);
+    table.time_s.push_back(t);
+    table.move_id.push_back(t < 0.5 ? 1 : t < 2.5 ? 2 : 3);
+    table.done[0].push_back(-1);
+  }
+  table.cells = {4001, 4001, 0};
+  AnalysisOptions options;
+  const Analysis all = Analyze(table, options);
+  ASSERT_EQ(all.moves.size(), 2u);
+  EXPECT_EQ(all.moves[0].move_id, 2);
+  options.last_move_only = true;
+  const MoveResult last = OnlyMove(Analyze(table, options));
+  EXPECT_EQ(last.move_id, 3);
+  EXPECT_DOUBLE_EQ(last.from, 90.0);
+  EXPECT_DOUBLE_EQ(last.to, 0.0);
+  EXPECT_EQ(last.end, table.rows());
+}
 TEST(ReportOutput, MarkdownCsvAndPlots) {
   TempDir dir;
   const std::vector<RunTable> tables = {Synthetic(

@@ -13,7 +13,7 @@ namespace sirupp::tools {
 const char* const kReportUsage =
     "usage: sirupp report FILE... [--out DIR] [--no-plots] [--joints N..] [--settle-window S]\n"
     "                     [--start-threshold DEG] [--band-percent P] [--min-travel DEG]\n"
-    "                     [--prefix PREFIX] [--rate HZ] [--max-age S] [--whole-log]\n"
+    "                     [--last-move] [--prefix PREFIX] [--rate HZ] [--max-age S] [--whole-log]\n"
     "The paper's Table II for every movement set and joint in the files: mean error in the\n"
     "transient and in the steady state, RMS and maximum error, for set-point vs virtual,\n"
     "set-point vs real and virtual vs real; start delay, settling time and overshoot per stream.\n"
@@ -25,6 +25,8 @@ const char* const kReportUsage =
     "  --band-percent P      settling band, percent of the travel (2)\n"
     "  --min-travel DEG      joints whose set-point travels less are not reported (0.5)\n"
     "  --joints N..          only these joints (1-based)\n"
+    "  --last-move           only the last move of each movement set (the paper's sets return to\n"
+    "                        zero first, then make the move Table II measures)\n"
     "  LCM logs: --prefix (rig prefix of the channels), --rate HZ (sample clock, default the\n"
     "  0.512 ms servo tick), --max-age S (0.025), --whole-log (one set, not one per plan run)\n"
     "Definitions: docs/logging.md. Exit 0, or 2 naming FILE:LINE for bad input.\n";
@@ -52,6 +54,7 @@ int RunReport(const std::vector<std::string>& argv, std::ostream& out, std::ostr
       {{"out", "DIR"},
        {"no-plots", "(switch)"},
        {"joints", "N.."},
+       {"last-move", "(switch)"},
        {"settle-window", "S"},
        {"start-threshold", "DEG"},
        {"band-percent", "P"},
@@ -70,6 +73,7 @@ int RunReport(const std::vector<std::string>& argv, std::ostream& out, std::ostr
   a.start_threshold = NonNegative(args, "start-threshold", a.start_threshold);
   a.settle_band_fraction = NonNegative(args, "band-percent", a.settle_band_fraction * 100) / 100;
   a.min_travel = NonNegative(args, "min-travel", a.min_travel);
+  a.last_move_only = args.Switch("last-move");
   if (args.Has("joints")) {
     for (double joint : args.Numbers("joints", -1)) {
       if (joint != std::floor(joint) || joint < 1) {
