@@ -40,10 +40,7 @@ int Run(const std::vector<std::string>& argv) {
                                   {"rt-priority", "SCHED_FIFO priority 1..99 (0: off)"},
                                   {"controller", "controller library (.so)"},
                                   {"controller-args", "arguments for the controller library"}});
-  const int rt_priority =
-      args.Has("rt-priority")
-          ? sirupp::tools::ParseRtPriority(args.String("rt-priority"), "sirupp-control")
-          : 0;
+  const int rt_priority = sirupp::tools::RtPriorityArg(args, "sirupp-control");
   const sirupp::core::RobotModel model =
       sirupp::core::LoadRobotModel(sirupp::tools::ResolveDataPath(
           args.Has("model") ? args.String("model") : "config/robots/puma260.yaml"));

@@ -93,9 +93,7 @@ int Run(const std::vector<std::string>& argv) {
                                   {"overcurrent", "K or K@SECONDS"},
                                   {"pos-error-trip", "K or K@SECONDS"},
                                   {"rt-priority", "SCHED_FIFO priority 1..99 (0: off)"}});
-  const int rt_priority = args.Has("rt-priority")
-                              ? sirupp::tools::ParseRtPriority(args.String("rt-priority"), kName)
-                              : 0;
+  const int rt_priority = sirupp::tools::RtPriorityArg(args, kName);
   sirupp::hardware::EmulatorOptions options;
   options.model = sirupp::core::LoadRobotModel(sirupp::tools::ResolveDataPath(
       args.Has("model") ? args.String("model") : "config/robots/puma260.yaml"));

@@ -48,9 +48,7 @@ int Run(const std::vector<std::string>& argv) {
                    {"lcm-url", "LCM URL"},
                    {"prefix", "channel prefix of the rig"},
                    {"rt-priority", "SCHED_FIFO priority 1..99 (0: off)"}});
-  const int rt_priority = args.Has("rt-priority") ? sirupp::tools::ParseRtPriority(
-                                                        args.String("rt-priority"), "sirupp-sim")
-                                                  : 0;
+  const int rt_priority = sirupp::tools::RtPriorityArg(args, "sirupp-sim");
   const std::string model_file = sirupp::tools::ResolveDataPath(
       args.Has("model") ? args.String("model") : "config/robots/puma260.yaml");
   const sirupp::core::RobotModel model = sirupp::core::LoadRobotModel(model_file);

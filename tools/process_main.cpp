@@ -59,7 +59,9 @@ bool RequestRealtimePriority(int priority, const std::string& process_name) {
   return true;
 }
 
-int ParseRtPriority(const std::string& text, const std::string& process_name) {
+int RtPriorityArg(const Args& args, const std::string& process_name) {
+  if (!args.Has("rt-priority")) return 0;
+  const std::string text = args.String("rt-priority");
   char* end = nullptr;
   const long value = std::strtol(text.c_str(), &end, 10);
   if (text.empty() || *end != '\0' || value < 0 || value > 99) {

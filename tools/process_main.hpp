@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "tools/args.hpp"
+
 namespace sirupp::tools {
 
 // Runs `run` on the arguments after the program name. --help or -h anywhere prints `usage` and
@@ -27,8 +29,8 @@ bool StopRequested();
 // CAP_SYS_NICE or an rtprio limit; when refused, one line on stderr and the process carries on at
 // normal priority. Returns whether it was granted. 0 does nothing.
 bool RequestRealtimePriority(int priority, const std::string& process_name);
-// The value of --rt-priority from a flag's text; throws core::UsageError outside 0..99.
-int ParseRtPriority(const std::string& text, const std::string& process_name);
+// The value of --rt-priority (0 when not given); throws core::UsageError outside 0..99.
+int RtPriorityArg(const Args& args, const std::string& process_name);
 
 void ServiceUntilSignal(const std::function<bool()>& service);
 
