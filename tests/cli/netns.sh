@@ -62,6 +62,11 @@ netns_cleanup() {
   done
   for name in "${netns_names[@]}"; do netns_remove "$(netns_full "$name")"; done
   netns_remove "$NETNS_SWITCH"
+  # `ip netns add` bind-mounts /run/netns the first time; if that was us, and no namespace is
+  # left, the mount goes too (in a chroot it would otherwise keep the root from being removed).
+  if [[ ${netns_run_was_mounted:-1} -eq 0 ]] && [[ -z $(ip netns list 2>/dev/null) ]]; then
+    umount /run/netns 2>/dev/null
+  fi
   wait 2>/dev/null
   for hook in "${netns_exit_hooks[@]}"; do eval "$hook"; done
   [[ -n "${out:-}" ]] && rm -f "$out" "${err:-}"
@@ -91,6 +96,7 @@ netns_setup() {
   trap 'exit 130' INT
   trap 'exit 143' TERM
   netns_sweep_stale
+  mountpoint -q /run/netns 2>/dev/null && netns_run_was_mounted=1 || netns_run_was_mounted=0
   ip netns add "$NETNS_SWITCH" 2>/dev/null || netns_skip "cannot create a network namespace"
   ip -n "$NETNS_SWITCH" link add br0 type bridge 2>/dev/null ||
     netns_skip "no Linux bridge support (kernel module bridge)"
