@@ -1,6 +1,9 @@
 #include "hardware/bridge_node.hpp"
 
+#include <poll.h>
+
 #include <algorithm>
+#include <ctime>
 #include <iostream>
 #include <sirupp/arm_state_t.hpp>
 
@@ -324,10 +327,15 @@ void BridgeNode::Service(int max_wait_ms) {
     next_cycle_ += period;
     if (next_cycle_ < Clock::now()) next_cycle_ = Clock::now();  // late: no burst to catch up
   }
-  const auto wait =
-      std::chrono::duration_cast<std::chrono::milliseconds>(next_cycle_ - Clock::now());
-  const int ms = static_cast<int>(std::clamp<int64_t>(wait.count(), 0, max_wait_ms));
-  if (bus_.Handle(ms) > 0) bus_.HandleAvailable();
+  // Until the next poll, to the microsecond: LCM's own wait counts whole milliseconds, and the
+  // rest of one would be spent spinning (at real-time priority, a core taken from the others).
+  const int64_t wait_us = std::clamp<int64_t>(
+      std::chrono::duration_cast<std::chrono::microseconds>(next_cycle_ - Clock::now()).count(), 0,
+      int64_t{max_wait_ms} * 1000);
+  pollfd readable{bus_.Fileno(), POLLIN, 0};
+  const timespec timeout{static_cast<time_t>(wait_us / 1000000),
+                         static_cast<long>(wait_us % 1000000) * 1000};
+  if (::ppoll(&readable, 1, &timeout, nullptr) > 0) bus_.HandleAvailable();
 }
 
 void BridgeNode::PublishState() {
