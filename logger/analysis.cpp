@@ -95,6 +95,16 @@ const char* PairKey(Pair pair) {
   return "?";
 }
 
+double PairError(const RunTable& table, Pair pair, size_t j, size_t i, double period) {
+  const double a = table.position[j][static_cast<size_t>(PairFirst(pair))][i];
+  const double b = table.position[j][static_cast<size_t>(PairSecond(pair))][i];
+  if (!std::isfinite(a) || !std::isfinite(b) || !table.Fresh(PairFirst(pair), i, period) ||
+      !table.Fresh(PairSecond(pair), i, period)) {
+    return kNaN;
+  }
+  return b - a;
+}
+
 Analysis Analyze(const RunTable& table, const AnalysisOptions& options) {
   Analysis analysis;
   const int num_joints = static_cast<int>(table.joints.size());
@@ -180,19 +190,12 @@ Analysis Analyze(const RunTable& table, const AnalysisOptions& options) {
       result.transient_end_s = std::min(result.done_s + options.settle_window_s, result.end_s);
 
       for (Pair pair : kAllPairs) {
-        const std::vector<double>& a = table.position[j][static_cast<size_t>(PairFirst(pair))];
-        const std::vector<double>& b = table.position[j][static_cast<size_t>(PairSecond(pair))];
         PairMetrics& metrics = result.pairs[static_cast<size_t>(pair)];
         double sum_transient = 0, sum_steady = 0, sum_squares = 0;
         for (size_t i = begin; i < end; ++i) {
-          if (!std::isfinite(a[i]) || !std::isfinite(b[i])) continue;
-          // Compare samples at their own time: a row holding an older sample of either stream
-          // (between two polls of the real arm) would count the motion since as error.
-          if (!table.Fresh(PairFirst(pair), i, period) ||
-              !table.Fresh(PairSecond(pair), i, period)) {
-            continue;
-          }
-          const double error = std::abs(b[i] - a[i]);
+          const double signed_error = PairError(table, pair, j, i, period);
+          if (std::isnan(signed_error)) continue;
+          const double error = std::abs(signed_error);
           if (table.time_s[i] <= result.done_s + options.settle_window_s) {
             sum_transient += error;
             ++metrics.transient_samples;

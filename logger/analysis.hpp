@@ -36,6 +36,10 @@ Stream PairFirst(Pair pair);
 Stream PairSecond(Pair pair);
 const char* PairTitle(Pair pair);  // "set-point vs virtual", ...
 const char* PairKey(Pair pair);    // "set_virt", ...
+// The pair's error at row i of joint j (0-based), second minus first; NaN where either stream has
+// no value or only repeats a reading taken before the row (between two polls of a real arm, the
+// motion since would count as error). period: table.period_s().
+double PairError(const RunTable& table, Pair pair, size_t j, size_t i, double period);
 
 struct PairMetrics {
   int64_t transient_samples = 0;  // rows where both streams have a value

@@ -164,6 +164,7 @@ ReportOutput WriteReport(const std::vector<RunTable>& tables, const ReportOption
 
   for (size_t t = 0; t < tables.size(); ++t) {
     const RunTable& table = tables[t];
+    const double period = table.period_s();
     for (const MoveResult& move : analyses[t].moves) {
       const std::string joint_text = std::to_string(move.joint) +
                                      (JointName(move).empty() ? "" : " (" + JointName(move) + ")");
@@ -233,7 +234,6 @@ ReportOutput WriteReport(const std::vector<RunTable>& tables, const ReportOption
         // Each sample is drawn once, at the time it was taken: rows that hold a sample over from
         // an earlier row (a real arm polled at 100 Hz) are skipped, so the line joins the
         // samples; a stretch without samples longer than kPlotGapS breaks it.
-        const double period = table.period_s();
         for (Stream stream : kAllStreams) {
           const auto s = static_cast<size_t>(stream);
           if (!move.streams[s].has()) continue;
@@ -250,16 +250,9 @@ ReportOutput WriteReport(const std::vector<RunTable>& tables, const ReportOption
           const auto p = static_cast<size_t>(pair);
           if (!move.pairs[p].has()) continue;
           PlotSeries series{PairTitle(pair), {}, {}, kPairColors[p]};
-          const auto& first = table.position[j][static_cast<size_t>(PairFirst(pair))];
-          const auto& second = table.position[j][static_cast<size_t>(PairSecond(pair))];
           for (size_t i = first_row; i < move.end; ++i) {
-            // as in the analysis: errors only where both samples are current
-            if (!std::isfinite(first[i]) || !std::isfinite(second[i]) ||
-                !table.Fresh(PairFirst(pair), i, period) ||
-                !table.Fresh(PairSecond(pair), i, period)) {
-              continue;
-            }
-            AddPoint(series, table.time_s[i] - move.start_s, second[i] - first[i]);
+            const double e = PairError(table, pair, j, i, period);  // as in Table II
+            if (!std::isnan(e)) AddPoint(series, table.time_s[i] - move.start_s, e);
           }
           error_plot.series.push_back(std::move(series));
         }
