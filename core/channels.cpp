@@ -30,9 +30,10 @@ Channels Channels::WithPrefix(const std::string& prefix) {
                             &channels.sim_arm_state,   &channels.sim_arm_command,
                             &channels.sim_reset,       &channels.arm_move,
                             &channels.arm_setpoint,    &channels.arm_gains,
-                            &channels.arm_target,      &channels.arm_pose_target,
-                            &channels.arm_plan,        &channels.controller_status,
-                            &channels.real_arm_state,  &channels.real_arm_setpoint,
+                            &channels.controller_gains, &channels.arm_target,
+                            &channels.arm_pose_target, &channels.arm_plan,
+                            &channels.controller_status, &channels.real_arm_state,
+                            &channels.real_arm_setpoint, &channels.real_arm_gains,
                             &channels.hardware_status, &channels.hardware_command,
                             &channels.estop,           &channels.heartbeat,
                             &channels.viewer_image,    &channels.viewer_camera}) {
@@ -42,11 +43,12 @@ Channels Channels::WithPrefix(const std::string& prefix) {
 }
 
 std::vector<std::string> Channels::All() const {
-  return {robot_model,    environment,       sim_arm_state,   sim_arm_command,
-          sim_reset,      arm_move,          arm_setpoint,    arm_gains,
-          arm_target,     arm_pose_target,   arm_plan,        controller_status,
-          real_arm_state, real_arm_setpoint, hardware_status, hardware_command,
-          estop,          heartbeat,         viewer_image,    viewer_camera};
+  return {robot_model,     environment,       sim_arm_state,   sim_arm_command,
+          sim_reset,       arm_move,          arm_setpoint,    arm_gains,
+          controller_gains, arm_target,       arm_pose_target, arm_plan,
+          controller_status, real_arm_state,  real_arm_setpoint, real_arm_gains,
+          hardware_status, hardware_command,  estop,           heartbeat,
+          viewer_image,    viewer_camera};
 }
 
 void ValidateChannelPrefix(const std::string& prefix) {
@@ -91,6 +93,8 @@ const std::vector<ChannelInfo>& ChannelTable() {
        "joint"},
       {"ARM_GAINS", "sirupp.servo_gains_t", "sirupp CLI or user", "sirupp-control, sirupp-logger",
        "on change", "Kp, Kd, Ki, integration, output and error limits per joint, in chip units"},
+      {"CONTROLLER_GAINS", "sirupp.servo_gains_t", "sirupp-control", "sirupp CLI, sirupp-logger",
+       "1 Hz and on change", "the gains the virtual servos run with now, in chip units"},
       {"ARM_TARGET", "sirupp.joint_target_t", "sirupp CLI or user", "sirupp-control", "on demand",
        "a joint-space target with per-joint speed and acceleration"},
       {"ARM_POSE_TARGET", "sirupp.pose_target_t", "sirupp CLI", "sirupp-control", "on demand",
@@ -106,6 +110,8 @@ const std::vector<ChannelInfo>& ChannelTable() {
       {"REAL_ARM_SETPOINT", "sirupp.servo_setpoint_t", "sirupp-hardware", "lcm-spy",
        "with every REAL_ARM_STATE",
        "the real chips' own command positions (position + position error), goals, status"},
+      {"REAL_ARM_GAINS", "sirupp.servo_gains_t", "sirupp-hardware", "sirupp CLI, sirupp-logger",
+       "1 Hz and on change", "the gains loaded into the real boards (SET_GAIN), in chip units"},
       {"HARDWARE_STATUS", "sirupp.hardware_status_t", "sirupp-hardware",
        "sirupp CLI, sirupp launch", "10 Hz and on change",
        "bridge state (connected, armed, linked, fault), module status, serial errors"},

@@ -23,12 +23,14 @@ struct Channels {
   std::string arm_move = "ARM_MOVE";
   std::string arm_setpoint = "ARM_SETPOINT";
   std::string arm_gains = "ARM_GAINS";
+  std::string controller_gains = "CONTROLLER_GAINS";
   std::string arm_target = "ARM_TARGET";
   std::string arm_pose_target = "ARM_POSE_TARGET";
   std::string arm_plan = "ARM_PLAN";
   std::string controller_status = "CONTROLLER_STATUS";
   std::string real_arm_state = "REAL_ARM_STATE";
   std::string real_arm_setpoint = "REAL_ARM_SETPOINT";
+  std::string real_arm_gains = "REAL_ARM_GAINS";
   std::string hardware_status = "HARDWARE_STATUS";
   std::string hardware_command = "HARDWARE_COMMAND";
   std::string estop = "ESTOP";

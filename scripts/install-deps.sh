@@ -17,7 +17,7 @@ done
 
 packages=(
   # build tools
-  build-essential cmake ninja-build pkg-config git
+  build-essential cmake ninja-build pkg-config git ccache
   # messaging: C/C++ library, lcm-gen, lcm.jar, lcm-logger/lcm-logplayer, jchart2d for lcm-spy
   liblcm-dev liblcm-bin liblcm-java libjchart2d-java
   # JDK to compile the Java types jar for lcm-spy; the full JRE (AWT for X11) to show lcm-spy's window
