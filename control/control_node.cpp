@@ -13,28 +13,19 @@
 #include "control/pose_goal.hpp"
 #include "core/errors.hpp"
 #include "core/geometry.hpp"
+#include "core/model_check.hpp"
 #include "core/translate.hpp"
+#include "servo/gains_message.hpp"
 
 namespace sirupp::control {
 namespace {
+
+std::string Index(int j) { return "[" + std::to_string(j) + "]"; }
 
 using Clock = std::chrono::steady_clock;
 using Status = sirupp::controller_status_t;
 
 constexpr double kStatusPeriodS = 0.1;  // CONTROLLER_STATUS at 10 Hz (and on every change)
-
-std::string Index(int j) { return "[" + std::to_string(j) + "]"; }
-
-// A gain carried as a double: a whole number in [low, high], else MessageError on `field[j]`.
-int WholeGain(const std::string& channel, const char* field, int j, double value, int low,
-              int high) {
-  if (!std::isfinite(value) || value != std::floor(value) || value < low || value > high) {
-    throw core::MessageError(channel, field + Index(j),
-                             core::FormatNumber(value) + ": allowed whole numbers " +
-                                 std::to_string(low) + ".." + std::to_string(high));
-  }
-  return static_cast<int>(value);
-}
 
 }  // namespace
 
@@ -69,7 +60,106 @@ ControlNode::ControlNode(core::Bus& bus, const core::RobotModel& model, ControlO
       channels.estop, [this](const sirupp::estop_t& message, const core::ReceiveInfo& info) {
         OnEstop(message, info);
       });
+  bus_.Subscribe<sirupp::robot_model_t>(
+      channels.robot_model, [this](const sirupp::robot_model_t& message,
+                                   const core::ReceiveInfo& info) { OnModel(message, info); });
   heartbeat_.Publish(core::ProcessState::kStarting, "");
+}
+
+void ControlNode::OnModel(const sirupp::robot_model_t& message, const core::ReceiveInfo&) {
+  if (!model_checked_.empty() && message.source_hash == model_checked_) return;
+  const std::string mismatch = core::ModelMismatch(model_, message, options_.name);
+  if (mismatch.empty()) {
+    model_checked_ = message.source_hash;
+    return;
+  }
+  if (move_id_ == 0 && !plan_running_) {
+    start_refusal_ = mismatch;
+  } else if (fault_.find(mismatch) == std::string::npos) {
+    Fault(mismatch);
+  }
+}
+
+void ControlNode::Fault(const std::string& cause) {
+  if (fault_.empty()) {
+    fault_ = cause;
+    std::cerr << "sirupp-control: fault: " << cause
+              << "; the arm is held until the fault is cleared (sirupp clear-fault)\n";
+  } else {
+    std::cerr << "sirupp-control: consequence of the fault (" << fault_ << "): " << cause << "\n";
+  }
+  pending_.clear();
+  if (servos_on_) bank_.StopSmooth();
+  if (plan_running_) {
+    EndPlan(fault_ + "; plan " + plan_->name + " aborted");
+  } else {
+    last_error_ = fault_;
+    PublishStatus(true);
+  }
+}
+
+void ControlNode::ClearFault() {
+  if (fault_.empty() && TrippedJoint() < 0 && !law_failed_) return;
+  std::cerr << "sirupp-control: fault cleared"
+            << (fault_.empty() ? std::string() : " (it was: " + fault_ + ")")
+            << "; servos on where the arm is\n";
+  fault_.clear();
+  law_failed_ = false;
+  law_reset_ = false;  // the student's law starts afresh (Reset) at the next tick
+  trip_reported_ = false;
+  if (servos_on_) bank_.ServoOn(positions_);
+  last_error_.clear();
+}
+
+void ControlNode::RequireNoFault(const std::string& channel, const std::string& what) const {
+  if (!fault_.empty()) {
+    throw core::MessageError(channel, "",
+                             what + ": the controller is faulted: " + fault_ +
+                                 "; clear the fault first (sirupp clear-fault)");
+  }
+  if (sim_lost_) {
+    throw core::MessageError(channel, "",
+                             what + ": no state from sirupp-sim on " +
+                                 options_.channels.sim_arm_state +
+                                 " (is it running?); the arm cannot be moved");
+  }
+}
+
+void ControlNode::OnSimRestart(int64_t from_tick, int64_t to_tick) {
+  const std::string cause = "sirupp-sim restarted (its tick went from " +
+                            std::to_string(from_tick) + " back to " + std::to_string(to_tick) +
+                            "): the arm is taken where the new sim has it";
+  std::cerr << "sirupp-control: " << cause << "\n";
+  pending_.clear();
+  servos_on_ = false;  // switched on again at the new state's positions
+  have_last_command_ = false;
+  law_reset_ = false;
+  // The real arm must not finish a move the virtual one no longer makes.
+  PublishStop(sirupp::servo_move_t::COMMAND_STOP_SMOOTH);
+  if (plan_running_) {
+    EndPlan(cause + "; plan " + plan_->name + " aborted");
+  } else {
+    last_error_ = cause;
+  }
+}
+
+void ControlNode::CheckSimAlive() {
+  if (sim_lost_ || last_tick_ < 0) return;
+  const double silent_s = std::chrono::duration<double>(Clock::now() - last_state_wall_).count();
+  if (silent_s < options_.sim_timeout_s) return;
+  sim_lost_ = true;
+  const std::string cause = "no state from sirupp-sim on " + options_.channels.sim_arm_state +
+                            " for " + core::FormatNumber(options_.sim_timeout_s) +
+                            " s: the sim is lost (stopped, crashed or stalled)";
+  std::cerr << "sirupp-control: " << cause << "; the real arm is stopped\n";
+  if (servos_on_) bank_.StopSmooth();
+  PublishStop(sirupp::servo_move_t::COMMAND_STOP_SMOOTH);
+  if (plan_running_) {
+    EndPlan(cause + "; plan " + plan_->name + " aborted");
+  } else {
+    last_error_ = cause;
+    PublishStatus(true);
+  }
 }
 
 void ControlNode::OnEstop(const sirupp::estop_t& message, const core::ReceiveInfo&) {
@@ -104,7 +194,21 @@ void ControlNode::RequireNoEstop(const std::string& channel, const std::string& 
 void ControlNode::OnState(const sirupp::arm_state_t& message, const core::ReceiveInfo& info) {
   const core::ArmState state =
       core::ArmStateFromMessage(message, info.channel, model_.num_joints());
-  if (state.tick <= last_tick_) return;  // the same tick sent again: already answered
+  last_state_wall_ = Clock::now();
+  if (sim_lost_) {
+    sim_lost_ = false;
+    std::cerr << "sirupp-control: states from sirupp-sim again (tick " << state.tick << ")\n";
+    if (last_error_.rfind("no state from sirupp-sim", 0) == 0) last_error_.clear();
+  }
+  if (state.tick == last_tick_) {
+    // The same state again: the sim did not get our answer (lost) or re-sent it; answer again.
+    if (have_last_command_) {
+      last_command_.seq = command_seq_++;
+      bus_.Publish(options_.channels.sim_arm_command, last_command_);
+    }
+    return;
+  }
+  if (state.tick < last_tick_) OnSimRestart(last_tick_, state.tick);
   last_tick_ = state.tick;
   last_state_utime_ = state.utime;
   positions_ = state.position;
@@ -114,37 +218,42 @@ void ControlNode::OnState(const sirupp::arm_state_t& message, const core::Receiv
     if (!pending_.empty()) bank_.Load(pending_);
     pending_.clear();
   }
-  AdvancePlan(state.utime);
+  // Held by the sim (a silent participant, an e-stop, our own hold): the profiles wait where they
+  // are, so a brake nobody here asked for cannot trip a servo (docs/timing.md).
+  const bool braked = std::any_of(state.flags.begin(), state.flags.end(), [](int8_t flags) {
+    return (flags & sirupp::arm_state_t::FLAG_BRAKED) != 0;
+  });
 
   core::ArmCommand command;
   command.utime = state.utime;
   command.tick = state.tick;
   command.sender = options_.name;
   command.mode = core::CommandMode::kEffort;
-  command.effort = bank_.Tick(state.position);
-  if (options_.effort_law && !StudentEfforts(state, command.effort)) {
+  if (!fault_.empty()) {
     command.mode = core::CommandMode::kHold;
-    command.effort.assign(command.effort.size(), 0.0);
+    command.effort.assign(static_cast<size_t>(model_.num_joints()), 0.0);
+  } else if (braked && have_last_command_) {
+    command.effort = last_command_.effort;  // what held the arm before the brake, until released
+  } else {
+    AdvancePlan(state.utime);
+    command.effort = bank_.Tick(state.position);
+    if (options_.effort_law && !StudentEfforts(state, command.effort)) {
+      command.mode = core::CommandMode::kHold;
+      command.effort.assign(command.effort.size(), 0.0);
+    }
   }
-  bus_.Publish(options_.channels.sim_arm_command, core::ToMessage(command, command_seq_++));
+  last_command_ = core::ToMessage(command, command_seq_++);
+  have_last_command_ = true;
+  bus_.Publish(options_.channels.sim_arm_command, last_command_);
   ++states_answered_;
 
   const int tripped = TrippedJoint();
   if (tripped >= 0 && !trip_reported_) {
     trip_reported_ = true;
     const PicServo& servo = bank_.servo(tripped);
-    bank_.StopSmooth();  // the other joints come to rest and hold
-    const std::string error =
-        "joint j" + std::to_string(tripped + 1) + " tripped its position-error limit (" +
-        std::to_string(servo.gains().error_limit) + " counts) at tick " +
-        std::to_string(state.tick) + ": its servo is off; the next target switches it on again";
-    if (plan_running_) {
-      EndPlan(error + "; plan " + plan_->name + " aborted");
-    } else {
-      last_error_ = error;
-      PublishStatus(true);
-    }
-    std::cerr << "sirupp-control: " << last_error_ << "\n";
+    Fault("joint j" + std::to_string(tripped + 1) + " tripped its position-error limit (" +
+          std::to_string(servo.gains().error_limit) + " counts) at tick " +
+          std::to_string(state.tick) + ": the arm is braked");
   }
   if (options_.publish_setpoints) PublishSetpoint(state, command.effort);
 }
@@ -185,6 +294,7 @@ void ControlNode::Refuse(const core::MessageError& error) {
 
 void ControlNode::RequireManual(const std::string& channel) const {
   RequireNoEstop(channel, "target");
+  RequireNoFault(channel, "target");
   if (plan_running_) {
     throw core::MessageError(channel, "",
                              "plan " + plan_->name + " is running (step " +
@@ -202,10 +312,6 @@ void ControlNode::RequireManual(const std::string& channel) const {
 
 void ControlNode::StartMove(const std::vector<JointMove>& moves) {
   if (servos_on_) {
-    if (TrippedJoint() >= 0) {
-      bank_.ServoOn(positions_);  // clears the latched fault; every joint holds where it is
-      trip_reported_ = false;
-    }
     bank_.Load(moves);
   } else {
     pending_ = moves;  // loaded when the first arm state switches the servos on
@@ -363,6 +469,7 @@ void ControlNode::OnPlan(const sirupp::plan_command_t& message, const core::Rece
       case Command::COMMAND_RUN: {
         const std::string name = message.name.empty() ? "plan" : message.name;
         RequireNoEstop(info.channel, "run " + name);
+        RequireNoFault(info.channel, "run " + name);
         if (plan_running_) {
           throw core::MessageError(info.channel, "command",
                                    "run " + name + ": plan " + plan_->name +
@@ -401,6 +508,7 @@ void ControlNode::OnPlan(const sirupp::plan_command_t& message, const core::Rece
         break;
       case Command::COMMAND_RESUME:
         RequireNoEstop(info.channel, "resume");
+        RequireNoFault(info.channel, "resume");
         if (!plan_running_ || !plan_paused_) {
           throw core::MessageError(info.channel, "command", "resume: no plan is paused");
         }
@@ -424,12 +532,14 @@ void ControlNode::OnPlan(const sirupp::plan_command_t& message, const core::Rece
       case Command::COMMAND_AUTOMATIC:
         locked_automatic_ = true;
         break;
+      case Command::COMMAND_CLEAR_FAULT:
+        ClearFault();
+        break;
       default:
         throw core::MessageError(info.channel, "command",
                                  std::to_string(message.command) +
-                                     ": allowed 0..5 (run, pause, "
-                                     "resume, abort, manual, "
-                                     "automatic)");
+                                     ": allowed 0..6 (run, pause, resume, abort, manual, "
+                                     "automatic, clear-fault)");
     }
   } catch (const core::MessageError& error) {
     Refuse(error);
@@ -440,41 +550,36 @@ void ControlNode::OnPlan(const sirupp::plan_command_t& message, const core::Rece
 
 void ControlNode::OnGains(const sirupp::servo_gains_t& message, const core::ReceiveInfo& info) {
   const int n = model_.num_joints();
-  std::vector<ServoGains> gains(static_cast<size_t>(n));
+  std::vector<ServoGains> gains;
   try {
-    CheckJointCount(info.channel, message.num_joints);
-    const std::string& channel = info.channel;
-    for (int j = 0; j < n; ++j) {
-      const auto i = static_cast<size_t>(j);
-      ServoGains& g = gains[i];
-      g.kp = WholeGain(channel, "kp", j, message.kp[i], 0, 32767);
-      g.kd = WholeGain(channel, "kd", j, message.kd[i], 0, 32767);
-      g.ki = WholeGain(channel, "ki", j, message.ki[i], 0, 32767);
-      g.integration_limit =
-          WholeGain(channel, "integration_limit", j, message.integration_limit[i], 0, 32767);
-      g.output_limit = WholeGain(channel, "output_limit", j, message.output_limit[i], 0, 255);
-      WholeGain(channel, "current_limit", j, message.current_limit[i], 0, 255);
-      g.error_limit = WholeGain(channel, "error_limit", j, message.error_limit[i], 0, 16383);
-      g.deadband = WholeGain(channel, "deadband", j, message.deadband[i], 0, 255);
-      if (message.servo_rate_divisor[i] != 1) {
-        throw core::MessageError(channel, "servo_rate_divisor" + Index(j),
-                                 core::FormatNumber(message.servo_rate_divisor[i]) +
+    for (const servo::JointGains& joint : servo::GainsFromMessage(message, info.channel, n)) {
+      if (joint.servo_rate_divisor != 1) {
+        throw core::MessageError(info.channel,
+                                 "servo_rate_divisor[" + std::to_string(gains.size()) + "]",
+                                 std::to_string(joint.servo_rate_divisor) +
                                      ": the virtual servos run every physics tick; allowed 1");
       }
-      try {
-        servo::CheckGains(g);
-      } catch (const std::invalid_argument& error) {
-        throw core::MessageError(channel, "joint" + Index(j), error.what());
-      }
+      gains.push_back(joint.filter);
     }
   } catch (const core::MessageError& error) {
     Refuse(error);
     throw;
   }
-  for (int j = 0; j < n; ++j) bank_.SetGains(j, gains[static_cast<size_t>(j)]);
-  std::cerr << "sirupp-control: new gains, joint 1 Kp " << gains[0].kp << " Kd " << gains[0].kd
-            << " Ki " << gains[0].ki << "\n";
+  std::string changed;
+  for (int j = 0; j < n; ++j) {
+    const ServoGains& now = bank_.servo(j).gains();
+    const ServoGains& next = gains[static_cast<size_t>(j)];
+    if (now.kp != next.kp || now.kd != next.kd || now.ki != next.ki) {
+      changed += " j" + std::to_string(j + 1) + " Kp " + std::to_string(next.kp) + " Kd " +
+                 std::to_string(next.kd) + " Ki " + std::to_string(next.ki) + ";";
+    }
+    bank_.SetGains(j, next);
+  }
+  std::cerr << "sirupp-control: new gains:" << (changed.empty() ? " Kp, Kd, Ki as before" : changed)
+            << "\n";
   last_error_.clear();
+  gains_changed_ = true;
+  PublishGains(true);
   PublishStatus(true);
 }
 
@@ -554,11 +659,8 @@ bool ControlNode::StudentEfforts(const core::ArmState& state, std::vector<double
     }
   } catch (const std::exception& error) {
     law_failed_ = true;
-    last_error_ = "controller '" + name + "' at tick " + std::to_string(state.tick) + ": " +
-                  error.what() + "; the arm is held";
-    std::cerr << "sirupp-control: " << last_error_ << "\n";
-    if (plan_running_) EndPlan("");
-    PublishStatus(true);
+    Fault("controller '" + name + "' at tick " + std::to_string(state.tick) + ": " + error.what() +
+          "; the arm is held");
     return false;
   }
   return true;
@@ -577,7 +679,9 @@ int8_t ControlNode::mode() const {
 
 int8_t ControlNode::state() const {
   if (!servos_on_) return Status::STATE_OFF;
-  if (law_failed_ || TrippedJoint() >= 0) return Status::STATE_FAULT;
+  if (!fault_.empty() || law_failed_ || TrippedJoint() >= 0 || sim_lost_) {
+    return Status::STATE_FAULT;
+  }
   if (plan_running_ && plan_paused_) return Status::STATE_PAUSED;
   if (!bank_.AllDone()) return Status::STATE_MOVING;
   if (plan_running_) return Status::STATE_WAITING;
@@ -611,9 +715,24 @@ void ControlNode::PublishStatus(bool force) {
   last_status_ = now;
 }
 
+void ControlNode::PublishGains(bool force) {
+  const Clock::time_point now = Clock::now();
+  if (!force && !gains_changed_ && std::chrono::duration<double>(now - last_gains_).count() < 1.0) {
+    return;
+  }
+  std::vector<ServoGains> gains;
+  for (int j = 0; j < model_.num_joints(); ++j) gains.push_back(bank_.servo(j).gains());
+  bus_.Publish(options_.channels.controller_gains,
+               servo::GainsToMessage(gains, last_state_utime_, gains_seq_++));
+  last_gains_ = now;
+  gains_changed_ = false;
+}
+
 void ControlNode::Service(int max_wait_ms) {
   bus_.HandleAvailable();
   bus_.Handle(max_wait_ms);
+  CheckSimAlive();
+  PublishGains(false);
   PublishStatus(false);
   const bool fault = state() == Status::STATE_FAULT;
   heartbeat_.PublishIfDue(fault ? core::ProcessState::kFault : core::ProcessState::kRunning,

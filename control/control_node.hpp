@@ -19,11 +19,13 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <sirupp/arm_command_t.hpp>
 #include <sirupp/arm_state_t.hpp>
 #include <sirupp/estop_t.hpp>
 #include <sirupp/joint_target_t.hpp>
 #include <sirupp/plan_command_t.hpp>
 #include <sirupp/pose_target_t.hpp>
+#include <sirupp/robot_model_t.hpp>
 #include <sirupp/servo_gains_t.hpp>
 #include <string>
 #include <vector>
@@ -45,6 +47,9 @@ struct ControlOptions {
   bool publish_setpoints = true;  // ARM_SETPOINT every tick
   // A student's controller in place of the PID filter; null = the PIC-SERVO PID (effort_law.hpp).
   std::shared_ptr<EffortLaw> effort_law;
+  // No SIM_ARM_STATE for this long (wall clock) = the sim is lost: a plan is aborted, the real
+  // arm stopped (STOP_SMOOTH on ARM_MOVE), the status says so until states come again.
+  double sim_timeout_s = 0.5;
 };
 
 class ControlNode {
@@ -55,6 +60,11 @@ class ControlNode {
   void Service(int max_wait_ms);
 
   const ServoBank& servos() const { return bank_; }
+  // Set when the sim's ROBOT_MODEL is another robot than ours before this controller moved the
+  // arm: sirupp-control exits 2 with it. Later, a mismatch is a fault (fault()).
+  const std::string& start_refusal() const { return start_refusal_; }
+  // The first cause of the present fault; empty when none. Cleared by COMMAND_CLEAR_FAULT.
+  const std::string& fault() const { return fault_; }
   int64_t move_id() const { return move_id_; }
   int64_t states_answered() const { return states_answered_; }
   const std::string& last_error() const { return last_error_; }
@@ -72,6 +82,18 @@ class ControlNode {
   void OnPlan(const sirupp::plan_command_t& message, const core::ReceiveInfo& info);
   void OnGains(const sirupp::servo_gains_t& message, const core::ReceiveInfo& info);
   void OnEstop(const sirupp::estop_t& message, const core::ReceiveInfo& info);
+  void OnModel(const sirupp::robot_model_t& message, const core::ReceiveInfo& info);
+  // A fault: the arm is braked (HOLD), the set-points stop, a plan is aborted; the first cause
+  // is kept (later ones are consequences) until COMMAND_CLEAR_FAULT.
+  void Fault(const std::string& cause);
+  void ClearFault();
+  // Throws MessageError on `channel` while a fault is latched.
+  void RequireNoFault(const std::string& channel, const std::string& what) const;
+  // A state with a smaller tick than the last: a new sim run. Aborts a plan, takes the new state.
+  void OnSimRestart(int64_t from_tick, int64_t to_tick);
+  void CheckSimAlive();
+  // CONTROLLER_GAINS: the live gains, 1 Hz and on change.
+  void PublishGains(bool force);
   // Throws MessageError on `channel` while the emergency stop is engaged.
   void RequireNoEstop(const std::string& channel, const std::string& what) const;
 
@@ -106,6 +128,16 @@ class ControlNode {
   std::vector<double> positions_;   // the last measured joint positions
   int64_t last_tick_ = -1;
   int64_t last_state_utime_ = 0;
+  sirupp::arm_command_t last_command_{};  // sent again when the same tick's state comes again
+  bool have_last_command_ = false;
+  std::chrono::steady_clock::time_point last_state_wall_;
+  bool sim_lost_ = false;
+  std::string fault_;
+  std::string start_refusal_;
+  std::string model_checked_;  // source hash of the sim's model once it matched ours
+  std::chrono::steady_clock::time_point last_gains_;
+  bool gains_changed_ = true;
+  int64_t gains_seq_ = 0;
 
   // Sequencer.
   std::string estop_;              // who engaged the emergency stop and why; empty when released

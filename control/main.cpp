@@ -73,8 +73,13 @@ int Run(const std::vector<std::string>& argv) {
   sirupp::tools::RequestRealtimePriority(rt_priority, "sirupp-control");
   sirupp::tools::ServiceUntilSignal([&node] {
     node.Service(50);
-    return true;
+    return node.start_refusal().empty();
   });
+  if (!node.start_refusal().empty()) {
+    // Another robot in the sim before this controller moved anything: nothing is driven.
+    std::cerr << "sirupp-control: " << node.start_refusal() << "\n";
+    return 2;
+  }
   std::cerr << "sirupp-control: stopped after answering " << node.states_answered() << " states, "
             << node.move_id() << " moves\n";
   return 0;

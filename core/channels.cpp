@@ -28,7 +28,8 @@ Channels Channels::WithPrefix(const std::string& prefix) {
   Channels channels;
   for (std::string* name : {&channels.robot_model,     &channels.environment,
                             &channels.sim_arm_state,   &channels.sim_arm_command,
-                            &channels.sim_reset,       &channels.arm_move,
+                            &channels.sim_reset,       &channels.sim_status,
+                            &channels.arm_move,
                             &channels.arm_setpoint,    &channels.arm_gains,
                             &channels.controller_gains, &channels.arm_target,
                             &channels.arm_pose_target, &channels.arm_plan,
@@ -44,7 +45,7 @@ Channels Channels::WithPrefix(const std::string& prefix) {
 
 std::vector<std::string> Channels::All() const {
   return {robot_model,     environment,       sim_arm_state,   sim_arm_command,
-          sim_reset,       arm_move,          arm_setpoint,    arm_gains,
+          sim_reset,       sim_status,        arm_move,          arm_setpoint,    arm_gains,
           controller_gains, arm_target,       arm_pose_target, arm_plan,
           controller_status, real_arm_state,  real_arm_setpoint, real_arm_gains,
           hardware_status, hardware_command,  estop,           heartbeat,
@@ -85,6 +86,11 @@ const std::vector<ChannelInfo>& ChannelTable() {
        "joint efforts for the tick it answers, or hold / limp"},
       {"SIM_RESET", "sirupp.sim_reset_t", "sirupp CLI, lesson scripts, tests", "sirupp-sim",
        "on demand", "teleport: joint positions (and speeds) set at once, objects optionally reset"},
+      {"SIM_STATUS", "sirupp.sim_status_t", "sirupp-sim",
+       "sirupp-control, sirupp CLI, sirupp launch, student controllers",
+       "1 Hz, on a participant's change and on a new refusal",
+       "run id, timing mode, real-time factor, slipped time, e-stop, each participant's answer "
+       "time and state, refused commands per sender with the reason"},
       {"ARM_MOVE", "sirupp.servo_move_t", "sirupp-control", "sirupp-hardware", "one per move",
        "per-joint goal, maximum velocity and acceleration: the PIC-SERVO LOAD_TRAJ analogue"},
       {"ARM_SETPOINT", "sirupp.servo_setpoint_t", "sirupp-control", "sirupp-logger, sirupp-viewer",

@@ -20,6 +20,7 @@ struct Channels {
   std::string sim_arm_state = "SIM_ARM_STATE";
   std::string sim_arm_command = "SIM_ARM_COMMAND";
   std::string sim_reset = "SIM_RESET";
+  std::string sim_status = "SIM_STATUS";
   std::string arm_move = "ARM_MOVE";
   std::string arm_setpoint = "ARM_SETPOINT";
   std::string arm_gains = "ARM_GAINS";

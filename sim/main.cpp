@@ -2,6 +2,7 @@
 // Usage and options: sim/README.md, or `sirupp-sim --help`.
 
 #include <iostream>
+#include <optional>
 #include <sstream>
 
 #include "core/bus.hpp"
@@ -17,7 +18,8 @@
 namespace {
 
 constexpr const char* kUsage =
-    "usage: sirupp-sim [--model FILE] [--environment FILE] [--mode lockstep|realtime|fast]\n"
+    "usage: sirupp-sim [--model FILE] [--environment FILE] [--mode "
+    "lockstep|realtime|fast|freerun]\n"
     "                  [--participants NAME...] [--step SECONDS] [--state-every N]\n"
     "                  [--lockstep-timeout SECONDS] [--watchdog SECONDS] [--duration SECONDS]\n"
     "                  [--idle hold|limp] [--pose NAME | --position VALUES...] [--no-friction]\n"
@@ -26,28 +28,32 @@ constexpr const char* kUsage =
     "ROBOT_MODEL and ENVIRONMENT at 1 Hz and HEARTBEAT. Positions for --position are in the model\n"
     "file's angle unit. Defaults: config/robots/puma260.yaml, lockstep with participant\n"
     "sirupp-control, the model's servo tick (0.512 ms for the PUMA 260). See sim/README.md.\n"
+    "realtime = lockstep paced by the wall clock (every participant answers every tick; the sim\n"
+    "time slips rather than the physics when the PC cannot keep up); freerun = paced, the newest\n"
+    "command of any sender held (opt-in; stale efforts under load). docs/timing.md.\n"
     "--rt-priority N: run under SCHED_FIFO at priority N (1..99; needs root or CAP_SYS_NICE), so\n"
     "realtime ticks start on time on a busy machine (docs/timing.md).\n";
 
 int Run(const std::vector<std::string>& argv) {
   using sirupp::tools::Args;
-  const Args args(argv, "sirupp-sim",
-                  {{"model", "robot model file"},
-                   {"environment", "environment XML file"},
-                   {"mode", "lockstep, realtime or fast"},
-                   {"participants", "lockstep participant names"},
-                   {"step", "physics step in seconds"},
-                   {"state-every", "publish the state every N ticks"},
-                   {"lockstep-timeout", "seconds before a silent participant is reported"},
-                   {"watchdog", "realtime command timeout in seconds"},
-                   {"duration", "simulated seconds to run (0 = until stopped)"},
-                   {"idle", "hold or limp before the first command"},
-                   {"pose", "named pose to start in"},
-                   {"position", "start positions, in the model file's angle unit"},
-                   {"no-friction", "switch joint friction off"},
-                   {"lcm-url", "LCM URL"},
-                   {"prefix", "channel prefix of the rig"},
-                   {"rt-priority", "SCHED_FIFO priority 1..99 (0: off)"}});
+  const Args args(
+      argv, "sirupp-sim",
+      {{"model", "robot model file"},
+       {"environment", "environment XML file"},
+       {"mode", "lockstep, realtime, fast or freerun"},
+       {"participants", "participant names (lockstep and realtime)"},
+       {"step", "physics step in seconds"},
+       {"state-every", "publish the state every N ticks"},
+       {"lockstep-timeout", "seconds before a silent participant is reported"},
+       {"watchdog", "realtime: seconds a participant may be silent before the arm brakes"},
+       {"duration", "simulated seconds to run (0 = until stopped)"},
+       {"idle", "hold or limp before the first command"},
+       {"pose", "named pose to start in"},
+       {"position", "start positions, in the model file's angle unit"},
+       {"no-friction", "switch joint friction off"},
+       {"lcm-url", "LCM URL"},
+       {"prefix", "channel prefix of the rig"},
+       {"rt-priority", "SCHED_FIFO priority 1..99 (0: off)"}});
   const int rt_priority = sirupp::tools::RtPriorityArg(args, "sirupp-sim");
   const std::string model_file = sirupp::tools::ResolveDataPath(
       args.Has("model") ? args.String("model") : "config/robots/puma260.yaml");
@@ -117,7 +123,13 @@ int Run(const std::vector<std::string>& argv) {
     }
   }
 
-  sirupp::sim::ArmWorld world(model, environment, world_options);
+  std::optional<sirupp::sim::ArmWorld> world_storage;
+  try {
+    world_storage.emplace(model, environment, world_options);
+  } catch (const std::invalid_argument& error) {
+    throw sirupp::core::UsageError(std::string("sirupp-sim: --step: ") + error.what());
+  }
+  sirupp::sim::ArmWorld& world = *world_storage;
   for (const std::string& omission : world.Omissions()) {
     std::cerr << "sirupp-sim: note: " << omission << "\n";
   }
@@ -130,25 +142,22 @@ int Run(const std::vector<std::string>& argv) {
   }
   sirupp::core::Bus bus(args.Has("lcm-url") ? args.String("lcm-url") : "",
                         args.Has("prefix") ? args.String("prefix") : "");
-  sirupp::sim::SimNode node(bus, world, environment, options);
+  std::optional<sirupp::sim::SimNode> node_storage;
+  try {
+    node_storage.emplace(bus, world, environment, options);
+  } catch (const std::invalid_argument& error) {
+    // Every option the node refuses came from a flag: --state-every, --lockstep-timeout,
+    // --watchdog, --duration, --participants.
+    throw sirupp::core::UsageError(std::string("sirupp-sim: ") + error.what());
+  }
+  sirupp::sim::SimNode& node = *node_storage;
   std::cerr << "sirupp-sim: " << model.name << " (" << model.num_joints() << " joints), "
             << environment.objects.size() << " environment objects, "
             << sirupp::sim::TimingModeName(options.mode) << " mode, step "
             << sirupp::core::FormatNumber(world.step_s() * 1e3) << " ms, on " << bus.url() << "\n";
   sirupp::tools::RequestRealtimePriority(rt_priority, "sirupp-sim");
   sirupp::tools::ServiceUntilSignal([&node] { return node.Service(50); });
-  const sirupp::sim::NodeCounters& c = node.counters();
-  std::cerr << "sirupp-sim: stopped at tick " << world.tick()
-            << " (t = " << sirupp::core::FormatApprox(world.time_s()) << " s): " << c.steps
-            << " steps, " << c.states_published << " states sent, " << c.commands_accepted
-            << " commands accepted, " << c.commands_rejected << " rejected, " << c.commands_late
-            << " late, " << c.lockstep_timeouts << " lockstep timeouts, " << c.watchdog_holds
-            << " watchdog holds, " << c.resets << " resets";
-  if (options.mode == sirupp::sim::TimingMode::kRealtime) {
-    std::cerr << ", " << c.ticks_late << " ticks with a late command, " << c.overruns
-              << " overruns";
-  }
-  std::cerr << "\n";
+  std::cerr << "sirupp-sim: " << node.Summary() << "\n";
   std::cerr << "sirupp-sim: final joint positions (rad or m):";
   for (double q : world.State().position) std::cerr << " " << sirupp::core::FormatApprox(q);
   std::cerr << "\n";

@@ -4,7 +4,8 @@
 #include <cmath>
 #include <cstdio>
 #include <iostream>
-#include <sirupp/sim_reset_t.hpp>
+#include <random>
+#include <sirupp/sim_status_t.hpp>
 #include <stdexcept>
 #include <thread>
 #include <utility>
@@ -15,14 +16,24 @@
 namespace sirupp::sim {
 namespace {
 
-using Clock = std::chrono::steady_clock;
+using TimePoint = NodeClock::TimePoint;
 
 // Ticks run per Service() call in fast mode between two looks at the bus.
 constexpr int kFastBatch = 64;
-// Realtime: further behind than this, the node stops catching up and restarts its clock.
+// Realtime and freerun: further behind than this, the node gives up catching up (the sim time
+// slips) and reports it.
 constexpr double kMaxCatchUpS = 0.1;
 // A problem stays in the heartbeat (state degraded) this long after it last happened.
 constexpr double kProblemMemoryS = 5.0;
+// SIM_STATUS: at least once a second, at most this often when something changed.
+constexpr double kStatusMinPeriodS = 0.1;
+// Refusals: at most this many senders remembered (the rest counted together), at most this many
+// lines printed per second.
+constexpr size_t kMaxRefusingSenders = 32;
+constexpr int kMaxRefusalLinesPerSecond = 10;
+// Freerun and fast: at most this many senders held, each forgotten after this long without a word.
+constexpr size_t kMaxFreeSenders = 64;
+constexpr double kForgetSenderS = 10.0;
 
 std::string JoinNames(const std::vector<std::string>& names) {
   std::string joined;
@@ -30,9 +41,41 @@ std::string JoinNames(const std::vector<std::string>& names) {
   return joined;
 }
 
-double Seconds(Clock::duration duration) { return std::chrono::duration<double>(duration).count(); }
+double Seconds(std::chrono::steady_clock::duration duration) {
+  return std::chrono::duration<double>(duration).count();
+}
+
+std::chrono::steady_clock::duration Duration(double seconds) {
+  return std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+      std::chrono::duration<double>(seconds));
+}
+
+std::string Fixed(double value, int digits) {
+  char text[48];
+  std::snprintf(text, sizeof text, "%.*f", digits, value);
+  return text;
+}
+
+int64_t NewRunId() {
+  std::random_device device;
+  std::uniform_int_distribution<int64_t> pick(1, INT64_MAX);
+  return pick(device);
+}
+
+int64_t WallMicros() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
 
 }  // namespace
+
+NodeClock NodeClock::Steady() {
+  NodeClock clock;
+  clock.now = [] { return std::chrono::steady_clock::now(); };
+  clock.sleep_until = [](TimePoint until) { std::this_thread::sleep_until(until); };
+  return clock;
+}
 
 const char* TimingModeName(TimingMode mode) {
   switch (mode) {
@@ -42,6 +85,8 @@ const char* TimingModeName(TimingMode mode) {
       return "realtime";
     case TimingMode::kFast:
       return "fast";
+    case TimingMode::kFreeRun:
+      return "freerun";
   }
   return "unknown";
 }
@@ -50,7 +95,9 @@ TimingMode ParseTimingMode(const std::string& text) {
   if (text == "lockstep") return TimingMode::kLockstep;
   if (text == "realtime") return TimingMode::kRealtime;
   if (text == "fast") return TimingMode::kFast;
-  throw std::invalid_argument("timing mode '" + text + "': allowed lockstep, realtime, fast");
+  if (text == "freerun") return TimingMode::kFreeRun;
+  throw std::invalid_argument("timing mode '" + text +
+                              "': allowed lockstep, realtime, fast, freerun");
 }
 
 SimNode::SimNode(core::Bus& bus, ArmWorld& world, core::Environment environment,
@@ -59,28 +106,35 @@ SimNode::SimNode(core::Bus& bus, ArmWorld& world, core::Environment environment,
       world_(world),
       environment_(std::move(environment)),
       options_(std::move(options)),
-      heartbeat_(bus, options_.process_name, options_.channels.heartbeat) {
+      heartbeat_(bus, options_.process_name, options_.channels.heartbeat),
+      run_id_(NewRunId()) {
   auto bad = [](const std::string& what) { throw std::invalid_argument(what); };
+  if (!options_.clock.now || !options_.clock.sleep_until) bad("clock: now and sleep_until needed");
   if (options_.state_every < 1) {
     bad("state_every " + std::to_string(options_.state_every) + ": allowed 1 or more ticks");
   }
-  if (!(options_.lockstep_timeout_s > 0)) {
+  if (!(options_.lockstep_timeout_s > 0) || !std::isfinite(options_.lockstep_timeout_s)) {
     bad("lockstep timeout " + core::FormatNumber(options_.lockstep_timeout_s) + " s: allowed > 0");
   }
-  if (!(options_.watchdog_s > 0)) {
+  if (!(options_.watchdog_s > 0) || !std::isfinite(options_.watchdog_s)) {
     bad("watchdog " + core::FormatNumber(options_.watchdog_s) + " s: allowed > 0");
   }
   if (!(options_.duration_s >= 0) || !std::isfinite(options_.duration_s)) {
     bad("duration " + core::FormatNumber(options_.duration_s) + " s: allowed >= 0 (0 = no end)");
   }
   if (options_.idle == core::CommandMode::kEffort) bad("idle: allowed hold or limp");
-  if (options_.mode == TimingMode::kLockstep) {
-    if (options_.participants.empty()) bad("lockstep needs at least one participant");
+  if (Gated()) {
+    if (options_.participants.empty()) {
+      bad(std::string(TimingModeName(options_.mode)) + " needs at least one participant");
+    }
     for (const std::string& name : options_.participants) {
       if (name.empty()) bad("participant names must not be empty");
       if (std::count(options_.participants.begin(), options_.participants.end(), name) > 1) {
         bad("participant '" + name + "' is listed twice");
       }
+      Participant participant;
+      participant.name = name;
+      participants_.push_back(participant);
     }
   }
   bus_.Subscribe<sirupp::arm_command_t>(
@@ -94,59 +148,143 @@ SimNode::SimNode(core::Bus& bus, ArmWorld& world, core::Environment environment,
       [this](const sirupp::sim_reset_t& message, const core::ReceiveInfo& info) {
         OnReset(message, info);
       });
+  bus_.Subscribe<sirupp::estop_t>(
+      options_.channels.estop, [this](const sirupp::estop_t& message,
+                                      const core::ReceiveInfo& info) { OnEstop(message, info); });
   heartbeat_.Publish(core::ProcessState::kStarting, "");
   PublishLatched(true);
 }
 
 SimNode::~SimNode() = default;
 
+SimNode::Participant* SimNode::FindParticipant(const std::string& name) {
+  for (Participant& participant : participants_) {
+    if (participant.name == name) return &participant;
+  }
+  return nullptr;
+}
+
+void SimNode::NoteProblem(const std::string& what, bool print) {
+  detail_ = what;
+  last_problem_ = Now();
+  if (print) std::cerr << options_.process_name << ": " << what << "\n";
+}
+
+void SimNode::NoteRefusal(const std::string& sender, const std::string& kind,
+                          const std::string& reason) {
+  const TimePoint now = Now();
+  ++counters_.commands_rejected;
+  auto it = refusals_.find(sender);
+  if (it == refusals_.end()) {
+    if (refusals_.size() >= kMaxRefusingSenders) {
+      // Forget the sender refused longest ago; its count joins the others'.
+      auto oldest = std::min_element(
+          refusals_.begin(), refusals_.end(),
+          [](const auto& a, const auto& b) { return a.second.last < b.second.last; });
+      refused_others_ += oldest->second.count;
+      refusals_.erase(oldest);
+    }
+    it = refusals_.emplace(sender, Refusals{}).first;
+  }
+  Refusals& refusals = it->second;
+  ++refusals.count;
+  refusals.reason = reason;
+  refusals.last = now;
+  detail_ = reason;
+  last_problem_ = now;
+  const bool new_kind = std::find(refusals.kinds_printed.begin(), refusals.kinds_printed.end(),
+                                  kind) == refusals.kinds_printed.end();
+  if (Seconds(now - refusal_second_) >= 1.0) {
+    refusal_second_ = now;
+    refusal_lines_this_second_ = 0;
+  }
+  if (new_kind && refusal_lines_this_second_ < kMaxRefusalLinesPerSecond) {
+    ++refusal_lines_this_second_;
+    refusals.kinds_printed.push_back(kind);
+    std::cerr << options_.process_name << ": refused a command from '" << sender << "': " << reason
+              << " (further refusals of this kind from '" << sender
+              << "' are counted on SIM_STATUS, not printed)\n";
+    status_due_ = true;
+  }
+}
+
+void SimNode::SetPresence(Participant& participant, Presence presence, const std::string& why) {
+  if (participant.presence == presence) return;
+  participant.presence = presence;
+  status_due_ = true;
+  NoteProblem(why, true);
+}
+
 void SimNode::OnCommand(const sirupp::arm_command_t& message, const core::ReceiveInfo& info) {
-  const Clock::time_point now = Clock::now();
-  const bool lockstep = options_.mode == TimingMode::kLockstep;
-  const bool registered = std::find(options_.participants.begin(), options_.participants.end(),
-                                    message.sender) != options_.participants.end();
+  const TimePoint now = Now();
+  Participant* participant = FindParticipant(message.sender);
   core::ArmCommand command;
   try {
     command = core::ArmCommandFromMessage(message, info.channel, world_.model().num_joints());
-    if (lockstep && !registered) {
+    if (Gated() && participant == nullptr) {
       throw core::MessageError(info.channel, "sender",
                                "'" + message.sender + "' is not a registered participant (" +
-                                   JoinNames(options_.participants) + ")");
+                                   JoinNames(options_.participants) +
+                                   "; sirupp-sim --participants names them)");
     }
-    if (lockstep && message.tick > awaited_tick_) {
+    if (Gated() && message.tick > awaited_tick_) {
       throw core::MessageError(info.channel, "tick",
                                std::to_string(message.tick) +
-                                   " is ahead of the sim, which waits "
-                                   "for answers to tick " +
+                                   " is ahead of the sim, which waits for answers to tick " +
                                    std::to_string(awaited_tick_));
     }
   } catch (const core::MessageError& error) {
-    ++counters_.commands_rejected;
-    detail_ = error.what();
-    last_problem_ = now;
-    // The sender's answer for this tick is "hold": the arm brakes rather than acting on it.
-    core::ArmCommand hold;
-    hold.mode = core::CommandMode::kHold;
+    NoteRefusal(message.sender, error.field_path(), error.what());
+    // A registered participant's answer for this tick is "hold": the arm brakes rather than act.
+    core::ArmCommand hold = IdleCommand(core::CommandMode::kHold);
     hold.sender = message.sender;
     hold.tick = message.tick;
-    if (lockstep && registered && message.tick == awaited_tick_) {
-      answers_[message.sender] = hold;
-    } else if (!lockstep) {
+    if (participant != nullptr && message.tick == awaited_tick_ && !participant->answered) {
+      participant->answered = true;
+      participant->answer = hold;
+    } else if (!Gated() && newest_.count(message.sender) != 0) {
       newest_[message.sender] = Answer{hold, now};
     }
     throw;  // the Bus counts it as rejected on the channel, with this reason
   }
-  if (lockstep && message.tick < awaited_tick_) {
+  if (!Gated()) {
+    ++counters_.commands_accepted;
+    if (newest_.count(message.sender) == 0 && newest_.size() >= kMaxFreeSenders) {
+      ForgetOldSenders(now);
+      if (newest_.size() >= kMaxFreeSenders) {
+        NoteRefusal(message.sender, "sender",
+                    "channel " + info.channel + ": sender '" + message.sender + "': already " +
+                        std::to_string(kMaxFreeSenders) +
+                        " senders drive the arm; allowed at most " +
+                        std::to_string(kMaxFreeSenders) + " at once");
+        return;
+      }
+    }
+    newest_[message.sender] = Answer{std::move(command), now};
+    return;
+  }
+  // A participant that had not answered (yet, or for longer than the watchdog) joins again with
+  // any answer; from the next tick on the sim waits for it.
+  if (participant->presence != Presence::kAnswering) {
+    const bool first = participant->presence == Presence::kNeverSeen;
+    // A newcomer learns at once which robot this is (it checks the model against its own).
+    if (first && Seconds(now - last_latched_) >= kStatusMinPeriodS) PublishLatched(true);
+    SetPresence(*participant, Presence::kAnswering,
+                "participant '" + participant->name + "' " + (first ? "answers" : "answers again") +
+                    " (tick " + std::to_string(message.tick) + ")");
+  }
+  if (message.tick < awaited_tick_ || participant->answered) {
     ++counters_.commands_late;
     bus_.NoteLate(info);
     return;
   }
   ++counters_.commands_accepted;
-  if (lockstep) {
-    answers_[message.sender] = std::move(command);
-  } else {
-    newest_[message.sender] = Answer{std::move(command), now};
-  }
+  participant->answered = true;
+  participant->answer = std::move(command);
+  const double latency_ms = Seconds(now - waiting_since_) * 1e3;
+  participant->latency_sum_ms += latency_ms;
+  participant->latency_max_ms = std::max(participant->latency_max_ms, latency_ms);
+  ++participant->latency_count;
 }
 
 void SimNode::OnReset(const sirupp::sim_reset_t& message, const core::ReceiveInfo& info) {
@@ -172,30 +310,55 @@ void SimNode::OnReset(const sirupp::sim_reset_t& message, const core::ReceiveInf
       throw core::MessageError(info.channel, "position", error.what());
     }
   } catch (const core::MessageError& error) {
-    detail_ = error.what();
-    last_problem_ = Clock::now();
+    NoteProblem(error.what(), false);
     throw;
   }
   ++counters_.resets;
   std::cerr << options_.process_name << ": reset by '" << message.sender << "' at tick "
             << world_.tick() << "\n";
-  if (options_.mode == TimingMode::kLockstep) {
+  if (Gated()) {
     // Answers to the state before the teleport no longer apply: ask again.
-    answers_.clear();
+    for (Participant& participant : participants_) participant.answered = false;
     awaited_tick_ = world_.tick();
-    waiting_since_ = Clock::now();
+    waiting_since_ = Now();
   }
   PublishState();
 }
 
+void SimNode::OnEstop(const sirupp::estop_t& message, const core::ReceiveInfo& info) {
+  if (message.engaged != 0 && message.engaged != 1) {
+    throw core::MessageError(info.channel, "engaged",
+                             std::to_string(message.engaged) + ": allowed 0 (release) or 1");
+  }
+  if (message.engaged == 0) {
+    if (estop_.empty()) return;
+    estop_.clear();
+    std::cerr << options_.process_name << ": emergency stop released by '" << message.sender
+              << "'; efforts are applied again\n";
+  } else {
+    const bool already = !estop_.empty();
+    estop_ = "emergency stop from '" + message.sender + "': " + message.reason;
+    if (already) return;
+    std::cerr << options_.process_name << ": " << estop_
+              << ": every joint braked, efforts ignored until released\n";
+  }
+  status_due_ = true;
+}
+
+core::ArmCommand SimNode::IdleCommand(core::CommandMode mode) const {
+  core::ArmCommand idle;
+  idle.mode = mode;
+  idle.tick = world_.tick();
+  idle.sender = options_.process_name;
+  idle.effort.assign(static_cast<size_t>(world_.model().num_joints()), 0.0);
+  return idle;
+}
+
 core::ArmCommand SimNode::Combine(const std::vector<const core::ArmCommand*>& answers) const {
   const int n = world_.model().num_joints();
-  core::ArmCommand combined;
-  combined.tick = world_.tick();
-  combined.sender = options_.process_name;
-  combined.effort.assign(static_cast<size_t>(n), 0.0);
+  core::ArmCommand combined = IdleCommand(core::CommandMode::kLimp);
   bool any_effort = false;
-  bool any_hold = false;
+  bool any_hold = !estop_.empty();
   for (const core::ArmCommand* answer : answers) {
     if (answer->mode == core::CommandMode::kHold) {
       any_hold = true;
@@ -209,13 +372,34 @@ core::ArmCommand SimNode::Combine(const std::vector<const core::ArmCommand*>& an
   combined.mode = any_hold     ? core::CommandMode::kHold
                   : any_effort ? core::CommandMode::kEffort
                                : core::CommandMode::kLimp;
+  if (any_hold) combined.effort.assign(static_cast<size_t>(n), 0.0);
   return combined;
+}
+
+core::ArmCommand SimNode::CombineParticipants() {
+  const core::ArmCommand hold = IdleCommand(core::CommandMode::kHold);
+  const core::ArmCommand idle = IdleCommand(options_.idle);
+  std::vector<const core::ArmCommand*> in_order;
+  bool braked_for_silence = false;
+  for (const Participant& participant : participants_) {
+    if (participant.answered) {
+      in_order.push_back(&participant.answer);
+    } else if (participant.presence == Presence::kNeverSeen) {
+      in_order.push_back(&idle);
+    } else {
+      in_order.push_back(&hold);
+      braked_for_silence = true;
+    }
+  }
+  if (braked_for_silence) ++counters_.watchdog_holds;
+  return Combine(in_order);
 }
 
 void SimNode::StepTicks(const core::ArmCommand& command, int ticks) {
   for (int k = 0; k < ticks && !Finished(); ++k) {
     world_.Step(command);
     ++counters_.steps;
+    if (!estop_.empty()) ++counters_.estop_ticks;
     if (world_.tick() % options_.state_every == 0 || Finished()) PublishState();
   }
 }
@@ -226,7 +410,7 @@ void SimNode::PublishState() {
 }
 
 void SimNode::PublishLatched(bool force) {
-  const Clock::time_point now = Clock::now();
+  const TimePoint now = Now();
   if (!force && latched_sent_ && Seconds(now - last_latched_) < 1.0) return;
   const auto utime = static_cast<int64_t>(std::llround(world_.time_s() * 1e6));
   bus_.Publish(options_.channels.robot_model, core::ToMessage(world_.model(), utime, model_seq_++));
@@ -236,52 +420,155 @@ void SimNode::PublishLatched(bool force) {
   latched_sent_ = true;
 }
 
+double SimNode::RealtimeFactor() const {
+  if (!started_) return 1;
+  const double wall = Seconds(Now() - start_wall_);
+  if (wall <= 0) return 1;
+  return static_cast<double>(world_.tick() - start_tick_) * world_.step_s() / wall;
+}
+
+void SimNode::PublishStatus(bool force) {
+  const TimePoint now = Now();
+  const double since = Seconds(now - last_status_);
+  const bool due = since >= 1.0 || (status_due_ && since >= kStatusMinPeriodS);
+  if (!force && !due) return;
+  if (since >= 1.0 || status_tick_ == 0) {
+    // The factor and the answer times over the second that ended.
+    const double wall = Seconds(now - status_time_);
+    if (started_ && wall > 0) {
+      recent_factor_ = static_cast<double>(world_.tick() - status_tick_) * world_.step_s() / wall;
+    }
+    status_tick_ = world_.tick();
+    status_time_ = now;
+    for (Participant& p : participants_) {
+      p.last_mean_ms = p.latency_count > 0 ? p.latency_sum_ms / p.latency_count : -1;
+      p.last_max_ms = p.latency_count > 0 ? p.latency_max_ms : -1;
+      p.latency_sum_ms = p.latency_max_ms = 0;
+      p.latency_count = 0;
+    }
+  }
+  sirupp::sim_status_t status{};
+  status.utime = WallMicros();
+  status.seq = status_seq_++;
+  status.run_id = run_id_;
+  status.mode = static_cast<int8_t>(options_.mode == TimingMode::kLockstep   ? 0
+                                    : options_.mode == TimingMode::kRealtime ? 1
+                                    : options_.mode == TimingMode::kFast     ? 2
+                                                                             : 3);
+  status.tick = world_.tick();
+  status.sim_time_s = world_.time_s();
+  status.realtime_factor = recent_factor_;
+  status.realtime_factor_run = RealtimeFactor();
+  status.slipped_s = counters_.slipped_s;
+  status.estop = estop_.empty() ? 0 : 1;
+  status.estop_reason = estop_;
+  status.num_participants = static_cast<int32_t>(participants_.size());
+  for (const Participant& p : participants_) {
+    status.participant.push_back(p.name);
+    status.participant_state.push_back(static_cast<int8_t>(p.presence));
+    status.answer_mean_ms.push_back(p.last_mean_ms);
+    status.answer_max_ms.push_back(p.last_max_ms);
+  }
+  status.num_refused = static_cast<int32_t>(refusals_.size());
+  for (const auto& [sender, refusals] : refusals_) {
+    status.refused_sender.push_back(sender);
+    status.refused_count.push_back(refusals.count);
+    status.refused_reason.push_back(refusals.reason);
+  }
+  status.refused_others = refused_others_;
+  const bool troubled = !detail_.empty() && Seconds(now - last_problem_) < kProblemMemoryS;
+  status.detail = troubled ? detail_ : "";
+  bus_.Publish(options_.channels.sim_status, status);
+  last_status_ = now;
+  status_due_ = false;
+}
+
 bool SimNode::Finished() const {
   if (stop_requested_) return true;
   return options_.duration_s > 0 && world_.time_s() >= options_.duration_s - 0.5 * world_.step_s();
 }
 
+void SimNode::Start() {
+  if (started_) return;
+  started_ = true;
+  const TimePoint now = Now();
+  start_wall_ = pace_wall_ = status_time_ = now;
+  start_tick_ = pace_tick_ = world_.tick();
+  awaited_tick_ = world_.tick();
+  waiting_since_ = now;
+  PublishState();
+  PublishStatus(true);
+}
+
 bool SimNode::Service(int max_wait_ms) {
   if (Finished()) return false;
-  if (options_.mode == TimingMode::kLockstep) {
-    ServiceLockstep(max_wait_ms);
-  } else {
-    ServiceFree(max_wait_ms);
+  switch (options_.mode) {
+    case TimingMode::kLockstep:
+      ServiceLockstep(max_wait_ms);
+      break;
+    case TimingMode::kRealtime:
+      ServiceRealtime(max_wait_ms);
+      break;
+    case TimingMode::kFast:
+    case TimingMode::kFreeRun:
+      ServiceFree(max_wait_ms);
+      break;
   }
   PublishLatched(false);
-  const bool troubled = !detail_.empty() && Seconds(Clock::now() - last_problem_) < kProblemMemoryS;
-  heartbeat_.PublishIfDue(troubled ? core::ProcessState::kDegraded : core::ProcessState::kRunning,
-                          troubled ? detail_ : "");
+  PublishStatus(false);
+  const TimePoint now = Now();
+  const bool troubled = !detail_.empty() && Seconds(now - last_problem_) < kProblemMemoryS;
+  std::string detail = troubled ? detail_ : "";
+  if (options_.mode == TimingMode::kRealtime && !troubled) {
+    detail = "realtime factor " + Fixed(recent_factor_, 3);
+  }
+  if (!estop_.empty()) detail = estop_ + "; arm braked";
+  heartbeat_.PublishIfDue(
+      troubled || !estop_.empty() ? core::ProcessState::kDegraded : core::ProcessState::kRunning,
+      detail);
   return !Finished();
 }
 
-void SimNode::ServiceLockstep(int max_wait_ms) {
-  if (!started_) {
-    started_ = true;
-    awaited_tick_ = world_.tick();
-    waiting_since_ = Clock::now();
-    PublishState();
+bool SimNode::GateOpen() const {
+  for (const Participant& participant : participants_) {
+    if (participant.presence == Presence::kAnswering && !participant.answered) return false;
   }
+  return true;
+}
+
+void SimNode::StepGate() {
+  const core::ArmCommand combined = CombineParticipants();
+  for (Participant& participant : participants_) participant.answered = false;
+  StepTicks(combined,
+            options_.state_every - static_cast<int>(world_.tick() % options_.state_every));
+  awaited_tick_ = world_.tick();
+  waiting_since_ = Now();
+}
+
+void SimNode::WaitUntil(TimePoint until, int max_wait_ms) {
+  const double wait_s = Seconds(until - Now());
+  if (wait_s <= 0) return;
+  if (wait_s >= 0.002 && max_wait_ms > 0) {
+    bus_.Handle(std::min(max_wait_ms, static_cast<int>(wait_s * 1e3) - 1));
+  } else if (wait_s < 0.002) {
+    options_.clock.sleep_until(until);
+  }
+}
+
+void SimNode::ServiceLockstep(int max_wait_ms) {
+  Start();
+  // Lockstep waits for every participant, including one not seen yet.
   auto all_answered = [this] {
-    for (const std::string& name : options_.participants) {
-      if (answers_.count(name) == 0) return false;
-    }
-    return true;
+    return std::all_of(participants_.begin(), participants_.end(),
+                       [](const Participant& p) { return p.answered; });
   };
   bus_.HandleAvailable();
   if (!all_answered()) bus_.Handle(max_wait_ms);
   if (all_answered()) {
-    std::vector<const core::ArmCommand*> in_order;  // participants' order: sums are reproducible
-    for (const std::string& name : options_.participants) in_order.push_back(&answers_.at(name));
-    const core::ArmCommand combined = Combine(in_order);
-    answers_.clear();
-    StepTicks(combined,
-              options_.state_every - static_cast<int>(world_.tick() % options_.state_every));
-    awaited_tick_ = world_.tick();
-    waiting_since_ = Clock::now();
+    StepGate();
     return;
   }
-  const Clock::time_point now = Clock::now();
+  const TimePoint now = Now();
   // A state sent before a participant subscribed (the usual start-up order) or lost on the way is
   // sent again every 0.1 s without a report; only the full timeout is reported.
   if (Seconds(now - last_resend_) >= kResendPeriodS &&
@@ -291,36 +578,96 @@ void SimNode::ServiceLockstep(int max_wait_ms) {
   }
   if (Seconds(now - waiting_since_) >= options_.lockstep_timeout_s) {
     std::vector<std::string> missing;
-    for (const std::string& name : options_.participants) {
-      if (answers_.count(name) == 0) missing.push_back(name);
+    for (const Participant& p : participants_) {
+      if (!p.answered) missing.push_back(p.name);
     }
     ++counters_.lockstep_timeouts;
-    char waited[32];
-    std::snprintf(waited, sizeof waited, "%.2f", Seconds(now - waiting_since_));
-    detail_ = "lockstep: tick " + std::to_string(awaited_tick_) + ": no answer from " +
-              JoinNames(missing) + " for " + waited + " s; waiting (state sent again)";
-    last_problem_ = now;
-    std::cerr << options_.process_name << ": " << detail_ << "\n";
+    NoteProblem("lockstep: tick " + std::to_string(awaited_tick_) + ": no answer from " +
+                    JoinNames(missing) + " for " + Fixed(Seconds(now - waiting_since_), 2) +
+                    " s; waiting (state sent again)",
+                true);
+    status_due_ = true;
     PublishState();
     waiting_since_ = now;
   }
 }
 
-void SimNode::ServiceFree(int max_wait_ms) {
-  const Clock::time_point now = Clock::now();
-  if (!started_) {
-    started_ = true;
-    start_wall_ = now;
-    start_tick_ = world_.tick();
-    PublishState();
-  }
+void SimNode::ServiceRealtime(int max_wait_ms) {
+  Start();
   bus_.HandleAvailable();
-  auto command_now = [this](Clock::time_point at) {
+  TimePoint now = Now();
+  if (!GateOpen()) {
+    const TimePoint deadline = waiting_since_ + Duration(options_.watchdog_s);
+    if (now < deadline) {
+      if (max_wait_ms > 0) {
+        const int until_deadline_ms = static_cast<int>(std::ceil(Seconds(deadline - now) * 1e3));
+        bus_.Handle(std::max(1, std::min(max_wait_ms, until_deadline_ms)));
+      }
+      now = Now();
+      if (Seconds(now - last_resend_) >= kResendPeriodS &&
+          Seconds(now - waiting_since_) >= kResendPeriodS) {
+        PublishState();  // lost on the way: ask again
+        last_resend_ = now;
+      }
+      if (!GateOpen() && Now() < deadline) return;
+    }
+    if (!GateOpen()) {
+      // Silent past the watchdog: named, and the arm brakes for it until it answers again.
+      for (Participant& participant : participants_) {
+        if (participant.presence == Presence::kAnswering && !participant.answered) {
+          SetPresence(participant, Presence::kSilent,
+                      "realtime: no answer from '" + participant.name + "' to tick " +
+                          std::to_string(awaited_tick_) + " for " +
+                          core::FormatNumber(options_.watchdog_s * 1e3) +
+                          " ms (watchdog): arm braked until it answers again");
+        }
+      }
+    }
+  }
+  // Every answering participant has answered: step when the wall clock has reached the tick's
+  // end, at once when behind it, and let the sim time slip when too far behind to catch up.
+  const double step = world_.step_s();
+  now = Now();
+  const auto end_of_tick = [&] {
+    return pace_wall_ + Duration(static_cast<double>(world_.tick() + 1 - pace_tick_) * step);
+  };
+  if (now < end_of_tick()) {
+    WaitUntil(end_of_tick(), max_wait_ms);
+    if (Now() < end_of_tick()) return;
+    now = Now();
+  }
+  const double behind_s = Seconds(now - end_of_tick());
+  if (behind_s > kMaxCatchUpS) {
+    counters_.slipped_s += behind_s;
+    pace_wall_ = now;
+    pace_tick_ = world_.tick() + 1;
+    if (Seconds(now - last_slip_report_) >= 1.0) {
+      last_slip_report_ = now;
+      NoteProblem("realtime: " + core::FormatApprox(behind_s * 1e3) +
+                      " ms behind the wall clock; the sim time slips (realtime factor " +
+                      Fixed(RealtimeFactor(), 3) + " since start)",
+                  true);
+    }
+  } else if (behind_s > step) {
+    ++counters_.overruns;
+  }
+  StepGate();
+}
+
+void SimNode::ForgetOldSenders(TimePoint now) {
+  for (auto it = newest_.begin(); it != newest_.end();) {
+    it = Seconds(now - it->second.received) > kForgetSenderS ? newest_.erase(it) : std::next(it);
+  }
+}
+
+void SimNode::ServiceFree(int max_wait_ms) {
+  Start();
+  const TimePoint now = Now();
+  bus_.HandleAvailable();
+  auto command_now = [this](TimePoint at) {
     if (newest_.empty()) {
-      core::ArmCommand idle;
-      idle.mode = options_.idle;
-      idle.effort.assign(static_cast<size_t>(world_.model().num_joints()), 0.0);
-      return idle;
+      const core::ArmCommand idle = IdleCommand(options_.idle);
+      return Combine({&idle});
     }
     std::vector<const core::ArmCommand*> fresh;
     for (const auto& [sender, answer] : newest_) {
@@ -332,34 +679,32 @@ void SimNode::ServiceFree(int max_wait_ms) {
     if (fresh.empty()) {
       ++counters_.watchdog_holds;
       if (detail_.rfind("watchdog", 0) != 0 || Seconds(at - last_problem_) > 1.0) {
-        detail_ = "watchdog: no command for more than " +
-                  core::FormatNumber(options_.watchdog_s * 1e3) + " ms: arm braked";
-        std::cerr << options_.process_name << ": " << detail_ << "\n";
+        NoteProblem("watchdog: no command for more than " +
+                        core::FormatNumber(options_.watchdog_s * 1e3) + " ms: arm braked",
+                    true);
       }
       last_problem_ = at;
-      core::ArmCommand hold;
-      hold.mode = core::CommandMode::kHold;
-      return hold;
+      return IdleCommand(core::CommandMode::kHold);
     }
     return Combine(fresh);
   };
   if (options_.mode == TimingMode::kFast) {
-    const core::ArmCommand command = command_now(now);
-    for (int k = 0; k < kFastBatch && !Finished(); ++k) StepTicks(command, 1);
+    for (int k = 0; k < kFastBatch && !Finished(); ++k) StepTicks(command_now(now), 1);
     return;
   }
-  // Realtime: run every tick whose wall-clock time has come.
+  ForgetOldSenders(now);
+  // Freerun: run every tick whose wall-clock time has come, with the newest commands.
   const double step = world_.step_s();
-  const auto due = static_cast<int64_t>(std::floor(Seconds(now - start_wall_) / step)) -
-                   (world_.tick() - start_tick_);
+  const auto due = static_cast<int64_t>(std::floor(Seconds(now - pace_wall_) / step)) -
+                   (world_.tick() - pace_tick_);
   if (due > static_cast<int64_t>(kMaxCatchUpS / step)) {
     counters_.overruns += due;
-    detail_ = "realtime: " + core::FormatApprox(static_cast<double>(due) * step * 1e3) +
-              " ms behind the wall clock; clock restarted";
-    last_problem_ = now;
-    std::cerr << options_.process_name << ": " << detail_ << "\n";
-    start_wall_ = now;
-    start_tick_ = world_.tick();
+    counters_.slipped_s += static_cast<double>(due) * step;
+    NoteProblem("freerun: " + core::FormatApprox(static_cast<double>(due) * step * 1e3) +
+                    " ms behind the wall clock; clock restarted",
+                true);
+    pace_wall_ = now;
+    pace_tick_ = world_.tick();
     StepTicks(command_now(now), 1);
     return;
   }
@@ -371,29 +716,58 @@ void SimNode::ServiceFree(int max_wait_ms) {
   };
   for (int64_t k = 0; k < due && !Finished(); ++k) {
     if (!newest_.empty() && !answered()) {
-      // On time but the answer is not in yet: give it up to a quarter of a step (the tick starts
-      // that much later) rather than step with the previous command.
-      const Clock::time_point grace = Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                                                         std::chrono::duration<double>(step / 4));
-      while (k == 0 && due == 1 && !answered() && Clock::now() < grace) bus_.HandleAvailable();
-      if (!answered()) {
-        // The tick holds an older command: counted late (docs/timing.md).
-        ++counters_.ticks_late;
-        bus_.NoteLate(options_.channels.sim_arm_command);
+      // The tick holds an older command: counted late (docs/timing.md).
+      ++counters_.ticks_late;
+      bus_.NoteLate(options_.channels.sim_arm_command);
+    }
+    StepTicks(command_now(Now()), 1);
+  }
+  WaitUntil(pace_wall_ + Duration(static_cast<double>(world_.tick() - pace_tick_ + 1) * step),
+            max_wait_ms);
+}
+
+std::string SimNode::Summary() const {
+  const NodeCounters& c = counters_;
+  std::string line =
+      "stopped at tick " + std::to_string(world_.tick()) +
+      " (t = " + core::FormatApprox(world_.time_s()) + " s): " + std::to_string(c.steps) +
+      " steps, " + std::to_string(c.states_published) + " states sent, " +
+      std::to_string(c.commands_accepted) + " commands accepted, " +
+      std::to_string(c.commands_rejected) + " rejected, " + std::to_string(c.commands_late) +
+      " late, " + std::to_string(c.lockstep_timeouts) + " lockstep timeouts, " +
+      std::to_string(c.watchdog_holds) + " ticks braked for a silent sender, " +
+      std::to_string(c.resets) + " resets, " + std::to_string(c.estop_ticks) +
+      " ticks under e-stop";
+  line += "; realtime factor " + Fixed(RealtimeFactor(), 3);
+  if (options_.mode == TimingMode::kRealtime) {
+    line += ", " + std::to_string(c.overruns) + " ticks caught up late, " +
+            core::FormatApprox(c.slipped_s) + " s slipped, 0 ticks stepped with a stale effort";
+  } else if (options_.mode == TimingMode::kFreeRun) {
+    line += ", " + std::to_string(c.ticks_late) + " ticks with a stale (held) command, " +
+            std::to_string(c.overruns) + " overruns";
+  }
+  if (c.commands_rejected > 0) {
+    line += "; refused:";
+    for (const auto& [sender, refusals] : refusals_) {
+      line += " '" + sender + "' x" + std::to_string(refusals.count) + " (" + refusals.reason + ")";
+    }
+    if (refused_others_ > 0) line += " others x" + std::to_string(refused_others_);
+  }
+  if (!participants_.empty()) {
+    std::string slowest;
+    double slowest_ms = -1;
+    for (const Participant& p : participants_) {
+      if (p.last_max_ms > slowest_ms) {
+        slowest_ms = p.last_max_ms;
+        slowest = p.name;
       }
     }
-    StepTicks(command_now(Clock::now()), 1);
+    if (slowest_ms >= 0) {
+      line += "; slowest participant " + slowest + " (up to " + Fixed(slowest_ms, 2) +
+              " ms per answer in the last second)";
+    }
   }
-  // Wait for the next tick, handling messages meanwhile.
-  const Clock::time_point next =
-      start_wall_ + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(
-                        static_cast<double>(world_.tick() - start_tick_ + 1) * step));
-  const double wait_s = Seconds(next - Clock::now());
-  if (wait_s >= 0.002) {
-    bus_.Handle(std::min(max_wait_ms, static_cast<int>(wait_s * 1e3) - 1));
-  } else if (wait_s > 0) {
-    std::this_thread::sleep_until(next);
-  }
+  return line;
 }
 
 }  // namespace sirupp::sim

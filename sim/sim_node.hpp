@@ -1,27 +1,39 @@
 #pragma once
-// The sirupp-sim process around an ArmWorld: takes joint-effort commands and teleports from the
-// bus, steps the world in one of the three timing modes of docs/timing.md, and publishes the arm's
-// state every tick (or every N ticks), the robot model and environment at 1 Hz, and a heartbeat.
+// The sirupp-sim process around an ArmWorld: takes joint-effort commands, teleports and e-stops
+// from the bus, steps the world in one of the timing modes of docs/timing.md, and publishes the
+// arm's state every tick (or every N ticks), SIM_STATUS, the robot model and environment at 1 Hz,
+// and a heartbeat.
 //
-//  - lockstep: state of tick k goes out, then the node waits until every registered participant
-//    has answered tick k, then steps. Same inputs, bit-identical outputs. A participant that has
-//    not answered within the timeout is named on stderr and in the heartbeat, and the state is sent
-//    again; the node never steps without it.
-//  - realtime: paced by the wall clock; the newest command of each sender is held. When no sender
-//    has a command younger than the watchdog timeout, every joint is braked (held still).
+//  - lockstep: the state of tick k goes out, then the node waits until every registered
+//    participant has answered tick k, then steps. Same inputs, bit-identical outputs. A participant
+//    that has not answered within the timeout is named on stderr and in the heartbeat, and the
+//    state is sent again; the node never steps without it.
+//  - realtime: lockstep paced by the wall clock. The node still waits for every participant's
+//    answer to tick k (physics never integrates an effort computed for another state) and never
+//    runs ahead of the wall clock; behind it, it steps as fast as the answers come; further behind
+//    than it can catch up, the sim time slips (counted, reported as the real-time factor). A
+//    participant silent past the watchdog is named and the arm brakes, paced by the wall clock,
+//    until it answers again.
+//  - freerun (opt-in): paced by the wall clock, the newest command of each sender is held
+//    (zero-order hold); any sender may drive. Under load this integrates stale efforts.
 //  - fast: no pacing, no waiting; the newest commands are held.
 //
-// Bad commands (wrong joint count, NaN or infinite effort, unknown mode, unknown sender in
-// lockstep, a tick from the future) are refused, counted on the channel and named in the
-// heartbeat; the sender's answer counts as "hold", so the arm brakes instead of moving on them.
+// Bad commands (wrong joint count, NaN or infinite effort, unknown mode, unknown sender where
+// participants are registered, a tick from the future) are refused, counted per sender, printed
+// the first time per sender and kind, and listed with the reason on SIM_STATUS; a registered
+// participant's refused answer counts as "hold", so the arm brakes instead of moving on it.
+// ESTOP brakes every joint and makes the node ignore every effort until it is released.
 //
 // Single-threaded: call Service() in a loop (sirupp-sim's main does), or interleave it with other
-// work on the same Bus in tests.
+// work on the same Bus in tests. Time comes from NodeOptions::clock, so tests can drive the
+// pacing, the lockstep gate and the watchdog without waiting on the wall clock.
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <map>
 #include <sirupp/arm_command_t.hpp>
+#include <sirupp/estop_t.hpp>
 #include <sirupp/sim_reset_t.hpp>
 #include <string>
 #include <vector>
@@ -35,30 +47,41 @@
 
 namespace sirupp::sim {
 
-enum class TimingMode { kLockstep, kRealtime, kFast };
+enum class TimingMode { kLockstep, kRealtime, kFast, kFreeRun };
 
 const char* TimingModeName(TimingMode mode);
-// "lockstep", "realtime" or "fast"; throws std::invalid_argument naming the bad text otherwise.
+// "lockstep", "realtime", "fast" or "freerun"; throws std::invalid_argument naming the bad text.
 TimingMode ParseTimingMode(const std::string& text);
+
+// Where the node reads the time and how it sleeps. The default is the steady clock; a test gives
+// a clock it advances itself (sleep_until then just moves it).
+struct NodeClock {
+  using TimePoint = std::chrono::steady_clock::time_point;
+  std::function<TimePoint()> now;
+  std::function<void(TimePoint)> sleep_until;
+  static NodeClock Steady();
+};
 
 struct NodeOptions {
   TimingMode mode = TimingMode::kLockstep;
-  // Lockstep: the senders (arm_command_t.sender) whose answer every published tick waits for.
+  // Lockstep and realtime: the senders (arm_command_t.sender) whose answer every published tick
+  // waits for.
   std::vector<std::string> participants = {"sirupp-control"};
-  // Publish SIM_ARM_STATE every this many ticks (>= 1). In lockstep the participants answer the
-  // published ticks and their command holds for the ticks in between.
+  // Publish SIM_ARM_STATE every this many ticks (>= 1). The participants answer the published ticks
+  // and their command holds for the ticks in between.
   int state_every = 1;
   // Lockstep: report (and send the state again) after this long without every answer, seconds.
   double lockstep_timeout_s = 1.0;
-  // Realtime: a command older than this (wall clock) brakes the arm, seconds.
+  // Realtime: a participant silent this long brakes the arm (freerun: a command older than this).
   double watchdog_s = 0.05;
   // Stop after this much simulated time; 0 = run until RequestStop().
   double duration_s = 0;
-  // What the arm does before any command arrives in realtime and fast modes: kHold (brakes on, the
-  // default) or kLimp (motors off, the arm falls).
+  // What the arm does before a participant (or, in freerun and fast, any sender) has answered:
+  // kHold (brakes on, the default) or kLimp (motors off, the arm falls).
   core::CommandMode idle = core::CommandMode::kHold;
   std::string process_name = "sirupp-sim";
   core::Channels channels;
+  NodeClock clock = NodeClock::Steady();
 };
 
 // What the node has done, for tests, the heartbeat and the exit summary.
@@ -69,18 +92,22 @@ struct NodeCounters {
   int64_t commands_rejected = 0;
   int64_t commands_late = 0;      // answered a tick that was already stepped
   int64_t lockstep_timeouts = 0;  // times a participant was reported late
-  int64_t watchdog_holds = 0;     // realtime ticks braked because no command was fresh
+  int64_t watchdog_holds = 0;     // ticks braked because a participant (or every sender) was silent
   int64_t resets = 0;
-  int64_t overruns = 0;  // realtime: ticks that started later than one step behind
-  // realtime: ticks stepped before any answer to the latest state had arrived (counted as late on
-  // SIM_ARM_COMMAND too); the tick then holds an older command
+  int64_t estop_ticks = 0;  // ticks stepped with the emergency stop engaged
+  // realtime: ticks stepped later than their wall-clock time (caught up); freerun: ticks that
+  // started more than one step late
+  int64_t overruns = 0;
+  // freerun: ticks stepped before any answer to the latest state had arrived (an older command
+  // held)
   int64_t ticks_late = 0;
+  double slipped_s = 0;  // realtime: wall time given up when too far behind to catch up
 };
 
 class SimNode {
  public:
-  // Subscribes to the command and reset channels and publishes the model and environment at once.
-  // Throws std::invalid_argument naming the bad option.
+  // Subscribes to the command, reset and e-stop channels and publishes the model and environment
+  // at once. Throws std::invalid_argument naming the bad option.
   SimNode(core::Bus& bus, ArmWorld& world, core::Environment environment, NodeOptions options);
   ~SimNode();
   SimNode(const SimNode&) = delete;
@@ -95,23 +122,70 @@ class SimNode {
   const ArmWorld& world() const { return world_; }
   // One line on the present condition (the heartbeat's detail).
   const std::string& detail() const { return detail_; }
+  // Simulated seconds per wall second since the run started (1 before it started).
+  double RealtimeFactor() const;
+  // Random per start; SIM_STATUS carries it so peers recognise a restarted sim.
+  int64_t run_id() const { return run_id_; }
+  // The one-line summary sirupp-sim prints when it ends.
+  std::string Summary() const;
 
  private:
-  struct Answer {
+  enum class Presence : int8_t { kAnswering = 0, kNeverSeen = 1, kSilent = 2 };
+  struct Participant {
+    std::string name;
+    Presence presence = Presence::kNeverSeen;
+    bool answered = false;  // has answered the awaited tick
+    core::ArmCommand answer;
+    double latency_sum_ms = 0;  // answer times in the present second
+    double latency_max_ms = 0;
+    int latency_count = 0;
+    double last_mean_ms = -1;  // ... and in the second before, as published
+    double last_max_ms = -1;
+  };
+  struct Answer {  // freerun and fast: the newest command of a sender
     core::ArmCommand command;
-    std::chrono::steady_clock::time_point received;
+    NodeClock::TimePoint received;
+  };
+  struct Refusals {
+    int64_t count = 0;
+    std::string reason;
+    NodeClock::TimePoint last;
+    std::vector<std::string> kinds_printed;
   };
 
+  NodeClock::TimePoint Now() const { return options_.clock.now(); }
+  bool Gated() const {
+    return options_.mode == TimingMode::kLockstep || options_.mode == TimingMode::kRealtime;
+  }
+  Participant* FindParticipant(const std::string& name);
   void OnCommand(const sirupp::arm_command_t& message, const core::ReceiveInfo& info);
   void OnReset(const sirupp::sim_reset_t& message, const core::ReceiveInfo& info);
-  // The command the world steps with, combined from the participants' answers: efforts add up;
-  // any hold brakes the arm; limp answers add nothing.
+  void OnEstop(const sirupp::estop_t& message, const core::ReceiveInfo& info);
+  // Counts a refusal of `sender`'s command, prints it the first time per sender and kind.
+  void NoteRefusal(const std::string& sender, const std::string& kind, const std::string& reason);
+  void NoteProblem(const std::string& what, bool print);
+  void SetPresence(Participant& participant, Presence presence, const std::string& why);
+  // The command the world steps with, combined from the answers: efforts add up; any hold brakes
+  // the arm; limp answers add nothing. An engaged e-stop brakes whatever was asked.
   core::ArmCommand Combine(const std::vector<const core::ArmCommand*>& answers) const;
+  core::ArmCommand IdleCommand(core::CommandMode mode) const;
+  // The participants' answers (hold for a silent one, the idle command for one never seen), in
+  // the order they were listed, so sums are reproducible.
+  core::ArmCommand CombineParticipants();
   void StepTicks(const core::ArmCommand& command, int ticks);
+  // Steps the gate's tick(s) with the participants' answers and opens the next tick.
+  void StepGate();
+  bool GateOpen() const;
   void PublishState();
   void PublishLatched(bool force);
+  void PublishStatus(bool force);
+  void Start();
   void ServiceLockstep(int max_wait_ms);
+  void ServiceRealtime(int max_wait_ms);
   void ServiceFree(int max_wait_ms);
+  // Sleeps or handles messages until `until` or max_wait_ms, whichever comes first.
+  void WaitUntil(NodeClock::TimePoint until, int max_wait_ms);
+  void ForgetOldSenders(NodeClock::TimePoint now);
   bool Finished() const;
 
   core::Bus& bus_;
@@ -121,23 +195,42 @@ class SimNode {
   core::Heartbeat heartbeat_;
   NodeCounters counters_;
   std::string detail_;
-  std::chrono::steady_clock::time_point last_problem_;
+  NodeClock::TimePoint last_problem_;
   bool stop_requested_ = false;
+  int64_t run_id_ = 0;
   int64_t state_seq_ = 0;
   int64_t model_seq_ = 0;
   int64_t environment_seq_ = 0;
-  std::chrono::steady_clock::time_point last_latched_;
+  int64_t status_seq_ = 0;
+  NodeClock::TimePoint last_latched_;
   bool latched_sent_ = false;
+  NodeClock::TimePoint last_status_;
+  bool status_due_ = false;  // something changed: publish SIM_STATUS soon (rate-limited)
+  int64_t status_tick_ = 0;  // tick and time of the previous status, for the factor over a second
+  NodeClock::TimePoint status_time_;
+  double recent_factor_ = 1;
 
-  // Lockstep: the tick waiting for answers, and the answers so far.
+  // Lockstep and realtime: the tick waiting for answers, and who answers.
+  std::vector<Participant> participants_;
   int64_t awaited_tick_ = 0;
-  std::map<std::string, core::ArmCommand> answers_;
-  std::chrono::steady_clock::time_point waiting_since_;
-  std::chrono::steady_clock::time_point last_resend_;
-  static constexpr double kResendPeriodS = 0.1;  // lockstep: unanswered state sent again
-  // Realtime and fast: the newest command of each sender.
+  NodeClock::TimePoint waiting_since_;  // when the awaited tick's state was first sent
+  NodeClock::TimePoint last_resend_;
+  static constexpr double kResendPeriodS = 0.1;  // unanswered state sent again
+  // Realtime pacing: tick pace_tick_ is due at pace_wall_; tick k at pace_wall_ + (k - pace_tick_)
+  // steps. Moved forward when the sim time slips.
+  NodeClock::TimePoint pace_wall_;
+  int64_t pace_tick_ = 0;
+  NodeClock::TimePoint last_slip_report_;
+  // Freerun and fast: the newest command of each sender (bounded: forgotten after a while).
   std::map<std::string, Answer> newest_;
-  std::chrono::steady_clock::time_point start_wall_;
+  // Refused commands per sender (bounded), and those of forgotten senders.
+  std::map<std::string, Refusals> refusals_;
+  int64_t refused_others_ = 0;
+  int refusal_lines_this_second_ = 0;
+  NodeClock::TimePoint refusal_second_;
+  // E-stop: who engaged it and why; empty when released.
+  std::string estop_;
+  NodeClock::TimePoint start_wall_;
   int64_t start_tick_ = 0;
   bool started_ = false;
 };

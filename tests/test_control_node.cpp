@@ -293,7 +293,7 @@ TEST(ControlNode, AutomaticModeLocksOutTargetsUntilManual) {
   rig.Plan(42);
   rig.RunFor(0.01);
   EXPECT_EQ(rig.Rejected("ARM_PLAN"), 1);
-  EXPECT_NE(rig.control.last_error().find("42: allowed 0..5"), std::string::npos);
+  EXPECT_NE(rig.control.last_error().find("42: allowed 0..6"), std::string::npos);
 }
 
 sirupp::pose_target_t PoseTarget(double x, double y, double z, const Eigen::Quaterniond& q) {

@@ -10,8 +10,10 @@
 #include <cstring>
 #include <sirupp/arm_state_t.hpp>
 #include <sirupp/environment_t.hpp>
+#include <sirupp/estop_t.hpp>
 #include <sirupp/heartbeat_t.hpp>
 #include <sirupp/robot_model_t.hpp>
+#include <sirupp/sim_status_t.hpp>
 #include <thread>
 
 #include "core/bus.hpp"
@@ -208,13 +210,201 @@ TEST(SimNode, ResetTeleportsTheArmAndBadResetsAreRefused) {
   EXPECT_EQ(node.counters().resets, 1);
 }
 
-TEST(SimNode, RealtimeBrakesTheArmWhenCommandsStop) {
-  core::Bus bus("memq://");
-  ArmWorld world(Puma(), core::Environment{});
+// A clock the test moves: the node's pacing, gate and watchdog read it instead of the wall clock.
+// sleep_until moves it only when `sleeping_moves_time` (a node that sleeps then finds the time
+// has come, as on a real clock).
+struct TestClock {
+  NodeClock::TimePoint now{};
+  bool sleeping_moves_time = true;
+  NodeClock Clock() {
+    NodeClock clock;
+    clock.now = [this] { return now; };
+    clock.sleep_until = [this](NodeClock::TimePoint until) {
+      if (sleeping_moves_time && until > now) now = until;
+    };
+    return clock;
+  }
+  void Advance(double seconds) {
+    now += std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+        std::chrono::duration<double>(seconds));
+  }
+};
+
+NodeOptions Realtime(TestClock& clock, std::vector<std::string> participants) {
   NodeOptions options;
   options.mode = TimingMode::kRealtime;
+  options.participants = std::move(participants);
+  options.watchdog_s = 0.05;
+  options.clock = clock.Clock();
+  return options;
+}
+
+TEST(SimNode, RealtimeNeverRunsAheadOfTheClockAndWaitsForEveryAnswer) {
+  core::Bus bus("memq://");
+  ArmWorld world(Puma(), core::Environment{});
+  TestClock clock;
+  clock.sleeping_moves_time = false;
+  SimNode node(bus, world, core::Environment{}, Realtime(clock, {"a"}));
+  Participant a(bus, "a", {0, 0.2, 0, 0, 0, 0});
+  for (int k = 0; k < 200; ++k) node.Service(0);
+  EXPECT_EQ(world.tick(), 0) << "the clock has not moved: no tick is due";
+  clock.Advance(10 * world.step_s() + 1e-7);
+  for (int k = 0; k < 200; ++k) node.Service(0);
+  EXPECT_EQ(world.tick(), 10) << "exactly the ticks the clock allows";
+  // Every tick stepped with the answer to its own state: accepted = ticks stepped + the one
+  // answer to the state now waiting, nothing late, nothing braked.
+  EXPECT_EQ(node.counters().commands_accepted, 11);
+  EXPECT_EQ(node.counters().commands_late, 0);
+  EXPECT_EQ(node.counters().watchdog_holds, 0);
+  // A participant that has not answered yet holds the next tick, although it is due.
+  a.silent = true;
+  clock.Advance(5 * world.step_s());
+  for (int k = 0; k < 200; ++k) node.Service(0);
+  EXPECT_EQ(world.tick(), 11) << "the answer to tick 10 was in; tick 11's is not";
+}
+
+TEST(SimNode, RealtimeBehindTheClockCatchesUpThenSlipsWhenTooFarBehind) {
+  core::Bus bus("memq://");
+  ArmWorld world(Puma(), core::Environment{});
+  TestClock clock;
+  clock.sleeping_moves_time = false;
+  SimNode node(bus, world, core::Environment{}, Realtime(clock, {"a"}));
+  Participant a(bus, "a", {0, 0, 0, 0, 0, 0});
+  node.Service(0);  // starts the clock
+  // 50 ms of hiccup: caught up tick by tick.
+  clock.Advance(0.05);
+  for (int k = 0; k < 2000 && world.tick() < 97; ++k) node.Service(0);
+  EXPECT_EQ(world.tick(), 97);
+  EXPECT_EQ(node.counters().slipped_s, 0);
+  // One second behind: more than the 0.1 s the node catches up; the sim time slips.
+  clock.Advance(1.0);
+  for (int k = 0; k < 2000; ++k) node.Service(0);
+  EXPECT_GT(node.counters().slipped_s, 0.9);
+  EXPECT_LT(node.RealtimeFactor(), 0.1);
+  EXPECT_NE(node.detail().find("the sim time slips"), std::string::npos) << node.detail();
+  EXPECT_EQ(node.counters().commands_late, 0) << "no tick ever stepped without its answer";
+}
+
+TEST(SimNode, RealtimeBrakesForASilentParticipantAndTakesItBack) {
+  core::Bus bus("memq://");
+  ArmWorld world(Puma(), core::Environment{});
+  TestClock clock;
+  SimNode node(bus, world, core::Environment{}, Realtime(clock, {"a"}));
+  Participant a(bus, "a", {0, 0, 0, 0, 0, 0});
+  for (int k = 0; k < 100; ++k) node.Service(0);
+  const int64_t answered_until = world.tick();
+  ASSERT_GT(answered_until, 50);
+  a.silent = true;
+  // Waits up to the watchdog (50 ms) for the answer, then brakes, paced by the clock.
+  for (int k = 0; k < 400; ++k) {
+    node.Service(0);
+    clock.Advance(0.0005);
+  }
+  EXPECT_GT(world.tick(), answered_until);
+  EXPECT_GT(node.counters().watchdog_holds, 0);
+  EXPECT_TRUE(world.State().flags[1] & sirupp::arm_state_t::FLAG_BRAKED);
+  EXPECT_NE(node.detail().find("no answer from 'a'"), std::string::npos) << node.detail();
+  // It answers again: from then on every tick waits for it.
+  a.silent = false;
+  for (int k = 0; k < 200; ++k) node.Service(0);
+  const int64_t holds = node.counters().watchdog_holds;
+  for (int k = 0; k < 200; ++k) node.Service(0);
+  EXPECT_EQ(node.counters().watchdog_holds, holds);
+  EXPECT_FALSE(world.State().flags[1] & sirupp::arm_state_t::FLAG_BRAKED);
+}
+
+TEST(SimNode, EstopBrakesEveryJointAndEffortsAreIgnoredUntilReleased) {
+  core::Bus bus("memq://");
+  ArmWorld world(Puma(), core::Environment{});
+  TestClock clock;
+  SimNode node(bus, world, core::Environment{}, Realtime(clock, {"student"}));
+  // A student's process pushing joint 1 hard.
+  Participant student(bus, "student", {2.0, 0, 0, 0, 0, 0});
+  sirupp::estop_t stop{};
+  stop.engaged = 1;
+  stop.sender = "test";
+  stop.reason = "button";
+  bus.Publish("ESTOP", stop);
+  for (int k = 0; k < 400; ++k) node.Service(0);
+  const double q1 = world.State().position[0];
+  for (int k = 0; k < 400; ++k) node.Service(0);
+  EXPECT_NEAR(world.State().position[0], q1, 1e-9) << "braked under the e-stop";
+  for (int8_t flags : world.State().flags) EXPECT_TRUE(flags & sirupp::arm_state_t::FLAG_BRAKED);
+  EXPECT_GT(node.counters().estop_ticks, 0);
+  stop.engaged = 0;
+  bus.Publish("ESTOP", stop);
+  for (int k = 0; k < 400; ++k) node.Service(0);
+  EXPECT_GT(world.State().position[0], q1 + 1e-4) << "efforts apply again after the release";
+}
+
+TEST(SimNode, RefusalsAreNamedPerSenderOnSimStatusAndStayBounded) {
+  core::Bus bus("memq://");
+  ArmWorld world(Puma(), core::Environment{});
+  TestClock clock;
+  SimNode node(bus, world, core::Environment{}, Realtime(clock, {"student-cpp"}));
+  sirupp::sim_status_t last{};
+  int statuses = 0;
+  bus.Subscribe<sirupp::sim_status_t>(
+      "SIM_STATUS", [&](const sirupp::sim_status_t& status, const core::ReceiveInfo&) {
+        last = status;
+        ++statuses;
+      });
+  sirupp::arm_command_t command{};
+  command.mode = sirupp::arm_command_t::MODE_EFFORT;
+  command.num_joints = 6;
+  command.effort.assign(6, 0.0);
+  command.sender = "student_cpp";  // misspelled
+  for (int k = 0; k < 59; ++k) bus.Publish("SIM_ARM_COMMAND", command);
+  // 20 000 distinct senders: counted, but the sim remembers at most 32 of them.
+  for (int k = 0; k < 20000; ++k) {
+    command.sender = "s" + std::to_string(k);
+    command.seq = k;
+    bus.Publish("SIM_ARM_COMMAND", command);
+  }
+  for (int k = 0; k < 50; ++k) {
+    node.Service(0);
+    clock.Advance(0.05);
+  }
+  ASSERT_GT(statuses, 0);
+  EXPECT_EQ(last.run_id, node.run_id());
+  EXPECT_LE(last.num_refused, 32);
+  int64_t total = last.refused_others;
+  for (int64_t count : last.refused_count) total += count;
+  EXPECT_EQ(total, 20059);
+  EXPECT_EQ(node.counters().commands_rejected, 20059);
+  ASSERT_EQ(last.num_participants, 1);
+  EXPECT_EQ(last.participant[0], "student-cpp");
+  EXPECT_EQ(last.participant_state[0], sirupp::sim_status_t::PARTICIPANT_NEVER_SEEN);
+  // The misspelled name's refusal names the registered participant.
+  command.sender = "student_cpp";
+  bus.Publish("SIM_ARM_COMMAND", command);
+  for (int k = 0; k < 5; ++k) {
+    node.Service(0);
+    clock.Advance(0.3);
+  }
+  bool found = false;
+  for (int32_t i = 0; i < last.num_refused; ++i) {
+    if (last.refused_sender[static_cast<size_t>(i)] == "student_cpp") {
+      found = true;
+      EXPECT_NE(last.refused_reason[static_cast<size_t>(i)].find(
+                    "not a registered participant (student-cpp"),
+                std::string::npos)
+          << last.refused_reason[static_cast<size_t>(i)];
+    }
+  }
+  EXPECT_TRUE(found);
+}
+
+TEST(SimNode, FreerunHoldsTheNewestCommandAndBrakesWhenCommandsStop) {
+  core::Bus bus("memq://");
+  ArmWorld world(Puma(), core::Environment{});
+  TestClock clock;
+  NodeOptions options;
+  options.mode = TimingMode::kFreeRun;
   options.watchdog_s = 0.02;
   options.idle = core::CommandMode::kLimp;
+  clock.sleeping_moves_time = false;
+  options.clock = clock.Clock();
   SimNode node(bus, world, core::Environment{}, options);
   // One command, then silence: for 20 ms it is held, then the watchdog brakes.
   sirupp::arm_command_t command{};
@@ -223,10 +413,11 @@ TEST(SimNode, RealtimeBrakesTheArmWhenCommandsStop) {
   command.num_joints = 6;
   command.effort.assign(6, 0.0);
   bus.Publish("SIM_ARM_COMMAND", command);
-  const auto start = std::chrono::steady_clock::now();
-  while (std::chrono::steady_clock::now() - start < std::chrono::milliseconds(150)) node.Service(1);
-  EXPECT_GT(world.tick(), 100);  // paced at about 1953 ticks per second
-  EXPECT_LT(world.tick(), 600);
+  for (int k = 0; k < 300; ++k) {
+    node.Service(0);
+    clock.Advance(0.0005);
+  }
+  EXPECT_NEAR(static_cast<double>(world.tick()), 0.15 / world.step_s(), 2);
   EXPECT_GT(node.counters().watchdog_holds, 0);
   EXPECT_TRUE(world.State().flags[1] & sirupp::arm_state_t::FLAG_BRAKED);
   EXPECT_NE(node.detail().find("watchdog"), std::string::npos);
