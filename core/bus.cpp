@@ -55,6 +55,8 @@ struct Bus::Counters {
   ChannelStats stats;
   bool has_seq = false;
   int64_t last_seq = 0;
+  // Per sender (types with a sender name): the last seq of each, at most kMaxSequenceSenders.
+  std::map<std::string, int64_t> sender_seq;
   // Dispatch number of the message last counted in each counter (0 = none): a message handed to two
   // subscriptions of the same channel is one message.
   int64_t received_in = 0;
@@ -103,8 +105,9 @@ void Subscription::NoteDecodeError(const lcm::ReceiveBuffer& rbuf, const Receive
                             "-byte message did not decode as " + type_name + " (" + why + ")");
 }
 
-void Subscription::NoteSequenceNumber(const ReceiveInfo& info, int64_t seq) {
-  bus_.CountSequence(info.channel, seq);
+void Subscription::NoteSequenceNumber(const ReceiveInfo& info, int64_t seq,
+                                      const std::string& sender) {
+  bus_.CountSequence(info.channel, seq, sender);
 }
 
 void Subscription::OnLcmMessage(const lcm::ReceiveBuffer* rbuf, const std::string& channel,
@@ -298,12 +301,26 @@ void Bus::CountLate(const std::string& full_channel) {
   ++counters.stats.late;
 }
 
-void Bus::CountSequence(const std::string& full_channel, int64_t seq) {
+void Bus::CountSequence(const std::string& full_channel, int64_t seq, const std::string& sender) {
   Counters& counters = Receiving(full_channel);
-  if (counters.has_seq && seq > counters.last_seq) {
+  bool known = counters.has_seq;
+  int64_t last = counters.last_seq;
+  if (!sender.empty()) {
+    // Followed per sender; a flood of distinct names forgets them all rather than grow.
+    constexpr size_t kMaxSequenceSenders = 256;
+    auto it = counters.sender_seq.find(sender);
+    known = it != counters.sender_seq.end();
+    if (known) last = it->second;
+    if (!known && counters.sender_seq.size() >= kMaxSequenceSenders) counters.sender_seq.clear();
+  }
+  if (known && seq > last) {
     // Unsigned difference: a wild seq from a corrupt message must not overflow.
-    const uint64_t step = static_cast<uint64_t>(seq) - static_cast<uint64_t>(counters.last_seq);
+    const uint64_t step = static_cast<uint64_t>(seq) - static_cast<uint64_t>(last);
     counters.stats.gaps = SaturatingAdd(counters.stats.gaps, step - 1);
+  }
+  if (!sender.empty()) {
+    counters.sender_seq[sender] = seq;
+    return;
   }
   if (!counters.has_seq || seq != counters.last_seq) counters.last_seq = seq;
   counters.has_seq = true;

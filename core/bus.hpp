@@ -88,7 +88,9 @@ class Subscription {
   // Counts a message that did not decode as `type_name` and records why, in one line.
   void NoteDecodeError(const lcm::ReceiveBuffer& rbuf, const ReceiveInfo& info,
                        const char* type_name, int64_t expected_fingerprint);
-  void NoteSequenceNumber(const ReceiveInfo& info, int64_t seq);
+  // `sender`: the message's sender name when its type has one (arm_command_t, estop_t, ...):
+  // sequence numbers are then followed per sender, so two senders' counters do not look like gaps.
+  void NoteSequenceNumber(const ReceiveInfo& info, int64_t seq, const std::string& sender = "");
 
  private:
   friend class Bus;
@@ -118,6 +120,15 @@ struct HasSeqField<Msg, std::void_t<decltype(std::declval<const Msg&>().seq)>>
     : std::is_integral<
           std::remove_cv_t<std::remove_reference_t<decltype(std::declval<const Msg&>().seq)>>> {};
 
+// True when Msg has a std::string member `sender`: sequence gaps are then counted per sender.
+template <class Msg, class = void>
+struct HasSenderField : std::false_type {};
+template <class Msg>
+struct HasSenderField<Msg, std::void_t<decltype(std::declval<const Msg&>().sender)>>
+    : std::is_same<std::remove_cv_t<std::remove_reference_t<
+                       decltype(std::declval<const Msg&>().sender)>>,
+                   std::string> {};
+
 template <class Msg>
 class TypedSubscription final : public Subscription {
  public:
@@ -140,7 +151,11 @@ class TypedSubscription final : public Subscription {
       NoteDecodeError(rbuf, info, Msg::getTypeName(), Msg::getHash());
       return;
     }
-    if constexpr (HasSeqField<Msg>::value) NoteSequenceNumber(info, static_cast<int64_t>(msg.seq));
+    if constexpr (HasSeqField<Msg>::value && HasSenderField<Msg>::value) {
+      NoteSequenceNumber(info, static_cast<int64_t>(msg.seq), msg.sender);
+    } else if constexpr (HasSeqField<Msg>::value) {
+      NoteSequenceNumber(info, static_cast<int64_t>(msg.seq));
+    }
     handler_(msg, info);
   }
 
@@ -245,7 +260,7 @@ class Bus {
   void CountDecodeError(const std::string& full_channel, std::string description);
   void CountRejected(const std::string& full_channel, std::string reason);
   void CountLate(const std::string& full_channel);
-  void CountSequence(const std::string& full_channel, int64_t seq);
+  void CountSequence(const std::string& full_channel, int64_t seq, const std::string& sender = "");
 
   std::string url_;
   std::string prefix_;

@@ -57,7 +57,8 @@ const char* const kUsage =
     "  plan check FILE...         validate movement plans; exit 2 naming file:line\n"
     "  plan run FILE [--wait]     run a plan in sirupp-control (also pause, resume, abort,\n"
     "                             manual, automatic)\n"
-    "  gains [--joint N] [--kp V] [--kd V] ...   set the servo gains live\n"
+    "  gains [--joint N] [--kp V] [--kd V] ...   the live servo gains: show, or change\n"
+    "  clear-fault                clear sirupp-control's latched fault (servos on, arm held)\n"
     "  status                     what the controller, the arm and every process report\n"
     "  hardware connect|calibrate|arm|disarm|link|unlink|home|clear-faults|status\n"
     "                             the bridge to the real arm (or sirupp-picservo-emu)\n"
@@ -137,6 +138,12 @@ int RunCli(const Args& args, std::ostream& out, std::ostream& err) {
     if (command == "plan") {
       if (wants_help) return out << kPlanUsage, kExitOk;
       return RunPlan(rest, out);
+    }
+    if (command == "clear-fault") {
+      if (wants_help) return out << kPlanUsage, kExitOk;
+      Args plan_args{"clear-fault"};
+      plan_args.insert(plan_args.end(), rest.begin(), rest.end());
+      return RunPlan(plan_args, out);
     }
     if (command == "gains") {
       if (wants_help) return out << kGainsUsage, kExitOk;

@@ -15,6 +15,7 @@
 #include <sirupp/pose_target_t.hpp>
 #include <sirupp/servo_gains_t.hpp>
 #include <sirupp/servo_setpoint_t.hpp>
+#include <sirupp/sim_status_t.hpp>
 #include <sstream>
 
 #include "control/plan.hpp"
@@ -24,6 +25,7 @@
 #include "core/errors.hpp"
 #include "core/geometry.hpp"
 #include "core/heartbeat.hpp"
+#include "servo/gains_message.hpp"
 #include "servo/picservo.hpp"
 #include "tools/args.hpp"
 #include "tools/cli.hpp"
@@ -35,7 +37,9 @@ namespace {
 using Clock = std::chrono::steady_clock;
 using Status = sirupp::controller_status_t;
 constexpr double kDeg = 3.14159265358979323846 / 180;
-constexpr double kFirstStatusS = 1.5;  // CONTROLLER_STATUS comes at 10 Hz: wait this long for one
+constexpr double kFirstStatusS = 1.5;
+// CONTROLLER_STATUS comes at 10 Hz: silent this long, the controller is gone.
+constexpr double kControllerSilentS = 1.5;  // CONTROLLER_STATUS comes at 10 Hz: wait this long for one
 constexpr int kExitFailed = 1;
 
 const char* ModeName(int8_t mode) {
@@ -70,7 +74,21 @@ class RigWatch {
                            [this](const Status& message, const core::ReceiveInfo&) {
                              status = message;
                              ++statuses;
+                             last_status_at = std::chrono::steady_clock::now();
                            });
+    bus_.Subscribe<sirupp::sim_status_t>(
+        channels.sim_status,
+        [this](const sirupp::sim_status_t& message, const core::ReceiveInfo&) { sim = message; });
+    bus_.Subscribe<sirupp::servo_gains_t>(
+        channels.controller_gains,
+        [this](const sirupp::servo_gains_t& message, const core::ReceiveInfo&) {
+          virtual_gains = message;
+        });
+    bus_.Subscribe<sirupp::servo_gains_t>(
+        channels.real_arm_gains,
+        [this](const sirupp::servo_gains_t& message, const core::ReceiveInfo&) {
+          real_gains = message;
+        });
     bus_.Subscribe<sirupp::heartbeat_t>(
         channels.heartbeat, [this](const sirupp::heartbeat_t& message, const core::ReceiveInfo&) {
           heartbeats[message.process + "@" + message.host] = message;
@@ -113,8 +131,24 @@ class RigWatch {
     return false;
   }
 
+  // True when sirupp-control has sent no status for `seconds` (it sends at 10 Hz): it crashed or
+  // was stopped. `out` gets the reason.
+  bool ControllerSilent(double seconds, std::ostream& out) const {
+    const double silent =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - last_status_at).count();
+    if (!status || silent < seconds) return false;
+    out << "sirupp-control stopped answering: no " << bus_.FullName(core::Channels{}.controller_status)
+        << " for " << core::FormatApprox(silent)
+        << " s (it crashed or was stopped; its log says why)\n";
+    return true;
+  }
+
   std::optional<Status> status;
   int64_t statuses = 0;
+  std::chrono::steady_clock::time_point last_status_at;
+  std::optional<sirupp::sim_status_t> sim;
+  std::optional<sirupp::servo_gains_t> virtual_gains;
+  std::optional<sirupp::servo_gains_t> real_gains;
   std::optional<sirupp::servo_setpoint_t> setpoint;
   std::optional<sirupp::arm_state_t> state;
   std::map<std::string, sirupp::heartbeat_t> heartbeats;
@@ -156,13 +190,16 @@ int Confirm(RigWatch& watch, const core::Bus& bus, const std::string& channel,
 
 // After an accepted move: waits until the controller is idle with this move (or a fault).
 int WaitForMove(RigWatch& watch, int64_t move_id, double timeout_s, std::ostream& out) {
+  bool silent = false;
   const bool ended = watch.Until(
       [&] {
         const Status& s = *watch.status;
-        return s.state == Status::STATE_FAULT || s.move_id != move_id ||
+        silent = watch.ControllerSilent(kControllerSilentS, out);
+        return silent || s.state == Status::STATE_FAULT || s.move_id != move_id ||
                s.state == Status::STATE_IDLE;
       },
       timeout_s);
+  if (silent) return kExitFailed;
   const Status& s = *watch.status;
   if (!ended) {
     out << "still " << StateName(s.state) << " after " << timeout_s << " s (--timeout)\n";
@@ -393,9 +430,11 @@ int PlanRun(const std::vector<std::string>& args, std::ostream& out) {
 
   int shown_step = -1;
   const auto steps = static_cast<int>(plan.steps.size());
+  bool silent = false;
   const bool ended = watch.Until(
       [&] {
         const Status& s = *watch.status;
+        if ((silent = watch.ControllerSilent(kControllerSilentS, out))) return true;
         if (s.plan_name != file) return true;  // another plan replaced it
         if (s.plan_step != shown_step && s.plan_step < steps) {
           shown_step = s.plan_step;
@@ -406,6 +445,7 @@ int PlanRun(const std::vector<std::string>& args, std::ostream& out) {
         return s.state == Status::STATE_FAULT || s.state == Status::STATE_IDLE;
       },
       timeout);
+  if (silent) return kExitFailed;
   const Status& s = *watch.status;
   if (!ended) {
     out << "still " << StateName(s.state) << " after " << timeout << " s (--timeout)\n";
@@ -451,6 +491,8 @@ int PlanControl(int8_t command, const std::string& word, const std::vector<std::
             return s.mode == Status::MODE_MANUAL;
           case sirupp::plan_command_t::COMMAND_AUTOMATIC:
             return s.mode == Status::MODE_AUTOMATIC;
+          case sirupp::plan_command_t::COMMAND_CLEAR_FAULT:
+            return s.state != Status::STATE_FAULT;
           case sirupp::plan_command_t::COMMAND_ABORT:
             // A status sent before the controller took the abort may still be on its way: the
             // plan has ended once the controller is manual again (or, locked in automatic, once
@@ -494,21 +536,28 @@ const char* const kPlanUsage =
     "  it started; --wait prints each step and exits 0 when the plan finished, 1 if it was\n"
     "  aborted or a servo faulted. pause finishes the present move, then waits; abort stops\n"
     "  the arm smoothly (also with no plan running); automatic locks out manual targets until\n"
-    "  manual. Format: docs/plan-format.md; examples: config/plans/.\n";
+    "  manual. Format: docs/plan-format.md; examples: config/plans/.\n"
+    "  A fault (a tripped servo, a failing student controller, another robot in the sim) holds\n"
+    "  the arm and refuses targets and plans, naming its first cause, until `sirupp clear-fault`.\n";
 
 const char* const kGainsUsage =
     "usage: sirupp gains [--joint N] [--kp V] [--kd V] [--ki V] [--il V] [--ol V] [--el V]\n"
     "                    [--db V] [--model FILE] [--lcm-url URL] [--prefix PREFIX]\n"
     "  Sets the servo filter gains of sirupp-control live (ARM_GAINS), in PIC-SERVO units\n"
     "  (docs/servo-units.md): Kp, Kd, Ki, integration limit, output limit (PWM 0..255), error\n"
-    "  limit (counts) and deadband. Values not given are the model's; --joint N (1-based)\n"
-    "  changes one joint, otherwise every joint. Out-of-range values exit 2; nothing is sent.\n";
+    "  limit (counts) and deadband. Only what is named changes: the rest is taken from the live\n"
+    "  gains (CONTROLLER_GAINS); --joint N (1-based) changes one joint, otherwise every joint.\n"
+    "  With no value, prints the live gains of the virtual servos and, when a bridge runs, of\n"
+    "  the real boards (REAL_ARM_GAINS); the bridge loads ARM_GAINS into the boards too.\n"
+    "  Out-of-range values exit 2; nothing is sent.\n";
 
 const char* const kStatusUsage =
     "usage: sirupp status [--timeout S] [--lcm-url URL] [--prefix PREFIX]\n"
     "  What the rig reports over about one second (--timeout, default 1.5): sirupp-control's\n"
     "  mode, state, move, plan step and last error; the arm's joints and set-points; and every\n"
-    "  process heard on HEARTBEAT. Exit 1 if no controller status was heard.\n";
+    "  process heard on HEARTBEAT with its refused messages and decode errors per channel; the\n"
+    "  sim's timing mode, real-time factor, participants and refused senders (SIM_STATUS).\n"
+    "  Exit 1 if no controller status was heard.\n";
 
 int RunMove(const std::vector<std::string>& args, std::ostream& out) {
   if (args.empty() || (args[0] != "joints" && args[0] != "pose")) {
@@ -530,9 +579,32 @@ int RunPlan(const std::vector<std::string>& args, std::ostream& out) {
   if (word == "abort") return PlanControl(Command::COMMAND_ABORT, word, rest, out);
   if (word == "manual") return PlanControl(Command::COMMAND_MANUAL, word, rest, out);
   if (word == "automatic") return PlanControl(Command::COMMAND_AUTOMATIC, word, rest, out);
+  if (word == "clear-fault") return PlanControl(Command::COMMAND_CLEAR_FAULT, word, rest, out);
   throw core::UsageError("plan: unknown subcommand '" + word +
                          "'; allowed: check, run, pause, resume, abort, manual, automatic");
 }
+
+namespace {
+
+void PrintGains(std::ostream& out, const std::string& title, const sirupp::servo_gains_t& g) {
+  out << title << "\n  joint     Kp     Kd     Ki     IL   OL     EL   DB\n";
+  for (int j = 0; j < g.num_joints; ++j) {
+    const auto i = static_cast<size_t>(j);
+    char line[96];
+    std::snprintf(line, sizeof line, "  %5d %6.0f %6.0f %6.0f %6.0f %4.0f %6.0f %4.0f\n", j + 1,
+                  g.kp[i], g.kd[i], g.ki[i], g.integration_limit[i], g.output_limit[i],
+                  g.error_limit[i], g.deadband[i]);
+    out << line;
+  }
+}
+
+bool SameFilterGains(const sirupp::servo_gains_t& a, const sirupp::servo_gains_t& b) {
+  return a.num_joints == b.num_joints && a.kp == b.kp && a.kd == b.kd && a.ki == b.ki &&
+         a.integration_limit == b.integration_limit && a.output_limit == b.output_limit &&
+         a.error_limit == b.error_limit && a.deadband == b.deadband;
+}
+
+}  // namespace
 
 int RunGains(const std::vector<std::string>& args, std::ostream& out) {
   const Args parsed(args, "gains",
@@ -556,59 +628,107 @@ int RunGains(const std::vector<std::string>& args, std::ostream& out) {
     }
     only = static_cast<int>(joint) - 1;
   }
-  const auto value = [&](const char* flag, int fallback) {
-    if (!parsed.Has(flag)) return fallback;
-    const double v = parsed.Numbers(flag, 1)[0];
+  struct Flag {
+    const char* name;
+    std::vector<double> sirupp::servo_gains_t::*field;
+  };
+  const Flag flags[] = {{"kp", &sirupp::servo_gains_t::kp},
+                        {"kd", &sirupp::servo_gains_t::kd},
+                        {"ki", &sirupp::servo_gains_t::ki},
+                        {"il", &sirupp::servo_gains_t::integration_limit},
+                        {"ol", &sirupp::servo_gains_t::output_limit},
+                        {"el", &sirupp::servo_gains_t::error_limit},
+                        {"db", &sirupp::servo_gains_t::deadband}};
+  bool change = false;
+  for (const Flag& flag : flags) {
+    if (!parsed.Has(flag.name)) continue;
+    change = true;
+    const double v = parsed.Numbers(flag.name, 1)[0];
     if (v != std::floor(v) || std::abs(v) > 1e9) {
-      throw core::UsageError(std::string("gains: --") + flag + " " + core::FormatNumber(v) +
+      throw core::UsageError(std::string("gains: --") + flag.name + " " + core::FormatNumber(v) +
                              ": allowed whole numbers");
     }
-    return static_cast<int>(v);
-  };
-  sirupp::servo_gains_t message{};
-  message.utime = WallMicros();
-  message.num_joints = n;
-  out << "joint     Kp     Kd     Ki     IL   OL     EL   DB\n";
-  for (int j = 0; j < n; ++j) {
-    control::ServoGains g = control::GainsFromModel(model.joints[static_cast<size_t>(j)].servo);
-    if (only < 0 || only == j) {
-      g.kp = value("kp", g.kp);
-      g.kd = value("kd", g.kd);
-      g.ki = value("ki", g.ki);
-      g.integration_limit = value("il", g.integration_limit);
-      g.output_limit = value("ol", g.output_limit);
-      g.error_limit = value("el", g.error_limit);
-      g.deadband = value("db", g.deadband);
+  }
+  std::vector<servo::JointGains> from_model;
+  for (const core::Joint& joint : model.joints) {
+    from_model.push_back(
+        {control::GainsFromModel(joint.servo), static_cast<int>(joint.servo.current_limit), 1});
+  }
+  const auto apply_flags = [&](sirupp::servo_gains_t& message) {
+    for (const Flag& flag : flags) {
+      if (!parsed.Has(flag.name)) continue;
+      const double v = parsed.Numbers(flag.name, 1)[0];
+      for (int j = 0; j < n; ++j) {
+        if (only < 0 || only == j) (message.*flag.field)[static_cast<size_t>(j)] = v;
+      }
     }
     try {
-      servo::CheckGains(g);
-    } catch (const std::invalid_argument& error) {
-      throw core::UsageError("gains: joint " + std::to_string(j + 1) + ": " + error.what());
+      servo::GainsFromMessage(message, "gains", n);
+    } catch (const core::MessageError& error) {
+      throw core::UsageError(std::string("gains: ") + error.what());
     }
-    const core::ServoParams& servo = model.joints[static_cast<size_t>(j)].servo;
-    message.kp.push_back(g.kp);
-    message.kd.push_back(g.kd);
-    message.ki.push_back(g.ki);
-    message.integration_limit.push_back(g.integration_limit);
-    message.output_limit.push_back(g.output_limit);
-    message.current_limit.push_back(servo.current_limit);
-    message.error_limit.push_back(g.error_limit);
-    message.servo_rate_divisor.push_back(1);
-    message.deadband.push_back(g.deadband);
-    char line[96];
-    std::snprintf(line, sizeof line, "%5d %6d %6d %6d %6d %4d %6d %4d\n", j + 1, g.kp, g.kd, g.ki,
-                  g.integration_limit, g.output_limit, g.error_limit, g.deadband);
-    out << line;
+  };
+  if (change) {  // out-of-range values exit 2 before anything is sent
+    sirupp::servo_gains_t check = servo::GainsToMessage(from_model, 0, 0);
+    apply_flags(check);
   }
   core::Bus bus = BusFromArgs(parsed);
   RigWatch watch(bus, false);
   if (!watch.FirstStatus(out)) return kExitFailed;
-  bus.Publish(core::Channels{}.arm_gains, message);
-  out << "sent " << bus.FullName(core::Channels{}.arm_gains) << "\n";
-  // Accepted gains leave no trace in the status; a refusal names the channel. Give it 0.3 s.
-  const int code = Confirm(watch, bus, core::Channels{}.arm_gains, nullptr, out, 0.3);
-  if (code == 0) out << "no refusal within 0.3 s\n";
-  return code;
+  // The live gains: the controller sends them at 1 Hz; the bridge too when it runs.
+  watch.Until([&] { return watch.virtual_gains.has_value() && watch.real_gains.has_value(); },
+              1.5);
+  const core::Channels channels;
+  if (!change) {
+    if (!watch.virtual_gains) {
+      out << "no " << bus.FullName(channels.controller_gains) << " within 1.5 s\n";
+      return kExitFailed;
+    }
+    PrintGains(out, "virtual servos (sirupp-control):", *watch.virtual_gains);
+    if (watch.real_gains) {
+      PrintGains(out, "real boards (sirupp-hardware):", *watch.real_gains);
+    } else {
+      out << "real boards: no " << bus.FullName(channels.real_arm_gains)
+          << " heard (no bridge running)\n";
+    }
+    return 0;
+  }
+  // Only what is named changes; the rest stays as the controller has it now.
+  sirupp::servo_gains_t message{};
+  if (watch.virtual_gains && watch.virtual_gains->num_joints == n) {
+    message = *watch.virtual_gains;
+  } else {
+    out << "no live gains heard on " << bus.FullName(channels.controller_gains)
+        << ": starting from the model's\n";
+    message = servo::GainsToMessage(from_model, 0, 0);
+  }
+  message.utime = WallMicros();
+  message.seq = 0;
+  apply_flags(message);
+  PrintGains(out, "sending:", message);
+  bus.Publish(channels.arm_gains, message);
+  out << "sent " << bus.FullName(channels.arm_gains) << "\n";
+  const int code = Confirm(watch, bus, channels.arm_gains, nullptr, out, 0.3);
+  if (code != 0) return code;
+  const bool had_real = watch.real_gains.has_value();
+  const bool taken = watch.Until(
+      [&] {
+        return watch.virtual_gains && SameFilterGains(*watch.virtual_gains, message) &&
+               (!had_real || SameFilterGains(*watch.real_gains, message));
+      },
+      2.5);
+  out << "virtual servos: "
+      << (watch.virtual_gains && SameFilterGains(*watch.virtual_gains, message)
+              ? "running the new gains"
+              : "not confirmed")
+      << "\n";
+  if (had_real) {
+    out << "real boards: "
+        << (SameFilterGains(*watch.real_gains, message) ? "running the new gains (read back)"
+                                                         : "not confirmed")
+        << "\n";
+  }
+  return taken ? 0 : kExitFailed;
 }
 
 int RunStatus(const std::vector<std::string>& args, std::ostream& out) {
@@ -650,11 +770,43 @@ int RunStatus(const std::vector<std::string>& args, std::ostream& out) {
     out << "set-points (deg): [" << Degrees(model, watch.setpoint->position) << "], goals ["
         << Degrees(model, watch.setpoint->goal) << "]\n";
   }
+  if (watch.sim) {
+    const sirupp::sim_status_t& sim = *watch.sim;
+    static const char* const kModes[] = {"lockstep", "realtime", "fast", "freerun"};
+    out << "sim: " << (sim.mode >= 0 && sim.mode <= 3 ? kModes[sim.mode] : "?") << ", tick "
+        << sim.tick << ", realtime factor " << core::FormatApprox(sim.realtime_factor)
+        << " (since start " << core::FormatApprox(sim.realtime_factor_run) << "), slipped "
+        << core::FormatApprox(sim.slipped_s) << " s"
+        << (sim.estop ? ", E-STOP: " + sim.estop_reason : std::string()) << "\n";
+    static const char* const kPresence[] = {"answering", "not seen yet", "silent: arm braked"};
+    for (int32_t i = 0; i < sim.num_participants; ++i) {
+      const auto k = static_cast<size_t>(i);
+      const int8_t p = sim.participant_state[k];
+      out << "  participant " << sim.participant[k] << ": "
+          << (p >= 0 && p <= 2 ? kPresence[p] : "?");
+      if (sim.answer_mean_ms[k] >= 0) {
+        out << ", answers in " << core::FormatApprox(sim.answer_mean_ms[k]) << " ms (max "
+            << core::FormatApprox(sim.answer_max_ms[k]) << ")";
+      }
+      out << "\n";
+    }
+    for (int32_t i = 0; i < sim.num_refused; ++i) {
+      const auto k = static_cast<size_t>(i);
+      out << "  refused from '" << sim.refused_sender[k] << "': " << sim.refused_count[k]
+          << " (" << sim.refused_reason[k] << ")\n";
+    }
+    if (sim.refused_others > 0) out << "  refused from other senders: " << sim.refused_others << "\n";
+  }
   for (const auto& [who, beat] : watch.heartbeats) {
     out << "process " << who << " pid " << beat.pid << ": "
         << core::ProcessStateName(static_cast<core::ProcessState>(beat.state))
         << (beat.detail.empty() ? "" : " (" + beat.detail + ")") << ", up "
         << core::FormatApprox(beat.uptime_s) << " s\n";
+    for (const sirupp::channel_stats_t& c : beat.channels) {
+      if (c.rejected == 0 && c.decode_errors == 0) continue;
+      out << "  " << c.channel << ": " << c.rejected << " rejected, " << c.decode_errors
+          << " decode errors\n";
+    }
   }
   return watch.status ? 0 : kExitFailed;
 }

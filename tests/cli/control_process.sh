@@ -72,6 +72,16 @@ run resume_none 1 plan resume --lcm-url "$URL"
 has resume_none "$out" "resume: no plan is paused"
 run gains 0 gains --lcm-url "$URL" --joint 2 --kp 300
 has gains "$out" "    2    300   1000"
+has gains "$out" "virtual servos: running the new gains"
+# Only what is named changes: joint 2 keeps the Kp set above (it went back to the file's before).
+run gains_kd 0 gains --lcm-url "$URL" --joint 3 --kd 500
+has gains_kd "$out" "    2    300   1000"
+has gains_kd "$out" "    3    100    500"
+run gains_show 0 gains --lcm-url "$URL"
+has gains_show "$out" "virtual servos (sirupp-control):"
+has gains_show "$out" "    3    100    500"
+has gains_show "$out" "real boards: no REAL_ARM_GAINS heard"
+run clear_fault 0 clear-fault --lcm-url "$URL"
 run home 0 move joints --lcm-url "$URL" --pose zero --wait --scale 1
 has home "$out" "done"
 
