@@ -12,10 +12,12 @@
 #include <sirupp/estop_t.hpp>
 #include <sirupp/servo_move_t.hpp>
 #include <sirupp/servo_setpoint_t.hpp>
+#include <sirupp/arm_command_t.hpp>
 
 #include "control/control_node.hpp"
 #include "core/kinematics.hpp"
 #include "core/model_loader.hpp"
+#include "core/translate.hpp"
 #include "sim/sim_node.hpp"
 
 namespace sirupp::control {
@@ -391,6 +393,132 @@ TEST(ControlNode, GainsChangeLiveAndBadGainsAreRefused) {
   soft.RunFor(1.0);
   rig.RunFor(1.0);
   EXPECT_LT(std::abs(rig.Degrees(1)), std::abs(soft.Degrees(1)));
+}
+
+// sirupp-control alone on a bus, fed by hand-made states: for what a real sim rarely does (restart,
+// send a state twice, brake the arm on its own, run another robot).
+struct HandFedControl {
+  core::RobotModel model = core::LoadRobotModel("config/robots/puma260.yaml");
+  core::Bus bus{"memq://"};
+  ControlNode control{bus, model, ControlOptions{}};
+  std::vector<sirupp::arm_command_t> answers;
+  std::vector<sirupp::servo_move_t> moves;
+  std::vector<sirupp::servo_setpoint_t> setpoints;
+  std::vector<double> position = std::vector<double>(6, 0.0);
+
+  HandFedControl() {
+    bus.Subscribe<sirupp::arm_command_t>(
+        "SIM_ARM_COMMAND",
+        [this](const sirupp::arm_command_t& m, const core::ReceiveInfo&) { answers.push_back(m); });
+    bus.Subscribe<sirupp::servo_move_t>(
+        "ARM_MOVE",
+        [this](const sirupp::servo_move_t& m, const core::ReceiveInfo&) { moves.push_back(m); });
+    bus.Subscribe<sirupp::servo_setpoint_t>(
+        "ARM_SETPOINT", [this](const sirupp::servo_setpoint_t& m, const core::ReceiveInfo&) {
+          setpoints.push_back(m);
+        });
+  }
+  void State(int64_t tick, int8_t flags = 0) {
+    sirupp::arm_state_t state{};
+    state.tick = tick;
+    state.utime = static_cast<int64_t>(std::llround(static_cast<double>(tick) * 512.0));
+    state.num_joints = 6;
+    state.position = position;
+    state.velocity.assign(6, 0.0);
+    state.effort.assign(6, 0.0);
+    state.flags.assign(6, flags);
+    bus.Publish("SIM_ARM_STATE", state);
+    control.Service(0);
+  }
+  void Send(const sirupp::joint_target_t& target) {
+    bus.Publish("ARM_TARGET", target);
+    control.Service(0);
+  }
+};
+
+TEST(ControlNode, AStateSentAgainIsAnsweredAgainWithTheSameCommand) {
+  HandFedControl rig;
+  rig.State(0);
+  rig.State(1);
+  rig.State(1);  // the sim did not get the answer and asks again
+  ASSERT_EQ(rig.answers.size(), 3u);
+  EXPECT_EQ(rig.answers[2].tick, 1);
+  EXPECT_EQ(rig.answers[2].effort, rig.answers[1].effort);
+  EXPECT_GT(rig.answers[2].seq, rig.answers[1].seq);
+  EXPECT_EQ(rig.control.states_answered(), 2);
+}
+
+TEST(ControlNode, ARestartedSimAbortsThePlanStopsTheRealArmAndIsAnswered) {
+  HandFedControl rig;
+  for (int64_t k = 0; k < 20; ++k) rig.State(k);
+  rig.Send(Target({90, 0, 0, 0, 0, 0}, {1, 0, 0, 0, 0, 0}));
+  for (int64_t k = 20; k < 200; ++k) rig.State(k);
+  EXPECT_EQ(rig.control.state(), Status::STATE_MOVING);
+  const size_t moves_before = rig.moves.size();
+  rig.State(0);  // a new sim: ticks from 0 again
+  ASSERT_GT(rig.moves.size(), moves_before);
+  EXPECT_EQ(rig.moves.back().command, sirupp::servo_move_t::COMMAND_STOP_SMOOTH);
+  EXPECT_EQ(rig.answers.back().tick, 0) << "the new sim's first state is answered: no deadlock";
+  EXPECT_NE(rig.control.last_error().find("sirupp-sim restarted"), std::string::npos)
+      << rig.control.last_error();
+  for (int64_t k = 1; k < 50; ++k) rig.State(k);
+  EXPECT_EQ(rig.control.state(), Status::STATE_IDLE) << "held where the new sim has the arm";
+}
+
+TEST(ControlNode, AnArmBrakedByTheSimHoldsTheProfilesSoNoServoTrips) {
+  HandFedControl rig;
+  for (int64_t k = 0; k < 20; ++k) rig.State(k);
+  rig.Send(Target({90, 0, 0, 0, 0, 0}, {1, 0, 0, 0, 0, 0}));
+  for (int64_t k = 20; k < 100; ++k) rig.State(k);
+  const double before = rig.setpoints.back().position[0];
+  // 2 s braked by the sim (a silent participant, say): the arm stays at 0, so a running profile
+  // would leave it far behind and trip.
+  for (int64_t k = 100; k < 4000; ++k) rig.State(k, sirupp::arm_state_t::FLAG_BRAKED);
+  EXPECT_NEAR(rig.setpoints.back().position[0], before, 1e-12);
+  EXPECT_TRUE(rig.control.fault().empty()) << rig.control.fault();
+  EXPECT_NE(rig.control.state(), Status::STATE_FAULT);
+}
+
+TEST(ControlNode, ATripKeepsItsCauseBrakesTheArmAndWaitsForClearFault) {
+  HandFedControl rig;
+  for (int64_t k = 0; k < 20; ++k) rig.State(k);
+  rig.Send(Target({90, 0, 0, 0, 0, 0}, {1, 0, 0, 0, 0, 0}));
+  // The arm does not follow (the joint is stuck): the position error grows until the servo trips.
+  for (int64_t k = 20; k < 6000 && rig.control.fault().empty(); ++k) rig.State(k);
+  ASSERT_FALSE(rig.control.fault().empty());
+  EXPECT_NE(rig.control.fault().find("joint j1 tripped its position-error limit"),
+            std::string::npos);
+  rig.State(6001);
+  EXPECT_EQ(rig.answers.back().mode, sirupp::arm_command_t::MODE_HOLD) << "a trip brakes the arm";
+  // A new target names the first cause and is refused.
+  rig.Send(Target({10, 0, 0, 0, 0, 0}, {1, 0, 0, 0, 0, 0}));
+  EXPECT_NE(rig.control.last_error().find("the controller is faulted: joint j1 tripped"),
+            std::string::npos)
+      << rig.control.last_error();
+  EXPECT_NE(rig.control.last_error().find("sirupp clear-fault"), std::string::npos);
+  sirupp::plan_command_t clear{};
+  clear.command = sirupp::plan_command_t::COMMAND_CLEAR_FAULT;
+  rig.bus.Publish("ARM_PLAN", clear);
+  rig.control.Service(0);
+  EXPECT_TRUE(rig.control.fault().empty());
+  rig.State(6002);
+  EXPECT_EQ(rig.answers.back().mode, sirupp::arm_command_t::MODE_EFFORT);
+  EXPECT_EQ(rig.control.state(), Status::STATE_IDLE);
+}
+
+TEST(ControlNode, AnotherRobotInTheSimIsRefusedNamingBothFiles) {
+  HandFedControl rig;
+  const core::RobotModel stanford = core::LoadRobotModel("config/robots/stanford.yaml");
+  rig.bus.Publish("ROBOT_MODEL", core::ToMessage(stanford, 0, 0));
+  rig.control.Service(0);
+  const std::string& refusal = rig.control.start_refusal();
+  EXPECT_NE(refusal.find("config/robots/stanford.yaml"), std::string::npos) << refusal;
+  EXPECT_NE(refusal.find("config/robots/puma260.yaml"), std::string::npos) << refusal;
+  // The same robot is fine.
+  HandFedControl same;
+  same.bus.Publish("ROBOT_MODEL", core::ToMessage(same.model, 0, 0));
+  same.control.Service(0);
+  EXPECT_TRUE(same.control.start_refusal().empty());
 }
 
 }  // namespace
