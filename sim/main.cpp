@@ -45,7 +45,8 @@ int Run(const std::vector<std::string>& argv) {
        {"step", "physics step in seconds"},
        {"state-every", "publish the state every N ticks"},
        {"lockstep-timeout", "seconds before a silent participant is reported"},
-       {"watchdog", "realtime: seconds a participant may be silent before the arm brakes"},
+       {"watchdog", "realtime: seconds a participant may be silent before the arm brakes (0.5); "
+                                "freerun: age of a held command (0.05)"},
        {"duration", "simulated seconds to run (0 = until stopped)"},
        {"idle", "hold or limp before the first command"},
        {"pose", "named pose to start in"},
@@ -95,7 +96,11 @@ int Run(const std::vector<std::string>& argv) {
   if (args.Has("lockstep-timeout")) {
     options.lockstep_timeout_s = args.Numbers("lockstep-timeout", 1)[0];
   }
-  if (args.Has("watchdog")) options.watchdog_s = args.Numbers("watchdog", 1)[0];
+  if (args.Has("watchdog")) {
+    options.watchdog_s = args.Numbers("watchdog", 1)[0];
+  } else if (options.mode == sirupp::sim::TimingMode::kFreeRun) {
+    options.watchdog_s = 0.05;  // a held command goes stale fast
+  }
   if (args.Has("duration")) options.duration_s = args.Numbers("duration", 1)[0];
 
   std::vector<double> start;

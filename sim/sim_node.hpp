@@ -72,8 +72,11 @@ struct NodeOptions {
   int state_every = 1;
   // Lockstep: report (and send the state again) after this long without every answer, seconds.
   double lockstep_timeout_s = 1.0;
-  // Realtime: a participant silent this long brakes the arm (freerun: a command older than this).
-  double watchdog_s = 0.05;
+  // Realtime: a participant silent this long (wall clock) brakes the arm and the sim goes on
+  // without it. Until then the sim only waits (its time slips), so a slow answer never changes
+  // the physics; a brake does, so it is kept for a participant that is really gone.
+  // Freerun: a command older than this brakes the arm (sirupp-sim gives 0.05 s there).
+  double watchdog_s = 0.5;
   // Stop after this much simulated time; 0 = run until RequestStop().
   double duration_s = 0;
   // What the arm does before a participant (or, in freerun and fast, any sender) has answered:
