@@ -47,6 +47,8 @@ ArmLink::ArmLink(const core::RobotModel& model, const BridgeSettings& settings, 
       bus_(port, BusOptions{std::chrono::milliseconds(settings.reply_margin_ms), settings.retries,
                             nullptr}) {
   for (const core::Joint& joint : model.joints) drives_.emplace_back(joint, model.servo_tick_s);
+  gains_ = servo::ChipGainsFromModel(model);
+  board_gains_.assign(drives_.size(), std::nullopt);
   goals_.assign(drives_.size(), 0.0);
   velocity_mode_.assign(drives_.size(), false);
   last_counts_.assign(drives_.size(), 0);
@@ -68,27 +70,44 @@ void ArmLink::Connect() {
                                std::to_string(m.type) + ", not a PIC-SERVO (type 0)");
     }
   }
+  std::fill(board_gains_.begin(), board_gains_.end(), std::nullopt);  // reset: power-up gains
   for (int j = 0; j < n; ++j) {
     const uint8_t a = Address(j);
-    const core::ServoParams& p = model_.joints[static_cast<size_t>(j)].servo;
-    const servo::ServoGains g = servo::GainsFromModel(p);
-    nmc::Gains chip;
-    chip.kp = static_cast<int16_t>(g.kp);
-    chip.kd = static_cast<int16_t>(g.kd);
-    chip.ki = static_cast<int16_t>(g.ki);
-    chip.integration_limit = static_cast<int16_t>(g.integration_limit);
-    chip.output_limit = static_cast<uint8_t>(g.output_limit);
-    chip.current_limit = static_cast<uint8_t>(std::lround(p.current_limit));
-    chip.error_limit = static_cast<int16_t>(g.error_limit);
-    chip.servo_rate = static_cast<uint8_t>(std::lround(p.servo_rate_divisor));
-    chip.deadband = static_cast<uint8_t>(g.deadband);
     bus_.Command(nmc::StopMotor(a, nmc::kMotorOff));  // amplifier off while configuring
-    bus_.Command(nmc::SetGain(a, chip));
+    SendGains(j);
     bus_.Command(nmc::ClearBits(a));
     bus_.Command(nmc::DefineStatus(a, kPollItems));
   }
   have_last_poll_ = false;
   connected_ = true;
+}
+
+void ArmLink::SendGains(int j) {
+  const auto i = static_cast<size_t>(j);
+  const servo::ChipGains& g = gains_[i];
+  nmc::Gains chip;
+  chip.kp = static_cast<int16_t>(g.kp);
+  chip.kd = static_cast<int16_t>(g.kd);
+  chip.ki = static_cast<int16_t>(g.ki);
+  chip.integration_limit = static_cast<int16_t>(g.integration_limit);
+  chip.output_limit = static_cast<uint8_t>(g.output_limit);
+  chip.current_limit = static_cast<uint8_t>(g.current_limit);
+  chip.error_limit = static_cast<int16_t>(g.error_limit);
+  chip.servo_rate = static_cast<uint8_t>(g.servo_rate_divisor);
+  chip.deadband = static_cast<uint8_t>(g.deadband);
+  board_gains_[i].reset();  // unknown until acknowledged
+  bus_.Command(nmc::SetGain(Address(j), chip));
+  board_gains_[i] = g;
+}
+
+void ArmLink::SetGains(const std::vector<servo::ChipGains>& gains) {
+  if (gains.size() != gains_.size()) {
+    throw std::invalid_argument("SetGains: " + std::to_string(gains.size()) +
+                                " joints; the arm has " + std::to_string(gains_.size()));
+  }
+  gains_ = gains;
+  if (!connected_) return;
+  for (int j = 0; j < num_joints(); ++j) SendGains(j);
 }
 
 void ArmLink::Calibrate() {
@@ -347,10 +366,10 @@ ArmReading ArmLink::Poll() {
     if (dt > 0)
       r.velocity[i] = (drive.FromCounts(s.position) - drive.FromCounts(last_counts_[i])) / dt;
     if (s.aux & nmc::kAuxServoOn) {
-      const core::ServoParams& p = model_.joints[i].servo;
-      const double u = p.kp * s.position_error / double(1 << servo::kOutputShift);
-      const int pwm = static_cast<int>(
-          std::clamp(std::lround(u), -std::lround(p.output_limit), std::lround(p.output_limit)));
+      const servo::ChipGains& g = gains_[i];  // the law the module runs
+      const double u = g.kp * s.position_error / double(1 << servo::kOutputShift);
+      const int pwm =
+          static_cast<int>(std::clamp<long>(std::lround(u), -g.output_limit, g.output_limit));
       r.effort[i] = drive.EffortFromPwm(pwm);
     }
     last_counts_[i] = s.position;
@@ -395,6 +414,7 @@ void ArmLink::Shutdown() {
     // the port itself failed: nothing more can be sent
   }
   connected_ = calibrated_ = armed_ = false;
+  std::fill(board_gains_.begin(), board_gains_.end(), std::nullopt);
 }
 
 }  // namespace sirupp::hardware

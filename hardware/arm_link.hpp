@@ -15,6 +15,7 @@
 #include "core/robot_model.hpp"
 #include "hardware/bridge_settings.hpp"
 #include "hardware/nmc_bus.hpp"
+#include "servo/chip_gains.hpp"
 #include "servo/servo_units.hpp"
 
 namespace sirupp::hardware {
@@ -41,7 +42,7 @@ class ArmLink {
  public:
   ArmLink(const core::RobotModel& model, const BridgeSettings& settings, BytePort& port);
 
-  // Vendor start-up, then per module: amplifier off, SET_GAIN from the model, CLEAR_BITS,
+  // Vendor start-up, then per module: amplifier off, SET_GAIN (gains()), CLEAR_BITS,
   // DEF_STAT(kPollItems). Amplifiers stay disabled until Arm() (an arm with brakes holds). Throws
   // BusError, or std::runtime_error when the modules found do not match the model (count or type).
   void Connect();
@@ -61,6 +62,20 @@ class ArmLink {
   // A trapezoidal move of every joint to `goal` at default speeds (HOME). Checked first;
   // returns the refusal or "".
   std::string MoveAllTo(const std::vector<double>& goal);
+
+  // The gains for every module from now on (they persist across connects and arming). Connected,
+  // SET_GAIN goes to every module at once (in any state: the servos keep running on the new law);
+  // board_gains() records what each module acknowledged. Throws BusError when a module does not
+  // take them (its entry in board_gains() is then unknown). The values must have passed
+  // servo::ChipGainsFromMessage's rule.
+  void SetGains(const std::vector<servo::ChipGains>& gains);
+  // The gains sent to the modules (from the model until SetGains).
+  const std::vector<servo::ChipGains>& gains() const { return gains_; }
+  // Per module, the gains it acknowledged (its SET_GAIN reply came without CKSUM_ERROR) since the
+  // last reset; nullopt while unknown (not connected, or a SET_GAIN failed). The chip cannot be
+  // asked for its gains (no status item or command reads them back), so this is what the bridge
+  // knows the boards hold.
+  const std::vector<std::optional<servo::ChipGains>>& board_gains() const { return board_gains_; }
 
   // One exchange per module. A module that fails every try is marked in the reading; the others
   // are still read.
@@ -89,6 +104,7 @@ class ArmLink {
 
  private:
   void Home(int joint, const JointHoming& homing);
+  void SendGains(int joint);
   nmc::Trajectory TrajectoryFor(int j, double goal, double velocity, double acceleration,
                                 bool velocity_mode) const;
 
@@ -96,6 +112,8 @@ class ArmLink {
   BridgeSettings settings_;
   NmcBus bus_;
   std::vector<servo::JointDrive> drives_;
+  std::vector<servo::ChipGains> gains_;
+  std::vector<std::optional<servo::ChipGains>> board_gains_;
   std::vector<double> goals_;
   std::vector<bool> velocity_mode_;
   std::vector<int32_t> last_counts_;

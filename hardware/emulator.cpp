@@ -128,6 +128,12 @@ nmc::Status Emulator::ModuleStatus(int module_index) const {
   return modules_[static_cast<size_t>(module_index)].StatusNow();
 }
 
+nmc::Gains Emulator::ModuleGains(int module_index) const {
+  CheckModule(module_index, "module");
+  std::lock_guard<std::mutex> lock(mutex_);
+  return modules_[static_cast<size_t>(module_index)].gains();
+}
+
 void Emulator::SetChecksumErrorRate(double p) {
   CheckRate(p, "checksum error rate");
   std::lock_guard<std::mutex> lock(mutex_);

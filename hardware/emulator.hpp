@@ -109,6 +109,8 @@ class Emulator {
   std::vector<int> Pwm() const;
   // Module `index`'s status now, every item filled in.
   nmc::Status ModuleStatus(int module_index) const;
+  // The gains module `index` runs its PID with (its last SET_GAIN, or its power-up gains).
+  nmc::Gains ModuleGains(int module_index) const;
 
   void SetChecksumErrorRate(double p);
   void SetDropRate(double p);

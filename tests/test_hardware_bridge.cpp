@@ -16,6 +16,7 @@
 #include <sirupp/estop_t.hpp>
 #include <sirupp/hardware_command_t.hpp>
 #include <sirupp/hardware_status_t.hpp>
+#include <sirupp/servo_gains_t.hpp>
 #include <sirupp/servo_move_t.hpp>
 #include <sirupp/servo_setpoint_t.hpp>
 #include <string>
@@ -28,6 +29,7 @@
 #include "hardware/bridge_node.hpp"
 #include "hardware/emulator.hpp"
 #include "hardware/serial_port.hpp"
+#include "servo/chip_gains.hpp"
 
 namespace sirupp::hardware {
 namespace {
@@ -390,6 +392,76 @@ TEST(HardwareBridge, ChecksumErrorsAndLostBytesUnderLoadAreRetried) {
             << " commands refused by a module, " << c.checksum_errors << " damaged replies, "
             << c.timeouts << " timeouts, " << c.resyncs << " resyncs, " << c.retries
             << " retries, no fault; joints 1-3 at " << Degrees(q, 3) << " deg (goal 90)\n";
+}
+
+// One law for virtual and real: gains on ARM_GAINS go to the boards (SET_GAIN), REAL_ARM_GAINS
+// reports what the modules acknowledged, the emulated arm moves by the new law, a bad message is
+// refused whole naming its field, and the gains persist over a reconnect (reset).
+TEST(HardwareBridge, GainsOnArmGainsReachTheBoardsAndChangeTheLaw) {
+  Rig rig;
+  std::vector<sirupp::servo_gains_t> reported;
+  rig.bus.Subscribe<sirupp::servo_gains_t>(
+      "REAL_ARM_GAINS",
+      [&reported](const sirupp::servo_gains_t& m, const core::ReceiveInfo&) {
+        reported.push_back(m);
+      },
+      100);
+  rig.Ready();
+  rig.RunUntil(0.1, nullptr);
+  ASSERT_FALSE(reported.empty()) << "published on connect";
+  EXPECT_EQ(reported.back().kp[1], 100);
+  // The upper arm level (j2 at 0 deg): the shoulder's servo holds it against gravity with an
+  // error of about G / Kp.
+  rig.bus.Publish("ARM_MOVE", Move({{1, 0}}, 1));
+  ASSERT_TRUE(rig.RunUntil(0.3, [&] { return !AllDone(rig); })) << rig.node->last_error();
+  ASSERT_TRUE(rig.RunUntil(8, [&] { return AllDone(rig); })) << rig.node->last_error();
+  rig.RunUntil(0.3, nullptr);
+  const int error_kp100 = std::abs(rig.node->reading().position_error[1]);
+
+  sirupp::servo_gains_t gains = servo::GainsMessage(servo::ChipGainsFromModel(Puma()));
+  gains.kp[1] = 400;
+  const size_t before = reported.size();
+  rig.bus.Publish("ARM_GAINS", gains);
+  rig.RunUntil(0.6, nullptr);
+  ASSERT_GT(reported.size(), before);
+  EXPECT_EQ(reported.back().kp[1], 400);
+  EXPECT_EQ(reported.back().kp[0], 100);
+  EXPECT_EQ(reported.back().kd[1], 1000);
+  EXPECT_EQ(rig.emulator->ModuleGains(1).kp, 400);
+  EXPECT_EQ(rig.emulator->ModuleGains(0).kp, 100);
+  const int error_kp400 = std::abs(rig.node->reading().position_error[1]);
+  EXPECT_LT(2 * error_kp400, error_kp100) << "the emulated shoulder holds by the new law";
+  EXPECT_EQ(rig.node->state(), hardware_status_t::STATE_LINKED) << rig.node->last_error();
+  // 1 Hz while nothing changes.
+  const size_t quiet = reported.size();
+  rig.RunUntil(1.2, nullptr);
+  EXPECT_GE(reported.size(), quiet + 1);
+
+  // One bad value: the whole message is refused, nothing changes (not even joint 1's Kp).
+  sirupp::servo_gains_t bad = gains;
+  bad.kp[0] = 250;
+  bad.kd[2] = 40000;
+  rig.bus.Publish("ARM_GAINS", bad);
+  rig.RunUntil(0.1, nullptr);
+  EXPECT_EQ(rig.Rejected("ARM_GAINS"), 1);
+  EXPECT_EQ(rig.node->last_error(),
+            "channel ARM_GAINS: kd[2]: 40000 (joint j3 elbow): allowed whole numbers 0..32767");
+  EXPECT_EQ(rig.status.last_error, rig.node->last_error());
+  EXPECT_EQ(rig.emulator->ModuleGains(0).kp, 100);
+  EXPECT_EQ(reported.back().kp[0], 100);
+  EXPECT_EQ(rig.link->gains()[0].kp, 100);
+  const std::string refusal = rig.node->last_error();
+
+  // The gains persist: a reconnect resets the modules and loads them again.
+  rig.Command(hardware_command_t::COMMAND_DISARM);
+  rig.Command(hardware_command_t::COMMAND_CONNECT);
+  EXPECT_EQ(rig.node->state(), hardware_status_t::STATE_CONNECTED) << rig.node->last_error();
+  EXPECT_EQ(rig.emulator->ModuleGains(1).kp, 400);
+  EXPECT_EQ(reported.back().kp[1], 400);
+  std::cout << "ARM_GAINS Kp 100 -> 400 on j2: REAL_ARM_GAINS kp[1] " << reported.back().kp[1]
+            << ", emulated module 2 Kp " << rig.emulator->ModuleGains(1).kp
+            << "; level shoulder held with " << error_kp100 << " -> " << error_kp400
+            << " counts of error; bad message: '" << refusal << "'\n";
 }
 
 TEST(HardwareBridge, ShutdownLeavesMotorsOffAndAmplifiersDisabled) {
