@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 #include <thread>
 
@@ -35,6 +36,16 @@ std::string ShownRate(const core::Joint& joint, double v, const char* per) {
   return core::FormatApprox(v) + " m/" + per;
 }
 
+// To a tenth of a degree (or a millimetre), for positions read from counters: "-43.7 deg".
+std::string ShownTenth(const core::Joint& joint, double v) {
+  const bool revolute = joint.type == core::JointType::kRevolute;
+  double x = std::round((revolute ? v * 180 / M_PI : v * 1000) * 10) / 10;
+  if (x == 0) x = 0;  // no "-0"
+  char text[32];
+  std::snprintf(text, sizeof text, revolute ? "%.1f deg" : "%.1f mm", x);
+  return text;
+}
+
 int32_t ClampCounts(int64_t counts) {
   return static_cast<int32_t>(std::clamp<int64_t>(counts, INT32_MIN, INT32_MAX));
 }
@@ -54,9 +65,99 @@ ArmLink::ArmLink(const core::RobotModel& model, const BridgeSettings& settings, 
   last_counts_.assign(drives_.size(), 0);
 }
 
-void ArmLink::Connect() {
-  connected_ = calibrated_ = armed_ = false;
+std::string ArmLink::ResumeProblem(const std::vector<NmcBus::Addressed>& kept) const {
   const int n = num_joints();
+  if (static_cast<int>(kept.size()) != n) {
+    return "only " + std::to_string(kept.size()) + " of the " + std::to_string(n) +
+           " modules answered at their addresses";
+  }
+  for (int j = 0; j < n; ++j) {
+    const nmc::Status& s = kept[static_cast<size_t>(j)].status;
+    const std::string module = "module " + std::to_string(j + 1);
+    if (s.type != nmc::kTypePicServo) {
+      return module + " is of type " + std::to_string(s.type) + ", not a PIC-SERVO";
+    }
+    if (s.home != kCalibrationMarker) {
+      return module + " holds no calibration (home register " + std::to_string(s.home) +
+             ", not the bridge's marker " + std::to_string(kCalibrationMarker) + ")";
+    }
+    const core::Joint& joint = model_.joints[static_cast<size_t>(j)];
+    const double q = drives_[static_cast<size_t>(j)].FromCounts(s.position);
+    const double slack = kPoseToleranceDeg * M_PI / 180;
+    if (!(q >= joint.position_min - slack && q <= joint.position_max + slack)) {
+      return module + "'s counter puts " + JointName(model_, j) + " at " + ShownTenth(joint, q) +
+             ", outside its limits [" + Shown(joint, joint.position_min) + ", " +
+             Shown(joint, joint.position_max) + "]";
+    }
+  }
+  return "";
+}
+
+void ArmLink::Resume(const std::vector<NmcBus::Addressed>& kept) {
+  std::vector<ModuleInfo> modules;
+  for (const NmcBus::Addressed& k : kept) modules.push_back(k.info);
+  bus_.Adopt(modules, static_cast<uint8_t>(settings_.group_address));
+  std::fill(board_gains_.begin(), board_gains_.end(), std::nullopt);  // not known: sent again
+  bool all_on = true;
+  bool all_revolute = true;
+  std::string angles;
+  for (int j = 0; j < num_joints(); ++j) {
+    const auto i = static_cast<size_t>(j);
+    const uint8_t a = Address(j);
+    SendGains(j);
+    const nmc::Status s = bus_.Command(nmc::DefineStatus(a, kPollItems));
+    all_on = all_on && (s.aux & nmc::kAuxServoOn);
+    goals_[i] = drives_[i].FromCounts(s.position);
+    velocity_mode_[i] = false;
+    const std::string shown = ShownTenth(model_.joints[i], goals_[i]);
+    all_revolute = all_revolute && model_.joints[i].type == core::JointType::kRevolute;
+    angles += (j ? " " : "") + shown.substr(0, shown.find(' '));
+  }
+  have_last_poll_ = false;
+  connected_ = calibrated_ = resumed_ = true;
+  armed_ = all_on;
+  fresh_and_undriven_ = false;
+  blind_reason_.clear();
+  connect_report_ = "resumed without a reset: the " + std::to_string(num_joints()) +
+                    " modules on " + bus_.port().name() +
+                    " kept power and their calibration; joints at " + angles +
+                    (all_revolute ? " deg" : " (deg; mm for prismatic joints)") + ", servos " +
+                    (all_on ? "on" : "not all on");
+}
+
+void ArmLink::Connect() {
+  const bool was_fresh_and_undriven = fresh_and_undriven_;
+  connected_ = calibrated_ = armed_ = resumed_ = fresh_and_undriven_ = false;
+  connect_report_.clear();
+  const int n = num_joints();
+  // Boards that kept power since an earlier bridge answer at their addresses, at the baud it set.
+  bus_.port().SetBaud(settings_.baud);
+  bus_.port().DiscardInput();
+  const std::vector<NmcBus::Addressed> kept =
+      bus_.FindAddressed(n, nmc::kSendHome | nmc::kSendPosition | nmc::kSendAux);
+  if (!kept.empty()) {
+    const std::string problem = ResumeProblem(kept);
+    if (problem.empty()) {
+      Resume(kept);
+      return;
+    }
+    if (was_fresh_and_undriven) {
+      // This bridge found them fresh and has not driven the arm since: still where it powered up.
+      blind_reason_.clear();
+      fresh_and_undriven_ = true;
+    } else {
+      blind_reason_ = "the modules on " + bus_.port().name() +
+                      " had kept power since an earlier connection, but " + problem +
+                      "; their counters said nothing sure about where the arm is, and the reset "
+                      "zeroed them wherever it stands";
+      connect_report_ = "the modules had kept power without a calibration (" + problem +
+                        "): reset; calibrating by the pose is refused until the arm is shown to "
+                        "be in it";
+    }
+  } else {
+    blind_reason_.clear();
+    fresh_and_undriven_ = true;
+  }
   const std::vector<ModuleInfo> found =
       bus_.Initialize(n, settings_.baud, static_cast<uint8_t>(settings_.group_address));
   if (static_cast<int>(found.size()) != n) {
@@ -110,6 +211,20 @@ void ArmLink::SetGains(const std::vector<servo::ChipGains>& gains) {
   for (int j = 0; j < num_joints(); ++j) SendGains(j);
 }
 
+std::string ArmLink::CalibrationNeeds() const {
+  return "Needed: the arm shown to be in the calibration pose '" + settings_.calibration_pose +
+         "': switch the boards off and on with the arm in that pose (their counters then start "
+         "there), or give the joints a homing method (index, limit1 or limit2) in the settings' "
+         "calibration.homing; then calibrate";
+}
+
+void ArmLink::SetCalibratedCounts(int j, int32_t counts) {
+  const uint8_t a = Address(j);
+  bus_.Command(nmc::SetPosition(a, kCalibrationMarker));
+  bus_.Command(nmc::SaveAsHome(a));  // the marker stays in the home register
+  bus_.Command(nmc::SetPosition(a, counts));
+}
+
 void ArmLink::Calibrate() {
   if (!connected_) throw std::runtime_error("calibrate: not connected");
   if (armed_) throw std::runtime_error("calibrate: disarm first (servos must be off)");
@@ -118,13 +233,40 @@ void ArmLink::Calibrate() {
     throw std::runtime_error("calibrate: the model has no pose '" + settings_.calibration_pose +
                              "'");
   }
+  const int n = num_joints();
+  bool by_pose = false;
+  for (const JointHoming& h : settings_.homing) by_pose |= h.method == HomingMethod::kNone;
+  if (by_pose && !blind_reason_.empty()) {
+    throw CalibrationRefused("calibrate: refused: " + blind_reason_ + ". " + CalibrationNeeds());
+  }
+  if (by_pose && calibrated_) {
+    // Calibrated already: the counters say where the arm is. Redefining it as the pose is only
+    // a correction when it is there.
+    for (int j = 0; j < n; ++j) {
+      const auto i = static_cast<size_t>(j);
+      if (settings_.homing[i].method != HomingMethod::kNone) continue;
+      const double q = drives_[i].FromCounts(bus_.Command(nmc::Nop(Address(j))).position);
+      const double want = pose->position[i];
+      const core::Joint& joint = model_.joints[i];
+      if (std::abs(q - want) > kPoseToleranceDeg * M_PI / 180) {
+        throw CalibrationRefused(
+            "calibrate: refused: the arm is calibrated, and its counters put " +
+            JointName(model_, j) + " at " + Shown(joint, q) + ", " +
+            Shown(joint, std::abs(q - want)) + " from the calibration pose '" +
+            settings_.calibration_pose + "' (" + Shown(joint, want) +
+            "); calibrating would define it as the pose. Move the arm to "
+            "the pose first (within " +
+            core::FormatNumber(kPoseToleranceDeg) +
+            " deg of every joint), or keep the calibration");
+      }
+    }
+  }
   calibrated_ = false;
-  for (int j = 0; j < num_joints(); ++j) {
+  for (int j = 0; j < n; ++j) {
     const JointHoming& h = settings_.homing[static_cast<size_t>(j)];
     if (h.method == HomingMethod::kNone) {
       const double q = pose->position[static_cast<size_t>(j)];
-      bus_.Command(
-          nmc::SetPosition(Address(j), ClampCounts(drives_[static_cast<size_t>(j)].ToCounts(q))));
+      SetCalibratedCounts(j, ClampCounts(drives_[static_cast<size_t>(j)].ToCounts(q)));
       goals_[static_cast<size_t>(j)] = q;
     } else {
       Home(j, h);
@@ -132,9 +274,11 @@ void ArmLink::Calibrate() {
   }
   have_last_poll_ = false;
   calibrated_ = true;
+  fresh_and_undriven_ = false;
 }
 
 void ArmLink::Home(int j, const JointHoming& h) {
+  fresh_and_undriven_ = false;  // the search drives the joint
   const uint8_t a = Address(j);
   const auto& drive = drives_[static_cast<size_t>(j)];
   uint8_t condition = nmc::kHomeOnIndex;
@@ -171,13 +315,14 @@ void ArmLink::Home(int j, const JointHoming& h) {
   const int64_t now_counts =
       static_cast<int64_t>(home.position) - home.home + drive.ToCounts(h.home_angle);
   bus_.Command(nmc::StopMotor(a, nmc::kMotorOff));  // amplifier off again
-  bus_.Command(nmc::SetPosition(a, ClampCounts(now_counts)));
+  SetCalibratedCounts(j, ClampCounts(now_counts));
   bus_.Command(nmc::ClearBits(a));
   goals_[static_cast<size_t>(j)] = drive.FromCounts(now_counts);
 }
 
 void ArmLink::Arm() {
   if (!calibrated_) throw std::runtime_error("arm: calibrate first");
+  fresh_and_undriven_ = false;
   for (int j = 0; j < num_joints(); ++j) {
     // Servo on first: POS_ERR is set for as long as the servo is off, so it is cleared after.
     const nmc::Status s =

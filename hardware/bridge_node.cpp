@@ -101,11 +101,21 @@ void BridgeNode::Connect() {
   linked_ = false;
   faulted_ = false;
   link_.Connect();
-  last_error_.clear();
+  // Boards that had kept power without a calibration: the refusal to come is shown at once.
+  last_error_ = link_.blind_reason().empty() ? "" : link_.connect_report();
+  if (!link_.connect_report().empty()) {
+    std::cerr << options_.name << ": " << link_.connect_report() << "\n";
+  }
   PublishGains();  // the modules hold the gains sent during start-up
 }
 void BridgeNode::Calibrate() {
-  link_.Calibrate();
+  try {
+    link_.Calibrate();
+  } catch (const CalibrationRefused& e) {
+    last_error_ = e.what();
+    PublishStatus();
+    throw;
+  }
   last_error_.clear();
 }
 void BridgeNode::Arm() {
