@@ -29,12 +29,6 @@ std::string Shown(const core::Joint& joint, double v) {
   if (joint.type == core::JointType::kRevolute) return core::FormatApprox(v * 180 / M_PI) + " deg";
   return core::FormatApprox(v) + " m";
 }
-std::string ShownRate(const core::Joint& joint, double v, const char* per) {
-  if (joint.type == core::JointType::kRevolute) {
-    return core::FormatApprox(v * 180 / M_PI) + " deg/" + per;
-  }
-  return core::FormatApprox(v) + " m/" + per;
-}
 
 // To a tenth of a degree (or a millimetre), for positions read from counters: "-43.7 deg".
 std::string ShownTenth(const core::Joint& joint, double v) {
@@ -251,8 +245,8 @@ void ArmLink::Calibrate() {
       if (std::abs(q - want) > kPoseToleranceDeg * M_PI / 180) {
         throw CalibrationRefused(
             "calibrate: refused: the arm is calibrated, and its counters put " +
-            JointName(model_, j) + " at " + Shown(joint, q) + ", " +
-            Shown(joint, std::abs(q - want)) + " from the calibration pose '" +
+            JointName(model_, j) + " at " + ShownTenth(joint, q) + ", " +
+            ShownTenth(joint, std::abs(q - want)) + " from the calibration pose '" +
             settings_.calibration_pose + "' (" + Shown(joint, want) +
             "); calibrating would define it as the pose. Move the arm to "
             "the pose first (within " +
@@ -367,33 +361,17 @@ std::string ArmLink::CheckMove(const servo_move_t& move) const {
                                                             : "armed");
   }
   if (move.command != servo_move_t::COMMAND_MOVE) return "";
+  // One rule with the controller: core::CheckJointMove (soft limits, speed and acceleration caps).
   for (int j = 0; j < n; ++j) {
     const auto i = static_cast<size_t>(j);
     if (!(move.flags[i] & servo_move_t::FLAG_ACTIVE)) continue;
-    const core::Joint& joint = model_.joints[i];
-    const std::string where = JointName(model_, j) + ": ";
-    const double v = move.max_velocity[i];
-    const double a = move.acceleration[i];
-    const double v_cap = joint.velocity_max * settings_.velocity_cap_fraction;
     const bool velocity_mode = move.flags[i] & servo_move_t::FLAG_VELOCITY_MODE;
-    if (!std::isfinite(v) || (velocity_mode ? v == 0 : v <= 0) || std::abs(v) > v_cap) {
-      return where + "speed " + ShownRate(joint, v, "s") + " is outside " +
-             (velocity_mode ? "(0, " : "(0, ") + ShownRate(joint, v_cap, "s") + "] (velocity cap)";
-    }
-    const double a_cap = settings_.acceleration_max[i];
-    if (!std::isfinite(a) || a <= 0 || a > a_cap) {
-      return where + "acceleration " + ShownRate(joint, a, "s^2") + " is outside (0, " +
-             ShownRate(joint, a_cap, "s^2") + "] (acceleration cap)";
-    }
-    if (velocity_mode) continue;  // watched against the soft limits while it runs
     const double goal =
         (move.flags[i] & servo_move_t::FLAG_RELATIVE) ? goals_[i] + move.goal[i] : move.goal[i];
-    const double lo = SoftMin(model_, settings_, j);
-    const double hi = SoftMax(model_, settings_, j);
-    if (!std::isfinite(goal) || goal < lo || goal > hi) {
-      return where + "goal " + Shown(joint, goal) + " is outside the soft limits [" +
-             Shown(joint, lo) + ", " + Shown(joint, hi) + "]";
-    }
+    const std::optional<std::string> refusal =
+        core::CheckJointMove(model_, settings_.motion_limits, j, goal, move.max_velocity[i],
+                             move.acceleration[i], velocity_mode);
+    if (refusal) return *refusal;
   }
   return "";
 }

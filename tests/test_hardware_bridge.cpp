@@ -286,6 +286,41 @@ TEST(HardwareBridge, NothingMovesUnlessArmedLinkedAndWithinLimits) {
   for (size_t j = 0; j < now.size(); ++j) EXPECT_NEAR(now[j], held[j], 0.5 * kDeg) << j;
 }
 
+// A move the real arm refuses while linked (issue 23: a goal inside the 2 deg margin, or an
+// unbounded acceleration) is on HARDWARE_STATUS at once, in last_error, naming the move and the
+// reason in the fixed form "channel ARM_MOVE: move <id>: <reason>" the controller can act on.
+TEST(HardwareBridge, ARefusedMoveIsOnHardwareStatusAtOnceNamingTheMove) {
+  Rig rig;
+  rig.Ready();
+  rig.RunUntil(0.1, nullptr);
+  servo_move_t unbounded = Move({{0, 10}}, 41);
+  unbounded.acceleration[0] = 1e12;  // rad/s^2
+  const int64_t seq = rig.status.seq;
+  rig.bus.Publish("ARM_MOVE", unbounded);
+  rig.node->Service(0);  // handles the move, and only that
+  rig.bus.HandleAvailable();
+  EXPECT_GT(rig.status.seq, seq);
+  EXPECT_EQ(rig.status.last_error.rfind("channel ARM_MOVE: move 41: joint j1 (waist): "
+                                        "acceleration ",
+                                        0),
+            0u)
+      << rig.status.last_error;
+  EXPECT_NE(rig.status.last_error.find("is outside (0, 360 deg/s^2] (acceleration cap)"),
+            std::string::npos)
+      << rig.status.last_error;
+  rig.bus.Publish("ARM_MOVE", Move({{1, 156}}, 42));  // inside the joint's limits, not the margin
+  rig.node->Service(0);
+  rig.bus.HandleAvailable();
+  EXPECT_EQ(rig.status.last_error,
+            "channel ARM_MOVE: move 42: joint j2 (shoulder): goal 156 deg is outside the soft "
+            "limits [-155.5 deg, 155.5 deg]");
+  EXPECT_EQ(rig.Rejected("ARM_MOVE"), 2);
+  EXPECT_EQ(rig.node->moves_mirrored(), 0);
+  // It stays there (10 Hz) until something else replaces it.
+  rig.RunUntil(0.3, nullptr);
+  EXPECT_NE(rig.status.last_error.find("move 42"), std::string::npos);
+}
+
 TEST(HardwareBridge, EstopStopsAbruptlyAndTurnsTheMotorsOff) {
   Rig rig;
   rig.Ready();
@@ -797,7 +832,11 @@ TEST(HardwareBridge, BadSettingsNameFileLineAndAllowedValues) {
   EXPECT_EQ(ParseBridgeSettings("retries: 1\n", "short.yaml", Puma()).baud, 230400);
   const BridgeSettings shipped = LoadBridgeSettings("config/hardware/puma260.yaml", Puma());
   EXPECT_EQ(shipped.calibration_pose, "ready");
-  EXPECT_NEAR(shipped.soft_limit_margin, 2 * kDeg, 1e-12);
+  EXPECT_NEAR(shipped.motion_limits.soft_limit_margin, 2 * kDeg, 1e-12);
+  // The shipped file keeps the model's motion limits, the ones the controller can check too.
+  const core::MotionLimits model_limits = core::DefaultMotionLimits(Puma());
+  EXPECT_EQ(shipped.motion_limits.acceleration_max, model_limits.acceleration_max);
+  EXPECT_EQ(shipped.motion_limits.velocity_cap_fraction, model_limits.velocity_cap_fraction);
 }
 
 }  // namespace
