@@ -670,10 +670,10 @@ struct Child {
       ::waitpid(pid, nullptr, 0);
     }
   }
-  // Sends `signal` and reaps; returns the wait status.
+  // Sends `signal` (0: none, waits for it to end) and reaps; returns the wait status.
   int Stop(int signal) {
     int status = 0;
-    ::kill(pid, signal);
+    if (signal != 0) ::kill(pid, signal);
     ::waitpid(pid, &status, 0);
     pid = -1;
     return status;
@@ -810,6 +810,118 @@ TEST(HardwareBridge, ABridgeKilledMidMoveResumesFromTheBoardsCounters) {
             << " deg (true " << FormatFixed(truth[1] / kDeg, 2) << "), then to 120: true "
             << FormatFixed(emulator.JointPositions()[1] / kDeg, 2) << " deg, highest "
             << FormatFixed(highest_j2, 2) << " deg (stop at 157.5)\n";
+  emulator.Stop();
+}
+
+// ---- One bridge per port (issue 21). ----
+
+// In one process: the second open of a port is refused naming the holder; the lock goes with the
+// first, and a stale lock file (a killed holder's pid) is taken over.
+TEST(HardwareBridge, ASerialPortIsOneHoldersAlone) {
+  EmulatorOptions eo;
+  eo.model = Puma();
+  Emulator emulator(eo);
+  const std::string lock = SerialLockPath(emulator.device());
+  ASSERT_NE(lock, "");
+  EXPECT_NE(lock.find("/LCK..pts_"), std::string::npos) << lock;
+  {
+    SerialPort first(emulator.device(), nmc::kPowerUpBaud);
+    EXPECT_EQ(first.lock_path(), lock);
+    char uucp[16];
+    std::snprintf(uucp, sizeof uucp, "%10d\n", static_cast<int>(::getpid()));
+    EXPECT_EQ(ReadFile(lock), uucp) << "the pid, as the UUCP convention writes it";
+    try {
+      SerialPort second(emulator.device(), nmc::kPowerUpBaud);
+      FAIL() << "opened twice";
+    } catch (const SerialError& e) {
+      EXPECT_EQ(std::string(e.what()), emulator.device() + ": in use by pid " +
+                                           std::to_string(::getpid()) +
+                                           " (test_hardware_b), lock " + lock + "; stop it first");
+    }
+  }
+  EXPECT_NE(::access(lock.c_str(), F_OK), 0) << "removed with the port";
+  // A lock file left by a process that is gone.
+  {
+    std::ofstream stale(lock);
+    stale << "    999999\n";
+  }
+  SerialPort again(emulator.device(), nmc::kPowerUpBaud);
+  EXPECT_EQ(std::stol(ReadFile(lock)), ::getpid());
+}
+
+// Two sirupp-hardware processes on one emulator pty: the second is refused at once, naming the
+// first's pid, and the first carries on; once the first is gone (SIGTERM, then SIGKILL of a
+// third) the next one gets the port.
+TEST(HardwareBridge, ASecondBridgeOnTheSamePortIsRefusedNamingTheFirst) {
+  const char* bin_dir = std::getenv("SIRUPP_BIN_DIR");
+  if (bin_dir == nullptr) GTEST_SKIP() << "SIRUPP_BIN_DIR not set (ctest sets it)";
+  char dir_template[] = "/tmp/sirupp_twobridges_XXXXXX";
+  ASSERT_NE(mkdtemp(dir_template), nullptr);
+  const std::string dir = dir_template;
+  struct RemoveDir {
+    std::string path;
+    ~RemoveDir() {
+      for (const char* f : {"/1.log", "/2.log", "/3.log", "/4.log"}) ::unlink((path + f).c_str());
+      ::rmdir(path.c_str());
+    }
+  } remove_dir{dir};
+  EmulatorOptions eo;
+  eo.model = Puma();
+  eo.link = dir + "/puma-bus";
+  Emulator emulator(eo);
+  emulator.Start();
+  const std::string url =
+      "udpm://239.255.76.67:" + std::to_string(20000 + (::getpid() + 7) % 20000) + "?ttl=0";
+  core::Bus bus(url);
+  hardware_status_t status{};
+  bus.Subscribe<hardware_status_t>(
+      "HARDWARE_STATUS", [&](const hardware_status_t& m, const core::ReceiveInfo&) { status = m; },
+      100);
+  const auto wait_for = [&](double seconds, const std::function<bool()>& done) {
+    const auto end = Clock::now() + std::chrono::duration<double>(seconds);
+    while (Clock::now() < end) {
+      bus.Handle(5);
+      if (done()) return true;
+    }
+    return false;
+  };
+  const std::vector<std::string> args = {
+      std::string(bin_dir) + "/sirupp-hardware", "--port",    eo.link, "--emulated", "--settings",
+      "tests/data/hardware/patient.yaml",        "--lcm-url", url};
+  const auto connected = [&] { return status.state == hardware_status_t::STATE_CONNECTED; };
+  Child first(args, dir + "/1.log");
+  ASSERT_GT(first.pid, 0);
+  ASSERT_TRUE(wait_for(20, connected)) << ReadFile(dir + "/1.log");
+  {
+    Child second(args, dir + "/2.log");
+    ASSERT_GT(second.pid, 0);
+    const int second_status = second.Stop(0);  // it ends by itself: reap it
+    EXPECT_TRUE(WIFEXITED(second_status) && WEXITSTATUS(second_status) == 1);
+    const std::string text = ReadFile(dir + "/2.log");
+    EXPECT_NE(text.find("sirupp-hardware: " + eo.link + " (" + emulator.slave_path() +
+                        "): in use by pid " + std::to_string(first.pid) +
+                        " (sirupp-hardware), lock " + SerialLockPath(eo.link) + "; stop it first"),
+              std::string::npos)
+        << text;
+    std::cout << "second bridge: " << text.substr(0, text.find('\n')) << "\n";
+  }
+  const int64_t seq = status.seq;
+  ASSERT_TRUE(wait_for(5, [&] { return status.seq > seq + 5; })) << "the first carries on";
+  EXPECT_EQ(status.state, hardware_status_t::STATE_CONNECTED);
+  EXPECT_EQ(status.timeouts, 0);
+  const int first_status = first.Stop(SIGTERM);
+  EXPECT_TRUE(WIFEXITED(first_status) && WEXITSTATUS(first_status) == 0);
+  // Free again; a holder killed with SIGKILL leaves a stale lock, which the next one takes over.
+  status = hardware_status_t{};
+  Child third(args, dir + "/3.log");
+  ASSERT_TRUE(wait_for(20, connected)) << ReadFile(dir + "/3.log");
+  EXPECT_TRUE(WIFSIGNALED(third.Stop(SIGKILL)));
+  status = hardware_status_t{};
+  Child fourth(args, dir + "/4.log");
+  ASSERT_TRUE(wait_for(20, connected)) << ReadFile(dir + "/4.log");
+  const int fourth_status = fourth.Stop(SIGTERM);
+  EXPECT_TRUE(WIFEXITED(fourth_status) && WEXITSTATUS(fourth_status) == 0)
+      << ReadFile(dir + "/4.log");
   emulator.Stop();
 }
 
