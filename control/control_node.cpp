@@ -15,7 +15,7 @@
 #include "core/geometry.hpp"
 #include "core/model_check.hpp"
 #include "core/translate.hpp"
-#include "servo/gains_message.hpp"
+#include "servo/chip_gains.hpp"
 
 namespace sirupp::control {
 namespace {
@@ -34,7 +34,8 @@ ControlNode::ControlNode(core::Bus& bus, const core::RobotModel& model, ControlO
       model_(model),
       options_(std::move(options)),
       bank_(model),
-      heartbeat_(bus, options_.name, options_.channels.heartbeat) {
+      heartbeat_(bus, options_.name, options_.channels.heartbeat),
+      chip_gains_(servo::ChipGainsFromModel(model)) {
   const core::Channels& channels = options_.channels;
   bus_.Subscribe<sirupp::arm_state_t>(
       channels.sim_arm_state,
@@ -552,19 +553,12 @@ void ControlNode::OnGains(const sirupp::servo_gains_t& message, const core::Rece
   const int n = model_.num_joints();
   std::vector<ServoGains> gains;
   try {
-    for (const servo::JointGains& joint : servo::GainsFromMessage(message, info.channel, n)) {
-      if (joint.servo_rate_divisor != 1) {
-        throw core::MessageError(info.channel,
-                                 "servo_rate_divisor[" + std::to_string(gains.size()) + "]",
-                                 std::to_string(joint.servo_rate_divisor) +
-                                     ": the virtual servos run every physics tick; allowed 1");
-      }
-      gains.push_back(joint.filter);
-    }
+    chip_gains_ = servo::ChipGainsFromMessage(message, model_, info.channel);
   } catch (const core::MessageError& error) {
     Refuse(error);
     throw;
   }
+  for (const servo::ChipGains& chip : chip_gains_) gains.push_back(servo::ToServoGains(chip));
   std::string changed;
   for (int j = 0; j < n; ++j) {
     const ServoGains& now = bank_.servo(j).gains();
@@ -720,10 +714,10 @@ void ControlNode::PublishGains(bool force) {
   if (!force && !gains_changed_ && std::chrono::duration<double>(now - last_gains_).count() < 1.0) {
     return;
   }
-  std::vector<ServoGains> gains;
-  for (int j = 0; j < model_.num_joints(); ++j) gains.push_back(bank_.servo(j).gains());
-  bus_.Publish(options_.channels.controller_gains,
-               servo::GainsToMessage(gains, last_state_utime_, gains_seq_++));
+  sirupp::servo_gains_t message = servo::GainsMessage(chip_gains_);
+  message.utime = last_state_utime_;
+  message.seq = gains_seq_++;
+  bus_.Publish(options_.channels.controller_gains, message);
   last_gains_ = now;
   gains_changed_ = false;
 }

@@ -33,6 +33,7 @@
 #include "control/effort_law.hpp"
 #include "control/plan.hpp"
 #include "control/servo_bank.hpp"
+#include "servo/chip_gains.hpp"
 #include "core/bus.hpp"
 #include "core/channels.hpp"
 #include "core/errors.hpp"
@@ -138,6 +139,7 @@ class ControlNode {
   std::chrono::steady_clock::time_point last_gains_;
   bool gains_changed_ = true;
   int64_t gains_seq_ = 0;
+  std::vector<servo::ChipGains> chip_gains_;  // the gains in force, as ARM_GAINS set them
 
   // Sequencer.
   std::string estop_;              // who engaged the emergency stop and why; empty when released

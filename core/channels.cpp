@@ -97,7 +97,8 @@ const std::vector<ChannelInfo>& ChannelTable() {
        "every servo tick",
        "profiled set-point position and velocity, goal, position error, effort, move-done per "
        "joint"},
-      {"ARM_GAINS", "sirupp.servo_gains_t", "sirupp CLI or user", "sirupp-control, sirupp-logger",
+      {"ARM_GAINS", "sirupp.servo_gains_t", "sirupp CLI or user",
+       "sirupp-control, sirupp-hardware, sirupp-logger",
        "on change", "Kp, Kd, Ki, integration, output and error limits per joint, in chip units"},
       {"CONTROLLER_GAINS", "sirupp.servo_gains_t", "sirupp-control", "sirupp CLI, sirupp-logger",
        "1 Hz and on change", "the gains the virtual servos run with now, in chip units"},

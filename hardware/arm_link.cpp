@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 #include <thread>
 
@@ -28,11 +29,15 @@ std::string Shown(const core::Joint& joint, double v) {
   if (joint.type == core::JointType::kRevolute) return core::FormatApprox(v * 180 / M_PI) + " deg";
   return core::FormatApprox(v) + " m";
 }
-std::string ShownRate(const core::Joint& joint, double v, const char* per) {
-  if (joint.type == core::JointType::kRevolute) {
-    return core::FormatApprox(v * 180 / M_PI) + " deg/" + per;
-  }
-  return core::FormatApprox(v) + " m/" + per;
+
+// To a tenth of a degree (or a millimetre), for positions read from counters: "-43.7 deg".
+std::string ShownTenth(const core::Joint& joint, double v) {
+  const bool revolute = joint.type == core::JointType::kRevolute;
+  double x = std::round((revolute ? v * 180 / M_PI : v * 1000) * 10) / 10;
+  if (x == 0) x = 0;  // no "-0"
+  char text[32];
+  std::snprintf(text, sizeof text, revolute ? "%.1f deg" : "%.1f mm", x);
+  return text;
 }
 
 int32_t ClampCounts(int64_t counts) {
@@ -47,14 +52,106 @@ ArmLink::ArmLink(const core::RobotModel& model, const BridgeSettings& settings, 
       bus_(port, BusOptions{std::chrono::milliseconds(settings.reply_margin_ms), settings.retries,
                             nullptr}) {
   for (const core::Joint& joint : model.joints) drives_.emplace_back(joint, model.servo_tick_s);
+  gains_ = servo::ChipGainsFromModel(model);
+  board_gains_.assign(drives_.size(), std::nullopt);
   goals_.assign(drives_.size(), 0.0);
   velocity_mode_.assign(drives_.size(), false);
   last_counts_.assign(drives_.size(), 0);
 }
 
-void ArmLink::Connect() {
-  connected_ = calibrated_ = armed_ = false;
+std::string ArmLink::ResumeProblem(const std::vector<NmcBus::Addressed>& kept) const {
   const int n = num_joints();
+  if (static_cast<int>(kept.size()) != n) {
+    return "only " + std::to_string(kept.size()) + " of the " + std::to_string(n) +
+           " modules answered at their addresses";
+  }
+  for (int j = 0; j < n; ++j) {
+    const nmc::Status& s = kept[static_cast<size_t>(j)].status;
+    const std::string module = "module " + std::to_string(j + 1);
+    if (s.type != nmc::kTypePicServo) {
+      return module + " is of type " + std::to_string(s.type) + ", not a PIC-SERVO";
+    }
+    if (s.home != kCalibrationMarker) {
+      return module + " holds no calibration (home register " + std::to_string(s.home) +
+             ", not the bridge's marker " + std::to_string(kCalibrationMarker) + ")";
+    }
+    const core::Joint& joint = model_.joints[static_cast<size_t>(j)];
+    const double q = drives_[static_cast<size_t>(j)].FromCounts(s.position);
+    const double slack = kPoseToleranceDeg * M_PI / 180;
+    if (!(q >= joint.position_min - slack && q <= joint.position_max + slack)) {
+      return module + "'s counter puts " + JointName(model_, j) + " at " + ShownTenth(joint, q) +
+             ", outside its limits [" + Shown(joint, joint.position_min) + ", " +
+             Shown(joint, joint.position_max) + "]";
+    }
+  }
+  return "";
+}
+
+void ArmLink::Resume(const std::vector<NmcBus::Addressed>& kept) {
+  std::vector<ModuleInfo> modules;
+  for (const NmcBus::Addressed& k : kept) modules.push_back(k.info);
+  bus_.Adopt(modules, static_cast<uint8_t>(settings_.group_address));
+  std::fill(board_gains_.begin(), board_gains_.end(), std::nullopt);  // not known: sent again
+  bool all_on = true;
+  bool all_revolute = true;
+  std::string angles;
+  for (int j = 0; j < num_joints(); ++j) {
+    const auto i = static_cast<size_t>(j);
+    const uint8_t a = Address(j);
+    SendGains(j);
+    const nmc::Status s = bus_.Command(nmc::DefineStatus(a, kPollItems));
+    all_on = all_on && (s.aux & nmc::kAuxServoOn);
+    goals_[i] = drives_[i].FromCounts(s.position);
+    velocity_mode_[i] = false;
+    const std::string shown = ShownTenth(model_.joints[i], goals_[i]);
+    all_revolute = all_revolute && model_.joints[i].type == core::JointType::kRevolute;
+    angles += (j ? " " : "") + shown.substr(0, shown.find(' '));
+  }
+  have_last_poll_ = false;
+  connected_ = calibrated_ = resumed_ = true;
+  armed_ = all_on;
+  fresh_and_undriven_ = false;
+  blind_reason_.clear();
+  connect_report_ = "resumed without a reset: the " + std::to_string(num_joints()) +
+                    " modules on " + bus_.port().name() +
+                    " kept power and their calibration; joints at " + angles +
+                    (all_revolute ? " deg" : " (deg; mm for prismatic joints)") + ", servos " +
+                    (all_on ? "on" : "not all on");
+}
+
+void ArmLink::Connect() {
+  const bool was_fresh_and_undriven = fresh_and_undriven_;
+  connected_ = calibrated_ = armed_ = resumed_ = fresh_and_undriven_ = false;
+  connect_report_.clear();
+  const int n = num_joints();
+  // Boards that kept power since an earlier bridge answer at their addresses, at the baud it set.
+  bus_.port().SetBaud(settings_.baud);
+  bus_.port().DiscardInput();
+  const std::vector<NmcBus::Addressed> kept =
+      bus_.FindAddressed(n, nmc::kSendHome | nmc::kSendPosition | nmc::kSendAux);
+  if (!kept.empty()) {
+    const std::string problem = ResumeProblem(kept);
+    if (problem.empty()) {
+      Resume(kept);
+      return;
+    }
+    if (was_fresh_and_undriven) {
+      // This bridge found them fresh and has not driven the arm since: still where it powered up.
+      blind_reason_.clear();
+      fresh_and_undriven_ = true;
+    } else {
+      blind_reason_ = "the modules on " + bus_.port().name() +
+                      " had kept power since an earlier connection, but " + problem +
+                      "; their counters said nothing sure about where the arm is, and the reset "
+                      "zeroed them wherever it stands";
+      connect_report_ = "the modules had kept power without a calibration (" + problem +
+                        "): reset; calibrating by the pose is refused until the arm is shown to "
+                        "be in it";
+    }
+  } else {
+    blind_reason_.clear();
+    fresh_and_undriven_ = true;
+  }
   const std::vector<ModuleInfo> found =
       bus_.Initialize(n, settings_.baud, static_cast<uint8_t>(settings_.group_address));
   if (static_cast<int>(found.size()) != n) {
@@ -68,27 +165,58 @@ void ArmLink::Connect() {
                                std::to_string(m.type) + ", not a PIC-SERVO (type 0)");
     }
   }
+  std::fill(board_gains_.begin(), board_gains_.end(), std::nullopt);  // reset: power-up gains
   for (int j = 0; j < n; ++j) {
     const uint8_t a = Address(j);
-    const core::ServoParams& p = model_.joints[static_cast<size_t>(j)].servo;
-    const servo::ServoGains g = servo::GainsFromModel(p);
-    nmc::Gains chip;
-    chip.kp = static_cast<int16_t>(g.kp);
-    chip.kd = static_cast<int16_t>(g.kd);
-    chip.ki = static_cast<int16_t>(g.ki);
-    chip.integration_limit = static_cast<int16_t>(g.integration_limit);
-    chip.output_limit = static_cast<uint8_t>(g.output_limit);
-    chip.current_limit = static_cast<uint8_t>(std::lround(p.current_limit));
-    chip.error_limit = static_cast<int16_t>(g.error_limit);
-    chip.servo_rate = static_cast<uint8_t>(std::lround(p.servo_rate_divisor));
-    chip.deadband = static_cast<uint8_t>(g.deadband);
     bus_.Command(nmc::StopMotor(a, nmc::kMotorOff));  // amplifier off while configuring
-    bus_.Command(nmc::SetGain(a, chip));
+    SendGains(j);
     bus_.Command(nmc::ClearBits(a));
     bus_.Command(nmc::DefineStatus(a, kPollItems));
   }
   have_last_poll_ = false;
   connected_ = true;
+}
+
+void ArmLink::SendGains(int j) {
+  const auto i = static_cast<size_t>(j);
+  const servo::ChipGains& g = gains_[i];
+  nmc::Gains chip;
+  chip.kp = static_cast<int16_t>(g.kp);
+  chip.kd = static_cast<int16_t>(g.kd);
+  chip.ki = static_cast<int16_t>(g.ki);
+  chip.integration_limit = static_cast<int16_t>(g.integration_limit);
+  chip.output_limit = static_cast<uint8_t>(g.output_limit);
+  chip.current_limit = static_cast<uint8_t>(g.current_limit);
+  chip.error_limit = static_cast<int16_t>(g.error_limit);
+  chip.servo_rate = static_cast<uint8_t>(g.servo_rate_divisor);
+  chip.deadband = static_cast<uint8_t>(g.deadband);
+  board_gains_[i].reset();  // unknown until acknowledged
+  bus_.Command(nmc::SetGain(Address(j), chip));
+  board_gains_[i] = g;
+}
+
+void ArmLink::SetGains(const std::vector<servo::ChipGains>& gains) {
+  if (gains.size() != gains_.size()) {
+    throw std::invalid_argument("SetGains: " + std::to_string(gains.size()) +
+                                " joints; the arm has " + std::to_string(gains_.size()));
+  }
+  gains_ = gains;
+  if (!connected_) return;
+  for (int j = 0; j < num_joints(); ++j) SendGains(j);
+}
+
+std::string ArmLink::CalibrationNeeds() const {
+  return "Needed: the arm shown to be in the calibration pose '" + settings_.calibration_pose +
+         "': switch the boards off and on with the arm in that pose (their counters then start "
+         "there), or give the joints a homing method (index, limit1 or limit2) in the settings' "
+         "calibration.homing; then calibrate";
+}
+
+void ArmLink::SetCalibratedCounts(int j, int32_t counts) {
+  const uint8_t a = Address(j);
+  bus_.Command(nmc::SetPosition(a, kCalibrationMarker));
+  bus_.Command(nmc::SaveAsHome(a));  // the marker stays in the home register
+  bus_.Command(nmc::SetPosition(a, counts));
 }
 
 void ArmLink::Calibrate() {
@@ -99,13 +227,40 @@ void ArmLink::Calibrate() {
     throw std::runtime_error("calibrate: the model has no pose '" + settings_.calibration_pose +
                              "'");
   }
+  const int n = num_joints();
+  bool by_pose = false;
+  for (const JointHoming& h : settings_.homing) by_pose |= h.method == HomingMethod::kNone;
+  if (by_pose && !blind_reason_.empty()) {
+    throw CalibrationRefused("calibrate: refused: " + blind_reason_ + ". " + CalibrationNeeds());
+  }
+  if (by_pose && calibrated_) {
+    // Calibrated already: the counters say where the arm is. Redefining it as the pose is only
+    // a correction when it is there.
+    for (int j = 0; j < n; ++j) {
+      const auto i = static_cast<size_t>(j);
+      if (settings_.homing[i].method != HomingMethod::kNone) continue;
+      const double q = drives_[i].FromCounts(bus_.Command(nmc::Nop(Address(j))).position);
+      const double want = pose->position[i];
+      const core::Joint& joint = model_.joints[i];
+      if (std::abs(q - want) > kPoseToleranceDeg * M_PI / 180) {
+        throw CalibrationRefused(
+            "calibrate: refused: the arm is calibrated, and its counters put " +
+            JointName(model_, j) + " at " + ShownTenth(joint, q) + ", " +
+            ShownTenth(joint, std::abs(q - want)) + " from the calibration pose '" +
+            settings_.calibration_pose + "' (" + Shown(joint, want) +
+            "); calibrating would define it as the pose. Move the arm to "
+            "the pose first (within " +
+            core::FormatNumber(kPoseToleranceDeg) +
+            " deg of every joint), or keep the calibration");
+      }
+    }
+  }
   calibrated_ = false;
-  for (int j = 0; j < num_joints(); ++j) {
+  for (int j = 0; j < n; ++j) {
     const JointHoming& h = settings_.homing[static_cast<size_t>(j)];
     if (h.method == HomingMethod::kNone) {
       const double q = pose->position[static_cast<size_t>(j)];
-      bus_.Command(
-          nmc::SetPosition(Address(j), ClampCounts(drives_[static_cast<size_t>(j)].ToCounts(q))));
+      SetCalibratedCounts(j, ClampCounts(drives_[static_cast<size_t>(j)].ToCounts(q)));
       goals_[static_cast<size_t>(j)] = q;
     } else {
       Home(j, h);
@@ -113,9 +268,11 @@ void ArmLink::Calibrate() {
   }
   have_last_poll_ = false;
   calibrated_ = true;
+  fresh_and_undriven_ = false;
 }
 
 void ArmLink::Home(int j, const JointHoming& h) {
+  fresh_and_undriven_ = false;  // the search drives the joint
   const uint8_t a = Address(j);
   const auto& drive = drives_[static_cast<size_t>(j)];
   uint8_t condition = nmc::kHomeOnIndex;
@@ -152,13 +309,14 @@ void ArmLink::Home(int j, const JointHoming& h) {
   const int64_t now_counts =
       static_cast<int64_t>(home.position) - home.home + drive.ToCounts(h.home_angle);
   bus_.Command(nmc::StopMotor(a, nmc::kMotorOff));  // amplifier off again
-  bus_.Command(nmc::SetPosition(a, ClampCounts(now_counts)));
+  SetCalibratedCounts(j, ClampCounts(now_counts));
   bus_.Command(nmc::ClearBits(a));
   goals_[static_cast<size_t>(j)] = drive.FromCounts(now_counts);
 }
 
 void ArmLink::Arm() {
   if (!calibrated_) throw std::runtime_error("arm: calibrate first");
+  fresh_and_undriven_ = false;
   for (int j = 0; j < num_joints(); ++j) {
     // Servo on first: POS_ERR is set for as long as the servo is off, so it is cleared after.
     const nmc::Status s =
@@ -203,33 +361,17 @@ std::string ArmLink::CheckMove(const servo_move_t& move) const {
                                                             : "armed");
   }
   if (move.command != servo_move_t::COMMAND_MOVE) return "";
+  // One rule with the controller: core::CheckJointMove (soft limits, speed and acceleration caps).
   for (int j = 0; j < n; ++j) {
     const auto i = static_cast<size_t>(j);
     if (!(move.flags[i] & servo_move_t::FLAG_ACTIVE)) continue;
-    const core::Joint& joint = model_.joints[i];
-    const std::string where = JointName(model_, j) + ": ";
-    const double v = move.max_velocity[i];
-    const double a = move.acceleration[i];
-    const double v_cap = joint.velocity_max * settings_.velocity_cap_fraction;
     const bool velocity_mode = move.flags[i] & servo_move_t::FLAG_VELOCITY_MODE;
-    if (!std::isfinite(v) || (velocity_mode ? v == 0 : v <= 0) || std::abs(v) > v_cap) {
-      return where + "speed " + ShownRate(joint, v, "s") + " is outside " +
-             (velocity_mode ? "(0, " : "(0, ") + ShownRate(joint, v_cap, "s") + "] (velocity cap)";
-    }
-    const double a_cap = settings_.acceleration_max[i];
-    if (!std::isfinite(a) || a <= 0 || a > a_cap) {
-      return where + "acceleration " + ShownRate(joint, a, "s^2") + " is outside (0, " +
-             ShownRate(joint, a_cap, "s^2") + "] (acceleration cap)";
-    }
-    if (velocity_mode) continue;  // watched against the soft limits while it runs
     const double goal =
         (move.flags[i] & servo_move_t::FLAG_RELATIVE) ? goals_[i] + move.goal[i] : move.goal[i];
-    const double lo = SoftMin(model_, settings_, j);
-    const double hi = SoftMax(model_, settings_, j);
-    if (!std::isfinite(goal) || goal < lo || goal > hi) {
-      return where + "goal " + Shown(joint, goal) + " is outside the soft limits [" +
-             Shown(joint, lo) + ", " + Shown(joint, hi) + "]";
-    }
+    const std::optional<std::string> refusal =
+        core::CheckJointMove(model_, settings_.motion_limits, j, goal, move.max_velocity[i],
+                             move.acceleration[i], velocity_mode);
+    if (refusal) return *refusal;
   }
   return "";
 }
@@ -347,10 +489,10 @@ ArmReading ArmLink::Poll() {
     if (dt > 0)
       r.velocity[i] = (drive.FromCounts(s.position) - drive.FromCounts(last_counts_[i])) / dt;
     if (s.aux & nmc::kAuxServoOn) {
-      const core::ServoParams& p = model_.joints[i].servo;
-      const double u = p.kp * s.position_error / double(1 << servo::kOutputShift);
-      const int pwm = static_cast<int>(
-          std::clamp(std::lround(u), -std::lround(p.output_limit), std::lround(p.output_limit)));
+      const servo::ChipGains& g = gains_[i];  // the law the module runs
+      const double u = g.kp * s.position_error / double(1 << servo::kOutputShift);
+      const int pwm =
+          static_cast<int>(std::clamp<long>(std::lround(u), -g.output_limit, g.output_limit));
       r.effort[i] = drive.EffortFromPwm(pwm);
     }
     last_counts_[i] = s.position;
@@ -395,6 +537,7 @@ void ArmLink::Shutdown() {
     // the port itself failed: nothing more can be sent
   }
   connected_ = calibrated_ = armed_ = false;
+  std::fill(board_gains_.begin(), board_gains_.end(), std::nullopt);
 }
 
 }  // namespace sirupp::hardware

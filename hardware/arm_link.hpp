@@ -15,12 +15,26 @@
 #include "core/robot_model.hpp"
 #include "hardware/bridge_settings.hpp"
 #include "hardware/nmc_bus.hpp"
+#include "servo/chip_gains.hpp"
 #include "servo/servo_units.hpp"
 
 namespace sirupp::hardware {
 
 // The status items every poll asks for: position, auxiliary status, position error.
 inline constexpr uint8_t kPollItems = nmc::kSendPosition | nmc::kSendAux | nmc::kSendPositionError;
+
+// The calibration was refused: the arm cannot be shown to be in the calibration pose. what() says
+// why and what is needed.
+class CalibrationRefused : public std::runtime_error {
+ public:
+  using std::runtime_error::runtime_error;
+};
+
+// What the bridge leaves in every module's home register once the module is calibrated (the
+// counter set to it, SAVE_AS_HOME, the counter set back). A power cycle or HARD_RESET zeroes the
+// register, so a module that still holds it has kept power, and its counter its calibration,
+// since. ("SIRUPP calibrated", 0x51C0CA1B.)
+inline constexpr int32_t kCalibrationMarker = 0x51C0CA1B;
 
 // One poll of every module.
 struct ArmReading {
@@ -41,14 +55,26 @@ class ArmLink {
  public:
   ArmLink(const core::RobotModel& model, const BridgeSettings& settings, BytePort& port);
 
-  // Vendor start-up, then per module: amplifier off, SET_GAIN from the model, CLEAR_BITS,
-  // DEF_STAT(kPollItems). Amplifiers stay disabled until Arm() (an arm with brakes holds). Throws
-  // BusError, or std::runtime_error when the modules found do not match the model (count or type).
+  // First, without a reset, asks the modules at the settings' baud whether they kept power since an
+  // earlier bridge (they answer at their addresses). If every one does and holds the calibration
+  // marker (and its counter a position within the joint's limits), the bridge resumes from their
+  // counters: no reset, servos left as they are (armed() if all are on), calibrated() at once,
+  // SET_GAIN (gains()) and DEF_STAT(kPollItems) only; connect_report() says so. Otherwise the
+  // vendor start-up, then per module: amplifier off, SET_GAIN, CLEAR_BITS, DEF_STAT(kPollItems);
+  // amplifiers stay disabled until Arm() (an arm with brakes holds). If modules had kept power
+  // without a calibration, the reset zeroed their counters wherever the arm is: calibrating by the
+  // pose is then refused (blind_reason()). Throws BusError, or std::runtime_error when the modules
+  // found do not match the model (count or type).
   void Connect();
   // The calibration of BridgeSettings: joints without homing are defined to be at the calibration
   // pose's angle (RESET_POS with SET_POS); joints with homing search their switch or index at the
-  // set speed and are defined from the latched home position. Servos end off. Requires Connect().
+  // set speed and are defined from the latched home position. Every module then gets the
+  // calibration marker. Servos end off. Requires Connect(). Throws CalibrationRefused, before
+  // anything is sent, when a joint is to be defined by the pose but the arm cannot be shown to be
+  // there: the boards had kept power without a calibration (blind_reason()), or the arm is
+  // calibrated and its counters put a joint more than kPoseToleranceDeg from the pose.
   void Calibrate();
+  static constexpr double kPoseToleranceDeg = 5;
   // Servos on, holding the present positions. Requires Calibrate().
   void Arm();
   // Smooth stop, then servos and amplifiers off.
@@ -61,6 +87,20 @@ class ArmLink {
   // A trapezoidal move of every joint to `goal` at default speeds (HOME). Checked first;
   // returns the refusal or "".
   std::string MoveAllTo(const std::vector<double>& goal);
+
+  // The gains for every module from now on (they persist across connects and arming). Connected,
+  // SET_GAIN goes to every module at once (in any state: the servos keep running on the new law);
+  // board_gains() records what each module acknowledged. Throws BusError when a module does not
+  // take them (its entry in board_gains() is then unknown). The values must have passed
+  // servo::ChipGainsFromMessage's rule.
+  void SetGains(const std::vector<servo::ChipGains>& gains);
+  // The gains sent to the modules (from the model until SetGains).
+  const std::vector<servo::ChipGains>& gains() const { return gains_; }
+  // Per module, the gains it acknowledged (its SET_GAIN reply came without CKSUM_ERROR) since the
+  // last reset; nullopt while unknown (not connected, or a SET_GAIN failed). The chip cannot be
+  // asked for its gains (no status item or command reads them back), so this is what the bridge
+  // knows the boards hold.
+  const std::vector<std::optional<servo::ChipGains>>& board_gains() const { return board_gains_; }
 
   // One exchange per module. A module that fails every try is marked in the reading; the others
   // are still read.
@@ -77,6 +117,13 @@ class ArmLink {
   void Shutdown();
 
   bool connected() const { return connected_; }
+  // The last Connect() resumed boards that kept power and their calibration (no reset).
+  bool resumed() const { return resumed_; }
+  // One line about the last Connect() when it was not the plain start-up (resumed, or boards that
+  // had kept power without a calibration); else empty.
+  const std::string& connect_report() const { return connect_report_; }
+  // Why calibrating by the pose would be blind now; empty when it is not.
+  const std::string& blind_reason() const { return blind_reason_; }
   bool calibrated() const { return calibrated_; }
   bool armed() const { return armed_; }
   // Joints loaded in velocity mode by the last move (watched against the soft limits).
@@ -89,6 +136,14 @@ class ArmLink {
 
  private:
   void Home(int joint, const JointHoming& homing);
+  // Why modules that answered at their addresses cannot be resumed from, or "".
+  std::string ResumeProblem(const std::vector<NmcBus::Addressed>& kept) const;
+  void Resume(const std::vector<NmcBus::Addressed>& kept);
+  // Sets joint j's counter to `counts` and leaves the calibration marker in its home register.
+  void SetCalibratedCounts(int j, int32_t counts);
+  // The refusal's "what is needed" sentence.
+  std::string CalibrationNeeds() const;
+  void SendGains(int joint);
   nmc::Trajectory TrajectoryFor(int j, double goal, double velocity, double acceleration,
                                 bool velocity_mode) const;
 
@@ -96,6 +151,8 @@ class ArmLink {
   BridgeSettings settings_;
   NmcBus bus_;
   std::vector<servo::JointDrive> drives_;
+  std::vector<servo::ChipGains> gains_;
+  std::vector<std::optional<servo::ChipGains>> board_gains_;
   std::vector<double> goals_;
   std::vector<bool> velocity_mode_;
   std::vector<int32_t> last_counts_;
@@ -104,6 +161,12 @@ class ArmLink {
   bool connected_ = false;
   bool calibrated_ = false;
   bool armed_ = false;
+  bool resumed_ = false;
+  // The boards were fresh (nobody answered at an address) at the last connect, and nothing has
+  // driven the arm since: its counters still start where it was at power-up.
+  bool fresh_and_undriven_ = false;
+  std::string connect_report_;
+  std::string blind_reason_;
 };
 
 }  // namespace sirupp::hardware

@@ -16,6 +16,7 @@ using sirupp::hardware_command_t;
 using sirupp::hardware_status_t;
 
 constexpr double kStatusPeriodS = 0.1;  // HARDWARE_STATUS at 10 Hz (and on every change)
+constexpr double kGainsPeriodS = 1.0;   // REAL_ARM_GAINS at 1 Hz (and on every change)
 constexpr double kServoTickS = 0.000512;
 
 const char* CommandName(int8_t c) {
@@ -66,6 +67,9 @@ BridgeNode::BridgeNode(core::Bus& bus, const core::RobotModel& model, ArmLink& l
       c.arm_move,
       [this](const sirupp::servo_move_t& m, const core::ReceiveInfo& info) { OnMove(m, info); },
       100);
+  bus_.Subscribe<sirupp::servo_gains_t>(
+      c.arm_gains,
+      [this](const sirupp::servo_gains_t& m, const core::ReceiveInfo& info) { OnGains(m, info); });
   bus_.Subscribe<sirupp::estop_t>(
       c.estop,
       [this](const sirupp::estop_t& m, const core::ReceiveInfo& info) { OnEstop(m, info); });
@@ -97,10 +101,21 @@ void BridgeNode::Connect() {
   linked_ = false;
   faulted_ = false;
   link_.Connect();
-  last_error_.clear();
+  // Boards that had kept power without a calibration: the refusal to come is shown at once.
+  last_error_ = link_.blind_reason().empty() ? "" : link_.connect_report();
+  if (!link_.connect_report().empty()) {
+    std::cerr << options_.name << ": " << link_.connect_report() << "\n";
+  }
+  PublishGains();  // the modules hold the gains sent during start-up
 }
 void BridgeNode::Calibrate() {
-  link_.Calibrate();
+  try {
+    link_.Calibrate();
+  } catch (const CalibrationRefused& e) {
+    last_error_ = e.what();
+    PublishStatus();
+    throw;
+  }
   last_error_.clear();
 }
 void BridgeNode::Arm() {
@@ -229,6 +244,64 @@ void BridgeNode::OnEstop(const sirupp::estop_t& m, const core::ReceiveInfo&) {
   PublishStatus();
 }
 
+void BridgeNode::OnGains(const sirupp::servo_gains_t& m, const core::ReceiveInfo& info) {
+  std::vector<servo::ChipGains> gains;
+  try {
+    gains = servo::ChipGainsFromMessage(m, model_, info.channel);  // all of it, or nothing
+  } catch (const core::MessageError& e) {
+    last_error_ = e.what();
+    PublishStatus();
+    throw;
+  }
+  std::string changes;
+  const std::vector<servo::ChipGains>& before = link_.gains();
+  for (size_t j = 0; j < gains.size(); ++j) {
+    const servo::ChipGains& a = before[j];
+    const servo::ChipGains& b = gains[j];
+    if (a == b) continue;
+    changes += (changes.empty() ? " " : "; ") + std::string("j") + std::to_string(j + 1);
+    const auto note = [&changes](const char* name, int from, int to) {
+      if (from != to)
+        changes += " " + std::string(name) + " " + std::to_string(from) + "->" + std::to_string(to);
+    };
+    note("Kp", a.kp, b.kp);
+    note("Kd", a.kd, b.kd);
+    note("Ki", a.ki, b.ki);
+    note("IL", a.integration_limit, b.integration_limit);
+    note("OL", a.output_limit, b.output_limit);
+    note("CL", a.current_limit, b.current_limit);
+    note("EL", a.error_limit, b.error_limit);
+    note("DB", a.deadband, b.deadband);
+  }
+  try {
+    link_.SetGains(gains);
+  } catch (const BusError& e) {
+    Fault("gains from " + info.channel + ": " + e.what());
+    throw core::MessageError(info.channel, "", std::string("SET_GAIN failed: ") + e.what());
+  }
+  std::cerr << options_.name << ": gains from " << info.channel << ":"
+            << (changes.empty() ? " unchanged" : changes)
+            << (link_.connected() ? "; sent to every module" : "; kept for the next connect")
+            << "\n";
+  PublishGains();
+}
+
+void BridgeNode::PublishGains() {
+  last_gains_ = Clock::now();
+  if (!link_.connected()) return;
+  std::vector<servo::ChipGains> held;
+  for (const auto& g : link_.board_gains()) {
+    if (!g) return;  // a module's gains are unknown (a failed SET_GAIN): nothing to claim
+    held.push_back(*g);
+  }
+  sirupp::servo_gains_t m = servo::GainsMessage(held);
+  m.utime = std::chrono::duration_cast<std::chrono::microseconds>(
+                std::chrono::system_clock::now().time_since_epoch())
+                .count();
+  m.seq = gains_seq_++;
+  bus_.Publish(options_.channels.real_arm_gains, m);
+}
+
 void BridgeNode::Fault(const std::string& problem) {
   const bool first = !faulted_;
   faulted_ = true;
@@ -313,6 +386,9 @@ void BridgeNode::Cycle() {
   }
   const double since = std::chrono::duration<double>(Clock::now() - last_status_).count();
   if (since >= kStatusPeriodS || state() != last_published_state_) PublishStatus();
+  if (std::chrono::duration<double>(Clock::now() - last_gains_).count() >= kGainsPeriodS) {
+    PublishGains();
+  }
   const bool bad = faulted_ || estopped_;
   heartbeat_.PublishIfDue(bad ? core::ProcessState::kFault : core::ProcessState::kRunning,
                           last_error_);

@@ -3,11 +3,12 @@
 // safety layer.
 //
 // In:  HARDWARE_COMMAND (connect, calibrate, arm, disarm, link, unlink, home, clear faults),
-//      ARM_MOVE (mirrored to the boards while linked), ESTOP, and the controller's liveness
-//      (CONTROLLER_STATUS, sent at 10 Hz, and ARM_MOVE) for command expiry.
+//      ARM_MOVE (mirrored to the boards while linked), ARM_GAINS (SET_GAIN to every module while
+//      connected, kept for later), ESTOP, and the controller's liveness (CONTROLLER_STATUS, sent
+//      at 10 Hz, and ARM_MOVE) for command expiry.
 // Out: REAL_ARM_STATE and REAL_ARM_SETPOINT every poll (poll_rate_hz), HARDWARE_STATUS (10 Hz and
-// on
-//      every change), HEARTBEAT.
+//      on every change), REAL_ARM_GAINS (what the modules acknowledged; 1 Hz and on every
+//      change, while connected), HEARTBEAT.
 //
 // Safety (each threshold a setting, docs/hardware.md):
 //  - nothing moves unless connected, calibrated and armed; ARM_MOVE only while linked;
@@ -28,6 +29,7 @@
 #include <sirupp/estop_t.hpp>
 #include <sirupp/hardware_command_t.hpp>
 #include <sirupp/hardware_status_t.hpp>
+#include <sirupp/servo_gains_t.hpp>
 #include <sirupp/servo_move_t.hpp>
 #include <sirupp/servo_setpoint_t.hpp>
 #include <string>
@@ -77,6 +79,7 @@ class BridgeNode {
   void OnCommand(const sirupp::hardware_command_t& message, const core::ReceiveInfo& info);
   void OnMove(const sirupp::servo_move_t& message, const core::ReceiveInfo& info);
   void OnEstop(const sirupp::estop_t& message, const core::ReceiveInfo& info);
+  void OnGains(const sirupp::servo_gains_t& message, const core::ReceiveInfo& info);
   void NoteController() { last_controller_ = Clock::now(); }
 
   // Refuses (counts on `channel`, last_error, throws MessageError) while the start guard runs.
@@ -87,6 +90,8 @@ class BridgeNode {
   void CheckSafety();
   void PublishState();
   void PublishStatus();
+  // REAL_ARM_GAINS, when every module's gains are known.
+  void PublishGains();
 
   core::Bus& bus_;
   const core::RobotModel& model_;
@@ -98,6 +103,7 @@ class BridgeNode {
   Clock::time_point started_;
   Clock::time_point next_cycle_;
   Clock::time_point last_status_{};
+  Clock::time_point last_gains_{};
   Clock::time_point last_controller_{};
   bool linked_ = false;
   bool estopped_ = false;
@@ -113,6 +119,7 @@ class BridgeNode {
   int64_t state_seq_ = 0;
   int64_t setpoint_seq_ = 0;
   int64_t status_seq_ = 0;
+  int64_t gains_seq_ = 0;
   int8_t last_published_state_ = -1;
   int64_t first_poll_us_ = 0;
 };

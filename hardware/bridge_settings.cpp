@@ -65,9 +65,7 @@ const char* HomingMethodName(HomingMethod method) {
 
 BridgeSettings DefaultBridgeSettings(const core::RobotModel& model) {
   BridgeSettings s;
-  for (const core::Joint& joint : model.joints) {
-    s.acceleration_max.push_back(4 * joint.servo.default_acceleration);
-  }
+  s.motion_limits = core::DefaultMotionLimits(model);
   s.homing.assign(model.joints.size(), JointHoming{});
   return s;
 }
@@ -100,14 +98,15 @@ BridgeSettings ParseBridgeSettings(const std::string& text, const std::string& n
   s.start_guard_s = map.NumberOr("start_guard_s", s.start_guard_s, core::NumberInRange(0, 60, "s"));
   s.command_timeout_s =
       map.NumberOr("command_timeout_s", s.command_timeout_s, core::NumberInRange(0.01, 60, "s"));
-  s.soft_limit_margin = map.NumberOr("soft_limit_margin_deg", s.soft_limit_margin / kDeg,
-                                     core::NumberInRange(0, 30, "deg")) *
-                        kDeg;
-  s.velocity_cap_fraction = map.NumberOr("velocity_cap_fraction", s.velocity_cap_fraction,
-                                         core::NumberInRange(0.01, 1, ""));
+  core::MotionLimits& limits = s.motion_limits;
+  if (auto v = map.Find("soft_limit_margin_deg")) {
+    limits.soft_limit_margin = v->Number(core::NumberInRange(0, 30, "deg")) * kDeg;
+  }
+  limits.velocity_cap_fraction = map.NumberOr("velocity_cap_fraction", limits.velocity_cap_fraction,
+                                              core::NumberInRange(0.01, 1, ""));
   if (auto v = map.Find("acceleration_max_deg_s2")) {
     const std::vector<double> a = v->Numbers(model.joints.size(), core::PositiveNumber("deg/s^2"));
-    for (size_t j = 0; j < a.size(); ++j) s.acceleration_max[j] = a[j] * kDeg;
+    for (size_t j = 0; j < a.size(); ++j) limits.acceleration_max[j] = a[j] * kDeg;
   }
   if (auto v = map.Find("pass_motor_off")) s.pass_motor_off = v->Bool();
   if (auto v = map.Find("calibration")) {
@@ -140,10 +139,10 @@ BridgeSettings LoadBridgeSettings(const std::string& file, const core::RobotMode
 }
 
 double SoftMin(const core::RobotModel& model, const BridgeSettings& s, int j) {
-  return model.joints[static_cast<size_t>(j)].position_min + s.soft_limit_margin;
+  return core::SoftMin(model, s.motion_limits, j);
 }
 double SoftMax(const core::RobotModel& model, const BridgeSettings& s, int j) {
-  return model.joints[static_cast<size_t>(j)].position_max - s.soft_limit_margin;
+  return core::SoftMax(model, s.motion_limits, j);
 }
 
 }  // namespace sirupp::hardware

@@ -6,6 +6,7 @@
 #include <string>
 #include <vector>
 
+#include "core/motion_limits.hpp"
 #include "core/robot_model.hpp"
 
 namespace sirupp::hardware {
@@ -35,12 +36,14 @@ struct BridgeSettings {
   bool emulated = false;      // REAL_ARM_STATE source = SOURCE_EMULATED
 
   // Safety.
-  double start_guard_s = 2.0;            // bus commands refused this long after start-up
-  double command_timeout_s = 0.5;        // linked: controller silent this long while moving -> stop
-  double soft_limit_margin = 0.0349;     // rad inside the model's joint limits (2 deg)
-  double velocity_cap_fraction = 1.0;    // of each joint's velocity_max
-  std::vector<double> acceleration_max;  // rad/s^2 per joint; default 4 x default_acceleration
-  bool pass_motor_off = false;           // mirror MOTOR_OFF (arm goes limp) instead of holding
+  double start_guard_s = 2.0;      // bus commands refused this long after start-up
+  double command_timeout_s = 0.5;  // linked: controller silent this long while moving -> stop
+  // Soft-limit margin, speed and acceleration caps: moves outside them are refused whole
+  // (core::CheckJointMove, the rule the controller can apply too). Default
+  // core::DefaultMotionLimits(model); the file's soft_limit_margin_deg, velocity_cap_fraction and
+  // acceleration_max_deg_s2 override it.
+  core::MotionLimits motion_limits;
+  bool pass_motor_off = false;  // mirror MOTOR_OFF (arm goes limp) instead of holding
 
   // Calibration.
   std::string calibration_pose = "zero";  // named pose of the model the arm sits in
@@ -55,7 +58,7 @@ BridgeSettings LoadBridgeSettings(const std::string& file, const core::RobotMode
 BridgeSettings ParseBridgeSettings(const std::string& text, const std::string& name,
                                    const core::RobotModel& model);
 
-// Soft limits of joint j: the model's limits moved inward by the margin.
+// Soft limits of joint j: the model's limits moved inward by the margin (core::SoftMin/SoftMax).
 double SoftMin(const core::RobotModel& model, const BridgeSettings& s, int j);
 double SoftMax(const core::RobotModel& model, const BridgeSettings& s, int j);
 

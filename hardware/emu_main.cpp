@@ -3,6 +3,7 @@
 // out. docs/hardware-emulator.md describes it.
 
 #include <chrono>
+#include <cstdio>
 #include <iostream>
 #include <sstream>
 #include <thread>
@@ -48,6 +49,13 @@ struct TimedFault {
   double at_s;
   bool done = false;
 };
+
+// "27.0 ms"
+std::string Milliseconds(double s) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.1f ms", s * 1e3);
+  return text;
+}
 
 double Probability(const sirupp::tools::Args& args, const std::string& flag) {
   const double p = args.Numbers(flag, 1)[0];
@@ -214,8 +222,10 @@ int Run(const std::vector<std::string>& argv) {
   const sirupp::hardware::EmulatorCounters c = emulator->counters();
   std::cout << kName << ": stopped: " << c.commands_received << " commands, " << c.checksum_errors
             << " checksum errors, " << c.replies_sent << " replies, " << c.bytes_dropped
-            << " bytes dropped, " << c.servo_ticks << " servo ticks, " << c.overruns
-            << " overruns, " << c.packet_timeouts << " packet timeouts, " << c.bytes_skipped
+            << " bytes dropped, " << c.servo_ticks << " servo ticks stepped (" << c.ticks_caught_up
+            << " caught up late, " << c.ticks_slipped << " slipped in " << c.slips
+            << " slips; at most " << Milliseconds(c.max_lateness_s) << " behind the wall clock), "
+            << c.packet_timeouts << " packet timeouts, " << c.bytes_skipped
             << " bytes skipped, line at " << c.baud << " baud" << std::endl;
   return 0;
 }

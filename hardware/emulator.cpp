@@ -7,17 +7,15 @@
 #include <cerrno>
 #include <cmath>
 #include <csignal>
+#include <cstdio>
 #include <ctime>
+#include <iostream>
 #include <stdexcept>
 
 #include "core/errors.hpp"
 
 namespace sirupp::hardware {
 namespace {
-
-// After a stall longer than this (a suspended process, a debugger) the tick clock jumps to now
-// instead of running every missed tick; the missed ticks count as overruns.
-constexpr double kMaxCatchUpS = 0.25;
 
 ArmOptions MakeArmOptions(const EmulatorOptions& options) {
   ArmOptions arm;
@@ -26,6 +24,13 @@ ArmOptions MakeArmOptions(const EmulatorOptions& options) {
   arm.substeps = options.substeps;
   arm.brakes = options.brakes;
   return arm;
+}
+
+// "0.401 s": to the millisecond.
+std::string Seconds(double s) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.3f s", s);
+  return text;
 }
 
 int ModuleCount(const EmulatorOptions& options) {
@@ -59,6 +64,10 @@ Emulator::Emulator(EmulatorOptions options)
       rng_(options_.seed) {
   CheckRate(checksum_error_rate_, "checksum error rate");
   CheckRate(drop_rate_, "drop rate");
+  if (!(options_.max_catch_up_s >= 0)) {
+    throw std::invalid_argument("catch-up bound " + core::FormatNumber(options_.max_catch_up_s) +
+                                " s: allowed >= 0");
+  }
   if (!(options_.inter_byte_timeout_s > 0)) {
     throw std::invalid_argument("inter-byte timeout " +
                                 core::FormatNumber(options_.inter_byte_timeout_s) +
@@ -86,6 +95,11 @@ const std::string& Emulator::device() const { return device_; }
 void Emulator::Start() {
   if (thread_.joinable()) return;
   stop_ = false;
+  {
+    // Emulated time carries on from where it stood: tick k + 1 is due one tick from now.
+    std::lock_guard<std::mutex> lock(mutex_);
+    clock_base_s_ = Now() - static_cast<double>(tick_index_) * tick_s_;
+  }
   thread_ = std::thread([this] { Run(); });
 }
 
@@ -112,6 +126,12 @@ nmc::Status Emulator::ModuleStatus(int module_index) const {
   CheckModule(module_index, "module");
   std::lock_guard<std::mutex> lock(mutex_);
   return modules_[static_cast<size_t>(module_index)].StatusNow();
+}
+
+nmc::Gains Emulator::ModuleGains(int module_index) const {
+  CheckModule(module_index, "module");
+  std::lock_guard<std::mutex> lock(mutex_);
+  return modules_[static_cast<size_t>(module_index)].gains();
 }
 
 void Emulator::SetChecksumErrorRate(double p) {
@@ -237,26 +257,61 @@ void Emulator::FlushReplies(double now_s) {
   replies_.erase(replies_.begin(), replies_.begin() + static_cast<std::ptrdiff_t>(sent));
 }
 
+void Emulator::CatchUp(double now_s) {
+  double due_s = NextTickDue();
+  if (due_s > now_s) return;
+  const double behind_s = now_s - due_s;
+  counters_.max_lateness_s = std::max(counters_.max_lateness_s, behind_s);
+  if (behind_s > options_.max_catch_up_s) {
+    // Too far behind to catch up: every tick due by now is slipped, none is stepped or stretched.
+    const auto slipped = static_cast<uint64_t>(std::floor((now_s - due_s) / tick_s_)) + 1;
+    tick_index_ += slipped;
+    counters_.ticks_slipped += slipped;
+    ++counters_.slips;
+    const std::string line =
+        "emulated time slipped " + Seconds(static_cast<double>(slipped) * tick_s_) + " (" +
+        std::to_string(slipped) + " servo ticks not stepped): the emulator was " +
+        Seconds(behind_s) + " behind the wall clock, more than the " +
+        core::FormatNumber(options_.max_catch_up_s) +
+        " s it catches up; the emulated arm paused for that long (slip " +
+        std::to_string(counters_.slips) + ", " + std::to_string(counters_.ticks_slipped) +
+        " ticks slipped in all)";
+    if (options_.report) {
+      options_.report(line);
+    } else {
+      std::cerr << "sirupp-picservo-emu: " << line << std::endl;
+    }
+    return;
+  }
+  for (; due_s <= now_s; due_s = NextTickDue()) {
+    if (now_s - due_s > tick_s_) ++counters_.ticks_caught_up;
+    TickOnce();
+    ++tick_index_;
+  }
+}
+
+void Emulator::ServiceAt(double now_s) {
+  uint8_t buffer[256];
+  std::lock_guard<std::mutex> lock(mutex_);
+  CatchUp(now_s);
+  for (;;) {
+    const ssize_t r = ::read(pty_.master_fd(), buffer, sizeof buffer);
+    if (r <= 0) break;
+    Receive(buffer, static_cast<size_t>(r), now_s);
+  }
+  FlushReplies(now_s);
+}
+
 void Emulator::Run() {
-  double next_tick_s = Now() + tick_s_;
   uint8_t buffer[256];
   while (!stop_) {
-    double now_s = Now();
     double wake_s = 0;
     {
       std::lock_guard<std::mutex> lock(mutex_);
-      if (now_s - next_tick_s > kMaxCatchUpS) {
-        const auto missed = static_cast<uint64_t>((now_s - next_tick_s) / tick_s_);
-        counters_.overruns += missed;
-        next_tick_s += static_cast<double>(missed) * tick_s_;
-      }
-      while (next_tick_s <= now_s) {
-        if (now_s - next_tick_s > tick_s_) ++counters_.overruns;
-        TickOnce();
-        next_tick_s += tick_s_;
-      }
+      const double now_s = Now();
+      CatchUp(now_s);
       FlushReplies(now_s);
-      wake_s = next_tick_s;
+      wake_s = NextTickDue();
       if (!replies_.empty()) wake_s = std::min(wake_s, replies_.front().write_time_s);
     }
     const double wait_s = std::max(0.0, wake_s - Now());
@@ -268,8 +323,11 @@ void Emulator::Run() {
     if (ready > 0 && (p.revents & POLLIN)) {
       const ssize_t r = ::read(pty_.master_fd(), buffer, sizeof buffer);
       if (r > 0) {
-        now_s = Now();
         std::lock_guard<std::mutex> lock(mutex_);
+        const double now_s = Now();
+        // The ticks due before the bytes were read come first: a command is applied at the
+        // emulated time it arrived, even when the thread was descheduled before reading it.
+        CatchUp(now_s);
         Receive(buffer, static_cast<size_t>(r), now_s);
       }
     }

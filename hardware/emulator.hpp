@@ -4,8 +4,14 @@
 // side: it reads command bytes (nmc::PacketReader, resynchronising on 0xAA), hands each packet to
 // the modules in daisy-chain order, writes their replies with the timing of a real serial line,
 // and runs the servo tick (modules, then the arm) at the model's servo rate (1953.125 Hz for the
-// PIC-SERVO SC) of wall-clock time. Every public method is thread-safe. docs/hardware-emulator.md
-// describes the behaviour, the timing and the faults.
+// PIC-SERVO SC). Servo ticks are counted in emulated time: every tick of emulated time is stepped
+// exactly once with the same dt, and ticks the thread missed while descheduled are caught up back
+// to back before anything else happens (a command is applied after the ticks due before it was
+// read). Emulated time follows the wall clock; only after falling further behind than
+// max_catch_up_s does it slip (the arm pauses, the slip is counted and reported), never does a
+// tick stretch. The serial line (byte and reply timing) stays on the wall clock. Every public
+// method is thread-safe. docs/hardware-emulator.md describes the behaviour, the timing and the
+// faults.
 //
 // Chain order: module 0 is the farthest from the host, so the vendor's NmcInit (SET_ADDR to
 // address 0 with 1, 2, ...) gives module k the address k + 1; module k drives joint k + 1.
@@ -13,6 +19,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <random>
@@ -44,6 +51,12 @@ struct EmulatorOptions {
   double inter_byte_timeout_s = 0.02;
   // Replies wait for the command's and their own transmission time at the line's baud.
   bool line_timing = true;
+  // Catch-up bound: when emulated time is further behind the wall clock than this (the process was
+  // stopped or starved), the missed ticks are not stepped: emulated time slips, the arm pauses for
+  // that long, and `report` is told. Below the bound every missed tick is stepped, back to back.
+  double max_catch_up_s = 0.25;
+  // Told one line per slip; nullptr: the line goes to stderr.
+  std::function<void(const std::string&)> report;
 };
 
 struct EmulatorCounters {
@@ -54,8 +67,13 @@ struct EmulatorCounters {
   uint64_t bytes_skipped = 0;    // noise outside packets (before a header)
   uint64_t bytes_dropped = 0;    // reply bytes lost by the drop fault
   uint64_t packet_timeouts = 0;  // partial packets dropped by the inter-byte timeout
+  // Servo ticks stepped: emulated time is servo_ticks x tick. Every tick of emulated time is
+  // stepped exactly once, with the same dt.
   uint64_t servo_ticks = 0;
-  uint64_t overruns = 0;  // ticks run more than one tick late (or skipped after a stall)
+  uint64_t ticks_caught_up = 0;  // of those, stepped more than one tick after their wall time
+  uint64_t ticks_slipped = 0;    // ticks of wall time never stepped (emulated time slipped)
+  uint64_t slips = 0;            // times emulated time slipped (each reported)
+  double max_lateness_s = 0;     // the furthest emulated time was behind the wall clock
   uint64_t baud_changes = 0;
   int baud = nmc::kPowerUpBaud;  // the line speed now
 };
@@ -69,9 +87,16 @@ class Emulator {
   Emulator(const Emulator&) = delete;
   Emulator& operator=(const Emulator&) = delete;
 
+  // Starts the thread. Emulated time resumes where it stopped (the time between Stop() and Start()
+  // is neither stepped nor counted as slipped).
   void Start();
   // Stops and joins the thread (also done by the destructor).
   void Stop();
+  // Without Start(), for tests that keep the clock themselves: one pass of the thread's loop at
+  // time `now_s` (seconds since construction, never decreasing): steps every tick due by then
+  // (slipping past the bound), reads every byte waiting on the pty and handles it at now_s, and
+  // writes the replies due by now_s. Tick k (from 1) is due at k x tick.
+  void ServiceAt(double now_s);
 
   // What a client opens: the link if one was asked for, else /dev/pts/N.
   const std::string& device() const;
@@ -84,6 +109,8 @@ class Emulator {
   std::vector<int> Pwm() const;
   // Module `index`'s status now, every item filled in.
   nmc::Status ModuleStatus(int module_index) const;
+  // The gains module `index` runs its PID with (its last SET_GAIN, or its power-up gains).
+  nmc::Gains ModuleGains(int module_index) const;
 
   void SetChecksumErrorRate(double p);
   void SetDropRate(double p);
@@ -101,6 +128,11 @@ class Emulator {
   void Run();
   double Now() const;
   void TickOnce();
+  // Steps every tick due by now_s (or slips past the bound). Caller holds the mutex.
+  void CatchUp(double now_s);
+  double NextTickDue() const {
+    return clock_base_s_ + static_cast<double>(tick_index_ + 1) * tick_s_;
+  }
   void Receive(const uint8_t* bytes, size_t n, double now_s);
   void Process(const nmc::PacketReader::Result& result, double arrival_s);
   void FlushReplies(double now_s);
@@ -127,6 +159,10 @@ class Emulator {
   double rx_free_s_ = 0;  // when the line finishes carrying the bytes received so far
   double tx_free_s_ = 0;  // when the line finishes carrying the replies queued so far
   std::vector<PendingReply> replies_;
+  // Tick k of emulated time (counted from 1 since clock_base_s_, slipped ones included) is due at
+  // clock_base_s_ + k x tick_s_.
+  double clock_base_s_ = 0;
+  uint64_t tick_index_ = 0;
 
   std::atomic<bool> stop_{false};
   std::thread thread_;

@@ -121,21 +121,35 @@ int Run(const std::vector<std::string>& argv) {
   sirupp::hardware::BridgeNode node(bus, model, link, settings, options);
   try {
     if (connect) {
-      node.Connect();
+      node.Connect();  // prints how it found the boards when they had kept power
       std::cerr << "sirupp-hardware: " << link.bus().modules().size() << " modules on "
                 << settings.port << " at " << settings.baud << " baud\n";
     }
-    if (calibrate) {
-      node.Calibrate();
-      std::cerr << "sirupp-hardware: calibrated (pose " << settings.calibration_pose << ")\n";
+    bool calibrated = link.calibrated();
+    if (calibrate && link.resumed()) {
+      std::cerr << "sirupp-hardware: calibration kept from the boards' counters; not calibrating "
+                   "again\n";
+    } else if (calibrate) {
+      try {
+        node.Calibrate();
+        calibrated = true;
+        std::cerr << "sirupp-hardware: calibrated (pose " << settings.calibration_pose << ")\n";
+      } catch (const sirupp::hardware::CalibrationRefused& refused) {
+        // Not an error of the process: it stays up, connected and uncalibrated, saying why.
+        std::cerr << "sirupp-hardware: " << refused.what() << "\n";
+        if (arm || link_at_start) {
+          std::cerr << "sirupp-hardware: not arming or linking: not calibrated\n";
+        }
+      }
     }
-    if (arm) node.Arm();
-    if (link_at_start) node.Link();
+    if (arm && calibrated) node.Arm();
+    if (link_at_start && calibrated) node.Link();
     std::cerr << "sirupp-hardware: " << model.name << ", "
-              << (link_at_start ? "linked"
-                  : arm         ? "armed"
-                  : calibrate   ? "calibrated"
-                                : "ready")
+              << (node.linked()               ? "linked"
+                  : link.armed()              ? "armed"
+                  : link.calibrated()         ? "calibrated"
+                  : link.blind_reason() != "" ? "not calibrated"
+                                              : "ready")
               << ", polling at " << settings.poll_rate_hz << " Hz, on " << bus.url() << "\n";
     sirupp::tools::ServiceUntilSignal([&node] {
       node.Service(20);

@@ -224,6 +224,45 @@ std::vector<ModuleInfo> NmcBus::Initialize(int max_modules, int baud, uint8_t gr
   return modules_;
 }
 
+std::vector<NmcBus::Addressed> NmcBus::FindAddressed(int max_modules, uint8_t items) {
+  if (max_modules < 1 || max_modules > nmc::kMaxModules) {
+    throw std::invalid_argument("modules " + std::to_string(max_modules) + "; allowed: 1 to 32");
+  }
+  const auto asked = static_cast<uint8_t>(items | nmc::kSendId);
+  std::vector<Addressed> found;
+  for (int address = 1; address <= max_modules; ++address) {
+    const auto a = static_cast<uint8_t>(address);
+    const std::vector<uint8_t> bytes = nmc::Encode(nmc::ReadStatus(a, asked));
+    nmc::Status reply;
+    std::string problem;
+    Outcome outcome = Outcome::kTimeout;
+    for (int attempt = 0; attempt < 2 && outcome != Outcome::kOk; ++attempt) {
+      outcome = TryExchange(bytes, asked, &reply, &problem);
+      // A killed host may have left half a packet on the line: flush the modules' receivers.
+      if (outcome == Outcome::kTimeout || outcome == Outcome::kDamaged) Resync();
+    }
+    if (outcome != Outcome::kOk) break;
+    found.push_back({ModuleInfo{a, reply.type, reply.version}, reply});
+  }
+  return found;
+}
+
+void NmcBus::Adopt(const std::vector<ModuleInfo>& modules, uint8_t group) {
+  if (!nmc::IsGroupAddress(group) || group == nmc::kBroadcast) {
+    throw std::invalid_argument("group address " + std::to_string(group) +
+                                "; allowed: 0x80 to 0xFE");
+  }
+  modules_ = modules;
+  for (uint8_t& d : defined_) d = 0;
+  for (const ModuleInfo& m : modules_) {
+    // The module still answers with the items an earlier host defined: define none first.
+    Command(nmc::DefineStatus(m.address, 0));
+    Command(nmc::SetAddress(m.address, m.address, group, m.address == 1));
+  }
+  group_ = group;
+  group_leader_ = 1;
+}
+
 bool NmcBus::AddressNext(uint8_t address) {
   const std::vector<uint8_t> set_address =
       nmc::Encode(nmc::SetAddress(nmc::kUnaddressed, address, nmc::kBroadcast, false));

@@ -66,6 +66,20 @@ class NmcBus {
   // `group` (module 1 its leader). Returns the modules found.
   std::vector<ModuleInfo> Initialize(int max_modules, int baud, uint8_t group = 0x80);
 
+  // Modules that kept power and their addresses since a host addressed them (a board fresh from
+  // power-up or HARD_RESET has address 0 and does not answer): READ_STAT(SEND_ID | items) to
+  // addresses 1, 2, ... at the port's present baud, two tries each, until one does not answer or
+  // `max_modules` did. Sends no reset and changes nothing on the modules. Returns each module that
+  // answered, with its reply (type and version, and `items`).
+  struct Addressed {
+    ModuleInfo info;
+    nmc::Status status;
+  };
+  std::vector<Addressed> FindAddressed(int max_modules, uint8_t items);
+  // Takes modules found by FindAddressed as this bus's, without a reset: their status items
+  // defined anew as none (DEF_STAT 0), and each put in `group` again, module 1 its leader.
+  void Adopt(const std::vector<ModuleInfo>& modules, uint8_t group);
+
   // An individually addressed command; returns the reply, parsed with the module's defined status
   // items (READ_STAT: with the items it asks for; DEF_STAT: with the new ones). Retries, then
   // throws BusError.

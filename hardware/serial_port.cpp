@@ -1,14 +1,20 @@
 #include "hardware/serial_port.hpp"
 
 #include <fcntl.h>
+#include <limits.h>
 #include <poll.h>
+#include <signal.h>
+#include <sys/file.h>
+#include <sys/ioctl.h>
 #include <sys/stat.h>
 #include <termios.h>
 #include <unistd.h>
 
 #include <cerrno>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
 
 #include "hardware/nmc_protocol.hpp"
 
@@ -53,17 +59,120 @@ void MakeRaw(int fd, speed_t speed, const std::string& device) {
   }
 }
 
+std::string RealPath(const std::string& path) {
+  char resolved[PATH_MAX];
+  if (::realpath(path.c_str(), resolved) == nullptr) return "";
+  return resolved;
+}
+
+bool IsPseudoTerminal(const std::string& real_path) { return real_path.rfind("/dev/pts/", 0) == 0; }
+
+// The pid a lock file names (UUCP: ten digits and a newline), 0 if none.
+pid_t LockHolder(int fd) {
+  char text[32] = {};
+  const ssize_t n = ::pread(fd, text, sizeof text - 1, 0);
+  if (n <= 0) return 0;
+  return static_cast<pid_t>(std::strtol(text, nullptr, 10));
+}
+
+// "pid 1234 (sirupp-hardware)"
+std::string DescribeProcess(pid_t pid) {
+  std::string name;
+  std::ifstream comm("/proc/" + std::to_string(pid) + "/comm");
+  std::getline(comm, name);
+  return "pid " + std::to_string(pid) + (name.empty() ? "" : " (" + name + ")");
+}
+
+bool Alive(pid_t pid) { return ::kill(pid, 0) == 0 || errno == EPERM; }
+
 }  // namespace
+
+std::string SerialLockPath(const std::string& device) {
+  const std::string real = RealPath(device);
+  if (real.empty()) return "";
+  std::string name = real.rfind("/dev/", 0) == 0 ? real.substr(5) : real.substr(1);
+  for (char& c : name) {
+    if (c == '/') c = '_';
+  }
+  const std::string dir = ::access("/run/lock", W_OK | X_OK) == 0 ? "/run/lock" : "/tmp";
+  return dir + "/LCK.." + name;
+}
 
 SerialPort::SerialPort(const std::string& device, int baud) : device_(device) {
   const speed_t speed = SpeedFor(baud, device);
+  const std::string real = RealPath(device);
+  const std::string shown = real.empty() || real == device ? device : device + " (" + real + ")";
+  // The lock first: a port in use is refused before it is opened (opening may toggle its lines).
+  lock_path_ = SerialLockPath(device);
+  for (int attempt = 0; !lock_path_.empty() && lock_fd_ < 0; ++attempt) {
+    const int fd = ::open(lock_path_.c_str(), O_RDWR | O_CREAT | O_CLOEXEC | O_NOFOLLOW, 0644);
+    if (fd < 0) {
+      throw SerialError(shown + ": cannot create the lock file " + lock_path_ + " (" + Reason() +
+                        ")");
+    }
+    if (::flock(fd, LOCK_EX | LOCK_NB) != 0) {
+      const pid_t holder = LockHolder(fd);
+      ::close(fd);
+      throw SerialError(shown + ": in use by " +
+                        (holder > 0 ? DescribeProcess(holder) : std::string("another process")) +
+                        ", lock " + lock_path_ + "; stop it first");
+    }
+    // The file locked must still be the one at the path: a holder that just exited removes it.
+    struct stat held {};
+    struct stat named {};
+    if (::fstat(fd, &held) != 0 || ::stat(lock_path_.c_str(), &named) != 0 ||
+        held.st_ino != named.st_ino || held.st_dev != named.st_dev) {
+      ::close(fd);
+      if (attempt < 5) continue;
+      throw SerialError(shown + ": the lock file " + lock_path_ + " keeps changing");
+    }
+    // A lock of another program in the UUCP way (a live pid, no flock) is respected too; a pid
+    // that is gone is a stale lock (a killed process) and is taken over.
+    const pid_t holder = LockHolder(fd);
+    if (holder > 0 && holder != ::getpid() && Alive(holder)) {
+      ::close(fd);
+      throw SerialError(shown + ": in use by " + DescribeProcess(holder) + ", lock " + lock_path_ +
+                        " (remove the file if that process does not use the port)");
+    }
+    char text[16];
+    std::snprintf(text, sizeof text, "%10d\n", static_cast<int>(::getpid()));
+    if (::ftruncate(fd, 0) != 0 || ::pwrite(fd, text, std::strlen(text), 0) < 0) {
+      ::close(fd);
+      throw SerialError(shown + ": cannot write the lock file " + lock_path_ + " (" + Reason() +
+                        ")");
+    }
+    lock_fd_ = fd;
+  }
   fd_ = ::open(device.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
-  if (fd_ < 0) throw SerialError(device + ": cannot open (" + Reason() + ")");
+  if (fd_ < 0) {
+    const int error = errno;
+    const std::string reason = std::strerror(error);
+    if (lock_fd_ >= 0) {
+      ::unlink(lock_path_.c_str());
+      ::close(lock_fd_);
+      lock_fd_ = -1;
+    }
+    if (error == EBUSY) {
+      throw SerialError(shown +
+                        ": in use: another process has it open exclusively (TIOCEXCL) "
+                        "without the lock file; find it with: fuser -v " +
+                        (real.empty() ? device : real));
+    }
+    throw SerialError(device + ": cannot open (" + reason + ")");
+  }
   try {
     MakeRaw(fd_, speed, device);
+    if (!IsPseudoTerminal(real) && ::ioctl(fd_, TIOCEXCL) != 0) {
+      throw SerialError(shown + ": cannot make it exclusive (TIOCEXCL: " + Reason() + ")");
+    }
   } catch (...) {
     ::close(fd_);
     fd_ = -1;
+    if (lock_fd_ >= 0) {
+      ::unlink(lock_path_.c_str());
+      ::close(lock_fd_);
+      lock_fd_ = -1;
+    }
     throw;
   }
   baud_ = baud;
@@ -71,7 +180,14 @@ SerialPort::SerialPort(const std::string& device, int baud) : device_(device) {
 }
 
 SerialPort::~SerialPort() {
-  if (fd_ >= 0) ::close(fd_);
+  if (fd_ >= 0) {
+    ::ioctl(fd_, TIOCNXCL);
+    ::close(fd_);
+  }
+  if (lock_fd_ >= 0) {
+    ::unlink(lock_path_.c_str());  // while still holding it (see the inode check above)
+    ::close(lock_fd_);
+  }
 }
 
 void SerialPort::Write(const uint8_t* bytes, size_t n) {

@@ -32,7 +32,21 @@ class BytePort {
   virtual std::string name() const = 0;
 };
 
-// A serial device opened raw 8N1 at `baud` (one of 9600, 19200, 57600, 115200, 230400).
+// The lock file that makes a serial device one process's: /run/lock/LCK..NAME where /run/lock
+// is writable by this user (Debian makes it world-writable), else /tmp/LCK..NAME. NAME is the
+// device's real path (symbolic links resolved, so the emulator's link and its /dev/pts/N are one
+// device) without "/dev/", with '/' as '_': LCK..ttyUSB0, LCK..pts_3. Empty if the device does
+// not exist.
+std::string SerialLockPath(const std::string& device);
+
+// A serial device opened raw 8N1 at `baud` (one of 9600, 19200, 57600, 115200, 230400), for this
+// process alone: first the lock file (SerialLockPath: flock, and the pid written in it as the
+// UUCP convention has it, so that other programs see it too), then the device with TIOCEXCL (no
+// further open() of it, except by root). A device in use is refused before it is opened, naming
+// the process: "/dev/ttyUSB0: in use by pid 1234 (sirupp-hardware), lock /run/lock/LCK..ttyUSB0".
+// Pseudo-terminals get the lock file only: the emulator keeps its slave open, so an exclusive
+// flag left by a killed client would never clear. The lock is released (file removed,
+// TIOCNXCL) by the destructor, and by the kernel when the process dies.
 class SerialPort : public BytePort {
  public:
   SerialPort(const std::string& device, int baud);
@@ -47,11 +61,15 @@ class SerialPort : public BytePort {
   void DiscardInput() override;
   std::string name() const override { return device_; }
   int fd() const { return fd_; }
+  // The lock file held (empty if the device path could not be resolved).
+  const std::string& lock_path() const { return lock_path_; }
 
  private:
   std::string device_;
   int fd_ = -1;
   int baud_ = 0;
+  int lock_fd_ = -1;
+  std::string lock_path_;
 };
 
 // The master side of a new pseudo-terminal, raw. The slave stays open here too, so that the

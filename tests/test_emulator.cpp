@@ -8,7 +8,9 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <string>
 #include <thread>
+#include <vector>
 
 #include "core/model_loader.hpp"
 #include "hardware/emulator.hpp"
@@ -179,9 +181,11 @@ TEST(Emulator, AThreeJointMoveReachesItsGoal) {
   std::printf(
       "set VII on the emulator: waist moves after %.3f s, MOVE_DONE after %.3f s, within 0.5 deg "
       "after %.3f s; "
-      "final %.3f %.3f %.3f deg; others %.3f %.3f %.3f deg; %llu overruns\n",
+      "final %.3f %.3f %.3f deg; others %.3f %.3f %.3f deg; %llu ticks caught up, %llu slipped\n",
       first_motion_s, done_s, settled_s, q[0] / kDeg, q[1] / kDeg, q[2] / kDeg, q[3] / kDeg,
-      q[4] / kDeg, q[5] / kDeg, static_cast<unsigned long long>(emulator.counters().overruns));
+      q[4] / kDeg, q[5] / kDeg,
+      static_cast<unsigned long long>(emulator.counters().ticks_caught_up),
+      static_cast<unsigned long long>(emulator.counters().ticks_slipped));
   for (int j = 0; j < 3; ++j) EXPECT_NEAR(q[static_cast<size_t>(j)], 90 * kDeg, 0.5 * kDeg);
   for (int j = 3; j < 6; ++j) EXPECT_NEAR(q[static_cast<size_t>(j)], 0, 0.5 * kDeg);
   // The encoders agree with the arm.
@@ -190,6 +194,138 @@ TEST(Emulator, AThreeJointMoveReachesItsGoal) {
   const servo::JointDrive shoulder(Puma().joints[1], Puma().servo_tick_s);
   EXPECT_NEAR(DecodeStatus(pos.data(), pos.size(), kSendPosition).position, shoulder.ToCounts(q[1]),
               2);
+}
+
+// ---- Emulated time on a clock the test keeps (Emulator::ServiceAt, no thread). ----
+
+// One run: the arm in the ready pose, servos on at t = 0, joints 1-3 loaded with a 30 degree move
+// (START_NOW) at tick 200, then the clock advanced tick by tick to `end_ticks` (each pass in the
+// middle of a tick), except that no pass happens for `stall_ticks` ticks from tick `stall_from`:
+// the process was descheduled. `history` (if given) gets the joint angles after every tick.
+struct StallRun {
+  EmulatorCounters counters;
+  std::vector<double> final_position;
+  std::vector<std::string> reports;
+};
+
+StallRun RunWithStall(int stall_from, int stall_ticks, int end_ticks,
+                      std::vector<std::vector<double>>* history = nullptr) {
+  StallRun run;
+  EmulatorOptions options = Options();
+  options.start_positions = {0, -90 * kDeg, 90 * kDeg, 0, 45 * kDeg, 0};
+  options.line_timing = false;  // replies at once: this test is about the servo clock
+  options.report = [&run](const std::string& line) { run.reports.push_back(line); };
+  Emulator emulator(options);
+  SerialPort port(emulator.device(), 19200);
+  const double tick = Puma().servo_tick_s;
+  // Writes the packets, then passes at time t until the emulator has read every byte (a pty hands
+  // bytes over asynchronously).
+  const auto deliver = [&](const std::vector<Packet>& packets, double t) {
+    Bytes bytes;
+    for (const Packet& p : packets) {
+      const Bytes b = Encode(p);
+      bytes.insert(bytes.end(), b.begin(), b.end());
+    }
+    const uint64_t want = emulator.counters().bytes_received + bytes.size();
+    port.Write(bytes.data(), bytes.size());
+    const auto deadline = Clock::now() + std::chrono::seconds(5);
+    while (emulator.counters().bytes_received < want && Clock::now() < deadline) {
+      emulator.ServiceAt(t);
+    }
+    EXPECT_EQ(emulator.counters().bytes_received, want);
+  };
+  std::vector<Packet> setup;
+  for (uint8_t a = 1; a <= 6; ++a) setup.push_back(SetAddress(0, a, 0x80, a == 1));
+  for (int k = 0; k < 6; ++k) {
+    const auto a = static_cast<uint8_t>(k + 1);
+    setup.push_back(SetGain(a, ModelGains(Puma().joints[static_cast<size_t>(k)].servo)));
+    setup.push_back(StopMotor(a, kAmpEnable | kStopAbrupt));
+    setup.push_back(ClearBits(a));
+  }
+  deliver(setup, 0);
+  EXPECT_EQ(emulator.counters().replies_sent, setup.size());
+  std::vector<Packet> move;
+  const std::vector<double> goal_deg = {30, -60, 60};
+  for (int j = 0; j < 3; ++j) {
+    const core::Joint& joint = Puma().joints[static_cast<size_t>(j)];
+    const servo::JointDrive drive(joint, tick);
+    Trajectory t;
+    t.control = kLoadPosition | kLoadVelocity | kLoadAcceleration | kEnableServo | kStartNow;
+    t.position =
+        static_cast<int32_t>(drive.ToCounts(goal_deg[static_cast<size_t>(j)] * kDeg) -
+                             drive.ToCounts(options.start_positions[static_cast<size_t>(j)]));
+    t.velocity = static_cast<uint32_t>(drive.VelocityWord(joint.servo.default_velocity));
+    t.acceleration =
+        static_cast<uint32_t>(drive.AccelerationWord(joint.servo.default_acceleration));
+    move.push_back(LoadTrajectory(static_cast<uint8_t>(j + 1), t));
+  }
+  for (int k = 0; k <= end_ticks; ++k) {
+    if (k >= stall_from && k < stall_from + stall_ticks) continue;
+    const double t = (k + 0.5) * tick;
+    if (k == 200) {
+      deliver(move, t);
+    } else {
+      emulator.ServiceAt(t);
+    }
+    if (history) {
+      const size_t stepped = emulator.counters().servo_ticks;
+      if (history->size() <= stepped) history->resize(stepped + 1);
+      (*history)[stepped] = emulator.JointPositions();
+    }
+  }
+  run.counters = emulator.counters();
+  run.final_position = emulator.JointPositions();
+  return run;
+}
+
+TEST(Emulator, TicksMissedWhileDescheduledAreCaughtUpAndTheMotionIsTheSame) {
+  const int end = 2500;  // 1.28 s of emulated time; the move takes about 1 s
+  std::vector<std::vector<double>> history;
+  const StallRun steady = RunWithStall(0, 0, end, &history);
+  // No pass for 293 ticks (0.15 s) in the middle of the move: below the 0.25 s catch-up bound.
+  const StallRun stalled = RunWithStall(600, 293, end);
+  // No pass for 782 ticks (0.4 s): emulated time slips, and says so.
+  const StallRun slipped = RunWithStall(600, 782, end);
+
+  const auto due = static_cast<uint64_t>(end);  // ticks 1..end are due by the last pass
+  EXPECT_EQ(steady.counters.servo_ticks, due);
+  EXPECT_EQ(steady.counters.ticks_caught_up, 0u);
+  EXPECT_EQ(steady.counters.ticks_slipped, 0u);
+  EXPECT_GT(std::abs(steady.final_position[0] - 0), 25 * kDeg) << "the arm moved";
+
+  // Every tick of emulated time stepped once: as many as elapsed time / tick, the 294 due during
+  // the stall back to back at the next pass (293 of them more than a tick late), and the arm
+  // exactly where the undisturbed run left it.
+  EXPECT_EQ(stalled.counters.servo_ticks, due);
+  EXPECT_EQ(stalled.counters.ticks_caught_up, 293u);
+  EXPECT_EQ(stalled.counters.ticks_slipped, 0u);
+  EXPECT_TRUE(stalled.reports.empty());
+  for (size_t j = 0; j < 6; ++j) {
+    EXPECT_EQ(stalled.final_position[j], steady.final_position[j]) << "joint " << j + 1;
+  }
+
+  // Past the bound: the 783 ticks due during the stall are slipped, not stepped and not stretched.
+  // Stepped + slipped = elapsed, and the arm is exactly where the undisturbed run was after as
+  // many ticks.
+  EXPECT_EQ(slipped.counters.slips, 1u);
+  EXPECT_EQ(slipped.counters.ticks_slipped, 783u);
+  EXPECT_EQ(slipped.counters.servo_ticks + slipped.counters.ticks_slipped, due);
+  ASSERT_LT(slipped.counters.servo_ticks, history.size());
+  for (size_t j = 0; j < 6; ++j) {
+    EXPECT_EQ(slipped.final_position[j], history[slipped.counters.servo_ticks][j])
+        << "joint " << j + 1;
+  }
+  ASSERT_EQ(slipped.reports.size(), 1u);
+  EXPECT_NE(slipped.reports[0].find("emulated time slipped 0.401 s (783 servo ticks not stepped)"),
+            std::string::npos)
+      << slipped.reports[0];
+  std::printf(
+      "stall of 293 ticks: %llu stepped (%llu caught up), arm as undisturbed; stall of 783: "
+      "%llu stepped + %llu slipped; '%s'\n",
+      static_cast<unsigned long long>(stalled.counters.servo_ticks),
+      static_cast<unsigned long long>(stalled.counters.ticks_caught_up),
+      static_cast<unsigned long long>(slipped.counters.servo_ticks),
+      static_cast<unsigned long long>(slipped.counters.ticks_slipped), slipped.reports[0].c_str());
 }
 
 TEST(Emulator, SetBaudSwitchesTheLineAndRepliesTakeTheLinesTime) {

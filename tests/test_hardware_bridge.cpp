@@ -3,11 +3,18 @@
 // library does it, calibration, the paper's set VII mirrored to the boards, the safety layer (start
 // guard, soft limits, velocity caps, e-stop, command expiry, shutdown), a module that stops
 // answering, and checksum errors and lost bytes under load.
+#include <fcntl.h>
 #include <gtest/gtest.h>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
+#include <fstream>
 #include <functional>
 #include <iostream>
 #include <memory>
@@ -16,8 +23,10 @@
 #include <sirupp/estop_t.hpp>
 #include <sirupp/hardware_command_t.hpp>
 #include <sirupp/hardware_status_t.hpp>
+#include <sirupp/servo_gains_t.hpp>
 #include <sirupp/servo_move_t.hpp>
 #include <sirupp/servo_setpoint_t.hpp>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -28,6 +37,7 @@
 #include "hardware/bridge_node.hpp"
 #include "hardware/emulator.hpp"
 #include "hardware/serial_port.hpp"
+#include "servo/chip_gains.hpp"
 
 namespace sirupp::hardware {
 namespace {
@@ -276,6 +286,41 @@ TEST(HardwareBridge, NothingMovesUnlessArmedLinkedAndWithinLimits) {
   for (size_t j = 0; j < now.size(); ++j) EXPECT_NEAR(now[j], held[j], 0.5 * kDeg) << j;
 }
 
+// A move the real arm refuses while linked (issue 23: a goal inside the 2 deg margin, or an
+// unbounded acceleration) is on HARDWARE_STATUS at once, in last_error, naming the move and the
+// reason in the fixed form "channel ARM_MOVE: move <id>: <reason>" the controller can act on.
+TEST(HardwareBridge, ARefusedMoveIsOnHardwareStatusAtOnceNamingTheMove) {
+  Rig rig;
+  rig.Ready();
+  rig.RunUntil(0.1, nullptr);
+  servo_move_t unbounded = Move({{0, 10}}, 41);
+  unbounded.acceleration[0] = 1e12;  // rad/s^2
+  const int64_t seq = rig.status.seq;
+  rig.bus.Publish("ARM_MOVE", unbounded);
+  rig.node->Service(0);  // handles the move, and only that
+  rig.bus.HandleAvailable();
+  EXPECT_GT(rig.status.seq, seq);
+  EXPECT_EQ(rig.status.last_error.rfind("channel ARM_MOVE: move 41: joint j1 (waist): "
+                                        "acceleration ",
+                                        0),
+            0u)
+      << rig.status.last_error;
+  EXPECT_NE(rig.status.last_error.find("is outside (0, 360 deg/s^2] (acceleration cap)"),
+            std::string::npos)
+      << rig.status.last_error;
+  rig.bus.Publish("ARM_MOVE", Move({{1, 156}}, 42));  // inside the joint's limits, not the margin
+  rig.node->Service(0);
+  rig.bus.HandleAvailable();
+  EXPECT_EQ(rig.status.last_error,
+            "channel ARM_MOVE: move 42: joint j2 (shoulder): goal 156 deg is outside the soft "
+            "limits [-155.5 deg, 155.5 deg]");
+  EXPECT_EQ(rig.Rejected("ARM_MOVE"), 2);
+  EXPECT_EQ(rig.node->moves_mirrored(), 0);
+  // It stays there (10 Hz) until something else replaces it.
+  rig.RunUntil(0.3, nullptr);
+  EXPECT_NE(rig.status.last_error.find("move 42"), std::string::npos);
+}
+
 TEST(HardwareBridge, EstopStopsAbruptlyAndTurnsTheMotorsOff) {
   Rig rig;
   rig.Ready();
@@ -392,6 +437,76 @@ TEST(HardwareBridge, ChecksumErrorsAndLostBytesUnderLoadAreRetried) {
             << " retries, no fault; joints 1-3 at " << Degrees(q, 3) << " deg (goal 90)\n";
 }
 
+// One law for virtual and real: gains on ARM_GAINS go to the boards (SET_GAIN), REAL_ARM_GAINS
+// reports what the modules acknowledged, the emulated arm moves by the new law, a bad message is
+// refused whole naming its field, and the gains persist over a reconnect (reset).
+TEST(HardwareBridge, GainsOnArmGainsReachTheBoardsAndChangeTheLaw) {
+  Rig rig;
+  std::vector<sirupp::servo_gains_t> reported;
+  rig.bus.Subscribe<sirupp::servo_gains_t>(
+      "REAL_ARM_GAINS",
+      [&reported](const sirupp::servo_gains_t& m, const core::ReceiveInfo&) {
+        reported.push_back(m);
+      },
+      100);
+  rig.Ready();
+  rig.RunUntil(0.1, nullptr);
+  ASSERT_FALSE(reported.empty()) << "published on connect";
+  EXPECT_EQ(reported.back().kp[1], 100);
+  // The upper arm level (j2 at 0 deg): the shoulder's servo holds it against gravity with an
+  // error of about G / Kp.
+  rig.bus.Publish("ARM_MOVE", Move({{1, 0}}, 1));
+  ASSERT_TRUE(rig.RunUntil(0.3, [&] { return !AllDone(rig); })) << rig.node->last_error();
+  ASSERT_TRUE(rig.RunUntil(8, [&] { return AllDone(rig); })) << rig.node->last_error();
+  rig.RunUntil(0.3, nullptr);
+  const int error_kp100 = std::abs(rig.node->reading().position_error[1]);
+
+  sirupp::servo_gains_t gains = servo::GainsMessage(servo::ChipGainsFromModel(Puma()));
+  gains.kp[1] = 400;
+  const size_t before = reported.size();
+  rig.bus.Publish("ARM_GAINS", gains);
+  rig.RunUntil(0.6, nullptr);
+  ASSERT_GT(reported.size(), before);
+  EXPECT_EQ(reported.back().kp[1], 400);
+  EXPECT_EQ(reported.back().kp[0], 100);
+  EXPECT_EQ(reported.back().kd[1], 1000);
+  EXPECT_EQ(rig.emulator->ModuleGains(1).kp, 400);
+  EXPECT_EQ(rig.emulator->ModuleGains(0).kp, 100);
+  const int error_kp400 = std::abs(rig.node->reading().position_error[1]);
+  EXPECT_LT(2 * error_kp400, error_kp100) << "the emulated shoulder holds by the new law";
+  EXPECT_EQ(rig.node->state(), hardware_status_t::STATE_LINKED) << rig.node->last_error();
+  // 1 Hz while nothing changes.
+  const size_t quiet = reported.size();
+  rig.RunUntil(1.2, nullptr);
+  EXPECT_GE(reported.size(), quiet + 1);
+
+  // One bad value: the whole message is refused, nothing changes (not even joint 1's Kp).
+  sirupp::servo_gains_t bad = gains;
+  bad.kp[0] = 250;
+  bad.kd[2] = 40000;
+  rig.bus.Publish("ARM_GAINS", bad);
+  rig.RunUntil(0.1, nullptr);
+  EXPECT_EQ(rig.Rejected("ARM_GAINS"), 1);
+  EXPECT_EQ(rig.node->last_error(),
+            "channel ARM_GAINS: kd[2]: 40000 (joint j3 elbow): allowed whole numbers 0..32767");
+  EXPECT_EQ(rig.status.last_error, rig.node->last_error());
+  EXPECT_EQ(rig.emulator->ModuleGains(0).kp, 100);
+  EXPECT_EQ(reported.back().kp[0], 100);
+  EXPECT_EQ(rig.link->gains()[0].kp, 100);
+  const std::string refusal = rig.node->last_error();
+
+  // The gains persist: a reconnect resets the modules and loads them again.
+  rig.Command(hardware_command_t::COMMAND_DISARM);
+  rig.Command(hardware_command_t::COMMAND_CONNECT);
+  EXPECT_EQ(rig.node->state(), hardware_status_t::STATE_CONNECTED) << rig.node->last_error();
+  EXPECT_EQ(rig.emulator->ModuleGains(1).kp, 400);
+  EXPECT_EQ(reported.back().kp[1], 400);
+  std::cout << "ARM_GAINS Kp 100 -> 400 on j2: REAL_ARM_GAINS kp[1] " << reported.back().kp[1]
+            << ", emulated module 2 Kp " << rig.emulator->ModuleGains(1).kp
+            << "; level shoulder held with " << error_kp100 << " -> " << error_kp400
+            << " counts of error; bad message: '" << refusal << "'\n";
+}
+
 TEST(HardwareBridge, ShutdownLeavesMotorsOffAndAmplifiersDisabled) {
   Rig rig;
   rig.Ready();
@@ -438,6 +553,378 @@ TEST(HardwareBridge, HomingOnTheIndexFindsTheJointsZero) {
   EXPECT_FALSE(stuck.link->calibrated());
 }
 
+// ---- A bridge restarted after a crash never calibrates blind (issue 23). ----
+
+BridgeSettings QuickSettings() {
+  BridgeSettings s = DefaultBridgeSettings(Puma());
+  s.calibration_pose = "ready";
+  s.reply_margin_ms = 100;
+  s.retries = 4;
+  return s;
+}
+
+// Boards that kept power after a bridge connected but never calibrated: the counters say nothing
+// about where the arm is, so calibrating by the pose is refused, naming what is needed; the arm
+// does not move. A bridge that found the boards fresh itself and has not driven the arm may
+// reconnect and still calibrate.
+TEST(HardwareBridge, BoardsThatKeptPowerUncalibratedAreNotCalibratedBlind) {
+  EmulatorOptions eo;
+  eo.model = Puma();
+  eo.start_positions = {0, -45 * kDeg, 90 * kDeg, 0, 45 * kDeg, 0};  // not the pose
+  Emulator emulator(eo);
+  emulator.Start();
+  const BridgeSettings settings = QuickSettings();
+  {
+    SerialPort port(emulator.device(), nmc::kPowerUpBaud);
+    ArmLink crashed(Puma(), settings, port);
+    crashed.Connect();  // then gone without a shutdown: the modules keep power and addresses
+    EXPECT_FALSE(crashed.resumed());
+    EXPECT_EQ(crashed.blind_reason(), "");
+  }
+  SerialPort port(emulator.device(), nmc::kPowerUpBaud);
+  ArmLink restarted(Puma(), settings, port);
+  restarted.Connect();
+  EXPECT_FALSE(restarted.resumed());
+  EXPECT_TRUE(restarted.connected());
+  EXPECT_NE(restarted.connect_report().find("kept power without a calibration (module 1 holds no "
+                                            "calibration (home register 0"),
+            std::string::npos)
+      << restarted.connect_report();
+  try {
+    restarted.Calibrate();
+    FAIL() << "calibrated blind";
+  } catch (const CalibrationRefused& e) {
+    const std::string what = e.what();
+    EXPECT_EQ(what.rfind("calibrate: refused: the modules on " + emulator.device() +
+                             " had kept power since an earlier connection, but module 1 holds no "
+                             "calibration",
+                         0),
+              0u)
+        << what;
+    EXPECT_NE(what.find("Needed: the arm shown to be in the calibration pose 'ready': switch the "
+                        "boards off and on with the arm in that pose"),
+              std::string::npos)
+        << what;
+    std::cout << "restarted on uncalibrated boards: '" << what << "'\n";
+  }
+  EXPECT_FALSE(restarted.calibrated());
+  EXPECT_THROW(restarted.Arm(), std::runtime_error);
+  EXPECT_NEAR(emulator.JointPositions()[1] / kDeg, -45, 0.01) << "nothing moved";
+
+  // Fresh boards, connected twice by the same bridge before calibrating: still allowed.
+  Emulator fresh_emulator(eo);
+  fresh_emulator.Start();
+  SerialPort fresh_port(fresh_emulator.device(), nmc::kPowerUpBaud);
+  ArmLink fresh(Puma(), settings, fresh_port);
+  fresh.Connect();
+  fresh.Connect();
+  EXPECT_EQ(fresh.blind_reason(), "");
+  EXPECT_NO_THROW(fresh.Calibrate());
+  EXPECT_TRUE(fresh.calibrated());
+}
+
+// Calibrated, the arm elsewhere: calibrating again is refused (it would define that place as the
+// pose); near the pose it is a correction and allowed. A reconnect resumes without a reset.
+TEST(HardwareBridge, ACalibratedArmAwayFromThePoseIsNotCalibratedAgain) {
+  Rig rig;
+  rig.Ready();
+  rig.bus.Publish("ARM_MOVE", Move({{0, 0}, {1, -44.5}}, 1));
+  ASSERT_TRUE(rig.RunUntil(0.3, [&] { return !AllDone(rig); })) << rig.node->last_error();
+  ASSERT_TRUE(rig.RunUntil(8, [&] { return AllDone(rig); })) << rig.node->last_error();
+  rig.Command(hardware_command_t::COMMAND_DISARM);
+  rig.Command(hardware_command_t::COMMAND_CALIBRATE);
+  EXPECT_EQ(rig.Rejected("HARDWARE_COMMAND"), 1);
+  EXPECT_NE(rig.node->last_error().find("calibrate: refused: the arm is calibrated, and its "
+                                        "counters put joint j2 (shoulder) at -4"),
+            std::string::npos)
+      << rig.node->last_error();
+  EXPECT_NE(rig.node->last_error().find("from the calibration pose 'ready' (-90 deg)"),
+            std::string::npos)
+      << rig.node->last_error();
+  // Connect again: the modules kept power and the marker, so nothing is reset.
+  rig.Command(hardware_command_t::COMMAND_CONNECT);
+  EXPECT_TRUE(rig.link->resumed());
+  EXPECT_TRUE(rig.link->calibrated());
+  rig.RunUntil(0.1, nullptr);
+  EXPECT_NEAR(rig.node->reading().position[1], rig.emulator->JointPositions()[1], 0.05 * kDeg);
+  EXPECT_EQ(rig.status.calibrated, 1);
+}
+
+// Starts a program with `args`, stdout and stderr to `log`; killed (SIGKILL) by the destructor
+// unless already reaped.
+struct Child {
+  Child(const std::vector<std::string>& args, const std::string& log) {
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, 1, log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+    posix_spawn_file_actions_adddup2(&actions, 1, 2);
+    std::vector<char*> argv;
+    for (const std::string& a : args) argv.push_back(const_cast<char*>(a.c_str()));
+    argv.push_back(nullptr);
+    if (posix_spawn(&pid, argv[0], &actions, nullptr, argv.data(), environ) != 0) pid = -1;
+    posix_spawn_file_actions_destroy(&actions);
+  }
+  ~Child() {
+    if (pid > 0) {
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, nullptr, 0);
+    }
+  }
+  // Sends `signal` (0: none, waits for it to end) and reaps; returns the wait status.
+  int Stop(int signal) {
+    int status = 0;
+    if (signal != 0) ::kill(pid, signal);
+    ::waitpid(pid, &status, 0);
+    pid = -1;
+    return status;
+  }
+  pid_t pid = -1;
+};
+
+std::string ReadFile(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// The issue's crash: sirupp-hardware (the process, with the layouts' flags) killed with SIGKILL in
+// the middle of a +45.5 deg move of the shoulder; the boards keep power and finish the move. The
+// restarted bridge, same flags, resumes from the counters: REAL_ARM_STATE matches the emulated
+// arm's true angles, and a move to 120 deg ends at 120 deg, where a blind calibration at the ready
+// pose (-90 deg) would have sent the shoulder 45.5 deg further, into its hard stop at 157.5 deg.
+TEST(HardwareBridge, ABridgeKilledMidMoveResumesFromTheBoardsCounters) {
+  const char* bin_dir = std::getenv("SIRUPP_BIN_DIR");
+  if (bin_dir == nullptr) GTEST_SKIP() << "SIRUPP_BIN_DIR not set (ctest sets it)";
+  char dir_template[] = "/tmp/sirupp_restart_XXXXXX";
+  ASSERT_NE(mkdtemp(dir_template), nullptr);
+  const std::string dir = dir_template;
+  struct RemoveDir {  // after everything below (the emulator removes its link itself)
+    std::string path;
+    ~RemoveDir() {
+      ::unlink((path + "/bridge1.log").c_str());
+      ::unlink((path + "/bridge2.log").c_str());
+      ::rmdir(path.c_str());
+    }
+  } remove_dir{dir};
+  EmulatorOptions eo;
+  eo.model = Puma();
+  eo.start_positions = {0, -90 * kDeg, 90 * kDeg, 0, 45 * kDeg, 0};  // the ready pose
+  eo.link = dir + "/puma-bus";
+  Emulator emulator(eo);
+  emulator.Start();
+  const std::string url =
+      "udpm://239.255.76.67:" + std::to_string(20000 + ::getpid() % 20000) + "?ttl=0";
+  core::Bus bus(url);
+  sirupp::arm_state_t state{};
+  int64_t states = 0;
+  hardware_status_t status{};
+  bus.Subscribe<sirupp::arm_state_t>(
+      "REAL_ARM_STATE",
+      [&](const sirupp::arm_state_t& m, const core::ReceiveInfo&) {
+        state = m;
+        ++states;
+      },
+      100);
+  bus.Subscribe<hardware_status_t>(
+      "HARDWARE_STATUS", [&](const hardware_status_t& m, const core::ReceiveInfo&) { status = m; },
+      100);
+  double highest_j2 = -1e9;
+  // Plays a live controller (CONTROLLER_STATUS at 10 Hz) and watches the true shoulder.
+  const auto pump = [&](double seconds, const std::function<bool()>& done) {
+    const auto end = Clock::now() + std::chrono::duration<double>(seconds);
+    auto next = Clock::now();
+    while (Clock::now() < end) {
+      if (Clock::now() >= next) {
+        bus.Publish("CONTROLLER_STATUS", sirupp::controller_status_t{});
+        next += std::chrono::milliseconds(100);
+      }
+      bus.Handle(5);
+      highest_j2 = std::max(highest_j2, emulator.JointPositions()[1] / kDeg);
+      if (done && done()) return true;
+    }
+    return false;
+  };
+  const std::vector<std::string> args = {std::string(bin_dir) + "/sirupp-hardware", "--port",
+                                         eo.link, "--emulated", "--calibrate", "--arm", "--link",
+                                         // patience with a loaded test machine; start guard 0.5 s
+                                         "--settings", "tests/data/hardware/patient.yaml",
+                                         "--lcm-url", url};
+  const std::string log1 = dir + "/bridge1.log";
+  const std::string log2 = dir + "/bridge2.log";
+  const auto linked = [&] { return status.state == hardware_status_t::STATE_LINKED; };
+  {
+    Child first(args, log1);
+    ASSERT_GT(first.pid, 0);
+    ASSERT_TRUE(pump(20, linked)) << ReadFile(log1);
+    // Past the start guard, the shoulder +45.5 deg; sent again until it moves.
+    const auto moving = [&] { return emulator.JointPositions()[1] > -80 * kDeg; };
+    bool started = false;
+    for (int i = 0; i < 20 && !started; ++i) {
+      bus.Publish("ARM_MOVE", Move({{1, -44.5}}, 1));
+      started = pump(0.5, moving);
+    }
+    ASSERT_TRUE(started) << status.last_error << "\n" << ReadFile(log1);
+    EXPECT_TRUE(WIFSIGNALED(first.Stop(SIGKILL)));
+  }
+  const double at_kill = emulator.JointPositions()[1] / kDeg;
+  status = hardware_status_t{};
+  pump(0.5, nullptr);  // the boards carry on alone
+  Child second(args, log2);
+  ASSERT_GT(second.pid, 0);
+  ASSERT_TRUE(pump(20, linked)) << ReadFile(log2);
+  const auto settled = [&] { return std::abs(emulator.JointPositions()[1] / kDeg + 44.5) < 1.5; };
+  ASSERT_TRUE(pump(8, settled)) << emulator.JointPositions()[1] / kDeg;
+  const int64_t before = states;
+  pump(0.5, nullptr);
+  ASSERT_GT(states, before);
+  const std::vector<double> truth = emulator.JointPositions();
+  const double state_j2 = state.position[1];
+  for (size_t j = 0; j < truth.size(); ++j) {
+    EXPECT_NEAR(state.position[j] / kDeg, truth[j] / kDeg, 0.3) << "joint " << j + 1;
+  }
+  EXPECT_EQ(status.calibrated, 1);
+  const std::string text = ReadFile(log2);
+  EXPECT_NE(text.find("resumed without a reset: the 6 modules on " + eo.link +
+                      " kept power and their calibration"),
+            std::string::npos)
+      << text;
+  EXPECT_NE(text.find("calibration kept from the boards' counters; not calibrating again"),
+            std::string::npos)
+      << text;
+  // Where a blind calibration would have driven into the stop.
+  const auto at_120 = [&] { return std::abs(emulator.JointPositions()[1] / kDeg - 120) < 1.5; };
+  bool arrived = false;
+  for (int i = 0; i < 10 && !arrived; ++i) {
+    bus.Publish("ARM_MOVE", Move({{1, 120}}, 2));
+    arrived = pump(1.5, at_120);
+  }
+  ASSERT_TRUE(arrived) << status.last_error << "\n" << ReadFile(log2);
+  pump(0.5, nullptr);
+  EXPECT_LT(highest_j2, 157.5 - 1) << "into the hard stop";
+  EXPECT_NEAR(state.position[1] / kDeg, emulator.JointPositions()[1] / kDeg, 0.3);
+  const int exit_status = second.Stop(SIGTERM);
+  EXPECT_TRUE(WIFEXITED(exit_status) && WEXITSTATUS(exit_status) == 0) << ReadFile(log2);
+  std::cout << "bridge killed mid-move at j2 " << FormatFixed(at_kill, 1)
+            << " deg; restarted: REAL_ARM_STATE j2 " << FormatFixed(state_j2 / kDeg, 2)
+            << " deg (true " << FormatFixed(truth[1] / kDeg, 2) << "), then to 120: true "
+            << FormatFixed(emulator.JointPositions()[1] / kDeg, 2) << " deg, highest "
+            << FormatFixed(highest_j2, 2) << " deg (stop at 157.5)\n";
+  emulator.Stop();
+}
+
+// ---- One bridge per port (issue 21). ----
+
+// In one process: the second open of a port is refused naming the holder; the lock goes with the
+// first, and a stale lock file (a killed holder's pid) is taken over.
+TEST(HardwareBridge, ASerialPortIsOneHoldersAlone) {
+  EmulatorOptions eo;
+  eo.model = Puma();
+  Emulator emulator(eo);
+  const std::string lock = SerialLockPath(emulator.device());
+  ASSERT_NE(lock, "");
+  EXPECT_NE(lock.find("/LCK..pts_"), std::string::npos) << lock;
+  {
+    SerialPort first(emulator.device(), nmc::kPowerUpBaud);
+    EXPECT_EQ(first.lock_path(), lock);
+    char uucp[16];
+    std::snprintf(uucp, sizeof uucp, "%10d\n", static_cast<int>(::getpid()));
+    EXPECT_EQ(ReadFile(lock), uucp) << "the pid, as the UUCP convention writes it";
+    try {
+      SerialPort second(emulator.device(), nmc::kPowerUpBaud);
+      FAIL() << "opened twice";
+    } catch (const SerialError& e) {
+      EXPECT_EQ(std::string(e.what()), emulator.device() + ": in use by pid " +
+                                           std::to_string(::getpid()) +
+                                           " (test_hardware_b), lock " + lock + "; stop it first");
+    }
+  }
+  EXPECT_NE(::access(lock.c_str(), F_OK), 0) << "removed with the port";
+  // A lock file left by a process that is gone.
+  {
+    std::ofstream stale(lock);
+    stale << "    999999\n";
+  }
+  SerialPort again(emulator.device(), nmc::kPowerUpBaud);
+  EXPECT_EQ(std::stol(ReadFile(lock)), ::getpid());
+}
+
+// Two sirupp-hardware processes on one emulator pty: the second is refused at once, naming the
+// first's pid, and the first carries on; once the first is gone (SIGTERM, then SIGKILL of a
+// third) the next one gets the port.
+TEST(HardwareBridge, ASecondBridgeOnTheSamePortIsRefusedNamingTheFirst) {
+  const char* bin_dir = std::getenv("SIRUPP_BIN_DIR");
+  if (bin_dir == nullptr) GTEST_SKIP() << "SIRUPP_BIN_DIR not set (ctest sets it)";
+  char dir_template[] = "/tmp/sirupp_twobridges_XXXXXX";
+  ASSERT_NE(mkdtemp(dir_template), nullptr);
+  const std::string dir = dir_template;
+  struct RemoveDir {
+    std::string path;
+    ~RemoveDir() {
+      for (const char* f : {"/1.log", "/2.log", "/3.log", "/4.log"}) ::unlink((path + f).c_str());
+      ::rmdir(path.c_str());
+    }
+  } remove_dir{dir};
+  EmulatorOptions eo;
+  eo.model = Puma();
+  eo.link = dir + "/puma-bus";
+  Emulator emulator(eo);
+  emulator.Start();
+  const std::string url =
+      "udpm://239.255.76.67:" + std::to_string(20000 + (::getpid() + 7) % 20000) + "?ttl=0";
+  core::Bus bus(url);
+  hardware_status_t status{};
+  bus.Subscribe<hardware_status_t>(
+      "HARDWARE_STATUS", [&](const hardware_status_t& m, const core::ReceiveInfo&) { status = m; },
+      100);
+  const auto wait_for = [&](double seconds, const std::function<bool()>& done) {
+    const auto end = Clock::now() + std::chrono::duration<double>(seconds);
+    while (Clock::now() < end) {
+      bus.Handle(5);
+      if (done()) return true;
+    }
+    return false;
+  };
+  const std::vector<std::string> args = {
+      std::string(bin_dir) + "/sirupp-hardware", "--port",    eo.link, "--emulated", "--settings",
+      "tests/data/hardware/patient.yaml",        "--lcm-url", url};
+  const auto connected = [&] { return status.state == hardware_status_t::STATE_CONNECTED; };
+  Child first(args, dir + "/1.log");
+  ASSERT_GT(first.pid, 0);
+  ASSERT_TRUE(wait_for(20, connected)) << ReadFile(dir + "/1.log");
+  {
+    Child second(args, dir + "/2.log");
+    ASSERT_GT(second.pid, 0);
+    const int second_status = second.Stop(0);  // it ends by itself: reap it
+    EXPECT_TRUE(WIFEXITED(second_status) && WEXITSTATUS(second_status) == 1);
+    const std::string text = ReadFile(dir + "/2.log");
+    EXPECT_NE(text.find("sirupp-hardware: " + eo.link + " (" + emulator.slave_path() +
+                        "): in use by pid " + std::to_string(first.pid) +
+                        " (sirupp-hardware), lock " + SerialLockPath(eo.link) + "; stop it first"),
+              std::string::npos)
+        << text;
+    std::cout << "second bridge: " << text.substr(0, text.find('\n')) << "\n";
+  }
+  const int64_t seq = status.seq;
+  ASSERT_TRUE(wait_for(5, [&] { return status.seq > seq + 5; })) << "the first carries on";
+  EXPECT_EQ(status.state, hardware_status_t::STATE_CONNECTED);
+  EXPECT_EQ(status.timeouts, 0);
+  const int first_status = first.Stop(SIGTERM);
+  EXPECT_TRUE(WIFEXITED(first_status) && WEXITSTATUS(first_status) == 0);
+  // Free again; a holder killed with SIGKILL leaves a stale lock, which the next one takes over.
+  status = hardware_status_t{};
+  Child third(args, dir + "/3.log");
+  ASSERT_TRUE(wait_for(20, connected)) << ReadFile(dir + "/3.log");
+  EXPECT_TRUE(WIFSIGNALED(third.Stop(SIGKILL)));
+  status = hardware_status_t{};
+  Child fourth(args, dir + "/4.log");
+  ASSERT_TRUE(wait_for(20, connected)) << ReadFile(dir + "/4.log");
+  const int fourth_status = fourth.Stop(SIGTERM);
+  EXPECT_TRUE(WIFEXITED(fourth_status) && WEXITSTATUS(fourth_status) == 0)
+      << ReadFile(dir + "/4.log");
+  emulator.Stop();
+}
+
 TEST(HardwareBridge, BadSettingsNameFileLineAndAllowedValues) {
   const auto error = [](const std::string& text) {
     try {
@@ -457,7 +944,11 @@ TEST(HardwareBridge, BadSettingsNameFileLineAndAllowedValues) {
   EXPECT_EQ(ParseBridgeSettings("retries: 1\n", "short.yaml", Puma()).baud, 230400);
   const BridgeSettings shipped = LoadBridgeSettings("config/hardware/puma260.yaml", Puma());
   EXPECT_EQ(shipped.calibration_pose, "ready");
-  EXPECT_NEAR(shipped.soft_limit_margin, 2 * kDeg, 1e-12);
+  EXPECT_NEAR(shipped.motion_limits.soft_limit_margin, 2 * kDeg, 1e-12);
+  // The shipped file keeps the model's motion limits, the ones the controller can check too.
+  const core::MotionLimits model_limits = core::DefaultMotionLimits(Puma());
+  EXPECT_EQ(shipped.motion_limits.acceleration_max, model_limits.acceleration_max);
+  EXPECT_EQ(shipped.motion_limits.velocity_cap_fraction, model_limits.velocity_cap_fraction);
 }
 
 }  // namespace

@@ -25,7 +25,7 @@
 #include "core/errors.hpp"
 #include "core/geometry.hpp"
 #include "core/heartbeat.hpp"
-#include "servo/gains_message.hpp"
+#include "servo/chip_gains.hpp"
 #include "servo/picservo.hpp"
 #include "tools/args.hpp"
 #include "tools/cli.hpp"
@@ -649,11 +649,7 @@ int RunGains(const std::vector<std::string>& args, std::ostream& out) {
                              ": allowed whole numbers");
     }
   }
-  std::vector<servo::JointGains> from_model;
-  for (const core::Joint& joint : model.joints) {
-    from_model.push_back(
-        {control::GainsFromModel(joint.servo), static_cast<int>(joint.servo.current_limit), 1});
-  }
+  const sirupp::servo_gains_t from_model = servo::GainsMessage(servo::ChipGainsFromModel(model));
   const auto apply_flags = [&](sirupp::servo_gains_t& message) {
     for (const Flag& flag : flags) {
       if (!parsed.Has(flag.name)) continue;
@@ -663,13 +659,13 @@ int RunGains(const std::vector<std::string>& args, std::ostream& out) {
       }
     }
     try {
-      servo::GainsFromMessage(message, "gains", n);
+      servo::ChipGainsFromMessage(message, model, "gains");
     } catch (const core::MessageError& error) {
       throw core::UsageError(std::string("gains: ") + error.what());
     }
   };
   if (change) {  // out-of-range values exit 2 before anything is sent
-    sirupp::servo_gains_t check = servo::GainsToMessage(from_model, 0, 0);
+    sirupp::servo_gains_t check = from_model;
     apply_flags(check);
   }
   core::Bus bus = BusFromArgs(parsed);
@@ -700,7 +696,7 @@ int RunGains(const std::vector<std::string>& args, std::ostream& out) {
   } else {
     out << "no live gains heard on " << bus.FullName(channels.controller_gains)
         << ": starting from the model's\n";
-    message = servo::GainsToMessage(from_model, 0, 0);
+    message = from_model;
   }
   message.utime = WallMicros();
   message.seq = 0;
