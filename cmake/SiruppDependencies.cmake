@@ -39,6 +39,9 @@ add_library(sirupp_ode_external INTERFACE)
 target_include_directories(sirupp_ode_external SYSTEM INTERFACE ${ODE_INCLUDE_DIR})
 target_link_libraries(sirupp_ode_external INTERFACE ${ODE_LIBRARY})
 
+# nlohmann::json (nlohmann-json3-dev, header-only) for the commands' --json output.
+find_package(nlohmann_json 3 REQUIRED)
+
 # TinyXML-2 (libtinyxml2-dev) for environment files; its CMake config defines tinyxml2::tinyxml2.
 find_package(tinyxml2 REQUIRED)
 

@@ -30,6 +30,8 @@ packages=(
   libosmesa6-dev libgl-dev libglu1-mesa-dev
   # strict config files with line numbers
   libyaml-cpp-dev libtinyxml2-dev
+  # --json output of the sirupp commands
+  nlohmann-json3-dev
   # tests; check_urdf for the URDF export, python3 to parse exported XML and JSON output
   libgtest-dev libgmock-dev liburdfdom-tools python3
   # multi-host tests (network namespaces), process tools
