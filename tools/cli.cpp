@@ -18,6 +18,7 @@
 #include "tools/hardware_commands.hpp"
 #include "tools/kinematics_commands.hpp"
 #include "tools/launch_commands.hpp"
+#include "tools/replay_commands.hpp"
 #include "tools/report_commands.hpp"
 #include "tools/sim_commands.hpp"
 #include "tools/spy_commands.hpp"
@@ -65,6 +66,7 @@ const char* const kUsage =
     "                             the bridge to the real arm (or sirupp-picservo-emu)\n"
     "  estop [--release]          emergency stop: real motors off, plans aborted\n"
     "  report FILE...             Table II report, CSV and plots of logger data files or LCM logs\n"
+    "  replay LOG [--speed X]     play an lcm-logger file back onto the bus, original timing\n"
     "  view [--channel NAME]      show sirupp-viewer's images in a window (needs a display)\n"
     "  help                       this text\n"
     "\n"
@@ -163,6 +165,10 @@ int RunCli(const Args& args, std::ostream& out, std::ostream& err) {
     if (command == "report") {
       if (wants_help) return out << kReportUsage, kExitOk;
       return RunReport(rest, out, err);
+    }
+    if (command == "replay") {
+      if (wants_help) return out << kReplayUsage, kExitOk;
+      return RunReplay(rest, out);
     }
     if (command == "reset") {
       if (wants_help) return out << kResetUsage, kExitOk;
