@@ -35,6 +35,8 @@ TEST(LogPrefix, LevelsAreInferred) {
             LogLevel::kWarn);
   EXPECT_EQ(InferLogLevel("tick 0: no answer from ghost"), LogLevel::kWarn);
   EXPECT_EQ(InferLogLevel("warning: late commands"), LogLevel::kWarn);
+  EXPECT_EQ(InferLogLevel("joint j5 tripped its position-error limit; plan aborted"),
+            LogLevel::kWarn);
 }
 
 TEST(LogPrefix, NameAndLevelWordMoveIntoThePrefix) {

@@ -67,8 +67,8 @@ LogLevel InferLogLevel(const std::string& message) {
     return LogLevel::kError;
   }
   if (StartsWith(text, "warn") || Contains(text, "warning") || Contains(text, "refused") ||
-      Contains(text, "not granted") || Contains(text, "no answer") || Contains(text, "estop") ||
-      Contains(text, "emergency stop")) {
+      Contains(text, "not granted") || Contains(text, "no answer") || Contains(text, "tripped") ||
+      Contains(text, "aborted") || Contains(text, "estop") || Contains(text, "emergency stop")) {
     return LogLevel::kWarn;
   }
   return LogLevel::kInfo;

@@ -27,7 +27,8 @@ std::string FormatLogTime(std::chrono::system_clock::time_point time);
 
 // The level a message (without the process name) reads as: error when it starts with "error" or
 // "fatal" or mentions "error:", a fault, "failed" or "cannot"; warn when it starts with "warn" or
-// mentions a warning, "refused", "not granted", "no answer" or an emergency stop; else info.
+// mentions a warning, "refused", "not granted", "no answer", "tripped", "aborted" or an
+// emergency stop; else info.
 LogLevel InferLogLevel(const std::string& message);
 
 // The whole prefixed line (without the newline) for `message` written by process `name`.
