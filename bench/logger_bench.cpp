@@ -146,10 +146,11 @@ int Run(int argc, char** argv) {
   const std::string text = err_text.str();
   const size_t summary = text.find(" rows in ");
   if (summary == std::string::npos ||
-      std::sscanf(text.c_str() + text.rfind("sirupp-logger: ", summary),
-                  "sirupp-logger: %lld rows in %lld file(s); messages set %lld, virt %lld, real "
-                  "%lld; lost set %lld, virt %lld, real %lld",
-                  &rows, &files, &got[0], &got[1], &got[2], &lost[0], &lost[1], &lost[2]) != 8) {
+      std::sscanf(
+          text.c_str() + text.rfind("sirupp-logger info: ", summary),
+          "sirupp-logger info: %lld rows in %lld file(s); messages set %lld, virt %lld, real "
+          "%lld; lost set %lld, virt %lld, real %lld",
+          &rows, &files, &got[0], &got[1], &got[2], &lost[0], &lost[1], &lost[2]) != 8) {
     std::cerr << "bench_logger: sirupp-logger (exit status " << status << ") did not print its "
               << "summary; its output:\n"
               << text;

@@ -7,69 +7,14 @@
 #include <cstdio>
 #include <cstring>
 #include <memory>
-#include <sstream>
 #include <stdexcept>
 
 #include "bench/reference_motion.hpp"
-#include "core/kinematics.hpp"
+#include "core/model_export.hpp"
 
 namespace sirupp::bench {
 
 namespace {
-
-// Shortest text that reads back as the same double, so MuJoCo sees exactly our numbers.
-std::string Num(double value) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.17g", value == 0 ? 0.0 : value);  // no "-0"
-  return text;
-}
-
-std::string Vec(const Eigen::Vector3d& v) {
-  return Num(v.x()) + " " + Num(v.y()) + " " + Num(v.z());
-}
-
-std::string Quat(const Eigen::Matrix3d& rotation) {
-  const Eigen::Quaterniond q(rotation);
-  return Num(q.w()) + " " + Num(q.x()) + " " + Num(q.y()) + " " + Num(q.z());
-}
-
-std::string Escape(const std::string& text) {
-  std::string out;
-  for (const char c : text) {
-    switch (c) {
-      case '&':
-        out += "&amp;";
-        break;
-      case '<':
-        out += "&lt;";
-        break;
-      case '>':
-        out += "&gt;";
-        break;
-      case '"':
-        out += "&quot;";
-        break;
-      case '\'':
-        out += "&apos;";
-        break;
-      default:
-        out += c;
-    }
-  }
-  return out;
-}
-
-// <inertial> of a link: centre of mass and mass, and the full inertia about the centre of mass in
-// the link's (= body's) axes. MuJoCo diagonalizes it itself; fullinertia keeps the off-diagonal
-// terms. MuJoCo's order is Ixx Iyy Izz Ixy Ixz Iyz.
-std::string Inertial(const core::Link& link) {
-  const Eigen::Matrix3d& i = link.inertia_kg_m2;
-  return "<inertial pos=\"" + Vec(link.com_m) + "\" mass=\"" + Num(link.mass_kg) +
-         "\" fullinertia=\"" + Num(i(0, 0)) + " " + Num(i(1, 1)) + " " + Num(i(2, 2)) + " " +
-         Num(i(0, 1)) + " " + Num(i(0, 2)) + " " + Num(i(1, 2)) + "\"/>";
-}
-
-std::string BodyName(size_t link) { return "link" + std::to_string(link); }
 
 // Frees a VFS and everything in it when it goes out of scope.
 struct VfsDeleter {
@@ -82,68 +27,13 @@ struct VfsDeleter {
 }  // namespace
 
 std::string MujocoXmlFromModel(const core::RobotModel& model, double step_s, bool with_friction) {
-  std::ostringstream xml;
-  const std::string pad = "  ";
-  xml << "<mujoco model=\"" << Escape(model.name) << "\">\n"
-      << pad << "<!-- SIRUPP robot model " << Escape(model.source_file)
-      << " for the physics benchmark; body linkI is DH frame I, joint qpos is the SIRUPP q. -->\n"
-      // No geoms: inertia comes only from the <inertial> elements, never balanced or altered.
-      // fusestatic off keeps the fixed base as its own body, so body ids follow the links.
-      << pad
-      << "<compiler angle=\"radian\" balanceinertia=\"false\" inertiafromgeom=\"false\" "
-         "fusestatic=\"false\"/>\n"
-      << pad << "<option timestep=\"" << Num(step_s) << "\" gravity=\"" << Vec(model.gravity_m_s2)
-      << "\" integrator=\"Euler\">\n"
-      << pad << pad << "<flag contact=\"disable\"/>\n"
-      << pad << "</option>\n"
-      << pad << "<worldbody>\n";
-
-  std::string indent = pad + pad;
-  const Eigen::Isometry3d base = model.base.ToIsometry();
-  xml << indent << "<body name=\"" << BodyName(0) << "\" pos=\"" << Vec(base.translation())
-      << "\" quat=\"" << Quat(base.linear()) << "\">\n";
-  // The base is welded to the world, so its mass changes nothing; it is kept for completeness.
-  if (model.links[0].mass_kg > 0) xml << indent << pad << Inertial(model.links[0]) << "\n";
-
-  for (size_t j = 0; j < model.joints.size(); ++j) {
-    const core::Joint& joint = model.joints[j];
-    const core::Link& link = model.links[j + 1];
-    indent += pad;
-    // Body j+1 sits at DH frame j+1 relative to DH frame j, at the build pose q = 0.
-    const Eigen::Isometry3d step = core::DhTransform(model.dh_convention, joint, 0.0);
-    const Eigen::Matrix3d& r = step.linear();
-    // The joint axis in body coordinates. Standard DH: joint j+1 moves about (or along) z of the
-    // parent frame through its origin: axis = R^T z, anchor = -R^T p. Modified DH: about z of the
-    // body's own frame through its origin. Turning the body about that line by q (or sliding it
-    // by q) gives exactly the DH transform at q, since Rz and Tz commute with each other.
-    Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
-    Eigen::Vector3d anchor = Eigen::Vector3d::Zero();
-    if (model.dh_convention == core::DhConvention::kStandard) {
-      axis = r.transpose() * Eigen::Vector3d::UnitZ();
-      anchor = -(r.transpose() * step.translation());
-    }
-    const bool revolute = joint.type == core::JointType::kRevolute;
-    xml << indent << "<body name=\"" << BodyName(j + 1) << "\" pos=\"" << Vec(step.translation())
-        << "\" quat=\"" << Quat(r) << "\">\n";
-    // ref = 0: the model is built at q = 0, so qpos is the SIRUPP joint variable q.
-    xml << indent << pad << "<joint name=\"" << Escape(joint.name) << "\" type=\""
-        << (revolute ? "hinge" : "slide") << "\" pos=\"" << Vec(anchor) << "\" axis=\"" << Vec(axis)
-        << "\" ref=\"0\" limited=\"true\" range=\"" << Num(joint.position_min) << " "
-        << Num(joint.position_max) << "\" armature=\"" << Num(joint.armature) << "\" damping=\""
-        << Num(joint.friction.viscous) << "\"";
-    // MuJoCo has one symmetric dry-friction level per joint (a frictionloss constraint): we give
-    // it the positive-direction Coulomb level. The negative level, the static break-away effort
-    // and the Stribeck decay of the SIRUPP friction model have no MuJoCo counterpart.
-    if (with_friction) xml << " frictionloss=\"" << Num(joint.friction.coulomb_positive) << "\"";
-    xml << "/>\n";
-    xml << indent << pad << Inertial(link) << "\n";
-  }
-  for (size_t j = model.joints.size() + 1; j-- > 0;) {
-    xml << pad << pad << std::string(2 * j, ' ') << "</body>\n";
-  }
-  xml << pad << "</worldbody>\n"
-      << "</mujoco>\n";
-  return xml.str();
+  core::MjcfOptions options;
+  options.timestep_s = step_s;
+  options.joint_friction = with_friction;
+  options.geoms = false;
+  options.contacts = false;
+  options.actuators = false;
+  return core::ExportMjcf(model, options);
 }
 
 MujocoArm::MujocoArm(const core::RobotModel& model, double step_s, bool with_friction) {
@@ -172,9 +62,10 @@ MujocoArm::MujocoArm(const core::RobotModel& model, double step_s, bool with_fri
   }
 
   const int n = model.num_joints();
+  const core::ExportNames names = core::MakeExportNames(model);
   for (int link = 0; link <= n; ++link) {
-    const int id = mj_name2id(model_, mjOBJ_BODY, BodyName(static_cast<size_t>(link)).c_str());
-    body_ids_.push_back(id);
+    const std::string& name = names.links[static_cast<size_t>(link)];
+    body_ids_.push_back(mj_name2id(model_, mjOBJ_BODY, name.c_str()));
   }
   bool consistent = model_->njnt == n && model_->nv == n && model_->nq == n;
   for (int j = 0; consistent && j < n; ++j) {

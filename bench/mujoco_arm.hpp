@@ -3,10 +3,10 @@
 // dependency of the project: this file is compiled only when CMake finds MuJoCo (it then defines
 // SIRUPP_HAVE_MUJOCO for the targets that link sirupp_bench_mujoco).
 //
-// The MJCF has one nested body per link whose frame is the link's DH frame: body "link0" is the
-// fixed base at model.base (DH frame 0), body "link<i>" is DH frame i. MuJoCo joint j is SIRUPP
-// joint j, and its qpos is the SIRUPP joint variable q_j (the model is built at q = 0). Efforts
-// are applied as generalized forces (qfrc_applied); there are no geoms, contacts or actuators.
+// The MJCF is `sirupp model export --mjcf` (core/model_export.hpp) without geoms, contacts or
+// actuators: one nested body per link whose frame is the link's DH frame (the base, DH frame 0, at
+// model.base). MuJoCo joint j is SIRUPP joint j, and its qpos is the SIRUPP joint variable q_j (the
+// model is built at q = 0). Efforts are applied as generalized forces (qfrc_applied).
 
 #include <Eigen/Geometry>
 #include <string>
@@ -21,7 +21,8 @@ namespace sirupp::bench {
 
 // MJCF text of `model`: Euler integrator with time step `step_s`, the model's gravity, contacts
 // off, joint limits, armature and viscous damping; with `with_friction` also each joint's dry
-// friction as MuJoCo's frictionloss (see the .cpp for what that leaves out).
+// friction as MuJoCo's frictionloss (the mean Coulomb level; docs/export.md says what that leaves
+// out).
 std::string MujocoXmlFromModel(const core::RobotModel& model, double step_s, bool with_friction);
 
 class MujocoArm {

@@ -39,6 +39,9 @@ add_library(sirupp_ode_external INTERFACE)
 target_include_directories(sirupp_ode_external SYSTEM INTERFACE ${ODE_INCLUDE_DIR})
 target_link_libraries(sirupp_ode_external INTERFACE ${ODE_LIBRARY})
 
+# nlohmann::json (nlohmann-json3-dev, header-only) for the commands' --json output.
+find_package(nlohmann_json 3 REQUIRED)
+
 # TinyXML-2 (libtinyxml2-dev) for environment files; its CMake config defines tinyxml2::tinyxml2.
 find_package(tinyxml2 REQUIRED)
 
@@ -58,4 +61,27 @@ if(NOT TARGET sirupp_opencv_external)
   target_include_directories(sirupp_opencv_external SYSTEM INTERFACE ${OpenCV_CORE_INCLUDE_DIR})
   target_link_libraries(sirupp_opencv_external INTERFACE ${OpenCV_IMGCODECS_LIBRARY}
                         ${OpenCV_IMGPROC_LIBRARY} ${OpenCV_CORE_LIBRARY})
+endif()
+
+# MuJoCo (libmujoco-dev, `scripts/install-deps.sh --peers`) is a peer only, never a dependency:
+# bench/ compares against it and tests/ use it as an oracle for the MJCF export; both build and
+# run without it (the tests then skip, saying why).
+find_package(mujoco QUIET)
+if(mujoco_FOUND AND TARGET mujoco::mujoco)
+  # Debian's mujoco config lists /usr/include/libqhull_r/ among its include directories although
+  # MuJoCo's public headers never use qhull; CMake refuses an imported target whose include path
+  # is missing, so keep only the directories that exist.
+  get_target_property(sirupp_mujoco_includes mujoco::mujoco INTERFACE_INCLUDE_DIRECTORIES)
+  set(sirupp_mujoco_existing "")
+  foreach(dir IN LISTS sirupp_mujoco_includes)
+    if(EXISTS "${dir}")
+      list(APPEND sirupp_mujoco_existing "${dir}")
+    endif()
+  endforeach()
+  set_target_properties(mujoco::mujoco PROPERTIES INTERFACE_INCLUDE_DIRECTORIES
+                                                  "${sirupp_mujoco_existing}")
+  message(STATUS "sirupp: MuJoCo ${mujoco_VERSION} found (benchmark peer, MJCF export oracle)")
+else()
+  message(STATUS "sirupp: MuJoCo not found (libmujoco-dev): bench_mujoco_check not built, "
+                 "MJCF export tests skip")
 endif()

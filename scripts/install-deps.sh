@@ -3,7 +3,8 @@
 # Idempotent: when everything is present it only runs dpkg-query (well under a second).
 # Usage: scripts/install-deps.sh [--check] [--peers]
 #   --check  list what is missing, install nothing
-#   --peers  also install the benchmark peers (KDL, MuJoCo; compared against in bench/); never needed to build
+#   --peers  also install the peers (KDL, MuJoCo; compared against in bench/, MuJoCo also the oracle
+#            of the MJCF export's tests, which skip without it); never needed to build
 set -euo pipefail
 check=0
 peers=0
@@ -29,8 +30,10 @@ packages=(
   libosmesa6-dev libgl-dev libglu1-mesa-dev
   # strict config files with line numbers
   libyaml-cpp-dev libtinyxml2-dev
-  # tests
-  libgtest-dev libgmock-dev
+  # --json output of the sirupp commands
+  nlohmann-json3-dev
+  # tests; check_urdf for the URDF export, python3 to parse exported XML and JSON output
+  libgtest-dev libgmock-dev liburdfdom-tools python3
   # multi-host tests (network namespaces), process tools
   iproute2 procps
   # an X server without a screen, for the test that starts lcm-spy (sirupp spy)

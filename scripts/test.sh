@@ -1,15 +1,20 @@
 #!/usr/bin/env bash
-# Installs what is missing, builds (warnings are errors) and runs every test with CTest.
-#   scripts/test.sh            the normal build
+# Installs what is missing, builds and runs every test with CTest.
+#   scripts/test.sh            the normal build (warnings shown, not errors)
+#   scripts/test.sh --werror   warnings are errors (CI; or SIRUPP_WERROR=1)
 #   scripts/test.sh --asan     the same tests under AddressSanitizer + UBSan (build-asan/)
 #   scripts/test.sh --tsan     under ThreadSanitizer (build-tsan/)
-# Further arguments go to ctest (e.g. -R Bus to run only matching tests).
+# Options may be combined (--asan --werror). Further arguments go to ctest (e.g. -R Bus to run
+# only matching tests).
 set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 build_args=()
-case "${1:-}" in
-  --asan|--tsan) build_args=("$1"); shift ;;
-esac
+while [[ $# -gt 0 ]]; do
+  case "$1" in
+    --asan|--tsan|--werror) build_args+=("$1"); shift ;;
+    *) break ;;
+  esac
+done
 build=$("$root/scripts/build.sh" "${build_args[@]}" | tail -n 1)
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}

@@ -14,9 +14,11 @@
 #include "tools/control_commands.hpp"
 #include "tools/demo_commands.hpp"
 #include "tools/environment_commands.hpp"
+#include "tools/export_commands.hpp"
 #include "tools/hardware_commands.hpp"
 #include "tools/kinematics_commands.hpp"
 #include "tools/launch_commands.hpp"
+#include "tools/replay_commands.hpp"
 #include "tools/report_commands.hpp"
 #include "tools/sim_commands.hpp"
 #include "tools/spy_commands.hpp"
@@ -45,6 +47,7 @@ const char* const kUsage =
     "  spy [--lcm-url URL]        lcm-spy with our types: every channel decodes by name\n"
     "  model check FILE...        validate robot model files; exit 2 on the first bad one\n"
     "  model show FILE            print the DH table and link data, in SI and the file's units\n"
+    "  model export --urdf F | --mjcf F MODEL   the model as URDF or MJCF for other tools\n"
     "  fk --model FILE --deg Q..  tool pose for joint positions (see sirupp fk --help)\n"
     "  ik --model FILE --pose X Y Z ROLL PITCH YAW   joint solutions (see sirupp ik --help)\n"
     "  env check FILE...          validate environment files (objects around the robot); exit 2 on "
@@ -64,6 +67,7 @@ const char* const kUsage =
     "                             the bridge to the real arm (or sirupp-picservo-emu)\n"
     "  estop [--release]          emergency stop: real motors off, plans aborted\n"
     "  report FILE...             Table II report, CSV and plots of logger data files or LCM logs\n"
+    "  replay LOG [--speed X]     play an lcm-logger file back onto the bus, original timing\n"
     "  view [--channel NAME]      show sirupp-viewer's images in a window (needs a display)\n"
     "  help                       this text\n"
     "\n"
@@ -169,6 +173,10 @@ int RunCli(const Args& args, std::ostream& out, std::ostream& err) {
       if (wants_help) return out << kReportUsage, kExitOk;
       return RunReport(rest, out, err);
     }
+    if (command == "replay") {
+      if (wants_help) return out << kReplayUsage, kExitOk;
+      return RunReplay(rest, out);
+    }
     if (command == "reset") {
       if (wants_help) return out << kResetUsage, kExitOk;
       return RunReset(rest, out);
@@ -178,11 +186,19 @@ int RunCli(const Args& args, std::ostream& out, std::ostream& err) {
       return RunEnv(rest, out, err);
     }
     if (command == "model") {
-      if (rest.empty()) throw core::UsageError("model: expected a subcommand: check or show");
+      if (rest.empty())
+        throw core::UsageError("model: expected a subcommand: check, show or export");
       const Args files(rest.begin() + 1, rest.end());
       if (rest[0] == "check") return ModelCheck(files, out);
       if (rest[0] == "show") return ModelShow(files, out);
-      throw core::UsageError("model: unknown subcommand '" + rest[0] + "'; allowed: check, show");
+      if (rest[0] == "export") {
+        if (!files.empty() && (files[0] == "--help" || files[0] == "-h")) {
+          return out << kModelExportUsage, kExitOk;
+        }
+        return RunModelExport(files, out);
+      }
+      throw core::UsageError("model: unknown subcommand '" + rest[0] +
+                             "'; allowed: check, show, export");
     }
     throw core::UsageError("unknown command '" + command + "'; run 'sirupp help'");
   } catch (const core::UsageError& error) {

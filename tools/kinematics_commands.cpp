@@ -9,6 +9,7 @@
 #include "core/inverse_kinematics.hpp"
 #include "core/model_loader.hpp"
 #include "tools/args.hpp"
+#include "tools/json_output.hpp"
 
 namespace sirupp::tools {
 
@@ -36,28 +37,7 @@ const char* const kIkUsage =
 
 namespace {
 
-std::string Num(double value) { return std::isfinite(value) ? core::FormatNumber(value) : "null"; }
-
-std::string JsonArray(const std::vector<double>& values) {
-  std::string text = "[";
-  for (size_t i = 0; i < values.size(); ++i) text += (i ? ", " : "") + Num(values[i]);
-  return text + "]";
-}
-
-std::string JsonString(const std::string& text) {
-  std::string quoted = "\"";
-  for (char c : text) {
-    if (c == '"' || c == '\\') quoted += '\\';
-    quoted += c;
-  }
-  return quoted + "\"";
-}
-
-std::string JsonStrings(const std::vector<std::string>& texts) {
-  std::string list = "[";
-  for (size_t i = 0; i < texts.size(); ++i) list += (i ? ", " : "") + JsonString(texts[i]);
-  return list + "]";
-}
+constexpr const char* kJointUnits = "deg (revolute), m (prismatic)";
 
 std::string Fixed(double value, int decimals = 4) {
   char buffer[64];
@@ -143,18 +123,20 @@ int RunFk(const std::vector<std::string>& raw, std::ostream& out) {
   const double unit = model.file_length_unit_m;
 
   if (json) {
-    out << "{\"model\": " << JsonString(model.name)
-        << ", \"joints\": " << JsonArray(ForPeople(model, q))
-        << ", \"joint_units\": \"deg (revolute), m (prismatic)\", \"position_m\": "
-        << JsonArray({p.x(), p.y(), p.z()})
-        << ", \"position_file_units\": " << JsonArray({p.x() / unit, p.y() / unit, p.z() / unit})
-        << ", \"file_length_unit\": " << JsonString(model.file_length_unit) << ", \"rotation\": ["
-        << JsonArray({r(0, 0), r(0, 1), r(0, 2)}) << ", " << JsonArray({r(1, 0), r(1, 1), r(1, 2)})
-        << ", " << JsonArray({r(2, 0), r(2, 1), r(2, 2)})
-        << "], \"rpy_deg\": " << JsonArray({rpy.x(), rpy.y(), rpy.z()})
-        << ", \"quaternion_wxyz\": " << JsonArray({quat.w(), quat.x(), quat.y(), quat.z()})
-        << ", \"manipulability\": " << Num(manipulability)
-        << ", \"singularities\": " << JsonStrings(singular) << "}\n";
+    WriteJsonLine(out, Json{{"model", model.name},
+                            {"joints", ForPeople(model, q)},
+                            {"joint_units", kJointUnits},
+                            {"position_m", {p.x(), p.y(), p.z()}},
+                            {"position_file_units", {p.x() / unit, p.y() / unit, p.z() / unit}},
+                            {"file_length_unit", model.file_length_unit},
+                            {"rotation",
+                             {{r(0, 0), r(0, 1), r(0, 2)},
+                              {r(1, 0), r(1, 1), r(1, 2)},
+                              {r(2, 0), r(2, 1), r(2, 2)}}},
+                            {"rpy_deg", {rpy.x(), rpy.y(), rpy.z()}},
+                            {"quaternion_wxyz", {quat.w(), quat.x(), quat.y(), quat.z()}},
+                            {"manipulability", manipulability},
+                            {"singularities", singular}});
     return 0;
   }
   out << model.name << " at joints " << JointText(ForPeople(model, q))
@@ -243,23 +225,23 @@ int RunIk(const std::vector<std::string>& raw, std::ostream& out) {
   }
 
   if (json) {
-    out << "{\"model\": " << JsonString(model.name)
-        << ", \"solver\": " << JsonString(closed_form ? "closed-form" : "numeric")
-        << ", \"ok\": " << (failure.empty() ? "true" : "false") << ", \"reason\": "
-        << (failure.empty()
-                ? std::string("null")
-                : JsonString(std::string(core::IkFailureName(result.failure)) + ": " + failure))
-        << ", \"joint_units\": \"deg (revolute), m (prismatic)\", \"solutions\": [";
-    for (size_t i = 0; i < shown.size(); ++i) {
-      const core::IkSolution& s = *shown[i];
-      out << (i ? ", " : "")
-          << "{\"config\": " << (s.config ? JsonString(s.config->Name()) : std::string("null"))
-          << ", \"joints\": " << JsonArray(ForPeople(model, s.q))
-          << ", \"position_error_m\": " << Num(s.error.position_m)
-          << ", \"rotation_error_rad\": " << Num(s.error.rotation_rad)
-          << ", \"singularities\": " << JsonStrings(s.singularities) << "}";
+    Json solutions = Json::array();
+    for (const core::IkSolution* s : shown) {
+      solutions.push_back({{"config", s->config ? Json(s->config->Name()) : Json(nullptr)},
+                           {"joints", ForPeople(model, s->q)},
+                           {"position_error_m", s->error.position_m},
+                           {"rotation_error_rad", s->error.rotation_rad},
+                           {"singularities", s->singularities}});
     }
-    out << "]}\n";
+    WriteJsonLine(out, Json{{"model", model.name},
+                            {"solver", closed_form ? "closed-form" : "numeric"},
+                            {"ok", failure.empty()},
+                            {"reason", failure.empty()
+                                           ? Json(nullptr)
+                                           : Json(std::string(core::IkFailureName(result.failure)) +
+                                                  ": " + failure)},
+                            {"joint_units", kJointUnits},
+                            {"solutions", std::move(solutions)}});
     return failure.empty() ? 0 : 1;
   }
   out << model.name << ": target [" << Fixed(pose[0], 4) << " " << Fixed(pose[1], 4) << " "

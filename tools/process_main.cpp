@@ -13,6 +13,7 @@
 
 #include "core/bus.hpp"
 #include "core/errors.hpp"
+#include "tools/log_prefix.hpp"
 
 namespace sirupp::tools {
 namespace {
@@ -31,16 +32,20 @@ int ProcessMain(int argc, char** argv, const char* name, const char* usage,
       return 0;
     }
   }
+  // Every line the process writes to std::cerr or std::cout from here on carries the time, its
+  // name and a level (log_prefix.hpp).
+  const LogPrefix prefix(name);
   try {
     return run(args);
   } catch (const core::UsageError& error) {
-    std::cerr << error.what() << "\n" << usage;
+    LogError(std::cerr) << error.what() << "\n";
+    std::ostream(prefix.original(std::cerr)) << usage;  // the usage text as it is, unprefixed
     return 2;
   } catch (const core::ConfigError& error) {
-    std::cerr << name << ": " << error.what() << "\n";
+    LogError(std::cerr) << name << ": " << error.what() << "\n";
     return 2;
   } catch (const std::exception& error) {
-    std::cerr << name << ": " << error.what() << "\n";
+    LogError(std::cerr) << name << ": " << error.what() << "\n";
     return 1;
   }
 }

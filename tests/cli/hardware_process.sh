@@ -42,7 +42,7 @@ for _ in $(seq 100); do [[ -L "$work/bus" ]] && break; sleep 0.05; done
   --settings tests/data/hardware/quick_guard.yaml 2>"$work/hw.err" &
 hw=$!
 for _ in $(seq 100); do grep -q "polling at" "$work/hw.err" && break; sleep 0.05; done
-has started "$work/hw.err" "sirupp-hardware: 6 modules on $work/bus at 230400 baud"
+has started "$work/hw.err" "sirupp-hardware info: 6 modules on $work/bus at 230400 baud"
 
 run refused_arm 1 hardware arm --lcm-url "$URL"
 has refused_arm "$out" "refused by sirupp-hardware: channel HARDWARE_COMMAND:"

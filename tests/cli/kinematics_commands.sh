@@ -10,7 +10,7 @@ has "fk zero position" "$out" "tool position     [0.203200 -0.142240 0.589280] m
 has "fk zero rotation" "$out" "rotation matrix   [1.000000 0.000000 0.000000]"
 has "fk zero singular" "$out" "singularities     wrist"
 run "fk json" 0 fk --model $puma --rad 0 0 0 0 0 0 --json
-has "fk json" "$out" '"position_m": [0.2032, -0.14224, 0.58928]'
+has "fk json" "$out" '"position_m":[0.2032,-0.14224,0.58928]'
 run "fk help" 0 fk --help
 has "fk help" "$out" "R = Rz(yaw) Ry(pitch) Rx(roll)"
 
@@ -23,7 +23,7 @@ run "ik config" 0 ik --model $puma --pose 0.2 -0.14 0.5 0 90 0 --config left-up-
 run "ik nearest" 0 ik --model $puma --pose 0.2 -0.14 0.5 0 90 0 --config nearest --from 90 -70 -20 90 -90 80
 has "ik nearest" "$out" "left-up-flip"
 run "ik json" 0 ik --model $puma --pose 0.2 -0.14 0.5 0 90 0 --json
-has "ik json" "$out" '"solver": "closed-form", "ok": true'
+has "ik json" "$out" '"solver":"closed-form","ok":true'
 run "ik numeric planar" 0 ik --model config/robots/planar3.yaml --pose 0.45 0 0.75 90 0 0
 has "ik numeric planar" "$out" "numeric solver"
 

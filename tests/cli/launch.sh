@@ -78,7 +78,7 @@ launcher=""
 has "stop sim" "$dir/launch.out" "stopped sim (exit code 0)"
 has "stop control" "$dir/launch.out" "stopped control (exit code 0)"
 has "failure named" "$dir/launch.out" "control: killed by SIGKILL"
-has "log file" "$dir/run/logs/sim.log" "sirupp-sim: puma260"
+has "log file" "$dir/run/logs/sim.log" "sirupp-sim info: puma260"
 pgrep -f "$dir/lab.yaml" >/dev/null && { echo "FAIL: a launcher is left"; fail=1; }
 
 # A clean run with --duration: exit 0.

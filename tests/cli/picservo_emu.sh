@@ -27,7 +27,7 @@ for _ in $(seq 100); do
   grep -q "modules on" "$work/emu.out" && break
   sleep 0.05
 done
-has start_line "$work/emu.out" "sirupp-picservo-emu: 3 modules on /dev/pts/"
+has start_line "$work/emu.out" "sirupp-picservo-emu info: 3 modules on /dev/pts/"
 has start_line "$work/emu.out" "(linked as $work/bus)"
 lines start_line "$work/emu.out" 1
 [[ -L "$work/bus" && -c "$work/bus" ]] || { echo "FAIL link: $work/bus is not a link to a device"; fail=1; }
@@ -36,7 +36,7 @@ kill -TERM $pid
 wait $pid
 rc=$?
 [[ $rc -eq 0 ]] || { echo "FAIL sigterm: exit $rc"; cat "$work/emu.out" "$work/emu.err"; fail=1; }
-has counters "$work/emu.out" "sirupp-picservo-emu: stopped: 0 commands, 0 checksum errors, 0 replies"
+has counters "$work/emu.out" "sirupp-picservo-emu info: stopped: 0 commands, 0 checksum errors, 0 replies"
 has counters "$work/emu.out" "servo ticks"
 has fault "$work/emu.err" "on module 2"
 [[ ! -e "$work/bus" ]] || { echo "FAIL link: still there after exit"; fail=1; }

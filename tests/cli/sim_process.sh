@@ -70,7 +70,7 @@ for _ in $(seq 1 300); do kill -0 "$sim" 2>/dev/null || break; sleep 0.1; done
 kill "$sim" "$control" 2>/dev/null  # the sim has normally ended by itself; never wait forever
 wait "$sim" "$control" 2>/dev/null
 cat "$work/move.out" "$work/loop.sim" "$work/loop.control"
-q1=$(sed -n 's/^sirupp-sim: final joint positions (rad or m): \([^ ]*\).*/\1/p' "$work/loop.sim")
+q1=$(sed -n 's/^.* sirupp-sim info: final joint positions (rad or m): \([^ ]*\).*/\1/p' "$work/loop.sim")
 [ -n "$q1" ] || fail "the sim did not finish its 5 s"
 awk -v q="$q1" 'BEGIN { d = q - 1.5707963; exit !(d < 0.0175 && d > -0.0175) }' ||
   fail "joint 1 ended at $q1 rad, not within 1 degree of 90"

@@ -32,7 +32,7 @@ wait_for() {
 # Checks the sim's "final joint positions" line in file $1 against the target; prints the errors.
 check_final() {
   local final
-  final=$(sed -n 's/^sirupp-sim: final joint positions (rad or m): //p' "$1")
+  final=$(sed -n 's/^.* sirupp-sim info: final joint positions (rad or m): //p' "$1")
   [ -n "$final" ] || fail "the sim did not finish its ${DURATION_S} s: $(cat "$1")"
   awk -v final="$final" -v target="${TARGET_DEG[*]}" -v tol="$TOLERANCE_DEG" 'BEGIN {
     n = split(final, q, " "); split(target, t, " "); worst = 0; line = ""
