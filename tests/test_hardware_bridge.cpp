@@ -898,7 +898,7 @@ TEST(HardwareBridge, ASecondBridgeOnTheSamePortIsRefusedNamingTheFirst) {
     const int second_status = second.Stop(0);  // it ends by itself: reap it
     EXPECT_TRUE(WIFEXITED(second_status) && WEXITSTATUS(second_status) == 1);
     const std::string text = ReadFile(dir + "/2.log");
-    EXPECT_NE(text.find("sirupp-hardware: " + eo.link + " (" + emulator.slave_path() +
+    EXPECT_NE(text.find(eo.link + " (" + emulator.slave_path() +
                         "): in use by pid " + std::to_string(first.pid) +
                         " (sirupp-hardware), lock " + SerialLockPath(eo.link) + "; stop it first"),
               std::string::npos)
