@@ -7,6 +7,7 @@
 #include <cstring>
 #include <filesystem>
 #include <optional>
+#include <unordered_map>
 #include <utility>
 
 #include "core/errors.hpp"
@@ -545,6 +546,18 @@ Environment ParseEnvironment(const std::string& xml_text, const std::string& fil
       root.Name(root.Require("name", "the environment's name"), "a non-empty environment name");
   const Units units = ReadUnits(root);
 
+  // Object counts against the limits: the whole file is read first, so that the message can say
+  // how many objects it has.
+  struct ObjectCount {
+    const char* kind;
+    size_t limit;
+    size_t count = 0;
+    int first_over_line = 0;
+    std::string first_over_path;
+  };
+  ObjectCount statics{"static", kMaxStaticObjects, 0, 0, ""};
+  ObjectCount frees{"free", kMaxFreeObjects, 0, 0, ""};
+  std::unordered_map<std::string, size_t> names;  // object name -> index
   for (const XMLNode* node = root_element.FirstChild(); node != nullptr;
        node = node->NextSibling()) {
     if (node->ToComment() != nullptr) continue;
@@ -560,18 +573,32 @@ Environment ParseEnvironment(const std::string& xml_text, const std::string& fil
                                            ">; allowed elements: " + JoinNames(kObjectElements));
     }
     EnvironmentObject object = ReadObject(*element, environment.objects.size(), units, file_name);
-    for (const EnvironmentObject& earlier : environment.objects) {
-      if (earlier.name == object.name) {
-        const XMLAttribute* name = element->FindAttribute("name");
-        throw ConfigError(SourceLocation{file_name, name->GetLineNum(), 0},
-                          ObjectPath(*element, environment.objects.size()) + ".name",
-                          "\"" + object.name + "\" is already the name of the " +
-                              ShapeTypeName(earlier.shape.type) + " on line " +
-                              std::to_string(earlier.source_line) +
-                              "; expected unique object names");
-      }
+    const auto [earlier_index, unique] = names.emplace(object.name, environment.objects.size());
+    if (!unique) {
+      const EnvironmentObject& earlier = environment.objects[earlier_index->second];
+      const XMLAttribute* name = element->FindAttribute("name");
+      throw ConfigError(SourceLocation{file_name, name->GetLineNum(), 0},
+                        ObjectPath(*element, environment.objects.size()) + ".name",
+                        "\"" + object.name + "\" is already the name of the " +
+                            ShapeTypeName(earlier.shape.type) + " on line " +
+                            std::to_string(earlier.source_line) + "; expected unique object names");
+    }
+    ObjectCount& count = object.is_static ? statics : frees;
+    if (++count.count == count.limit + 1) {
+      count.first_over_line = element->GetLineNum();
+      count.first_over_path = ObjectPath(*element, environment.objects.size());
     }
     environment.objects.push_back(std::move(object));
+  }
+  for (const ObjectCount* count : {&statics, &frees}) {
+    if (count->count > count->limit) {
+      throw ConfigError(SourceLocation{file_name, count->first_over_line, 0},
+                        count->first_over_path,
+                        "the file has " + std::to_string(count->count) + " " + count->kind +
+                            " objects; allowed at most " + std::to_string(count->limit) +
+                            " (this is the first one over the limit; docs/environment-format.md, "
+                            "\"Limits\")");
+    }
   }
   return environment;
 }
@@ -611,17 +638,28 @@ Environment EnvironmentFromMessage(const sirupp::environment_t& message,
   Environment environment;
   environment.name = message.name;
   environment.source_file = message.source_file;
+  std::unordered_map<std::string, size_t> names;  // object name -> index
+  size_t statics = 0;
+  size_t frees = 0;
   for (size_t i = 0; i < message.objects.size(); ++i) {
     const std::string field = Indexed("objects", i);
     EnvironmentObject object = ObjectFromMessage(message.objects[i], channel, field);
-    for (size_t k = 0; k < environment.objects.size(); ++k) {
-      if (environment.objects[k].name == object.name) {
-        throw MessageError(channel, field + ".name",
-                           "\"" + object.name + "\" is already the name of " +
-                               Indexed("objects", k) + "; expected unique object names");
-      }
+    const auto [earlier, unique] = names.emplace(object.name, i);
+    if (!unique) {
+      throw MessageError(channel, field + ".name",
+                         "\"" + object.name + "\" is already the name of " +
+                             Indexed("objects", earlier->second) +
+                             "; expected unique object names");
     }
+    ++(object.is_static ? statics : frees);
     environment.objects.push_back(std::move(object));
+  }
+  if (statics > kMaxStaticObjects || frees > kMaxFreeObjects) {
+    const bool too_many_static = statics > kMaxStaticObjects;
+    throw MessageError(channel, "objects",
+                       std::to_string(too_many_static ? statics : frees) +
+                           (too_many_static ? " static" : " free") + " objects; allowed at most " +
+                           std::to_string(too_many_static ? kMaxStaticObjects : kMaxFreeObjects));
   }
   return environment;
 }
