@@ -12,6 +12,7 @@
 
 #include "core/errors.hpp"
 #include "core/message_helpers.hpp"
+#include "core/printable.hpp"
 #include "core/yaml_reader.hpp"  // NumberRule, ReadTextFile
 
 namespace sirupp::core {
@@ -140,11 +141,11 @@ class ElementReader {
   int line() const { return element_.GetLineNum(); }
 
   [[noreturn]] void Fail(int line, const std::string& problem) const {
-    throw ConfigError(SourceLocation{file_, line, 0}, path_, problem);
+    throw ConfigError(SourceLocation{file_, line, 0}, Printable(path_, 256), Printable(problem));
   }
   [[noreturn]] void Fail(const XMLAttribute& attribute, const std::string& problem) const {
     throw ConfigError(SourceLocation{file_, attribute.GetLineNum(), 0},
-                      path_ + "." + attribute.Name(), problem);
+                      Printable(path_ + "." + attribute.Name(), 256), Printable(problem));
   }
 
   void CheckAttributes(const std::vector<std::string>& allowed) const {
@@ -412,7 +413,7 @@ std::string SyntaxProblem(const XMLDocument& document) {
 }
 
 [[noreturn]] void FailAt(const std::string& file, int line, const std::string& problem) {
-  throw ConfigError(SourceLocation{file, line, 0}, "", problem);
+  throw ConfigError(SourceLocation{file, line, 0}, "", Printable(problem));
 }
 
 // The single <environment> element of the document; anything else at the top level but comments
@@ -578,8 +579,8 @@ Environment ParseEnvironment(const std::string& xml_text, const std::string& fil
       const EnvironmentObject& earlier = environment.objects[earlier_index->second];
       const XMLAttribute* name = element->FindAttribute("name");
       throw ConfigError(SourceLocation{file_name, name->GetLineNum(), 0},
-                        ObjectPath(*element, environment.objects.size()) + ".name",
-                        "\"" + object.name + "\" is already the name of the " +
+                        Printable(ObjectPath(*element, environment.objects.size()) + ".name", 256),
+                        "\"" + Printable(object.name, 64) + "\" is already the name of the " +
                             ShapeTypeName(earlier.shape.type) + " on line " +
                             std::to_string(earlier.source_line) + "; expected unique object names");
     }
@@ -593,7 +594,7 @@ Environment ParseEnvironment(const std::string& xml_text, const std::string& fil
   for (const ObjectCount* count : {&statics, &frees}) {
     if (count->count > count->limit) {
       throw ConfigError(SourceLocation{file_name, count->first_over_line, 0},
-                        count->first_over_path,
+                        Printable(count->first_over_path, 256),
                         "the file has " + std::to_string(count->count) + " " + count->kind +
                             " objects; allowed at most " + std::to_string(count->limit) +
                             " (this is the first one over the limit; docs/environment-format.md, "

@@ -10,6 +10,8 @@
 #include <sstream>
 #include <utility>
 
+#include "core/printable.hpp"
+
 namespace sirupp::core {
 
 // ---- NumberRule
@@ -110,7 +112,7 @@ YamlValue YamlValue::Child(const YAML::Node& child, const std::string& child_pat
 SourceLocation YamlValue::location() const { return ToLocation(context_->file, node_.Mark()); }
 
 void YamlValue::Fail(const std::string& problem) const {
-  throw ConfigError(location(), path_, problem);
+  throw ConfigError(location(), Printable(path_, 256), Printable(problem));
 }
 
 std::string YamlValue::Describe() const {
@@ -445,7 +447,7 @@ class ExpansionCounter {
     }
     SourceLocation where{file_, 1, 1};
     if (at > 0 && !stack_[at - 1].where.is_null()) where = ToLocation(file_, stack_[at - 1].where);
-    throw ConfigError(where, path, problem);
+    throw ConfigError(where, Printable(path, 256), problem);
   }
 
   std::string file_;

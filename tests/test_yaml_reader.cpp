@@ -117,6 +117,16 @@ TEST(YamlReader, LocationOfFallsBackToParent) {
   EXPECT_EQ(doc.LocationOf("nowhere").ToString(), "t.yaml:1:1");
 }
 
+TEST(YamlReader, ControlCharactersInEchoedTextAreEscaped) {
+  const YamlDocument doc = YamlDocument::Parse("\"a\\x1bb\": 1\nc: \"\\x07\\u202e1\"\n", "t.yaml");
+  EXPECT_EQ(ErrorText<ConfigError>([&] { doc.Root().Map({"c"}); }),
+            "t.yaml:1:1: a\\x1Bb: unknown key 'a\\x1Bb'; allowed keys: c");
+  const YamlDocument quoted = YamlDocument::Parse("c: \"\\x07\\u202e1\"\n", "t.yaml");
+  EXPECT_EQ(ErrorText<ConfigError>([&] { quoted.Root().Map({"c"}).Number("c", AnyNumber()); }),
+            "t.yaml:1:4: c: the text \"\\x07\\xE2\\x80\\xAE1\" is not a number; expected a finite "
+            "number");
+}
+
 // Ten lines that expand nine-fold per line: 9^8 copies of the first line if read naively.
 std::string Bomb(bool merge_keys) {
   std::string text = merge_keys ? "a: &a {x: 1, y: 2}\n" : "a: &a [lol, lol, lol, lol]\n";
