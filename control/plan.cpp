@@ -91,6 +91,7 @@ class Parser {
              (text_.back() == ' ' || text_.back() == '\t' || text_.back() == '\r')) {
         text_.pop_back();
       }
+      for (char& c : text_) c = c == '\t' ? ' ' : c;  // shown in one line of status output
       text_ = core::Printable(text_);
       Statement(plan);
     }
