@@ -4,10 +4,14 @@
 // inertias, armature, viscous damping, Coulomb friction as frictionloss, contacts off, same step),
 // stepped in the same run. Both engines follow the same reference motion (reference_motion.hpp).
 //
-// Usage: bench_physics [--seconds S] [--rounds N] [--model FILE]
+// Usage: bench_physics [--seconds S] [--rounds N] [--model FILE] [--static-only]
 //   S: simulated seconds per timed run (default 4); N: rounds, engines alternating, best kept (3).
 // Figures are printed as steps per second and as a ratio ours / MuJoCo (goal: >= 1.0).
+// Then the cost of static environment objects: the same motion among 0, 1000, 10 000 and
+// core::kMaxStaticObjects static boxes on the floor, microseconds per step against the 512 us of
+// real time (--static-only: this part alone).
 
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <cstdlib>
@@ -83,6 +87,98 @@ Figure RunMujoco(const RobotModel& model, bool friction, double seconds) {
 }
 #endif
 
+// `count` static 2 cm cubes on the floor in front of the arm, 4 cm apart in rows of 100 (4 m wide).
+sirupp::core::Environment StaticBoxes(int count) {
+  sirupp::core::Environment environment;
+  environment.name = "boxes";
+  for (int i = 0; i < count; ++i) {
+    sirupp::core::EnvironmentObject box;
+    box.name = "box" + std::to_string(i);
+    box.shape.type = sirupp::core::ShapeType::kBox;
+    box.shape.size_m = {0.02, 0.02, 0.02};
+    box.shape.pose.position_m = {0.35 + 0.04 * (i / 100), -2.0 + 0.04 * (i % 100), 0.01};
+    environment.objects.push_back(box);
+  }
+  return environment;
+}
+
+// `count` free 2 cm cubes of 20 g resting on a static floor slab in front of the arm, 5 cm apart.
+sirupp::core::Environment FreeBoxes(int count) {
+  sirupp::core::Environment environment;
+  environment.name = "free boxes";
+  sirupp::core::EnvironmentObject floor;
+  floor.name = "floor";
+  floor.shape.type = sirupp::core::ShapeType::kBox;
+  floor.shape.size_m = {4.0, 4.0, 0.02};
+  floor.shape.pose.position_m = {2.5, 0, -0.01};
+  environment.objects.push_back(floor);
+  for (int i = 0; i < count; ++i) {
+    sirupp::core::EnvironmentObject box;
+    box.name = "free" + std::to_string(i);
+    box.is_static = false;
+    box.mass_kg = 0.02;
+    box.shape.type = sirupp::core::ShapeType::kBox;
+    box.shape.size_m = {0.02, 0.02, 0.02};
+    box.shape.pose.position_m = {0.6 + 0.05 * (i / 20), -0.5 + 0.05 * (i % 20), 0.01};
+    environment.objects.push_back(box);
+  }
+  return environment;
+}
+
+// Microseconds per step of the reference motion among `count` static boxes: at least `min_steps`
+// steps and `min_wall_s` of wall time (after building the world), best of `rounds`.
+double StepMicros(const RobotModel& model, const sirupp::core::Environment& environment,
+                  int min_steps, double min_wall_s, int rounds, double* build_s) {
+  double best = 1e300;
+  for (int round = 0; round < rounds; ++round) {
+    const Clock::time_point built = Clock::now();
+    sirupp::sim::ArmWorld world(model, environment);
+    if (build_s != nullptr) *build_s = std::chrono::duration<double>(Clock::now() - built).count();
+    world.SetJointState(sirupp::bench::ReferencePosition(model, 0));
+    sirupp::core::ArmCommand command;
+    command.mode = sirupp::core::CommandMode::kEffort;
+    const Clock::time_point start = Clock::now();
+    long steps = 0;
+    double wall = 0;
+    while (steps < min_steps || wall < min_wall_s) {
+      const sirupp::core::ArmState state = world.State();
+      command.effort =
+          sirupp::bench::ReferenceEffort(model, world.time_s(), state.position, state.velocity);
+      world.Step(command);
+      ++steps;
+      wall = std::chrono::duration<double>(Clock::now() - start).count();
+    }
+    best = std::min(best, wall * 1e6 / static_cast<double>(steps));
+  }
+  return best;
+}
+
+void PrintStaticObjects(const RobotModel& model, int rounds) {
+  std::printf("Static objects (2 cm boxes on the floor), same motion, best of %d rounds:\n",
+              rounds);
+  const double tick_us = model.servo_tick_s * 1e6;
+  const double base = StepMicros(model, StaticBoxes(0), 2000, 0.5, rounds, nullptr);
+  std::vector<int> counts = {0, 1000, 10000};
+  const auto static_limit = static_cast<int>(sirupp::core::kMaxStaticObjects);
+  if (static_limit != counts.back()) counts.push_back(static_limit);
+  for (const int count : counts) {
+    double build_s = 0;
+    const double us =
+        count == 0 ? base : StepMicros(model, StaticBoxes(count), 200, 0.5, rounds, &build_s);
+    std::printf("  %6d boxes: %9.2f us/step  %6.1fx real time  %5.2fx the empty world's step",
+                count, us, tick_us / us, us / base);
+    if (count > 0) std::printf("  (built in %.3f s)", build_s);
+    std::printf("\n");
+  }
+  std::printf("Free objects (2 cm cubes resting on a static floor slab), same motion:\n");
+  const auto free_limit = static_cast<int>(sirupp::core::kMaxFreeObjects);
+  for (const int count : {10, free_limit, 4 * free_limit}) {
+    const double us = StepMicros(model, FreeBoxes(count), 200, 0.5, rounds, nullptr);
+    std::printf("  %6d cubes: %9.2f us/step  %6.1fx real time  %5.2fx the empty world's step\n",
+                count, us, tick_us / us, us / base);
+  }
+}
+
 void Print(const char* label, const Figure& figure, double step_s) {
   std::printf("  %-46s %9.0f steps/s  %6.2f us/step  %6.0fx real time", label, figure.steps_per_s,
               1e6 / figure.steps_per_s, figure.steps_per_s * step_s);
@@ -100,8 +196,18 @@ int main(int argc, char** argv) {
   double seconds = 4;
   int rounds = 3;
   std::string model_file = "config/robots/puma260.yaml";
-  for (int i = 1; i + 1 < argc; i += 2) {
+  bool static_only = false;
+  for (int i = 1; i < argc; i += 2) {
     const std::string flag = argv[i];
+    if (flag == "--static-only") {
+      static_only = true;
+      --i;
+      continue;
+    }
+    if (i + 1 >= argc) {
+      std::fprintf(stderr, "bench_physics: %s needs a value\n", flag.c_str());
+      return 2;
+    }
     if (flag == "--seconds") {
       seconds = std::atof(argv[i + 1]);
     } else if (flag == "--rounds") {
@@ -119,6 +225,10 @@ int main(int argc, char** argv) {
   }
   const RobotModel model = sirupp::core::LoadRobotModel(FindModel(model_file));
   const double step = model.servo_tick_s;
+  if (static_only) {
+    PrintStaticObjects(model, rounds);
+    return 0;
+  }
   // LCM: multicast on this machine only (ttl=0); memq:// if multicast cannot be used here.
   std::string url = "udpm://239.255.76.67:7799?ttl=0";
   std::unique_ptr<sirupp::core::Bus> bus;
@@ -165,5 +275,6 @@ int main(int argc, char** argv) {
   std::printf(
       "MuJoCo not installed (scripts/install-deps.sh --peers adds libmujoco-dev): no ratio\n");
 #endif
+  PrintStaticObjects(model, rounds);
   return 0;
 }

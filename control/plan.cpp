@@ -3,18 +3,25 @@
 #include <cerrno>
 #include <cmath>
 #include <cstdlib>
+#include <filesystem>
 #include <fstream>
 #include <optional>
 #include <sstream>
+#include <string_view>
 
 #include "control/pose_goal.hpp"
 #include "core/errors.hpp"
 #include "core/geometry.hpp"
+#include "core/printable.hpp"
 
 namespace sirupp::control {
 namespace {
 
 constexpr double kDegree = M_PI / 180.0;
+constexpr const char kByteOrderMark[] = "\xEF\xBB\xBF";
+
+// A token of the plan as it may be shown in a message: escaped, and cut if very long.
+std::string Show(const std::string& text) { return core::Printable(text, 64); }
 
 struct Token {
   std::string text;
@@ -53,17 +60,26 @@ struct Units {
 class Parser {
  public:
   Parser(const std::string& name, const core::RobotModel& model, const std::vector<double>& start)
-      : name_(name), model_(model), reached_(start) {
+      : name_(core::Printable(name, 256)), model_(model), reached_(start) {
     if (static_cast<int>(start.size()) != model.num_joints()) {
       throw std::invalid_argument("plan start has " + std::to_string(start.size()) +
                                   " joints; the model has " + std::to_string(model.num_joints()));
     }
   }
 
-  Plan Parse(const std::string& text) {
+  Plan Parse(std::string_view text) {
+    if (text.size() > kMaxPlanBytes) {
+      throw core::ConfigError({name_, 0, 0}, "",
+                              "the plan has " + std::to_string(text.size()) +
+                                  " bytes; allowed at most " + std::to_string(kMaxPlanBytes) +
+                                  " (256 KiB, so that it travels in one ARM_PLAN message); split "
+                                  "it into several plans");
+    }
+    // An editor's UTF-8 byte-order mark is not part of the first statement.
+    if (text.substr(0, 3) == kByteOrderMark) text.remove_prefix(3);
     Plan plan;
     plan.name = name_;
-    std::istringstream lines(text);
+    std::istringstream lines{std::string(text)};
     std::string raw;
     while (std::getline(lines, raw)) {
       ++line_;
@@ -75,6 +91,8 @@ class Parser {
              (text_.back() == ' ' || text_.back() == '\t' || text_.back() == '\r')) {
         text_.pop_back();
       }
+      for (char& c : text_) c = c == '\t' ? ' ' : c;  // shown in one line of status output
+      text_ = core::Printable(text_);
       Statement(plan);
     }
     if (plan.moves() == 0) {
@@ -88,7 +106,7 @@ class Parser {
 
  private:
   [[noreturn]] void Fail(const Token& at, const std::string& problem) const {
-    throw core::ConfigError({name_, line_, at.column}, tokens_.front().text, problem);
+    throw core::ConfigError({name_, line_, at.column}, Show(tokens_.front().text), problem);
   }
 
   double Number(const Token& token, const std::string& what) const {
@@ -96,8 +114,9 @@ class Parser {
     char* end = nullptr;
     errno = 0;
     const double value = std::strtod(begin, &end);
-    if (end == begin || *end != '\0' || errno == ERANGE || !std::isfinite(value)) {
-      Fail(token, what + " '" + token.text + "' is not a finite number");
+    if (end == begin || end != begin + token.text.size() || errno == ERANGE ||
+        !std::isfinite(value)) {
+      Fail(token, what + " '" + Show(token.text) + "' is not a finite number");
     }
     return value;
   }
@@ -116,7 +135,7 @@ class Parser {
     }
     if (word == "wait") return WaitLine(plan);
     if (word == "move") return MoveLine(plan);
-    Fail(tokens_.front(), "unknown statement '" + word +
+    Fail(tokens_.front(), "unknown statement '" + Show(word) +
                               "'; allowed: move, wait, speed, accel, units (lines starting with # "
                               "are comments)");
   }
@@ -132,7 +151,7 @@ class Parser {
         units_.length = unit;
         units_.length_si = unit == "m" ? 1.0 : unit == "mm" ? 1e-3 : unit == "cm" ? 1e-2 : 0.0254;
       } else {
-        Fail(tokens_[i], "unknown unit '" + unit + "'; allowed: deg, rad, m, mm, cm, inch");
+        Fail(tokens_[i], "unknown unit '" + Show(unit) + "'; allowed: deg, rad, m, mm, cm, inch");
       }
     }
   }
@@ -145,7 +164,7 @@ class Parser {
     rate.value = Number(number, what);
     rate.column = token.column;
     if (!(rate.value > 0)) {
-      Fail(token, what + " " + token.text + " must be greater than 0");
+      Fail(token, what + " " + Show(token.text) + " must be greater than 0");
     }
     return rate;
   }
@@ -165,7 +184,7 @@ class Parser {
       step.kind = PlanStep::Kind::kWaitTime;
       step.wait_s = Number(seconds, "wait time");
       if (step.wait_s < 0 || step.wait_s > 3600) {
-        Fail(tokens_[1], "wait time " + tokens_[1].text + " is outside 0..3600 s");
+        Fail(tokens_[1], "wait time " + Show(tokens_[1].text) + " is outside 0..3600 s");
       }
     }
     plan.steps.push_back(step);
@@ -228,7 +247,7 @@ class Parser {
       }
       const std::string key = token.text.substr(0, equals);
       Token value{token.text.substr(equals + 1), token.column + static_cast<int>(equals) + 1};
-      if (value.text.empty()) Fail(token, "'" + key + "=' has no value");
+      if (value.text.empty()) Fail(token, "'" + Show(key) + "=' has no value");
       if (key == "speed") {
         speed = ParseRate(value, "speed");
       } else if (key == "accel") {
@@ -238,7 +257,7 @@ class Parser {
         if (value.text != "nearest") {
           config = core::IkConfiguration::Parse(value.text);
           if (!config) {
-            Fail(value, "configuration '" + value.text +
+            Fail(value, "configuration '" + Show(value.text) +
                             "' is not allowed; expected nearest or SHOULDER-ELBOW-WRIST with "
                             "left|right, up|down, noflip|flip (e.g. right-up-noflip)");
           }
@@ -246,12 +265,12 @@ class Parser {
       } else {
         const int joint = FindJoint(key);
         if (joint < 0) {
-          Fail(token, "'" + key + "' is neither a joint (" + JointNames() +
+          Fail(token, "'" + Show(key) + "' is neither a joint (" + JointNames() +
                           ") nor an option (speed, accel, config)");
         }
         const auto j = static_cast<size_t>(joint);
-        if (goal[j]) Fail(token, "joint " + key + " is given twice on this line");
-        goal[j] = Number(value, "joint " + key + " value") * JointUnit(model_.joints[j]);
+        if (goal[j]) Fail(token, "joint " + Show(key) + " is given twice on this line");
+        goal[j] = Number(value, "joint " + Show(key) + " value") * JointUnit(model_.joints[j]);
         goal_column[j] = value.column;
       }
     }
@@ -263,7 +282,7 @@ class Parser {
       if (!any) Fail(tokens_.front(), "no joint to move; e.g. `move j1=90`");
     } else {
       for (const auto& g : goal) {
-        if (g) Fail(words.front(), "mixes J=VALUE with `" + words.front().text + " ...`");
+        if (g) Fail(words.front(), "mixes J=VALUE with `" + Show(words.front().text) + " ...`");
       }
       const std::string& form = words.front().text;
       if (form == "joints") {
@@ -283,7 +302,7 @@ class Parser {
         if (pose == nullptr && words[1].text != "home") {
           std::string names = "home";
           for (const core::NamedPose& p : model_.named_poses) names += ", " + p.name;
-          Fail(words[1], "no pose named '" + words[1].text + "' in model " + model_.name +
+          Fail(words[1], "no pose named '" + Show(words[1].text) + "' in model " + model_.name +
                              "; allowed: " + names);
         }
         for (size_t j = 0; j < n; ++j) {
@@ -294,7 +313,7 @@ class Parser {
         ToolGoal(words, config, goal, goal_column);
       } else {
         Fail(words.front(),
-             "unknown move form '" + form + "'; allowed: J=VALUE ..., joints, pose, tool");
+             "unknown move form '" + Show(form) + "'; allowed: J=VALUE ..., joints, pose, tool");
       }
     }
     if (config_given && (words.empty() || words.front().text != "tool")) {
@@ -314,7 +333,7 @@ class Parser {
           "joint j" + std::to_string(j + 1) + (joint.name.empty() ? "" : " (" + joint.name + ")");
       if (*goal[j] < joint.position_min || *goal[j] > joint.position_max) {
         throw core::ConfigError(
-            {name_, line_, goal_column[j]}, tokens_.front().text,
+            {name_, line_, goal_column[j]}, Show(tokens_.front().text),
             label + " goal " + core::FormatApprox(*goal[j] / unit) + " " + JointUnitName(joint) +
                 " is outside its limits [" + core::FormatApprox(joint.position_min / unit) + ", " +
                 core::FormatApprox(joint.position_max / unit) + "] " + JointUnitName(joint));
@@ -394,10 +413,24 @@ Plan ParsePlan(const std::string& text, const std::string& name, const core::Rob
 
 std::string ReadPlanText(const std::string& path) {
   std::ifstream file(path, std::ios::binary);
-  if (!file) throw core::ConfigError({path, 0, 0}, "", "cannot open the plan file");
-  std::ostringstream text;
-  text << file.rdbuf();
-  return text.str();
+  const std::string shown = core::Printable(path, 256);
+  if (!file) throw core::ConfigError({shown, 0, 0}, "", "cannot open the plan file");
+  // Never more than one byte over the limit: ParsePlan then refuses it, naming the limit.
+  std::string text(kMaxPlanBytes + 1, '\0');
+  file.read(text.data(), static_cast<std::streamsize>(text.size()));
+  text.resize(static_cast<size_t>(file.gcount()));
+  if (text.size() > kMaxPlanBytes) {
+    std::error_code error;
+    const auto size = std::filesystem::file_size(path, error);
+    throw core::ConfigError(
+        {shown, 0, 0}, "",
+        "the plan file has " +
+            (error ? "more than " + std::to_string(kMaxPlanBytes) : std::to_string(size)) +
+            " bytes; allowed at most " + std::to_string(kMaxPlanBytes) +
+            " (256 KiB, so that it travels in one ARM_PLAN message); split "
+            "it into several plans");
+  }
+  return text;
 }
 
 Plan LoadPlan(const std::string& path, const core::RobotModel& model,

@@ -5,8 +5,11 @@
 // joint's move-done, or for a time).
 //
 // Every error is one core::ConfigError "NAME:LINE:COLUMN: WORD: problem" naming the bad token, the
-// value and what is allowed; the first error ends the parse.
+// value and what is allowed; the first error ends the parse. Plan text in messages (the name, the
+// statement, tokens) goes through core::Printable, so control characters and bytes that are not
+// UTF-8 show as \xNN. A UTF-8 byte-order mark at the start of the text is skipped.
 
+#include <cstddef>
 #include <string>
 #include <vector>
 
@@ -15,11 +18,16 @@
 
 namespace sirupp::control {
 
+// The largest plan text accepted, in bytes (256 KiB): a plan travels whole in one ARM_PLAN
+// message, and an LCM message much larger than this is easily lost on UDP. Checked by ParsePlan
+// (so by `sirupp plan check/run` and by sirupp-control alike) and by ReadPlanText.
+inline constexpr size_t kMaxPlanBytes = 256 * 1024;
+
 struct PlanStep {
   enum class Kind { kMove, kWaitDone, kWaitTime };
   Kind kind = Kind::kMove;
   int line = 0;                  // 1-based line of the plan text
-  std::string text;              // the line as written, without its comment
+  std::string text;              // the line as written, without its comment (core::Printable)
   std::vector<JointMove> moves;  // kMove: one entry per joint (active = takes part), SI
   double wait_s = 0;             // kWaitTime: seconds of sim time
 };

@@ -7,10 +7,12 @@
 #include <cstring>
 #include <filesystem>
 #include <optional>
+#include <unordered_map>
 #include <utility>
 
 #include "core/errors.hpp"
 #include "core/message_helpers.hpp"
+#include "core/printable.hpp"
 #include "core/yaml_reader.hpp"  // NumberRule, ReadTextFile
 
 namespace sirupp::core {
@@ -139,11 +141,11 @@ class ElementReader {
   int line() const { return element_.GetLineNum(); }
 
   [[noreturn]] void Fail(int line, const std::string& problem) const {
-    throw ConfigError(SourceLocation{file_, line, 0}, path_, problem);
+    throw ConfigError(SourceLocation{file_, line, 0}, Printable(path_, 256), Printable(problem));
   }
   [[noreturn]] void Fail(const XMLAttribute& attribute, const std::string& problem) const {
     throw ConfigError(SourceLocation{file_, attribute.GetLineNum(), 0},
-                      path_ + "." + attribute.Name(), problem);
+                      Printable(path_ + "." + attribute.Name(), 256), Printable(problem));
   }
 
   void CheckAttributes(const std::vector<std::string>& allowed) const {
@@ -411,7 +413,7 @@ std::string SyntaxProblem(const XMLDocument& document) {
 }
 
 [[noreturn]] void FailAt(const std::string& file, int line, const std::string& problem) {
-  throw ConfigError(SourceLocation{file, line, 0}, "", problem);
+  throw ConfigError(SourceLocation{file, line, 0}, "", Printable(problem));
 }
 
 // The single <environment> element of the document; anything else at the top level but comments
@@ -545,6 +547,18 @@ Environment ParseEnvironment(const std::string& xml_text, const std::string& fil
       root.Name(root.Require("name", "the environment's name"), "a non-empty environment name");
   const Units units = ReadUnits(root);
 
+  // Object counts against the limits: the whole file is read first, so that the message can say
+  // how many objects it has.
+  struct ObjectCount {
+    const char* kind;
+    size_t limit;
+    size_t count = 0;
+    int first_over_line = 0;
+    std::string first_over_path;
+  };
+  ObjectCount statics{"static", kMaxStaticObjects, 0, 0, ""};
+  ObjectCount frees{"free", kMaxFreeObjects, 0, 0, ""};
+  std::unordered_map<std::string, size_t> names;  // object name -> index
   for (const XMLNode* node = root_element.FirstChild(); node != nullptr;
        node = node->NextSibling()) {
     if (node->ToComment() != nullptr) continue;
@@ -560,18 +574,32 @@ Environment ParseEnvironment(const std::string& xml_text, const std::string& fil
                                            ">; allowed elements: " + JoinNames(kObjectElements));
     }
     EnvironmentObject object = ReadObject(*element, environment.objects.size(), units, file_name);
-    for (const EnvironmentObject& earlier : environment.objects) {
-      if (earlier.name == object.name) {
-        const XMLAttribute* name = element->FindAttribute("name");
-        throw ConfigError(SourceLocation{file_name, name->GetLineNum(), 0},
-                          ObjectPath(*element, environment.objects.size()) + ".name",
-                          "\"" + object.name + "\" is already the name of the " +
-                              ShapeTypeName(earlier.shape.type) + " on line " +
-                              std::to_string(earlier.source_line) +
-                              "; expected unique object names");
-      }
+    const auto [earlier_index, unique] = names.emplace(object.name, environment.objects.size());
+    if (!unique) {
+      const EnvironmentObject& earlier = environment.objects[earlier_index->second];
+      const XMLAttribute* name = element->FindAttribute("name");
+      throw ConfigError(SourceLocation{file_name, name->GetLineNum(), 0},
+                        Printable(ObjectPath(*element, environment.objects.size()) + ".name", 256),
+                        "\"" + Printable(object.name, 64) + "\" is already the name of the " +
+                            ShapeTypeName(earlier.shape.type) + " on line " +
+                            std::to_string(earlier.source_line) + "; expected unique object names");
+    }
+    ObjectCount& count = object.is_static ? statics : frees;
+    if (++count.count == count.limit + 1) {
+      count.first_over_line = element->GetLineNum();
+      count.first_over_path = ObjectPath(*element, environment.objects.size());
     }
     environment.objects.push_back(std::move(object));
+  }
+  for (const ObjectCount* count : {&statics, &frees}) {
+    if (count->count > count->limit) {
+      throw ConfigError(SourceLocation{file_name, count->first_over_line, 0},
+                        Printable(count->first_over_path, 256),
+                        "the file has " + std::to_string(count->count) + " " + count->kind +
+                            " objects; allowed at most " + std::to_string(count->limit) +
+                            " (this is the first one over the limit; docs/environment-format.md, "
+                            "\"Limits\")");
+    }
   }
   return environment;
 }
@@ -611,17 +639,28 @@ Environment EnvironmentFromMessage(const sirupp::environment_t& message,
   Environment environment;
   environment.name = message.name;
   environment.source_file = message.source_file;
+  std::unordered_map<std::string, size_t> names;  // object name -> index
+  size_t statics = 0;
+  size_t frees = 0;
   for (size_t i = 0; i < message.objects.size(); ++i) {
     const std::string field = Indexed("objects", i);
     EnvironmentObject object = ObjectFromMessage(message.objects[i], channel, field);
-    for (size_t k = 0; k < environment.objects.size(); ++k) {
-      if (environment.objects[k].name == object.name) {
-        throw MessageError(channel, field + ".name",
-                           "\"" + object.name + "\" is already the name of " +
-                               Indexed("objects", k) + "; expected unique object names");
-      }
+    const auto [earlier, unique] = names.emplace(object.name, i);
+    if (!unique) {
+      throw MessageError(channel, field + ".name",
+                         "\"" + object.name + "\" is already the name of " +
+                             Indexed("objects", earlier->second) +
+                             "; expected unique object names");
     }
+    ++(object.is_static ? statics : frees);
     environment.objects.push_back(std::move(object));
+  }
+  if (statics > kMaxStaticObjects || frees > kMaxFreeObjects) {
+    const bool too_many_static = statics > kMaxStaticObjects;
+    throw MessageError(channel, "objects",
+                       std::to_string(too_many_static ? statics : frees) +
+                           (too_many_static ? " static" : " free") + " objects; allowed at most " +
+                           std::to_string(too_many_static ? kMaxStaticObjects : kMaxFreeObjects));
   }
   return environment;
 }

@@ -8,6 +8,7 @@
 // among the objects when it has no usable name (`box #3`). EnvironmentFromMessage throws
 // MessageError "channel X: objects[2].shape.size[0]: problem".
 
+#include <cstddef>
 #include <sirupp/environment_t.hpp>
 #include <string>
 #include <vector>
@@ -15,6 +16,12 @@
 #include "core/geometry.hpp"
 
 namespace sirupp::core {
+
+// The most objects an environment may hold: static ones (fixed; the sim never tests them against
+// each other) and free ones (bodies with contacts of their own). At these counts sirupp-sim still
+// steps faster than real time (docs/environment-format.md, "Limits").
+inline constexpr size_t kMaxStaticObjects = 10000;
+inline constexpr size_t kMaxFreeObjects = 50;
 
 struct EnvironmentObject {
   std::string name;        // unique within the environment, non-empty

@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "core/mass_properties.hpp"
+#include "core/printable.hpp"
 #include "core/yaml_reader.hpp"
 
 namespace sirupp::core {
@@ -324,7 +325,8 @@ RobotModel ParseRobotModel(const std::string& text, const std::string& name) {
   }
 
   if (const std::optional<ModelProblem> problem = FindModelProblem(model)) {
-    throw ConfigError(document.LocationOf(problem->path), problem->path, problem->problem);
+    throw ConfigError(document.LocationOf(problem->path), Printable(problem->path, 256),
+                      Printable(problem->problem));
   }
   return model;
 }

@@ -10,6 +10,8 @@
 #include <sstream>
 #include <utility>
 
+#include "core/printable.hpp"
+
 namespace sirupp::core {
 
 // ---- NumberRule
@@ -110,7 +112,7 @@ YamlValue YamlValue::Child(const YAML::Node& child, const std::string& child_pat
 SourceLocation YamlValue::location() const { return ToLocation(context_->file, node_.Mark()); }
 
 void YamlValue::Fail(const std::string& problem) const {
-  throw ConfigError(location(), path_, problem);
+  throw ConfigError(location(), Printable(path_, 256), Printable(problem));
 }
 
 std::string YamlValue::Describe() const {
@@ -370,6 +372,91 @@ std::string ReadTextFile(const std::string& file) {
   return buffer.str();
 }
 
+namespace {
+
+// Counts a document's nodes as a reader would visit them: an alias (or a merge key naming one)
+// counts everything it names again each time it is used. Stops at kMaxYamlNodes or kMaxYamlDepth
+// with an error at the place the expansion started: the key (or list) where an alias was used, as
+// far as the marks tell (an alias names an anchor written earlier in the file, so a node that
+// starts before the key or list holding it was reached through an alias).
+class ExpansionCounter {
+ public:
+  explicit ExpansionCounter(std::string file) : file_(std::move(file)) {}
+
+  void Count(const YAML::Node& root) { Visit(root, 0); }
+
+ private:
+  struct Frame {
+    YAML::Mark where;                  // the key of a mapping entry, or the list holding an item
+    const std::string* key = nullptr;  // a mapping entry's key (null: a list item)
+    size_t index = 0;                  // a list item's index
+    bool via_alias = false;
+  };
+
+  void Visit(const YAML::Node& node, int depth) {
+    if (++visited_ > kMaxYamlNodes) {
+      Refuse("the document expands to more than " + std::to_string(kMaxYamlNodes) +
+             " nodes, counting every use of an alias or merge key as a copy of what it names "
+             "(a YAML bomb?); allowed at most " +
+             std::to_string(kMaxYamlNodes));
+    }
+    if (depth > kMaxYamlDepth) {
+      Refuse("the document nests more than " + std::to_string(kMaxYamlDepth) +
+             " levels deep (counting aliases as copies); allowed at most " +
+             std::to_string(kMaxYamlDepth));
+    }
+    if (node.IsMap()) {
+      for (auto it = node.begin(); it != node.end(); ++it) {
+        static const std::string kComplexKey = "?";
+        const std::string* key = it->first.IsScalar() ? &it->first.Scalar() : &kComplexKey;
+        stack_.push_back({it->first.Mark(), key, 0, NotAfter(it->second.Mark(), it->first.Mark())});
+        Visit(it->first, depth + 1);
+        Visit(it->second, depth + 1);
+        stack_.pop_back();
+      }
+    } else if (node.IsSequence()) {
+      for (size_t i = 0; i < node.size(); ++i) {
+        const YAML::Node item = node[i];
+        stack_.push_back({node.Mark(), nullptr, i, NotAfter(item.Mark(), node.Mark())});
+        Visit(item, depth + 1);
+        stack_.pop_back();
+      }
+    }
+  }
+
+  // A value starts after its key, an item after the start of its list, unless an alias names a
+  // node written earlier.
+  static bool NotAfter(const YAML::Mark& a, const YAML::Mark& b) {
+    return !a.is_null() && !b.is_null() && a.pos <= b.pos;
+  }
+
+  [[noreturn]] void Refuse(const std::string& problem) const {
+    // The outermost place where an alias was used; else the innermost place reached.
+    size_t at = stack_.size();
+    for (size_t i = 0; i < stack_.size(); ++i) {
+      if (stack_[i].via_alias) {
+        at = i + 1;
+        break;
+      }
+    }
+    std::string path;
+    for (size_t i = 0; i < at; ++i) {
+      const Frame& frame = stack_[i];
+      path += frame.key != nullptr ? (path.empty() ? "" : ".") + *frame.key
+                                   : "[" + std::to_string(frame.index) + "]";
+    }
+    SourceLocation where{file_, 1, 1};
+    if (at > 0 && !stack_[at - 1].where.is_null()) where = ToLocation(file_, stack_[at - 1].where);
+    throw ConfigError(where, Printable(path, 256), problem);
+  }
+
+  std::string file_;
+  size_t visited_ = 0;
+  std::vector<Frame> stack_;
+};
+
+}  // namespace
+
 YamlDocument::YamlDocument(YAML::Node root, std::string text, std::shared_ptr<YamlContext> context)
     : root_(std::move(root)), text_(std::move(text)), context_(std::move(context)) {}
 
@@ -387,6 +474,7 @@ YamlDocument YamlDocument::Parse(const std::string& text, const std::string& nam
   if (!root.IsDefined() || root.IsNull()) {
     throw ConfigError(SourceLocation{name, 1, 1}, "", "the file is empty; expected a mapping");
   }
+  ExpansionCounter(name).Count(root);
   return YamlDocument(root, text, context);
 }
 

@@ -8,9 +8,15 @@
 // a list of anchors) are resolved here, since yaml-cpp 0.7 leaves them as a literal "<<" key: keys
 // written in the mapping override merged ones, and an earlier anchor in a list overrides a later
 // one.
+//
+// A document is refused on load when it expands to more than kMaxYamlNodes nodes, counting every
+// use of an alias (and so every merge) as a copy of what it names, or nests deeper than
+// kMaxYamlDepth: a ten-line "billion laughs" of aliases or merge keys would otherwise keep every
+// reader busy for minutes. Configuration files are far below both limits.
 
 #include <yaml-cpp/yaml.h>
 
+#include <cstddef>
 #include <cstdint>
 #include <limits>
 #include <map>
@@ -22,6 +28,10 @@
 #include "core/errors.hpp"
 
 namespace sirupp::core {
+
+// Limits on a YAML document's size after alias and merge-key expansion, and on its nesting.
+inline constexpr size_t kMaxYamlNodes = 250000;
+inline constexpr int kMaxYamlDepth = 100;
 
 // What numbers a field allows, written into error messages ("a number > 0 (kg)").
 struct NumberRule {

@@ -16,6 +16,7 @@
 #include <utility>
 
 #include "core/errors.hpp"
+#include "core/printable.hpp"
 
 namespace sirupp::logger {
 
@@ -367,7 +368,7 @@ class FileReader {
 
  private:
   [[noreturn]] void Fail(int line, const std::string& problem) const {
-    throw core::ConfigError(core::SourceLocation{path_, line, 0}, "", problem);
+    throw core::ConfigError(core::SourceLocation{path_, line, 0}, "", core::Printable(problem));
   }
 
   // "6: j1 waist deg; j2 shoulder deg; ..." -> the joints; returns their count.

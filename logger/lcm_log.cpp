@@ -3,6 +3,7 @@
 #include <cstdio>
 
 #include "core/errors.hpp"
+#include "core/printable.hpp"
 
 namespace sirupp::logger {
 
@@ -45,7 +46,8 @@ LcmLogReader::LcmLogReader(const std::string& path) : path_(path), in_(path, std
 void LcmLogReader::Fail(int64_t offset, const std::string& problem) const {
   throw core::ConfigError(
       core::SourceLocation{path_, 0, 0},
-      "byte " + std::to_string(offset) + " (event " + std::to_string(events_) + ")", problem);
+      "byte " + std::to_string(offset) + " (event " + std::to_string(events_) + ")",
+      core::Printable(problem));
 }
 
 bool LcmLogReader::Next(LcmLogEvent& event) {

@@ -7,6 +7,7 @@
 #include <sirupp/servo_setpoint_t.hpp>
 
 #include "core/errors.hpp"
+#include "core/printable.hpp"
 #include "logger/lcm_log.hpp"
 
 namespace sirupp::logger {
@@ -26,8 +27,8 @@ Msg Decode(const LcmLogReader& reader, const LcmLogEvent& event) {
     throw core::ConfigError(
         core::SourceLocation{reader.path(), 0, 0},
         "byte " + std::to_string(event.offset) + " (event " + std::to_string(event.index) + ")",
-        "channel " + event.channel + ": the data does not decode as sirupp." + Msg::getTypeName() +
-            " (another type, or damaged)");
+        "channel " + core::Printable(event.channel, 256) + ": the data does not decode as sirupp." +
+            Msg::getTypeName() + " (another type, or damaged)");
   }
   return message;
 }
@@ -114,7 +115,8 @@ class Importer {
       throw core::ConfigError(
           core::SourceLocation{reader.path(), 0, 0},
           "byte " + std::to_string(event.offset) + " (event " + std::to_string(event.index) + ")",
-          "channel " + event.channel + ": num_joints " + std::to_string(count) + "; the run's " +
+          "channel " + core::Printable(event.channel, 256) + ": num_joints " +
+              std::to_string(count) + "; the run's " +
               (model_name_.empty() ? "first message has " : "model " + model_name_ + " has ") +
               std::to_string(joints_.size()));
     }

@@ -124,7 +124,13 @@ struct ArmWorld::Impl {
 
   dWorldID world = nullptr;
   dSpaceID arm_space = nullptr;
-  dSpaceID env_space = nullptr;
+  // Static objects never move and are never tested against each other: they sit in a quadtree
+  // (made once their extent is known) that the arm's and the free objects' geoms are tested
+  // against. Free objects have a space of their own.
+  dSpaceID static_space = nullptr;
+  dSpaceID free_space = nullptr;
+  int static_count = 0;
+  int free_count = 0;
   dJointGroupID contact_group = nullptr;
 
   std::vector<dBodyID> bodies;  // bodies[i - 1] is link i
@@ -165,7 +171,7 @@ struct ArmWorld::Impl {
     dWorldSetContactSurfaceLayer(world, 0.0005);
     dWorldSetContactMaxCorrectingVel(world, 1.0);
     arm_space = dSimpleSpaceCreate(nullptr);
-    env_space = dSimpleSpaceCreate(nullptr);
+    free_space = dSimpleSpaceCreate(nullptr);
     contact_group = dJointGroupCreate(0);
     BuildArm();
     BuildEnvironment(environment);
@@ -174,7 +180,8 @@ struct ArmWorld::Impl {
   ~Impl() {
     if (contact_group != nullptr) dJointGroupDestroy(contact_group);
     if (arm_space != nullptr) dSpaceDestroy(arm_space);  // destroys its geoms
-    if (env_space != nullptr) dSpaceDestroy(env_space);
+    if (static_space != nullptr) dSpaceDestroy(static_space);
+    if (free_space != nullptr) dSpaceDestroy(free_space);
     if (world != nullptr) dWorldDestroy(world);  // destroys bodies and joints
   }
 
@@ -357,13 +364,15 @@ struct ArmWorld::Impl {
   }
 
   void BuildEnvironment(const core::Environment& environment) {
+    std::vector<dGeomID> static_geoms;
     for (const core::EnvironmentObject& object : environment.objects) {
       Object sim_object;
       sim_object.name = object.name;
       sim_object.start = object.shape.pose;
-      sim_object.geom = CreateGeom(env_space, object.shape);
+      sim_object.geom = CreateGeom(object.is_static ? nullptr : free_space, object.shape);
       dGeomSetData(sim_object.geom, NewMaterial(object.friction, object.restitution));
       if (!object.is_static) {
+        ++free_count;
         sim_object.body = dBodyCreate(world);
         dMass mass;
         const Eigen::Vector3d& size = object.shape.size_m;
@@ -383,10 +392,40 @@ struct ArmWorld::Impl {
         }
         dBodySetMass(sim_object.body, &mass);
         dGeomSetBody(sim_object.geom, sim_object.body);
+      } else {
+        static_geoms.push_back(sim_object.geom);
       }
       objects.push_back(sim_object);
       PlaceObject(objects.back());
     }
+    BuildStaticSpace(static_geoms);
+  }
+
+  // A quadtree over the horizontal extent of the static geoms (z is up), deep enough that its
+  // smallest blocks hold a few geoms each; geoms straddling a block's edge stay in its parent.
+  void BuildStaticSpace(const std::vector<dGeomID>& geoms) {
+    static_count = static_cast<int>(geoms.size());
+    if (geoms.empty()) return;
+    double low[3] = {dInfinity, dInfinity, dInfinity};
+    double high[3] = {-dInfinity, -dInfinity, -dInfinity};
+    for (dGeomID geom : geoms) {
+      dReal box[6];
+      dGeomGetAABB(geom, box);
+      for (int axis = 0; axis < 3; ++axis) {
+        low[axis] = std::min(low[axis], static_cast<double>(box[2 * axis]));
+        high[axis] = std::max(high[axis], static_cast<double>(box[2 * axis + 1]));
+      }
+    }
+    dVector3 centre, extents;
+    for (int axis = 0; axis < 3; ++axis) {
+      centre[axis] = 0.5 * (low[axis] + high[axis]);
+      extents[axis] = 0.5 * (high[axis] - low[axis]) + 0.01;  // half sizes, with a margin
+    }
+    centre[3] = extents[3] = 0;
+    int depth = 1;  // 4^depth smallest blocks: about one per two geoms, at most 4^7
+    while (depth < 7 && std::pow(4.0, depth) * 2 < static_cast<double>(geoms.size())) ++depth;
+    static_space = dQuadTreeSpaceCreate(nullptr, centre, extents, depth);
+    for (dGeomID geom : geoms) dSpaceAdd(static_space, geom);
   }
 
   static void PlaceObject(Object& object) {
@@ -490,7 +529,9 @@ struct ArmWorld::Impl {
       UpdateLimitFlags(sim);
     }
     if (reset_objects) {
-      for (Object& object : objects) PlaceObject(object);
+      for (Object& object : objects) {
+        if (object.body != nullptr) PlaceObject(object);  // static objects never moved
+      }
     }
   }
 
@@ -636,6 +677,21 @@ struct ArmWorld::Impl {
     }
   }
 
+  // Contacts of the arm with every object and of the free objects with everything; static objects
+  // are never tested against each other (they cannot move), and the quadtree finds the few
+  // static geoms near each moving one.
+  void Collide() {
+    const auto arm = reinterpret_cast<dGeomID>(arm_space);
+    const auto free = reinterpret_cast<dGeomID>(free_space);
+    const auto fixed = reinterpret_cast<dGeomID>(static_space);
+    if (static_count > 0) dSpaceCollide2(arm, fixed, this, &NearCallback);
+    if (free_count > 0) {
+      dSpaceCollide2(arm, free, this, &NearCallback);
+      dSpaceCollide(free_space, this, &NearCallback);
+      if (static_count > 0) dSpaceCollide2(free, fixed, this, &NearCallback);
+    }
+  }
+
   void SaveBodies() {
     saved_bodies.clear();
     auto save = [this](dBodyID body) {
@@ -701,11 +757,7 @@ struct ArmWorld::Impl {
       for (const JointSim& sim : joints) any_explicit = any_explicit || sim.explicit_friction;
       if (any_explicit) SaveBodies();
       contact_rows = 0;
-      if (options.contacts && !objects.empty()) {
-        dSpaceCollide2(reinterpret_cast<dGeomID>(arm_space), reinterpret_cast<dGeomID>(env_space),
-                       this, &NearCallback);
-        dSpaceCollide(env_space, this, &NearCallback);
-      }
+      if (options.contacts && !objects.empty()) Collide();
       dWorldStep(world, step_s);
       dJointGroupEmpty(contact_group);
       bool redo = false;

@@ -381,6 +381,55 @@ TEST(EnvironmentMessage, BadMessagesAreRefused) {
   }
 }
 
+// ---- limits -------------------------------------------------------------------------------------
+
+// An environment of `statics` static 2 cm cubes on the floor and `frees` free ones, one per line
+// after the two header lines.
+std::string ManyBoxes(size_t statics, size_t frees) {
+  std::string xml = "<?xml version=\"1.0\"?>\n<environment name=\"many\">\n";
+  for (size_t i = 0; i < statics + frees; ++i) {
+    const bool free = i >= statics;
+    xml += std::string("  <box name=\"b") + std::to_string(i) +
+           "\" size=\"0.02 0.02 0.02\" position=\"" +
+           std::to_string(0.35 + 0.04 * static_cast<double>(i / 100)) + " " +
+           std::to_string(-2.0 + 0.04 * static_cast<double>(i % 100)) + " 0.01\"" +
+           (free ? " static=\"false\" mass=\"0.02\"" : "") + "/>\n";
+  }
+  return xml + "</environment>\n";
+}
+
+TEST(EnvironmentLimits, TheLimitsLoad) {
+  const Environment environment =
+      ParseEnvironment(ManyBoxes(kMaxStaticObjects, kMaxFreeObjects), "test.xml");
+  EXPECT_EQ(environment.objects.size(), kMaxStaticObjects + kMaxFreeObjects);
+  EXPECT_NO_THROW(EnvironmentFromMessage(ToMessage(environment, 0, 0), "ENVIRONMENT"));
+}
+
+TEST(EnvironmentLimits, MoreStaticObjectsAreRefusedNamingTheCountAndTheLimit) {
+  EXPECT_EQ(ParseError(ManyBoxes(kMaxStaticObjects + 2, 0)),
+            "test.xml:10003: box \"b10000\": the file has 10002 static objects; allowed at most "
+            "10000 (this is the first one over the limit; docs/environment-format.md, \"Limits\")");
+}
+
+TEST(EnvironmentLimits, MoreFreeObjectsAreRefusedNamingTheCountAndTheLimit) {
+  EXPECT_EQ(ParseError(ManyBoxes(3, kMaxFreeObjects + 1)),
+            "test.xml:56: box \"b53\": the file has 51 free objects; allowed at most 50 (this is "
+            "the first one over the limit; docs/environment-format.md, \"Limits\")");
+}
+
+TEST(EnvironmentLimits, MessagesOverTheLimitsAreRefused) {
+  const Environment few = ParseEnvironment(ManyBoxes(2, 1), "test.xml");
+  sirupp::environment_t message = ToMessage(few, 0, 0);
+  const sirupp::environment_object_t free_box = message.objects.back();
+  for (size_t i = 0; i < kMaxFreeObjects; ++i) {
+    message.objects.push_back(free_box);
+    message.objects.back().name = "extra" + std::to_string(i);
+  }
+  message.num_objects = static_cast<int32_t>(message.objects.size());
+  EXPECT_EQ(ErrorText<MessageError>([&] { EnvironmentFromMessage(message, "ENVIRONMENT"); }),
+            "channel ENVIRONMENT: objects: 51 free objects; allowed at most 50");
+}
+
 // ---- malformed files ----------------------------------------------------------------------------
 
 constexpr const char* kCorpus = "tests/data/bad_environments";

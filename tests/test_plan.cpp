@@ -14,6 +14,7 @@
 #include "core/errors.hpp"
 #include "core/kinematics.hpp"
 #include "core/model_loader.hpp"
+#include "core/printable.hpp"
 #include "tests/helpers.hpp"
 
 namespace sirupp::control {
@@ -138,6 +139,68 @@ TEST(Plan, AFileThatCannotBeOpenedIsNamed) {
   EXPECT_EQ(testing::ErrorText<core::ConfigError>(
                 [] { LoadPlan("no/such.plan", Puma(), HomePositions(Puma())); }),
             "no/such.plan: cannot open the plan file");
+}
+
+TEST(Plan, AByteOrderMarkAtTheStartIsSkipped) {
+  const Plan plan = Parse("\xEF\xBB\xBFmove j1=10\nwait done\n");
+  ASSERT_EQ(plan.steps.size(), 2u);
+  EXPECT_EQ(plan.steps[0].text, "move j1=10");
+  EXPECT_EQ(
+      ParseError("\xEF\xBB\xBFgoto 5\n"),
+      "test.plan:1:1: goto: unknown statement 'goto'; allowed: move, wait, speed, accel, units "
+      "(lines starting with # are comments)");
+  // Only at the start: anywhere else it is part of a token.
+  EXPECT_EQ(ParseError("move j1=10\n\xEF\xBB\xBFwait done\n")
+                .rfind("test.plan:2:1: \\xEF\\xBB\\xBFwait: unknown statement", 0),
+            0u);
+}
+
+TEST(Plan, ControlCharactersAndBytesThatAreNotUtf8AreEscapedInMessages) {
+  const std::string error = ParseError("move j1=10\n\x1b]0;owned\x07\x80\x01 5\n");
+  EXPECT_EQ(error,
+            "test.plan:2:1: \\x1B]0;owned\\x07\\x80\\x01: unknown statement "
+            "'\\x1B]0;owned\\x07\\x80\\x01'; allowed: move, wait, speed, accel, units (lines "
+            "starting with # are comments)");
+  EXPECT_TRUE(core::IsPrintable(error));
+  // UTF-8 is shown as written.
+  EXPECT_EQ(ParseError("move j1=10\nbewege j1=5°\n")
+                .rfind("test.plan:2:1: bewege: unknown statement 'bewege'", 0),
+            0u);
+  EXPECT_EQ(ParseError("move j1=5°\n"),
+            "test.plan:1:9: move: joint j1 value '5°' is not a finite number");
+  // A very long token is cut in the message.
+  const std::string long_word(5000, 'x');
+  const std::string cut = ParseError(long_word + "\n");
+  EXPECT_LT(cut.size(), 400u);
+  EXPECT_NE(cut.find("'" + std::string(64, 'x') + "...'"), std::string::npos);
+  // The step text kept for display is one line of plain text.
+  const Plan plan = Parse("move j1=10 # \x01 comment\nwait\t\tdone\n");
+  EXPECT_EQ(plan.steps[1].text, "wait  done");
+}
+
+TEST(Plan, APlanOverTheSizeLimitIsRefusedNamingTheLimit) {
+  // The largest plan accepted parses; one byte more is refused before any line is read.
+  std::string text = "move j1=10\n#";
+  text += std::string(kMaxPlanBytes - text.size() - 1, '-') + "\n";
+  ASSERT_EQ(text.size(), kMaxPlanBytes);
+  EXPECT_EQ(Parse(text).moves(), 1);
+  EXPECT_EQ(ParseError(text + "\n"),
+            "test.plan: the plan has 262145 bytes; allowed at most 262144 (256 KiB, so that it "
+            "travels in one ARM_PLAN message); split it into several plans");
+}
+
+TEST(Plan, APlanFileOverTheSizeLimitIsRefusedWhenRead) {
+  const std::string path =
+      (std::filesystem::temp_directory_path() / "sirupp_test_plan_420k.plan").string();
+  {
+    std::ofstream file(path, std::ios::binary);
+    for (int i = 0; i < 30000; ++i) file << "move j1=10 speed=50%\n";  // 630 000 bytes
+  }
+  EXPECT_EQ(testing::ErrorText<core::ConfigError>([&] { ReadPlanText(path); }),
+            path +
+                ": the plan file has 630000 bytes; allowed at most 262144 (256 KiB, so that it "
+                "travels in one ARM_PLAN message); split it into several plans");
+  std::filesystem::remove(path);
 }
 
 TEST(Plan, EveryBadPlanFailsWithItsExpectedMessage) {

@@ -1,5 +1,8 @@
 #include <gtest/gtest.h>
 
+#include <chrono>
+#include <string>
+
 #include "core/yaml_reader.hpp"
 #include "tests/helpers.hpp"
 
@@ -112,6 +115,66 @@ TEST(YamlReader, LocationOfFallsBackToParent) {
   root.Get("list", "").Sequence()[0].Map({"a"});
   EXPECT_EQ(doc.LocationOf("list[0].b").ToString(), "t.yaml:3:5");
   EXPECT_EQ(doc.LocationOf("nowhere").ToString(), "t.yaml:1:1");
+}
+
+TEST(YamlReader, ControlCharactersInEchoedTextAreEscaped) {
+  const YamlDocument doc = YamlDocument::Parse("\"a\\x1bb\": 1\nc: \"\\x07\\u202e1\"\n", "t.yaml");
+  EXPECT_EQ(ErrorText<ConfigError>([&] { doc.Root().Map({"c"}); }),
+            "t.yaml:1:1: a\\x1Bb: unknown key 'a\\x1Bb'; allowed keys: c");
+  const YamlDocument quoted = YamlDocument::Parse("c: \"\\x07\\u202e1\"\n", "t.yaml");
+  EXPECT_EQ(ErrorText<ConfigError>([&] { quoted.Root().Map({"c"}).Number("c", AnyNumber()); }),
+            "t.yaml:1:4: c: the text \"\\x07\\xE2\\x80\\xAE1\" is not a number; expected a finite "
+            "number");
+}
+
+// Ten lines that expand nine-fold per line: 9^8 copies of the first line if read naively.
+std::string Bomb(bool merge_keys) {
+  std::string text = merge_keys ? "a: &a {x: 1, y: 2}\n" : "a: &a [lol, lol, lol, lol]\n";
+  for (char name = 'b'; name <= 'i'; ++name) {
+    const char previous = static_cast<char>(name - 1);
+    std::string refs;
+    for (int k = 0; k < 9; ++k) refs += std::string(k ? ", " : "") + "*" + previous;
+    text += std::string(1, name) + ": &" + name + (merge_keys ? " {<<: [" : " [") + refs +
+            (merge_keys ? "]}\n" : "]\n");
+  }
+  return text + (merge_keys ? "<<: *i\n" : "j: *i\n");
+}
+
+// The refusal names the file, a line inside the bomb and the limit, and comes quickly (the
+// generous bound is the point of the test: without the budget this took minutes).
+void ExpectBombRefused(const std::string& text, const std::string& expected_start) {
+  const auto start = std::chrono::steady_clock::now();
+  const std::string error = ErrorText<ConfigError>([&] {
+    const YamlDocument doc = YamlDocument::Parse(text, "bomb.yaml");
+    doc.Root().Map({"a", "b", "c", "d", "e", "f", "g", "h", "i", "j"});
+  });
+  const double seconds =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_EQ(error.substr(0, expected_start.size()), expected_start) << error;
+  EXPECT_NE(error.find("more than 250000 nodes"), std::string::npos) << error;
+  EXPECT_NE(error.find("allowed at most 250000"), std::string::npos) << error;
+  EXPECT_LT(seconds, 1.0);
+}
+
+TEST(YamlReader, AliasBombIsRefusedQuickly) { ExpectBombRefused(Bomb(false), "bomb.yaml:6:4: f["); }
+
+TEST(YamlReader, MergeKeyBombIsRefusedQuickly) {
+  ExpectBombRefused(Bomb(true), "bomb.yaml:6:12: f.<<[");
+}
+
+TEST(YamlReader, RecursiveAliasIsRefused) {
+  EXPECT_EQ(ErrorText<ConfigError>([] { YamlDocument::Parse("a: &a {x: 1, <<: *a}\n", "t.yaml"); }),
+            "t.yaml:1:14: a.<<: the document nests more than 100 levels deep (counting aliases as "
+            "copies); allowed at most 100");
+}
+
+TEST(YamlReader, ModestAliasUseIsFine) {
+  // 9 x 9 x 9 x 4 = 2916 expanded scalars: far below the budget.
+  const YamlDocument doc = YamlDocument::Parse(
+      "a: &a [1, 2, 3, 4]\nb: &b [*a, *a, *a, *a, *a, *a, *a, *a, *a]\n"
+      "c: &c [*b, *b, *b, *b, *b, *b, *b, *b, *b]\nd: [*c, *c, *c, *c, *c, *c, *c, *c, *c]\n",
+      "t.yaml");
+  EXPECT_EQ(doc.Root().Map({"a", "b", "c", "d"}).Get("d", "").Sequence().size(), 9U);
 }
 
 }  // namespace
