@@ -246,7 +246,8 @@ int RunPhase(const char* title, bool realtime, double seconds, const std::string
                   "  %lld states sent; 0 ticks stepped with a stale effort (every tick waited for "
                   "its answer); %lld answers arrived after their tick was stepped (re-sent or "
                   "braked for)\n",
-                  static_cast<long long>(ticks), static_cast<long long>(sim_after.late - sim_before.late));
+                  static_cast<long long>(ticks),
+                  static_cast<long long>(sim_after.late - sim_before.late));
     std::cout << line;
   }
   std::cout << "  process            CPU (% of one core)   RSS (MiB)   peak RSS (MiB)\n";
@@ -304,8 +305,8 @@ int main(int argc, char** argv) {
   rc |= RunPhase("realtime at the servo rate, emulated real arm linked", true, seconds, bin, url,
                  dir, servo_hz);
   if (with_load) {
-    rc |= RunPhase("realtime, emulated real arm linked, one busy loop per core", true, seconds,
-                   bin, url, dir, servo_hz, true);
+    rc |= RunPhase("realtime, emulated real arm linked, one busy loop per core", true, seconds, bin,
+                   url, dir, servo_hz, true);
   }
   fs::remove_all(dir);
   return rc;

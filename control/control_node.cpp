@@ -14,6 +14,7 @@
 #include "core/errors.hpp"
 #include "core/geometry.hpp"
 #include "core/model_check.hpp"
+#include "core/motion_limits.hpp"
 #include "core/translate.hpp"
 #include "servo/chip_gains.hpp"
 
@@ -35,7 +36,8 @@ ControlNode::ControlNode(core::Bus& bus, const core::RobotModel& model, ControlO
       options_(std::move(options)),
       bank_(model),
       heartbeat_(bus, options_.name, options_.channels.heartbeat),
-      chip_gains_(servo::ChipGainsFromModel(model)) {
+      chip_gains_(servo::ChipGainsFromModel(model)),
+      motion_limits_(core::DefaultMotionLimits(model)) {
   const core::Channels& channels = options_.channels;
   bus_.Subscribe<sirupp::arm_state_t>(
       channels.sim_arm_state,
@@ -60,6 +62,11 @@ ControlNode::ControlNode(core::Bus& bus, const core::RobotModel& model, ControlO
   bus_.Subscribe<sirupp::estop_t>(
       channels.estop, [this](const sirupp::estop_t& message, const core::ReceiveInfo& info) {
         OnEstop(message, info);
+      });
+  bus_.Subscribe<sirupp::hardware_status_t>(
+      channels.hardware_status,
+      [this](const sirupp::hardware_status_t& message, const core::ReceiveInfo& info) {
+        OnHardwareStatus(message, info);
       });
   bus_.Subscribe<sirupp::robot_model_t>(
       channels.robot_model, [this](const sirupp::robot_model_t& message,
@@ -311,6 +318,40 @@ void ControlNode::RequireManual(const std::string& channel) const {
   }
 }
 
+void ControlNode::CheckMotionLimits(const std::string& channel,
+                                    const std::vector<JointMove>& moves) const {
+  for (int j = 0; j < static_cast<int>(moves.size()); ++j) {
+    const JointMove& move = moves[static_cast<size_t>(j)];
+    if (!move.active) continue;
+    if (const auto reason = core::CheckJointMove(model_, motion_limits_, j, move.goal,
+                                                 move.velocity, move.acceleration)) {
+      throw core::MessageError(channel, "joint[" + std::to_string(j) + "]",
+                               *reason + " (the real arm's bridge refuses it too)");
+    }
+  }
+}
+
+void ControlNode::OnHardwareStatus(const sirupp::hardware_status_t& message,
+                                   const core::ReceiveInfo&) {
+  // The bridge names a move it refused as "channel ARM_MOVE: move <id>: <reason>": the virtual
+  // arm must not make a move the real one does not.
+  const std::string tag = "channel " + bus_.FullName(options_.channels.arm_move) + ": move " +
+                          std::to_string(move_id_) + ":";
+  if (message.last_error.rfind(tag, 0) != 0 || message.last_error == bridge_refusal_) return;
+  bridge_refusal_ = message.last_error;
+  const std::string cause = "sirupp-hardware refused move " + std::to_string(move_id_) + ": " +
+                            message.last_error.substr(tag.size() + 1);
+  std::cerr << "sirupp-control: " << cause << "; the virtual arm stops too\n";
+  if (servos_on_) bank_.StopSmooth();
+  PublishStop(sirupp::servo_move_t::COMMAND_STOP_SMOOTH);
+  if (plan_running_) {
+    EndPlan(cause + "; plan " + plan_->name + " aborted");
+  } else {
+    last_error_ = cause;
+    PublishStatus(true);
+  }
+}
+
 void ControlNode::StartMove(const std::vector<JointMove>& moves) {
   if (servos_on_) {
     bank_.Load(moves);
@@ -380,6 +421,7 @@ void ControlNode::OnTarget(const sirupp::joint_target_t& message, const core::Re
                   acceleration > 0 ? acceleration : joint.servo.default_acceleration};
     }
     if (!any) throw core::MessageError(info.channel, "active", "no joint is active");
+    CheckMotionLimits(info.channel, moves);
   } catch (const core::MessageError& error) {
     Refuse(error);
     throw;  // counted as rejected on ARM_TARGET
@@ -454,6 +496,7 @@ void ControlNode::OnPoseTarget(const sirupp::pose_target_t& message,
       moves[static_cast<size_t>(j)] = {true, goal.q[j], joint.servo.default_velocity * scale,
                                        joint.servo.default_acceleration * scale};
     }
+    CheckMotionLimits(info.channel, moves);
   } catch (const core::MessageError& error) {
     Refuse(error);
     throw;

@@ -22,6 +22,7 @@
 #include <sirupp/arm_command_t.hpp>
 #include <sirupp/arm_state_t.hpp>
 #include <sirupp/estop_t.hpp>
+#include <sirupp/hardware_status_t.hpp>
 #include <sirupp/joint_target_t.hpp>
 #include <sirupp/plan_command_t.hpp>
 #include <sirupp/pose_target_t.hpp>
@@ -33,12 +34,13 @@
 #include "control/effort_law.hpp"
 #include "control/plan.hpp"
 #include "control/servo_bank.hpp"
-#include "servo/chip_gains.hpp"
 #include "core/bus.hpp"
 #include "core/channels.hpp"
 #include "core/errors.hpp"
 #include "core/heartbeat.hpp"
+#include "core/motion_limits.hpp"
 #include "core/robot_model.hpp"
+#include "servo/chip_gains.hpp"
 
 namespace sirupp::control {
 
@@ -93,6 +95,9 @@ class ControlNode {
   // A state with a smaller tick than the last: a new sim run. Aborts a plan, takes the new state.
   void OnSimRestart(int64_t from_tick, int64_t to_tick);
   void CheckSimAlive();
+  // Throws MessageError on `channel` if a move breaks the motion limits the bridge applies.
+  void CheckMotionLimits(const std::string& channel, const std::vector<JointMove>& moves) const;
+  void OnHardwareStatus(const sirupp::hardware_status_t& message, const core::ReceiveInfo& info);
   // CONTROLLER_GAINS: the live gains, 1 Hz and on change.
   void PublishGains(bool force);
   // Throws MessageError on `channel` while the emergency stop is engaged.
@@ -140,6 +145,8 @@ class ControlNode {
   bool gains_changed_ = true;
   int64_t gains_seq_ = 0;
   std::vector<servo::ChipGains> chip_gains_;  // the gains in force, as ARM_GAINS set them
+  core::MotionLimits motion_limits_;          // the bridge's rule (core/motion_limits.hpp)
+  std::string bridge_refusal_;                // the last refusal taken from HARDWARE_STATUS
 
   // Sequencer.
   std::string estop_;              // who engaged the emergency stop and why; empty when released

@@ -12,6 +12,7 @@
 #include "control/pose_goal.hpp"
 #include "core/errors.hpp"
 #include "core/geometry.hpp"
+#include "core/motion_limits.hpp"
 #include "core/printable.hpp"
 
 namespace sirupp::control {
@@ -408,7 +409,22 @@ int Plan::moves() const {
 Plan ParsePlan(const std::string& text, const std::string& name, const core::RobotModel& model,
                const std::vector<double>& start) {
   Parser parser(name, model, start);
-  return parser.Parse(text);
+  Plan plan = parser.Parse(text);
+  // One set of motion limits: what the real arm's bridge would refuse is refused here, before
+  // the virtual arm moves (core/motion_limits.hpp).
+  const core::MotionLimits limits = core::DefaultMotionLimits(model);
+  for (const PlanStep& step : plan.steps) {
+    for (int j = 0; j < static_cast<int>(step.moves.size()); ++j) {
+      const JointMove& move = step.moves[static_cast<size_t>(j)];
+      if (!move.active) continue;
+      if (const auto reason =
+              core::CheckJointMove(model, limits, j, move.goal, move.velocity, move.acceleration)) {
+        throw core::ConfigError({core::Printable(name, 256), step.line, 1}, "move",
+                                *reason + " (the real arm's bridge refuses it too)");
+      }
+    }
+  }
+  return plan;
 }
 
 std::string ReadPlanText(const std::string& path) {

@@ -125,9 +125,9 @@ template <class Msg, class = void>
 struct HasSenderField : std::false_type {};
 template <class Msg>
 struct HasSenderField<Msg, std::void_t<decltype(std::declval<const Msg&>().sender)>>
-    : std::is_same<std::remove_cv_t<std::remove_reference_t<
-                       decltype(std::declval<const Msg&>().sender)>>,
-                   std::string> {};
+    : std::is_same<
+          std::remove_cv_t<std::remove_reference_t<decltype(std::declval<const Msg&>().sender)>>,
+          std::string> {};
 
 template <class Msg>
 class TypedSubscription final : public Subscription {

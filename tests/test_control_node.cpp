@@ -8,11 +8,12 @@
 #include <algorithm>
 #include <cmath>
 #include <iostream>
+#include <sirupp/arm_command_t.hpp>
 #include <sirupp/controller_status_t.hpp>
 #include <sirupp/estop_t.hpp>
+#include <sirupp/hardware_status_t.hpp>
 #include <sirupp/servo_move_t.hpp>
 #include <sirupp/servo_setpoint_t.hpp>
-#include <sirupp/arm_command_t.hpp>
 
 #include "control/control_node.hpp"
 #include "core/kinematics.hpp"
@@ -519,6 +520,37 @@ TEST(ControlNode, AnotherRobotInTheSimIsRefusedNamingBothFiles) {
   same.bus.Publish("ROBOT_MODEL", core::ToMessage(same.model, 0, 0));
   same.control.Service(0);
   EXPECT_TRUE(same.control.start_refusal().empty());
+}
+
+TEST(ControlNode, OneSetOfMotionLimitsWithTheBridge) {
+  HandFedControl rig;
+  for (int64_t k = 0; k < 5; ++k) rig.State(k);
+  // An acceleration the bridge would refuse is refused here, before the virtual arm moves.
+  sirupp::joint_target_t wild = Target({10, 0, 0, 0, 0, 0}, {1, 0, 0, 0, 0, 0});
+  wild.acceleration[0] = 1e12;
+  rig.Send(wild);
+  EXPECT_EQ(rig.control.move_id(), 0);
+  EXPECT_NE(rig.control.last_error().find("acceleration"), std::string::npos)
+      << rig.control.last_error();
+  EXPECT_NE(rig.control.last_error().find("bridge refuses it too"), std::string::npos);
+  // A goal inside the joint's limits but within the bridge's 2 degree margin is refused too.
+  const double upper = rig.model.joints[1].position_max / kDeg;
+  rig.Send(Target({0, upper - 1, 0, 0, 0, 0}, {0, 1, 0, 0, 0, 0}));
+  EXPECT_EQ(rig.control.move_id(), 0);
+  EXPECT_NE(rig.control.last_error().find("soft limits"), std::string::npos)
+      << rig.control.last_error();
+  // A move the bridge refuses anyway (its own settings) stops the virtual arm and names it.
+  rig.Send(Target({30, 0, 0, 0, 0, 0}, {1, 0, 0, 0, 0, 0}));
+  ASSERT_EQ(rig.control.move_id(), 1);
+  for (int64_t k = 5; k < 50; ++k) rig.State(k);
+  sirupp::hardware_status_t refused{};
+  refused.last_error = "channel ARM_MOVE: move 1: joint j1 (waist): speed too high";
+  rig.bus.Publish("HARDWARE_STATUS", refused);
+  rig.control.Service(0);
+  EXPECT_EQ(rig.moves.back().command, sirupp::servo_move_t::COMMAND_STOP_SMOOTH);
+  EXPECT_NE(rig.control.last_error().find("sirupp-hardware refused move 1: joint j1"),
+            std::string::npos)
+      << rig.control.last_error();
 }
 
 }  // namespace

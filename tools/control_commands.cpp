@@ -39,7 +39,8 @@ using Status = sirupp::controller_status_t;
 constexpr double kDeg = 3.14159265358979323846 / 180;
 constexpr double kFirstStatusS = 1.5;
 // CONTROLLER_STATUS comes at 10 Hz: silent this long, the controller is gone.
-constexpr double kControllerSilentS = 1.5;  // CONTROLLER_STATUS comes at 10 Hz: wait this long for one
+constexpr double kControllerSilentS =
+    1.5;  // CONTROLLER_STATUS comes at 10 Hz: wait this long for one
 constexpr int kExitFailed = 1;
 
 const char* ModeName(int8_t mode) {
@@ -80,15 +81,11 @@ class RigWatch {
         channels.sim_status,
         [this](const sirupp::sim_status_t& message, const core::ReceiveInfo&) { sim = message; });
     bus_.Subscribe<sirupp::servo_gains_t>(
-        channels.controller_gains,
-        [this](const sirupp::servo_gains_t& message, const core::ReceiveInfo&) {
-          virtual_gains = message;
-        });
+        channels.controller_gains, [this](const sirupp::servo_gains_t& message,
+                                          const core::ReceiveInfo&) { virtual_gains = message; });
     bus_.Subscribe<sirupp::servo_gains_t>(
-        channels.real_arm_gains,
-        [this](const sirupp::servo_gains_t& message, const core::ReceiveInfo&) {
-          real_gains = message;
-        });
+        channels.real_arm_gains, [this](const sirupp::servo_gains_t& message,
+                                        const core::ReceiveInfo&) { real_gains = message; });
     bus_.Subscribe<sirupp::heartbeat_t>(
         channels.heartbeat, [this](const sirupp::heartbeat_t& message, const core::ReceiveInfo&) {
           heartbeats[message.process + "@" + message.host] = message;
@@ -137,9 +134,9 @@ class RigWatch {
     const double silent =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - last_status_at).count();
     if (!status || silent < seconds) return false;
-    out << "sirupp-control stopped answering: no " << bus_.FullName(core::Channels{}.controller_status)
-        << " for " << core::FormatApprox(silent)
-        << " s (it crashed or was stopped; its log says why)\n";
+    out << "sirupp-control stopped answering: no "
+        << bus_.FullName(core::Channels{}.controller_status) << " for "
+        << core::FormatApprox(silent) << " s (it crashed or was stopped; its log says why)\n";
     return true;
   }
 
@@ -538,7 +535,8 @@ const char* const kPlanUsage =
     "  the arm smoothly (also with no plan running); automatic locks out manual targets until\n"
     "  manual. Format: docs/plan-format.md; examples: config/plans/.\n"
     "  A fault (a tripped servo, a failing student controller, another robot in the sim) holds\n"
-    "  the arm and refuses targets and plans, naming its first cause, until `sirupp clear-fault`.\n";
+    "  the arm and refuses targets and plans, naming its first cause, until `sirupp "
+    "clear-fault`.\n";
 
 const char* const kGainsUsage =
     "usage: sirupp gains [--joint N] [--kp V] [--kd V] [--ki V] [--il V] [--ol V] [--el V]\n"
@@ -672,8 +670,7 @@ int RunGains(const std::vector<std::string>& args, std::ostream& out) {
   RigWatch watch(bus, false);
   if (!watch.FirstStatus(out)) return kExitFailed;
   // The live gains: the controller sends them at 1 Hz; the bridge too when it runs.
-  watch.Until([&] { return watch.virtual_gains.has_value() && watch.real_gains.has_value(); },
-              1.5);
+  watch.Until([&] { return watch.virtual_gains.has_value() && watch.real_gains.has_value(); }, 1.5);
   const core::Channels channels;
   if (!change) {
     if (!watch.virtual_gains) {
@@ -721,7 +718,7 @@ int RunGains(const std::vector<std::string>& args, std::ostream& out) {
   if (had_real) {
     out << "real boards: "
         << (SameFilterGains(*watch.real_gains, message) ? "running the new gains (read back)"
-                                                         : "not confirmed")
+                                                        : "not confirmed")
         << "\n";
   }
   return taken ? 0 : kExitFailed;
@@ -788,10 +785,11 @@ int RunStatus(const std::vector<std::string>& args, std::ostream& out) {
     }
     for (int32_t i = 0; i < sim.num_refused; ++i) {
       const auto k = static_cast<size_t>(i);
-      out << "  refused from '" << sim.refused_sender[k] << "': " << sim.refused_count[k]
-          << " (" << sim.refused_reason[k] << ")\n";
+      out << "  refused from '" << sim.refused_sender[k] << "': " << sim.refused_count[k] << " ("
+          << sim.refused_reason[k] << ")\n";
     }
-    if (sim.refused_others > 0) out << "  refused from other senders: " << sim.refused_others << "\n";
+    if (sim.refused_others > 0)
+      out << "  refused from other senders: " << sim.refused_others << "\n";
   }
   for (const auto& [who, beat] : watch.heartbeats) {
     out << "process " << who << " pid " << beat.pid << ": "
