@@ -327,6 +327,7 @@ class FileReader {
       const std::string value = Trim(line.substr(colon + 1));
       if (key == "joints") declared_joints = ParseJoints(static_cast<int>(index + 1), value);
       if (key == "plan") table_.plan_name = value == "(none)" ? "" : value;
+      if (key == "continues") table_.continues = value.substr(0, value.find(' '));
     }
     const int column_line = static_cast<int>(index + 1);
     if (index >= lines.size() || (partial_last && index == lines.size() - 1)) {

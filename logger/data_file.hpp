@@ -61,6 +61,7 @@ struct RunTable {
   // or a file without age columns.
   std::array<std::vector<double>, kNumStreams> age_s;
   bool closed = false;             // the writer's "# end" line is there
+  std::string continues;           // header "continues:": the file a restarted logger continued
   std::vector<std::string> notes;  // warnings worth showing with the report
 
   size_t rows() const { return time_s.size(); }

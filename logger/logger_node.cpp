@@ -1,10 +1,14 @@
 #include "logger/logger_node.hpp"
 
+#include <algorithm>
+#include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <filesystem>
+#include <fstream>
 #include <sirupp/arm_state_t.hpp>
 #include <sirupp/controller_status_t.hpp>
 #include <sirupp/servo_gains_t.hpp>
@@ -113,14 +117,55 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
     throw std::runtime_error("--out " + options_.out_dir + ": cannot create the directory" +
                              (error ? ": " + error.message() : ""));
   }
+  // Files of an earlier logger with this name: NAME.csv, NAME-rK.csv, NAME-NN-SET.csv, each
+  // perhaps with a continuation suffix (NAME-NN-SET.2.csv).
+  fs::file_time_type newest_time = fs::file_time_type::min();
   for (const auto& entry : fs::directory_iterator(options_.out_dir)) {
     const std::string file = entry.path().filename().string();
-    if (entry.path().extension() == ".csv" &&
-        (file == options_.name + ".csv" || file.rfind(options_.name + "-", 0) == 0)) {
-      throw std::runtime_error(entry.path().string() +
-                               " exists: data files are never replaced; "
-                               "choose another --name or --out");
+    if (entry.path().extension() != ".csv" ||
+        !(file == options_.name + ".csv" || file.rfind(options_.name + "-", 0) == 0 ||
+          file.rfind(options_.name + ".", 0) == 0)) {
+      continue;
     }
+    std::string stem = entry.path().stem().string();
+    const size_t dot = stem.rfind('.');
+    if (dot != std::string::npos && dot + 1 < stem.size() &&
+        stem.find_first_not_of("0123456789", dot + 1) == std::string::npos &&
+        dot >= options_.name.size()) {
+      stem.resize(dot);  // the continuation suffix
+    }
+    const std::string rest = stem.substr(options_.name.size());  // "", "-r3" or "-07-set2"
+    if (rest.size() > 2 && rest.compare(0, 2, "-r") == 0 &&
+        rest.find_first_not_of("0123456789", 2) == std::string::npos) {
+      restart_.last_run = std::max(restart_.last_run, std::atoi(rest.c_str() + 2));
+    } else if (rest.size() > 4 && rest[0] == '-' && rest[3] == '-' &&
+               std::isdigit(static_cast<unsigned char>(rest[1])) &&
+               std::isdigit(static_cast<unsigned char>(rest[2]))) {
+      restart_.last_number = std::max(restart_.last_number, std::atoi(rest.c_str() + 1));
+    } else if (!rest.empty()) {
+      continue;  // another run's name that merely starts with ours ("lab-old.csv")
+    }
+    std::error_code time_error;
+    const fs::file_time_type time = fs::last_write_time(entry.path(), time_error);
+    if (!time_error && (restart_.previous_file.empty() || time > newest_time ||
+                        (time == newest_time && entry.path().string() > restart_.previous_file))) {
+      newest_time = time;
+      restart_.previous_file = entry.path().string();
+      restart_.previous_stem = stem;
+    }
+  }
+  file_count_ = restart_.last_number;
+  if (!restart_.previous_file.empty()) {
+    // The plan the earlier logger was recording: a run of it under way now is joined, not split.
+    std::ifstream previous(restart_.previous_file);
+    std::string line;
+    for (int i = 0; i < 40 && std::getline(previous, line) && line.rfind("#", 0) == 0; ++i) {
+      if (line.rfind("# plan: ", 0) == 0 && line != "# plan: (none)") {
+        restart_.previous_plan = line.substr(8);
+        break;
+      }
+    }
+    aligner_.ContinuePlan(restart_.previous_plan);
   }
 
   const int joints = model_.num_joints();
@@ -132,7 +177,7 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
     }
   };
   constexpr int kQueue = 10000;  // LCM's own per-subscription queue between two Handle() calls
-  bus_.Subscribe<sirupp::servo_setpoint_t>(
+  subscriptions_.push_back(&bus_.Subscribe<sirupp::servo_setpoint_t>(
       options_.channels.arm_setpoint,
       [this, check](const sirupp::servo_setpoint_t& message, const core::ReceiveInfo& info) {
         check(info.channel, message.num_joints);
@@ -145,8 +190,8 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
         sample.lost_before = set_seq_.Next(message.seq);
         Push(std::move(sample), Stream::kSetpoint);
       },
-      kQueue);
-  bus_.Subscribe<sirupp::arm_state_t>(
+      kQueue));
+  subscriptions_.push_back(&bus_.Subscribe<sirupp::arm_state_t>(
       options_.channels.sim_arm_state,
       [this, check](const sirupp::arm_state_t& message, const core::ReceiveInfo& info) {
         check(info.channel, message.num_joints);
@@ -155,8 +200,8 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
         sample.lost_before = virt_seq_.Next(message.seq);
         Push(std::move(sample), Stream::kVirtual);
       },
-      kQueue);
-  bus_.Subscribe<sirupp::arm_state_t>(
+      kQueue));
+  subscriptions_.push_back(&bus_.Subscribe<sirupp::arm_state_t>(
       options_.channels.real_arm_state,
       [this, check](const sirupp::arm_state_t& message, const core::ReceiveInfo& info) {
         check(info.channel, message.num_joints);
@@ -165,15 +210,15 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
         sample.lost_before = real_seq_.Next(message.seq);
         Push(std::move(sample), Stream::kReal);
       },
-      kQueue);
-  bus_.Subscribe<sirupp::controller_status_t>(
+      kQueue));
+  subscriptions_.push_back(&bus_.Subscribe<sirupp::controller_status_t>(
       options_.channels.controller_status,
       [this](const sirupp::controller_status_t& message, const core::ReceiveInfo& info) {
         CheckStatus(info.channel, message);
         Push(StatusFromMessage(message, info.recv_utime), Stream::kSetpoint);
       },
-      kQueue);
-  bus_.Subscribe<sirupp::servo_gains_t>(
+      kQueue));
+  subscriptions_.push_back(&bus_.Subscribe<sirupp::servo_gains_t>(
       options_.channels.arm_gains,
       [this, check](const sirupp::servo_gains_t& message, const core::ReceiveInfo& info) {
         check(info.channel, message.num_joints);
@@ -181,12 +226,15 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
         CheckFinite(info.channel, "kd", message.kd);
         CheckFinite(info.channel, "ki", message.ki);
         Push(GainsFromMessage(message), Stream::kSetpoint);
-      });
+      }));
   heartbeat_.Publish(core::ProcessState::kStarting, "");
   writer_ = std::thread([this] { WriterLoop(); });
 }
 
 LoggerNode::~LoggerNode() {
+  // The bus may outlive this node (another logger on it after a restart): no handler may call
+  // into it any more.
+  for (core::Subscription* subscription : subscriptions_) subscription->Unsubscribe();
   try {
     Close();
   } catch (const std::exception&) {  // Close() only throws if joining fails; nothing to add here
@@ -305,20 +353,61 @@ void LoggerNode::WriteRow(const Row& row) {
   ++stats_.rows;
 }
 
+std::string LoggerNode::FreeStem(const std::string& stem, bool continuation) const {
+  namespace fs = std::filesystem;
+  const fs::path dir(options_.out_dir);
+  if (!continuation && !fs::exists(dir / (stem + ".csv"))) return stem;
+  for (int k = 1;; ++k) {
+    const std::string candidate = stem + "." + std::to_string(k);
+    if (!fs::exists(dir / (candidate + ".csv"))) return candidate;
+  }
+}
+
 void LoggerNode::OpenFile(const Row& row) {
-  ++file_count_;
+  // The first file of a restarted logger continues the earlier logger's newest file when it holds
+  // the same movement set (or the same run, unsplit): NAME-03-set2.csv -> NAME-03-set2.1.csv.
+  // Otherwise numbering goes on after the earlier files. A name already taken gets the next free
+  // continuation suffix: no file is ever replaced.
+  const bool first = !restart_.continued;
+  restart_.continued = true;
   std::string file_name = options_.name;
+  const std::string label =
+      PlanLabel(aligner_.plan_runs()[static_cast<size_t>(row.plan_run)].plan_name);
+  bool continuation = false;
   if (options_.split_per_plan) {
+    const std::string& previous = restart_.previous_stem;
+    const std::string& name = options_.name;
+    continuation = first && previous.size() == name.size() + 4 + label.size() &&
+                   previous.compare(0, name.size(), name) == 0 &&
+                   previous.compare(name.size() + 3, std::string::npos, "-" + label) == 0;
+    if (!continuation) ++file_count_;
     char number[16];
     std::snprintf(number, sizeof number, "-%02d-", file_count_);
-    const std::string& plan = aligner_.plan_runs()[static_cast<size_t>(row.plan_run)].plan_name;
-    file_name += number + PlanLabel(plan);
-  } else if (row.run > 0) {
-    file_name += "-r" + std::to_string(row.run);
+    file_name = continuation ? previous : file_name + number + label;
+  } else if (first && !restart_.previous_stem.empty()) {
+    continuation = true;
+    file_name = restart_.previous_stem;
+  } else if (row.run > 0 || restart_.last_run > 0) {
+    file_name += "-r" + std::to_string(restart_.last_run + row.run);
   }
+  file_name = FreeStem(file_name, continuation);
   const std::string path =
       (std::filesystem::path(options_.out_dir) / (file_name + ".csv")).string();
-  file_ = std::make_unique<DataFileWriter>(path, HeaderLines(row), layout_);
+  std::vector<std::string> header = HeaderLines(row);
+  if (aligner_.plan_runs()[static_cast<size_t>(row.plan_run)].joined) {
+    header.push_back("plan run: under way when the logger started; its start is not in this file");
+  }
+  if (!restart_.previous_file.empty()) {
+    header.push_back("restart: this logger started with data files of " + options_.name +
+                     " already in " + options_.out_dir +
+                     " (a restart); it continues that run in new files and never replaces one");
+    if (continuation) {
+      header.push_back(
+          "continues: " + std::filesystem::path(restart_.previous_file).filename().string() +
+          " (the rows between its last one and this file's first were not logged)");
+    }
+  }
+  file_ = std::make_unique<DataFileWriter>(path, header, layout_);
   std::lock_guard<std::mutex> lock(mutex_);
   stats_.files.push_back(path);
 }
