@@ -73,6 +73,11 @@ void Aligner::NoteOffset(const Sample& sim_sample) {
   wall_offset_ = offsets_.front().second;
 }
 
+std::optional<int64_t> Aligner::AxisTimeAtWall(int64_t wall_utime) const {
+  if (axis_ == Axis::kUndecided || !have_offset_) return std::nullopt;
+  return wall_utime + wall_offset_;
+}
+
 int64_t Aligner::AxisTime(const Sample& sample) const {
   if (sample.clock == SampleClock::kSim) {
     return axis_ == Axis::kRealOnly ? sample.recv_utime + wall_offset_ : sample.utime;

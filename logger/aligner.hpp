@@ -21,6 +21,7 @@
 #include <cstdint>
 #include <deque>
 #include <functional>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -66,6 +67,9 @@ class Aligner {
 
   void Add(Sample sample);
   void AddStatus(const PlanStatus& status);
+  // The time on the axis of the wall-clock time `wall_utime` (from the sim clock's offset), or
+  // nullopt while the axis is not known yet.
+  std::optional<int64_t> AxisTimeAtWall(int64_t wall_utime) const;
   // Sets AlignerOptions::continue_plan (before any input).
   void ContinuePlan(const std::string& plan_name) { options_.continue_plan = plan_name; }
 

@@ -255,6 +255,12 @@ void DataFileWriter::Append(const Row& row) {
   layout_.AppendRow(row, buffer_);
 }
 
+void DataFileWriter::AppendComment(const std::string& text) {
+  buffer_ += "# ";
+  for (char c : text) buffer_ += c == '\n' || c == '\r' ? ' ' : c;
+  buffer_ += '\n';
+}
+
 void DataFileWriter::Flush() {
   if (buffer_.empty() || fd_ < 0) return;
   std::string text;
@@ -347,6 +353,7 @@ class FileReader {
       if (line.empty()) Fail(line_number, "empty line inside the data");
       if (line[0] == '#') {
         if (line.rfind("# end:", 0) == 0) table_.closed = true;
+        if (line.rfind("# gains: ", 0) == 0) table_.gains.push_back(line.substr(2));
         continue;
       }
       if (table_.closed) Fail(line_number, "data after the '# end:' line");

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cctype>
 #include <chrono>
+#include <climits>
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -40,6 +41,21 @@ std::string LocalTimeText(bool compact) {
   } else {
     std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%S%z", &local);
   }
+  return text;
+}
+
+// A wall-clock time in microseconds as local ISO 8601 with milliseconds and the UTC offset.
+std::string WallTimeText(int64_t utime) {
+  const std::time_t seconds = static_cast<std::time_t>(utime / 1000000);
+  std::tm local{};
+  localtime_r(&seconds, &local);
+  char date[32];
+  char zone[8];
+  std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%S", &local);
+  std::strftime(zone, sizeof zone, "%z", &local);
+  char text[64];
+  std::snprintf(text, sizeof text, "%s.%03d%s", date, static_cast<int>((utime / 1000) % 1000),
+                zone);
   return text;
 }
 
@@ -218,15 +234,26 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
         Push(StatusFromMessage(message, info.recv_utime), Stream::kSetpoint);
       },
       kQueue));
-  subscriptions_.push_back(&bus_.Subscribe<sirupp::servo_gains_t>(
-      options_.channels.arm_gains,
-      [this, check](const sirupp::servo_gains_t& message, const core::ReceiveInfo& info) {
-        check(info.channel, message.num_joints);
-        CheckFinite(info.channel, "kp", message.kp);
-        CheckFinite(info.channel, "kd", message.kd);
-        CheckFinite(info.channel, "ki", message.ki);
-        Push(GainsFromMessage(message), Stream::kSetpoint);
-      }));
+  // Gains: requests, the virtual servos' live gains and the real boards'; every change is written
+  // into the data file with its time.
+  const std::pair<std::string, GainsSource> gains_channels[] = {
+      {options_.channels.arm_gains, GainsSource::kRequest},
+      {options_.channels.controller_gains, GainsSource::kController},
+      {options_.channels.real_arm_gains, GainsSource::kReal}};
+  for (const auto& [channel, source] : gains_channels) {
+    subscriptions_.push_back(&bus_.Subscribe<sirupp::servo_gains_t>(
+        channel,
+        [this, check, gains_source = source](const sirupp::servo_gains_t& message,
+                                             const core::ReceiveInfo& info) {
+          check(info.channel, message.num_joints);
+          GainsRecord gains = GainsFromMessage(message, gains_source, info.recv_utime);
+          for (int f = 0; f < kNumGainFields; ++f) {
+            CheckFinite(info.channel, GainFieldName(f), GainField(gains, f));
+          }
+          Push(std::move(gains), Stream::kSetpoint);
+        },
+        kQueue));
+  }
   heartbeat_.Publish(core::ProcessState::kStarting, "");
   writer_ = std::thread([this] { WriterLoop(); });
 }
@@ -312,8 +339,7 @@ void LoggerNode::WriterLoop() {
         last_mode_ = status->mode;
         aligner_.AddStatus(*status);
       } else if (auto* gains = std::get_if<GainsRecord>(&input)) {
-        gains_ = *gains;
-        have_gains_ = true;
+        NoteGains(*gains);
       }
     }
     batch.clear();
@@ -322,7 +348,10 @@ void LoggerNode::WriterLoop() {
       try {
         aligner_.TakeRows(WallMicros(), stopping, [this](const Row& row) { WriteRow(row); });
         if (file_) file_->Flush();
-        if (stopping) CloseFile();
+        if (stopping) {
+          stopping_ = true;
+          CloseFile();
+        }
       } catch (const std::exception& e) {
         failed = true;
         error = e.what();
@@ -340,6 +369,40 @@ void LoggerNode::WriterLoop() {
   }
 }
 
+void LoggerNode::NoteGains(const GainsRecord& gains) {
+  const auto s = static_cast<size_t>(gains.source);
+  if (gains.source == GainsSource::kRequest) {
+    gains_ = gains;  // for the headers
+    have_gains_ = true;
+  }
+  std::string change;
+  if (!last_gains_[s]) {
+    change = "first heard: " + DescribeGains(gains);
+  } else {
+    change = DescribeGainsChange(*last_gains_[s], gains);
+    if (change.empty()) return;  // a repeat
+  }
+  last_gains_[s] = gains;
+  const core::Channels& c = options_.channels;
+  const std::string& channel = gains.source == GainsSource::kRequest      ? c.arm_gains
+                               : gains.source == GainsSource::kController ? c.controller_gains
+                                                                          : c.real_arm_gains;
+  const std::optional<int64_t> at = aligner_.AxisTimeAtWall(gains.recv_utime);
+  PendingNote note;
+  note.time_us = at.value_or(INT64_MIN);
+  note.text = "gains: time_s " + (at ? Seconds(*at) : std::string("-")) + ", wall " +
+              WallTimeText(gains.recv_utime) + ": " + bus_.prefix() + channel + " (" +
+              GainsSourceTitle(gains.source) + ") " + change;
+  notes_.push_back(std::move(note));
+}
+
+void LoggerNode::WriteNotes(int64_t up_to_us) {
+  while (file_ && !notes_.empty() && notes_.front().time_us <= up_to_us) {
+    file_->AppendComment(notes_.front().text);
+    notes_.pop_front();
+  }
+}
+
 void LoggerNode::WriteRow(const Row& row) {
   const int plan = options_.split_per_plan ? row.plan_run : 0;
   if (!file_ || row.run != file_run_ || plan != file_plan_) {
@@ -348,6 +411,7 @@ void LoggerNode::WriteRow(const Row& row) {
     file_plan_ = plan;
     OpenFile(row);
   }
+  WriteNotes(row.time_us);  // gain changes in time order among the rows
   file_->Append(row);
   std::lock_guard<std::mutex> lock(mutex_);
   ++stats_.rows;
@@ -394,6 +458,14 @@ void LoggerNode::OpenFile(const Row& row) {
   const std::string path =
       (std::filesystem::path(options_.out_dir) / (file_name + ".csv")).string();
   std::vector<std::string> header = HeaderLines(row);
+  for (int source = 0; source < kNumGainsSources; ++source) {
+    const std::optional<GainsRecord>& gains = last_gains_[static_cast<size_t>(source)];
+    if (gains) {
+      header.push_back(std::string("gains now, ") +
+                       GainsSourceTitle(static_cast<GainsSource>(source)) + ": " +
+                       DescribeGains(*gains));
+    }
+  }
   if (aligner_.plan_runs()[static_cast<size_t>(row.plan_run)].joined) {
     header.push_back("plan run: under way when the logger started; its start is not in this file");
   }
@@ -414,6 +486,7 @@ void LoggerNode::OpenFile(const Row& row) {
 
 void LoggerNode::CloseFile() {
   if (!file_) return;
+  if (stopping_) WriteNotes(INT64_MAX);  // the last file takes what is left
   file_->Close(EndLine());
   file_.reset();
 }

@@ -3,8 +3,8 @@
 // the bus and without losing what was received (docs/logging.md).
 //
 // In:  ARM_SETPOINT (set-point), SIM_ARM_STATE (virtual arm), REAL_ARM_STATE (real arm, when a
-//      bridge runs), CONTROLLER_STATUS (plan runs: one file per movement set), ARM_GAINS (for the
-//      header).
+//      bridge runs), CONTROLLER_STATUS (plan runs: one file per movement set), ARM_GAINS,
+//      CONTROLLER_GAINS and REAL_ARM_GAINS (every change written into the file with its time).
 // Out: the data files; HEARTBEAT.
 //
 // Threads: the caller's thread runs the bus (Service); its handlers only copy each message into a
@@ -18,8 +18,10 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
+#include <deque>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <variant>
@@ -130,8 +132,18 @@ class LoggerNode {
   int file_run_ = -1;
   int file_plan_ = -1;
   int file_count_ = 0;
-  GainsRecord gains_;
+  GainsRecord gains_;  // last ARM_GAINS request, for the header
   bool have_gains_ = false;
+  std::array<std::optional<GainsRecord>, kNumGainsSources> last_gains_;  // per source
+  // Gain-change lines waiting for the rows up to their time.
+  struct PendingNote {
+    int64_t time_us = 0;  // on the time axis; INT64_MIN if not known yet
+    std::string text;
+  };
+  std::deque<PendingNote> notes_;
+  bool stopping_ = false;
+  void NoteGains(const GainsRecord& gains);
+  void WriteNotes(int64_t up_to_us);
   int8_t last_mode_ = -1;
 
   std::thread writer_;

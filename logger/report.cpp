@@ -350,6 +350,19 @@ ReportOutput WriteReport(const std::vector<RunTable>& tables, const ReportOption
       " s). Overshoot: the farthest it went past that final value. Final error: final value "
       "minus the set-point's end.\n\n" +
       response_md;
+  std::string gains_md;
+  for (size_t t = 0; t < tables.size(); ++t) {
+    for (const std::string& line : tables[t].gains) {
+      gains_md += "- " + keys[t] + " (`" + tables[t].source + "`): " + line.substr(7) + "\n";
+    }
+  }
+  if (!gains_md.empty()) {
+    md +=
+        "\n## Gain changes\n\nAs the logger heard them (chip units): requests on ARM_GAINS, the "
+        "virtual servos' gains on CONTROLLER_GAINS, the real boards' on REAL_ARM_GAINS; sim "
+        "time and wall clock.\n\n" +
+        gains_md;
+  }
   if (!plots_md.empty()) md += "\n## Plots\n\n" + plots_md;
   if (!notes.empty()) {
     md += "\n## Notes\n\n";

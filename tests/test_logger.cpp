@@ -18,6 +18,7 @@
 #include <limits>
 #include <sirupp/arm_state_t.hpp>
 #include <sirupp/controller_status_t.hpp>
+#include <sirupp/servo_gains_t.hpp>
 #include <sirupp/servo_setpoint_t.hpp>
 #include <sstream>
 #include <thread>
@@ -631,6 +632,87 @@ TEST(LoggerNode, UnsplitFilesContinueAsNameDotK) {
   EXPECT_EQ(LogSome(rig, options, 1000, 300), std::vector<std::string>{rig.dir / "run.1.csv"});
   EXPECT_EQ(LogSome(rig, options, 2000, 300), std::vector<std::string>{rig.dir / "run.2.csv"});
   EXPECT_NE(FileText(rig.dir / "run.2.csv").find("\n# continues: run.1.csv "), std::string::npos);
+}
+
+sirupp::servo_gains_t Gains(int64_t seq, double kp2) {
+  sirupp::servo_gains_t gains{};
+  gains.seq = seq;
+  gains.num_joints = kJoints;
+  auto fill = [](std::vector<double>& values, double value) { values.assign(kJoints, value); };
+  fill(gains.kp, 100);
+  gains.kp[1] = kp2;
+  fill(gains.kd, 1000);
+  fill(gains.ki, 0);
+  fill(gains.integration_limit, 0);
+  fill(gains.output_limit, 255);
+  fill(gains.current_limit, 0);
+  fill(gains.error_limit, 4000);
+  fill(gains.servo_rate_divisor, 1);
+  fill(gains.deadband, 0);
+  return gains;
+}
+
+// Every gain change heard on ARM_GAINS, CONTROLLER_GAINS and REAL_ARM_GAINS is written into the
+// data file with its time, among the rows; repeats (the controller's 1 Hz) are not.
+TEST(LoggerNode, GainChangesAreWrittenWithTheirTimeRepeatsAreNot) {
+  LoggerRig rig;
+  LoggerOptions options = rig.Options();
+  options.split_per_plan = false;
+  LoggerNode node(rig.bus, rig.model, options);
+  for (int64_t tick = 0; tick < 3000; ++tick) {
+    if (tick % 100 == 50) {  // the controller's live gains, again and again; kp2 changes at 1500
+      rig.bus.Publish("CONTROLLER_GAINS", Gains(tick / 100, tick < 1500 ? 100 : 120));
+    }
+    if (tick == 1400) rig.bus.Publish("ARM_GAINS", Gains(0, 120));
+    if (tick == 2000) rig.bus.Publish("REAL_ARM_GAINS", Gains(0, 100));
+    rig.bus.Publish("SIM_ARM_STATE", ArmState(tick, tick, 1.0));
+    rig.bus.Publish("ARM_SETPOINT", Setpoint(tick, tick, 0, 1.0));
+    rig.bus.HandleAvailable();
+    if (tick % 200 == 0) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  node.Close();
+  const std::vector<std::string> files = node.stats().files;
+  ASSERT_EQ(files.size(), 1u);
+  const RunTable table = ReadDataFile(files[0]);
+  ASSERT_EQ(table.gains.size(), 4u) << FileText(files[0]).substr(0, 3000);
+  EXPECT_NE(table.gains[0].find(": CONTROLLER_GAINS (virtual servos) first heard: kp 100 100 100 "
+                                "100 100 100; kd 1000"),
+            std::string::npos)
+      << table.gains[0];
+  EXPECT_NE(table.gains[1].find(": ARM_GAINS (requested) first heard: kp 100 120 100"),
+            std::string::npos)
+      << table.gains[1];
+  EXPECT_NE(table.gains[2].find(": CONTROLLER_GAINS (virtual servos) j2 kp 100 -> 120"),
+            std::string::npos)
+      << table.gains[2];
+  EXPECT_NE(table.gains[3].find(": REAL_ARM_GAINS (real boards) first heard: kp 100 100"),
+            std::string::npos)
+      << table.gains[3];
+  // Each line has the sim time and the wall clock, and sits among the rows at that time.
+  const std::string text = FileText(files[0]);
+  for (const std::string& line : table.gains) {
+    EXPECT_EQ(line.rfind("gains: time_s ", 0), 0u) << line;
+    EXPECT_NE(line.find(", wall 20"), std::string::npos) << line;
+    const double at = std::stod(line.substr(14));
+    const size_t where = text.find("# " + line);
+    ASSERT_NE(where, std::string::npos);
+    const size_t row_start = text.rfind('\n', where - 2) + 1;  // the row before the line
+    const double row_before = std::stod(text.substr(row_start));
+    EXPECT_LE(row_before, at + 1e-6) << line;
+  }
+  const double change_at = std::stod(table.gains[2].substr(14));
+  EXPECT_NEAR(change_at, 1550 * 512e-6, 0.05);  // received with the tick it was sent at
+  // The report shows them.
+  ReportOptions report;
+  report.out_dir = rig.dir / "report";
+  report.plots = false;
+  report.analysis.min_travel = 0;
+  std::vector<RunTable> tables{table};
+  tables[0].move_id.back() = 1;  // one move, so that there is something to report
+  const ReportOutput output = WriteReport(tables, report);
+  EXPECT_NE(output.markdown.find("## Gain changes"), std::string::npos);
+  EXPECT_NE(output.markdown.find("CONTROLLER_GAINS (virtual servos) j2 kp 100 -> 120"),
+            std::string::npos);
 }
 
 // A child process logs a stream it publishes itself, in step with the wall clock (one state and
