@@ -73,6 +73,11 @@ void Aligner::NoteOffset(const Sample& sim_sample) {
   wall_offset_ = offsets_.front().second;
 }
 
+std::optional<int64_t> Aligner::AxisTimeAtWall(int64_t wall_utime) const {
+  if (axis_ == Axis::kUndecided || !have_offset_) return std::nullopt;
+  return wall_utime + wall_offset_;
+}
+
 int64_t Aligner::AxisTime(const Sample& sample) const {
   if (sample.clock == SampleClock::kSim) {
     return axis_ == Axis::kRealOnly ? sample.recv_utime + wall_offset_ : sample.utime;
@@ -99,11 +104,14 @@ void Aligner::Place(Sample sample) {
   if (!started_) {
     started_ = true;
     next_row_us_ = CeilToPeriod(axis, options_.period_us);
+    first_axis_us_ = axis;
+    first_recv_us_ = stream.queue.back().sample.recv_utime;
   }
 }
 
 void Aligner::AddStatus(const PlanStatus& status) {
   const bool running = Running(status);
+  const bool first_status = !have_status_;
   const bool was_running = have_status_ && Running(last_status_);
   const bool new_run = running && (!was_running || status.plan_name != last_status_.plan_name ||
                                    status.plan_step < last_status_.plan_step);
@@ -114,6 +122,21 @@ void Aligner::AddStatus(const PlanStatus& status) {
   run.plan_name = status.plan_name;
   run.mode = status.mode;
   run.start_us = axis_ == Axis::kRealOnly ? status.recv_utime + wall_offset_ : status.utime;
+  // The first status, soon after the first sample and before any row, shows a plan running: the
+  // input began in the middle of that plan run, which the rows so far belong to.
+  // A plan at its first step may as well have just started, unless an earlier logger (that this
+  // one continues after a restart) was recording it.
+  const bool under_way = status.plan_step > 0 || status.plan_name == options_.continue_plan;
+  if (first_status && under_way && started_ && options_.join_window_us > 0 &&
+      last_row_us_ == INT64_MIN && plan_runs_.size() == 1 && pending_plans_.empty() &&
+      run.start_us - first_axis_us_ <= options_.join_window_us) {
+    PlanRun& joined = plan_runs_.front();
+    joined.plan_name = run.plan_name;
+    joined.mode = run.mode;
+    joined.start_us = first_axis_us_;
+    joined.joined = true;
+    return;
+  }
   pending_plans_.push_back(run);
 }
 
@@ -148,6 +171,12 @@ void Aligner::TakeRows(int64_t now_utime, bool final_flush,
     }
   }
   if (latest == INT64_MIN) return;
+  // At the start, wait a little for the first plan status (see AddStatus).
+  if (!final_flush && !have_status_ && options_.join_window_us > 0 && last_row_us_ == INT64_MIN &&
+      latest - first_axis_us_ < options_.join_window_us &&
+      now_utime - first_recv_us_ < options_.join_window_us + options_.idle_us) {
+    return;
+  }
   Produce(final_flush || live_min == INT64_MAX ? latest : live_min, sink);
 }
 

@@ -14,12 +14,14 @@
 // A row is final once every live stream has a sample at or after its time; a stream that has sent
 // nothing for idle_us of wall clock stops holding rows back. Rows with every cell empty are not
 // produced. A sim clock that goes back by more than a second (the sim restarted) ends the run: the
-// rows so far are final and a new run (a new file) begins.
+// rows so far are final and a new run (a new file) begins. At the start, rows wait briefly for the
+// first plan status, so that a plan run under way is joined rather than split off (join_window_us).
 
 #include <array>
 #include <cstdint>
 #include <deque>
 #include <functional>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -32,6 +34,13 @@ struct AlignerOptions {
   int64_t period_us = 512;     // the sample clock: one row per servo tick by default
   int64_t max_age_us = 25000;  // older samples leave their cell empty (2.5 polls at 100 Hz)
   int64_t idle_us = 50000;     // a stream silent this long (wall clock) stops holding rows back
+  // A plan run already under way when the logger starts (a restart in the middle of a movement
+  // set): rows wait until the first CONTROLLER_STATUS, for at most this much of the time axis
+  // (and this plus idle_us of wall clock); if that status shows a plan past its first step (or
+  // `continue_plan` at any step), the rows from the start belong to that run instead of to a
+  // "manual" stretch. 0 = off.
+  int64_t join_window_us = 250000;
+  std::string continue_plan;  // the plan an earlier logger was recording (restarts), or ""
 };
 
 // One movement set: a plan run seen on CONTROLLER_STATUS, or the time before the first plan.
@@ -39,6 +48,7 @@ struct PlanRun {
   std::string plan_name;  // "" before the first plan
   int64_t start_us = 0;   // on the time axis
   int8_t mode = 0;        // controller mode when it started
+  bool joined = false;    // under way when the input began: its start is not in the data
 };
 
 // One output row; the pointers are valid only during the callback.
@@ -57,6 +67,11 @@ class Aligner {
 
   void Add(Sample sample);
   void AddStatus(const PlanStatus& status);
+  // The time on the axis of the wall-clock time `wall_utime` (from the sim clock's offset), or
+  // nullopt while the axis is not known yet.
+  std::optional<int64_t> AxisTimeAtWall(int64_t wall_utime) const;
+  // Sets AlignerOptions::continue_plan (before any input).
+  void ContinuePlan(const std::string& plan_name) { options_.continue_plan = plan_name; }
 
   // Calls `sink` for every row that is final at wall time now_utime, in time order. final_flush:
   // the input has ended, every remaining row is final.
@@ -106,6 +121,8 @@ class Aligner {
   std::array<int64_t, kNumStreams> lost_total_{};
   int real_sources_ = 0;
   bool started_ = false;
+  int64_t first_axis_us_ = 0;  // the first sample's time on the axis
+  int64_t first_recv_us_ = 0;  // and when it was received
   int64_t next_row_us_ = 0;
   int64_t last_row_us_ = INT64_MIN;
   int run_ = 0;

@@ -255,6 +255,12 @@ void DataFileWriter::Append(const Row& row) {
   layout_.AppendRow(row, buffer_);
 }
 
+void DataFileWriter::AppendComment(const std::string& text) {
+  buffer_ += "# ";
+  for (char c : text) buffer_ += c == '\n' || c == '\r' ? ' ' : c;
+  buffer_ += '\n';
+}
+
 void DataFileWriter::Flush() {
   if (buffer_.empty() || fd_ < 0) return;
   std::string text;
@@ -327,6 +333,7 @@ class FileReader {
       const std::string value = Trim(line.substr(colon + 1));
       if (key == "joints") declared_joints = ParseJoints(static_cast<int>(index + 1), value);
       if (key == "plan") table_.plan_name = value == "(none)" ? "" : value;
+      if (key == "continues") table_.continues = value.substr(0, value.find(' '));
     }
     const int column_line = static_cast<int>(index + 1);
     if (index >= lines.size() || (partial_last && index == lines.size() - 1)) {
@@ -346,6 +353,7 @@ class FileReader {
       if (line.empty()) Fail(line_number, "empty line inside the data");
       if (line[0] == '#') {
         if (line.rfind("# end:", 0) == 0) table_.closed = true;
+        if (line.rfind("# gains: ", 0) == 0) table_.gains.push_back(line.substr(2));
         continue;
       }
       if (table_.closed) Fail(line_number, "data after the '# end:' line");

@@ -61,6 +61,8 @@ struct RunTable {
   // or a file without age columns.
   std::array<std::vector<double>, kNumStreams> age_s;
   bool closed = false;             // the writer's "# end" line is there
+  std::string continues;           // header "continues:": the file a restarted logger continued
+  std::vector<std::string> gains;  // the "# gains: ..." lines among the rows, without "# "
   std::vector<std::string> notes;  // warnings worth showing with the report
 
   size_t rows() const { return time_s.size(); }
@@ -94,6 +96,8 @@ class DataFileWriter {
   DataFileWriter& operator=(const DataFileWriter&) = delete;
 
   void Append(const Row& row);
+  // Appends "# TEXT" (one line; line ends in TEXT are replaced by spaces) after the rows so far.
+  void AppendComment(const std::string& text);
   // Writes the buffered rows (whole lines) to the file.
   void Flush();
   // Flushes, writes "# end: ..." and closes.

@@ -1,10 +1,15 @@
 #include "logger/logger_node.hpp"
 
+#include <algorithm>
+#include <cctype>
 #include <chrono>
+#include <climits>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <ctime>
 #include <filesystem>
+#include <fstream>
 #include <sirupp/arm_state_t.hpp>
 #include <sirupp/controller_status_t.hpp>
 #include <sirupp/servo_gains_t.hpp>
@@ -36,6 +41,21 @@ std::string LocalTimeText(bool compact) {
   } else {
     std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%S%z", &local);
   }
+  return text;
+}
+
+// A wall-clock time in microseconds as local ISO 8601 with milliseconds and the UTC offset.
+std::string WallTimeText(int64_t utime) {
+  const std::time_t seconds = static_cast<std::time_t>(utime / 1000000);
+  std::tm local{};
+  localtime_r(&seconds, &local);
+  char date[32];
+  char zone[8];
+  std::strftime(date, sizeof date, "%Y-%m-%dT%H:%M:%S", &local);
+  std::strftime(zone, sizeof zone, "%z", &local);
+  char text[64];
+  std::snprintf(text, sizeof text, "%s.%03d%s", date, static_cast<int>((utime / 1000) % 1000),
+                zone);
   return text;
 }
 
@@ -113,14 +133,55 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
     throw std::runtime_error("--out " + options_.out_dir + ": cannot create the directory" +
                              (error ? ": " + error.message() : ""));
   }
+  // Files of an earlier logger with this name: NAME.csv, NAME-rK.csv, NAME-NN-SET.csv, each
+  // perhaps with a continuation suffix (NAME-NN-SET.2.csv).
+  fs::file_time_type newest_time = fs::file_time_type::min();
   for (const auto& entry : fs::directory_iterator(options_.out_dir)) {
     const std::string file = entry.path().filename().string();
-    if (entry.path().extension() == ".csv" &&
-        (file == options_.name + ".csv" || file.rfind(options_.name + "-", 0) == 0)) {
-      throw std::runtime_error(entry.path().string() +
-                               " exists: data files are never replaced; "
-                               "choose another --name or --out");
+    if (entry.path().extension() != ".csv" ||
+        !(file == options_.name + ".csv" || file.rfind(options_.name + "-", 0) == 0 ||
+          file.rfind(options_.name + ".", 0) == 0)) {
+      continue;
     }
+    std::string stem = entry.path().stem().string();
+    const size_t dot = stem.rfind('.');
+    if (dot != std::string::npos && dot + 1 < stem.size() &&
+        stem.find_first_not_of("0123456789", dot + 1) == std::string::npos &&
+        dot >= options_.name.size()) {
+      stem.resize(dot);  // the continuation suffix
+    }
+    const std::string rest = stem.substr(options_.name.size());  // "", "-r3" or "-07-set2"
+    if (rest.size() > 2 && rest.compare(0, 2, "-r") == 0 &&
+        rest.find_first_not_of("0123456789", 2) == std::string::npos) {
+      restart_.last_run = std::max(restart_.last_run, std::atoi(rest.c_str() + 2));
+    } else if (rest.size() > 4 && rest[0] == '-' && rest[3] == '-' &&
+               std::isdigit(static_cast<unsigned char>(rest[1])) &&
+               std::isdigit(static_cast<unsigned char>(rest[2]))) {
+      restart_.last_number = std::max(restart_.last_number, std::atoi(rest.c_str() + 1));
+    } else if (!rest.empty()) {
+      continue;  // another run's name that merely starts with ours ("lab-old.csv")
+    }
+    std::error_code time_error;
+    const fs::file_time_type time = fs::last_write_time(entry.path(), time_error);
+    if (!time_error && (restart_.previous_file.empty() || time > newest_time ||
+                        (time == newest_time && entry.path().string() > restart_.previous_file))) {
+      newest_time = time;
+      restart_.previous_file = entry.path().string();
+      restart_.previous_stem = stem;
+    }
+  }
+  file_count_ = restart_.last_number;
+  if (!restart_.previous_file.empty()) {
+    // The plan the earlier logger was recording: a run of it under way now is joined, not split.
+    std::ifstream previous(restart_.previous_file);
+    std::string line;
+    for (int i = 0; i < 40 && std::getline(previous, line) && line.rfind("#", 0) == 0; ++i) {
+      if (line.rfind("# plan: ", 0) == 0 && line != "# plan: (none)") {
+        restart_.previous_plan = line.substr(8);
+        break;
+      }
+    }
+    aligner_.ContinuePlan(restart_.previous_plan);
   }
 
   const int joints = model_.num_joints();
@@ -132,7 +193,7 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
     }
   };
   constexpr int kQueue = 10000;  // LCM's own per-subscription queue between two Handle() calls
-  bus_.Subscribe<sirupp::servo_setpoint_t>(
+  subscriptions_.push_back(&bus_.Subscribe<sirupp::servo_setpoint_t>(
       options_.channels.arm_setpoint,
       [this, check](const sirupp::servo_setpoint_t& message, const core::ReceiveInfo& info) {
         check(info.channel, message.num_joints);
@@ -145,8 +206,8 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
         sample.lost_before = set_seq_.Next(message.seq);
         Push(std::move(sample), Stream::kSetpoint);
       },
-      kQueue);
-  bus_.Subscribe<sirupp::arm_state_t>(
+      kQueue));
+  subscriptions_.push_back(&bus_.Subscribe<sirupp::arm_state_t>(
       options_.channels.sim_arm_state,
       [this, check](const sirupp::arm_state_t& message, const core::ReceiveInfo& info) {
         check(info.channel, message.num_joints);
@@ -155,8 +216,8 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
         sample.lost_before = virt_seq_.Next(message.seq);
         Push(std::move(sample), Stream::kVirtual);
       },
-      kQueue);
-  bus_.Subscribe<sirupp::arm_state_t>(
+      kQueue));
+  subscriptions_.push_back(&bus_.Subscribe<sirupp::arm_state_t>(
       options_.channels.real_arm_state,
       [this, check](const sirupp::arm_state_t& message, const core::ReceiveInfo& info) {
         check(info.channel, message.num_joints);
@@ -165,28 +226,42 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
         sample.lost_before = real_seq_.Next(message.seq);
         Push(std::move(sample), Stream::kReal);
       },
-      kQueue);
-  bus_.Subscribe<sirupp::controller_status_t>(
+      kQueue));
+  subscriptions_.push_back(&bus_.Subscribe<sirupp::controller_status_t>(
       options_.channels.controller_status,
       [this](const sirupp::controller_status_t& message, const core::ReceiveInfo& info) {
         CheckStatus(info.channel, message);
         Push(StatusFromMessage(message, info.recv_utime), Stream::kSetpoint);
       },
-      kQueue);
-  bus_.Subscribe<sirupp::servo_gains_t>(
-      options_.channels.arm_gains,
-      [this, check](const sirupp::servo_gains_t& message, const core::ReceiveInfo& info) {
-        check(info.channel, message.num_joints);
-        CheckFinite(info.channel, "kp", message.kp);
-        CheckFinite(info.channel, "kd", message.kd);
-        CheckFinite(info.channel, "ki", message.ki);
-        Push(GainsFromMessage(message), Stream::kSetpoint);
-      });
+      kQueue));
+  // Gains: requests, the virtual servos' live gains and the real boards'; every change is written
+  // into the data file with its time.
+  const std::pair<std::string, GainsSource> gains_channels[] = {
+      {options_.channels.arm_gains, GainsSource::kRequest},
+      {options_.channels.controller_gains, GainsSource::kController},
+      {options_.channels.real_arm_gains, GainsSource::kReal}};
+  for (const auto& [channel, source] : gains_channels) {
+    subscriptions_.push_back(&bus_.Subscribe<sirupp::servo_gains_t>(
+        channel,
+        [this, check, gains_source = source](const sirupp::servo_gains_t& message,
+                                             const core::ReceiveInfo& info) {
+          check(info.channel, message.num_joints);
+          GainsRecord gains = GainsFromMessage(message, gains_source, info.recv_utime);
+          for (int f = 0; f < kNumGainFields; ++f) {
+            CheckFinite(info.channel, GainFieldName(f), GainField(gains, f));
+          }
+          Push(std::move(gains), Stream::kSetpoint);
+        },
+        kQueue));
+  }
   heartbeat_.Publish(core::ProcessState::kStarting, "");
   writer_ = std::thread([this] { WriterLoop(); });
 }
 
 LoggerNode::~LoggerNode() {
+  // The bus may outlive this node (another logger on it after a restart): no handler may call
+  // into it any more.
+  for (core::Subscription* subscription : subscriptions_) subscription->Unsubscribe();
   try {
     Close();
   } catch (const std::exception&) {  // Close() only throws if joining fails; nothing to add here
@@ -264,8 +339,7 @@ void LoggerNode::WriterLoop() {
         last_mode_ = status->mode;
         aligner_.AddStatus(*status);
       } else if (auto* gains = std::get_if<GainsRecord>(&input)) {
-        gains_ = *gains;
-        have_gains_ = true;
+        NoteGains(*gains);
       }
     }
     batch.clear();
@@ -274,7 +348,10 @@ void LoggerNode::WriterLoop() {
       try {
         aligner_.TakeRows(WallMicros(), stopping, [this](const Row& row) { WriteRow(row); });
         if (file_) file_->Flush();
-        if (stopping) CloseFile();
+        if (stopping) {
+          stopping_ = true;
+          CloseFile();
+        }
       } catch (const std::exception& e) {
         failed = true;
         error = e.what();
@@ -292,6 +369,40 @@ void LoggerNode::WriterLoop() {
   }
 }
 
+void LoggerNode::NoteGains(const GainsRecord& gains) {
+  const auto s = static_cast<size_t>(gains.source);
+  if (gains.source == GainsSource::kRequest) {
+    gains_ = gains;  // for the headers
+    have_gains_ = true;
+  }
+  std::string change;
+  if (!last_gains_[s]) {
+    change = "first heard: " + DescribeGains(gains);
+  } else {
+    change = DescribeGainsChange(*last_gains_[s], gains);
+    if (change.empty()) return;  // a repeat
+  }
+  last_gains_[s] = gains;
+  const core::Channels& c = options_.channels;
+  const std::string& channel = gains.source == GainsSource::kRequest      ? c.arm_gains
+                               : gains.source == GainsSource::kController ? c.controller_gains
+                                                                          : c.real_arm_gains;
+  const std::optional<int64_t> at = aligner_.AxisTimeAtWall(gains.recv_utime);
+  PendingNote note;
+  note.time_us = at.value_or(INT64_MIN);
+  note.text = "gains: time_s " + (at ? Seconds(*at) : std::string("-")) + ", wall " +
+              WallTimeText(gains.recv_utime) + ": " + bus_.prefix() + channel + " (" +
+              GainsSourceTitle(gains.source) + ") " + change;
+  notes_.push_back(std::move(note));
+}
+
+void LoggerNode::WriteNotes(int64_t up_to_us) {
+  while (file_ && !notes_.empty() && notes_.front().time_us <= up_to_us) {
+    file_->AppendComment(notes_.front().text);
+    notes_.pop_front();
+  }
+}
+
 void LoggerNode::WriteRow(const Row& row) {
   const int plan = options_.split_per_plan ? row.plan_run : 0;
   if (!file_ || row.run != file_run_ || plan != file_plan_) {
@@ -300,31 +411,82 @@ void LoggerNode::WriteRow(const Row& row) {
     file_plan_ = plan;
     OpenFile(row);
   }
+  WriteNotes(row.time_us);  // gain changes in time order among the rows
   file_->Append(row);
   std::lock_guard<std::mutex> lock(mutex_);
   ++stats_.rows;
 }
 
+std::string LoggerNode::FreeStem(const std::string& stem, bool continuation) const {
+  namespace fs = std::filesystem;
+  const fs::path dir(options_.out_dir);
+  if (!continuation && !fs::exists(dir / (stem + ".csv"))) return stem;
+  for (int k = 1;; ++k) {
+    const std::string candidate = stem + "." + std::to_string(k);
+    if (!fs::exists(dir / (candidate + ".csv"))) return candidate;
+  }
+}
+
 void LoggerNode::OpenFile(const Row& row) {
-  ++file_count_;
+  // The first file of a restarted logger continues the earlier logger's newest file when it holds
+  // the same movement set (or the same run, unsplit): NAME-03-set2.csv -> NAME-03-set2.1.csv.
+  // Otherwise numbering goes on after the earlier files. A name already taken gets the next free
+  // continuation suffix: no file is ever replaced.
+  const bool first = !restart_.continued;
+  restart_.continued = true;
   std::string file_name = options_.name;
+  const std::string label =
+      PlanLabel(aligner_.plan_runs()[static_cast<size_t>(row.plan_run)].plan_name);
+  bool continuation = false;
   if (options_.split_per_plan) {
+    const std::string& previous = restart_.previous_stem;
+    const std::string& name = options_.name;
+    continuation = first && previous.size() == name.size() + 4 + label.size() &&
+                   previous.compare(0, name.size(), name) == 0 &&
+                   previous.compare(name.size() + 3, std::string::npos, "-" + label) == 0;
+    if (!continuation) ++file_count_;
     char number[16];
     std::snprintf(number, sizeof number, "-%02d-", file_count_);
-    const std::string& plan = aligner_.plan_runs()[static_cast<size_t>(row.plan_run)].plan_name;
-    file_name += number + PlanLabel(plan);
-  } else if (row.run > 0) {
-    file_name += "-r" + std::to_string(row.run);
+    file_name = continuation ? previous : file_name + number + label;
+  } else if (first && !restart_.previous_stem.empty()) {
+    continuation = true;
+    file_name = restart_.previous_stem;
+  } else if (row.run > 0 || restart_.last_run > 0) {
+    file_name += "-r" + std::to_string(restart_.last_run + row.run);
   }
+  file_name = FreeStem(file_name, continuation);
   const std::string path =
       (std::filesystem::path(options_.out_dir) / (file_name + ".csv")).string();
-  file_ = std::make_unique<DataFileWriter>(path, HeaderLines(row), layout_);
+  std::vector<std::string> header = HeaderLines(row);
+  for (int source = 0; source < kNumGainsSources; ++source) {
+    const std::optional<GainsRecord>& gains = last_gains_[static_cast<size_t>(source)];
+    if (gains) {
+      header.push_back(std::string("gains now, ") +
+                       GainsSourceTitle(static_cast<GainsSource>(source)) + ": " +
+                       DescribeGains(*gains));
+    }
+  }
+  if (aligner_.plan_runs()[static_cast<size_t>(row.plan_run)].joined) {
+    header.push_back("plan run: under way when the logger started; its start is not in this file");
+  }
+  if (!restart_.previous_file.empty()) {
+    header.push_back("restart: this logger started with data files of " + options_.name +
+                     " already in " + options_.out_dir +
+                     " (a restart); it continues that run in new files and never replaces one");
+    if (continuation) {
+      header.push_back(
+          "continues: " + std::filesystem::path(restart_.previous_file).filename().string() +
+          " (the rows between its last one and this file's first were not logged)");
+    }
+  }
+  file_ = std::make_unique<DataFileWriter>(path, header, layout_);
   std::lock_guard<std::mutex> lock(mutex_);
   stats_.files.push_back(path);
 }
 
 void LoggerNode::CloseFile() {
   if (!file_) return;
+  if (stopping_) WriteNotes(INT64_MAX);  // the last file takes what is left
   file_->Close(EndLine());
   file_.reset();
 }

@@ -3,8 +3,8 @@
 // the bus and without losing what was received (docs/logging.md).
 //
 // In:  ARM_SETPOINT (set-point), SIM_ARM_STATE (virtual arm), REAL_ARM_STATE (real arm, when a
-//      bridge runs), CONTROLLER_STATUS (plan runs: one file per movement set), ARM_GAINS (for the
-//      header).
+//      bridge runs), CONTROLLER_STATUS (plan runs: one file per movement set), ARM_GAINS,
+//      CONTROLLER_GAINS and REAL_ARM_GAINS (every change written into the file with its time).
 // Out: the data files; HEARTBEAT.
 //
 // Threads: the caller's thread runs the bus (Service); its handlers only copy each message into a
@@ -18,8 +18,10 @@
 #include <atomic>
 #include <condition_variable>
 #include <cstdint>
+#include <deque>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <thread>
 #include <variant>
@@ -60,7 +62,9 @@ struct LoggerStats {
 
 class LoggerNode {
  public:
-  // Creates out_dir if needed and refuses (std::runtime_error) if a file NAME*.csv exists there.
+  // Creates out_dir if needed. If data files of NAME are there already (a restart with the same
+  // command line, as a launcher's `restart: on-failure` does), the logger continues the run in new
+  // files and never replaces one (docs/logging.md, "Restarts").
   LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOptions options);
   ~LoggerNode();
   LoggerNode(const LoggerNode&) = delete;
@@ -75,6 +79,9 @@ class LoggerNode {
   LoggerStats stats() const;
   bool failed() const;
   const std::string& name() const { return options_.name; }
+  // The newest data file of an earlier logger with the same name and directory, which this one
+  // continues; empty when none was there.
+  const std::string& continues() const { return restart_.previous_file; }
 
  private:
   using Input = std::variant<Sample, PlanStatus, GainsRecord>;
@@ -88,11 +95,25 @@ class LoggerNode {
   std::string EndLine() const;
 
   core::Bus& bus_;
+  std::vector<core::Subscription*> subscriptions_;  // ended by the destructor
   core::RobotModel model_;
   LoggerOptions options_;
   ColumnLayout layout_;
   core::Heartbeat heartbeat_;
   std::string started_text_;
+
+  // What an earlier logger of the same NAME left in out_dir (found at start).
+  struct RestartState {
+    std::string previous_file;  // newest NAME*.csv (by modification time), "" if none
+    std::string previous_stem;  // its name without ".csv" and without a ".K" continuation suffix
+    std::string previous_plan;  // the plan in its header, "" for none
+    int last_number = 0;        // highest NN of NAME-NN-SET files
+    int last_run = 0;           // highest K of NAME-rK files
+    bool continued = false;     // the first file of this logger has been opened
+  };
+  RestartState restart_;
+  // A file name (without ".csv") not taken yet: `stem`, else `stem.1`, `stem.2`, ...
+  std::string FreeStem(const std::string& stem, bool continuation) const;
 
   // Bus thread only.
   SequenceCounter set_seq_, virt_seq_, real_seq_;
@@ -111,8 +132,18 @@ class LoggerNode {
   int file_run_ = -1;
   int file_plan_ = -1;
   int file_count_ = 0;
-  GainsRecord gains_;
+  GainsRecord gains_;  // last ARM_GAINS request, for the header
   bool have_gains_ = false;
+  std::array<std::optional<GainsRecord>, kNumGainsSources> last_gains_;  // per source
+  // Gain-change lines waiting for the rows up to their time.
+  struct PendingNote {
+    int64_t time_us = 0;  // on the time axis; INT64_MIN if not known yet
+    std::string text;
+  };
+  std::deque<PendingNote> notes_;
+  bool stopping_ = false;
+  void NoteGains(const GainsRecord& gains);
+  void WriteNotes(int64_t up_to_us);
   int8_t last_mode_ = -1;
 
   std::thread writer_;

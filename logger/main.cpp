@@ -29,8 +29,10 @@ constexpr const char* kUsage =
     "a stream older than --max-age (0.025 s) leaves its cell empty. Rows reach the file within\n"
     "0.1 s; stop with Ctrl-C (the files get their '# end' line). On udpm the socket asks for a\n"
     "--recv-buf of 2097152 bytes (0: LCM's default), so a busy machine does not drop datagrams\n"
-    "(the kernel caps it at net.core.rmem_max). Raw traffic: lcm-logger, see\n"
-    "docs/logging.md. Report: sirupp report DIR/*.csv\n";
+    "(the kernel caps it at net.core.rmem_max). Started again with data files of NAME in DIR\n"
+    "(a restart), it continues the run in new files: NAME-03-set2.csv goes on in\n"
+    "NAME-03-set2.1.csv; no file is ever replaced. Raw traffic: lcm-logger, see\n"
+    "docs/logging.md. Report: sirupp report DIR\n";
 
 double PositiveSeconds(const sirupp::tools::Args& args, const std::string& flag, double fallback) {
   if (!args.Has(flag)) return fallback;
@@ -121,6 +123,11 @@ int Run(const std::vector<std::string>& argv) {
   std::cerr << "sirupp-logger: " << model.name << ", files " << options.out_dir << "/"
             << node.name() << (options.split_per_plan ? "-NN-SET.csv" : ".csv") << ", a row every "
             << options.aligner.period_us << " us, on " << bus.url() << std::endl;
+  if (!node.continues().empty()) {
+    std::cerr << "sirupp-logger: " << node.continues()
+              << " exists: continuing that run in new files (a restart; no file is replaced)"
+              << std::endl;
+  }
   const auto start = std::chrono::steady_clock::now();
   sirupp::tools::ServiceUntilSignal([&] {
     node.Service(20);

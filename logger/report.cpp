@@ -1,7 +1,9 @@
 #include "logger/report.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <limits>
@@ -69,8 +71,61 @@ const char* Unit(const MoveResult& move) {
 
 }  // namespace
 
-std::vector<RunTable> ReadInputs(const std::vector<std::string>& paths,
+namespace {
+
+// A directory's data files (*.csv) and LCM logs (*.lcm) in the order they were written: by name,
+// a restarted logger's continuation (NAME-03-set2.1.csv) right after the file it continues.
+std::vector<std::string> FilesOfDirectory(const std::string& dir) {
+  namespace fs = std::filesystem;
+  struct Entry {
+    std::string base;  // name without the continuation suffix and extension
+    long suffix = 0;   // continuation number, 0 for none
+    std::string path;
+  };
+  std::vector<Entry> entries;
+  std::error_code error;
+  for (const auto& entry : fs::directory_iterator(dir, error)) {
+    const std::string extension = entry.path().extension().string();
+    if (!entry.is_regular_file() || (extension != ".csv" && extension != ".lcm")) continue;
+    Entry e{entry.path().stem().string(), 0, entry.path().string()};
+    const size_t dot = e.base.rfind('.');
+    if (dot != std::string::npos && dot > 0 && dot + 1 < e.base.size() &&
+        e.base.size() - dot <= 7 &&
+        e.base.find_first_not_of("0123456789", dot + 1) == std::string::npos) {
+      e.suffix = std::atol(e.base.c_str() + dot + 1);
+      e.base.resize(dot);
+    }
+    e.base += extension;
+    entries.push_back(e);
+  }
+  if (error) {
+    throw core::ConfigError(core::SourceLocation{dir, 0, 0}, "",
+                            "cannot list the directory: " + error.message());
+  }
+  if (entries.empty()) {
+    throw core::ConfigError(core::SourceLocation{dir, 0, 0}, "",
+                            "no data files (*.csv) or LCM logs (*.lcm) in this directory");
+  }
+  std::sort(entries.begin(), entries.end(), [](const Entry& a, const Entry& b) {
+    return a.base != b.base ? a.base < b.base : a.suffix < b.suffix;
+  });
+  std::vector<std::string> files;
+  for (const Entry& e : entries) files.push_back(e.path);
+  return files;
+}
+
+}  // namespace
+
+std::vector<RunTable> ReadInputs(const std::vector<std::string>& given,
                                  const ImportOptions& import) {
+  std::vector<std::string> paths;
+  for (const std::string& path : given) {
+    if (std::filesystem::is_directory(path)) {
+      for (const std::string& file : FilesOfDirectory(path)) paths.push_back(file);
+    } else {
+      paths.push_back(path);
+    }
+  }
   std::vector<RunTable> tables;
   for (const std::string& path : paths) {
     if (!std::filesystem::is_regular_file(path)) {
@@ -95,6 +150,10 @@ ReportOutput WriteReport(const std::vector<RunTable>& tables, const ReportOption
     analyses.push_back(Analyze(table, options.analysis));
     moves += analyses.back().moves.size();
     for (const std::string& note : table.notes) notes.push_back(note);
+    if (!table.continues.empty()) {
+      notes.push_back(table.source + " continues " + table.continues +
+                      " after a restart of the logger; the rows between the two were not logged");
+    }
     for (const std::string& note : analyses.back().notes) notes.push_back(note);
   }
   if (moves == 0) {
@@ -291,6 +350,19 @@ ReportOutput WriteReport(const std::vector<RunTable>& tables, const ReportOption
       " s). Overshoot: the farthest it went past that final value. Final error: final value "
       "minus the set-point's end.\n\n" +
       response_md;
+  std::string gains_md;
+  for (size_t t = 0; t < tables.size(); ++t) {
+    for (const std::string& line : tables[t].gains) {
+      gains_md += "- " + keys[t] + " (`" + tables[t].source + "`): " + line.substr(7) + "\n";
+    }
+  }
+  if (!gains_md.empty()) {
+    md +=
+        "\n## Gain changes\n\nAs the logger heard them (chip units): requests on ARM_GAINS, the "
+        "virtual servos' gains on CONTROLLER_GAINS, the real boards' on REAL_ARM_GAINS; sim "
+        "time and wall clock.\n\n" +
+        gains_md;
+  }
   if (!plots_md.empty()) md += "\n## Plots\n\n" + plots_md;
   if (!notes.empty()) {
     md += "\n## Notes\n\n";

@@ -24,7 +24,9 @@ struct ReportOutput {
   size_t moves = 0;                // joint moves analysed
 };
 
-// Reads each input (a data file, or an LCM log: told apart by their first bytes). Throws
+// Reads each input (a data file, or an LCM log: told apart by their first bytes; a directory
+// stands for its *.csv and *.lcm files, a restarted logger's continuation files right after the
+// file they continue). Throws
 // core::ConfigError "FILE:LINE: problem" (or "FILE: byte N (event K): problem") for bad input,
 // before anything is written.
 std::vector<RunTable> ReadInputs(const std::vector<std::string>& paths,

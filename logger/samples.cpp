@@ -1,5 +1,9 @@
 #include "logger/samples.hpp"
 
+#include <algorithm>
+
+#include "core/errors.hpp"
+
 namespace sirupp::logger {
 
 const char* StreamKey(Stream stream) {
@@ -80,13 +84,96 @@ PlanStatus StatusFromMessage(const sirupp::controller_status_t& message, int64_t
   return status;
 }
 
-GainsRecord GainsFromMessage(const sirupp::servo_gains_t& message) {
+GainsRecord GainsFromMessage(const sirupp::servo_gains_t& message, GainsSource source,
+                             int64_t recv_utime) {
   GainsRecord gains;
+  gains.source = source;
   gains.utime = message.utime;
+  gains.recv_utime = recv_utime;
   gains.kp = message.kp;
   gains.kd = message.kd;
   gains.ki = message.ki;
+  gains.integration_limit = message.integration_limit;
+  gains.output_limit = message.output_limit;
+  gains.current_limit = message.current_limit;
+  gains.error_limit = message.error_limit;
+  gains.servo_rate_divisor = message.servo_rate_divisor;
+  gains.deadband = message.deadband;
   return gains;
+}
+
+const char* GainsSourceTitle(GainsSource source) {
+  switch (source) {
+    case GainsSource::kRequest:
+      return "requested";
+    case GainsSource::kController:
+      return "virtual servos";
+    case GainsSource::kReal:
+      return "real boards";
+  }
+  return "?";
+}
+
+const char* GainFieldName(int field) {
+  static const char* const kNames[kNumGainFields] = {"kp",           "kd",
+                                                     "ki",           "integration_limit",
+                                                     "output_limit", "current_limit",
+                                                     "error_limit",  "servo_rate_divisor",
+                                                     "deadband"};
+  return field >= 0 && field < kNumGainFields ? kNames[field] : "?";
+}
+
+const std::vector<double>& GainField(const GainsRecord& gains, int field) {
+  switch (field) {
+    case 0:
+      return gains.kp;
+    case 1:
+      return gains.kd;
+    case 2:
+      return gains.ki;
+    case 3:
+      return gains.integration_limit;
+    case 4:
+      return gains.output_limit;
+    case 5:
+      return gains.current_limit;
+    case 6:
+      return gains.error_limit;
+    case 7:
+      return gains.servo_rate_divisor;
+    default:
+      return gains.deadband;
+  }
+}
+
+std::string DescribeGainsChange(const GainsRecord& before, const GainsRecord& after) {
+  std::string text;
+  size_t joints = 0;
+  for (int f = 0; f < kNumGainFields; ++f) joints = std::max(joints, GainField(after, f).size());
+  for (size_t j = 0; j < joints; ++j) {
+    std::string joint;
+    for (int f = 0; f < kNumGainFields; ++f) {
+      const std::vector<double>& old_values = GainField(before, f);
+      const std::vector<double>& new_values = GainField(after, f);
+      if (j >= new_values.size()) continue;
+      const bool known = j < old_values.size();
+      if (known && old_values[j] == new_values[j]) continue;
+      joint += std::string(joint.empty() ? "" : ", ") + GainFieldName(f) + " " +
+               (known ? core::FormatNumber(old_values[j]) : "?") + " -> " +
+               core::FormatNumber(new_values[j]);
+    }
+    if (!joint.empty()) text += (text.empty() ? "j" : "; j") + std::to_string(j + 1) + " " + joint;
+  }
+  return text;
+}
+
+std::string DescribeGains(const GainsRecord& gains) {
+  std::string text;
+  for (int f = 0; f < kNumGainFields; ++f) {
+    text += std::string(f ? "; " : "") + GainFieldName(f);
+    for (double value : GainField(gains, f)) text += " " + core::FormatNumber(value);
+  }
+  return text;
 }
 
 }  // namespace sirupp::logger

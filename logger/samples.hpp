@@ -53,11 +53,29 @@ struct PlanStatus {
   int8_t mode = 0;  // controller_status_t::MODE_*
 };
 
-// Servo gains as last seen on ARM_GAINS (chip units), for file headers.
+// Where a servo_gains_t came from: ARM_GAINS (a request to change them), CONTROLLER_GAINS (the
+// gains the virtual servos run with) or REAL_ARM_GAINS (the gains loaded into the real boards).
+enum class GainsSource : int { kRequest = 0, kController = 1, kReal = 2 };
+inline constexpr int kNumGainsSources = 3;
+const char* GainsSourceTitle(GainsSource source);  // "requested", "virtual servos", "real boards"
+
+// One servo_gains_t (chip units): for file headers and the gain-change lines of the data files.
 struct GainsRecord {
+  GainsSource source = GainsSource::kRequest;
   int64_t utime = 0;
-  std::vector<double> kp, kd, ki;
+  int64_t recv_utime = 0;  // wall clock when received
+  std::vector<double> kp, kd, ki, integration_limit, output_limit, current_limit, error_limit,
+      servo_rate_divisor, deadband;
 };
+inline constexpr int kNumGainFields = 9;
+const char* GainFieldName(int field);  // "kp", "kd", "ki", "integration_limit", ...
+const std::vector<double>& GainField(const GainsRecord& gains, int field);
+
+// What changed from `before` to `after`, per joint: "j2 kp 100 -> 120, kd 1000 -> 900; j3 ki 0 ->
+// 5"; "" when nothing did.
+std::string DescribeGainsChange(const GainsRecord& before, const GainsRecord& after);
+// Every value: "kp 100 100 ...; kd ...; ...".
+std::string DescribeGains(const GainsRecord& gains);
 
 // Keeps the running count of missing sequence numbers of one channel, with the Bus's rule: a gap
 // of k counts k; a smaller seq (the publisher restarted) counts nothing and starts afresh.
@@ -84,6 +102,7 @@ namespace sirupp::logger {
 Sample SampleFromArmState(const sirupp::arm_state_t& message, Stream stream, int64_t recv_utime);
 Sample SampleFromSetpoint(const sirupp::servo_setpoint_t& message, int64_t recv_utime);
 PlanStatus StatusFromMessage(const sirupp::controller_status_t& message, int64_t recv_utime);
-GainsRecord GainsFromMessage(const sirupp::servo_gains_t& message);
+GainsRecord GainsFromMessage(const sirupp::servo_gains_t& message, GainsSource source,
+                             int64_t recv_utime);
 
 }  // namespace sirupp::logger

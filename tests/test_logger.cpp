@@ -9,6 +9,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -17,6 +18,7 @@
 #include <limits>
 #include <sirupp/arm_state_t.hpp>
 #include <sirupp/controller_status_t.hpp>
+#include <sirupp/servo_gains_t.hpp>
 #include <sirupp/servo_setpoint_t.hpp>
 #include <sstream>
 #include <thread>
@@ -27,6 +29,7 @@
 #include "logger/aligner.hpp"
 #include "logger/data_file.hpp"
 #include "logger/logger_node.hpp"
+#include "logger/report.hpp"
 #include "tests/helpers.hpp"
 
 namespace sirupp::logger {
@@ -77,7 +80,9 @@ std::vector<Row> Collect(Aligner& aligner, int64_t now, bool final_flush,
 }
 
 TEST(Aligner, PutsTheStreamsOnTheServoTickAndWaitsForTheSlowestLiveStream) {
-  Aligner aligner(AlignerOptions{});
+  AlignerOptions options;
+  options.join_window_us = 0;  // no wait for a plan status at the start (tested below)
+  Aligner aligner(options);
   for (int64_t tick = 0; tick < 10; ++tick) {
     aligner.Add(SimSample(Stream::kVirtual, tick, static_cast<double>(tick)));
     if (tick < 6)
@@ -101,6 +106,50 @@ TEST(Aligner, PutsTheStreamsOnTheServoTickAndWaitsForTheSlowestLiveStream) {
   ASSERT_EQ(rows.size(), 4u);
   EXPECT_DOUBLE_EQ(q1[3][1], 9.0);
   EXPECT_DOUBLE_EQ(q1[3][0], 105.0);  // 2 ms old: still the newest set-point
+}
+
+// The first plan status, heard soon after the first sample, decides what the rows so far belong
+// to: a plan past its first step was under way before the input began (a logger restarted in the
+// middle of a movement set) and is joined; a plan at its first step starts there.
+TEST(Aligner, APlanRunUnderWayWhenTheInputBeginsIsJoined) {
+  auto run = [](int32_t step, const std::string& continue_plan) {
+    AlignerOptions options;
+    options.continue_plan = continue_plan;
+    Aligner aligner(options);
+    std::vector<Row> rows;
+    for (int64_t tick = 0; tick < 2000; ++tick) {
+      if (tick == 100) {
+        PlanStatus status;
+        status.utime = tick * 512;
+        status.plan_name = "config/plans/set2.plan";
+        status.plan_step = step;
+        status.plan_steps = 6;
+        aligner.AddStatus(status);
+      }
+      aligner.Add(SimSample(Stream::kVirtual, tick, 1.0));
+      aligner.Add(SimSample(Stream::kSetpoint, tick, 1.0));
+      // Rows are taken as they come (the writer wakes often): before the status none are final.
+      const std::vector<Row> some = Collect(aligner, 1'000'000'000 + tick * 512, false);
+      if (tick < 100) {
+        EXPECT_TRUE(some.empty()) << tick;
+      }
+      rows.insert(rows.end(), some.begin(), some.end());
+    }
+    Collect(aligner, 1'000'000'000 + 2000 * 512, true);
+    return std::make_pair(rows.front().plan_run, aligner.plan_runs());
+  };
+  const auto [joined_run, joined] = run(3, "");
+  EXPECT_EQ(joined_run, 0);
+  ASSERT_EQ(joined.size(), 1u);
+  EXPECT_EQ(joined[0].plan_name, "config/plans/set2.plan");
+  EXPECT_TRUE(joined[0].joined);
+  const auto [fresh_run, fresh] = run(0, "");
+  ASSERT_EQ(fresh.size(), 2u);  // the time before the plan, and the plan from its start
+  EXPECT_EQ(fresh[0].plan_name, "");
+  EXPECT_FALSE(fresh[1].joined);
+  const auto [continued_run, continued] = run(0, "config/plans/set2.plan");
+  ASSERT_EQ(continued.size(), 1u);  // the plan the earlier logger was recording
+  EXPECT_TRUE(continued[0].joined);
 }
 
 TEST(Aligner, LeavesCellsOfAStaleStreamEmptyAndSkipsRowsWithNothing) {
@@ -484,6 +533,188 @@ TEST(LoggerNode, RefusesNonFiniteValuesAndImpossibleStatuses) {
   EXPECT_EQ(table.cells[2], 0);  // the refused real state left no trace
 }
 
+// ---- restarts
+// -------------------------------------------------------------------------------------
+
+// One logger's life on memq://: `ticks` ticks from `first_tick`, a plan status at `plan_tick`
+// (step 0 of 6) when given, closed at the end. Returns the files it wrote.
+std::vector<std::string> LogSome(LoggerRig& rig, const LoggerOptions& options, int64_t first_tick,
+                                 int64_t ticks, const std::string& plan = "",
+                                 int64_t plan_tick = -1, int plan_step = 0) {
+  LoggerNode node(rig.bus, rig.model, options);
+  for (int64_t tick = first_tick; tick < first_tick + ticks; ++tick) {
+    if (tick == plan_tick) {
+      rig.bus.Publish("CONTROLLER_STATUS", PlanStatusMessage(tick, plan, plan_step));
+    }
+    rig.bus.Publish("SIM_ARM_STATE", ArmState(tick, tick, 1.0));
+    rig.bus.Publish("ARM_SETPOINT", Setpoint(tick, tick, tick / 500, 1.0));
+    rig.bus.HandleAvailable();
+  }
+  node.Close();
+  return node.stats().files;
+}
+
+std::string FileText(const std::string& path) {
+  std::ifstream in(path);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+TEST(LoggerNode, ARestartedLoggerContinuesTheRunInNewFilesAndNeverReplacesOne) {
+  LoggerRig rig;
+  const LoggerOptions options = rig.Options();
+  const std::vector<std::string> first =
+      LogSome(rig, options, 0, 2000, "config/plans/set1.plan", 1000);
+  ASSERT_EQ(first.size(), 2u);
+  EXPECT_EQ(first[1], rig.dir / "run-02-set1.csv");
+  const std::string set1_text = FileText(first[1]);
+  // Restarted with the same options while set I still runs (the status shows step 2), then set II.
+  const std::vector<std::string> second = [&] {
+    LoggerNode node(rig.bus, rig.model, options);
+    EXPECT_EQ(node.continues(), rig.dir / "run-02-set1.csv");
+    for (int64_t tick = 3000; tick < 5000; ++tick) {
+      if (tick == 3000) {
+        rig.bus.Publish("CONTROLLER_STATUS", PlanStatusMessage(tick, "config/plans/set1.plan", 2));
+      }
+      if (tick == 4000) {
+        rig.bus.Publish("CONTROLLER_STATUS", PlanStatusMessage(tick, "config/plans/set2.plan", 0));
+      }
+      rig.bus.Publish("SIM_ARM_STATE", ArmState(tick, tick, 1.0));
+      rig.bus.Publish("ARM_SETPOINT", Setpoint(tick, tick, tick / 500, 1.0));
+      rig.bus.HandleAvailable();
+    }
+    node.Close();
+    return node.stats().files;
+  }();
+  ASSERT_EQ(second.size(), 2u);
+  EXPECT_EQ(second[0], rig.dir / "run-02-set1.1.csv");
+  EXPECT_EQ(second[1], rig.dir / "run-03-set2.csv");
+  EXPECT_EQ(FileText(first[1]), set1_text);  // the earlier file is untouched
+  const std::string continued = FileText(second[0]);
+  EXPECT_NE(continued.find("\n# continues: run-02-set1.csv (the rows between its last one and "
+                           "this file's first were not logged)\n"),
+            std::string::npos)
+      << continued.substr(0, 2000);
+  EXPECT_NE(continued.find("\n# restart: this logger started with data files of run already in "),
+            std::string::npos);
+  EXPECT_EQ(FileText(second[1]).find("# continues:"), std::string::npos);  // a set of its own
+
+  // A third start during set II continues set II's file.
+  EXPECT_EQ(LogSome(rig, options, 6000, 500, "config/plans/set2.plan", 6000, 3),
+            std::vector<std::string>{rig.dir / "run-03-set2.1.csv"});
+  // Started while another plan begins: numbering goes on after the earlier files.
+  EXPECT_EQ(LogSome(rig, options, 7000, 500, "config/plans/set3.plan", 7000),
+            std::vector<std::string>{rig.dir / "run-04-set3.csv"});
+
+  // The report reads the folder in the order the files were written, continuations included.
+  const std::vector<RunTable> tables = ReadInputs({rig.dir.path.string()}, ImportOptions{});
+  std::vector<std::string> sources;
+  for (const RunTable& table : tables) sources.push_back(table.source);
+  EXPECT_EQ(sources,
+            (std::vector<std::string>{rig.dir / "run-01-manual.csv", rig.dir / "run-02-set1.csv",
+                                      rig.dir / "run-02-set1.1.csv", rig.dir / "run-03-set2.csv",
+                                      rig.dir / "run-03-set2.1.csv", rig.dir / "run-04-set3.csv"}));
+  EXPECT_EQ(tables[2].continues, "run-02-set1.csv");
+  EXPECT_EQ(tables[2].label, "set1");
+  ReportOptions report;
+  report.out_dir = rig.dir / "report";
+  report.plots = false;
+  report.analysis.min_travel = 0;  // the test's set-points do not move
+  EXPECT_NO_THROW(WriteReport(tables, report));
+}
+
+TEST(LoggerNode, UnsplitFilesContinueAsNameDotK) {
+  LoggerRig rig;
+  LoggerOptions options = rig.Options();
+  options.split_per_plan = false;
+  EXPECT_EQ(LogSome(rig, options, 0, 300), std::vector<std::string>{rig.dir / "run.csv"});
+  EXPECT_EQ(LogSome(rig, options, 1000, 300), std::vector<std::string>{rig.dir / "run.1.csv"});
+  EXPECT_EQ(LogSome(rig, options, 2000, 300), std::vector<std::string>{rig.dir / "run.2.csv"});
+  EXPECT_NE(FileText(rig.dir / "run.2.csv").find("\n# continues: run.1.csv "), std::string::npos);
+}
+
+sirupp::servo_gains_t Gains(int64_t seq, double kp2) {
+  sirupp::servo_gains_t gains{};
+  gains.seq = seq;
+  gains.num_joints = kJoints;
+  auto fill = [](std::vector<double>& values, double value) { values.assign(kJoints, value); };
+  fill(gains.kp, 100);
+  gains.kp[1] = kp2;
+  fill(gains.kd, 1000);
+  fill(gains.ki, 0);
+  fill(gains.integration_limit, 0);
+  fill(gains.output_limit, 255);
+  fill(gains.current_limit, 0);
+  fill(gains.error_limit, 4000);
+  fill(gains.servo_rate_divisor, 1);
+  fill(gains.deadband, 0);
+  return gains;
+}
+
+// Every gain change heard on ARM_GAINS, CONTROLLER_GAINS and REAL_ARM_GAINS is written into the
+// data file with its time, among the rows; repeats (the controller's 1 Hz) are not.
+TEST(LoggerNode, GainChangesAreWrittenWithTheirTimeRepeatsAreNot) {
+  LoggerRig rig;
+  LoggerOptions options = rig.Options();
+  options.split_per_plan = false;
+  LoggerNode node(rig.bus, rig.model, options);
+  for (int64_t tick = 0; tick < 3000; ++tick) {
+    if (tick % 100 == 50) {  // the controller's live gains, again and again; kp2 changes at 1500
+      rig.bus.Publish("CONTROLLER_GAINS", Gains(tick / 100, tick < 1500 ? 100 : 120));
+    }
+    if (tick == 1400) rig.bus.Publish("ARM_GAINS", Gains(0, 120));
+    if (tick == 2000) rig.bus.Publish("REAL_ARM_GAINS", Gains(0, 100));
+    rig.bus.Publish("SIM_ARM_STATE", ArmState(tick, tick, 1.0));
+    rig.bus.Publish("ARM_SETPOINT", Setpoint(tick, tick, 0, 1.0));
+    rig.bus.HandleAvailable();
+    if (tick % 200 == 0) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+  node.Close();
+  const std::vector<std::string> files = node.stats().files;
+  ASSERT_EQ(files.size(), 1u);
+  const RunTable table = ReadDataFile(files[0]);
+  ASSERT_EQ(table.gains.size(), 4u) << FileText(files[0]).substr(0, 3000);
+  EXPECT_NE(table.gains[0].find(": CONTROLLER_GAINS (virtual servos) first heard: kp 100 100 100 "
+                                "100 100 100; kd 1000"),
+            std::string::npos)
+      << table.gains[0];
+  EXPECT_NE(table.gains[1].find(": ARM_GAINS (requested) first heard: kp 100 120 100"),
+            std::string::npos)
+      << table.gains[1];
+  EXPECT_NE(table.gains[2].find(": CONTROLLER_GAINS (virtual servos) j2 kp 100 -> 120"),
+            std::string::npos)
+      << table.gains[2];
+  EXPECT_NE(table.gains[3].find(": REAL_ARM_GAINS (real boards) first heard: kp 100 100"),
+            std::string::npos)
+      << table.gains[3];
+  // Each line has the sim time and the wall clock, and sits among the rows at that time.
+  const std::string text = FileText(files[0]);
+  for (const std::string& line : table.gains) {
+    EXPECT_EQ(line.rfind("gains: time_s ", 0), 0u) << line;
+    EXPECT_NE(line.find(", wall 20"), std::string::npos) << line;
+    const double at = std::stod(line.substr(14));
+    const size_t where = text.find("# " + line);
+    ASSERT_NE(where, std::string::npos);
+    const size_t row_start = text.rfind('\n', where - 2) + 1;  // the row before the line
+    const double row_before = std::stod(text.substr(row_start));
+    EXPECT_LE(row_before, at + 1e-6) << line;
+  }
+  const double change_at = std::stod(table.gains[2].substr(14));
+  EXPECT_NEAR(change_at, 1550 * 512e-6, 0.05);  // received with the tick it was sent at
+  // The report shows them.
+  ReportOptions report;
+  report.out_dir = rig.dir / "report";
+  report.plots = false;
+  report.analysis.min_travel = 0;
+  std::vector<RunTable> tables{table};
+  tables[0].move_id.back() = 1;  // one move, so that there is something to report
+  const ReportOutput output = WriteReport(tables, report);
+  EXPECT_NE(output.markdown.find("## Gain changes"), std::string::npos);
+  EXPECT_NE(output.markdown.find("CONTROLLER_GAINS (virtual servos) j2 kp 100 -> 120"),
+            std::string::npos);
+}
+
 // A child process logs a stream it publishes itself, in step with the wall clock (one state and
 // one set-point per 0.512 ms tick, sim time = wall time since its start), and notes in shared
 // memory the newest sim time it has published. The parent kills it with SIGKILL mid-run. The file
@@ -539,6 +770,77 @@ TEST(LoggerNode, AKillDuringLoggingLeavesAParseableFileMissingAtMost100ms) {
   EXPECT_NEAR(table.time_s.back() - table.time_s.front(),
               static_cast<double>(table.rows() - 1) * 512e-6, 1e-6);
   munmap(published_us, sizeof(std::atomic<int64_t>));
+}
+
+// A child process runs `options`' logger on a stream it publishes in step with the wall clock
+// (sim time = wall time since its start, plus `sim_start_s`) and is killed with SIGKILL after
+// `run_ms`. Returns the newest sim time published (us).
+int64_t LogInAChildAndKillIt(const LoggerOptions& options, double sim_start_s, int run_ms) {
+  auto* published_us = static_cast<std::atomic<int64_t>*>(
+      mmap(nullptr, sizeof(std::atomic<int64_t>), PROT_READ | PROT_WRITE,
+           MAP_SHARED | MAP_ANONYMOUS, -1, 0));
+  EXPECT_NE(published_us, MAP_FAILED);
+  new (published_us) std::atomic<int64_t>(-1);
+  const pid_t child = fork();
+  EXPECT_GE(child, 0);
+  if (child == 0) {
+    core::RobotModel model = core::LoadRobotModel("config/robots/puma260.yaml");
+    core::Bus bus("memq://");
+    LoggerNode node(bus, model, options);
+    const auto start = std::chrono::steady_clock::now();
+    const auto first = static_cast<int64_t>(sim_start_s / 512e-6);
+    int64_t tick = first;
+    while (true) {
+      const auto elapsed_us = std::chrono::duration_cast<std::chrono::microseconds>(
+                                  std::chrono::steady_clock::now() - start)
+                                  .count();
+      for (; (tick - first) * 512 <= elapsed_us; ++tick) {
+        bus.Publish("SIM_ARM_STATE", ArmState(tick, tick, 0.001 * static_cast<double>(tick)));
+        bus.Publish("ARM_SETPOINT", Setpoint(tick, tick, 1, 0.001 * static_cast<double>(tick)));
+        bus.HandleAvailable();
+        published_us->store(tick * 512);
+      }
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+    }
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(run_ms));
+  const int64_t at_kill_us = published_us->load();
+  kill(child, SIGKILL);
+  int status = 0;
+  waitpid(child, &status, 0);
+  EXPECT_TRUE(WIFSIGNALED(status));
+  munmap(published_us, sizeof(std::atomic<int64_t>));
+  return at_kill_us;
+}
+
+// What `restart: on-failure` does: the same command line again after a kill -9. The restarted
+// logger writes the next file, which says what it continues; both files read back.
+TEST(LoggerNode, KilledWithSigkillAndRestartedWithTheSameOptionsItWritesTheNextFile) {
+  TempDir dir;
+  LoggerOptions options;
+  options.out_dir = dir.path.string();
+  options.name = "lab";
+  options.split_per_plan = false;
+  LogInAChildAndKillIt(options, 0.0, 600);
+  LogInAChildAndKillIt(options, 10.0, 600);
+  LogInAChildAndKillIt(options, 20.0, 600);
+  std::vector<std::string> names;
+  for (const auto& entry : std::filesystem::directory_iterator(dir.path)) {
+    names.push_back(entry.path().filename().string());
+  }
+  std::sort(names.begin(), names.end());
+  EXPECT_EQ(names, (std::vector<std::string>{"lab.1.csv", "lab.2.csv", "lab.csv"}));
+  const std::vector<RunTable> tables = ReadInputs({dir.path.string()}, ImportOptions{});
+  ASSERT_EQ(tables.size(), 3u);
+  EXPECT_EQ(tables[0].source, dir / "lab.csv");
+  EXPECT_EQ(tables[1].continues, "lab.csv");
+  EXPECT_EQ(tables[2].continues, "lab.1.csv");
+  EXPECT_GE(tables[1].time_s.front(), 10.0 - 0.001);
+  EXPECT_GE(tables[2].time_s.front(), 20.0 - 0.001);
+  for (const RunTable& table : tables) {
+    EXPECT_FALSE(table.closed);
+    EXPECT_GT(table.rows(), 100u) << table.source;
+  }
 }
 
 }  // namespace

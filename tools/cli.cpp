@@ -66,7 +66,7 @@ const char* const kUsage =
     "  hardware connect|calibrate|arm|disarm|link|unlink|home|clear-faults|status\n"
     "                             the bridge to the real arm (or sirupp-picservo-emu)\n"
     "  estop [--release]          emergency stop: real motors off, plans aborted\n"
-    "  report FILE...             Table II report, CSV and plots of logger data files or LCM logs\n"
+    "  report FILE|DIR...         Table II report, CSV and plots of logger data files or LCM logs\n"
     "  replay LOG [--speed X]     play an lcm-logger file back onto the bus, original timing\n"
     "  view [--channel NAME]      show sirupp-viewer's images in a window (needs a display)\n"
     "  help                       this text\n"

@@ -11,13 +11,15 @@
 namespace sirupp::tools {
 
 const char* const kReportUsage =
-    "usage: sirupp report FILE... [--out DIR] [--no-plots] [--joints N..] [--settle-window S]\n"
+    "usage: sirupp report FILE|DIR... [--out DIR] [--no-plots] [--joints N..] [--settle-window S]\n"
     "                     [--start-threshold DEG] [--band-percent P] [--min-travel DEG]\n"
     "                     [--last-move] [--prefix PREFIX] [--rate HZ] [--max-age S] [--whole-log]\n"
     "The paper's Table II for every movement set and joint in the files: mean error in the\n"
     "transient and in the steady state, RMS and maximum error, for set-point vs virtual,\n"
     "set-point vs real and virtual vs real; start delay, settling time and overshoot per stream.\n"
-    "FILE: data files of sirupp-logger (CSV) or LCM logs of lcm-logger, told apart by content.\n"
+    "FILE: data files of sirupp-logger (CSV) or LCM logs of lcm-logger, told apart by content;\n"
+    "a directory stands for its *.csv and *.lcm files (a restarted logger's continuation files\n"
+    "right after the file they continue).\n"
     "Prints Markdown and writes DIR/report.md, report_errors.csv, report_response.csv and PNG\n"
     "plots (angle and error against time per move and joint); DIR default report.\n"
     "  --settle-window S     the transient ends S after move-done (0.25)\n"

@@ -2,7 +2,8 @@
 # sirupp-logger as a real process beside sirupp-sim (realtime) and sirupp-control over UDP
 # multicast (a private network namespace, or ttl=0), with lcm-logger recording the raw traffic:
 #  - the paper's set I and set II run; one data file per movement set;
-#  - kill -9 mid-move under full traffic leaves a file that `sirupp report` parses;
+#  - kill -9 mid-move under full traffic leaves a file that `sirupp report` parses; restarted with
+#    the same command line, the logger goes on in the next file (b-03-set2.1.csv);
 #  - with the rig frozen (SIGSTOP) for 0.1 s, a kill -9 loses nothing: the file ends at the last
 #    state lcm-logger recorded (at most one 0.512 ms tick apart);
 #  - --duration closes the file with its '# end:' line; `sirupp report` reads the LCM log too;
@@ -60,7 +61,14 @@ plan=$!
 sleep 1.2
 kill -9 "$logger_b"
 wait "$logger_b" 2>/dev/null
+# Restarted with the same command line (what a layout's `restart: on-failure` does): it goes on in
+# the next file.
+"$SIRUPP_LOGGER" --lcm-url "$URL" --out "$work/data" --name b 2>"$work/b2.err" &
+logger_b2=$!; pids+=("$logger_b2")
 wait "$plan" || { echo "FAIL set2: $(cat "$work/set2.out")"; fail=1; }
+kill -INT "$logger_b2"
+wait "$logger_b2" || { echo "FAIL restarted logger b: $(cat "$work/b2.err")"; fail=1; }
+has restarted_b "$work/b2.err" "b-03-set2.csv exists: continuing that run in new files"
 # Freeze the rig, give the logger 0.1 s, then kill it: nothing it received may be missing.
 kill -STOP "$sim" "$control"
 sleep 0.1
@@ -72,7 +80,7 @@ wait "$raw" 2>/dev/null
 kill -CONT "$sim" "$control"
 
 ls "$work/data" >"$work/files"
-for f in a-01-manual.csv a-02-set1.csv a-03-set2.csv b-03-set2.csv; do
+for f in a-01-manual.csv a-02-set1.csv a-03-set2.csv b-03-set2.csv b-03-set2.1.csv; do
   grep -qx "$f" "$work/files" || { echo "FAIL: no $f among: $(cat "$work/files")"; fail=1; }
 done
 
@@ -80,6 +88,13 @@ done
 run killed_mid_move 0 report "$work/data/b-03-set2.csv" --out "$work/report_b" --no-plots
 has killed_mid_move "$err" "no '# end:' line: the logger did not close this file"
 has killed_mid_move "$out" "| set2 | 3 | 1 (waist) | from 90.0 to "
+
+# The restarted logger's file says what it continues; the report reads the whole folder.
+has continued_b "$work/data/b-03-set2.1.csv" "# continues: b-03-set2.csv (the rows between"
+run folder 0 report "$work/data" --out "$work/report_all" --no-plots
+has folder "$out" "b-03-set2.1.csv continues b-03-set2.csv after a restart of the logger"
+grep -q "b-03-set2.1.csv,set2-[0-9],4,2,shoulder,deg,0.00000,[0-9.]*,set_virt," "$work/report_all/report_errors.csv" ||
+  { echo "FAIL folder: move 4 of the continued file not in the report"; grep "b-03-set2.1" "$work/report_all/report_errors.csv" | head -3; fail=1; }
 
 # The frozen rig: the data file ends where the raw log ends.
 run frozen 0 report "$work/data/a-02-set1.csv" "$work/data/a-03-set2.csv" --out "$work/report_a"
