@@ -6,7 +6,9 @@
 // dynamics at the measured state, and writes one effort per joint. Plain C++17, no other
 // dependency: build it into a shared library and load it with
 //
-//   g++ -std=c++17 -O2 -shared -fPIC -I PREFIX/include my_controller.cpp -o my_controller.so
+//   g++ -std=c++17 -O2 -shared -fPIC -I SIRUPP/include my_controller.cpp -o my_controller.so
+//
+// (SIRUPP: the project's folder; this header needs no install.)
 //   sirupp-control --controller ./my_controller.so --controller-args "kp=100 kd=5"
 //
 // Units: SI, joint by joint: rad, rad/s, rad/s^2 and N*m for revolute joints; m, m/s, m/s^2 and N
