@@ -2,6 +2,7 @@
 
 #include <fcntl.h>
 #include <poll.h>
+#include <sched.h>
 #include <signal.h>
 #include <spawn.h>
 #include <string.h>
@@ -378,6 +379,12 @@ void IsolatedEffortLaw::Reset(const ControlInput& input) {
     StopHost();
     StartHost();
   }
+  // sirupp-control waits for the host every tick, so the host runs at its scheduling priority:
+  // `--rt-priority` is granted after the first host started (a restarted one inherits it). Best
+  // effort, like the request itself.
+  sched_param param{};
+  const int policy = ::sched_getscheduler(0);
+  if (policy >= 0 && ::sched_getparam(0, &param) == 0) ::sched_setscheduler(pid_, policy, &param);
   Call(kOpReset, input, "Reset");
 }
 
