@@ -23,11 +23,17 @@
 // in (b) must end where the sim ends (the sim's printed final joint positions); the program says so
 // if it does not.
 //
+//  (d) afterwards, what isolating a student's controller library costs per tick: the Update of
+//      examples/02_pd_gravity called in this process (PluginEffortLaw) against the same call
+//      through sirupp-controller-host (IsolatedEffortLaw, as sirupp-control --controller runs it):
+//      median and p99 of C calls each, in alternating blocks of 1000.
+//
 // Usage: bench_loop [--port P] [--round-trips N] [--warmup W] [--duration D] [--rounds R]
-//                   [--model FILE] [--bin DIR] [--dump FILE]
+//                   [--model FILE] [--bin DIR] [--dump FILE] [--law-calls C] [--law-only]
 //   P: udpm port (default 20000 + pid % 10000); N: timed round trips per round (10000) after W
 //   (1000); D: simulated seconds per loop run (2); R: rounds (5); DIR: where sirupp-sim and
-//   sirupp-control are (default: this program's directory); FILE: every timed round trip, in us.
+//   sirupp-control are (default: this program's directory); FILE: every timed round trip, in us;
+//   C: timed Update calls of each kind in (d) (20000); --law-only: only (d).
 // Internal: bench_loop --pong URL [--setpoint] answers round trips (see RunPong).
 
 #include <fcntl.h>
@@ -54,6 +60,8 @@
 #include <thread>
 #include <vector>
 
+#include "control/isolated_law.hpp"
+#include "control/plugin_controller.hpp"
 #include "control/servo_bank.hpp"
 #include "core/arm_state.hpp"
 #include "core/bus.hpp"
@@ -576,6 +584,85 @@ std::string FormatPositions(const std::vector<double>& position) {
   return line;
 }
 
+// ---- Controller library isolation
+// ----------------------------------------------------------------
+
+// (d) What running a student's controller library in its own process costs per tick: Update of
+// examples/02_pd_gravity called in this process (PluginEffortLaw: dynamics + the library's Update)
+// and through sirupp-controller-host (IsolatedEffortLaw: the same, plus the copy into shared memory
+// and one socket byte each way, i.e. two wake-ups of a sleeping process). Each sample is one
+// Update, wall time; the two kinds alternate in blocks, so load on the machine falls on both.
+struct LawTimes {
+  std::vector<double> in_process_us, isolated_us;
+};
+
+void TimeLawCalls(sirupp::control::EffortLaw& law, const RobotModel& model, int calls,
+                  std::vector<double>* us) {
+  const int n = model.num_joints();
+  sirupp::core::ArmState state;
+  state.position.assign(static_cast<size_t>(n), 0.1);
+  state.velocity.assign(static_cast<size_t>(n), 0.0);
+  state.effort.assign(static_cast<size_t>(n), 0.0);
+  state.flags.assign(static_cast<size_t>(n), 0);
+  sirupp::control::ControlInput input;
+  input.state = &state;
+  input.setpoint_position.assign(static_cast<size_t>(n), 0.1);
+  input.setpoint_velocity.assign(static_cast<size_t>(n), 0.0);
+  input.setpoint_acceleration.assign(static_cast<size_t>(n), 0.0);
+  input.goal = input.setpoint_position;
+  std::vector<double> effort;
+  for (int k = 0; k < calls; ++k) {
+    state.tick = input.tick = k;
+    state.position[0] = 0.1 + 1e-4 * (k % 100);  // a different state each tick
+    const Clock::time_point start = Clock::now();
+    law.Update(input, effort);
+    if (us != nullptr) us->push_back(Seconds(Clock::now() - start) * 1e6);
+  }
+}
+
+LawTimes MeasureLawIsolation(const RobotModel& model, const std::string& library, int calls,
+                             int warmup) {
+  sirupp::control::PluginEffortLaw in_process(library, "", model);
+  sirupp::control::IsolatedEffortLaw isolated(library, "", model);
+  sirupp::core::ArmState state;
+  state.position.assign(static_cast<size_t>(model.num_joints()), 0.1);
+  state.velocity = state.effort = std::vector<double>(state.position.size(), 0.0);
+  sirupp::control::ControlInput input;
+  input.state = &state;
+  input.setpoint_position = state.position;
+  input.setpoint_velocity = input.setpoint_acceleration = state.velocity;
+  input.goal = state.position;
+  in_process.Reset(input);
+  isolated.Reset(input);
+  TimeLawCalls(in_process, model, warmup, nullptr);
+  TimeLawCalls(isolated, model, warmup, nullptr);
+  LawTimes times;
+  constexpr int kBlock = 1000;
+  for (int done = 0; done < calls; done += kBlock) {
+    const int block = std::min(kBlock, calls - done);
+    TimeLawCalls(in_process, model, block, &times.in_process_us);
+    TimeLawCalls(isolated, model, block, &times.isolated_us);
+  }
+  return times;
+}
+
+void PrintLawIsolation(const LawTimes& times, const std::string& library) {
+  std::printf(
+      "\n(d) a controller library's Update (%s), per call: in sirupp-control's process vs in its "
+      "host process (sirupp-controller-host), %zu calls each\n",
+      std::filesystem::path(library).filename().c_str(), times.in_process_us.size());
+  const double in_median = Median(times.in_process_us);
+  const double iso_median = Median(times.isolated_us);
+  std::printf("  %-34s median %6.2f us  p99 %7.2f us  mean %6.2f us\n", "in-process call",
+              in_median, Percentile(times.in_process_us, 0.99), Mean(times.in_process_us));
+  std::printf("  %-34s median %6.2f us  p99 %7.2f us  mean %6.2f us\n",
+              "host round trip (shm + socket)", iso_median, Percentile(times.isolated_us, 0.99),
+              Mean(times.isolated_us));
+  std::printf("  isolation costs %.2f us per tick (median), %.2f us at p99\n",
+              iso_median - in_median,
+              Percentile(times.isolated_us, 0.99) - Percentile(times.in_process_us, 0.99));
+}
+
 // ---- main ---------------------------------------------------------------------------------------
 
 struct Options {
@@ -589,6 +676,8 @@ struct Options {
   std::string dump;      // file for the round-trip samples, one per line (us)
   std::string pong_url;  // internal role
   bool pong_setpoint = false;
+  int law_calls = 20000;  // (d): timed Update calls of each kind
+  bool law_only = false;  // only (d)
 };
 
 Options ParseOptions(int argc, char** argv) {
@@ -619,16 +708,21 @@ Options ParseOptions(int argc, char** argv) {
       options.pong_url = value();
     } else if (flag == "--setpoint") {
       options.pong_setpoint = true;
+    } else if (flag == "--law-calls") {
+      options.law_calls = std::atoi(value().c_str());
+    } else if (flag == "--law-only") {
+      options.law_only = true;
     } else {
       throw std::invalid_argument("unknown flag " + flag);
     }
   }
   if (options.port == 0) options.port = 20000 + static_cast<int>(getpid() % 10000);
   if (options.port < 1024 || options.port > 65535 || options.round_trips < 1 ||
-      options.warmup < 0 || !(options.duration_s > 0) || options.rounds < 1) {
+      options.warmup < 0 || !(options.duration_s > 0) || options.rounds < 1 ||
+      options.law_calls < 1) {
     throw std::invalid_argument(
         "allowed: --port 1024..65535, --round-trips >= 1, --warmup >= 0, --duration > 0, "
-        "--rounds >= 1");
+        "--rounds >= 1, --law-calls >= 1");
   }
   return options;
 }
@@ -684,6 +778,15 @@ int Run(const Options& options) {
   const std::string model_file = FindModel(options.model);
   const RobotModel model = sirupp::core::LoadRobotModel(model_file);
   if (!options.pong_url.empty()) return RunPong(options.pong_url, options.pong_setpoint, model);
+  if (options.law_only) {
+    std::printf("Load average at start: %s (%u CPUs)\n", LoadAverage().c_str(),
+                std::thread::hardware_concurrency());
+    PrintLawIsolation(
+        MeasureLawIsolation(model, SIRUPP_PD_GRAVITY_LIB, options.law_calls, options.warmup),
+        SIRUPP_PD_GRAVITY_LIB);
+    std::printf("Load average at end: %s\n", LoadAverage().c_str());
+    return 0;
+  }
 
   LoopSetup setup;
   setup.bin_dir = options.bin_dir.empty() ? std::filesystem::path(SelfPath()).parent_path().string()
@@ -859,7 +962,10 @@ int Run(const Options& options) {
     std::printf("  ARM_SETPOINT every tick costs the %s loop %.1f us per tick (%.0f %%)\n",
                 scenarios[s].name.c_str(), on - off, 100 * (on - off) / on);
   }
-  std::printf("The in-process replica %s the sim's final joint positions (%ld steps per run)\n",
+  PrintLawIsolation(
+      MeasureLawIsolation(model, SIRUPP_PD_GRAVITY_LIB, options.law_calls, options.warmup),
+      SIRUPP_PD_GRAVITY_LIB);
+  std::printf("\nThe in-process replica %s the sim's final joint positions (%ld steps per run)\n",
               all_same ? "matches" : "does NOT match", cases.front().steps);
   std::printf("Load average at end: %s\n", LoadAverage().c_str());
   std::printf("Goal loop / limit >= %.1f: %s\n", kGoal, all_met ? "met in every case" : "NOT met");

@@ -254,6 +254,9 @@ void ControlNode::OnState(const sirupp::arm_state_t& message, const core::Receiv
   have_last_command_ = true;
   bus_.Publish(options_.channels.sim_arm_command, last_command_);
   ++states_answered_;
+  // The sim's next state waits for this answer: its silence counts from here, so a controller
+  // library that took long (up to its call limit) does not make the sim look lost.
+  last_state_wall_ = Clock::now();
 
   const int tripped = TrippedJoint();
   if (tripped >= 0 && !trip_reported_) {

@@ -4,9 +4,12 @@
 // and CONTROLLER_STATUS work unchanged); each servo tick the law gets the measured state and the
 // profiled set-points and returns the joint efforts sent to the sim instead of the PID's.
 //
-// Implementations: PluginEffortLaw (a shared library built against include/sirupp/controller.h,
-// loaded with `sirupp-control --controller LIB.so`). A controller in its own process needs none
-// of this: it answers SIM_ARM_STATE itself (docs/student-controllers.md).
+// Implementations: IsolatedEffortLaw (a shared library built against include/sirupp/controller.h,
+// run in a child process: `sirupp-control --controller LIB.so`) and PluginEffortLaw (the same
+// library loaded into this process: `--controller-in-process`, tests, benchmarks). A failure of
+// the law is thrown from Reset or Update; ControlNode turns it into its latched fault. A
+// controller in its own process needs none of this: it answers SIM_ARM_STATE itself
+// (docs/student-controllers.md).
 
 #include <cstdint>
 #include <string>

@@ -5,6 +5,7 @@
 #include <string>
 
 #include "control/control_node.hpp"
+#include "control/isolated_law.hpp"
 #include "control/plugin_controller.hpp"
 #include "core/bus.hpp"
 #include "core/errors.hpp"
@@ -17,8 +18,9 @@ namespace {
 
 constexpr const char* kUsage =
     "usage: sirupp-control [--model FILE] [--name NAME] [--no-setpoints] [--lcm-url URL]\n"
-    "                      [--prefix PREFIX] [--controller LIB.so [--controller-args TEXT]]\n"
-    "                      [--rt-priority N]\n"
+    "                      [--prefix PREFIX] [--controller LIB.so [--controller-args TEXT]\n"
+    "                      [--controller-tick-limit S] [--controller-in-process]] [--rt-priority "
+    "N]\n"
     "The sequencer and the virtual PIC-SERVOs: answers every SIM_ARM_STATE with joint efforts on\n"
     "SIM_ARM_COMMAND (as participant NAME, default sirupp-control); takes joint targets\n"
     "(ARM_TARGET), tool targets through IK (ARM_POSE_TARGET), movement plans and modes (ARM_PLAN)\n"
@@ -26,7 +28,12 @@ constexpr const char* kUsage =
     "ARM_SETPOINT, CONTROLLER_STATUS and HEARTBEAT.\n"
     "--controller: a student's controller library (built against sirupp/controller.h) computes\n"
     "the efforts from the profiles' set-points instead of the PID; --controller-args is passed\n"
-    "to its constructor. See docs/student-controllers.md.\n"
+    "to its constructor. The library runs in a child process (sirupp-controller-host): a crash\n"
+    "(any signal), an exception, a non-finite effort or a call that takes longer than\n"
+    "--controller-tick-limit seconds (default 0.5, wall time) is a fault naming the library and\n"
+    "the tick; the arm is braked and `sirupp clear-fault` starts the library afresh.\n"
+    "--controller-in-process: load it into sirupp-control itself (for a debugger; a crash then\n"
+    "ends sirupp-control). See docs/student-controllers.md.\n"
     "--rt-priority N: run under SCHED_FIFO at priority N (1..99; needs root or CAP_SYS_NICE),\n"
     "so the servo loop answers each state at once on a busy machine (docs/timing.md).\n";
 
@@ -39,7 +46,9 @@ int Run(const std::vector<std::string>& argv) {
                                   {"prefix", "channel prefix of the rig"},
                                   {"rt-priority", "SCHED_FIFO priority 1..99 (0: off)"},
                                   {"controller", "controller library (.so)"},
-                                  {"controller-args", "arguments for the controller library"}});
+                                  {"controller-args", "arguments for the controller library"},
+                                  {"controller-tick-limit", "seconds one controller call may take"},
+                                  {"controller-in-process", "load the library into this process"}});
   const int rt_priority = sirupp::tools::RtPriorityArg(args, "sirupp-control");
   const sirupp::core::RobotModel model =
       sirupp::core::LoadRobotModel(sirupp::tools::ResolveDataPath(
@@ -47,8 +56,11 @@ int Run(const std::vector<std::string>& argv) {
   sirupp::control::ControlOptions options;
   if (args.Has("name")) options.name = args.String("name");
   options.publish_setpoints = !args.Switch("no-setpoints");
-  if (args.Has("controller-args") && !args.Has("controller")) {
-    throw sirupp::core::UsageError("sirupp-control: --controller-args needs --controller LIB.so");
+  for (const char* flag : {"controller-args", "controller-tick-limit", "controller-in-process"}) {
+    if (args.Has(flag) && !args.Has("controller")) {
+      throw sirupp::core::UsageError(std::string("sirupp-control: --") + flag +
+                                     " needs --controller LIB.so");
+    }
   }
   if (args.Has("controller")) {
     // Loaded before joining the bus: a library that cannot be used stops the process here (exit
@@ -59,11 +71,29 @@ int Run(const std::vector<std::string>& argv) {
         controller_args += (controller_args.empty() ? "" : " ") + word;
       }
     }
-    options.effort_law = std::make_shared<sirupp::control::PluginEffortLaw>(
-        args.String("controller"), controller_args, model);
+    sirupp::control::IsolationOptions isolation;
+    if (args.Has("controller-tick-limit")) {
+      isolation.tick_limit_s = args.Numbers("controller-tick-limit", 1)[0];
+      if (!(isolation.tick_limit_s > 0) || isolation.tick_limit_s > 60) {
+        throw sirupp::core::UsageError(
+            "sirupp-control: --controller-tick-limit must be more than 0 and at most 60 s");
+      }
+    }
+    const bool in_process = args.Switch("controller-in-process");
+    if (in_process) {
+      options.effort_law = std::make_shared<sirupp::control::PluginEffortLaw>(
+          args.String("controller"), controller_args, model);
+    } else {
+      options.effort_law = std::make_shared<sirupp::control::IsolatedEffortLaw>(
+          args.String("controller"), controller_args, model, isolation);
+    }
     std::cerr << "sirupp-control: controller " << options.effort_law->name() << " ("
               << (controller_args.empty() ? "no arguments" : "'" + controller_args + "'")
-              << ") in place of the PID\n";
+              << ") in place of the PID, "
+              << (in_process ? std::string("in this process")
+                             : "in its host process (call limit " +
+                                   sirupp::core::FormatNumber(isolation.tick_limit_s) + " s)")
+              << "\n";
   }
   sirupp::core::Bus bus(args.Has("lcm-url") ? args.String("lcm-url") : "",
                         args.Has("prefix") ? args.String("prefix") : "");

@@ -1,9 +1,12 @@
 #include "control/plugin_controller.hpp"
 
+#include <cxxabi.h>
 #include <dlfcn.h>
 
 #include <Eigen/Core>
+#include <cstdlib>
 #include <stdexcept>
+#include <typeinfo>
 
 namespace sirupp::control {
 namespace {
@@ -24,15 +27,29 @@ Function Symbol(void* handle, const char* symbol) {
   return reinterpret_cast<Function>(dlsym(handle, symbol));
 }
 
-// Calls into the student's code; anything it throws reaches ControlNode as a std::exception.
+// The demangled type name of an exception, e.g. "std::out_of_range".
+std::string TypeName(const std::exception& exception) {
+  const char* mangled = typeid(exception).name();
+  int status = 0;
+  char* demangled = abi::__cxa_demangle(mangled, nullptr, nullptr, &status);
+  std::string name = status == 0 && demangled != nullptr ? demangled : mangled;
+  std::free(demangled);
+  return name;
+}
+
+// Calls into the student's code (`call` is "Reset" or "Update"); anything it throws reaches
+// ControlNode as a std::runtime_error naming the call and the exception:
+// "Update threw std::out_of_range: vector::at".
 template <class Body>
-void Guarded(Body body) {
+void Guarded(const char* call, Body body) {
   try {
     body();
-  } catch (const std::exception&) {
-    throw;
+  } catch (const std::exception& exception) {
+    throw std::runtime_error(std::string(call) + " threw " + TypeName(exception) + ": " +
+                             exception.what());
   } catch (...) {
-    throw std::runtime_error("threw an exception not derived from std::exception");
+    throw std::runtime_error(std::string(call) +
+                             " threw an exception not derived from std::exception");
   }
 }
 
@@ -133,13 +150,13 @@ void PluginEffortLaw::Prepare(const ControlInput& input) {
 
 void PluginEffortLaw::Reset(const ControlInput& input) {
   Prepare(input);
-  Guarded([this] { controller_->Reset(arm_, state_); });
+  Guarded("Reset", [this] { controller_->Reset(arm_, state_); });
 }
 
 void PluginEffortLaw::Update(const ControlInput& input, std::vector<double>& effort) {
   Prepare(input);
   effort.assign(static_cast<size_t>(dynamics_.num_joints()), 0.0);
-  Guarded([this, &effort] { controller_->Update(state_, effort.data()); });
+  Guarded("Update", [this, &effort] { controller_->Update(state_, effort.data()); });
 }
 
 }  // namespace sirupp::control

@@ -19,8 +19,9 @@ done
 packages=(
   # build tools
   build-essential cmake ninja-build pkg-config git ccache
-  # messaging: C/C++ library, lcm-gen, lcm.jar, lcm-logger/lcm-logplayer, jchart2d for lcm-spy
-  liblcm-dev liblcm-bin liblcm-java libjchart2d-java
+  # messaging: C/C++ library, lcm-gen, lcm.jar, lcm-logger/lcm-logplayer, jchart2d for lcm-spy;
+  # glib's headers and .pc, which lcm.pc requires: without them `pkg-config --libs lcm` fails
+  liblcm-dev liblcm-bin liblcm-java libjchart2d-java libglib2.0-dev
   # JDK to compile the Java types jar for lcm-spy; the full JRE (AWT for X11) to show lcm-spy's window
   default-jdk-headless default-jre
   # physics, maths, images

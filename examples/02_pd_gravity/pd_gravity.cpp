@@ -15,8 +15,8 @@
 // below its break-away effort, so a stiffer wn leaves a smaller final error.
 //
 // Arguments (--controller-args): "wn=100 zeta=1" (the defaults).
-// Build by hand against the installed header:
-//   g++ -std=c++17 -O2 -shared -fPIC -I PREFIX/include pd_gravity.cpp -o pd_gravity.so
+// Build by hand against the header in the project's include/ folder (SIRUPP: the project's folder):
+//   g++ -std=c++17 -O2 -shared -fPIC -I $SIRUPP/include pd_gravity.cpp -o pd_gravity.so
 
 #include <sirupp/controller.h>
 

@@ -11,8 +11,8 @@
 // move with almost no lag. Joint friction is not in the model and acts as a disturbance.
 //
 // Arguments (--controller-args): "wn=100 zeta=1" (the defaults).
-// Build by hand against the installed header:
-//   g++ -std=c++17 -O2 -shared -fPIC -I PREFIX/include computed_torque.cpp -o computed_torque.so
+// Build by hand against the header in the project's include/ folder (SIRUPP: the project's folder):
+//   g++ -std=c++17 -O2 -shared -fPIC -I $SIRUPP/include computed_torque.cpp -o computed_torque.so
 
 #include <sirupp/controller.h>
 

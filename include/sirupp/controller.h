@@ -6,16 +6,21 @@
 // dynamics at the measured state, and writes one effort per joint. Plain C++17, no other
 // dependency: build it into a shared library and load it with
 //
-//   g++ -std=c++17 -O2 -shared -fPIC -I PREFIX/include my_controller.cpp -o my_controller.so
+//   g++ -std=c++17 -O2 -shared -fPIC -I SIRUPP/include my_controller.cpp -o my_controller.so
+//
+// (SIRUPP: the project's folder; this header needs no install.)
 //   sirupp-control --controller ./my_controller.so --controller-args "kp=100 kd=5"
 //
 // Units: SI, joint by joint: rad, rad/s, rad/s^2 and N*m for revolute joints; m, m/s, m/s^2 and N
 // for prismatic ones. Positive effort drives the joint positive. Tutorial:
 // docs/student-controllers.md.
 //
-// Rules the host enforces: efforts are clamped to ArmInfo::effort_max; a non-finite effort, or an
-// exception from Reset or Update, stops the controller for the rest of the run: the arm is held by
-// its brakes and CONTROLLER_STATUS reports STATE_FAULT naming the controller.
+// Rules the host enforces: efforts are clamped to ArmInfo::effort_max. The library runs in a child
+// process of sirupp-control (sirupp-controller-host). A crash (any signal), a Reset or Update call
+// longer than the call limit (--controller-tick-limit, 0.5 s), an exception from Reset or Update,
+// or a non-finite effort stops the controller: the arm is held by its brakes and CONTROLLER_STATUS
+// reports STATE_FAULT naming the controller, the tick and the cause, until `sirupp clear-fault`
+// starts the library afresh (a new process: constructor, then Reset).
 
 #ifndef SIRUPP_CONTROLLER_H_
 #define SIRUPP_CONTROLLER_H_

@@ -6,6 +6,9 @@
 #                                          bad arguments exit 2 with one line and nothing moves.
 #   student_controller.sh java CLASSPATH   examples/04_java_controller (JointPid) as the sim's only
 #                                          participant, target on its command line, rig prefix T4_.
+#   student_controller.sh cpp PROGRAM      examples/05_cpp_process_controller (joint_pid) the same
+#                                          way, as participant student-cpp under the rig prefix T5_.
+# TOLERANCE_DEG (environment, default 0.5): the largest final error allowed on any joint.
 # Processes talk over UDP multicast in a network namespace made for the test (or, where none is
 # allowed, on this host with ttl=0 and a port of its own). Needs SIRUPP_BIN_DIR.
 set -u
@@ -13,7 +16,7 @@ mode=$1
 subject=$2
 bin=$SIRUPP_BIN_DIR
 TARGET_DEG=(30 -20 40 25 -30 45)
-TOLERANCE_DEG=0.5
+TOLERANCE_DEG=${TOLERANCE_DEG:-0.5}
 DURATION_S=4
 fail() { echo "FAIL: $*"; exit 1; }
 
@@ -101,7 +104,23 @@ elif [ "$mode" = java ]; then
     fail "the Java controller printed no final joints"
   grep -q " 0 rejected" "$work/sim" || fail "the sim refused commands from the Java controller"
   check_final "$work/sim"
+elif [ "$mode" = cpp ]; then
+  "$subject" --lcm-url "$URL" --prefix T5_ --name student-cpp --deg "${TARGET_DEG[@]}" \
+    >"$work/cpp" 2>"$work/cpp.err" &
+  cpp_pid=$!
+  "$bin/sirupp-sim" --lcm-url "$URL" --prefix T5_ --mode lockstep --participants student-cpp \
+    --duration "$DURATION_S" --lockstep-timeout 1 2>"$work/sim" &
+  sim=$!
+  wait_for "$sim" 120
+  wait_for "$cpp_pid" 10  # it ends one second after the last state
+  cat "$work/sim" "$work/cpp" "$work/cpp.err"
+  grep -q "^JointPid: puma260, 6 joints, from T5_ROBOT_MODEL" "$work/cpp.err" ||
+    fail "the C++ controller did not learn the arm from T5_ROBOT_MODEL"
+  grep -q "^JointPid: final joint positions (deg):" "$work/cpp" ||
+    fail "the C++ controller printed no final joints"
+  grep -q " 0 rejected" "$work/sim" || fail "the sim refused commands from the C++ controller"
+  check_final "$work/sim"
 else
-  fail "mode '$mode': allowed library, java"
+  fail "mode '$mode': allowed library, java, cpp"
 fi
 echo "student controller ($mode, $(basename "${subject%%:*}")): OK"

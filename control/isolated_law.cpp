@@ -1,0 +1,488 @@
+#include "control/isolated_law.hpp"
+
+#include <fcntl.h>
+#include <poll.h>
+#include <sched.h>
+#include <signal.h>
+#include <spawn.h>
+#include <string.h>
+#include <sys/mman.h>
+#include <sys/socket.h>
+#include <sys/stat.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cerrno>
+#include <chrono>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <memory>
+#include <sirupp/robot_model_t.hpp>
+#include <stdexcept>
+#include <thread>
+
+#include "control/plugin_controller.hpp"
+#include "core/errors.hpp"
+#include "core/translate.hpp"
+
+namespace sirupp::control {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+
+// The shared block: a Header, then kArrays arrays of num_joints doubles (the call's inputs, then
+// the answer's efforts), then the encoded robot_model_t.
+constexpr uint32_t kMagic = 0x53434831;  // "SCH1"
+constexpr uint32_t kLayout = 1;
+constexpr int32_t kOpReset = 1;
+constexpr int32_t kOpUpdate = 2;
+constexpr int32_t kOutcomeOk = 0;
+constexpr int32_t kOutcomeThrew = 1;
+constexpr size_t kErrorSize = 2048;
+// The bytes on the socket: parent -> host "go", host -> parent "done", "ready", "load error".
+constexpr char kGo = 'G';
+constexpr char kDone = 'D';
+constexpr char kReady = 'R';
+constexpr char kLoadError = 'E';
+
+struct Header {
+  uint32_t magic;
+  uint32_t layout;
+  int32_t num_joints;
+  uint32_t model_size;
+  uint64_t request_seq;
+  uint64_t reply_seq;
+  int32_t op;
+  int32_t outcome;
+  int64_t tick;
+  double time_s;
+  char error[kErrorSize];  // the library's exception or load problem, NUL-terminated
+};
+
+enum Array {
+  kPosition,
+  kVelocity,
+  kAppliedEffort,
+  kSetpoint,
+  kSetpointVelocity,
+  kSetpointAcceleration,
+  kGoal,
+  kEffortOut,
+  kArrays
+};
+
+constexpr size_t kArraysOffset = (sizeof(Header) + 7) / 8 * 8;
+
+size_t SharedSize(int num_joints, size_t model_size) {
+  return kArraysOffset + kArrays * static_cast<size_t>(num_joints) * sizeof(double) + model_size;
+}
+
+Header* HeaderOf(void* shared) { return static_cast<Header*>(shared); }
+
+double* ArrayOf(void* shared, int num_joints, Array array) {
+  return reinterpret_cast<double*>(static_cast<char*>(shared) + kArraysOffset) +
+         static_cast<size_t>(array) * static_cast<size_t>(num_joints);
+}
+
+uint8_t* ModelOf(void* shared, int num_joints) {
+  return reinterpret_cast<uint8_t*>(ArrayOf(shared, num_joints, kArrays));
+}
+
+void SetError(Header* header, const std::string& text) {
+  std::snprintf(header->error, kErrorSize, "%s", text.c_str());
+}
+
+// The error text as the other side left it, bounded (the host may have scribbled on the block).
+std::string ErrorOf(const Header* header) {
+  const char* end = static_cast<const char*>(std::memchr(header->error, '\0', kErrorSize));
+  return std::string(header->error, end != nullptr ? end : header->error + kErrorSize);
+}
+
+bool SendByte(int socket_fd, char byte) {
+  std::atomic_thread_fence(std::memory_order_seq_cst);  // the block is written before the byte
+  for (;;) {
+    const ssize_t sent = ::send(socket_fd, &byte, 1, MSG_NOSIGNAL);
+    if (sent == 1) return true;
+    if (sent < 0 && errno == EINTR) continue;
+    return false;
+  }
+}
+
+std::string ErrnoText(const std::string& what) { return what + ": " + std::strerror(errno); }
+
+// "SIGSEGV (Segmentation fault)".
+std::string SignalName(int signal_number) {
+  const char* abbreviation = sigabbrev_np(signal_number);
+  const char* description = sigdescr_np(signal_number);
+  std::string name = abbreviation != nullptr ? std::string("SIG") + abbreviation
+                                             : "signal " + std::to_string(signal_number);
+  if (description != nullptr) name += std::string(" (") + description + ")";
+  return name;
+}
+
+// How a host process ended, from waitpid's status, while running `where` ("in Update",
+// "while loading ..."): "crashed with SIGSEGV (Segmentation fault) in Update".
+std::string DescribeEnd(int status, const std::string& where) {
+  if (WIFSIGNALED(status)) {
+    const int signal_number = WTERMSIG(status);
+    std::string text = "crashed with " + SignalName(signal_number) + " " + where;
+    if (signal_number == SIGABRT) text += ": abort(), a failed assert() or std::terminate";
+    return text;
+  }
+  if (WIFEXITED(status)) {
+    return "ended its host process with exit code " + std::to_string(WEXITSTATUS(status)) + " " +
+           where + " (exit() or quick_exit() called?)";
+  }
+  return "ended its host process (wait status " + std::to_string(status) + ") " + where;
+}
+
+// Moves a descriptor above 4, so that the spawn's dup2 onto 3 and 4 never meets itself.
+int AboveFour(int fd) {
+  if (fd > 4) return fd;
+  const int moved = ::fcntl(fd, F_DUPFD_CLOEXEC, 5);
+  const int saved = errno;
+  ::close(fd);
+  errno = saved;
+  return moved;
+}
+
+std::string DefaultHostProgram() {
+  std::error_code error;
+  const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", error);
+  return (error ? std::filesystem::path(".") : self.parent_path()) / "sirupp-controller-host";
+}
+
+}  // namespace
+
+IsolatedEffortLaw::IsolatedEffortLaw(const std::string& library, const std::string& args,
+                                     const core::RobotModel& model, IsolationOptions options)
+    : library_(library),
+      args_(args),
+      host_program_(options.host_program.empty() ? DefaultHostProgram() : options.host_program),
+      options_(options),
+      num_joints_(model.num_joints()) {
+  const size_t slash = library.find_last_of('/');
+  name_ = slash == std::string::npos ? library : library.substr(slash + 1);
+  sirupp::robot_model_t message = core::ToMessage(model, 0, 0);
+  model_bytes_.resize(static_cast<size_t>(message.getEncodedSize()));
+  message.encode(model_bytes_.data(), 0, static_cast<int>(model_bytes_.size()));
+  StartHost();
+}
+
+IsolatedEffortLaw::~IsolatedEffortLaw() { StopHost(); }
+
+void IsolatedEffortLaw::StartHost() {
+  const size_t size = SharedSize(num_joints_, model_bytes_.size());
+  int shared_fd = AboveFour(::memfd_create("sirupp-controller", MFD_CLOEXEC));
+  if (shared_fd < 0 || ::ftruncate(shared_fd, static_cast<off_t>(size)) != 0) {
+    const std::string problem = ErrnoText("cannot make the shared memory for its host process");
+    if (shared_fd >= 0) ::close(shared_fd);
+    throw ControllerLoadError(library_, problem);
+  }
+  void* shared = ::mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_SHARED, shared_fd, 0);
+  int pair[2] = {-1, -1};
+  if (shared == MAP_FAILED || ::socketpair(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0, pair) != 0 ||
+      (pair[1] = AboveFour(pair[1])) < 0) {
+    const std::string problem = ErrnoText("cannot connect to its host process");
+    if (shared != MAP_FAILED) ::munmap(shared, size);
+    for (int fd : {pair[0], pair[1], shared_fd}) {
+      if (fd >= 0) ::close(fd);
+    }
+    throw ControllerLoadError(library_, problem);
+  }
+  Header* header = HeaderOf(shared);
+  header->magic = kMagic;
+  header->layout = kLayout;
+  header->num_joints = num_joints_;
+  header->model_size = static_cast<uint32_t>(model_bytes_.size());
+  std::copy(model_bytes_.begin(), model_bytes_.end(), ModelOf(shared, num_joints_));
+
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_adddup2(&actions, pair[1], 3);
+  posix_spawn_file_actions_adddup2(&actions, shared_fd, 4);
+  posix_spawnattr_t attributes;
+  posix_spawnattr_init(&attributes);
+  sigset_t none, defaults;
+  sigemptyset(&none);
+  sigemptyset(&defaults);
+  sigaddset(&defaults, SIGPIPE);
+  posix_spawnattr_setsigmask(&attributes, &none);
+  posix_spawnattr_setsigdefault(&attributes, &defaults);
+  posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
+  std::vector<char*> argv = {const_cast<char*>(host_program_.c_str()),
+                             const_cast<char*>(library_.c_str()), const_cast<char*>(args_.c_str()),
+                             nullptr};
+  pid_t pid = -1;
+  const int spawned =
+      ::posix_spawn(&pid, host_program_.c_str(), &actions, &attributes, argv.data(), environ);
+  posix_spawn_file_actions_destroy(&actions);
+  posix_spawnattr_destroy(&attributes);
+  ::close(pair[1]);
+  ::close(shared_fd);
+  if (spawned != 0) {
+    ::munmap(shared, size);
+    ::close(pair[0]);
+    throw ControllerLoadError(
+        library_, "cannot start its host process " + host_program_ + ": " + std::strerror(spawned));
+  }
+  pid_ = pid;
+  socket_ = pair[0];
+  shared_ = shared;
+  shared_size_ = size;
+  ++hosts_started_;
+
+  char byte = 0;
+  const int answer = WaitForHost(options_.load_limit_s, &byte);
+  if (answer == 1 && byte == kReady) {
+    fresh_ = true;
+    return;
+  }
+  std::string problem;
+  if (answer == 1 && byte == kLoadError) {
+    problem = ErrorOf(header);
+    ReapHost(false, "");
+  } else if (answer == 0) {
+    ReapHost(true, "");
+    problem = "did not finish loading within " + core::FormatNumber(options_.load_limit_s) +
+              " s (a static initializer or the constructor hangs?); its host process was killed";
+  } else {
+    problem = ReapHost(false, "while loading (in a static initializer or the constructor)");
+  }
+  StopHost();
+  throw ControllerLoadError(library_, problem);
+}
+
+void IsolatedEffortLaw::StopHost() {
+  if (socket_ >= 0) {
+    ::close(socket_);  // the host's recv sees end of file and it ends
+    socket_ = -1;
+  }
+  if (pid_ > 0) {
+    const Clock::time_point deadline = Clock::now() + std::chrono::seconds(1);
+    int status = 0;
+    while (::waitpid(pid_, &status, WNOHANG) == 0) {
+      if (Clock::now() > deadline) {
+        ::kill(pid_, SIGKILL);  // its destructor hangs
+        ::waitpid(pid_, &status, 0);
+        break;
+      }
+      std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    }
+    pid_ = -1;
+  }
+  if (shared_ != nullptr) {
+    ::munmap(shared_, shared_size_);
+    shared_ = nullptr;
+  }
+  fresh_ = false;
+}
+
+std::string IsolatedEffortLaw::ReapHost(bool kill_first, const std::string& where) {
+  if (pid_ <= 0) return "its host process is gone " + where;
+  if (kill_first) ::kill(pid_, SIGKILL);
+  int status = 0;
+  // After end of file the host is ending; a host that closed its socket and runs on is killed.
+  const Clock::time_point deadline = Clock::now() + std::chrono::seconds(2);
+  pid_t reaped = 0;
+  while ((reaped = ::waitpid(pid_, &status, WNOHANG)) == 0 && Clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+  }
+  if (reaped == 0) {
+    ::kill(pid_, SIGKILL);
+    reaped = ::waitpid(pid_, &status, 0);
+  }
+  const pid_t pid = pid_;
+  pid_ = -1;
+  if (socket_ >= 0) {
+    ::close(socket_);
+    socket_ = -1;
+  }
+  if (reaped != pid) {
+    return "its host process " + std::to_string(pid) + " ended " + where + " (not reaped)";
+  }
+  return DescribeEnd(status, where);
+}
+
+int IsolatedEffortLaw::WaitForHost(double limit_s, char* byte) {
+  const Clock::time_point deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(
+                                                        std::chrono::duration<double>(limit_s));
+  for (;;) {
+    const auto remaining =
+        std::chrono::duration_cast<std::chrono::nanoseconds>(deadline - Clock::now()).count();
+    if (remaining <= 0) return 0;
+    pollfd wait_for{socket_, POLLIN, 0};
+    const timespec timeout{static_cast<time_t>(remaining / 1000000000),
+                           static_cast<long>(remaining % 1000000000)};
+    const int ready = ::ppoll(&wait_for, 1, &timeout, nullptr);
+    if (ready < 0 && errno != EINTR) return -1;
+    if (ready <= 0) continue;
+    const ssize_t got = ::recv(socket_, byte, 1, MSG_DONTWAIT);
+    if (got == 1) {
+      std::atomic_thread_fence(std::memory_order_seq_cst);
+      return 1;
+    }
+    if (got == 0 || (errno != EAGAIN && errno != EINTR)) return -1;
+  }
+}
+
+void IsolatedEffortLaw::Call(int32_t op, const ControlInput& input, const char* what) {
+  if (pid_ <= 0) throw std::runtime_error(std::string("no host process to run ") + what);
+  fresh_ = false;
+  const int n = num_joints_;
+  const core::ArmState& measured = *input.state;
+  auto put = [this, n](Array array, const std::vector<double>& values) {
+    std::copy_n(values.begin(), std::min<size_t>(values.size(), static_cast<size_t>(n)),
+                ArrayOf(shared_, n, array));
+  };
+  put(kPosition, measured.position);
+  put(kVelocity, measured.velocity);
+  put(kAppliedEffort, measured.effort);
+  put(kSetpoint, input.setpoint_position);
+  put(kSetpointVelocity, input.setpoint_velocity);
+  put(kSetpointAcceleration, input.setpoint_acceleration);
+  put(kGoal, input.goal);
+  Header* header = HeaderOf(shared_);
+  header->op = op;
+  header->tick = input.tick;
+  header->time_s = input.time_s;
+  header->request_seq = ++seq_;
+  if (!SendByte(socket_, kGo)) {
+    throw std::runtime_error(ReapHost(false, std::string("before ") + what));
+  }
+  char byte = 0;
+  const int answer = WaitForHost(options_.tick_limit_s, &byte);
+  if (answer == 0) {
+    const pid_t pid = pid_;
+    ReapHost(true, "");
+    throw std::runtime_error(std::string("did not return from ") + what + " within " +
+                             core::FormatNumber(options_.tick_limit_s) +
+                             " s (the per-tick limit, --controller-tick-limit; an endless loop or "
+                             "a blocking call?): its host process " +
+                             std::to_string(pid) + " was killed");
+  }
+  if (answer < 0) throw std::runtime_error(ReapHost(false, std::string("in ") + what));
+  if (byte != kDone || header->reply_seq != seq_) {
+    ReapHost(true, "");
+    throw std::runtime_error(std::string("its host process answered ") + what +
+                             " out of turn (the library wrote over the shared memory?); it was "
+                             "killed");
+  }
+  if (header->outcome != kOutcomeOk) throw std::runtime_error(ErrorOf(header));
+}
+
+void IsolatedEffortLaw::Reset(const ControlInput& input) {
+  if (pid_ <= 0 || !fresh_) {
+    StopHost();
+    StartHost();
+  }
+  // sirupp-control waits for the host every tick, so the host runs at its scheduling priority:
+  // `--rt-priority` is granted after the first host started (a restarted one inherits it). Best
+  // effort, like the request itself.
+  sched_param param{};
+  const int policy = ::sched_getscheduler(0);
+  if (policy >= 0 && ::sched_getparam(0, &param) == 0) ::sched_setscheduler(pid_, policy, &param);
+  Call(kOpReset, input, "Reset");
+}
+
+void IsolatedEffortLaw::Update(const ControlInput& input, std::vector<double>& effort) {
+  Call(kOpUpdate, input, "Update");
+  const double* out = ArrayOf(shared_, num_joints_, kEffortOut);
+  effort.assign(out, out + num_joints_);
+}
+
+int RunControllerHost(int socket_fd, int shared_fd, const std::string& library,
+                      const std::string& args) {
+  struct stat file {};
+  if (::fstat(shared_fd, &file) != 0 || static_cast<size_t>(file.st_size) < sizeof(Header)) {
+    std::fprintf(stderr, "sirupp-controller-host: no shared block on descriptor %d\n", shared_fd);
+    return 2;
+  }
+  const auto size = static_cast<size_t>(file.st_size);
+  void* shared = ::mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_SHARED, shared_fd, 0);
+  if (shared == MAP_FAILED) {
+    std::fprintf(stderr, "sirupp-controller-host: cannot map the shared block: %s\n",
+                 std::strerror(errno));
+    return 2;
+  }
+  Header* header = HeaderOf(shared);
+  const int n = header->num_joints;
+  if (header->magic != kMagic || header->layout != kLayout || n < 1 ||
+      SharedSize(n, header->model_size) != size) {
+    std::fprintf(stderr, "sirupp-controller-host: the shared block is not from sirupp-control\n");
+    return 2;
+  }
+
+  std::unique_ptr<PluginEffortLaw> law;
+  try {
+    sirupp::robot_model_t message;
+    if (message.decode(ModelOf(shared, n), 0, static_cast<int>(header->model_size)) < 0) {
+      throw std::runtime_error("the robot model from sirupp-control does not decode");
+    }
+    const core::RobotModel model = core::RobotModelFromMessage(message, "controller host");
+    law = std::make_unique<PluginEffortLaw>(library, args, model);
+  } catch (const ControllerLoadError& error) {
+    SetError(header, error.problem());
+    SendByte(socket_fd, kLoadError);
+    return 2;
+  } catch (const std::exception& error) {
+    SetError(header, error.what());
+    SendByte(socket_fd, kLoadError);
+    return 2;
+  }
+  if (!SendByte(socket_fd, kReady)) return 0;
+
+  core::ArmState state;
+  state.position.resize(static_cast<size_t>(n));
+  state.velocity.resize(static_cast<size_t>(n));
+  state.effort.resize(static_cast<size_t>(n));
+  state.flags.assign(static_cast<size_t>(n), 0);
+  ControlInput input;
+  input.state = &state;
+  std::vector<double> effort(static_cast<size_t>(n), 0.0);
+  auto take = [shared, n](Array array, std::vector<double>& values) {
+    const double* from = ArrayOf(shared, n, array);
+    values.assign(from, from + n);
+  };
+  for (;;) {
+    char byte = 0;
+    const ssize_t got = ::recv(socket_fd, &byte, 1, 0);
+    if (got == 0) return 0;  // sirupp-control closed its end: done
+    if (got < 0) {
+      if (errno == EINTR) continue;
+      return 0;
+    }
+    std::atomic_thread_fence(std::memory_order_seq_cst);
+    input.tick = header->tick;
+    input.time_s = header->time_s;
+    state.tick = header->tick;
+    take(kPosition, state.position);
+    take(kVelocity, state.velocity);
+    take(kAppliedEffort, state.effort);
+    take(kSetpoint, input.setpoint_position);
+    take(kSetpointVelocity, input.setpoint_velocity);
+    take(kSetpointAcceleration, input.setpoint_acceleration);
+    take(kGoal, input.goal);
+    header->outcome = kOutcomeOk;
+    header->error[0] = '\0';
+    try {
+      if (header->op == kOpReset) {
+        law->Reset(input);
+      } else {
+        law->Update(input, effort);
+        std::copy_n(effort.begin(), std::min<size_t>(effort.size(), static_cast<size_t>(n)),
+                    ArrayOf(shared, n, kEffortOut));
+      }
+    } catch (const std::exception& error) {
+      header->outcome = kOutcomeThrew;
+      SetError(header, error.what());
+    }
+    header->reply_seq = header->request_seq;
+    if (!SendByte(socket_fd, kDone)) return 0;
+  }
+}
+
+}  // namespace sirupp::control

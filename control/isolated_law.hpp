@@ -1,0 +1,99 @@
+#pragma once
+// A student's controller library run in a child process, so that its crash cannot take
+// sirupp-control down (issue 22). IsolatedEffortLaw is the EffortLaw of ControlNode; it starts
+// `sirupp-controller-host` (control/controller_host_main.cpp), which loads the library with
+// PluginEffortLaw and runs its Reset and Update for the parent, one call at a time.
+//
+// The exchange: a shared memory block (memfd, mapped by both) holds the call (the measured state,
+// the set-points) and the answer (the efforts, or what the library threw); a Unix seqpacket
+// socket pair carries one byte each way per call, "your turn". The socket doubles as the host's
+// death notice: when the host ends, by a signal or otherwise, the parent's wait returns at once
+// with end-of-file and the parent reaps it and names how it ended. A host that does not answer
+// within the per-tick limit is killed (SIGKILL). Every such failure is thrown from Reset or Update
+// as a std::runtime_error, which ControlNode turns into its latched fault: the arm is braked and
+// the cause named until `sirupp clear-fault`; the next Reset then starts a new host process
+// (the library is loaded and constructed afresh). The host ends with the parent: it ignores
+// SIGINT and SIGTERM (a terminal's Ctrl-C and the launcher reach the whole process group; the
+// parent ends it by closing the socket) and has SIGKILL as its parent-death signal. It runs at the
+// parent's scheduling priority (set again at each Reset, so `--rt-priority` reaches it too).
+//
+// The dynamics (G, bias, M) are computed in the host, from the model sent in the shared block as
+// an encoded robot_model_t, so the efforts are bit-identical to an in-process PluginEffortLaw.
+
+#include <sys/types.h>
+
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "control/effort_law.hpp"
+#include "core/robot_model.hpp"
+
+namespace sirupp::control {
+
+struct IsolationOptions {
+  // The host program; empty = sirupp-controller-host in the directory of the running program.
+  std::string host_program;
+  // Wall time one Reset or Update may take. A host still busy then is killed and the call fails
+  // ("did not answer ... within"): in lockstep the sim waits for sirupp-control, so this limit is
+  // what turns a hanging controller into a fault.
+  double tick_limit_s = 0.5;
+  // Wall time for loading the library and running its constructor.
+  double load_limit_s = 10;
+};
+
+class IsolatedEffortLaw : public EffortLaw {
+ public:
+  // Starts the host, which loads `library` with `args` for `model`. Throws ControllerLoadError
+  // (a ConfigError: exit 2 with one line) naming the file and the problem the host reported:
+  // not loadable, not a SIRUPP controller, another ABI version, arguments refused, or a crash
+  // or hang while loading.
+  IsolatedEffortLaw(const std::string& library, const std::string& args,
+                    const core::RobotModel& model, IsolationOptions options = {});
+  ~IsolatedEffortLaw() override;
+  IsolatedEffortLaw(const IsolatedEffortLaw&) = delete;
+  IsolatedEffortLaw& operator=(const IsolatedEffortLaw&) = delete;
+
+  const std::string& name() const override { return name_; }
+  // A new host process unless the present one is fresh (started and not called yet), then the
+  // library's Reset. After a fault (and after a sim restart) the library starts afresh.
+  void Reset(const ControlInput& input) override;
+  void Update(const ControlInput& input, std::vector<double>& effort) override;
+
+  // The present host's process id, or -1 when none runs (it ended and was reaped).
+  pid_t host_pid() const { return pid_; }
+  // Host processes started so far (1 after construction).
+  int hosts_started() const { return hosts_started_; }
+
+ private:
+  void StartHost();
+  void StopHost();
+  // One call to the host; throws std::runtime_error naming what went wrong.
+  void Call(int32_t op, const ControlInput& input, const char* what);
+  // Waits for the host's byte until `limit_s` passes. 1: a byte (in *byte); 0: time is up;
+  // -1: end of file (the host ended).
+  int WaitForHost(double limit_s, char* byte);
+  // Reaps the ended (or killed) host; returns how it ended `where` (e.g. "in Update"):
+  // "crashed with SIGSEGV (Segmentation fault) in Update".
+  std::string ReapHost(bool kill_first, const std::string& where);
+
+  std::string library_, args_, name_, host_program_;
+  IsolationOptions options_;
+  int num_joints_ = 0;
+  std::vector<uint8_t> model_bytes_;  // encoded robot_model_t
+  pid_t pid_ = -1;
+  int socket_ = -1;
+  void* shared_ = nullptr;
+  size_t shared_size_ = 0;
+  uint64_t seq_ = 0;
+  bool fresh_ = false;  // the host has not been called yet
+  int hosts_started_ = 0;
+};
+
+// The host's side (sirupp-controller-host): serves calls on `socket_fd` with the shared block
+// `shared_fd` until the socket closes. Returns the process exit code: 0, or 2 when the library
+// cannot be used (reported to the parent in the shared block first).
+int RunControllerHost(int socket_fd, int shared_fd, const std::string& library,
+                      const std::string& args);
+
+}  // namespace sirupp::control
