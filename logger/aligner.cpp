@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <climits>
+#include <cmath>
 #include <utility>
 
 namespace sirupp::logger {
@@ -10,6 +11,8 @@ namespace {
 
 constexpr int64_t kRestartJumpUs = 1000000;  // sim time going back this far: the sim restarted
 constexpr int64_t kOffsetWindowUs = 200000;  // the sim clock's offset: the best of this long
+constexpr int64_t kRateWindowUs = 2000000;   // the sim clock's pace: over this long
+constexpr int64_t kMinRateSpanUs = 500000;   // with less than this, the pace counts as 1
 
 // Smallest multiple of period at or after t (t may be negative).
 int64_t CeilToPeriod(int64_t t, int64_t period) {
@@ -66,23 +69,47 @@ void Aligner::Add(Sample sample) {
 
 void Aligner::NoteOffset(const Sample& sim_sample) {
   const int64_t recv = sim_sample.recv_utime;
-  const int64_t offset = sim_sample.utime - recv;
-  while (!offsets_.empty() && offsets_.back().second <= offset) offsets_.pop_back();
-  offsets_.emplace_back(recv, offset);
-  while (offsets_.front().first < recv - kOffsetWindowUs) offsets_.pop_front();
-  wall_offset_ = offsets_.front().second;
+  if (!clock_.empty() && recv < clock_.back().first) return;  // out of order: keep it monotonic
+  clock_.emplace_back(recv, sim_sample.utime);
+  while (clock_.front().first < recv - kRateWindowUs) clock_.pop_front();
+  clock_dirty_ = true;
+}
+
+int64_t Aligner::WallToAxis(int64_t wall_utime) const {
+  if (axis_ == Axis::kRealOnly || clock_.empty()) return wall_utime + wall_offset_;
+  if (clock_dirty_) {
+    clock_dirty_ = false;
+    const auto& [newest_recv, newest_utime] = clock_.back();
+    const auto& [oldest_recv, oldest_utime] = clock_.front();
+    const int64_t span = newest_recv - oldest_recv;
+    clock_rate_ = 1.0;
+    if (span >= kMinRateSpanUs) {
+      clock_rate_ = std::clamp(
+          static_cast<double>(newest_utime - oldest_utime) / static_cast<double>(span), 1e-3, 1e3);
+    }
+    clock_reference_ = newest_recv;
+    clock_intercept_ = -1e300;
+    for (auto it = clock_.rbegin();
+         it != clock_.rend() && it->first >= newest_recv - kOffsetWindowUs; ++it) {
+      clock_intercept_ = std::max(clock_intercept_,
+                                  static_cast<double>(it->second) -
+                                      clock_rate_ * static_cast<double>(it->first - newest_recv));
+    }
+  }
+  return std::llround(clock_intercept_ +
+                      clock_rate_ * static_cast<double>(wall_utime - clock_reference_));
 }
 
 std::optional<int64_t> Aligner::AxisTimeAtWall(int64_t wall_utime) const {
   if (axis_ == Axis::kUndecided || !have_offset_) return std::nullopt;
-  return wall_utime + wall_offset_;
+  return WallToAxis(wall_utime);
 }
 
 int64_t Aligner::AxisTime(const Sample& sample) const {
   if (sample.clock == SampleClock::kSim) {
     return axis_ == Axis::kRealOnly ? sample.recv_utime + wall_offset_ : sample.utime;
   }
-  return sample.utime + wall_offset_;
+  return WallToAxis(sample.utime);
 }
 
 void Aligner::Place(Sample sample) {
@@ -192,7 +219,8 @@ void Aligner::Restart(const std::function<void(const Row&)>& sink) {
   }
   started_ = false;
   last_row_us_ = INT64_MIN;
-  offsets_.clear();
+  clock_.clear();
+  clock_dirty_ = true;
   ++run_;
   std::vector<Sample> waiting;
   waiting.swap(pending_restart_);

@@ -108,11 +108,19 @@ class Aligner {
 
   AlignerOptions options_;
   Axis axis_ = Axis::kUndecided;
-  int64_t wall_offset_ = 0;  // axis = wall utime + wall_offset_
-  // Recent sim samples' (receive time, utime - receive time), the offsets decreasing: a sample
-  // received late only lowers its offset, so the largest over a short window is the estimate.
-  std::deque<std::pair<int64_t, int64_t>> offsets_;
+  int64_t wall_offset_ = 0;  // real-only axis: axis = wall utime + wall_offset_
+  // The sim clock against the wall clock, from the sim samples of the last 2 s (receive time,
+  // utime): sim(w) = intercept + rate * (w - reference). The rate is the sim's pace (below 1 when
+  // it slips in realtime mode); a sample received late only lowers its intercept utime - rate *
+  // (receive time - reference), so the largest over the last 0.2 s is the estimate.
+  std::deque<std::pair<int64_t, int64_t>> clock_;
+  mutable bool clock_dirty_ = true;
+  mutable double clock_rate_ = 1;
+  mutable double clock_intercept_ = 0;
+  mutable int64_t clock_reference_ = 0;
   void NoteOffset(const Sample& sim_sample);
+  // The axis time of a wall-clock time (sim axis: from the sim clock; real-only: the offset).
+  int64_t WallToAxis(int64_t wall_utime) const;
   bool have_offset_ = false;
   std::vector<Sample> pending_real_;  // real samples before the axis is decided
   std::vector<Sample> pending_restart_;

@@ -22,6 +22,8 @@ double LastFinite(const std::vector<double>& values, size_t begin, size_t i) {
 
 StreamResponse Respond(const RunTable& table, Stream stream, const std::vector<double>& q,
                        size_t begin, size_t end, double travel, const AnalysisOptions& options) {
+  // The real arm's times since the move's start on its own clock (see PairErrors).
+  const double scale = stream == Stream::kReal ? table.RealClockScale() : 1.0;
   StreamResponse response;
   for (size_t i = begin; i < end; ++i) response.samples += std::isfinite(q[i]) ? 1 : 0;
   if (response.samples == 0) return response;
@@ -34,7 +36,7 @@ StreamResponse Respond(const RunTable& table, Stream stream, const std::vector<d
     if (std::isfinite(q[i]) && std::abs(q[i] - baseline) >= options.start_threshold) {
       // the time the sample was taken: a held sample (a real arm polled at 100 Hz) is older
       // than its row
-      response.start_delay_s = std::max(0.0, table.time_s[i] - table.Age(stream, i) - t0);
+      response.start_delay_s = std::max(0.0, table.time_s[i] - table.Age(stream, i) - t0) / scale;
       break;
     }
   }
@@ -54,7 +56,7 @@ StreamResponse Respond(const RunTable& table, Stream stream, const std::vector<d
   for (size_t i = begin; i < end; ++i) {
     if (std::isfinite(q[i]) && std::abs(q[i] - response.final_value) > band) settled_from = i + 1;
   }
-  response.settling_s = settled_from < end ? table.time_s[settled_from] - t0 : kNaN;
+  response.settling_s = settled_from < end ? (table.time_s[settled_from] - t0) / scale : kNaN;
   const double direction = travel >= 0 ? 1.0 : -1.0;
   double overshoot = 0;
   for (size_t i = begin; i < end; ++i) {
@@ -103,6 +105,49 @@ double PairError(const RunTable& table, Pair pair, size_t j, size_t i, double pe
     return kNaN;
   }
   return b - a;
+}
+
+std::vector<PairPoint> PairErrors(const RunTable& table, Pair pair, size_t j, size_t begin,
+                                  size_t end, double period) {
+  std::vector<PairPoint> points;
+  if (begin >= end) return points;
+  const std::vector<double>& times = table.time_s;
+  if (PairSecond(pair) != Stream::kReal) {
+    for (size_t i = begin; i < end; ++i) {
+      const double e = PairError(table, pair, j, i, period);
+      if (!std::isnan(e)) points.push_back({times[i], e});
+    }
+    return points;
+  }
+  const Stream first = PairFirst(pair);
+  const std::vector<double>& a = table.position[j][static_cast<size_t>(first)];
+  const std::vector<double>& b = table.position[j][static_cast<size_t>(Stream::kReal)];
+  const double scale = table.RealClockScale();
+  const double start = times[begin];
+  const double last = times[end - 1];
+  constexpr double kSameTime = 1e-9;  // times are whole microseconds
+  auto usable = [&](size_t k) { return std::isfinite(a[k]) && table.Fresh(first, k, period); };
+  for (size_t i = begin; i < end; ++i) {
+    if (!std::isfinite(b[i]) || !table.Fresh(Stream::kReal, i, period)) continue;
+    const double taken = times[i] - table.Age(Stream::kReal, i);
+    const double at = start + (taken - start) / scale;  // on the first stream's clock
+    if (at < start - kSameTime || at > last + kSameTime) continue;
+    // The first stream at `at`: its row there, or between the two rows around it.
+    const auto after =
+        std::upper_bound(times.begin() + static_cast<std::ptrdiff_t>(begin),
+                         times.begin() + static_cast<std::ptrdiff_t>(end), at + kSameTime);
+    const auto k = static_cast<size_t>(after - times.begin()) - 1;  // times[k] <= at (+tolerance)
+    if (k < begin) continue;
+    double value = kNaN;
+    if (at - times[k] <= kSameTime) {
+      if (usable(k)) value = a[k];
+    } else if (k + 1 < end && usable(k) && usable(k + 1)) {
+      const double w = (at - times[k]) / (times[k + 1] - times[k]);
+      value = a[k] + w * (a[k + 1] - a[k]);
+    }
+    if (std::isfinite(value)) points.push_back({at, b[i] - value});
+  }
+  return points;
 }
 
 Analysis Analyze(const RunTable& table, const AnalysisOptions& options) {
@@ -192,11 +237,9 @@ Analysis Analyze(const RunTable& table, const AnalysisOptions& options) {
       for (Pair pair : kAllPairs) {
         PairMetrics& metrics = result.pairs[static_cast<size_t>(pair)];
         double sum_transient = 0, sum_steady = 0, sum_squares = 0;
-        for (size_t i = begin; i < end; ++i) {
-          const double signed_error = PairError(table, pair, j, i, period);
-          if (std::isnan(signed_error)) continue;
-          const double error = std::abs(signed_error);
-          if (table.time_s[i] <= result.done_s + options.settle_window_s) {
+        for (const PairPoint& point : PairErrors(table, pair, j, begin, end, period)) {
+          const double error = std::abs(point.error);
+          if (point.time_s <= result.done_s + options.settle_window_s) {
             sum_transient += error;
             ++metrics.transient_samples;
           } else {

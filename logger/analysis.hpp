@@ -41,6 +41,22 @@ const char* PairKey(Pair pair);    // "set_virt", ...
 // motion since would count as error). period: table.period_s().
 double PairError(const RunTable& table, Pair pair, size_t j, size_t i, double period);
 
+// One error of a pair within a move, at a time on the first stream's clock (the time axis).
+struct PairPoint {
+  double time_s = 0;
+  double error = 0;  // second minus first
+};
+// The pair's errors over the move of rows [begin, end) for joint j, compared per move from the
+// move's own start. Set-point vs virtual: row by row (PairError). Pairs with the real arm: each
+// real sample taken within its row's period, at time t (row time minus its age), is compared with
+// the first stream at time S + (t - S) / r after the move's start S, where r is the table's
+// RealClockScale() (the real-time factor): the real arm runs on the wall clock, so when the sim
+// slips (r < 1) its motion is compressed on the sim-time axis, and this undoes that. The first
+// stream is interpolated between its rows there; samples whose time falls past the move's last
+// row are left out. With r = 1 and samples on the rows this is PairError row by row.
+std::vector<PairPoint> PairErrors(const RunTable& table, Pair pair, size_t j, size_t begin,
+                                  size_t end, double period);
+
 struct PairMetrics {
   int64_t transient_samples = 0;  // rows where both streams have a value
   int64_t steady_samples = 0;
@@ -51,6 +67,7 @@ struct PairMetrics {
   bool has() const { return transient_samples + steady_samples > 0; }
 };
 
+// Times of the real stream are on its own clock (divided by RunTable::RealClockScale()).
 struct StreamResponse {
   int64_t samples = 0;
   double start_delay_s = 0;  // NaN: never moved start_threshold

@@ -55,6 +55,18 @@ std::vector<std::string> SplitFields(const std::string& line) {
   return fields;
 }
 
+// The number a text starts with ("0.50012 (sim ...)"), NaN if none or not finite and > 0.
+double LeadingNumber(const std::string& text) {
+  const std::string word = text.substr(0, text.find(' '));
+  double value = 0;
+  const auto result = std::from_chars(word.data(), word.data() + word.size(), value);
+  if (result.ec != std::errc() || result.ptr != word.data() + word.size() ||
+      !std::isfinite(value) || !(value > 0)) {
+    return std::numeric_limits<double>::quiet_NaN();
+  }
+  return value;
+}
+
 std::string Trim(const std::string& text) {
   const size_t first = text.find_first_not_of(" \t\r");
   if (first == std::string::npos) return "";
@@ -185,6 +197,11 @@ void RunTable::Append(const Row& row) {
     age_s[s].push_back(row.cell[s] != nullptr ? static_cast<double>(row.age_us[s]) * 1e-6 : kNaN);
   }
   lost = row.lost;
+}
+
+double RunTable::RealClockScale() const {
+  if (real_on_sim_clock || !std::isfinite(realtime_factor) || !(realtime_factor > 0)) return 1.0;
+  return realtime_factor;
 }
 
 double RunTable::period_s() const {
@@ -323,6 +340,7 @@ class FileReader {
                   std::string(kFileMagic) + "' (an LCM log starts with the sync word 0xEDA1DA01)");
     }
     table_.source = path_;
+    double factor_so_far = kNaN;
     size_t index = 1;
     int declared_joints = -1;
     for (; index < lines.size() && !lines[index].empty() && lines[index][0] == '#'; ++index) {
@@ -334,6 +352,11 @@ class FileReader {
       if (key == "joints") declared_joints = ParseJoints(static_cast<int>(index + 1), value);
       if (key == "plan") table_.plan_name = value == "(none)" ? "" : value;
       if (key == "continues") table_.continues = value.substr(0, value.find(' '));
+      if (key == "mode") {
+        const size_t real = value.find("real arm: ");
+        table_.real_on_sim_clock = real != std::string::npos && value.substr(real + 10) == "sim";
+      }
+      if (key == "real-time factor so far") factor_so_far = LeadingNumber(value);
     }
     const int column_line = static_cast<int>(index + 1);
     if (index >= lines.size() || (partial_last && index == lines.size() - 1)) {
@@ -354,6 +377,10 @@ class FileReader {
       if (line[0] == '#') {
         if (line.rfind("# end:", 0) == 0) table_.closed = true;
         if (line.rfind("# gains: ", 0) == 0) table_.gains.push_back(line.substr(2));
+        if (line.rfind("# real-time factor: ", 0) == 0) {
+          const double factor = LeadingNumber(line.substr(20));
+          if (std::isfinite(factor)) table_.realtime_factor = factor;
+        }
         continue;
       }
       if (table_.closed) Fail(line_number, "data after the '# end:' line");
@@ -365,6 +392,7 @@ class FileReader {
                              "it); ignored");
     }
     if (table_.rows() == 0) Fail(column_line, "no data rows after the column line");
+    if (!std::isfinite(table_.realtime_factor)) table_.realtime_factor = factor_so_far;
     if (!table_.closed) {
       table_.notes.push_back(path_ +
                              ": no '# end:' line: the logger did not close this file "

@@ -14,6 +14,7 @@
 
 #include <array>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -63,6 +64,16 @@ struct RunTable {
   bool closed = false;             // the writer's "# end" line is there
   std::string continues;           // header "continues:": the file a restarted logger continued
   std::vector<std::string> gains;  // the "# gains: ..." lines among the rows, without "# "
+  // Sim time over wall time over this data (the "# real-time factor:" lines, else the header's
+  // factor so far); NaN when not known. Below 1 when the sim slipped behind the wall clock.
+  double realtime_factor = std::numeric_limits<double>::quiet_NaN();
+  // The real-arm stream is on the sim clock (a second sim standing in for the arm), not the wall
+  // clock: no real-time factor applies to it.
+  bool real_on_sim_clock = false;
+  // How much faster the real arm's own clock runs than the time axis: the real-time factor's
+  // inverse applies to its times (1 when the factor is unknown or the real arm is on the sim
+  // clock). Virtual and real are compared per move on their own clocks (logger/analysis.hpp).
+  double RealClockScale() const;
   std::vector<std::string> notes;  // warnings worth showing with the report
 
   size_t rows() const { return time_s.size(); }

@@ -74,9 +74,14 @@ class Importer {
               options_.channels.sim_arm_state + ", " + options_.channels.real_arm_state +
               "); with a rig prefix, give it with --prefix");
     }
-    for (RunTable& table : tables_) {
+    rates_.resize(tables_.size());
+    const bool real_on_sim_clock = aligner_.real_sources() == 1 << sirupp::arm_state_t::SOURCE_SIM;
+    for (size_t t = 0; t < tables_.size(); ++t) {
+      RunTable& table = tables_[t];
       for (const std::string& note : reader.notes()) table.notes.push_back(note);
       table.closed = true;
+      table.realtime_factor = rates_[t].factor();
+      table.real_on_sim_clock = real_on_sim_clock;
     }
     return std::move(tables_);
   }
@@ -139,6 +144,14 @@ class Importer {
       tables_.push_back(std::move(table));
     }
     tables_.back().Append(row);
+    // The real-time factor of each table: the virtual arm's sim time against the log's receive
+    // times.
+    const auto v = static_cast<size_t>(Stream::kVirtual);
+    if (rates_.size() < tables_.size()) rates_.resize(tables_.size());
+    const Sample* virt = row.cell[v];
+    if (virt != nullptr && row.age_us[v] == 0 && virt->recv_utime > 0) {
+      rates_[tables_.size() - 1].Add(virt->utime, virt->recv_utime);
+    }
   }
 
   std::string path_;
@@ -148,6 +161,7 @@ class Importer {
   std::string model_name_;
   SequenceCounter set_seq_, virt_seq_, real_seq_;
   std::vector<RunTable> tables_;
+  std::vector<ClockRate> rates_;  // per table
   int current_run_ = -1;
   int current_plan_ = -1;
 };

@@ -407,12 +407,24 @@ void LoggerNode::WriteRow(const Row& row) {
   const int plan = options_.split_per_plan ? row.plan_run : 0;
   if (!file_ || row.run != file_run_ || plan != file_plan_) {
     CloseFile();
+    if (row.run != file_run_) run_rate_.Reset();  // a restarted sim: a new clock
     file_run_ = row.run;
     file_plan_ = plan;
     OpenFile(row);
   }
   WriteNotes(row.time_us);  // gain changes in time order among the rows
   file_->Append(row);
+  // The real-time factor: the virtual arm's sim time against when its states arrived.
+  const auto v = static_cast<size_t>(Stream::kVirtual);
+  const Sample* virt = row.cell[v];
+  if (virt != nullptr && row.age_us[v] == 0 && virt->recv_utime > 0) {
+    run_rate_.Add(virt->utime, virt->recv_utime);
+    file_rate_.Add(virt->utime, virt->recv_utime);
+    if (file_rate_.known() && virt->recv_utime - last_factor_line_us_ >= kFactorLineUs) {
+      file_->AppendComment("real-time factor: " + file_rate_.Describe() + ", this file so far");
+      last_factor_line_us_ = virt->recv_utime;
+    }
+  }
   std::lock_guard<std::mutex> lock(mutex_);
   ++stats_.rows;
 }
@@ -458,6 +470,10 @@ void LoggerNode::OpenFile(const Row& row) {
   const std::string path =
       (std::filesystem::path(options_.out_dir) / (file_name + ".csv")).string();
   std::vector<std::string> header = HeaderLines(row);
+  header.push_back("real-time factor so far: " + run_rate_.Describe() +
+                   ", sim time over wall time since the logger first heard the sim");
+  file_rate_.Reset();
+  last_factor_line_us_ = 0;
   for (int source = 0; source < kNumGainsSources; ++source) {
     const std::optional<GainsRecord>& gains = last_gains_[static_cast<size_t>(source)];
     if (gains) {
@@ -487,6 +503,10 @@ void LoggerNode::OpenFile(const Row& row) {
 void LoggerNode::CloseFile() {
   if (!file_) return;
   if (stopping_) WriteNotes(INT64_MAX);  // the last file takes what is left
+  file_->AppendComment("real-time factor: " +
+                       (file_rate_.known() ? file_rate_.Describe() + ", this file"
+                                           : std::string("not known (under 0.1 s of sim states "
+                                                         "in this file)")));
   file_->Close(EndLine());
   file_.reset();
 }

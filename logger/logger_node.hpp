@@ -142,6 +142,12 @@ class LoggerNode {
   };
   std::deque<PendingNote> notes_;
   bool stopping_ = false;
+  // The real-time factor (sim time over wall time) of the run so far and of the present file;
+  // a "# real-time factor:" line every kFactorLineUs of wall clock and when the file closes.
+  static constexpr int64_t kFactorLineUs = 2000000;
+  ClockRate run_rate_;
+  ClockRate file_rate_;
+  int64_t last_factor_line_us_ = 0;
   void NoteGains(const GainsRecord& gains);
   void WriteNotes(int64_t up_to_us);
   int8_t last_mode_ = -1;

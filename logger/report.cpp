@@ -187,7 +187,7 @@ ReportOutput WriteReport(const std::vector<RunTable>& tables, const ReportOption
   std::string md = "# SIRUPP report\n\n## Inputs\n\n";
   md +=
       "| input | set | rows | time_s (s) | set-point / virtual / real samples | lost (set / virt "
-      "/ real) | closed |\n|---|---|---|---|---|---|---|\n";
+      "/ real) | closed | real-time factor |\n|---|---|---|---|---|---|---|---|\n";
   for (size_t t = 0; t < tables.size(); ++t) {
     const RunTable& table = tables[t];
     md += "| `" + table.source + "` | " + keys[t] + " | " + std::to_string(table.rows()) + " | " +
@@ -195,8 +195,14 @@ ReportOutput WriteReport(const std::vector<RunTable>& tables, const ReportOption
           std::to_string(table.cells[0]) + " / " + std::to_string(table.cells[1]) + " / " +
           std::to_string(table.cells[2]) + " | " + std::to_string(table.lost[0]) + " / " +
           std::to_string(table.lost[1]) + " / " + std::to_string(table.lost[2]) + " | " +
-          (table.closed ? "yes" : "no") + " |\n";
+          (table.closed ? "yes" : "no") + " | " +
+          (std::isfinite(table.realtime_factor) ? Fixed(table.realtime_factor, 3) : "-") + " |\n";
   }
+  md +=
+      "\nReal-time factor: sim time over wall time while the set was logged (1: the sim kept "
+      "pace with the wall clock; below 1: it slipped). The real arm runs on the wall clock, so "
+      "it is compared with the set-point and the virtual arm per move, from each move's own "
+      "start, on its own clock: slipped sim time does not show as error.\n";
 
   md += "\n## Table II: error per movement set and joint\n\n";
   md +=
@@ -297,10 +303,12 @@ ReportOutput WriteReport(const std::vector<RunTable>& tables, const ReportOption
           const auto s = static_cast<size_t>(stream);
           if (!move.streams[s].has()) continue;
           PlotSeries series{StreamTitle(stream), {}, {}, kStreamColors[s]};
+          // The real arm on its own clock from the move's start (see PairErrors).
+          const double scale = stream == Stream::kReal ? table.RealClockScale() : 1.0;
           for (size_t i = first_row; i < move.end; ++i) {
             if (!std::isfinite(table.position[j][s][i]) || !table.Fresh(stream, i, period))
               continue;
-            AddPoint(series, table.time_s[i] - table.Age(stream, i) - move.start_s,
+            AddPoint(series, (table.time_s[i] - table.Age(stream, i) - move.start_s) / scale,
                      table.position[j][s][i]);
           }
           angle.series.push_back(std::move(series));
@@ -309,9 +317,9 @@ ReportOutput WriteReport(const std::vector<RunTable>& tables, const ReportOption
           const auto p = static_cast<size_t>(pair);
           if (!move.pairs[p].has()) continue;
           PlotSeries series{PairTitle(pair), {}, {}, kPairColors[p]};
-          for (size_t i = first_row; i < move.end; ++i) {
-            const double e = PairError(table, pair, j, i, period);  // as in Table II
-            if (!std::isnan(e)) AddPoint(series, table.time_s[i] - move.start_s, e);
+          for (const PairPoint& point :
+               PairErrors(table, pair, j, first_row, move.end, period)) {  // as in Table II
+            AddPoint(series, point.time_s - move.start_s, point.error);
           }
           error_plot.series.push_back(std::move(series));
         }

@@ -1,6 +1,8 @@
 #include "logger/samples.hpp"
 
 #include <algorithm>
+#include <cstdio>
+#include <limits>
 
 #include "core/errors.hpp"
 
@@ -82,6 +84,35 @@ PlanStatus StatusFromMessage(const sirupp::controller_status_t& message, int64_t
   status.plan_steps = message.plan_steps;
   status.mode = message.mode;
   return status;
+}
+
+void ClockRate::Add(int64_t sim_utime, int64_t wall_utime) {
+  if (!have_) {
+    have_ = true;
+    first_sim_ = sim_utime;
+    first_wall_ = wall_utime;
+  }
+  last_sim_ = sim_utime;
+  last_wall_ = wall_utime;
+}
+
+bool ClockRate::known() const { return have_ && last_wall_ - first_wall_ >= 100000; }
+
+double ClockRate::factor() const {
+  return known() ? static_cast<double>(last_sim_ - first_sim_) /
+                       static_cast<double>(last_wall_ - first_wall_)
+                 : std::numeric_limits<double>::quiet_NaN();
+}
+
+double ClockRate::sim_s() const { return have_ ? (last_sim_ - first_sim_) * 1e-6 : 0; }
+double ClockRate::wall_s() const { return have_ ? (last_wall_ - first_wall_) * 1e-6 : 0; }
+
+std::string ClockRate::Describe() const {
+  if (!known()) return "not known yet";
+  char text[96];
+  std::snprintf(text, sizeof text, "%.5f (sim %.3f s over wall %.3f s)", factor(), sim_s(),
+                wall_s());
+  return text;
 }
 
 GainsRecord GainsFromMessage(const sirupp::servo_gains_t& message, GainsSource source,

@@ -77,6 +77,25 @@ std::string DescribeGainsChange(const GainsRecord& before, const GainsRecord& af
 // Every value: "kp 100 100 ...; kd ...; ...".
 std::string DescribeGains(const GainsRecord& gains);
 
+// The real-time factor of a stretch of sim samples: sim time elapsed over wall time elapsed (the
+// sim's utime against the receive time), 0.5 when the sim ran at half the wall clock's pace.
+class ClockRate {
+ public:
+  void Add(int64_t sim_utime, int64_t wall_utime);
+  void Reset() { have_ = false; }
+  // Known once the samples span at least 0.1 s of wall clock.
+  bool known() const;
+  double factor() const;  // NaN while not known
+  double sim_s() const;
+  double wall_s() const;
+  // "0.50012 (sim 10.240 s over wall 20.475 s)", or "not known yet".
+  std::string Describe() const;
+
+ private:
+  bool have_ = false;
+  int64_t first_sim_ = 0, first_wall_ = 0, last_sim_ = 0, last_wall_ = 0;
+};
+
 // Keeps the running count of missing sequence numbers of one channel, with the Bus's rule: a gap
 // of k counts k; a smaller seq (the publisher restarted) counts nothing and starts afresh.
 class SequenceCounter {

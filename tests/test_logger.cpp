@@ -715,6 +715,36 @@ TEST(LoggerNode, GainChangesAreWrittenWithTheirTimeRepeatsAreNot) {
             std::string::npos);
 }
 
+// Each file records the sim's real-time factor: sim time over wall time, in its header (the run
+// so far), every 2 s and in a closing line (this file). Here the states come at half the pace of
+// their sim time (or slower, on a busy machine).
+TEST(LoggerNode, EachFileRecordsTheSimsRealTimeFactor) {
+  LoggerRig rig;
+  LoggerOptions options = rig.Options();
+  options.split_per_plan = false;
+  LoggerNode node(rig.bus, rig.model, options);
+  const auto start = std::chrono::steady_clock::now();
+  for (int64_t tick = 0; tick < 600; ++tick) {
+    // Tick k is sent no earlier than 2 * k * 0.512 ms of wall clock after the start.
+    std::this_thread::sleep_until(start + std::chrono::microseconds(2 * 512 * tick));
+    rig.bus.Publish("SIM_ARM_STATE", ArmState(tick, tick, 1.0));
+    rig.bus.Publish("ARM_SETPOINT", Setpoint(tick, tick, 0, 1.0));
+    rig.bus.HandleAvailable();
+  }
+  node.Close();
+  const std::string path = node.stats().files.at(0);
+  const RunTable table = ReadDataFile(path);
+  EXPECT_GT(table.realtime_factor, 0.05);
+  EXPECT_LT(table.realtime_factor, 0.51);
+  const std::string text = FileText(path);
+  EXPECT_NE(text.find("\n# real-time factor so far: not known yet, sim time over wall time since "
+                      "the logger first heard the sim\n"),
+            std::string::npos);
+  EXPECT_NE(text.find(", this file\n# end: 600 rows"), std::string::npos)
+      << text.substr(text.size() - 400);
+  EXPECT_NE(text.find("\n# real-time factor: 0."), std::string::npos);
+}
+
 // A child process logs a stream it publishes itself, in step with the wall clock (one state and
 // one set-point per 0.512 ms tick, sim time = wall time since its start), and notes in shared
 // memory the newest sim time it has published. The parent kills it with SIGKILL mid-run. The file

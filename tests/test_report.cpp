@@ -412,6 +412,159 @@ TEST(BadLogs, EachFileFailsWithItsMessage) {
   }
 }
 
+// ---- Slipped sim time --------------------------------------------------------------------------
+
+// A move of joint 1 from 0 to 45 deg, smooth, over 1 s from its start.
+double Profile(double tau) {
+  if (tau <= 0) return 0.0;
+  if (tau >= 1) return 45.0;
+  return 22.5 * (1 - std::cos(3.14159265358979323846 * tau));
+}
+double Virtual(double tau) { return Profile(tau - 0.02); }
+double RealArm(double tau) { return Profile(tau - 0.05) + 0.1; }
+
+// The data a logger records when the sim runs at `factor` times the wall clock: rows every
+// 0.512 ms of sim time, the move from the tick at sim time 0.500224 s (move_id 1 -> 2) for 2 s; the
+// set-point and the virtual arm on the rows; a real arm polled every 10 ms of wall clock, moving on
+// the wall clock from the move's start, placed on the sim axis where the sim was when it was taken
+// (row time minus age).
+RunTable Slipped(double factor) {
+  RunTable table;
+  table.source = "slipped";
+  table.label = "slipped";
+  table.Reset({{"waist", false}});
+  const double start = 977 * 512e-6;  // a row: the tick the controller loaded the move
+  size_t next_poll = 0;
+  double held = NAN, held_at = NAN;
+  for (int i = 0; i * 512e-6 <= start + 2.0 + 1e-9; ++i) {
+    const double t = i * 512e-6;
+    const double tau = t - start;  // sim time since the move's start
+    table.time_s.push_back(t);
+    table.move_id.push_back(t < start - 1e-9 ? 1 : 2);
+    table.position[0][kSet].push_back(Profile(tau));
+    table.position[0][kVirt].push_back(Virtual(tau));
+    table.done[0].push_back(tau >= 1.0 - 1e-9 || t < start - 1e-9 ? 1 : 0);
+    // Polls up to this row: wall time since the move's start is (sim time since it) / factor.
+    while (start + 0.01 * static_cast<double>(next_poll) * factor <= t + 1e-12) {
+      held_at = start + 0.01 * static_cast<double>(next_poll) * factor;
+      held = RealArm(0.01 * static_cast<double>(next_poll));
+      ++next_poll;
+    }
+    table.position[0][kReal].push_back(held);
+    for (size_t s = 0; s < 3; ++s) table.age_s[s].push_back(0.0);
+    table.age_s[kReal].back() = std::isnan(held) ? NAN : t - held_at;
+  }
+  for (size_t s = 0; s < 3; ++s) {
+    table.cells[s] = std::count_if(table.position[0][s].begin(), table.position[0][s].end(),
+                                   [](double v) { return !std::isnan(v); });
+  }
+  table.realtime_factor = factor;
+  return table;
+}
+
+void ExpectSameErrors(const MoveResult& a, const MoveResult& b, double tolerance) {
+  for (Pair pair : kAllPairs) {
+    SCOPED_TRACE(PairTitle(pair));
+    const PairMetrics& x = a.pairs[static_cast<size_t>(pair)];
+    const PairMetrics& y = b.pairs[static_cast<size_t>(pair)];
+    EXPECT_NEAR(x.mean_transient, y.mean_transient, tolerance);
+    EXPECT_NEAR(x.mean_steady, y.mean_steady, tolerance);
+    EXPECT_NEAR(x.rms, y.rms, tolerance);
+    EXPECT_NEAR(x.max, y.max, tolerance);
+  }
+  const StreamResponse& x = a.streams[kReal];
+  const StreamResponse& y = b.streams[kReal];
+  EXPECT_NEAR(x.start_delay_s, y.start_delay_s, 1e-3);
+  EXPECT_NEAR(x.settling_s, y.settling_s, 1e-3);
+  EXPECT_NEAR(x.final_error, y.final_error, tolerance);
+}
+
+// Virtual and real are compared per move from each move's own start, each on its own clock: a sim
+// running at half the wall clock's pace gives the same Table II as one keeping pace.
+TEST(SlippedSimTime, ASimAtHalfSpeedGivesTheErrorsOfOneAtFullSpeed) {
+  const RunTable full = Slipped(1.0);
+  const RunTable half = Slipped(0.5);
+  const MoveResult at_full = OnlyMove(Analyze(full, AnalysisOptions{}));
+  const MoveResult at_half = OnlyMove(Analyze(half, AnalysisOptions{}));
+  ExpectSameErrors(at_full, at_half, 1e-9);
+  // The errors are the arm's: 0.1 deg of offset, and 30 ms of lag behind the virtual arm at its
+  // top speed of 22.5 pi deg/s (the error is negative then).
+  const PairMetrics& virt_real = at_half.pairs[static_cast<size_t>(Pair::kVirtReal)];
+  EXPECT_NEAR(virt_real.mean_steady, 0.1, 1e-6);
+  EXPECT_NEAR(virt_real.max, 22.5 * 3.14159265358979323846 * 0.03 - 0.1, 0.01);
+  EXPECT_EQ(virt_real.transient_samples + virt_real.steady_samples,
+            at_full.pairs[static_cast<size_t>(Pair::kVirtReal)].transient_samples +
+                at_full.pairs[static_cast<size_t>(Pair::kVirtReal)].steady_samples);
+  EXPECT_NEAR(at_half.streams[kReal].start_delay_s, at_full.streams[kReal].start_delay_s, 1e-9);
+  // Compared on the sim-time axis instead (no factor known), the slip shows as a large error.
+  RunTable unknown = half;
+  unknown.realtime_factor = NAN;
+  const MoveResult naive = OnlyMove(Analyze(unknown, AnalysisOptions{}));
+  EXPECT_GT(naive.pairs[static_cast<size_t>(Pair::kVirtReal)].max, 10.0);
+  // A real arm on the sim clock (a second sim) is never rescaled.
+  unknown.realtime_factor = 0.5;
+  unknown.real_on_sim_clock = true;
+  EXPECT_DOUBLE_EQ(unknown.RealClockScale(), 1.0);
+}
+
+// The same through the logger's path: LCM logs of a run at 1.0x and at 0.5x (the sim's states
+// stamped on sim time and received on the wall clock, the real arm stamped on the wall clock),
+// aligned by the aligner, which follows the slipping sim clock, with the real-time factor taken
+// from the log; the report prints it.
+void WriteSlippedLog(const std::string& path, double factor) {
+  lcm_eventlog_t* log = lcm_eventlog_create(path.c_str(), "w");
+  ASSERT_NE(log, nullptr);
+  const int64_t wall0 = 1'700'000'000'000'000;
+  const double start = 2930 * 512e-6;  // sim time of the move's start: a tick
+  const auto wall_of_sim = [&](double sim_s) {
+    return wall0 + static_cast<int64_t>(std::llround(sim_s / factor * 1e6));
+  };
+  const double wall_start = (wall_of_sim(start) - wall0) * 1e-6;
+  const int64_t ticks = static_cast<int64_t>(std::llround((start + 2.0) / 512e-6));
+  int64_t poll = 0;
+  for (int64_t tick = 0; tick <= ticks; ++tick) {
+    const double sim = static_cast<double>(tick) * 512e-6;
+    const int64_t wall = wall_of_sim(sim);
+    // The real arm's polls up to now (wall clock), each received 2 ms after it was taken.
+    while (wall0 + poll * 10000 <= wall) {
+      const int64_t taken = wall0 + poll * 10000;
+      sirupp::arm_state_t real = State(poll, RealArm((taken - wall0) * 1e-6 - wall_start));
+      real.utime = taken;
+      real.source = sirupp::arm_state_t::SOURCE_EMULATED;
+      WriteEvent(log, "REAL_ARM_STATE", real, taken + 2000);
+      ++poll;
+    }
+    const double tau = sim - start;
+    const int64_t move = sim < start - 1e-9 ? 1 : 2;
+    WriteEvent(log, "SIM_ARM_STATE", State(tick, Virtual(tau)), wall + 1000);
+    WriteEvent(log, "ARM_SETPOINT",
+               SetpointAt(tick, move, Profile(tau), move == 1 || tau >= 1.0 - 1e-9), wall + 1000);
+  }
+  lcm_eventlog_destroy(log);
+}
+
+TEST(SlippedSimTime, TheLoggersPathGivesTheSameErrorsAndPrintsTheFactor) {
+  TempDir dir;
+  WriteSlippedLog(dir / "full.lcm", 1.0);
+  WriteSlippedLog(dir / "half.lcm", 0.5);
+  const std::vector<RunTable> full = ImportLcmLog(dir / "full.lcm", ImportOptions{});
+  const std::vector<RunTable> half = ImportLcmLog(dir / "half.lcm", ImportOptions{});
+  ASSERT_EQ(full.size(), 1u);
+  ASSERT_EQ(half.size(), 1u);
+  EXPECT_NEAR(full[0].realtime_factor, 1.0, 1e-3);
+  EXPECT_NEAR(half[0].realtime_factor, 0.5, 1e-3);
+  const MoveResult at_full = OnlyMove(Analyze(full[0], AnalysisOptions{}));
+  const MoveResult at_half = OnlyMove(Analyze(half[0], AnalysisOptions{}));
+  ExpectSameErrors(at_full, at_half, 2e-3);
+  EXPECT_NEAR(at_half.pairs[static_cast<size_t>(Pair::kVirtReal)].mean_steady, 0.1, 1e-3);
+  ReportOptions options;
+  options.out_dir = dir / "report";
+  options.plots = false;
+  const ReportOutput output = WriteReport(half, options);
+  EXPECT_NE(output.markdown.find("| closed | real-time factor |"), std::string::npos);
+  EXPECT_NE(output.markdown.find("| yes | 0.500 |"), std::string::npos) << output.markdown;
+}
+
 // ---- The paper's set VII, closed loop
 // ------------------------------------------------------------
 

@@ -60,13 +60,14 @@ awk -F, -v partial="$partial" '
     n = fields[column_line]
     for (i = column_line + 1; i <= last; i++) {
       if (substr(text[i], 1, 6) == "# end:") { print "FAIL line " i ": an end line in a killed logger'\''s file"; exit 1 }
+      if (substr(text[i], 1, 2) == "# ") { notes++; continue }  # gain changes, real-time factor
       if (fields[i] != n) { print "FAIL line " i ": " fields[i] " fields, the column line has " n; exit 1 }
       m = split(text[i], cell, ",")
       for (k = 1; k <= m; k++) {
         if (cell[k] != "" && cell[k] !~ /^-?[0-9]+(\.[0-9]+)?([eE][-+]?[0-9]+)?$/) { print "FAIL line " i ", column " k ": \"" cell[k] "\" is not a number"; exit 1 }
       }
     }
-    printf "killed logger'\''s file: %d header lines, %d complete rows of %d columns, %s\n", column_line - 1, last - column_line, n, partial ? "a partial last line" : "ends with a whole line"
+    printf "killed logger'\''s file: %d header lines, %d complete rows of %d columns, %d comment lines among them, %s\n", column_line - 1, last - column_line - notes, n, notes, partial ? "a partial last line" : "ends with a whole line"
   }' "$file" || fail=1
 
 filled=$(awk -F, '/^#/ { next } !header { header = 1; for (i = 1; i <= NF; i++) col[$i] = i; next }
