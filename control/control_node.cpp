@@ -699,8 +699,7 @@ bool ControlNode::StudentEfforts(const core::ArmState& state, std::vector<double
     }
   } catch (const std::exception& error) {
     law_failed_ = true;
-    Fault("controller '" + name + "' at tick " + std::to_string(state.tick) + ": " + error.what() +
-          "; the arm is held");
+    Fault("controller '" + name + "' at tick " + std::to_string(state.tick) + ": " + error.what());
     return false;
   }
   return true;
