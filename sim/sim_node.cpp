@@ -212,7 +212,12 @@ void SimNode::SetPresence(Participant& participant, Presence presence, const std
   if (participant.presence == presence) return;
   participant.presence = presence;
   status_due_ = true;
-  NoteProblem(why, true);
+  if (presence == Presence::kAnswering) {
+    // Good news: said, but not a problem that degrades the heartbeat.
+    std::cerr << options_.process_name << ": " << why << "\n";
+  } else {
+    NoteProblem(why, true);
+  }
 }
 
 void SimNode::OnCommand(const sirupp::arm_command_t& message, const core::ReceiveInfo& info) {

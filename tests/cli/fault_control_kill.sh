@@ -32,7 +32,7 @@ sleep 0.3
 watch_arms "" 1.5 "$work/after_kill.out"
 cat "$work/after_kill.out"
 band virtual_held "$work/after_kill.out" virtual 0.5
-wait_for "the sim's watchdog report" 5 grep -q "watchdog: no command for more than 50 ms: arm braked" "$work/sim.log"
+wait_for "the sim's watchdog report" 5 grep -q "realtime: no answer from 'sirupp-control' to tick .* (watchdog): arm braked" "$work/sim.log"
 # The bridge: commands expired (0.5 s), the emulated arm stopped smoothly short of 90 degrees.
 wait_for "the bridge's command expiry" 10 bridge_state "" "commands expired: nothing from the controller" ||
   cat "$work/hw_status.out"
