@@ -74,8 +74,11 @@ ControlNode::ControlNode(core::Bus& bus, const core::RobotModel& model, ControlO
   heartbeat_.Publish(core::ProcessState::kStarting, "");
 }
 
-void ControlNode::OnModel(const sirupp::robot_model_t& message, const core::ReceiveInfo&) {
+void ControlNode::OnModel(const sirupp::robot_model_t& message, const core::ReceiveInfo& info) {
   if (!model_checked_.empty() && message.source_hash == model_checked_) return;
+  // Only a model that is one (it builds and passes the loader's checks) can refuse ours: a
+  // malformed message is refused and counted, it never stops this controller.
+  core::RobotModelFromMessage(message, info.channel);
   const std::string mismatch = core::ModelMismatch(model_, message, options_.name);
   if (mismatch.empty()) {
     model_checked_ = message.source_hash;
@@ -335,7 +338,12 @@ void ControlNode::CheckMotionLimits(const std::string& channel,
 }
 
 void ControlNode::OnHardwareStatus(const sirupp::hardware_status_t& message,
-                                   const core::ReceiveInfo&) {
+                                   const core::ReceiveInfo& info) {
+  if (message.state < sirupp::hardware_status_t::STATE_DISCONNECTED ||
+      message.state > sirupp::hardware_status_t::STATE_ESTOPPED) {
+    throw core::MessageError(info.channel, "state",
+                             std::to_string(message.state) + ": allowed 0..6 (STATE_*)");
+  }
   // The bridge names a move it refused as "channel ARM_MOVE: move <id>: <reason>": the virtual
   // arm must not make a move the real one does not.
   const std::string tag = "channel " + bus_.FullName(options_.channels.arm_move) + ": move " +

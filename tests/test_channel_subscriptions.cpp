@@ -84,8 +84,8 @@ TEST(ChannelSubscriptions, SirupHardwareSubscribesWhatTheTableSays) {
 }
 
 TEST(ChannelSubscriptions, SirupLoggerSubscribesWhatTheTableSays) {
-  const std::filesystem::path dir =
-      std::filesystem::temp_directory_path() / ("sirupp_subscriptions_" + std::to_string(::getpid()));
+  const std::filesystem::path dir = std::filesystem::temp_directory_path() /
+                                    ("sirupp_subscriptions_" + std::to_string(::getpid()));
   {
     core::Bus bus("memq://");
     logger::LoggerOptions options;

@@ -61,9 +61,9 @@ check_library() {
 
   kill "$control" "$sim" 2>/dev/null
   wait "$control" "$sim" 2>/dev/null
-  has "$lib.log" "$work/$lib.control" "sirupp-control: fault: controller '$lib' at tick "
-  has "$lib.log" "$work/$lib.control" "sirupp-control: fault cleared"
-  has "$lib.log" "$work/$lib.control" "sirupp-control: stopped after answering"
+  has "$lib.log" "$work/$lib.control" "fault: controller '$lib' at tick "
+  has "$lib.log" "$work/$lib.control" "fault cleared"
+  has "$lib.log" "$work/$lib.control" "stopped after answering"
 }
 
 check_library segfault.so "crashed with SIGSEGV (Segmentation fault) in Update"
