@@ -26,30 +26,29 @@ std::size_t LongestDefaultName() {
 Channels Channels::WithPrefix(const std::string& prefix) {
   ValidateChannelPrefix(prefix);
   Channels channels;
-  for (std::string* name : {&channels.robot_model,     &channels.environment,
-                            &channels.sim_arm_state,   &channels.sim_arm_command,
-                            &channels.sim_reset,       &channels.sim_status,
-                            &channels.arm_move,
-                            &channels.arm_setpoint,    &channels.arm_gains,
-                            &channels.controller_gains, &channels.arm_target,
-                            &channels.arm_pose_target, &channels.arm_plan,
-                            &channels.controller_status, &channels.real_arm_state,
-                            &channels.real_arm_setpoint, &channels.real_arm_gains,
-                            &channels.hardware_status, &channels.hardware_command,
-                            &channels.estop,           &channels.heartbeat,
-                            &channels.viewer_image,    &channels.viewer_camera}) {
+  for (std::string* name : {&channels.robot_model,      &channels.environment,
+                            &channels.sim_arm_state,    &channels.sim_arm_command,
+                            &channels.sim_reset,        &channels.sim_status,
+                            &channels.arm_move,         &channels.arm_setpoint,
+                            &channels.arm_gains,        &channels.controller_gains,
+                            &channels.arm_target,       &channels.arm_pose_target,
+                            &channels.arm_plan,         &channels.controller_status,
+                            &channels.real_arm_state,   &channels.real_arm_setpoint,
+                            &channels.real_arm_gains,   &channels.hardware_status,
+                            &channels.hardware_command, &channels.estop,
+                            &channels.heartbeat,        &channels.viewer_image,
+                            &channels.viewer_camera}) {
     name->insert(0, prefix);
   }
   return channels;
 }
 
 std::vector<std::string> Channels::All() const {
-  return {robot_model,     environment,       sim_arm_state,   sim_arm_command,
-          sim_reset,       sim_status,        arm_move,          arm_setpoint,    arm_gains,
-          controller_gains, arm_target,       arm_pose_target, arm_plan,
-          controller_status, real_arm_state,  real_arm_setpoint, real_arm_gains,
-          hardware_status, hardware_command,  estop,           heartbeat,
-          viewer_image,    viewer_camera};
+  return {robot_model,       environment,     sim_arm_state,   sim_arm_command,   sim_reset,
+          sim_status,        arm_move,        arm_setpoint,    arm_gains,         controller_gains,
+          arm_target,        arm_pose_target, arm_plan,        controller_status, real_arm_state,
+          real_arm_setpoint, real_arm_gains,  hardware_status, hardware_command,  estop,
+          heartbeat,         viewer_image,    viewer_camera};
 }
 
 void ValidateChannelPrefix(const std::string& prefix) {
@@ -72,7 +71,8 @@ void ValidateChannelPrefix(const std::string& prefix) {
 const std::vector<ChannelInfo>& ChannelTable() {
   // Keep in step with docs/channels.md (tests/test_channels.cpp compares them row by row).
   static const std::vector<ChannelInfo> table = {
-      {"ROBOT_MODEL", "sirupp.robot_model_t", "sirupp-sim", "sirupp-control, sirupp-viewer", "1 Hz and at start-up",
+      {"ROBOT_MODEL", "sirupp.robot_model_t", "sirupp-sim", "sirupp-control, sirupp-viewer",
+       "1 Hz and at start-up",
        "the robot model as the physics loaded it: DH rows, links, mass properties, limits, "
        "friction, servo parameters"},
       {"ENVIRONMENT", "sirupp.environment_t", "sirupp-sim", "sirupp-viewer", "1 Hz",
@@ -98,8 +98,8 @@ const std::vector<ChannelInfo>& ChannelTable() {
        "profiled set-point position and velocity, goal, position error, effort, move-done per "
        "joint"},
       {"ARM_GAINS", "sirupp.servo_gains_t", "sirupp CLI or user",
-       "sirupp-control, sirupp-hardware, sirupp-logger",
-       "on change", "Kp, Kd, Ki, integration, output and error limits per joint, in chip units"},
+       "sirupp-control, sirupp-hardware, sirupp-logger", "on change",
+       "Kp, Kd, Ki, integration, output and error limits per joint, in chip units"},
       {"CONTROLLER_GAINS", "sirupp.servo_gains_t", "sirupp-control", "sirupp CLI, sirupp-logger",
        "1 Hz and on change", "the gains the virtual servos run with now, in chip units"},
       {"ARM_TARGET", "sirupp.joint_target_t", "sirupp CLI or user", "sirupp-control", "on demand",
@@ -111,8 +111,8 @@ const std::vector<ChannelInfo>& ChannelTable() {
       {"CONTROLLER_STATUS", "sirupp.controller_status_t", "sirupp-control",
        "sirupp CLI, sirupp-logger, sirupp-viewer, sirupp-hardware", "10 Hz and on change",
        "mode, state, present move and plan step, last error"},
-      {"REAL_ARM_STATE", "sirupp.arm_state_t", "sirupp-hardware",
-       "sirupp-logger, sirupp-viewer", "every status poll (about 100-500 Hz)",
+      {"REAL_ARM_STATE", "sirupp.arm_state_t", "sirupp-hardware", "sirupp-logger, sirupp-viewer",
+       "every status poll (about 100-500 Hz)",
        "real arm: joint positions and velocities from the encoders, estimated efforts"},
       {"REAL_ARM_SETPOINT", "sirupp.servo_setpoint_t", "sirupp-hardware", "lcm-spy",
        "with every REAL_ARM_STATE",
@@ -125,12 +125,11 @@ const std::vector<ChannelInfo>& ChannelTable() {
       {"HARDWARE_COMMAND", "sirupp.hardware_command_t", "sirupp CLI", "sirupp-hardware",
        "on demand", "connect, calibrate, arm, disarm, link, unlink, home, clear faults"},
       {"ESTOP", "sirupp.estop_t", "any process", "sirupp-sim, sirupp-control, sirupp-hardware",
-       "on demand",
-       "emergency stop engaged or released, by whom and why"},
+       "on demand", "emergency stop engaged or released, by whom and why"},
       {"HEARTBEAT", "sirupp.heartbeat_t", "every process", "sirupp launch, sirupp CLI", "1 Hz",
        "process name, host, pid, state and per-channel traffic counters"},
-      {"VIEWER_IMAGE", "sirupp.image_t", "sirupp-viewer",
-       "sirupp view, lcm-spy", "chosen rate (e.g. 10-30 Hz)",
+      {"VIEWER_IMAGE", "sirupp.image_t", "sirupp-viewer", "sirupp view, lcm-spy",
+       "chosen rate (e.g. 10-30 Hz)",
        "rendered frames (JPEG or raw pixels) in the bot_core.image_t layout"},
       {"VIEWER_CAMERA", "sirupp.viewer_camera_t", "sirupp view, lesson scripts or user",
        "sirupp-viewer", "on demand",

@@ -36,25 +36,25 @@ constexpr const char* kUsage =
 
 int Run(const std::vector<std::string>& argv) {
   using sirupp::tools::Args;
-  const Args args(
-      argv, "sirupp-sim",
-      {{"model", "robot model file"},
-       {"environment", "environment XML file"},
-       {"mode", "lockstep, realtime, fast or freerun"},
-       {"participants", "participant names (lockstep and realtime)"},
-       {"step", "physics step in seconds"},
-       {"state-every", "publish the state every N ticks"},
-       {"lockstep-timeout", "seconds before a silent participant is reported"},
-       {"watchdog", "realtime: seconds a participant may be silent before the arm brakes (0.5); "
-                                "freerun: age of a held command (0.05)"},
-       {"duration", "simulated seconds to run (0 = until stopped)"},
-       {"idle", "hold or limp before the first command"},
-       {"pose", "named pose to start in"},
-       {"position", "start positions, in the model file's angle unit"},
-       {"no-friction", "switch joint friction off"},
-       {"lcm-url", "LCM URL"},
-       {"prefix", "channel prefix of the rig"},
-       {"rt-priority", "SCHED_FIFO priority 1..99 (0: off)"}});
+  const Args args(argv, "sirupp-sim",
+                  {{"model", "robot model file"},
+                   {"environment", "environment XML file"},
+                   {"mode", "lockstep, realtime, fast or freerun"},
+                   {"participants", "participant names (lockstep and realtime)"},
+                   {"step", "physics step in seconds"},
+                   {"state-every", "publish the state every N ticks"},
+                   {"lockstep-timeout", "seconds before a silent participant is reported"},
+                   {"watchdog",
+                    "realtime: seconds a participant may be silent before the arm brakes (0.5); "
+                    "freerun: age of a held command (0.05)"},
+                   {"duration", "simulated seconds to run (0 = until stopped)"},
+                   {"idle", "hold or limp before the first command"},
+                   {"pose", "named pose to start in"},
+                   {"position", "start positions, in the model file's angle unit"},
+                   {"no-friction", "switch joint friction off"},
+                   {"lcm-url", "LCM URL"},
+                   {"prefix", "channel prefix of the rig"},
+                   {"rt-priority", "SCHED_FIFO priority 1..99 (0: off)"}});
   const int rt_priority = sirupp::tools::RtPriorityArg(args, "sirupp-sim");
   const std::string model_file = sirupp::tools::ResolveDataPath(
       args.Has("model") ? args.String("model") : "config/robots/puma260.yaml");

@@ -898,9 +898,9 @@ TEST(HardwareBridge, ASecondBridgeOnTheSamePortIsRefusedNamingTheFirst) {
     const int second_status = second.Stop(0);  // it ends by itself: reap it
     EXPECT_TRUE(WIFEXITED(second_status) && WEXITSTATUS(second_status) == 1);
     const std::string text = ReadFile(dir + "/2.log");
-    EXPECT_NE(text.find(eo.link + " (" + emulator.slave_path() +
-                        "): in use by pid " + std::to_string(first.pid) +
-                        " (sirupp-hardware), lock " + SerialLockPath(eo.link) + "; stop it first"),
+    EXPECT_NE(text.find(eo.link + " (" + emulator.slave_path() + "): in use by pid " +
+                        std::to_string(first.pid) + " (sirupp-hardware), lock " +
+                        SerialLockPath(eo.link) + "; stop it first"),
               std::string::npos)
         << text;
     std::cout << "second bridge: " << text.substr(0, text.find('\n')) << "\n";

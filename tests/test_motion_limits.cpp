@@ -59,8 +59,7 @@ TEST(MotionLimits, EachRefusalNamesTheJointAndTheLimit) {
   const std::optional<std::string> hard = CheckJointMove(Puma(), limits, 0, 0, v, 1e12);
   ASSERT_TRUE(hard.has_value());
   EXPECT_NE(hard->find("joint j1 (waist): acceleration "), std::string::npos) << *hard;
-  EXPECT_NE(hard->find("deg/s^2 is outside (0, 360 deg/s^2] (acceleration cap)"),
-            std::string::npos)
+  EXPECT_NE(hard->find("deg/s^2 is outside (0, 360 deg/s^2] (acceleration cap)"), std::string::npos)
       << *hard;
   EXPECT_NE(CheckJointMove(Puma(), limits, 1, 0, 10, a)->find("(velocity cap)"), std::string::npos);
   EXPECT_NE(CheckJointMove(Puma(), limits, 1, 0, 0, a)->find("speed 0 deg/s is outside"),

@@ -65,7 +65,7 @@ TEST(Replay, PublishesEveryEventInOrderAtTheScaledTiming) {
   EXPECT_EQ(stats.channels, 2);
   EXPECT_DOUBLE_EQ(stats.log_span_s, 0.8);
   EXPECT_GE(stats.wall_s, 0.2 - 1e-3);  // never early
-  EXPECT_LT(stats.wall_s, 0.6);  // late only by scheduling; at speed 1 it would take 0.8 s
+  EXPECT_LT(stats.wall_s, 0.6);         // late only by scheduling; at speed 1 it would take 0.8 s
   EXPECT_FALSE(stats.stopped);
   ASSERT_EQ(recorder.got.size(), 9U);
   for (size_t i = 0; i < recorder.got.size(); ++i) {
