@@ -101,12 +101,7 @@ void ControlNode::Fault(const std::string& cause) {
   }
   pending_.clear();
   if (servos_on_) bank_.StopSmooth();
-  if (plan_running_) {
-    EndPlan(fault_ + "; plan " + plan_->name + " aborted");
-  } else {
-    last_error_ = fault_;
-    PublishStatus(true);
-  }
+  AbortPlanOrReport(fault_);
 }
 
 void ControlNode::ClearFault() {
@@ -147,11 +142,7 @@ void ControlNode::OnSimRestart(int64_t from_tick, int64_t to_tick) {
   law_reset_ = false;
   // The real arm must not finish a move the virtual one no longer makes.
   PublishStop(sirupp::servo_move_t::COMMAND_STOP_SMOOTH);
-  if (plan_running_) {
-    EndPlan(cause + "; plan " + plan_->name + " aborted");
-  } else {
-    last_error_ = cause;
-  }
+  AbortPlanOrReport(cause);
 }
 
 void ControlNode::CheckSimAlive() {
@@ -165,12 +156,7 @@ void ControlNode::CheckSimAlive() {
   std::cerr << "sirupp-control: " << cause << "; the real arm is stopped\n";
   if (servos_on_) bank_.StopSmooth();
   PublishStop(sirupp::servo_move_t::COMMAND_STOP_SMOOTH);
-  if (plan_running_) {
-    EndPlan(cause + "; plan " + plan_->name + " aborted");
-  } else {
-    last_error_ = cause;
-    PublishStatus(true);
-  }
+  AbortPlanOrReport(cause);
 }
 
 void ControlNode::OnEstop(const sirupp::estop_t& message, const core::ReceiveInfo&) {
@@ -185,12 +171,7 @@ void ControlNode::OnEstop(const sirupp::estop_t& message, const core::ReceiveInf
   if (servos_on_) bank_.ServoOn(positions_);  // command position = actual: held where it is
   pending_.clear();
   PublishStop(sirupp::servo_move_t::COMMAND_STOP_ABRUPT);
-  if (plan_running_) {
-    EndPlan(estop_ + "; plan " + plan_->name + " aborted");
-  } else {
-    last_error_ = estop_;
-    PublishStatus(true);
-  }
+  AbortPlanOrReport(estop_);
   std::cerr << "sirupp-control: " << estop_ << "\n";
 }
 
@@ -355,12 +336,7 @@ void ControlNode::OnHardwareStatus(const sirupp::hardware_status_t& message,
   std::cerr << "sirupp-control: " << cause << "; the virtual arm stops too\n";
   if (servos_on_) bank_.StopSmooth();
   PublishStop(sirupp::servo_move_t::COMMAND_STOP_SMOOTH);
-  if (plan_running_) {
-    EndPlan(cause + "; plan " + plan_->name + " aborted");
-  } else {
-    last_error_ = cause;
-    PublishStatus(true);
-  }
+  AbortPlanOrReport(cause);
 }
 
 void ControlNode::StartMove(const std::vector<JointMove>& moves) {
@@ -651,6 +627,15 @@ void ControlNode::AdvancePlan(int64_t utime) {
     PublishStatus(true);
   }
   if (bank_.AllDone()) EndPlan("");  // the plan ends when its last move is done
+}
+
+void ControlNode::AbortPlanOrReport(const std::string& cause) {
+  if (plan_running_) {
+    EndPlan(cause + "; plan " + plan_->name + " aborted");
+  } else {
+    last_error_ = cause;
+    PublishStatus(true);
+  }
 }
 
 void ControlNode::EndPlan(const std::string& error) {

@@ -115,6 +115,8 @@ class ControlNode {
   // Runs plan steps due at sim time `utime` (called once per tick before the servos tick).
   void AdvancePlan(int64_t utime);
   void EndPlan(const std::string& error);
+  // `cause` ends a running plan ("...; plan NAME aborted"), or is the last error when none runs.
+  void AbortPlanOrReport(const std::string& cause);
   // Records a refusal: last_error, a status at once; the caller throws to count it.
   void Refuse(const core::MessageError& error);
   void PublishSetpoint(const core::ArmState& state, const std::vector<double>& effort);

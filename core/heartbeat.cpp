@@ -49,7 +49,7 @@ Heartbeat::Heartbeat(Bus& bus, std::string process_name, std::string channel, do
       previous_time_(started_) {}
 
 bool Heartbeat::PublishIfDue(ProcessState state, const std::string& detail) {
-  if (sent_any_ && Clock::now() - last_sent_ < period_) return false;
+  if (!Due()) return false;
   Publish(state, detail);
   return true;
 }

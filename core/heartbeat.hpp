@@ -34,6 +34,8 @@ class Heartbeat {
   // Publishes a heartbeat if a period has passed since the last one (or none was sent yet).
   // Returns true if it published.
   bool PublishIfDue(ProcessState state, const std::string& detail);
+  // True when PublishIfDue would publish now: lets a per-tick caller build the detail only then.
+  bool Due() const { return !sent_any_ || Clock::now() - last_sent_ >= period_; }
   // Publishes one now (start-up, state changes, shutdown).
   void Publish(ProcessState state, const std::string& detail);
 

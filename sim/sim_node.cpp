@@ -521,6 +521,7 @@ bool SimNode::Service(int max_wait_ms) {
   }
   PublishLatched(false);
   PublishStatus(false);
+  if (!heartbeat_.Due()) return !Finished();  // the detail is built once a second, not per tick
   const TimePoint now = Now();
   const bool troubled = !detail_.empty() && Seconds(now - last_problem_) < kProblemMemoryS;
   std::string detail = troubled ? detail_ : "";
