@@ -19,7 +19,8 @@ namespace {
 
 constexpr const char* kName = "sirupp-picservo-emu";
 constexpr const char* kUsage =
-    "usage: sirupp-picservo-emu [--model FILE] [--modules N] [--link PATH] [--friction-scale X]\n"
+    "usage: sirupp-picservo-emu [--model FILE] [--modules N] [--link PATH | --socket PATH]\n"
+    "                           [--friction-scale X]\n"
     "                           [--start-pose NAME | --start-joints \"DEG DEG ...\"] [--seed S]\n"
     "                           [--checksum-errors P] [--drop-bytes P] [--silent-module K[@T]...]\n"
     "                           [--overcurrent K[@T]...] [--pos-error-trip K[@T]...]\n"
@@ -30,6 +31,10 @@ constexpr const char* kUsage =
     "Prints the device to open (--link PATH: also a symbolic link there), runs until SIGINT or\n"
     "SIGTERM, then prints its counters. The arm powers up at --start-pose or --start-joints\n"
     "(degrees; default all joints at 0); the encoders read 0 there.\n"
+    "--socket PATH: the line is a Unix socket at PATH instead of a pseudo-terminal "
+    "(sirupp-hardware\n"
+    "--port PATH connects to it); unlike a pty it does not stall on a loaded machine, so the lab\n"
+    "layouts and the demo use it.\n"
     "--friction-scale: static and Coulomb friction of the model times X (default 1.5).\n"
     "Faults: --checksum-errors P (probability a command is seen with a bad checksum), "
     "--drop-bytes\n"
@@ -91,6 +96,7 @@ int Run(const std::vector<std::string>& argv) {
                                  {{"model", "robot model file"},
                                   {"modules", "number of modules, 1..32"},
                                   {"link", "symbolic link to the device"},
+                                  {"socket", "Unix socket path for the line, instead of a pty"},
                                   {"friction-scale", "static and Coulomb friction factor, >= 0"},
                                   {"start-pose", "named pose of the model to power up in"},
                                   {"start-joints", "joint angles to power up in, degrees"},
@@ -116,6 +122,10 @@ int Run(const std::vector<std::string>& argv) {
   }
   const int modules = options.modules == 0 ? joints : options.modules;
   if (args.Has("link")) options.link = args.String("link");
+  if (args.Has("socket")) options.socket = args.String("socket");
+  if (args.Has("link") && args.Has("socket")) {
+    throw UsageError(std::string(kName) + ": --link and --socket: allowed one of them");
+  }
   if (args.Has("friction-scale")) {
     options.friction_scale = args.Numbers("friction-scale", 1)[0];
     if (!(options.friction_scale >= 0)) {
@@ -196,7 +206,12 @@ int Run(const std::vector<std::string>& argv) {
   }
   sirupp::tools::RequestRealtimePriority(rt_priority, kName);  // before the thread: it inherits
   emulator->Start();
-  std::cout << kName << ": " << emulator->num_modules() << " modules on " << emulator->slave_path();
+  std::cout << kName << ": " << emulator->num_modules() << " modules on ";
+  if (emulator->on_socket()) {
+    std::cout << "the socket " << options.socket;
+  } else {
+    std::cout << emulator->slave_path();
+  }
   if (!options.link.empty()) std::cout << " (linked as " << options.link << ")";
   std::cout << std::endl;
 
@@ -226,7 +241,9 @@ int Run(const std::vector<std::string>& argv) {
             << " caught up late, " << c.ticks_slipped << " slipped in " << c.slips
             << " slips; at most " << Milliseconds(c.max_lateness_s) << " behind the wall clock), "
             << c.packet_timeouts << " packet timeouts, " << c.bytes_skipped
-            << " bytes skipped, line at " << c.baud << " baud" << std::endl;
+            << " bytes skipped, line at " << c.baud << " baud";
+  if (emulator->on_socket()) std::cout << ", " << c.connections << " client connections";
+  std::cout << std::endl;
   return 0;
 }
 

@@ -77,6 +77,15 @@ Emulator::Emulator(EmulatorOptions options)
     CheckModule(k, "silent module");
     silent_[static_cast<size_t>(k)] = true;
   }
+  if (!options_.socket.empty()) {
+    if (!options_.link.empty()) {
+      throw std::invalid_argument("link " + options_.link + " and socket " + options_.socket +
+                                  ": allowed one of them");
+    }
+    socket_ = std::make_unique<SocketLine>(options_.socket);
+    device_ = options_.socket;
+    return;
+  }
   if (!options_.link.empty()) pty_.LinkTo(options_.link);
   device_ = options_.link.empty() ? pty_.slave_path() : options_.link;
 }
@@ -235,6 +244,41 @@ void Emulator::Process(const nmc::PacketReader::Result& result, double arrival_s
   }
 }
 
+int Emulator::LineFd() const { return socket_ ? socket_->client_fd() : pty_.master_fd(); }
+
+void Emulator::AcceptClient() {
+  if (socket_ && socket_->Accept()) {
+    ++counters_.connections;
+    reader_.Reset();  // a new client starts a new conversation
+    replies_.clear();
+  }
+}
+
+ssize_t Emulator::ReadLine(uint8_t* buffer, size_t size) {
+  const int fd = LineFd();
+  if (fd < 0) return 0;
+  const ssize_t r = ::read(fd, buffer, size);
+  if (r == 0 && socket_) {  // the client closed its end: wait for the next one
+    socket_->Drop();
+    reader_.Reset();
+    replies_.clear();
+  }
+  return r;
+}
+
+void Emulator::WriteLine(const uint8_t* bytes, size_t n) {
+  if (socket_) {
+    if (socket_->client_fd() >= 0 && !socket_->Send(bytes, n)) socket_->Drop();
+    return;
+  }
+  size_t done = 0;
+  while (done < n) {
+    const ssize_t w = ::write(pty_.master_fd(), bytes + done, n - done);
+    if (w <= 0) break;  // nobody reads and the pty is full: the rest is lost, as on a line
+    done += static_cast<size_t>(w);
+  }
+}
+
 void Emulator::FlushReplies(double now_s) {
   size_t sent = 0;
   for (; sent < replies_.size() && replies_[sent].write_time_s <= now_s; ++sent) {
@@ -246,12 +290,7 @@ void Emulator::FlushReplies(double now_s) {
         out.push_back(b);
       }
     }
-    size_t done = 0;
-    while (done < out.size()) {
-      const ssize_t w = ::write(pty_.master_fd(), out.data() + done, out.size() - done);
-      if (w <= 0) break;  // nobody reads and the pty is full: the rest is lost, as on a line
-      done += static_cast<size_t>(w);
-    }
+    WriteLine(out.data(), out.size());
     ++counters_.replies_sent;
   }
   replies_.erase(replies_.begin(), replies_.begin() + static_cast<std::ptrdiff_t>(sent));
@@ -294,8 +333,9 @@ void Emulator::ServiceAt(double now_s) {
   uint8_t buffer[256];
   std::lock_guard<std::mutex> lock(mutex_);
   CatchUp(now_s);
+  AcceptClient();
   for (;;) {
-    const ssize_t r = ::read(pty_.master_fd(), buffer, sizeof buffer);
+    const ssize_t r = ReadLine(buffer, sizeof buffer);
     if (r <= 0) break;
     Receive(buffer, static_cast<size_t>(r), now_s);
   }
@@ -318,12 +358,19 @@ void Emulator::Run() {
     timespec timeout{};
     timeout.tv_sec = static_cast<time_t>(wait_s);
     timeout.tv_nsec = static_cast<long>((wait_s - static_cast<double>(timeout.tv_sec)) * 1e9);
-    pollfd p{pty_.master_fd(), POLLIN, 0};
-    const int ready = ::ppoll(&p, 1, &timeout, nullptr);
-    if (ready > 0 && (p.revents & POLLIN)) {
-      const ssize_t r = ::read(pty_.master_fd(), buffer, sizeof buffer);
+    // Only this thread changes the line's descriptors (AcceptClient, ReadLine). On a socket line
+    // the listening socket is watched too: a client that comes while one is served is closed.
+    const int line = LineFd();
+    pollfd p[2] = {{line, POLLIN, 0}, {socket_ ? socket_->listen_fd() : -1, POLLIN, 0}};
+    const int ready = ::ppoll(p, 2, &timeout, nullptr);
+    if (ready > 0 && (p[1].revents & POLLIN)) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      AcceptClient();
+    }
+    if (ready > 0 && line >= 0 && (p[0].revents & (POLLIN | POLLHUP))) {
+      std::lock_guard<std::mutex> lock(mutex_);
+      const ssize_t r = ReadLine(buffer, sizeof buffer);
       if (r > 0) {
-        std::lock_guard<std::mutex> lock(mutex_);
         const double now_s = Now();
         // The ticks due before the bytes were read come first: a command is applied at the
         // emulated time it arrived, even when the thread was descheduled before reading it.

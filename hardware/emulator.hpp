@@ -38,6 +38,9 @@ struct EmulatorOptions {
   core::RobotModel model;
   int modules = 0;   // 0 = one per model joint; 1..32. Modules past the joints have no motor.
   std::string link;  // if set, a symbolic link to the pty's slave (replaced if a link)
+  // If set, the line is a Unix socket at this path (SocketLine) instead of the pty: what the demo
+  // and the layouts use, because a pty stalls on a loaded machine. Not with `link`.
+  std::string socket;
   double friction_scale = 1.5;          // static and Coulomb friction x this (ArmOptions)
   std::vector<double> start_positions;  // physical joint angles at power-up, rad; empty = zero
   uint32_t seed = 1;                    // for the random faults
@@ -75,6 +78,7 @@ struct EmulatorCounters {
   uint64_t slips = 0;            // times emulated time slipped (each reported)
   double max_lateness_s = 0;     // the furthest emulated time was behind the wall clock
   uint64_t baud_changes = 0;
+  uint64_t connections = 0;      // clients that connected to the socket line
   int baud = nmc::kPowerUpBaud;  // the line speed now
 };
 
@@ -101,6 +105,8 @@ class Emulator {
   // What a client opens: the link if one was asked for, else /dev/pts/N.
   const std::string& device() const;
   const std::string& slave_path() const { return pty_.slave_path(); }
+  // True when the line is a Unix socket (options.socket), not the pty.
+  bool on_socket() const { return socket_ != nullptr; }
   int num_modules() const { return static_cast<int>(modules_.size()); }
 
   // True physical joint angles (rad or m), one per model joint.
@@ -133,6 +139,14 @@ class Emulator {
   double NextTickDue() const {
     return clock_base_s_ + static_cast<double>(tick_index_ + 1) * tick_s_;
   }
+  // The descriptor the line's bytes come and go through: the pty's master, or the socket's
+  // client (-1: no client connected). ReadLine reads what waits (0: nothing; a client that left
+  // is dropped); WriteLine loses what cannot be written, as a line nobody listens to.
+  int LineFd() const;
+  ssize_t ReadLine(uint8_t* buffer, size_t size);
+  void WriteLine(const uint8_t* bytes, size_t n);
+  // Socket line: takes a waiting client. Caller holds the mutex.
+  void AcceptClient();
   void Receive(const uint8_t* bytes, size_t n, double now_s);
   void Process(const nmc::PacketReader::Result& result, double arrival_s);
   void FlushReplies(double now_s);
@@ -141,6 +155,7 @@ class Emulator {
 
   EmulatorOptions options_;
   PseudoTerminal pty_;
+  std::unique_ptr<SocketLine> socket_;
   std::string device_;
   double tick_s_;
   std::chrono::steady_clock::time_point epoch_;

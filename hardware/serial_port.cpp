@@ -6,7 +6,9 @@
 #include <signal.h>
 #include <sys/file.h>
 #include <sys/ioctl.h>
+#include <sys/socket.h>
 #include <sys/stat.h>
+#include <sys/un.h>
 #include <termios.h>
 #include <unistd.h>
 
@@ -85,6 +87,36 @@ std::string DescribeProcess(pid_t pid) {
 
 bool Alive(pid_t pid) { return ::kill(pid, 0) == 0 || errno == EPERM; }
 
+sockaddr_un UnixAddress(const std::string& path) {
+  sockaddr_un address{};
+  address.sun_family = AF_UNIX;
+  if (path.size() >= sizeof address.sun_path) {
+    throw SerialError(path + ": a socket path may have at most " +
+                      std::to_string(sizeof address.sun_path - 1) + " characters");
+  }
+  std::memcpy(address.sun_path, path.c_str(), path.size() + 1);
+  return address;
+}
+
+// A connected non-blocking Unix stream socket, or -1 with errno set.
+int ConnectUnix(const std::string& path) {
+  if (path.size() >= sizeof(sockaddr_un::sun_path)) {
+    errno = ENAMETOOLONG;
+    return -1;
+  }
+  const sockaddr_un address = UnixAddress(path);
+  const int fd = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  if (fd < 0) return -1;
+  if (::connect(fd, reinterpret_cast<const sockaddr*>(&address), sizeof address) != 0) {
+    const int error = errno;
+    ::close(fd);
+    errno = error;
+    return -1;
+  }
+  ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) | O_NONBLOCK);
+  return fd;
+}
+
 }  // namespace
 
 std::string SerialLockPath(const std::string& device) {
@@ -143,7 +175,10 @@ SerialPort::SerialPort(const std::string& device, int baud) : device_(device) {
     }
     lock_fd_ = fd;
   }
-  fd_ = ::open(device.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
+  struct stat kind {};
+  socket_ = ::stat(device.c_str(), &kind) == 0 && S_ISSOCK(kind.st_mode);
+  fd_ = socket_ ? ConnectUnix(device)
+                : ::open(device.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
   if (fd_ < 0) {
     const int error = errno;
     const std::string reason = std::strerror(error);
@@ -159,6 +194,11 @@ SerialPort::SerialPort(const std::string& device, int baud) : device_(device) {
                         (real.empty() ? device : real));
     }
     throw SerialError(device + ": cannot open (" + reason + ")");
+  }
+  if (socket_) {
+    baud_ = baud;
+    DiscardInput();
+    return;
   }
   try {
     MakeRaw(fd_, speed, device);
@@ -193,7 +233,8 @@ SerialPort::~SerialPort() {
 void SerialPort::Write(const uint8_t* bytes, size_t n) {
   size_t done = 0;
   while (done < n) {
-    const ssize_t w = ::write(fd_, bytes + done, n - done);
+    const ssize_t w = socket_ ? ::send(fd_, bytes + done, n - done, MSG_NOSIGNAL)
+                              : ::write(fd_, bytes + done, n - done);
     if (w > 0) {
       done += static_cast<size_t>(w);
       continue;
@@ -211,6 +252,7 @@ size_t SerialPort::Read(uint8_t* bytes, size_t max, std::chrono::microseconds ti
   for (;;) {
     const ssize_t r = ::read(fd_, bytes, max);
     if (r > 0) return static_cast<size_t>(r);
+    if (r == 0 && socket_) throw SerialError(device_ + ": the other end hung up");
     if (r < 0 && errno != EAGAIN && errno != EINTR) {
       throw SerialError(device_ + ": read failed (" + Reason() + ")");
     }
@@ -234,6 +276,10 @@ size_t SerialPort::Read(uint8_t* bytes, size_t max, std::chrono::microseconds ti
 
 void SerialPort::SetBaud(int baud) {
   const speed_t speed = SpeedFor(baud, device_);
+  if (socket_) {
+    baud_ = baud;
+    return;
+  }
   termios t{};
   if (tcgetattr(fd_, &t) != 0) throw SerialError(device_ + ": tcgetattr: " + Reason());
   cfsetispeed(&t, speed);
@@ -245,7 +291,73 @@ void SerialPort::SetBaud(int baud) {
   baud_ = baud;
 }
 
-void SerialPort::DiscardInput() { tcflush(fd_, TCIFLUSH); }
+void SerialPort::DiscardInput() {
+  if (!socket_) {
+    tcflush(fd_, TCIFLUSH);
+    return;
+  }
+  uint8_t scrap[256];
+  while (::read(fd_, scrap, sizeof scrap) > 0) {
+  }
+}
+
+SocketLine::SocketLine(const std::string& path) : path_(path) {
+  const sockaddr_un address = UnixAddress(path);
+  struct stat st {};
+  if (::lstat(path.c_str(), &st) == 0) {
+    if (!S_ISSOCK(st.st_mode)) {
+      throw SerialError(path + ": exists and is not a socket; not replacing it");
+    }
+    ::unlink(path.c_str());
+  }
+  listen_ = ::socket(AF_UNIX, SOCK_STREAM | SOCK_CLOEXEC | SOCK_NONBLOCK, 0);
+  if (listen_ < 0) throw SerialError(path + ": cannot make a socket (" + Reason() + ")");
+  if (::bind(listen_, reinterpret_cast<const sockaddr*>(&address), sizeof address) != 0 ||
+      ::listen(listen_, 2) != 0) {
+    const std::string reason = Reason();
+    ::close(listen_);
+    throw SerialError(path + ": cannot listen (" + reason + ")");
+  }
+}
+
+SocketLine::~SocketLine() {
+  Drop();
+  if (listen_ >= 0) {
+    ::close(listen_);
+    ::unlink(path_.c_str());
+  }
+}
+
+bool SocketLine::Accept() {
+  const int fd = ::accept4(listen_, nullptr, nullptr, SOCK_NONBLOCK | SOCK_CLOEXEC);
+  if (fd < 0) return false;
+  if (client_ >= 0) {  // one line, one client: the bridge's lock file keeps a second away
+    ::close(fd);
+    return false;
+  }
+  client_ = fd;
+  return true;
+}
+
+void SocketLine::Drop() {
+  if (client_ >= 0) ::close(client_);
+  client_ = -1;
+}
+
+bool SocketLine::Send(const uint8_t* bytes, size_t n) {
+  size_t done = 0;
+  while (done < n) {
+    const ssize_t w = ::send(client_, bytes + done, n - done, MSG_NOSIGNAL);
+    if (w > 0) {
+      done += static_cast<size_t>(w);
+      continue;
+    }
+    if (w < 0 && errno == EINTR) continue;
+    if (w < 0 && errno == EAGAIN) return true;  // nobody reads: the rest is lost, as on a line
+    return false;
+  }
+  return true;
+}
 
 PseudoTerminal::PseudoTerminal() {
   master_ = ::posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);

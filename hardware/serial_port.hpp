@@ -46,7 +46,9 @@ std::string SerialLockPath(const std::string& device);
 // the process: "/dev/ttyUSB0: in use by pid 1234 (sirupp-hardware), lock /run/lock/LCK..ttyUSB0".
 // Pseudo-terminals get the lock file only: the emulator keeps its slave open, so an exclusive
 // flag left by a killed client would never clear. The lock is released (file removed,
-// TIOCNXCL) by the destructor, and by the kernel when the process dies.
+// TIOCNXCL) by the destructor, and by the kernel when the process dies. A device that is a Unix
+// socket (the emulator's SocketLine) is connected to instead, with the same lock file; SetBaud
+// then only records the speed and DiscardInput reads and drops what waits.
 class SerialPort : public BytePort {
  public:
   SerialPort(const std::string& device, int baud);
@@ -70,6 +72,7 @@ class SerialPort : public BytePort {
   int baud_ = 0;
   int lock_fd_ = -1;
   std::string lock_path_;
+  bool socket_ = false;  // the emulator's SocketLine, not a tty
 };
 
 // The master side of a new pseudo-terminal, raw. The slave stays open here too, so that the
@@ -94,6 +97,40 @@ class PseudoTerminal {
   int slave_ = -1;
   std::string slave_path_;
   std::string link_;
+};
+
+// The emulator's other line: a Unix stream socket at `path` that one client at a time connects to
+// (SerialPort connects when its device is a socket). Unlike a pseudo-terminal it carries bytes
+// without the tty layer, whose poll() and read() wait for a kernel worker at normal priority
+// to move the bytes across: on a loaded machine that worker is starved and a process at real-time
+// priority waits with it, for up to seconds (measured: docs/hardware-emulator.md). Baud changes
+// have no effect on a socket (the emulator times the line itself). The path is removed by the
+// destructor.
+class SocketLine {
+ public:
+  // Binds and listens at `path`; an existing socket there (a killed emulator's) is replaced, any
+  // other file never.
+  explicit SocketLine(const std::string& path);
+  ~SocketLine();
+  SocketLine(const SocketLine&) = delete;
+  SocketLine& operator=(const SocketLine&) = delete;
+
+  const std::string& path() const { return path_; }
+  int listen_fd() const { return listen_; }
+  // The connected client's descriptor (non-blocking), -1 if none.
+  int client_fd() const { return client_; }
+  // Takes a waiting client if none is connected; a second client while one is connected is
+  // closed at once. True if a client was taken.
+  bool Accept();
+  // The client went away (read returned 0, or a write failed): ready for the next.
+  void Drop();
+  // Writes what it can without blocking and without SIGPIPE; false if the client is gone.
+  bool Send(const uint8_t* bytes, size_t n);
+
+ private:
+  std::string path_;
+  int listen_ = -1;
+  int client_ = -1;
 };
 
 // Seconds one byte takes on the line at `baud`: 10 bits (start, 8 data, stop).

@@ -1,8 +1,11 @@
 // The emulator over its real pseudo-terminal, talked to with hardware::SerialPort as the bridge
 // does: NmcInit's addressing, a three-joint move to its goal, SET_BAUD and the line's timing, the
-// inter-byte timeout, and every fault setting.
+// inter-byte timeout, and every fault setting; and over its socket line.
 
 #include <gtest/gtest.h>
+#include <poll.h>
+#include <sys/socket.h>
+#include <sys/un.h>
 #include <unistd.h>
 
 #include <chrono>
@@ -454,6 +457,80 @@ TEST(Emulator, StopsAndRestartsCleanlyAndLinksItsDevice) {
     EXPECT_EQ(Transact(port, Nop(1), 2).size(), 2U);
   }
   EXPECT_NE(::access(link.c_str(), F_OK), 0) << "the link goes with the emulator";
+  ::rmdir(dir_template);
+}
+
+// The socket line the layouts use (a pty stalls behind the tty layer's kernel worker on a loaded
+// machine): SerialPort connects to it as to a device, NmcInit finds the modules, a client that
+// leaves is followed by the next one (a restarted bridge), a second client at once is refused,
+// and the socket goes with the emulator.
+TEST(Emulator, TheSocketLineServesOneClientAtATimeAndTheNextAfterIt) {
+  char dir_template[] = "/tmp/sirupp_emu_XXXXXX";
+  ASSERT_NE(mkdtemp(dir_template), nullptr);
+  const std::string path = std::string(dir_template) + "/bus";
+  {
+    EmulatorOptions options = Options();
+    options.socket = path;
+    options.modules = 2;
+    Emulator emulator(options);
+    EXPECT_TRUE(emulator.on_socket());
+    EXPECT_EQ(emulator.device(), path);
+    emulator.Start();
+    {
+      SerialPort port(path, 19200);
+      EXPECT_EQ(NmcInit(port), 2);
+      port.SetBaud(230400);  // a socket has no speed: recorded only
+      EXPECT_EQ(port.baud(), 230400);
+      EXPECT_EQ(Transact(port, Nop(1), 2).size(), 2U);
+    }
+    {
+      SerialPort next(path, 19200);
+      EXPECT_EQ(Transact(next, Nop(2), 2).size(), 2U) << "the next client is served";
+      EXPECT_EQ(emulator.counters().connections, 2U);
+    }
+    {
+      SerialPort first(path, 19200);
+      EXPECT_EQ(Transact(first, Nop(1), 2).size(), 2U);
+      // The lock file keeps a second port away, as on a real device ...
+      EXPECT_THROW(SerialPort(path, 19200), SerialError);
+      // ... and a client that ignores it is closed at once.
+      const int raw = ::socket(AF_UNIX, SOCK_STREAM, 0);
+      sockaddr_un address{};
+      address.sun_family = AF_UNIX;
+      std::snprintf(address.sun_path, sizeof address.sun_path, "%s", path.c_str());
+      ASSERT_EQ(::connect(raw, reinterpret_cast<const sockaddr*>(&address), sizeof address), 0);
+      pollfd p{raw, POLLIN, 0};
+      ASSERT_EQ(::poll(&p, 1, 2000), 1);
+      char byte = 0;
+      EXPECT_EQ(::read(raw, &byte, 1), 0) << "closed by the emulator";
+      ::close(raw);
+      EXPECT_EQ(Transact(first, Nop(2), 2).size(), 2U) << "the first client is still served";
+    }
+  }
+  EXPECT_NE(::access(path.c_str(), F_OK), 0) << "the socket goes with the emulator";
+  ::rmdir(dir_template);
+}
+
+TEST(Emulator, ASocketPathThatIsAnotherFileIsNotReplaced) {
+  char dir_template[] = "/tmp/sirupp_emu_XXXXXX";
+  ASSERT_NE(mkdtemp(dir_template), nullptr);
+  const std::string path = std::string(dir_template) + "/bus";
+  std::FILE* file = std::fopen(path.c_str(), "w");
+  ASSERT_NE(file, nullptr);
+  std::fclose(file);
+  EmulatorOptions options = Options();
+  options.socket = path;
+  try {
+    Emulator emulator(options);
+    ADD_FAILURE() << "a regular file was taken for the socket";
+  } catch (const SerialError& e) {
+    EXPECT_EQ(std::string(e.what()), path + ": exists and is not a socket; not replacing it");
+  }
+  EXPECT_EQ(::access(path.c_str(), F_OK), 0);
+  options.link = path + ".link";
+  options.socket = path + ".socket";
+  EXPECT_THROW(Emulator{options}, std::invalid_argument);
+  ::unlink(path.c_str());
   ::rmdir(dir_template);
 }
 
