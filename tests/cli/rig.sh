@@ -76,8 +76,8 @@ bridge_state() {  # bridge_state HOST TEXT: `sirupp hardware status` from HOST c
 rig_start() {
   local robot=$1 server=$2 student=$3
   mkdir -p "$work/data"
-  spawn emu "$robot" "$SIRUPP_EMU" --link "$work/bus" --start-pose ready
-  wait_for "the emulator's serial port $work/bus" 20 test -L "$work/bus" || return 1
+  spawn emu "$robot" "$SIRUPP_EMU" --socket "$work/bus" --start-pose ready
+  wait_for "the emulator's serial line $work/bus" 20 test -S "$work/bus" || return 1
   # The start order of docs/channels.md; realtime, as with a real arm, both arms upright.
   spawn sim "$server" "$SIRUPP_SIM" --lcm-url "$URL" --mode realtime --pose ready
   spawn control "$student" "$SIRUPP_CONTROL" --lcm-url "$URL"
