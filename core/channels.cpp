@@ -71,8 +71,8 @@ void ValidateChannelPrefix(const std::string& prefix) {
 const std::vector<ChannelInfo>& ChannelTable() {
   // Keep in step with docs/channels.md (tests/test_channels.cpp compares them row by row).
   static const std::vector<ChannelInfo> table = {
-      {"ROBOT_MODEL", "sirupp.robot_model_t", "sirupp-sim", "sirupp-control, sirupp-viewer",
-       "1 Hz and at start-up",
+      {"ROBOT_MODEL", "sirupp.robot_model_t", "sirupp-sim",
+       "sirupp-control, sirupp-hardware, sirupp-logger, sirupp-viewer", "1 Hz and at start-up",
        "the robot model as the physics loaded it: DH rows, links, mass properties, limits, "
        "friction, servo parameters"},
       {"ENVIRONMENT", "sirupp.environment_t", "sirupp-sim", "sirupp-viewer", "1 Hz",

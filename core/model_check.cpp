@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "core/errors.hpp"
+#include "core/translate.hpp"
 
 namespace sirupp::core {
 
@@ -23,6 +24,17 @@ std::string ModelMismatch(const RobotModel& ours, const sirupp::robot_model_t& s
          sim.source_hash + "), " + who + " loaded '" + ours.name + "' from " + ours.source_file +
          " (hash " + ours.source_hash + "): " + differs +
          "; refusing to drive it (give every process the same --model)";
+}
+
+bool ModelWatch::Check(const sirupp::robot_model_t& sim, const std::string& channel) {
+  if (!last_hash_.empty() && sim.source_hash == last_hash_ && sim.name == last_name_) return false;
+  RobotModelFromMessage(sim, channel);  // throws MessageError for a malformed model
+  last_hash_ = sim.source_hash;
+  last_name_ = sim.name;
+  std::string verdict = ModelMismatch(ours_, sim, who_);
+  if (verdict == mismatch_) return false;
+  mismatch_ = std::move(verdict);
+  return true;
 }
 
 }  // namespace sirupp::core

@@ -6,6 +6,7 @@
 #include <ctime>
 #include <iostream>
 #include <sirupp/arm_state_t.hpp>
+#include <sirupp/robot_model_t.hpp>
 
 #include "core/errors.hpp"
 
@@ -56,6 +57,7 @@ BridgeNode::BridgeNode(core::Bus& bus, const core::RobotModel& model, ArmLink& l
       link_(link),
       settings_(std::move(settings)),
       options_(std::move(options)),
+      model_watch_(model_, options_.name),
       heartbeat_(bus, options_.name, options_.channels.heartbeat),
       started_(Clock::now()),
       next_cycle_(Clock::now()) {
@@ -85,6 +87,13 @@ BridgeNode::BridgeNode(core::Bus& bus, const core::RobotModel& model, ArmLink& l
                                        ": allowed mode 0..1, state 0..5");
         }
         NoteController();
+      });
+  // One robot: the real arm is not driven for a model other than the one the sim runs.
+  bus_.Subscribe<sirupp::robot_model_t>(
+      c.robot_model, [this](const sirupp::robot_model_t& m, const core::ReceiveInfo& info) {
+        if (model_watch_.Check(m, info.channel) && !model_watch_.mismatch().empty()) {
+          Fault(model_watch_.mismatch());
+        }
       });
   heartbeat_.Publish(core::ProcessState::kStarting, "");
 }
@@ -121,12 +130,15 @@ void BridgeNode::Calibrate() {
 void BridgeNode::Arm() {
   if (estopped_) throw std::runtime_error("arm: the emergency stop is engaged; release it first");
   if (faulted_) throw std::runtime_error("arm: clear the fault first (" + fault_ + ")");
+  if (!model_watch_.mismatch().empty()) throw std::runtime_error("arm: " + model_watch_.mismatch());
   link_.Arm();
   last_error_.clear();
 }
 void BridgeNode::Link() {
   if (estopped_) throw std::runtime_error("link: the emergency stop is engaged");
   if (faulted_) throw std::runtime_error("link: clear the fault first (" + fault_ + ")");
+  if (!model_watch_.mismatch().empty())
+    throw std::runtime_error("link: " + model_watch_.mismatch());
   if (!link_.armed()) throw std::runtime_error("link: arm first");
   linked_ = true;
   expired_ = false;

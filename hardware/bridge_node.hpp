@@ -37,6 +37,7 @@
 #include "core/bus.hpp"
 #include "core/channels.hpp"
 #include "core/heartbeat.hpp"
+#include "core/model_check.hpp"
 #include "core/robot_model.hpp"
 #include "hardware/arm_link.hpp"
 
@@ -98,6 +99,7 @@ class BridgeNode {
   ArmLink& link_;
   BridgeSettings settings_;
   BridgeOptions options_;
+  core::ModelWatch model_watch_;  // the sim's ROBOT_MODEL against ours: one robot
   core::Heartbeat heartbeat_;
 
   Clock::time_point started_;

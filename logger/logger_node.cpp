@@ -10,8 +10,10 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <sirupp/arm_state_t.hpp>
 #include <sirupp/controller_status_t.hpp>
+#include <sirupp/robot_model_t.hpp>
 #include <sirupp/servo_gains_t.hpp>
 #include <sirupp/servo_setpoint_t.hpp>
 #include <stdexcept>
@@ -117,6 +119,7 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
       model_(model),
       options_(std::move(options)),
       heartbeat_(bus, options_.process_name, options_.channels.heartbeat),
+      model_watch_(model_, options_.process_name),
       aligner_(options_.aligner) {
   if (options_.name.empty()) options_.name = DefaultRunName();
   for (const core::Joint& joint : model_.joints) {
@@ -254,6 +257,14 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
         },
         kQueue));
   }
+  subscriptions_.push_back(&bus_.Subscribe<sirupp::robot_model_t>(
+      options_.channels.robot_model,
+      [this](const sirupp::robot_model_t& message, const core::ReceiveInfo& info) {
+        if (model_watch_.Check(message, info.channel) && !model_watch_.mismatch().empty()) {
+          std::cerr << options_.process_name << ": " << model_watch_.mismatch() << "\n";
+          heartbeat_.Publish(core::ProcessState::kFault, model_watch_.mismatch());
+        }
+      }));
   heartbeat_.Publish(core::ProcessState::kStarting, "");
   writer_ = std::thread([this] { WriterLoop(); });
 }
@@ -282,7 +293,9 @@ void LoggerNode::Service(int max_wait_ms) {
   bus_.HandleAvailable();
   bus_.Handle(max_wait_ms);
   const LoggerStats now = stats();
-  if (!now.error.empty()) {
+  if (!model_watch_.mismatch().empty()) {
+    heartbeat_.PublishIfDue(core::ProcessState::kFault, model_watch_.mismatch());
+  } else if (!now.error.empty()) {
     heartbeat_.PublishIfDue(core::ProcessState::kFault, now.error);
   } else {
     heartbeat_.PublishIfDue(

@@ -30,6 +30,7 @@
 #include "core/bus.hpp"
 #include "core/channels.hpp"
 #include "core/heartbeat.hpp"
+#include "core/model_check.hpp"
 #include "core/robot_model.hpp"
 #include "logger/aligner.hpp"
 #include "logger/data_file.hpp"
@@ -100,6 +101,9 @@ class LoggerNode {
   LoggerOptions options_;
   ColumnLayout layout_;
   core::Heartbeat heartbeat_;
+  // One robot: the sim's ROBOT_MODEL against the model the columns are labelled from; a mismatch
+  // is a fault on the heartbeat (the data would carry the wrong robot's names and units).
+  core::ModelWatch model_watch_;
   std::string started_text_;
 
   // What an earlier logger of the same NAME left in out_dir (found at start).

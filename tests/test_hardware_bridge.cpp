@@ -33,6 +33,7 @@
 #include "core/bus.hpp"
 #include "core/errors.hpp"
 #include "core/model_loader.hpp"
+#include "core/translate.hpp"
 #include "hardware/arm_link.hpp"
 #include "hardware/bridge_node.hpp"
 #include "hardware/emulator.hpp"
@@ -200,6 +201,33 @@ TEST(HardwareBridge, StartUpAddressesTheModulesAndCalibratesToThePose) {
   }
   EXPECT_EQ(rig.status.calibrated, 1);
   EXPECT_EQ(rig.status.baud, 230400);
+}
+
+// One robot (issue 16): a sim that runs another robot (the Stanford arm) faults the bridge, which
+// names both files, stops the real arm and refuses to arm or link until the models agree.
+TEST(HardwareBridge, ASimRunningAnotherRobotFaultsTheBridgeNamingBothFiles) {
+  Rig rig;
+  rig.Ready();
+  rig.RunUntil(0.1, nullptr);
+  ASSERT_EQ(rig.node->state(), hardware_status_t::STATE_LINKED);
+  rig.bus.Publish("ROBOT_MODEL", core::ToMessage(Puma(), 0, 0));
+  rig.RunUntil(0.05, nullptr);
+  EXPECT_EQ(rig.node->state(), hardware_status_t::STATE_LINKED) << "the same robot: nothing";
+  const core::RobotModel stanford = core::LoadRobotModel("config/robots/stanford.yaml");
+  rig.bus.Publish("ROBOT_MODEL", core::ToMessage(stanford, 0, 1));
+  rig.RunUntil(0.1, nullptr);
+  EXPECT_EQ(rig.node->state(), hardware_status_t::STATE_FAULT);
+  EXPECT_NE(rig.status.last_error.find("config/robots/stanford.yaml"), std::string::npos)
+      << rig.status.last_error;
+  EXPECT_NE(rig.status.last_error.find("config/robots/puma260.yaml"), std::string::npos)
+      << rig.status.last_error;
+  rig.node->Connect();  // clears the fault, not the mismatch
+  try {
+    rig.node->Arm();
+    ADD_FAILURE() << "armed for another robot";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("one robot"), std::string::npos) << e.what();
+  }
 }
 
 TEST(HardwareBridge, SetSevenMirroredReachesItsGoals) {
