@@ -106,7 +106,8 @@ Task ReadTask(const core::YamlValue& value, const core::RobotModel& model,
     task.description = "step joint " + std::to_string(joint + 1) + " to " + Number(to) + " deg";
   } else if (task.kind == "hold") {
     if (!map.Get("hold", "true").Bool()) map.Get("hold", "").Fail("hold: only true is allowed");
-    plan << "wait 0.01\n";
+    // A plan needs a move: joint 1 "to" where it starts.
+    plan << "move j1=" << Number(task.start[0] * 180 / kPi) << "\nwait done\n";
     task.plan_name = task.name;
     task.plan_text = plan.str();
     task.description = "hold the start pose";
