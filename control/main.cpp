@@ -18,7 +18,8 @@ namespace {
 
 constexpr const char* kUsage =
     "usage: sirupp-control [--model FILE] [--name NAME] [--no-setpoints] [--lcm-url URL]\n"
-    "                      [--prefix PREFIX] [--sim-timeout S] [--controller LIB.so [--controller-args TEXT]\n"
+    "                      [--prefix PREFIX] [--sim-timeout S] [--controller LIB.so "
+    "[--controller-args TEXT]\n"
     "                      [--controller-tick-limit S] [--controller-in-process]] [--rt-priority "
     "N]\n"
     "The sequencer and the virtual PIC-SERVOs: answers every SIM_ARM_STATE with joint efforts on\n"

@@ -22,7 +22,9 @@ class PlanDriver {
   bool PlanAccepted(const std::string& name) const;
   // A refusal or fault text from the controller, or "" while there is none.
   std::string Problem() const;
-  bool Faulted() const { return have_status_ && status_.state == sirupp::controller_status_t::STATE_FAULT; }
+  bool Faulted() const {
+    return have_status_ && status_.state == sirupp::controller_status_t::STATE_FAULT;
+  }
 
  private:
   core::Bus& bus_;

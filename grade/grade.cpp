@@ -10,7 +10,8 @@
 
 namespace sirupp::grade {
 
-const char* const kBaselineLabel = "baseline: PIC-SERVO PID (the model's gains: Kp 100, Kd 1000, Ki 0)";
+const char* const kBaselineLabel =
+    "baseline: PIC-SERVO PID (the model's gains: Kp 100, Kd 1000, Ki 0)";
 
 int ControllerResult::passed() const {
   int count = 0;
@@ -68,8 +69,9 @@ std::vector<ControllerResult> RunControllers(const Suite& suite, const core::Rob
       run.work_dir = options.work_dir + "/" + std::to_string(job.controller) + "_" + task.name;
       std::filesystem::create_directories(run.work_dir);
       // Its own port for each job (and each grader process): no task hears another.
-      run.lcm_url = "udpm://239.255.76.67:" + std::to_string(port_base + static_cast<int>(i % 100)) +
-                    "?ttl=0";
+      run.lcm_url =
+          "udpm://239.255.76.67:" + std::to_string(port_base + static_cast<int>(i % 100)) +
+          "?ttl=0";
       TaskRecord record = RunTask(suite, model, task, controllers[job.controller], run);
       if (!record.completed) {
         // Process ids differ from run to run; the reason must not.

@@ -36,7 +36,9 @@ TaskMetrics ComputeMetrics(const core::RobotModel& model, const TaskRecord& reco
   for (size_t j = 0; j < n; ++j) {
     JointMetrics& m = result.joints[j];
     const double scale = Scale(model, j);
-    const auto at = [&](const std::vector<double>& v, size_t row) { return v[row * n + j] * scale; };
+    const auto at = [&](const std::vector<double>& v, size_t row) {
+      return v[row * n + j] * scale;
+    };
     // The last move: from the last change of the goal.
     size_t begin = 0;
     for (size_t row = 1; row < rows; ++row) {
@@ -114,9 +116,8 @@ TaskMetrics ComputeMetrics(const core::RobotModel& model, const TaskRecord& reco
     const auto over = [&](const char* what, double value, const std::optional<double>& limit_value,
                           const std::string& value_unit) {
       if (limit_value && value > *limit_value) {
-        result.failed_checks.push_back(joint + what + " " + core::FormatApprox(value) +
-                                       value_unit + " > " + core::FormatNumber(*limit_value) +
-                                       value_unit);
+        result.failed_checks.push_back(joint + what + " " + core::FormatApprox(value) + value_unit +
+                                       " > " + core::FormatNumber(*limit_value) + value_unit);
       }
     };
     if (m.moves) {
@@ -134,7 +135,8 @@ TaskMetrics ComputeMetrics(const core::RobotModel& model, const TaskRecord& reco
           over("settling time", *m.settling_s, pass.settling_s, " s");
         }
       }
-      if (m.overshoot_percent) over("overshoot", *m.overshoot_percent, pass.overshoot_percent, " %");
+      if (m.overshoot_percent)
+        over("overshoot", *m.overshoot_percent, pass.overshoot_percent, " %");
     }
     over("steady-state error", m.steady_state, pass.steady_state_deg, unit);
     if (record.has_reference) {

@@ -4,9 +4,9 @@
 //  - the step: from where the joint was when its last move started (the last change of its goal)
 //    to the final goal; a joint "moves" when the step is at least 0.5 deg (0.5 mm);
 //  - rise time: 10 % to 90 % of the step; settling time: from the end of the
-//    reference's motion (the profile's end; the move's start for a process controller) until the joint
-//    stays within max(2 % of the step, 0.1 deg) of the goal; overshoot: the largest excursion past
-//    the goal, % of the step (only joints that move);
+//    reference's motion (the profile's end; the move's start for a process controller) until the
+//    joint stays within max(2 % of the step, 0.1 deg) of the goal; overshoot: the largest excursion
+//    past the goal, % of the step (only joints that move);
 //  - steady-state error: mean |goal - position| over the task's last 0.1 s (every joint);
 //  - tracking error: position - reference (the profile set-point the controller was given; the
 //    goal for a process controller), RMS and max over the task;
@@ -26,7 +26,7 @@ namespace sirupp::grade {
 
 struct JointMetrics {
   bool moves = false;
-  double step = 0;  // deg (mm), signed
+  double step = 0;                                              // deg (mm), signed
   std::optional<double> rise_s, settling_s, overshoot_percent;  // nullopt: not reached / n/a
   double steady_state = 0;                                      // deg (mm)
   double rms_tracking = 0, max_tracking = 0;                    // deg (mm)

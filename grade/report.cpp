@@ -93,10 +93,13 @@ std::string Plot(const std::string& out_dir, const Task& task, const TaskResult&
   spec.x_label = "time (s)";
   spec.y_label = "joint " + std::to_string(j + 1) + " (deg)";
   spec.series.push_back(series(student.record, student.record.reference,
-                               student.record.has_reference ? "set-point" : "goal", {120, 120, 120}));
-  spec.series.push_back(series(student.record, student.record.position, "controller", {200, 40, 40}));
+                               student.record.has_reference ? "set-point" : "goal",
+                               {120, 120, 120}));
+  spec.series.push_back(
+      series(student.record, student.record.position, "controller", {200, 40, 40}));
   if (baseline != nullptr && baseline->ended.empty() && baseline->record.ticks() > 1) {
-    spec.series.push_back(series(baseline->record, baseline->record.position, "baseline", {40, 80, 200}));
+    spec.series.push_back(
+        series(baseline->record, baseline->record.position, "baseline", {40, 80, 200}));
   }
   const std::string file = "plots/" + task.name + ".png";
   std::filesystem::create_directories(out_dir + "/plots");
@@ -171,8 +174,9 @@ std::string WriteReport(const std::string& out_dir, const Suite& suite,
     const TaskResult* b = baseline != nullptr ? &baseline->tasks[t] : nullptr;
     md << "\n## " << task.name << ": " << Status(s);
     if (b != nullptr) md << " (baseline: " << Status(*b) << ")";
-    md << "\n\n" << task.description << "; " << core::FormatNumber(task.duration_s)
-       << " s (suite line " << task.line << ").\n\n";
+    md << "\n\n"
+       << task.description << "; " << core::FormatNumber(task.duration_s) << " s (suite line "
+       << task.line << ").\n\n";
     if (!s.ended.empty()) md << "Ended early: " << s.ended << "\n\n";
     for (const std::string& check : s.metrics.failed_checks) md << "- failed: " << check << "\n";
     if (!s.metrics.failed_checks.empty()) md << "\n";
@@ -184,12 +188,15 @@ std::string WriteReport(const std::string& out_dir, const Suite& suite,
     for (size_t j = 0; j < n; ++j) {
       const auto pair = [&](auto get) {
         const std::string left = s.ended.empty() ? get(s.metrics.joints[j]) : "—";
-        const std::string right = b != nullptr && b->ended.empty() ? get(b->metrics.joints[j]) : "—";
+        const std::string right =
+            b != nullptr && b->ended.empty() ? get(b->metrics.joints[j]) : "—";
         return left + " / " + right;
       };
-      md << "| " << j + 1 << (s.ended.empty() && s.metrics.joints[j].moves ? " (moves)" : "") << " | "
-         << pair([](const JointMetrics& m) { return m.moves ? Cell(m.rise_s, 3) : "—"; }) << " | "
-         << pair([](const JointMetrics& m) { return m.moves ? Cell(m.settling_s, 3, "never") : "—"; })
+      md << "| " << j + 1 << (s.ended.empty() && s.metrics.joints[j].moves ? " (moves)" : "")
+         << " | " << pair([](const JointMetrics& m) { return m.moves ? Cell(m.rise_s, 3) : "—"; })
+         << " | " << pair([](const JointMetrics& m) {
+              return m.moves ? Cell(m.settling_s, 3, "never") : "—";
+            })
          << " | "
          << pair([](const JointMetrics& m) { return m.moves ? Cell(m.overshoot_percent, 1) : "—"; })
          << " | " << pair([](const JointMetrics& m) { return Fixed(m.steady_state, 3); }) << " | "
@@ -230,12 +237,14 @@ void WriteClassTable(const std::string& out_dir, const Suite& suite,
   };
   std::ostringstream csv, md;
   csv << "submission,score,passed,tasks,failed_tasks,problem\n";
-  md << "# Class table: suite " << suite.name << "\n\n| submission | score | passed | failed tasks "
+  md << "# Class table: suite " << suite.name
+     << "\n\n| submission | score | passed | failed tasks "
         "| problem |\n|---|---|---|---|---|\n";
   const auto row = [&](const std::string& name, const ControllerResult& result,
                        const std::string& problem) {
     std::string failed;
-    for (const std::string& task : result.FailedTasks()) failed += (failed.empty() ? "" : " ") + task;
+    for (const std::string& task : result.FailedTasks())
+      failed += (failed.empty() ? "" : " ") + task;
     const std::string score = problem.empty() ? Fixed(result.score(), 1) : "";
     const std::string passed = problem.empty() ? std::to_string(result.passed()) : "";
     csv << csv_field(name) << "," << score << "," << passed << "," << suite.tasks.size() << ","

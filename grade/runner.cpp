@@ -53,7 +53,8 @@ std::vector<std::string> ExpandCommand(const std::vector<std::string>& command,
     }
     std::string text = word;
     const auto replace = [&text](const std::string& key, const std::string& value) {
-      for (size_t at = text.find(key); at != std::string::npos; at = text.find(key, at + value.size())) {
+      for (size_t at = text.find(key); at != std::string::npos;
+           at = text.find(key, at + value.size())) {
         text.replace(at, key.size(), value);
       }
     };
@@ -80,8 +81,8 @@ TaskRecord RunTask(const Suite& suite, const core::RobotModel& model, const Task
   std::vector<double> position(expected * n, 0.0), reference(expected * n, 0.0),
       goal(expected * n, 0.0), effort(expected * n, 0.0);
   std::vector<char> have_state(expected, 0), have_command(expected, 0), have_setpoint(expected, 0);
-  int64_t last_state = -1;     // newest tick whose state arrived
-  int64_t answered = -1;       // newest tick the grader answered
+  int64_t last_state = -1;       // newest tick whose state arrived
+  int64_t answered = -1;         // newest tick the grader answered
   int64_t controller_tick = -1;  // newest tick the controller answered
   std::string failure;
   Clock::time_point progress = Clock::now();
@@ -91,7 +92,8 @@ TaskRecord RunTask(const Suite& suite, const core::RobotModel& model, const Task
   const core::Channels channels;
   const auto answer = [&](int64_t tick) {
     sirupp::arm_command_t command{};
-    command.utime = static_cast<int64_t>(std::llround(static_cast<double>(tick) * model.servo_tick_s * 1e6));
+    command.utime =
+        static_cast<int64_t>(std::llround(static_cast<double>(tick) * model.servo_tick_s * 1e6));
     command.seq = tick;
     command.tick = tick;
     command.sender = kGraderName;
@@ -108,30 +110,35 @@ TaskRecord RunTask(const Suite& suite, const core::RobotModel& model, const Task
   const auto may_answer = [&](int64_t tick) {
     return tick > 0 || !via_control || driver.PlanAccepted(task.plan_name);
   };
-  bus.Subscribe<sirupp::arm_state_t>(
-      channels.sim_arm_state, [&](const sirupp::arm_state_t& m, const core::ReceiveInfo&) {
-        if (m.tick < 0 || static_cast<size_t>(m.tick) >= expected ||
-            m.num_joints != model.num_joints()) {
-          return;
-        }
-        const auto row = static_cast<size_t>(m.tick);
-        if (m.tick > last_state) {
-          last_state = m.tick;
-          progress = Clock::now();
-          have_state[row] = 1;
-          std::copy(m.position.begin(), m.position.end(), position.begin() + static_cast<long>(row * n));
-        }
-        // A state sent again (the sim's lockstep timeout) is answered again.
-        if (m.tick == last_state && may_answer(m.tick)) answer(m.tick);
-      });
+  bus.Subscribe<sirupp::arm_state_t>(channels.sim_arm_state,
+                                     [&](const sirupp::arm_state_t& m, const core::ReceiveInfo&) {
+                                       if (m.tick < 0 || static_cast<size_t>(m.tick) >= expected ||
+                                           m.num_joints != model.num_joints()) {
+                                         return;
+                                       }
+                                       const auto row = static_cast<size_t>(m.tick);
+                                       if (m.tick > last_state) {
+                                         last_state = m.tick;
+                                         progress = Clock::now();
+                                         have_state[row] = 1;
+                                         std::copy(m.position.begin(), m.position.end(),
+                                                   position.begin() + static_cast<long>(row * n));
+                                       }
+                                       // A state sent again (the sim's lockstep timeout) is
+                                       // answered again.
+                                       if (m.tick == last_state && may_answer(m.tick))
+                                         answer(m.tick);
+                                     });
   bus.Subscribe<sirupp::arm_command_t>(
       channels.sim_arm_command, [&](const sirupp::arm_command_t& m, const core::ReceiveInfo&) {
-        if (m.sender != participant || m.tick < 0 || static_cast<size_t>(m.tick) >= expected) return;
+        if (m.sender != participant || m.tick < 0 || static_cast<size_t>(m.tick) >= expected)
+          return;
         const auto row = static_cast<size_t>(m.tick);
         controller_tick = std::max(controller_tick, m.tick);
         if (have_command[row] != 0) return;
         have_command[row] = 1;
-        if (m.mode != sirupp::arm_command_t::MODE_EFFORT || m.num_joints != model.num_joints()) return;
+        if (m.mode != sirupp::arm_command_t::MODE_EFFORT || m.num_joints != model.num_joints())
+          return;
         for (size_t j = 0; j < n; ++j) {
           const double e = m.effort[j];
           if (!std::isfinite(e) && failure.empty()) {
@@ -145,13 +152,15 @@ TaskRecord RunTask(const Suite& suite, const core::RobotModel& model, const Task
       });
   bus.Subscribe<sirupp::servo_setpoint_t>(
       channels.arm_setpoint, [&](const sirupp::servo_setpoint_t& m, const core::ReceiveInfo&) {
-        if (m.tick < 0 || static_cast<size_t>(m.tick) >= expected || m.num_joints != model.num_joints()) {
+        if (m.tick < 0 || static_cast<size_t>(m.tick) >= expected ||
+            m.num_joints != model.num_joints()) {
           return;
         }
         const auto row = static_cast<size_t>(m.tick);
         if (have_setpoint[row] != 0) return;
         have_setpoint[row] = 1;
-        std::copy(m.position.begin(), m.position.end(), reference.begin() + static_cast<long>(row * n));
+        std::copy(m.position.begin(), m.position.end(),
+                  reference.begin() + static_cast<long>(row * n));
         std::copy(m.goal.begin(), m.goal.end(), goal.begin() + static_cast<long>(row * n));
       });
 
@@ -160,8 +169,13 @@ TaskRecord RunTask(const Suite& suite, const core::RobotModel& model, const Task
   std::vector<std::string> control_argv;
   const std::string url = options.lcm_url;
   if (via_control) {
-    control_argv = {options.bin_dir + "/sirupp-control", "--model", suite.model_file,
-                    "--lcm-url", url, "--sim-timeout", "3600"};
+    control_argv = {options.bin_dir + "/sirupp-control",
+                    "--model",
+                    suite.model_file,
+                    "--lcm-url",
+                    url,
+                    "--sim-timeout",
+                    "3600"};
     if (controller.kind == ControllerSpec::Kind::kLibrary) {
       control_argv.insert(control_argv.end(),
                           {"--controller", controller.library, "--controller-tick-limit",
@@ -173,17 +187,28 @@ TaskRecord RunTask(const Suite& suite, const core::RobotModel& model, const Task
   } else {
     control_argv = ExpandCommand(controller.command, model, task, url, participant);
   }
-  std::vector<std::string> sim_argv = {options.bin_dir + "/sirupp-sim", "--model", suite.model_file,
-                                       "--lcm-url", url, "--mode", "lockstep", "--participants",
-                                       participant, kGraderName, "--duration",
-                                       core::FormatNumber(task.duration_s), "--lockstep-timeout",
-                                       "1", "--position"};
+  std::vector<std::string> sim_argv = {options.bin_dir + "/sirupp-sim",
+                                       "--model",
+                                       suite.model_file,
+                                       "--lcm-url",
+                                       url,
+                                       "--mode",
+                                       "lockstep",
+                                       "--participants",
+                                       participant,
+                                       kGraderName,
+                                       "--duration",
+                                       core::FormatNumber(task.duration_s),
+                                       "--lockstep-timeout",
+                                       "1",
+                                       "--position"};
   for (size_t j = 0; j < n; ++j) sim_argv.push_back(FileUnits(model, j, task.start[j]));
   if (task.arm.payload_kg > 0) {
     sim_argv.insert(sim_argv.end(), {"--payload-kg", core::FormatNumber(task.arm.payload_kg)});
   }
   if (task.arm.friction_scale != 1) {
-    sim_argv.insert(sim_argv.end(), {"--friction-scale", core::FormatNumber(task.arm.friction_scale)});
+    sim_argv.insert(sim_argv.end(),
+                    {"--friction-scale", core::FormatNumber(task.arm.friction_scale)});
   }
   if (task.arm.gravity_off) sim_argv.push_back("--gravity-off");
 

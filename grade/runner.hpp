@@ -49,13 +49,13 @@ struct TaskRecord {
   std::string failure;     // why it ended early ("" when completed)
   int num_joints = 0;
   double tick_s = 0;
-  bool has_reference = false;       // set-points recorded (sirupp-control), else the goal
-  std::vector<double> time_s;       // per tick
-  std::vector<double> position;     // tick-major, num_joints per tick
-  std::vector<double> reference;    // set-point position (or the goal)
-  std::vector<double> goal;         // the goal of the present move (or the task's goal)
-  std::vector<double> effort;       // the controller's effort, after the limits
-  int64_t missing_rows = 0;         // ticks without the controller's answer or set-point heard
+  bool has_reference = false;     // set-points recorded (sirupp-control), else the goal
+  std::vector<double> time_s;     // per tick
+  std::vector<double> position;   // tick-major, num_joints per tick
+  std::vector<double> reference;  // set-point position (or the goal)
+  std::vector<double> goal;       // the goal of the present move (or the task's goal)
+  std::vector<double> effort;     // the controller's effort, after the limits
+  int64_t missing_rows = 0;       // ticks without the controller's answer or set-point heard
   size_t ticks() const { return time_s.size(); }
 };
 

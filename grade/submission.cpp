@@ -47,7 +47,8 @@ FoundController FindSubmission(const std::string& folder, const std::string& inc
     std::istringstream words(FirstLine(dir / "command"));
     found.spec.kind = ControllerSpec::Kind::kProcess;
     for (std::string word; words >> word;) {
-      found.spec.command.push_back(word.rfind("./", 0) == 0 ? (dir / word.substr(2)).string() : word);
+      found.spec.command.push_back(word.rfind("./", 0) == 0 ? (dir / word.substr(2)).string()
+                                                            : word);
     }
     if (found.spec.command.empty()) found.problem = "the file 'command' is empty";
     found.spec.label = name;
@@ -68,8 +69,8 @@ FoundController FindSubmission(const std::string& folder, const std::string& inc
   }
   fs::create_directories(build_dir);
   const std::string library = (fs::absolute(build_dir) / (name + ".so")).string();
-  std::vector<std::string> argv = {"g++", "-std=c++17", "-O2", "-shared", "-fPIC",
-                                   "-I", include_dir};
+  std::vector<std::string> argv = {"g++",   "-std=c++17", "-O2",      "-shared",
+                                   "-fPIC", "-I",         include_dir};
   for (const fs::path& source : sources) argv.push_back(source.string());
   argv.insert(argv.end(), {"-o", library});
   const std::string log = (fs::absolute(build_dir) / (name + ".build.log")).string();
@@ -91,8 +92,8 @@ FoundController FindSubmission(const std::string& folder, const std::string& inc
     }
     const std::string where = dir.string() + "/";
     if (first.rfind(where, 0) == 0) first = first.substr(where.size());
-    found.problem = "does not build (g++ " + compiler.HowEnded() + "): " +
-                    (first.empty() ? compiler.LogTail(1) : first);
+    found.problem = "does not build (g++ " + compiler.HowEnded() +
+                    "): " + (first.empty() ? compiler.LogTail(1) : first);
     return found;
   }
   found.spec.library = library;

@@ -20,9 +20,9 @@ double ToSi(const core::RobotModel& model, size_t j, double value) {
 }
 
 Thresholds ReadThresholds(const core::YamlValue& value, Thresholds base) {
-  const core::YamlMap map = value.Map({"rise_s", "settling_s", "overshoot_percent",
-                                       "steady_state_deg", "rms_tracking_deg", "max_tracking_deg",
-                                       "saturated_s"});
+  const core::YamlMap map =
+      value.Map({"rise_s", "settling_s", "overshoot_percent", "steady_state_deg",
+                 "rms_tracking_deg", "max_tracking_deg", "saturated_s"});
   const auto read = [&map](const char* key, std::optional<double>& into) {
     if (map.Has(key)) into = map.Number(key, core::NonNegativeNumber());
   };
@@ -37,9 +37,9 @@ Thresholds ReadThresholds(const core::YamlValue& value, Thresholds base) {
 }
 
 int ReadJoint(const core::YamlMap& map, const core::RobotModel& model) {
-  return static_cast<int>(map.Get("joint", "a joint number 1.." +
-                                               std::to_string(model.num_joints()))
-                              .Integer(1, model.num_joints())) -
+  return static_cast<int>(
+             map.Get("joint", "a joint number 1.." + std::to_string(model.num_joints()))
+                 .Integer(1, model.num_joints())) -
          1;
 }
 
@@ -56,8 +56,9 @@ Task ReadTask(const core::YamlValue& value, const core::RobotModel& model,
   task.name = map.String("name");
   for (char c : task.name) {
     if (!(std::isalnum(static_cast<unsigned char>(c)) || c == '_' || c == '-')) {
-      map.Get("name", "").Fail("task name '" + task.name +
-                               "': allowed letters, digits, '_' and '-' (it names files)");
+      map.Get("name", "")
+          .Fail("task name '" + task.name +
+                "': allowed letters, digits, '_' and '-' (it names files)");
     }
   }
   const size_t n = static_cast<size_t>(model.num_joints());
@@ -69,8 +70,9 @@ Task ReadTask(const core::YamlValue& value, const core::RobotModel& model,
       task.start[j] = ToSi(model, j, start[j]);
       if (task.start[j] < model.joints[j].position_min ||
           task.start[j] > model.joints[j].position_max) {
-        map.Get("start_deg", "").Fail("joint " + std::to_string(j + 1) + " start " +
-                                      Number(start[j]) + " is outside the joint's limits");
+        map.Get("start_deg", "")
+            .Fail("joint " + std::to_string(j + 1) + " start " + Number(start[j]) +
+                  " is outside the joint's limits");
       }
     }
   }
@@ -96,11 +98,13 @@ Task ReadTask(const core::YamlValue& value, const core::RobotModel& model,
     task.plan_text = control::ReadPlanText(resolve(written));
     task.description = "plan " + written;
   } else if (task.kind == "step") {
-    const core::YamlMap step = map.Get("step", "a mapping").Map({"joint", "to_deg", "speed_percent"});
+    const core::YamlMap step =
+        map.Get("step", "a mapping").Map({"joint", "to_deg", "speed_percent"});
     const int joint = ReadJoint(step, model);
     const double to = step.Number("to_deg", core::AnyNumber("deg"));
     const double speed = step.NumberOr("speed_percent", 100, core::NumberInRange(1, 100, "%"));
-    plan << "move j" << joint + 1 << "=" << Number(to) << " speed=" << Number(speed) << "%\nwait done\n";
+    plan << "move j" << joint + 1 << "=" << Number(to) << " speed=" << Number(speed)
+         << "%\nwait done\n";
     task.plan_name = task.name;
     task.plan_text = plan.str();
     task.description = "step joint " + std::to_string(joint + 1) + " to " + Number(to) + " deg";
@@ -112,8 +116,8 @@ Task ReadTask(const core::YamlValue& value, const core::RobotModel& model,
     task.plan_text = plan.str();
     task.description = "hold the start pose";
   } else {
-    const core::YamlMap track = map.Get("track", "a mapping")
-                                    .Map({"joint", "amplitude_deg", "cycles", "speed_percent"});
+    const core::YamlMap track =
+        map.Get("track", "a mapping").Map({"joint", "amplitude_deg", "cycles", "speed_percent"});
     const int joint = ReadJoint(track, model);
     const double amplitude = track.Number("amplitude_deg", core::NumberInRange(0.5, 180, "deg"));
     const auto cycles = track.Get("cycles", "a whole number 1..20").Integer(1, 20);
@@ -143,7 +147,8 @@ Task ReadTask(const core::YamlValue& value, const core::RobotModel& model,
         map.Get("arm", "a mapping").Map({"payload_kg", "friction_scale", "gravity"});
     task.arm.payload_kg = arm.NumberOr("payload_kg", 0, core::NumberInRange(0, 50, "kg"));
     task.arm.friction_scale = arm.NumberOr("friction_scale", 1, core::NumberInRange(0, 20));
-    if (arm.Has("gravity")) task.arm.gravity_off = arm.Get("gravity", "").Choice({"on", "off"}) == "off";
+    if (arm.Has("gravity"))
+      task.arm.gravity_off = arm.Get("gravity", "").Choice({"on", "off"}) == "off";
     task.description += "; arm: " + task.arm.Describe();
   }
   if (map.Has("disturbance")) {
@@ -189,10 +194,14 @@ Suite ParseSuite(const std::string& text, const std::string& name,
   suite.model_file = resolve(map.StringOr("model", "config/robots/puma260.yaml"));
   const core::RobotModel model = core::LoadRobotModel(suite.model_file);
   if (map.Has("limits")) {
-    const core::YamlMap limits = map.Get("limits", "a mapping").Map({"tick_s", "start_s", "task_s"});
-    suite.limits.tick_s = limits.NumberOr("tick_s", suite.limits.tick_s, core::NumberInRange(0.01, 60, "s"));
-    suite.limits.start_s = limits.NumberOr("start_s", suite.limits.start_s, core::NumberInRange(1, 600, "s"));
-    suite.limits.task_s = limits.NumberOr("task_s", suite.limits.task_s, core::NumberInRange(1, 3600, "s"));
+    const core::YamlMap limits =
+        map.Get("limits", "a mapping").Map({"tick_s", "start_s", "task_s"});
+    suite.limits.tick_s =
+        limits.NumberOr("tick_s", suite.limits.tick_s, core::NumberInRange(0.01, 60, "s"));
+    suite.limits.start_s =
+        limits.NumberOr("start_s", suite.limits.start_s, core::NumberInRange(1, 600, "s"));
+    suite.limits.task_s =
+        limits.NumberOr("task_s", suite.limits.task_s, core::NumberInRange(1, 3600, "s"));
   }
   Thresholds defaults;
   if (map.Has("pass")) defaults = ReadThresholds(map.Get("pass", "a mapping"), defaults);

@@ -31,22 +31,22 @@ struct Thresholds {
 // A torque added to one joint's effort by a second lockstep participant (the grader itself)
 // while from_s <= t < to_s.
 struct Disturbance {
-  int joint = 0;  // 0-based
+  int joint = 0;      // 0-based
   double effort = 0;  // N*m (N for a prismatic joint)
   double from_s = 0, to_s = 0;
 };
 
 struct Task {
   std::string name;
-  int line = 0;                 // where the task starts in the suite file
-  std::string kind;             // "plan", "step", "hold" or "track"
-  std::string description;      // one line for the report, e.g. "plan config/plans/set1.plan"
-  std::string plan_name;        // the name the plan runs under (ARM_PLAN)
-  std::string plan_text;        // what sirupp-control runs (generated for step, hold and track)
-  std::vector<double> start;    // rad or m, one per joint
-  std::vector<double> goal;     // where the plan leaves each joint, rad or m
-  double duration_s = 0;        // simulated time
-  sim::ModelChange arm;         // the simulated arm's change
+  int line = 0;               // where the task starts in the suite file
+  std::string kind;           // "plan", "step", "hold" or "track"
+  std::string description;    // one line for the report, e.g. "plan config/plans/set1.plan"
+  std::string plan_name;      // the name the plan runs under (ARM_PLAN)
+  std::string plan_text;      // what sirupp-control runs (generated for step, hold and track)
+  std::vector<double> start;  // rad or m, one per joint
+  std::vector<double> goal;   // where the plan leaves each joint, rad or m
+  double duration_s = 0;      // simulated time
+  sim::ModelChange arm;       // the simulated arm's change
   std::optional<Disturbance> disturbance;
   Thresholds pass;
 };
@@ -61,8 +61,8 @@ struct Suite {
   std::string file;
   std::string name;
   std::string description;
-  std::string model_file;  // as resolved
-  std::string source_hash; // FNV-1a of the suite file's bytes
+  std::string model_file;   // as resolved
+  std::string source_hash;  // FNV-1a of the suite file's bytes
   Limits limits;
   std::vector<Task> tasks;
 };

@@ -24,7 +24,8 @@ constexpr const char* kUsage =
     "                  [--participants NAME...] [--step SECONDS] [--state-every N]\n"
     "                  [--lockstep-timeout SECONDS] [--watchdog SECONDS] [--duration SECONDS]\n"
     "                  [--idle hold|limp] [--pose NAME | --position VALUES...] [--no-friction]\n"
-    "                  [--payload-kg KG] [--friction-scale S] [--gravity-off] [--lcm-url URL] [--prefix PREFIX] [--rt-priority N]\n"
+    "                  [--payload-kg KG] [--friction-scale S] [--gravity-off] [--lcm-url URL] "
+    "[--prefix PREFIX] [--rt-priority N]\n"
     "The ODE physics of a robot model: takes SIM_ARM_COMMAND, publishes SIM_ARM_STATE every tick,\n"
     "ROBOT_MODEL and ENVIRONMENT at 1 Hz and HEARTBEAT. Positions for --position are in the model\n"
     "file's angle unit. Defaults: config/robots/puma260.yaml, lockstep with participant\n"
@@ -74,7 +75,8 @@ int Run(const std::vector<std::string>& argv) {
   } catch (const std::invalid_argument& error) {
     throw sirupp::core::UsageError(std::string("sirupp-sim: ") + error.what());
   }
-  if (!change.empty()) std::cerr << "sirupp-sim: simulated arm changed: " << change.Describe() << "\n";
+  if (!change.empty())
+    std::cerr << "sirupp-sim: simulated arm changed: " << change.Describe() << "\n";
   sirupp::core::Environment environment;
   if (args.Has("environment")) {
     environment =

@@ -134,9 +134,9 @@ int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostre
     for (const fs::path& folder : folders) {
       grade::Submission submission;
       submission.name = folder.filename().string();
-      const grade::FoundController found = grade::FindSubmission(
-          folder.string(), std::string(SIRUPP_SOURCE_DIR) + "/include",
-          (fs::absolute(out_dir) / "build").string());
+      const grade::FoundController found =
+          grade::FindSubmission(folder.string(), std::string(SIRUPP_SOURCE_DIR) + "/include",
+                                (fs::absolute(out_dir) / "build").string());
       submission.problem = found.problem;
       if (found.problem.empty()) {
         graded.push_back(controllers.size());
@@ -166,13 +166,14 @@ int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostre
     grade::Submission& submission = submissions[i];
     submission.result = results[graded[i]];
     submission.problem = LoadProblem(submission.result);
-    const std::string hash = grade::WriteReport(out_dir + "/" + submission.name, suite, model,
-                                                submission.result, base);
+    const std::string hash =
+        grade::WriteReport(out_dir + "/" + submission.name, suite, model, submission.result, base);
     out << grade::SummaryLine(suite, submission.result, base, hash) << "\n";
   }
   grade::WriteClassTable(out_dir, suite, submissions, base);
   for (const grade::Submission& submission : submissions) {
-    if (!submission.problem.empty()) err << "grade: " << submission.name << ": " << submission.problem << "\n";
+    if (!submission.problem.empty())
+      err << "grade: " << submission.name << ": " << submission.problem << "\n";
   }
   out << "grade: class table " << out_dir << "/class.csv and class.md (" << submissions.size()
       << " submissions)\n";

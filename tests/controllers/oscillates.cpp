@@ -11,8 +11,8 @@ class Oscillates : public sirupp::Controller {
     const int n = s.num_joints;
     for (int j = 0; j < n; ++j) {
       const double inertia = s.mass_matrix[j * n + j];
-      effort[j] = s.gravity_effort[j] + inertia * (2500 * (s.setpoint_position[j] - s.position[j]) +
-                                                   20 * s.velocity[j]);
+      effort[j] = s.gravity_effort[j] +
+                  inertia * (2500 * (s.setpoint_position[j] - s.position[j]) + 20 * s.velocity[j]);
     }
   }
 };
