@@ -10,6 +10,7 @@
 #include "core/errors.hpp"
 #include "core/model_loader.hpp"
 #include "sim/arm_world.hpp"
+#include "sim/model_change.hpp"
 #include "sim/sim_node.hpp"
 #include "tools/args.hpp"
 #include "tools/cli.hpp"
@@ -23,7 +24,8 @@ constexpr const char* kUsage =
     "                  [--participants NAME...] [--step SECONDS] [--state-every N]\n"
     "                  [--lockstep-timeout SECONDS] [--watchdog SECONDS] [--duration SECONDS]\n"
     "                  [--idle hold|limp] [--pose NAME | --position VALUES...] [--no-friction]\n"
-    "                  [--lcm-url URL] [--prefix PREFIX] [--rt-priority N]\n"
+    "                  [--payload-kg KG] [--friction-scale S] [--gravity-off] [--lcm-url URL] "
+    "[--prefix PREFIX] [--rt-priority N]\n"
     "The ODE physics of a robot model: takes SIM_ARM_COMMAND, publishes SIM_ARM_STATE every tick,\n"
     "ROBOT_MODEL and ENVIRONMENT at 1 Hz and HEARTBEAT. Positions for --position are in the model\n"
     "file's angle unit. Defaults: config/robots/puma260.yaml, lockstep with participant\n"
@@ -32,7 +34,9 @@ constexpr const char* kUsage =
     "time slips rather than the physics when the PC cannot keep up); freerun = paced, the newest\n"
     "command of any sender held (opt-in; stale efforts under load). docs/timing.md.\n"
     "--rt-priority N: run under SCHED_FIFO at priority N (1..99; needs root or CAP_SYS_NICE), so\n"
-    "realtime ticks start on time on a busy machine (docs/timing.md).\n";
+    "realtime ticks start on time on a busy machine (docs/timing.md).\n"
+    "--payload-kg, --friction-scale, --gravity-off change the simulated arm only (a point mass at\n"
+    "the tool point, every friction effort scaled, no gravity); controllers keep their model.\n";
 
 int Run(const std::vector<std::string>& argv) {
   using sirupp::tools::Args;
@@ -52,13 +56,27 @@ int Run(const std::vector<std::string>& argv) {
                    {"pose", "named pose to start in"},
                    {"position", "start positions, in the model file's angle unit"},
                    {"no-friction", "switch joint friction off"},
+                   {"payload-kg", "point mass at the tool point, kg"},
+                   {"friction-scale", "scale every friction effort"},
+                   {"gravity-off", "no gravity"},
                    {"lcm-url", "LCM URL"},
                    {"prefix", "channel prefix of the rig"},
                    {"rt-priority", "SCHED_FIFO priority 1..99 (0: off)"}});
   const int rt_priority = sirupp::tools::RtPriorityArg(args, "sirupp-sim");
   const std::string model_file = sirupp::tools::ResolveDataPath(
       args.Has("model") ? args.String("model") : "config/robots/puma260.yaml");
-  const sirupp::core::RobotModel model = sirupp::core::LoadRobotModel(model_file);
+  sirupp::core::RobotModel model = sirupp::core::LoadRobotModel(model_file);
+  sirupp::sim::ModelChange change;
+  if (args.Has("payload-kg")) change.payload_kg = args.Numbers("payload-kg", 1)[0];
+  if (args.Has("friction-scale")) change.friction_scale = args.Numbers("friction-scale", 1)[0];
+  change.gravity_off = args.Switch("gravity-off");
+  try {
+    sirupp::sim::ApplyModelChange(model, change);
+  } catch (const std::invalid_argument& error) {
+    throw sirupp::core::UsageError(std::string("sirupp-sim: ") + error.what());
+  }
+  if (!change.empty())
+    std::cerr << "sirupp-sim: simulated arm changed: " << change.Describe() << "\n";
   sirupp::core::Environment environment;
   if (args.Has("environment")) {
     environment =

@@ -15,6 +15,7 @@
 #include "tools/demo_commands.hpp"
 #include "tools/environment_commands.hpp"
 #include "tools/export_commands.hpp"
+#include "tools/grade_commands.hpp"
 #include "tools/hardware_commands.hpp"
 #include "tools/kinematics_commands.hpp"
 #include "tools/launch_commands.hpp"
@@ -67,6 +68,7 @@ const char* const kUsage =
     "                             the bridge to the real arm (or sirupp-picservo-emu)\n"
     "  estop [--release]          emergency stop: real motors off, plans aborted\n"
     "  report FILE|DIR...         Table II report, CSV and plots of logger data files or LCM logs\n"
+    "  grade LIB.so --suite FILE  score a controller beside the PIC-SERVO baseline (--batch DIR)\n"
     "  replay LOG [--speed X]     play an lcm-logger file back onto the bus, original timing\n"
     "  view [--channel NAME]      show sirupp-viewer's images in a window (needs a display)\n"
     "  help                       this text\n"
@@ -172,6 +174,10 @@ int RunCli(const Args& args, std::ostream& out, std::ostream& err) {
     if (command == "report") {
       if (wants_help) return out << kReportUsage, kExitOk;
       return RunReport(rest, out, err);
+    }
+    if (command == "grade") {
+      if (wants_help) return out << kGradeUsage, kExitOk;
+      return RunGrade(rest, out, err);
     }
     if (command == "replay") {
       if (wants_help) return out << kReplayUsage, kExitOk;

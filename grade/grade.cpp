@@ -1,0 +1,116 @@
+#include "grade/grade.hpp"
+
+#include <unistd.h>
+
+#include <atomic>
+#include <filesystem>
+#include <mutex>
+#include <regex>
+#include <thread>
+
+namespace sirupp::grade {
+
+const char* const kBaselineLabel =
+    "baseline: PIC-SERVO PID (the model's gains: Kp 100, Kd 1000, Ki 0)";
+
+int ControllerResult::passed() const {
+  int count = 0;
+  for (const TaskResult& task : tasks) count += task.passed ? 1 : 0;
+  return count;
+}
+
+double ControllerResult::score() const {
+  return tasks.empty() ? 0 : 100.0 * passed() / static_cast<double>(tasks.size());
+}
+
+std::vector<std::string> ControllerResult::FailedTasks() const {
+  std::vector<std::string> names;
+  for (const TaskResult& task : tasks) {
+    if (!task.passed) names.push_back(task.task);
+  }
+  return names;
+}
+
+std::vector<ControllerResult> RunControllers(const Suite& suite, const core::RobotModel& model,
+                                             const std::vector<ControllerSpec>& controllers,
+                                             const GradeOptions& options) {
+  struct Job {
+    size_t controller, task;
+  };
+  std::vector<Job> jobs;
+  std::vector<ControllerResult> results(controllers.size());
+  for (size_t c = 0; c < controllers.size(); ++c) {
+    results[c].label = controllers[c].label;
+    results[c].tasks.resize(suite.tasks.size());
+    for (size_t t = 0; t < suite.tasks.size(); ++t) {
+      results[c].tasks[t].task = suite.tasks[t].name;
+      jobs.push_back({c, t});
+    }
+  }
+  const int port_base =
+      options.port_base > 0 ? options.port_base : 20000 + static_cast<int>(::getpid() % 300) * 100;
+  std::atomic<size_t> next{0};
+  std::mutex mutex;
+  std::vector<char> load_failed(controllers.size(), 0);
+  const auto worker = [&] {
+    for (size_t i = next++; i < jobs.size(); i = next++) {
+      const Job job = jobs[i];
+      const Task& task = suite.tasks[job.task];
+      TaskResult& result = results[job.controller].tasks[job.task];
+      {
+        const std::lock_guard<std::mutex> lock(mutex);
+        if (load_failed[job.controller] != 0) {
+          result.ended = "not run: the controller could not be loaded";
+          continue;
+        }
+      }
+      RunOptions run;
+      run.bin_dir = options.bin_dir;
+      run.work_dir = options.work_dir + "/" + std::to_string(job.controller) + "_" + task.name;
+      std::filesystem::create_directories(run.work_dir);
+      // Its own port for each job (and each grader process): no task hears another.
+      run.lcm_url =
+          "udpm://239.255.76.67:" + std::to_string(port_base + static_cast<int>(i % 100)) +
+          "?ttl=0";
+      TaskRecord record = RunTask(suite, model, task, controllers[job.controller], run);
+      if (!record.completed) {
+        // Process ids differ from run to run; the reason must not.
+        static const std::regex pid(R"(process \d+)");
+        result.ended = std::regex_replace(record.failure, pid, "process");
+        if (controllers[job.controller].kind == ControllerSpec::Kind::kLibrary &&
+            record.failure.rfind("sirupp-control ended (exit code 2)", 0) == 0) {
+          const std::lock_guard<std::mutex> lock(mutex);
+          load_failed[job.controller] = 1;
+        }
+        continue;
+      }
+      result.metrics = ComputeMetrics(model, record, task.pass);
+      result.passed = result.metrics.passed();
+      result.record = std::move(record);
+    }
+  };
+  const int count = std::max(1, std::min<int>(options.jobs, static_cast<int>(jobs.size())));
+  std::vector<std::thread> threads;
+  for (int k = 1; k < count; ++k) threads.emplace_back(worker);
+  worker();
+  for (std::thread& thread : threads) thread.join();
+  // A library that does not load fails every task the same way, however many ran before the
+  // first failure was seen (the same results for any -j).
+  for (size_t c = 0; c < controllers.size(); ++c) {
+    if (load_failed[c] == 0) continue;
+    std::string reason;
+    for (const TaskResult& task : results[c].tasks) {
+      if (reason.empty() && task.ended.rfind("sirupp-control ended (exit code 2)", 0) == 0) {
+        reason = task.ended;
+      }
+    }
+    for (TaskResult& task : results[c].tasks) {
+      task = TaskResult{};
+      task.task = suite.tasks[static_cast<size_t>(&task - results[c].tasks.data())].name;
+      task.ended = "the controller could not be loaded: " + reason;
+    }
+  }
+  return results;
+}
+
+}  // namespace sirupp::grade

@@ -1,0 +1,320 @@
+#include "grade/runner.hpp"
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <sirupp/arm_command_t.hpp>
+#include <sirupp/arm_state_t.hpp>
+#include <sirupp/servo_setpoint_t.hpp>
+
+#include "core/bus.hpp"
+#include "core/channels.hpp"
+#include "core/errors.hpp"
+#include "grade/child.hpp"
+#include "grade/driver.hpp"
+
+namespace sirupp::grade {
+namespace {
+
+using Clock = std::chrono::steady_clock;
+constexpr const char* kGraderName = "sirupp-grade";
+constexpr double kPi = 3.14159265358979323846;
+
+double Since(Clock::time_point start) {
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// Values in the model file's units (deg or rad, and its length unit), as sirupp-sim's
+// --position takes them.
+std::string FileUnits(const core::RobotModel& model, size_t j, double si) {
+  if (model.joints[j].type == core::JointType::kRevolute) {
+    return core::FormatNumber(model.file_angle_unit == "deg" ? si * 180 / kPi : si);
+  }
+  return core::FormatNumber(si / model.file_length_unit_m);
+}
+
+// Degrees (mm) for placeholders.
+std::string Degrees(const core::RobotModel& model, size_t j, double si) {
+  return core::FormatNumber(model.joints[j].type == core::JointType::kRevolute ? si * 180 / kPi
+                                                                               : si * 1000);
+}
+
+}  // namespace
+
+std::vector<std::string> ExpandCommand(const std::vector<std::string>& command,
+                                       const core::RobotModel& model, const Task& task,
+                                       const std::string& url, const std::string& name) {
+  std::vector<std::string> out;
+  for (const std::string& word : command) {
+    if (word == "{goal_deg}" || word == "{start_deg}") {
+      const std::vector<double>& values = word == "{goal_deg}" ? task.goal : task.start;
+      for (size_t j = 0; j < values.size(); ++j) out.push_back(Degrees(model, j, values[j]));
+      continue;
+    }
+    std::string text = word;
+    const auto replace = [&text](const std::string& key, const std::string& value) {
+      for (size_t at = text.find(key); at != std::string::npos;
+           at = text.find(key, at + value.size())) {
+        text.replace(at, key.size(), value);
+      }
+    };
+    replace("{url}", url);
+    replace("{name}", name);
+    replace("{duration_s}", core::FormatNumber(task.duration_s));
+    out.push_back(text);
+  }
+  return out;
+}
+
+TaskRecord RunTask(const Suite& suite, const core::RobotModel& model, const Task& task,
+                   const ControllerSpec& controller, const RunOptions& options) {
+  const auto n = static_cast<size_t>(model.num_joints());
+  const bool via_control = controller.kind != ControllerSpec::Kind::kProcess;
+  const std::string participant = via_control ? "sirupp-control" : "student";
+  TaskRecord record;
+  record.num_joints = model.num_joints();
+  record.tick_s = model.servo_tick_s;
+  record.has_reference = via_control;
+
+  // Rows by tick, filled as the messages come.
+  const auto expected = static_cast<size_t>(std::ceil(task.duration_s / model.servo_tick_s)) + 4;
+  std::vector<double> position(expected * n, 0.0), reference(expected * n, 0.0),
+      goal(expected * n, 0.0), effort(expected * n, 0.0);
+  std::vector<char> have_state(expected, 0), have_command(expected, 0), have_setpoint(expected, 0);
+  int64_t last_state = -1;       // newest tick whose state arrived
+  int64_t answered = -1;         // newest tick the grader answered
+  int64_t controller_tick = -1;  // newest tick the controller answered
+  std::string failure;
+  Clock::time_point progress = Clock::now();
+
+  core::Bus bus(options.lcm_url);
+  PlanDriver driver(bus);
+  const core::Channels channels;
+  const auto answer = [&](int64_t tick) {
+    sirupp::arm_command_t command{};
+    command.utime =
+        static_cast<int64_t>(std::llround(static_cast<double>(tick) * model.servo_tick_s * 1e6));
+    command.seq = tick;
+    command.tick = tick;
+    command.sender = kGraderName;
+    command.mode = sirupp::arm_command_t::MODE_EFFORT;
+    command.num_joints = model.num_joints();
+    command.effort.assign(n, 0.0);
+    const double t = static_cast<double>(tick) * model.servo_tick_s;
+    if (task.disturbance && t >= task.disturbance->from_s && t < task.disturbance->to_s) {
+      command.effort[static_cast<size_t>(task.disturbance->joint)] = task.disturbance->effort;
+    }
+    bus.Publish(channels.sim_arm_command, command);
+    answered = std::max(answered, tick);
+  };
+  const auto may_answer = [&](int64_t tick) {
+    return tick > 0 || !via_control || driver.PlanAccepted(task.plan_name);
+  };
+  bus.Subscribe<sirupp::arm_state_t>(channels.sim_arm_state,
+                                     [&](const sirupp::arm_state_t& m, const core::ReceiveInfo&) {
+                                       if (m.tick < 0 || static_cast<size_t>(m.tick) >= expected ||
+                                           m.num_joints != model.num_joints()) {
+                                         return;
+                                       }
+                                       const auto row = static_cast<size_t>(m.tick);
+                                       if (m.tick > last_state) {
+                                         last_state = m.tick;
+                                         progress = Clock::now();
+                                         have_state[row] = 1;
+                                         std::copy(m.position.begin(), m.position.end(),
+                                                   position.begin() + static_cast<long>(row * n));
+                                       }
+                                       // A state sent again (the sim's lockstep timeout) is
+                                       // answered again.
+                                       if (m.tick == last_state && may_answer(m.tick))
+                                         answer(m.tick);
+                                     });
+  bus.Subscribe<sirupp::arm_command_t>(
+      channels.sim_arm_command, [&](const sirupp::arm_command_t& m, const core::ReceiveInfo&) {
+        if (m.sender != participant || m.tick < 0 || static_cast<size_t>(m.tick) >= expected)
+          return;
+        const auto row = static_cast<size_t>(m.tick);
+        controller_tick = std::max(controller_tick, m.tick);
+        if (have_command[row] != 0) return;
+        have_command[row] = 1;
+        if (m.mode != sirupp::arm_command_t::MODE_EFFORT || m.num_joints != model.num_joints())
+          return;
+        for (size_t j = 0; j < n; ++j) {
+          const double e = m.effort[j];
+          if (!std::isfinite(e) && failure.empty()) {
+            failure = "returned effort " + core::FormatNumber(e) + " for joint " +
+                      std::to_string(j + 1) + " at tick " + std::to_string(m.tick) +
+                      " (allowed: finite values)";
+          }
+          const double limit = model.joints[j].effort_max;
+          effort[row * n + j] = std::isfinite(e) ? std::clamp(e, -limit, limit) : 0.0;
+        }
+      });
+  bus.Subscribe<sirupp::servo_setpoint_t>(
+      channels.arm_setpoint, [&](const sirupp::servo_setpoint_t& m, const core::ReceiveInfo&) {
+        if (m.tick < 0 || static_cast<size_t>(m.tick) >= expected ||
+            m.num_joints != model.num_joints()) {
+          return;
+        }
+        const auto row = static_cast<size_t>(m.tick);
+        if (have_setpoint[row] != 0) return;
+        have_setpoint[row] = 1;
+        std::copy(m.position.begin(), m.position.end(),
+                  reference.begin() + static_cast<long>(row * n));
+        std::copy(m.goal.begin(), m.goal.end(), goal.begin() + static_cast<long>(row * n));
+      });
+
+  // The controller first (it must hear the first state), then the sim.
+  Child control, sim;
+  std::vector<std::string> control_argv;
+  const std::string url = options.lcm_url;
+  if (via_control) {
+    control_argv = {options.bin_dir + "/sirupp-control",
+                    "--model",
+                    suite.model_file,
+                    "--lcm-url",
+                    url,
+                    "--sim-timeout",
+                    "3600"};
+    if (controller.kind == ControllerSpec::Kind::kLibrary) {
+      control_argv.insert(control_argv.end(),
+                          {"--controller", controller.library, "--controller-tick-limit",
+                           core::FormatNumber(suite.limits.tick_s)});
+      if (!controller.args.empty()) {
+        control_argv.insert(control_argv.end(), {"--controller-args", controller.args});
+      }
+    }
+  } else {
+    control_argv = ExpandCommand(controller.command, model, task, url, participant);
+  }
+  std::vector<std::string> sim_argv = {options.bin_dir + "/sirupp-sim",
+                                       "--model",
+                                       suite.model_file,
+                                       "--lcm-url",
+                                       url,
+                                       "--mode",
+                                       "lockstep",
+                                       "--participants",
+                                       participant,
+                                       kGraderName,
+                                       "--duration",
+                                       core::FormatNumber(task.duration_s),
+                                       "--lockstep-timeout",
+                                       "1",
+                                       "--position"};
+  for (size_t j = 0; j < n; ++j) sim_argv.push_back(FileUnits(model, j, task.start[j]));
+  if (task.arm.payload_kg > 0) {
+    sim_argv.insert(sim_argv.end(), {"--payload-kg", core::FormatNumber(task.arm.payload_kg)});
+  }
+  if (task.arm.friction_scale != 1) {
+    sim_argv.insert(sim_argv.end(),
+                    {"--friction-scale", core::FormatNumber(task.arm.friction_scale)});
+  }
+  if (task.arm.gravity_off) sim_argv.push_back("--gravity-off");
+
+  const Clock::time_point start = Clock::now();
+  try {
+    control.Start(control_argv, options.work_dir + "/controller.log");
+    sim.Start(sim_argv, options.work_dir + "/sim.log");
+  } catch (const std::exception& error) {
+    record.failure = std::string("could not start the task's processes: ") + error.what();
+    return record;
+  }
+  progress = Clock::now();
+  bool plan_sent = false;
+  bool sim_done = false;
+  const double grace_s = via_control ? suite.limits.tick_s + 5 : suite.limits.tick_s;
+  while (failure.empty()) {
+    bus.Handle(10);
+    bus.HandleAvailable();
+    if (via_control && !plan_sent && controller_tick >= 0) {
+      driver.RunPlan(task.plan_name, task.plan_text);
+      plan_sent = true;
+    }
+    if (last_state == 0 && answered < 0 && may_answer(0)) answer(0);
+    if (via_control && !driver.Problem().empty()) {
+      if (driver.Faulted()) {
+        failure = "fault: " + driver.Problem();
+      } else if (plan_sent && !driver.PlanAccepted(task.plan_name)) {
+        failure = "the controller refused the plan: " + driver.Problem();
+      }
+      if (!failure.empty()) break;
+    }
+    if (!sim.Running()) {
+      sim_done = true;
+      // Messages still queued belong to the run.
+      while (bus.Handle(50) > 0) {
+      }
+      if (!sim.EndedCleanly()) {
+        failure = "sirupp-sim ended (" + sim.HowEnded() + "): " + sim.LogTail();
+      }
+      break;
+    }
+    if (!control.Running()) {
+      const std::string who = via_control ? "sirupp-control" : "the controller process";
+      failure = who + " ended (" + control.HowEnded() + ") at tick " +
+                std::to_string(std::max<int64_t>(last_state, 0)) + ": " + control.LogTail(2);
+      break;
+    }
+    const double stalled = Since(progress);
+    if (controller_tick < 0 && stalled > suite.limits.start_s) {
+      failure = "never answered: no answer to the first state within " +
+                core::FormatNumber(suite.limits.start_s) + " s (the start limit)";
+    } else if (controller_tick >= 0 && controller_tick < last_state && stalled > grace_s) {
+      failure = "did not answer tick " + std::to_string(last_state) + " within " +
+                core::FormatNumber(suite.limits.tick_s) + " s (the per-tick limit): a hang?";
+    } else if (answered < 0 && stalled > suite.limits.start_s) {
+      failure = "the plan was not taken within " + core::FormatNumber(suite.limits.start_s) + " s";
+    } else if (Since(start) > suite.limits.task_s) {
+      failure = "took longer than " + core::FormatNumber(suite.limits.task_s) +
+                " s of wall time (the per-task limit) at tick " + std::to_string(last_state);
+    }
+  }
+  sim.Stop(1.0);
+  control.Stop(1.0);
+  if (failure.empty() && !sim_done) failure = "stopped before the sim ended";
+  if (!failure.empty()) {
+    record.failure = failure;
+    return record;
+  }
+  // The run: ticks 0..last_state, each with its state.
+  const auto rows = static_cast<size_t>(last_state + 1);
+  record.completed = true;
+  for (size_t row = 0; row < rows; ++row) {
+    if (have_state[row] == 0) {
+      record.completed = false;
+      record.failure = "the grader missed the state of tick " + std::to_string(row);
+      return record;
+    }
+    const bool command = have_command[row] != 0;
+    const bool setpoint = !via_control || have_setpoint[row] != 0;
+    if (!command || !setpoint) ++record.missing_rows;
+    record.time_s.push_back(static_cast<double>(row) * model.servo_tick_s);
+    for (size_t j = 0; j < n; ++j) {
+      const size_t at = row * n + j;
+      const size_t before = row > 0 ? at - n : at;
+      record.position.push_back(position[at]);
+      if (via_control) {
+        if (!setpoint && row > 0) {
+          reference[at] = reference[before];
+          goal[at] = goal[before];
+        }
+        record.reference.push_back(setpoint || row > 0 ? reference[at] : position[at]);
+        record.goal.push_back(setpoint || row > 0 ? goal[at] : position[at]);
+      } else {
+        record.reference.push_back(task.goal[j]);
+        record.goal.push_back(task.goal[j]);
+      }
+      if (!command && row > 0) effort[at] = effort[before];
+      record.effort.push_back(effort[at]);
+    }
+  }
+  if (rows * model.servo_tick_s + 2 * model.servo_tick_s < task.duration_s) {
+    record.completed = false;
+    record.failure = "the sim ended after " + std::to_string(rows) + " ticks, before the task's " +
+                     core::FormatNumber(task.duration_s) + " s";
+  }
+  return record;
+}
+
+}  // namespace sirupp::grade

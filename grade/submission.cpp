@@ -1,0 +1,103 @@
+#include "grade/submission.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <vector>
+
+#include "grade/child.hpp"
+
+namespace sirupp::grade {
+namespace fs = std::filesystem;
+
+namespace {
+
+std::vector<fs::path> FilesEnding(const fs::path& folder, const std::string& ending) {
+  std::vector<fs::path> files;
+  for (const fs::directory_entry& entry : fs::directory_iterator(folder)) {
+    const std::string name = entry.path().filename().string();
+    if (entry.is_regular_file() && name.size() > ending.size() &&
+        name.compare(name.size() - ending.size(), ending.size(), ending) == 0) {
+      files.push_back(entry.path());
+    }
+  }
+  std::sort(files.begin(), files.end());
+  return files;
+}
+
+std::string FirstLine(const fs::path& file) {
+  std::ifstream in(file);
+  std::string line;
+  std::getline(in, line);
+  while (!line.empty() && (line.back() == '\r' || line.back() == ' ')) line.pop_back();
+  return line;
+}
+
+}  // namespace
+
+FoundController FindSubmission(const std::string& folder, const std::string& include_dir,
+                               const std::string& build_dir) {
+  FoundController found;
+  const fs::path dir = fs::absolute(folder);
+  const std::string name = dir.filename().string();
+  if (fs::exists(dir / "command")) {
+    std::istringstream words(FirstLine(dir / "command"));
+    found.spec.kind = ControllerSpec::Kind::kProcess;
+    for (std::string word; words >> word;) {
+      found.spec.command.push_back(word.rfind("./", 0) == 0 ? (dir / word.substr(2)).string()
+                                                            : word);
+    }
+    if (found.spec.command.empty()) found.problem = "the file 'command' is empty";
+    found.spec.label = name;
+    return found;
+  }
+  found.spec.kind = ControllerSpec::Kind::kLibrary;
+  found.spec.label = name;
+  if (fs::exists(dir / "args")) found.spec.args = FirstLine(dir / "args");
+  const std::vector<fs::path> libraries = FilesEnding(dir, ".so");
+  if (!libraries.empty()) {
+    found.spec.library = libraries.front().string();
+    return found;
+  }
+  const std::vector<fs::path> sources = FilesEnding(dir, ".cpp");
+  if (sources.empty()) {
+    found.problem = "no controller: expected a file 'command', a library (*.so) or sources (*.cpp)";
+    return found;
+  }
+  fs::create_directories(build_dir);
+  const std::string library = (fs::absolute(build_dir) / (name + ".so")).string();
+  std::vector<std::string> argv = {"g++",   "-std=c++17", "-O2",      "-shared",
+                                   "-fPIC", "-I",         include_dir};
+  for (const fs::path& source : sources) argv.push_back(source.string());
+  argv.insert(argv.end(), {"-o", library});
+  const std::string log = (fs::absolute(build_dir) / (name + ".build.log")).string();
+  fs::remove(log);
+  Child compiler;
+  compiler.Start(argv, log);
+  while (compiler.Running()) {
+    ::usleep(20000);
+  }
+  if (!compiler.EndedCleanly()) {
+    // The first error line names the file and line.
+    std::ifstream in(log);
+    std::string line, first;
+    while (std::getline(in, line)) {
+      if (line.find("error") != std::string::npos) {
+        first = line;
+        break;
+      }
+    }
+    const std::string where = dir.string() + "/";
+    if (first.rfind(where, 0) == 0) first = first.substr(where.size());
+    found.problem = "does not build (g++ " + compiler.HowEnded() +
+                    "): " + (first.empty() ? compiler.LogTail(1) : first);
+    return found;
+  }
+  found.spec.library = library;
+  return found;
+}
+
+}  // namespace sirupp::grade

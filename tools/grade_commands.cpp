@@ -1,0 +1,183 @@
+#include "tools/grade_commands.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <filesystem>
+#include <ostream>
+
+#include "core/errors.hpp"
+#include "core/model_loader.hpp"
+#include "grade/grade.hpp"
+#include "grade/report.hpp"
+#include "grade/submission.hpp"
+#include "tools/cli.hpp"
+
+namespace sirupp::tools {
+namespace fs = std::filesystem;
+
+const char* const kGradeUsage =
+    "usage: sirupp grade LIB.so --suite FILE [--args TEXT] [--out DIR] [-j N] [--no-baseline]\n"
+    "       sirupp grade --suite FILE [--out DIR] [-j N] [--no-baseline] -- COMMAND ...\n"
+    "       sirupp grade --batch DIR --suite FILE [--out DIR] [-j N]\n"
+    "Runs every task of the suite (config/grading/basic.yaml, advanced.yaml) for a student's\n"
+    "controller and for the baseline (the PIC-SERVO PID with the model's gains), each task in\n"
+    "lockstep on a private bus with the controller in its own process, N tasks at a time.\n"
+    "A library (built against include/sirupp/controller.h) runs in sirupp-control; a process\n"
+    "controller (after --) gets the placeholders {url} {name} {goal_deg} {start_deg}\n"
+    "{duration_s}. A crash, a hang (per-tick and per-task limits), a NaN effort or no answer\n"
+    "ends that task with the reason; the grade goes on.\n"
+    "Writes DIR/report.md, DIR/results.json, DIR/plots/*.png (default DIR: grade-out) and prints\n"
+    "one summary line. --batch: one controller per sub-folder (a 'command' file, a *.so or\n"
+    "*.cpp sources), DIR/class.csv and DIR/class.md. Exit 0 once graded (whatever the score),\n"
+    "2 for bad options or a bad suite. docs/grading.md.\n";
+
+namespace {
+
+std::string BinDir() {
+  if (const char* dir = std::getenv("SIRUPP_BIN_DIR"); dir != nullptr && *dir != '\0') return dir;
+  return fs::read_symlink("/proc/self/exe").parent_path().string();
+}
+
+std::string Resolve(const std::string& path) { return ResolveDataPath(path); }
+
+std::string LoadProblem(const grade::ControllerResult& result) {
+  const std::string prefix = "the controller could not be loaded: ";
+  if (result.tasks.empty() || result.tasks.front().ended.rfind(prefix, 0) != 0) return "";
+  return "does not load: " + result.tasks.front().ended.substr(prefix.size());
+}
+
+}  // namespace
+
+int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  std::string suite_file, out_dir = "grade-out", batch, library, library_args;
+  std::vector<std::string> command;
+  int jobs = 1;
+  bool baseline = true;
+  const auto value = [&args](size_t& i) {
+    if (i + 1 >= args.size()) throw core::UsageError("grade: " + args[i] + " needs a value");
+    return args[++i];
+  };
+  for (size_t i = 0; i < args.size(); ++i) {
+    const std::string& arg = args[i];
+    if (arg == "--") {
+      command.assign(args.begin() + static_cast<long>(i) + 1, args.end());
+      if (command.empty()) throw core::UsageError("grade: -- needs a COMMAND");
+      break;
+    }
+    if (arg == "--suite") {
+      suite_file = value(i);
+    } else if (arg == "--out") {
+      out_dir = value(i);
+    } else if (arg == "--batch") {
+      batch = value(i);
+    } else if (arg == "--args") {
+      library_args = value(i);
+    } else if (arg == "--no-baseline") {
+      baseline = false;
+    } else if (arg == "-j" || arg == "--jobs") {
+      const std::string text = value(i);
+      char* end = nullptr;
+      const long n = std::strtol(text.c_str(), &end, 10);
+      if (end == text.c_str() || *end != '\0' || n < 1 || n > 64) {
+        throw core::UsageError("grade: -j '" + text + "': allowed a whole number 1..64");
+      }
+      jobs = static_cast<int>(n);
+    } else if (arg.rfind("-", 0) == 0) {
+      throw core::UsageError("grade: unknown option '" + arg + "' (see sirupp grade --help)");
+    } else if (library.empty()) {
+      library = arg;
+    } else {
+      throw core::UsageError("grade: more than one controller ('" + library + "', '" + arg + "')");
+    }
+  }
+  if (suite_file.empty()) throw core::UsageError("grade: missing --suite FILE");
+  const int given = (library.empty() ? 0 : 1) + (command.empty() ? 0 : 1) + (batch.empty() ? 0 : 1);
+  if (given != 1) {
+    throw core::UsageError("grade: give one controller: LIB.so, -- COMMAND ..., or --batch DIR");
+  }
+  if (!library.empty() && !fs::is_regular_file(library)) {
+    throw core::UsageError("grade: controller library '" + library + "' is not a file");
+  }
+  if (!batch.empty() && !fs::is_directory(batch)) {
+    throw core::UsageError("grade: --batch '" + batch + "' is not a folder");
+  }
+  const grade::Suite suite = grade::LoadSuite(Resolve(suite_file), &Resolve);
+  const core::RobotModel model = core::LoadRobotModel(suite.model_file);
+  grade::GradeOptions options;
+  options.jobs = jobs;
+  options.bin_dir = BinDir();
+  options.work_dir = (fs::absolute(out_dir) / "logs").string();
+
+  std::vector<grade::ControllerSpec> controllers;
+  std::vector<grade::Submission> submissions;
+  std::vector<size_t> graded;  // submissions[i] -> controllers index
+  if (batch.empty()) {
+    grade::ControllerSpec spec;
+    if (!library.empty()) {
+      spec.kind = grade::ControllerSpec::Kind::kLibrary;
+      spec.library = fs::absolute(library).string();
+      spec.args = library_args;
+      spec.label = fs::path(library).filename().string();
+    } else {
+      spec.kind = grade::ControllerSpec::Kind::kProcess;
+      spec.command = command;
+      spec.label = fs::path(command.front()).filename().string();
+    }
+    controllers.push_back(spec);
+  } else {
+    std::vector<fs::path> folders;
+    for (const fs::directory_entry& entry : fs::directory_iterator(batch)) {
+      if (entry.is_directory()) folders.push_back(entry.path());
+    }
+    std::sort(folders.begin(), folders.end());
+    for (const fs::path& folder : folders) {
+      grade::Submission submission;
+      submission.name = folder.filename().string();
+      const grade::FoundController found =
+          grade::FindSubmission(folder.string(), std::string(SIRUPP_SOURCE_DIR) + "/include",
+                                (fs::absolute(out_dir) / "build").string());
+      submission.problem = found.problem;
+      if (found.problem.empty()) {
+        graded.push_back(controllers.size());
+        controllers.push_back(found.spec);
+      } else {
+        graded.push_back(static_cast<size_t>(-1));
+      }
+      submissions.push_back(submission);
+    }
+  }
+  if (baseline) {
+    grade::ControllerSpec spec;
+    spec.kind = grade::ControllerSpec::Kind::kBaseline;
+    spec.label = grade::kBaselineLabel;
+    controllers.push_back(spec);
+  }
+  std::vector<grade::ControllerResult> results =
+      grade::RunControllers(suite, model, controllers, options);
+  const grade::ControllerResult* base = baseline ? &results.back() : nullptr;
+  if (batch.empty()) {
+    const std::string hash = grade::WriteReport(out_dir, suite, model, results.front(), base);
+    out << grade::SummaryLine(suite, results.front(), base, hash) << "\n";
+    return 0;
+  }
+  for (size_t i = 0; i < submissions.size(); ++i) {
+    if (graded[i] == static_cast<size_t>(-1)) continue;
+    grade::Submission& submission = submissions[i];
+    submission.result = results[graded[i]];
+    submission.problem = LoadProblem(submission.result);
+    const std::string hash =
+        grade::WriteReport(out_dir + "/" + submission.name, suite, model, submission.result, base);
+    out << grade::SummaryLine(suite, submission.result, base, hash) << "\n";
+  }
+  grade::WriteClassTable(out_dir, suite, submissions, base);
+  for (const grade::Submission& submission : submissions) {
+    if (!submission.problem.empty())
+      err << "grade: " << submission.name << ": " << submission.problem << "\n";
+  }
+  out << "grade: class table " << out_dir << "/class.csv and class.md (" << submissions.size()
+      << " submissions)\n";
+  return 0;
+}
+
+}  // namespace sirupp::tools
