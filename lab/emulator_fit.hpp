@@ -33,7 +33,8 @@ struct FitResult {
 
 // The fit's cost of a table: robust squared misfits (saturating, so a row no physical arm can
 // match does not pull the others) of the transient and steady means in units of the tolerance
-// (30 % or 0.5 deg), plus joint 1's start delay against 0.375 +- 0.05 s.
+// (30 % or 0.5 deg), plus joint 1's start delay against 0.375 +- 0.05 s, plus the coupling (sets
+// IV and VII against the joints alone) against the paper's in units of 0.25 deg.
 double FitCost(const std::vector<TableRow>& table);
 
 FitResult FitEmulator(const core::RobotModel& virtual_model, const core::RobotModel& real_model,

@@ -47,15 +47,23 @@ std::string Fixed(double v, int digits) {
 
 std::vector<int> SetJoints(int set) {
   switch (set) {
-    case 1: return {1};
-    case 2: return {2};
-    case 3: return {3};
-    case 4: return {1, 2};
-    case 5: return {1, 3};
-    case 6: return {2, 3};
-    case 7: return {1, 2, 3};
+    case 1:
+      return {1};
+    case 2:
+      return {2};
+    case 3:
+      return {3};
+    case 4:
+      return {1, 2};
+    case 5:
+      return {1, 3};
+    case 6:
+      return {2, 3};
+    case 7:
+      return {1, 2, 3};
     default:
-      throw std::invalid_argument("movement set " + std::to_string(set) + ": allowed 1..7 (I..VII)");
+      throw std::invalid_argument("movement set " + std::to_string(set) +
+                                  ": allowed 1..7 (I..VII)");
   }
 }
 
@@ -156,8 +164,8 @@ std::vector<std::vector<double>> RunReal(const core::RobotModel& model,
         t.control = nmc::kLoadPosition | nmc::kLoadVelocity | nmc::kLoadAcceleration |
                     nmc::kEnableServo | nmc::kStartNow;
         t.position = static_cast<int32_t>(d.ToCounts(90 * kDeg));
-        t.velocity = static_cast<uint32_t>(std::min<int64_t>(
-            d.VelocityWord(servo.default_velocity), nmc::kMaxVelocityWord));
+        t.velocity = static_cast<uint32_t>(
+            std::min<int64_t>(d.VelocityWord(servo.default_velocity), nmc::kMaxVelocityWord));
         t.acceleration = static_cast<uint32_t>(std::min<int64_t>(
             d.AccelerationWord(servo.default_acceleration), nmc::kMaxAccelerationWord));
         modules[u].Handle(nmc::LoadTrajectory(static_cast<uint8_t>(j), t), true, true);
@@ -239,14 +247,53 @@ std::vector<TableRow> TableII(const std::vector<logger::RunTable>& tables) {
   return rows;
 }
 
+void WriteDataFile(const std::string& path, const core::RobotModel& model,
+                   const VirtualRun& virtual_run, const std::vector<std::vector<double>>& real) {
+  logger::ColumnLayout layout;
+  std::string joints = std::to_string(model.joints.size()) + ":";
+  for (size_t j = 0; j < model.joints.size(); ++j) {
+    const core::Joint& joint = model.joints[j];
+    layout.joints.push_back({joint.name, joint.type == core::JointType::kPrismatic});
+    joints += std::string(j ? ";" : "") + " j" + std::to_string(j + 1) + " " + joint.name + " " +
+              layout.joints.back().unit();
+  }
+  const std::vector<std::string> header = {
+      "model: " + model.name + " (" + model.source_file + ")", "joints: " + joints,
+      "plan: config/plans/set" + std::to_string(virtual_run.set) + ".plan",
+      "mode: sirupp fit-emulator, in one process: virtual arm in lockstep, emulated real arm in "
+      "emulated time, both on the sim clock"};
+  logger::DataFileWriter writer(path, header, layout);
+  const auto tick_us = static_cast<int64_t>(std::llround(model.servo_tick_s * 1e6));
+  for (size_t k = 0; k < virtual_run.position.size(); ++k) {
+    logger::Sample set, virt, arm;
+    set.stream = logger::Stream::kSetpoint;
+    set.move_id = k >= virtual_run.move_tick ? 1 : 0;
+    set.position = virtual_run.setpoint[k];
+    set.done = virtual_run.done[k];
+    virt.stream = logger::Stream::kVirtual;
+    virt.position = virtual_run.position[k];
+    arm.stream = logger::Stream::kReal;
+    arm.position = real[k];
+    logger::Row row;
+    row.time_us = static_cast<int64_t>(k + 1) * tick_us;
+    row.cell = {&set, &virt, &arm};
+    writer.Append(row);
+  }
+  writer.Close(std::to_string(virtual_run.position.size()) + " rows");
+}
+
 std::vector<TableRow> RunExperiment(const core::RobotModel& virtual_model,
                                     const core::RobotModel& real_model,
                                     const std::optional<hardware::RealArmParams>& effects,
-                                    const ExperimentOptions& options) {
+                                    const ExperimentOptions& options, const std::string& data_dir) {
   std::vector<logger::RunTable> tables;
   for (int set : options.sets) {
     const VirtualRun v = RunVirtual(virtual_model, set, options);
-    tables.push_back(MakeTable(real_model, v, RunReal(real_model, effects, v)));
+    const std::vector<std::vector<double>> real = RunReal(real_model, effects, v);
+    if (!data_dir.empty()) {
+      WriteDataFile(data_dir + "/lab-set" + std::to_string(set) + ".csv", real_model, v, real);
+    }
+    tables.push_back(MakeTable(real_model, v, real));
   }
   return TableII(tables);
 }
@@ -308,9 +355,8 @@ Comparison Compare(const std::vector<TableRow>& ours) {
 
 std::string FormatComparison(const std::vector<TableRow>& ours, bool with_paper) {
   std::ostringstream out;
-  out << "| set | joint | transient (deg) |" << (with_paper ? " paper |" : "")
-      << " steady (deg) |" << (with_paper ? " paper | within |" : "")
-      << " real start (s) | virtual start (s) |\n"
+  out << "| set | joint | transient (deg) |" << (with_paper ? " paper |" : "") << " steady (deg) |"
+      << (with_paper ? " paper | within |" : "") << " real start (s) | virtual start (s) |\n"
       << "|---|---|---:|" << (with_paper ? "---:|" : "") << "---:|"
       << (with_paper ? "---:|:---:|" : "") << "---:|---:|\n";
   for (const TableRow& row : ours) {
@@ -325,8 +371,7 @@ std::string FormatComparison(const std::vector<TableRow>& ours, bool with_paper)
     if (with_paper) {
       const bool within = p && WithinTolerance(row.transient_deg, p->transient_deg) &&
                           WithinTolerance(row.steady_deg, p->steady_deg);
-      out << " " << (p ? Fixed(p->steady_deg, 2) : "-") << " | " << (within ? "yes" : "no")
-          << " |";
+      out << " " << (p ? Fixed(p->steady_deg, 2) : "-") << " | " << (within ? "yes" : "no") << " |";
     }
     out << " " << Fixed(row.start_delay_real_s, 3) << " | " << Fixed(row.start_delay_virtual_s, 3)
         << " |\n";

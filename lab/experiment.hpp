@@ -25,12 +25,13 @@ const char* RomanSet(int set);  // "I" .. "VII"
 // their rows "1" and "2" are those joints (docs/emulator-fit.md says why).
 struct PaperRow {
   int set = 0;
-  int joint = 0;               // ours, 1-based
-  double transient_deg = 0;    // mean |virtual - real| in the transient
-  double steady_deg = 0;       // ... in the steady state
+  int joint = 0;             // ours, 1-based
+  double transient_deg = 0;  // mean |virtual - real| in the transient
+  double steady_deg = 0;     // ... in the steady state
 };
 const std::vector<PaperRow>& PaperTable();  // the 12 rows
-inline constexpr double kPaperStartDelayMin = 0.35;  // joint 1 of the real arm, s (the paper's text)
+inline constexpr double kPaperStartDelayMin =
+    0.35;  // joint 1 of the real arm, s (the paper's text)
 inline constexpr double kPaperStartDelayMax = 0.40;
 // Whether `ours` is within 30 % or 0.5 degrees (whichever is larger) of `paper` (issue 20).
 bool WithinTolerance(double ours, double paper);
@@ -45,7 +46,7 @@ struct ExperimentOptions {
 // the profile's done flags. Independent of the real arm, so fitting runs it once.
 struct VirtualRun {
   int set = 0;
-  size_t move_tick = 0;  // the tick the move was loaded
+  size_t move_tick = 0;                                 // the tick the move was loaded
   std::vector<std::vector<double>> setpoint, position;  // [tick][joint]
   std::vector<std::vector<int8_t>> done;
 };
@@ -62,6 +63,12 @@ std::vector<std::vector<double>> RunReal(const core::RobotModel& model,
 logger::RunTable MakeTable(const core::RobotModel& model, const VirtualRun& virtual_run,
                            const std::vector<std::vector<double>>& real);
 
+// Writes the run as a logger data file (the format sirupp-logger writes, docs/logging.md), plan
+// config/plans/setN.plan, one row per servo tick: what `sirupp report` and `sirupp identify`
+// read. Throws std::runtime_error if the file exists or cannot be written.
+void WriteDataFile(const std::string& path, const core::RobotModel& model,
+                   const VirtualRun& virtual_run, const std::vector<std::vector<double>>& real);
+
 // Our Table II: one row per set and moved joint, in the paper's order.
 struct TableRow {
   int set = 0;
@@ -71,17 +78,19 @@ struct TableRow {
 };
 std::vector<TableRow> TableII(const std::vector<logger::RunTable>& tables);
 
-// Runs every set of `options` on both arms and returns the table.
+// Runs every set of `options` on both arms and returns the table; with data_dir, also writes each
+// set's data file there (DATA_DIR/lab-setN.csv).
 std::vector<TableRow> RunExperiment(const core::RobotModel& virtual_model,
                                     const core::RobotModel& real_model,
                                     const std::optional<hardware::RealArmParams>& effects,
-                                    const ExperimentOptions& options);
+                                    const ExperimentOptions& options,
+                                    const std::string& data_dir = "");
 
 // How our table compares with the paper's.
 struct Comparison {
-  int rows = 0, rows_within = 0;          // rows with both means within tolerance
+  int rows = 0, rows_within = 0;                        // rows with both means within tolerance
   double start_delay_min_s = 0, start_delay_max_s = 0;  // joint 1 of the real arm, over its sets
-  double mean_error_deg = 0;              // mean of our transient and steady means (all rows)
+  double mean_error_deg = 0;  // mean of our transient and steady means (all rows)
   // Coupling: mean transient error of the multi-joint rows minus that of the same joints alone.
   double coupling_ours_deg = 0, coupling_paper_deg = 0;
 };
