@@ -31,6 +31,10 @@ std::vector<Param> Params() {
                [](const hardware::RealArmParams& a) { return a.command_latency_s; },
                [](hardware::RealArmParams& a, double v) { a.command_latency_s = v; },
                range::kCommandLatency.min, range::kCommandLatency.max, false, 0.04});
+  p.push_back({"supply.voltage_v",
+               [](const hardware::RealArmParams& a) { return a.supply_voltage_v; },
+               [](hardware::RealArmParams& a, double v) { a.supply_voltage_v = v; },
+               range::kSupplyVoltage.min, range::kSupplyVoltage.max, true, 0.25});
   p.push_back({"supply.resistance_ohm",
                [](const hardware::RealArmParams& a) { return a.supply_resistance_ohm; },
                [](hardware::RealArmParams& a, double v) { a.supply_resistance_ohm = v; },

@@ -42,7 +42,7 @@ double Interpolate(const std::vector<double>& t, const std::vector<double>& v, s
   return v[i] + std::clamp(f, 0.0, 1.0) * (v[i + 1] - v[i]);
 }
 
-Track Prepare(const core::RobotModel& model, const logger::RunTable& table) {
+Track Prepare(const core::RobotModel& model, const logger::RunTable& table, bool need_real = true) {
   const size_t n = model.joints.size();
   if (table.joints.size() != n) {
     throw core::ConfigError({table.source, 0, 0}, "joints",
@@ -103,16 +103,17 @@ Track Prepare(const core::RobotModel& model, const logger::RunTable& table) {
       if (!std::isnan(real)) track.samples.push_back({k, j, real / table.joints[j].scale()});
     }
   }
-  if (track.samples.empty()) {
+  if (track.samples.empty() && need_real) {
     throw core::ConfigError({table.source, 0, 0}, "real",
                             "no real-arm samples to fit the model to");
   }
   return track;
 }
 
-// Simulates the model along the track; adds each joint's squared error (rad^2) and sample count.
+// Simulates the model along the track; adds each joint's squared error (rad^2) and sample count;
+// with `trace`, also the positions at every tick.
 void Simulate(const core::RobotModel& model, const Track& track, std::vector<double>* sse,
-              std::vector<int64_t>* count) {
+              std::vector<int64_t>* count, std::vector<std::vector<double>>* trace = nullptr) {
   const size_t n = model.joints.size();
   hardware::ArmOptions options;
   options.friction_scale = 1.0;
@@ -135,6 +136,7 @@ void Simulate(const core::RobotModel& model, const Track& track, std::vector<dou
       pwm[j] = chips[j].Tick(actual);
     }
     arm.Step(pwm);
+    if (trace) trace->push_back(arm.positions());
     while (next < track.samples.size() && track.samples[next].tick <= k) {
       const Track::Sample& s = track.samples[next++];
       if (s.tick != k) continue;
@@ -284,6 +286,26 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
     result.joints.push_back(id);
   }
   return result;
+}
+
+logger::RunTable SimulateRealStream(const core::RobotModel& model, const logger::RunTable& table) {
+  const Track track = Prepare(model, table, false);
+  std::vector<double> sse(model.joints.size(), 0.0);
+  std::vector<int64_t> count(model.joints.size(), 0);
+  std::vector<std::vector<double>> trace;
+  Simulate(model, track, &sse, &count, &trace);
+  logger::RunTable out = table;
+  const double t0 = table.time_s.front();
+  for (size_t i = 0; i < out.rows(); ++i) {
+    const auto k = static_cast<size_t>(
+        std::clamp<long>(std::lround((table.time_s[i] - t0) / model.servo_tick_s), 0,
+                         static_cast<long>(trace.size()) - 1));
+    for (size_t j = 0; j < out.joints.size(); ++j) {
+      out.position[j][2][i] = trace[k][j] * out.joints[j].scale();
+    }
+    out.age_s[2][i] = 0;
+  }
+  return out;
 }
 
 std::string RewriteModelText(const std::string& text, const std::string& file,

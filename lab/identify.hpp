@@ -39,6 +39,11 @@ struct IdentifyResult {
 IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger::RunTable>& tables,
                         const IdentifyOptions& options);
 
+// What the model's arm does following `table`'s set-point from where its real stream starts (else
+// the set-point's start): a copy of the table whose real stream is the simulation, one sample per
+// row. For predictions, and to make synthetic data with known parameters (tests).
+logger::RunTable SimulateRealStream(const core::RobotModel& model, const logger::RunTable& table);
+
 // The model file's text with each fitted joint's `armature:` and `friction:` lines replaced by
 // the identified values (comments and everything else kept). Throws core::ConfigError naming the
 // file if a joint's entry does not have those keys on one line each.
