@@ -20,7 +20,7 @@ namespace {
 constexpr const char* kName = "sirupp-picservo-emu";
 constexpr const char* kUsage =
     "usage: sirupp-picservo-emu [--model FILE] [--modules N] [--link PATH | --socket PATH]\n"
-    "                           [--friction-scale X]\n"
+    "                           [--real-arm FILE | --friction-scale X]\n"
     "                           [--start-pose NAME | --start-joints \"DEG DEG ...\"] [--seed S]\n"
     "                           [--checksum-errors P] [--drop-bytes P] [--silent-module K[@T]...]\n"
     "                           [--overcurrent K[@T]...] [--pos-error-trip K[@T]...]\n"
@@ -31,11 +31,13 @@ constexpr const char* kUsage =
     "Prints the device to open (--link PATH: also a symbolic link there), runs until SIGINT or\n"
     "SIGTERM, then prints its counters. The arm powers up at --start-pose or --start-joints\n"
     "(degrees; default all joints at 0); the encoders read 0 there.\n"
-    "--socket PATH: the line is a Unix socket at PATH instead of a pseudo-terminal "
-    "(sirupp-hardware\n"
-    "--port PATH connects to it); unlike a pty it does not stall on a loaded machine, so the lab\n"
-    "layouts and the demo use it.\n"
-    "--friction-scale: static and Coulomb friction of the model times X (default 1.5).\n"
+    "--socket PATH: the line is a Unix socket at PATH instead of a pseudo-terminal\n"
+    "(sirupp-hardware --port PATH connects to it); unlike a pty it does not stall on a loaded\n"
+    "machine, so the lab layouts and the demo use it.\n"
+    "--real-arm FILE: the arm's physical effects (motors, shared supply, gear backlash and\n"
+    "compliance, friction per direction, encoder quantum, board latency); default\n"
+    "config/hardware/puma260-real.yaml, fitted to the SIRUPP paper's Table II.\n"
+    "--friction-scale X: instead, the model's own arm with static and Coulomb friction times X.\n"
     "Faults: --checksum-errors P (probability a command is seen with a bad checksum), "
     "--drop-bytes\n"
     "P (probability a reply byte is lost), --silent-module K (module K, 1..N, hears and answers\n"
@@ -98,6 +100,7 @@ int Run(const std::vector<std::string>& argv) {
                                   {"link", "symbolic link to the device"},
                                   {"socket", "Unix socket path for the line, instead of a pty"},
                                   {"friction-scale", "static and Coulomb friction factor, >= 0"},
+                                  {"real-arm", "real-arm effects file"},
                                   {"start-pose", "named pose of the model to power up in"},
                                   {"start-joints", "joint angles to power up in, degrees"},
                                   {"seed", "random seed of the faults"},
@@ -133,6 +136,15 @@ int Run(const std::vector<std::string>& argv) {
                        sirupp::core::FormatNumber(options.friction_scale) +
                        ": allowed a number >= 0");
     }
+  }
+  if (args.Has("real-arm") && args.Has("friction-scale")) {
+    throw UsageError(std::string(kName) + ": give --real-arm or --friction-scale, not both");
+  }
+  if (!args.Has("friction-scale")) {
+    options.effects = sirupp::hardware::LoadRealArmParams(
+        sirupp::tools::ResolveDataPath(args.Has("real-arm") ? args.String("real-arm")
+                                                            : "config/hardware/puma260-real.yaml"),
+        options.model);
   }
   if (args.Has("start-pose") && args.Has("start-joints")) {
     throw UsageError(std::string(kName) + ": give --start-pose or --start-joints, not both");

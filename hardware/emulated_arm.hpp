@@ -14,13 +14,22 @@
 //             the effort needed is within friction_scale * static, else released
 //   qd += qdd h; a sliding joint whose speed reaches or crosses zero sticks; q += qd h
 //   hard stops at the joint limits (inelastic)
+//
+// With ArmOptions::effects (a real-arm file, hardware/real_arm.hpp) the arm is a 1980s geared arm
+// instead: the PWM sets the amplifier's voltage on a supply shared by all joints (which sags with
+// the total current drawn), each motor's current follows its R-L circuit against the back-EMF, a
+// compliant joint carries a rotor (armature) coupled to its link through a spring with backlash
+// and the encoder sits on that rotor, friction is the file's per-direction levels, and the encoder
+// reads whole multiples of a quantum. docs/hardware-emulator.md, "Real-arm effects".
 
 #include <cstdint>
+#include <optional>
 #include <vector>
 
 #include "core/dynamics.hpp"
 #include "core/robot_model.hpp"
 #include "hardware/picservo_module.hpp"
+#include "hardware/real_arm.hpp"
 #include "servo/servo_units.hpp"
 
 namespace sirupp::hardware {
@@ -43,6 +52,11 @@ struct ArmOptions {
   // Brakes: SetBrakes holds the chosen joints still whatever the effort (the PUMA's brakes, which
   // hold the arm while its amplifiers are off). Off: SetBrakes is ignored.
   bool brakes = true;
+  // The real-arm effects (motor electrics, shared supply, gear train, per-direction friction,
+  // encoder quantum). Unset: the model's rigid arm with friction x friction_scale, and the motor
+  // torque proportional to the PWM. Set: friction_scale is not used. Checked by the constructor
+  // (CheckRealArmParams).
+  std::optional<RealArmParams> effects;
 };
 
 class EmulatedArm {
@@ -68,6 +82,14 @@ class EmulatedArm {
   double time_s() const { return time_s_; }
   // The joint effort of the motors at the last step (N*m or N).
   const std::vector<double>& motor_effort() const { return motor_effort_; }
+  // With effects: each motor's current (A), the rotor angles at the joint (rad; the link's own
+  // angle for a rigid joint) and the supply voltage now (V). Without: zeros, positions(), 0.
+  const std::vector<double>& motor_current() const { return current_; }
+  const std::vector<double>& rotor_positions() const { return rotor_position_; }
+  double supply_voltage() const { return supply_v_; }
+  // What the encoder of `joint` measures: the rotor's angle (rad or m) for a compliant joint, the
+  // link's otherwise.
+  double EncoderPosition(int joint) const;
 
   // What module `joint` reads at this tick: counter since power-up, switches, index, A/D.
   MotorInputs Inputs(int joint) const;
@@ -75,14 +97,23 @@ class EmulatedArm {
 
  private:
   void Substep(double h);
+  void UpdateElectrics(double h);
+  bool compliant(size_t j) const {
+    return effects_ && effects_->joints[j].stiffness_nm_per_rad > 0;
+  }
+  // The gear train's torque on the link of compliant joint j (N*m).
+  double TransmissionTorque(size_t j) const;
   int64_t AbsoluteCounts(int joint) const;
 
   core::RobotModel model_;
-  core::Dynamics dynamics_;
+  std::optional<RealArmParams> effects_;
+  core::Dynamics dynamics_;  // with the file's armature on rigid joints, none on compliant ones
   ArmOptions options_;
   double tick_s_;
   std::vector<servo::JointDrive> drives_;
   std::vector<double> position_, velocity_, motor_effort_, external_;
+  std::vector<double> current_, rotor_position_, rotor_velocity_;
+  double supply_v_ = 0;
   std::vector<bool> stuck_;
   std::vector<bool> braked_;
   std::vector<int> pwm_;

@@ -23,6 +23,7 @@ ArmOptions MakeArmOptions(const EmulatorOptions& options) {
   arm.start_positions = options.start_positions;
   arm.substeps = options.substeps;
   arm.brakes = options.brakes;
+  arm.effects = options.effects;
   return arm;
 }
 
@@ -72,6 +73,11 @@ Emulator::Emulator(EmulatorOptions options)
     throw std::invalid_argument("inter-byte timeout " +
                                 core::FormatNumber(options_.inter_byte_timeout_s) +
                                 " s: allowed > 0");
+  }
+  if (options_.effects) {
+    const int latency =
+        static_cast<int>(std::lround(options_.effects->command_latency_s / tick_s_));
+    for (PicServoModule& module : modules_) module.SetCommandLatencyTicks(latency);
   }
   for (int k : options_.silent_modules) {
     CheckModule(k, "silent module");

@@ -22,6 +22,7 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <random>
 #include <string>
 #include <thread>
@@ -46,6 +47,9 @@ struct EmulatorOptions {
   uint32_t seed = 1;                    // for the random faults
   int substeps = 2;                     // arm integration substeps per servo tick
   bool brakes = true;  // a joint is braked while its module's amplifier is disabled
+  // The real-arm effects (hardware/real_arm.hpp); unset: the model's arm with friction_scale.
+  // Their command latency is given to every module.
+  std::optional<RealArmParams> effects;
   // Faults at start (each can be changed at run time).
   double checksum_error_rate = 0;   // probability a received command is seen with a bad checksum
   double drop_rate = 0;             // probability a reply byte is lost

@@ -109,7 +109,7 @@ void PicServoModule::Execute(const Packet& packet, Result* result, uint8_t* repl
     case kLoadTraj: {
       const Trajectory t = *DecodeTrajectory(d, &problem);
       if (t.control & kStartNow) {
-        StartTrajectory(t);
+        StartOrDefer(t);
       } else {
         buffered_ = t;  // a later LOAD_TRAJ overwrites it
       }
@@ -119,7 +119,7 @@ void PicServoModule::Execute(const Packet& packet, Result* result, uint8_t* repl
       if (buffered_) {
         const Trajectory t = *buffered_;
         buffered_.reset();
-        StartTrajectory(t);
+        StartOrDefer(t);
       }
       break;
     case kSetGain:
@@ -185,6 +185,15 @@ void PicServoModule::Execute(const Packet& packet, Result* result, uint8_t* repl
   }
 }
 
+void PicServoModule::StartOrDefer(const Trajectory& t) {
+  if (latency_ticks_ == 0) {
+    StartTrajectory(t);
+    return;
+  }
+  pending_ = t;
+  pending_ticks_ = latency_ticks_;
+}
+
 void PicServoModule::StartTrajectory(const Trajectory& t) {
   if (t.control & kLoadPosition) position_word_ = t.position;
   if (t.control & kLoadVelocity) velocity_word_ = t.velocity;
@@ -216,6 +225,7 @@ void PicServoModule::StartTrajectory(const Trajectory& t) {
 }
 
 void PicServoModule::StopMotor(uint8_t control, int32_t here) {
+  pending_.reset();  // a stop cancels a move still waiting for its latency
   amp_enabled_ = (control & kAmpEnable) != 0;
   if (control & (kMotorOff | kStopAbrupt | kStopSmooth | kStopHere)) path_mode_ = false;
   if (control & kMotorOff) {
@@ -252,7 +262,9 @@ void PicServoModule::ApplyGains(const Gains& g) {
 void PicServoModule::ResetToPowerUp() {
   const ModuleEeprom eeprom = eeprom_;
   const MotorInputs inputs = last_inputs_;
+  const int latency = latency_ticks_;  // the board's, not a setting a reset clears
   *this = PicServoModule();
+  latency_ticks_ = latency;
   eeprom_ = eeprom;
   last_inputs_ = inputs;
   offset_ = -inputs.encoder_counts;  // the counter reads 0 after a reset
@@ -305,6 +317,11 @@ int PicServoModule::Tick(const MotorInputs& in) {
     position_error_trip = true;
   }
   LimitStop(in);
+  if (pending_ && --pending_ticks_ <= 0) {
+    const Trajectory t = *pending_;
+    pending_.reset();
+    StartTrajectory(t);
+  }
 
   const bool was_on = servo_.servo_on();
   if (++servo_rate_count_ >= std::max<int>(1, gains_.servo_rate)) {
@@ -386,7 +403,7 @@ void PicServoModule::PathTick() {
 uint8_t PicServoModule::status_byte() const {
   const servo::PicServo::ChipFlags f = servo_.chip_flags();
   uint8_t s = 0;
-  if (f.move_done && !path_mode_) s |= kStatusMoveDone;
+  if (f.move_done && !path_mode_ && !pending_) s |= kStatusMoveDone;
   if (checksum_error_) s |= kStatusChecksumError;
   if (overcurrent_) s |= kStatusOvercurrent;
   if (last_inputs_.power_ok) s |= kStatusPowerOn;

@@ -71,6 +71,13 @@ class PicServoModule {
   // PWM applied to the motor (0 while the amplifier is disabled), -255..255, positive = counts up.
   int Tick(const MotorInputs& inputs);
 
+  // Command latency: a move (LOAD_TRAJ with START_NOW, or START_MOVE) takes effect this many servo
+  // ticks after it arrives, as on a board whose host interface is slow to act; the reply is
+  // immediate and MOVE_DONE reads clear while the move waits. 0 (power-up): at once. A later
+  // move, a stop or a reset replaces a waiting one.
+  void SetCommandLatencyTicks(int ticks) { latency_ticks_ = ticks < 0 ? 0 : ticks; }
+  bool move_pending() const { return pending_.has_value(); }
+
   // Fault injection: an overcurrent trip, or a position-error trip, at the next tick.
   void TriggerOvercurrent() { inject_overcurrent_ = true; }
   void TriggerPositionErrorTrip() { inject_position_error_ = true; }
@@ -141,6 +148,11 @@ class PicServoModule {
   std::vector<uint16_t> path_;
   bool path_mode_ = false;
   int path_ticks_left_ = 0;
+  // Command latency: the move waiting, and the ticks until it starts.
+  int latency_ticks_ = 0;
+  std::optional<nmc::Trajectory> pending_;
+  int pending_ticks_ = 0;
+  void StartOrDefer(const nmc::Trajectory& t);
   // Fault injection.
   bool inject_overcurrent_ = false;
   bool inject_position_error_ = false;

@@ -213,9 +213,15 @@ ReportOutput WriteReport(const std::vector<RunTable>& tables, const ReportOption
       core::FormatApprox(a.settle_window_s) +
       " s; steady state: from there until the next move or the end of the data. Degrees (mm for "
       "prismatic joints). \"-\": no common samples. Definitions: docs/logging.md.\n\n";
+  const std::optional<ReferenceColumn>& reference = options.reference;
   md +=
-      "| Set | Move | Joint | Movement | Pair | Mean error, transient | Mean error, steady "
-      "state | RMS | Max |\n|---|---|---|---|---|---|---|---|---|\n";
+      "| Set | Move | Joint | Movement | Pair | Mean error, transient | Mean error, steady state "
+      "| ";
+  if (reference) {
+    md += "Transient, " + reference->title + " | Steady state, " + reference->title + " | ";
+  }
+  md += std::string("RMS | Max |\n|---|---|---|---|---|---|---|") + (reference ? "---|---|" : "") +
+        "---|---|\n";
   std::string errors_csv =
       "input,set,move_id,joint,joint_name,unit,from,to,pair,mean_transient,mean_steady,rms,max,"
       "transient_samples,steady_samples,move_start_s,move_done_s,transient_end_s,move_end_s\n";
@@ -241,7 +247,19 @@ ReportOutput WriteReport(const std::vector<RunTable>& tables, const ReportOption
         md += "| " + (first ? keys[t] : "") + " | " + (first ? std::to_string(move.move_id) : "") +
               " | " + (first ? joint_text : "") + " | " + (first ? movement : "") + " | " +
               PairTitle(pair) + " | " + Cell(m.mean_transient, 2) + " | " + Cell(m.mean_steady, 2) +
-              " | " + Cell(m.rms, 2) + " | " + Cell(m.max, 2) + " |\n";
+              " | ";
+        if (reference) {
+          const ReferenceRow* match = nullptr;
+          for (const ReferenceRow& r : reference->rows) {
+            if (pair == Pair::kVirtReal && r.set == table.label && r.joint == move.joint) {
+              match = &r;
+            }
+          }
+          md += match
+                    ? Fixed(match->mean_transient, 2) + " | " + Fixed(match->mean_steady, 2) + " | "
+                    : std::string(" |  | ");
+        }
+        md += Cell(m.rms, 2) + " | " + Cell(m.max, 2) + " |\n";
         errors_csv += CsvText(table.source) + "," + CsvText(keys[t]) + "," +
                       std::to_string(move.move_id) + "," + std::to_string(move.joint) + "," +
                       CsvText(JointName(move)) + "," + Unit(move) + "," + Fixed(move.from, 5) +
@@ -346,6 +364,7 @@ ReportOutput WriteReport(const std::vector<RunTable>& tables, const ReportOption
       }
     }
   }
+  if (reference && !reference->note.empty()) md += "\n" + reference->note + "\n";
   md +=
       "\n## Response per stream\n\nStart delay: from the move command until the stream has "
       "moved " +

@@ -2,6 +2,7 @@
 // `sirupp report`: the Table II layout for every movement set and joint, as Markdown and CSV, and
 // PNG plots (docs/logging.md, "Report"). Reads our data files and LCM log files alike.
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -11,11 +12,27 @@
 
 namespace sirupp::logger {
 
+// Published numbers to read a run against (e.g. the SIRUPP paper's Table II): per movement set
+// (the table's label, "set1") and joint, the mean virtual-vs-real error in the transient and the
+// steady state. Shown beside the virtual-vs-real rows of Table II.
+struct ReferenceRow {
+  std::string set;
+  int joint = 0;  // 1-based
+  double mean_transient = 0;
+  double mean_steady = 0;
+};
+struct ReferenceColumn {
+  std::string title;  // e.g. "paper"
+  std::string note;   // one paragraph under the table: where the numbers come from
+  std::vector<ReferenceRow> rows;
+};
+
 struct ReportOptions {
   AnalysisOptions analysis;
   ImportOptions import;  // for LCM log files
   std::string out_dir = "report";
   bool plots = true;
+  std::optional<ReferenceColumn> reference;  // unset: no reference columns
 };
 
 struct ReportOutput {

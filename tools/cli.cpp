@@ -18,6 +18,7 @@
 #include "tools/grade_commands.hpp"
 #include "tools/hardware_commands.hpp"
 #include "tools/kinematics_commands.hpp"
+#include "tools/lab_commands.hpp"
 #include "tools/launch_commands.hpp"
 #include "tools/replay_commands.hpp"
 #include "tools/report_commands.hpp"
@@ -69,6 +70,9 @@ const char* const kUsage =
     "  estop [--release]          emergency stop: real motors off, plans aborted\n"
     "  report FILE|DIR...         Table II report, CSV and plots of logger data files or LCM logs\n"
     "  grade LIB.so --suite FILE  score a controller beside the PIC-SERVO baseline (--batch DIR)\n"
+    "  fit-emulator [--evaluate]  the paper's sets in one process, both arms; fit the emulated\n"
+    "                             real arm's effects to the paper's Table II\n"
+    "  identify DATA... --model M --out M2   fit a model's friction and armature to real data\n"
     "  replay LOG [--speed X]     play an lcm-logger file back onto the bus, original timing\n"
     "  view [--channel NAME]      show sirupp-viewer's images in a window (needs a display)\n"
     "  help                       this text\n"
@@ -178,6 +182,14 @@ int RunCli(const Args& args, std::ostream& out, std::ostream& err) {
     if (command == "grade") {
       if (wants_help) return out << kGradeUsage, kExitOk;
       return RunGrade(rest, out, err);
+    }
+    if (command == "fit-emulator") {
+      if (wants_help) return out << kFitEmulatorUsage, kExitOk;
+      return RunFitEmulator(rest, out, err);
+    }
+    if (command == "identify") {
+      if (wants_help) return out << kIdentifyUsage, kExitOk;
+      return RunIdentify(rest, out, err);
     }
     if (command == "replay") {
       if (wants_help) return out << kReplayUsage, kExitOk;

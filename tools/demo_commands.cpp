@@ -25,6 +25,7 @@
 #include "tools/control_commands.hpp"
 #include "tools/launch_commands.hpp"
 #include "tools/process_main.hpp"
+#include "tools/report_commands.hpp"
 #include "tools/rig_args.hpp"
 
 namespace sirupp::tools {
@@ -267,6 +268,7 @@ int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostrea
       logger::ReportOptions report;
       report.out_dir = (dir / "report").string();
       report.analysis.last_move_only = true;  // each set's return to zero is not in Table II
+      report.reference = PaperReference();    // the paper's numbers beside ours
       const logger::ReportOutput written =
           logger::WriteReport(logger::ReadInputs(data, report.import), report);
       // The paper's table here; the response table, the plots and the inputs are in report.md.

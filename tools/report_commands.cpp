@@ -5,6 +5,7 @@
 
 #include "core/channels.hpp"
 #include "core/errors.hpp"
+#include "lab/experiment.hpp"
 #include "logger/report.hpp"
 #include "tools/args.hpp"
 
@@ -14,6 +15,7 @@ const char* const kReportUsage =
     "usage: sirupp report FILE|DIR... [--out DIR] [--no-plots] [--joints N..] [--settle-window S]\n"
     "                     [--start-threshold DEG] [--band-percent P] [--min-travel DEG]\n"
     "                     [--last-move] [--prefix PREFIX] [--rate HZ] [--max-age S] [--whole-log]\n"
+    "                     [--reference paper]\n"
     "The paper's Table II for every movement set and joint in the files: mean error in the\n"
     "transient and in the steady state, RMS and maximum error, for set-point vs virtual,\n"
     "set-point vs real and virtual vs real; start delay, settling time and overshoot per stream.\n"
@@ -31,7 +33,24 @@ const char* const kReportUsage =
     "                        zero first, then make the move Table II measures)\n"
     "  LCM logs: --prefix (rig prefix of the channels), --rate HZ (sample clock, default the\n"
     "  0.512 ms servo tick), --max-age S (0.025), --whole-log (one set, not one per plan run)\n"
+    "  --reference paper     the SIRUPP paper's own Table II (virtual vs real, real PUMA 260) as\n"
+    "                        two more columns beside our virtual-vs-real rows, per set and joint\n"
     "Definitions: docs/logging.md. Exit 0, or 2 naming FILE:LINE for bad input.\n";
+
+logger::ReferenceColumn PaperReference() {
+  logger::ReferenceColumn column;
+  column.title = "paper";
+  column.note =
+      "Paper: the SIRUPP paper's Table II (Nugraha 2009), virtual vs real on the real PUMA 260, "
+      "mean error in degrees. Its rows for sets V and VI name the set's first and second joint, "
+      "here joints 1 and 3 (V) and 2 and 3 (VI) as config/plans moves them "
+      "(docs/emulator-fit.md). Its joint 1 started 0.35-0.4 s after the command.";
+  for (const lab::PaperRow& row : lab::PaperTable()) {
+    column.rows.push_back(
+        {"set" + std::to_string(row.set), row.joint, row.transient_deg, row.steady_deg});
+  }
+  return column;
+}
 
 namespace {
 
@@ -64,12 +83,20 @@ int RunReport(const std::vector<std::string>& argv, std::ostream& out, std::ostr
        {"prefix", "PREFIX"},
        {"rate", "HZ"},
        {"max-age", "S"},
-       {"whole-log", "(switch)"}});
+       {"whole-log", "(switch)"},
+       {"reference", "paper"}});
   if (files.empty()) throw core::UsageError("report: give at least one FILE (before the options)");
 
   logger::ReportOptions options;
   if (args.Has("out")) options.out_dir = args.String("out");
   options.plots = !args.Switch("no-plots");
+  if (args.Has("reference")) {
+    const std::string which = args.String("reference");
+    if (which != "paper") {
+      throw core::UsageError("report: --reference '" + which + "': allowed paper");
+    }
+    options.reference = PaperReference();
+  }
   logger::AnalysisOptions& a = options.analysis;
   a.settle_window_s = NonNegative(args, "settle-window", a.settle_window_s);
   a.start_threshold = NonNegative(args, "start-threshold", a.start_threshold);

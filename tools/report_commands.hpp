@@ -6,9 +6,14 @@
 #include <string>
 #include <vector>
 
+#include "logger/report.hpp"
+
 namespace sirupp::tools {
 
 extern const char* const kReportUsage;
+
+// The SIRUPP paper's Table II as a reference column (`--reference paper`, and sirupp demo).
+logger::ReferenceColumn PaperReference();
 
 // Prints the Markdown report and writes it with the CSV tables and the plots. Bad input files
 // throw core::ConfigError (exit 2), bad arguments core::UsageError (exit 2).

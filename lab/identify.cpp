@@ -1,0 +1,366 @@
+#include "lab/identify.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <iomanip>
+#include <sstream>
+
+#include "core/errors.hpp"
+#include "core/yaml_reader.hpp"
+#include "hardware/emulated_arm.hpp"
+#include "servo/picservo.hpp"
+#include "servo/servo_units.hpp"
+
+namespace sirupp::lab {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+constexpr double kDeg = kPi / 180;
+constexpr int kParams =
+    6;  // static, Coulomb +/- as fractions of static, viscous, Stribeck, armature
+constexpr double kMinStep = 0.005;
+
+// One table, prepared: the set-point per servo tick (SI) and the fresh real samples.
+struct Track {
+  std::vector<double> start;                  // SI, per joint
+  std::vector<std::vector<double>> setpoint;  // [tick][joint], SI
+  struct Sample {
+    size_t tick;
+    size_t joint;
+    double real;  // SI
+  };
+  std::vector<Sample> samples;
+};
+
+double Interpolate(const std::vector<double>& t, const std::vector<double>& v, size_t* cursor,
+                   double at) {
+  while (*cursor + 1 < t.size() && t[*cursor + 1] <= at) ++*cursor;
+  const size_t i = *cursor;
+  if (i + 1 >= t.size() || std::isnan(v[i + 1])) return v[i];
+  const double f = (at - t[i]) / (t[i + 1] - t[i]);
+  return v[i] + std::clamp(f, 0.0, 1.0) * (v[i + 1] - v[i]);
+}
+
+Track Prepare(const core::RobotModel& model, const logger::RunTable& table, bool need_real = true) {
+  const size_t n = model.joints.size();
+  if (table.joints.size() != n) {
+    throw core::ConfigError({table.source, 0, 0}, "joints",
+                            std::to_string(table.joints.size()) +
+                                " joints in the data; the model " + model.name + " has " +
+                                std::to_string(n));
+  }
+  // Rows with a set-point for every joint: the time axis of the track.
+  std::vector<double> t;
+  std::vector<std::vector<double>> set(n);
+  std::vector<size_t> rows;
+  for (size_t i = 0; i < table.rows(); ++i) {
+    bool complete = true;
+    for (size_t j = 0; j < n; ++j) complete &= !std::isnan(table.position[j][0][i]);
+    if (!complete) continue;
+    t.push_back(table.time_s[i]);
+    for (size_t j = 0; j < n; ++j)
+      set[j].push_back(table.position[j][0][i] / table.joints[j].scale());
+    rows.push_back(i);
+  }
+  if (t.size() < 2) {
+    throw core::ConfigError(
+        {table.source, 0, 0}, "set-point",
+        "no set-point data to drive the model with (" + std::to_string(t.size()) + " rows)");
+  }
+  Track track;
+  const double tick = model.servo_tick_s;
+  const auto ticks = static_cast<size_t>((t.back() - t.front()) / tick) + 1;
+  std::vector<size_t> cursor(n, 0);
+  for (size_t k = 0; k < ticks; ++k) {
+    std::vector<double> row(n);
+    for (size_t j = 0; j < n; ++j) {
+      row[j] = Interpolate(t, set[j], &cursor[j], t.front() + static_cast<double>(k) * tick);
+    }
+    track.setpoint.push_back(row);
+  }
+  // The arm starts where the first real sample has it (else at the set-point).
+  track.start = track.setpoint.front();
+  for (size_t j = 0; j < n; ++j) {
+    for (size_t i = 0; i < table.rows(); ++i) {
+      if (!std::isnan(table.position[j][2][i])) {
+        track.start[j] = table.position[j][2][i] / table.joints[j].scale();
+        break;
+      }
+    }
+    track.start[j] =
+        std::clamp(track.start[j], model.joints[j].position_min, model.joints[j].position_max);
+  }
+  const double period = table.period_s();
+  for (size_t i = 0; i < table.rows(); ++i) {
+    if (!table.Fresh(logger::Stream::kReal, i, period)) continue;
+    const double at = table.time_s[i] - table.Age(logger::Stream::kReal, i) - t.front();
+    if (at < 0) continue;
+    const auto k = static_cast<size_t>(std::lround(at / tick));
+    if (k >= ticks) continue;
+    for (size_t j = 0; j < n; ++j) {
+      const double real = table.position[j][2][i];
+      if (!std::isnan(real)) track.samples.push_back({k, j, real / table.joints[j].scale()});
+    }
+  }
+  if (track.samples.empty() && need_real) {
+    throw core::ConfigError({table.source, 0, 0}, "real",
+                            "no real-arm samples to fit the model to");
+  }
+  return track;
+}
+
+// Simulates the model along the track; adds each joint's squared error (rad^2) and sample count;
+// with `trace`, also the positions at every tick.
+void Simulate(const core::RobotModel& model, const Track& track, std::vector<double>* sse,
+              std::vector<int64_t>* count, std::vector<std::vector<double>>* trace = nullptr) {
+  const size_t n = model.joints.size();
+  hardware::ArmOptions options;
+  options.friction_scale = 1.0;
+  options.start_positions = track.start;
+  hardware::EmulatedArm arm(model, options);
+  std::vector<servo::PicServo> chips(n);
+  for (size_t j = 0; j < n; ++j) {
+    chips[j].SetGains(servo::GainsFromModel(model.joints[j].servo));
+    chips[j].ServoOn(0);
+  }
+  std::vector<int64_t> zero(n);
+  for (size_t j = 0; j < n; ++j) zero[j] = arm.drive(static_cast<int>(j)).ToCounts(track.start[j]);
+  std::vector<int> pwm(n);
+  size_t next = 0;
+  for (size_t k = 0; k < track.setpoint.size(); ++k) {
+    for (size_t j = 0; j < n; ++j) {
+      const auto jj = static_cast<int>(j);
+      const int64_t actual = arm.Inputs(jj).encoder_counts;
+      chips[j].StopHere(arm.drive(jj).ToCounts(track.setpoint[k][j]) - zero[j], actual);
+      pwm[j] = chips[j].Tick(actual);
+    }
+    arm.Step(pwm);
+    if (trace) trace->push_back(arm.positions());
+    while (next < track.samples.size() && track.samples[next].tick <= k) {
+      const Track::Sample& s = track.samples[next++];
+      if (s.tick != k) continue;
+      const double e = arm.positions()[s.joint] - s.real;
+      (*sse)[s.joint] += e * e;
+      ++(*count)[s.joint];
+    }
+  }
+}
+
+// Parameter p of joint j, as the search sees it (all positive, steps multiply them).
+double Get(const core::RobotModel& m, size_t j, int p) {
+  const core::Friction& f = m.joints[j].friction;
+  switch (p) {
+    case 0:
+      return f.static_effort;
+    case 1:
+      return f.static_effort > 0 ? f.coulomb_positive / f.static_effort : 1;
+    case 2:
+      return f.static_effort > 0 ? f.coulomb_negative / f.static_effort : 1;
+    case 3:
+      return f.viscous;
+    case 4:
+      return f.stribeck_velocity;
+    default:
+      return m.joints[j].armature;
+  }
+}
+
+void Set(core::RobotModel& m, size_t j, int p, double v) {
+  core::Friction& f = m.joints[j].friction;
+  const double up = Get(m, j, 1), down = Get(m, j, 2);
+  switch (p) {
+    case 0:
+      f.static_effort = std::max(v, 1e-4);
+      f.coulomb_positive = up * f.static_effort;
+      f.coulomb_negative = down * f.static_effort;
+      break;
+    case 1:
+      f.coulomb_positive = std::clamp(v, 0.02, 1.0) * f.static_effort;
+      break;
+    case 2:
+      f.coulomb_negative = std::clamp(v, 0.02, 1.0) * f.static_effort;
+      break;
+    case 3:
+      f.viscous = std::max(v, 1e-4);
+      break;
+    case 4:
+      f.stribeck_velocity = std::clamp(v, 1e-3, 10.0);
+      break;
+    default:
+      m.joints[j].armature = std::clamp(v, 1e-5, 1.0);
+      break;
+  }
+}
+
+}  // namespace
+
+IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger::RunTable>& tables,
+                        const IdentifyOptions& options) {
+  const size_t n = model.joints.size();
+  std::vector<Track> tracks;
+  for (const logger::RunTable& table : tables) tracks.push_back(Prepare(model, table));
+  std::vector<size_t> joints;
+  if (options.joints.empty()) {
+    for (size_t j = 0; j < n; ++j) {
+      double lo = 1e9, hi = -1e9;
+      for (const Track& t : tracks) {
+        for (const auto& row : t.setpoint) {
+          lo = std::min(lo, row[j]);
+          hi = std::max(hi, row[j]);
+        }
+      }
+      if (hi - lo > kDeg && model.joints[j].type == core::JointType::kRevolute) joints.push_back(j);
+    }
+  } else {
+    for (int j : options.joints) {
+      if (j < 1 || j > static_cast<int>(n)) {
+        throw std::invalid_argument("joint " + std::to_string(j) + ": allowed 1.." +
+                                    std::to_string(n));
+      }
+      joints.push_back(static_cast<size_t>(j - 1));
+    }
+  }
+  IdentifyResult result;
+  auto evaluate = [&](const core::RobotModel& m, std::vector<int64_t>* counts) {
+    std::vector<double> sse(n, 0.0);
+    std::vector<int64_t> count(n, 0);
+    for (const Track& t : tracks) Simulate(m, t, &sse, &count);
+    ++result.evaluations;
+    if (counts) *counts = count;
+    return sse;
+  };
+  core::RobotModel best = model;
+  // A joint without viscous friction gets a small start, so multiplicative steps can move it.
+  for (size_t j : joints) {
+    if (best.joints[j].friction.viscous <= 0) best.joints[j].friction.viscous = 0.01;
+    if (best.joints[j].armature <= 0) best.joints[j].armature = 1e-3;
+  }
+  std::vector<int64_t> counts;
+  const std::vector<double> before = evaluate(model, &counts);
+  std::vector<double> best_sse = evaluate(best, nullptr);
+  std::vector<std::array<double, kParams>> step(n);
+  for (auto& s : step) s.fill(0.3);
+  bool moving = true;
+  while (moving && result.evaluations + 3 <= options.max_evaluations) {
+    moving = false;
+    for (int p = 0; p < kParams && result.evaluations + 3 <= options.max_evaluations; ++p) {
+      std::vector<bool> active(n, false), improved(n, false);
+      for (size_t j : joints) active[j] = step[j][static_cast<size_t>(p)] >= kMinStep;
+      if (std::none_of(joints.begin(), joints.end(), [&](size_t j) { return active[j]; })) continue;
+      moving = true;
+      core::RobotModel accepted = best;
+      for (double sign : {1.0, -1.0}) {
+        core::RobotModel trial = best;
+        for (size_t j : joints) {
+          if (!active[j] || improved[j]) continue;
+          Set(trial, j, p, Get(best, j, p) * (1 + sign * step[j][static_cast<size_t>(p)]));
+        }
+        const std::vector<double> sse = evaluate(trial, nullptr);
+        for (size_t j : joints) {
+          if (active[j] && !improved[j] && sse[j] < best_sse[j]) {
+            improved[j] = true;
+            Set(accepted, j, p, Get(trial, j, p));
+          }
+        }
+      }
+      for (size_t j : joints) {
+        if (active[j] && !improved[j]) step[j][static_cast<size_t>(p)] /= 2;
+      }
+      best = accepted;
+      best_sse = evaluate(best, nullptr);  // the joints interact a little: the new base
+    }
+  }
+  result.model = best;
+  for (size_t j : joints) {
+    JointIdentification id;
+    id.joint = static_cast<int>(j + 1);
+    id.friction_before = model.joints[j].friction;
+    id.friction_after = best.joints[j].friction;
+    id.armature_before = model.joints[j].armature;
+    id.armature_after = best.joints[j].armature;
+    id.samples = counts[j];
+    const double c = static_cast<double>(std::max<int64_t>(1, counts[j]));
+    id.rms_before_deg = std::sqrt(before[j] / c) / kDeg;
+    id.rms_after_deg = std::sqrt(best_sse[j] / c) / kDeg;
+    result.joints.push_back(id);
+  }
+  return result;
+}
+
+logger::RunTable SimulateRealStream(const core::RobotModel& model, const logger::RunTable& table) {
+  const Track track = Prepare(model, table, false);
+  std::vector<double> sse(model.joints.size(), 0.0);
+  std::vector<int64_t> count(model.joints.size(), 0);
+  std::vector<std::vector<double>> trace;
+  Simulate(model, track, &sse, &count, &trace);
+  logger::RunTable out = table;
+  const double t0 = table.time_s.front();
+  for (size_t i = 0; i < out.rows(); ++i) {
+    const auto k = static_cast<size_t>(
+        std::clamp<long>(std::lround((table.time_s[i] - t0) / model.servo_tick_s), 0,
+                         static_cast<long>(trace.size()) - 1));
+    for (size_t j = 0; j < out.joints.size(); ++j) {
+      out.position[j][2][i] = trace[k][j] * out.joints[j].scale();
+    }
+    out.age_s[2][i] = 0;
+  }
+  return out;
+}
+
+std::string RewriteModelText(const std::string& text, const std::string& file,
+                             const core::RobotModel& original, const IdentifyResult& result) {
+  const core::YamlDocument doc = core::YamlDocument::Parse(text, file);
+  const YAML::Node angle = doc.Root().node()["units"]["angle"];
+  const bool degrees = angle && angle.IsScalar() && angle.Scalar() == "deg";
+  const double speed_scale = degrees ? kDeg : 1.0;
+  std::istringstream in(text);
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  auto number = [](double v) {
+    std::ostringstream s;
+    s << std::setprecision(5) << v;
+    return s.str();
+  };
+  for (const JointIdentification& id : result.joints) {
+    const core::Joint& joint = original.joints[static_cast<size_t>(id.joint - 1)];
+    // The joint's entry: the line "- name: NAME", up to the next "- name:" line.
+    size_t begin = lines.size();
+    for (size_t i = 0; i < lines.size(); ++i) {
+      const size_t at = lines[i].find("- name: ");
+      if (at != std::string::npos && lines[i].substr(at + 8) == joint.name) begin = i;
+    }
+    bool armature = false, friction = false;
+    for (size_t i = begin + 1; i < lines.size(); ++i) {
+      if (lines[i].find("- name:") != std::string::npos) break;
+      const size_t indent = lines[i].find_first_not_of(' ');
+      if (indent == std::string::npos) continue;
+      const std::string pad(indent, ' ');
+      if (lines[i].compare(indent, 9, "armature:") == 0) {
+        lines[i] = pad + "armature: " + number(id.armature_after) + "   # identified";
+        armature = true;
+      } else if (lines[i].compare(indent, 9, "friction:") == 0 &&
+                 lines[i].find('}') != std::string::npos) {
+        const core::Friction& f = id.friction_after;
+        lines[i] = pad + "friction: {static: " + number(f.static_effort) + ", coulomb: [" +
+                   number(f.coulomb_positive) + ", " + number(f.coulomb_negative) +
+                   "], viscous: " + number(f.viscous) +
+                   ", stribeck_velocity: " + number(f.stribeck_velocity / speed_scale) +
+                   "}   # identified";
+        friction = true;
+      }
+    }
+    if (begin == lines.size() || !armature || !friction) {
+      throw core::ConfigError({file, 0, 0}, "joints",
+                              "joint '" + joint.name +
+                                  "': cannot rewrite it (its entry needs a '- name: " + joint.name +
+                                  "' line and one-line 'armature:' and "
+                                  "'friction: {...}' keys)");
+    }
+  }
+  std::string out;
+  for (const std::string& line : lines) out += line + "\n";
+  return out;
+}
+
+}  // namespace sirupp::lab

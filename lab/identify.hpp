@@ -1,0 +1,53 @@
+#pragma once
+// Identification, the paper's "better friction model" as a lab exercise: fits a robot model's
+// joint friction (static, Coulomb per direction, viscous, Stribeck speed) and armature to a real
+// arm's logged data (logger data files, the emulator's or a real PUMA's). Output-error fit: the
+// model's arm (joint-space rigid-body dynamics with exact stick-slip, hardware::EmulatedArm without
+// real-arm effects) under PIC-SERVO chips with the model's gains follows the logged set-point, tick
+// by tick; the parameters minimise the squared difference between its joint angles and the real
+// ones at every fresh real sample. Reads the model and the tables; writes nothing itself.
+
+#include <string>
+#include <vector>
+
+#include "core/robot_model.hpp"
+#include "logger/data_file.hpp"
+
+namespace sirupp::lab {
+
+struct IdentifyOptions {
+  std::vector<int> joints;    // 1-based joints to fit; empty: every joint the set-point moves
+  int max_evaluations = 150;  // simulations of all the data
+};
+
+struct JointIdentification {
+  int joint = 0;  // 1-based
+  core::Friction friction_before, friction_after;
+  double armature_before = 0, armature_after = 0;
+  double rms_before_deg = 0, rms_after_deg = 0;  // simulated vs real, over the fresh samples
+  int64_t samples = 0;
+};
+
+struct IdentifyResult {
+  core::RobotModel model;  // the input model with the fitted values
+  std::vector<JointIdentification> joints;
+  int evaluations = 0;
+};
+
+// Throws core::ConfigError naming the table if a table has no set-point or real data, or the
+// joints do not match the model.
+IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger::RunTable>& tables,
+                        const IdentifyOptions& options);
+
+// What the model's arm does following `table`'s set-point from where its real stream starts (else
+// the set-point's start): a copy of the table whose real stream is the simulation, one sample per
+// row. For predictions, and to make synthetic data with known parameters (tests).
+logger::RunTable SimulateRealStream(const core::RobotModel& model, const logger::RunTable& table);
+
+// The model file's text with each fitted joint's `armature:` and `friction:` lines replaced by
+// the identified values (comments and everything else kept). Throws core::ConfigError naming the
+// file if a joint's entry does not have those keys on one line each.
+std::string RewriteModelText(const std::string& text, const std::string& file,
+                             const core::RobotModel& original, const IdentifyResult& result);
+
+}  // namespace sirupp::lab

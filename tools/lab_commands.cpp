@@ -1,0 +1,239 @@
+#include "tools/lab_commands.hpp"
+
+#include <strings.h>
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <iomanip>
+#include <ostream>
+
+#include "core/errors.hpp"
+#include "core/model_loader.hpp"
+#include "core/yaml_reader.hpp"
+#include "hardware/real_arm.hpp"
+#include "lab/emulator_fit.hpp"
+#include "lab/experiment.hpp"
+#include "lab/identify.hpp"
+#include "logger/report.hpp"
+#include "tools/args.hpp"
+#include "tools/cli.hpp"
+
+namespace sirupp::tools {
+
+const char* const kFitEmulatorUsage =
+    "usage: sirupp fit-emulator [--real-arm FILE] [--model FILE] [--virtual-model FILE]\n"
+    "                           [--sets N...] [--evaluate] [--evaluations N] [--out FILE]\n"
+    "The SIRUPP paper's experiment in one process: the movement sets (default all seven) on the\n"
+    "virtual arm (ODE sim and virtual PIC-SERVOs, lockstep) and on the emulated real arm\n"
+    "(emulated PIC-SERVO modules and the arm with its effects, emulated time, no serial line).\n"
+    "Prints our Table II (virtual vs real) beside the paper's, row by row, with joint 1's start\n"
+    "delay and the multi-joint coupling.\n"
+    "  --real-arm FILE       the effects to start from (default "
+    "config/hardware/puma260-real.yaml)\n"
+    "  --model FILE          the robot model of the real arm (default config/robots/puma260.yaml)\n"
+    "  --virtual-model FILE  the virtual arm's model (default: --model); e.g. one `sirupp\n"
+    "                        identify` wrote, to see how much closer it comes\n"
+    "  --evaluate            only run and print the table; no fit\n"
+    "  --evaluations N       the fit's budget of experiment runs (default 150)\n"
+    "  --data DIR            with --evaluate: also write each set's data file there (the\n"
+    "                        logger's format; input for sirupp report and sirupp identify)\n"
+    "  --out FILE            write the fitted effects there (refuses to replace a file unless it\n"
+    "                        is --real-arm itself)\n"
+    "docs/emulator-fit.md. Exit 0, 2 for bad arguments or files.\n";
+
+const char* const kIdentifyUsage =
+    "usage: sirupp identify DATA|DIR... --model M --out M2 [--joints N...] [--evaluations N]\n"
+    "Fits the model's joint friction (static, Coulomb per direction, viscous, Stribeck speed) and\n"
+    "armature to a real arm's logged data (sirupp-logger data files or LCM logs, e.g. a demo's\n"
+    "data/ or `sirupp fit-emulator --data DIR`): the model's arm under PIC-SERVO chips with the\n"
+    "model's gains follows the logged set-point, and the parameters minimise the difference to "
+    "the\n"
+    "real joint angles. Writes M2 (M with those values; comments kept) and prints the fit per\n"
+    "joint. Then `sirupp fit-emulator --evaluate --virtual-model M2` (or a demo with M2) shows "
+    "how\n"
+    "much closer the virtual arm comes.\n"
+    "  --joints N...      the joints to fit (default: every joint the set-point moves)\n"
+    "  --evaluations N    simulations of the data the fit may run (default 150)\n"
+    "docs/emulator-fit.md. Exit 0, 2 for bad arguments or files.\n";
+
+namespace {
+
+std::vector<int> ParseSets(const Args& args) {
+  std::vector<int> sets;
+  if (!args.Has("sets")) return {1, 2, 3, 4, 5, 6, 7};
+  for (const std::string& text : args.Values("sets", -1)) {
+    int n = 0;
+    for (int k = 1; k <= 7; ++k) {
+      if (strcasecmp(text.c_str(), lab::RomanSet(k)) == 0 || text == std::to_string(k)) n = k;
+    }
+    if (n == 0) {
+      throw core::UsageError("--sets: '" + text +
+                             "' is not a movement set; allowed: 1 to 7 or I to VII");
+    }
+    sets.push_back(n);
+  }
+  return sets;
+}
+
+double Since(std::chrono::steady_clock::time_point t) {
+  return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
+}
+
+}  // namespace
+
+int RunFitEmulator(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
+  const Args args(argv, "fit-emulator",
+                  {{"real-arm", "FILE"},
+                   {"model", "FILE"},
+                   {"virtual-model", "FILE"},
+                   {"sets", "N..."},
+                   {"evaluate", "(switch)"},
+                   {"evaluations", "N"},
+                   {"out", "FILE"},
+                   {"data", "DIR"}});
+  const std::string model_file =
+      ResolveDataPath(args.Has("model") ? args.String("model") : "config/robots/puma260.yaml");
+  const core::RobotModel model = core::LoadRobotModel(model_file);
+  const core::RobotModel virtual_model =
+      args.Has("virtual-model") ? core::LoadRobotModel(args.String("virtual-model")) : model;
+  const std::string arm_file = ResolveDataPath(
+      args.Has("real-arm") ? args.String("real-arm") : "config/hardware/puma260-real.yaml");
+  const hardware::RealArmParams start = hardware::LoadRealArmParams(arm_file, model);
+  lab::FitOptions options;
+  options.experiment.sets = ParseSets(args);
+  if (args.Has("evaluations")) {
+    const double n = args.Numbers("evaluations", 1)[0];
+    if (!(n >= 1 && n <= 10000) || n != std::floor(n)) {
+      throw core::UsageError("fit-emulator: --evaluations " + core::FormatNumber(n) +
+                             ": allowed a whole number 1..10000");
+    }
+    options.max_evaluations = static_cast<int>(n);
+  }
+  std::string out_file;
+  if (args.Has("out")) {
+    out_file = args.String("out");
+    if (std::ifstream(out_file).good() && out_file != args.String("real-arm")) {
+      throw core::UsageError("fit-emulator: --out " + out_file +
+                             ": exists; choose a new file (or give it as --real-arm too)");
+    }
+  }
+  const auto started = std::chrono::steady_clock::now();
+  out << "virtual arm: " << virtual_model.name
+      << (args.Has("virtual-model") ? " (" + args.String("virtual-model") + ")" : "")
+      << "; emulated real arm: " << arm_file << "\n";
+  if (args.Switch("evaluate")) {
+    std::string data_dir;
+    if (args.Has("data")) {
+      data_dir = args.String("data");
+      std::filesystem::create_directories(data_dir);
+    }
+    const std::vector<lab::TableRow> table =
+        lab::RunExperiment(virtual_model, model, start, options.experiment, data_dir);
+    if (!data_dir.empty()) out << "data files: " << data_dir << "/lab-setN.csv\n";
+    out << "\n" << lab::FormatComparison(table, true);
+    out << "fit cost " << core::FormatNumber(lab::FitCost(table)) << "; " << std::setprecision(3)
+        << Since(started) << " s\n";
+    return 0;
+  }
+  options.progress = [&](int evaluation, double cost, const std::string& what) {
+    err << "  [" << evaluation << "] cost " << core::FormatNumber(std::round(cost * 1000) / 1000)
+        << ": " << what << "\n";
+  };
+  const lab::FitResult fit = lab::FitEmulator(virtual_model, model, start, options);
+  out << "fit: cost " << core::FormatNumber(fit.cost_before) << " -> "
+      << core::FormatNumber(fit.cost_after) << " in " << fit.evaluations << " runs of the "
+      << options.experiment.sets.size() << " sets, " << std::setprecision(3) << Since(started)
+      << " s\n";
+  for (const std::string& line : fit.fitted) out << "  " << line << "\n";
+  out << "\n" << lab::FormatComparison(fit.table, true);
+  if (!out_file.empty()) {
+    hardware::RealArmParams fitted = fit.params;
+    fitted.description = "PUMA 260 real-arm effects fitted to the SIRUPP paper's Table II";
+    std::ofstream file(out_file);
+    file << hardware::FormatRealArmParams(
+        fitted,
+        "The emulated real PUMA 260 (sirupp-picservo-emu's default): the physical effects a 1980s\n"
+        "geared arm has and the SIRUPP model lacks. Reasoning and sources per value:\n"
+        "docs/hardware-emulator.md, \"Real-arm effects\". Written by `sirupp fit-emulator` (fit\n"
+        "cost " +
+            core::FormatNumber(fit.cost_after) + "): docs/emulator-fit.md.");
+    if (!file) throw std::runtime_error("fit-emulator: cannot write " + out_file);
+    out << "wrote " << out_file << "\n";
+  }
+  return 0;
+}
+
+int RunIdentify(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
+  std::vector<std::string> files;
+  size_t i = 0;
+  for (; i < argv.size() && argv[i].rfind("--", 0) != 0; ++i) files.push_back(argv[i]);
+  const Args args(
+      std::vector<std::string>(argv.begin() + static_cast<std::ptrdiff_t>(i), argv.end()),
+      "identify", {{"model", "FILE"}, {"out", "FILE"}, {"joints", "N..."}, {"evaluations", "N"}});
+  if (files.empty())
+    throw core::UsageError("identify: give at least one DATA file (before the options)");
+  if (!args.Has("model")) throw core::UsageError("identify: --model M is required");
+  if (!args.Has("out")) throw core::UsageError("identify: --out M2 is required");
+  const std::string model_file = args.String("model");
+  const std::string out_file = args.String("out");
+  if (std::ifstream(out_file).good()) {
+    throw core::UsageError("identify: --out " + out_file + ": exists; choose a new file");
+  }
+  const core::RobotModel model = core::LoadRobotModel(model_file);
+  lab::IdentifyOptions options;
+  if (args.Has("joints")) {
+    for (double j : args.Numbers("joints", -1)) {
+      if (j != std::floor(j) || j < 1 || j > model.num_joints()) {
+        throw core::UsageError("identify: --joints " + core::FormatNumber(j) + ": allowed 1.." +
+                               std::to_string(model.num_joints()));
+      }
+      options.joints.push_back(static_cast<int>(j));
+    }
+  }
+  if (args.Has("evaluations")) {
+    const double n = args.Numbers("evaluations", 1)[0];
+    if (!(n >= 5 && n <= 100000) || n != std::floor(n)) {
+      throw core::UsageError("identify: --evaluations " + core::FormatNumber(n) +
+                             ": allowed a whole number 5..100000");
+    }
+    options.max_evaluations = static_cast<int>(n);
+  }
+  logger::ImportOptions import;
+  const std::vector<logger::RunTable> tables = logger::ReadInputs(files, import);
+  const auto started = std::chrono::steady_clock::now();
+  const lab::IdentifyResult result = lab::Identify(model, tables, options);
+  const std::string text =
+      lab::RewriteModelText(core::ReadTextFile(model_file), model_file, model, result);
+  {
+    std::ofstream file(out_file);
+    file << text;
+    if (!file) throw std::runtime_error("identify: cannot write " + out_file);
+  }
+  core::LoadRobotModel(out_file);  // what was written loads
+  out << "identified from " << tables.size() << " data tables in " << result.evaluations
+      << " simulations (" << std::setprecision(3) << Since(started) << " s)\n\n"
+      << "| joint | samples | rms before (deg) | rms after (deg) | static | Coulomb +/- | "
+         "viscous | Stribeck (deg/s) | armature |\n"
+      << "|---|---:|---:|---:|---|---|---|---|---|\n";
+  auto f = [](double v) { return core::FormatNumber(std::round(v * 1e4) / 1e4); };
+  for (const lab::JointIdentification& id : result.joints) {
+    const core::Friction& a = id.friction_before;
+    const core::Friction& b = id.friction_after;
+    const double deg = 3.14159265358979323846 / 180;
+    out << "| " << id.joint << " | " << id.samples << " | " << f(id.rms_before_deg) << " | "
+        << f(id.rms_after_deg) << " | " << f(a.static_effort) << " -> " << f(b.static_effort)
+        << " | " << f(a.coulomb_positive) << "/" << f(a.coulomb_negative) << " -> "
+        << f(b.coulomb_positive) << "/" << f(b.coulomb_negative) << " | " << f(a.viscous) << " -> "
+        << f(b.viscous) << " | " << f(a.stribeck_velocity / deg) << " -> "
+        << f(b.stribeck_velocity / deg) << " | " << f(id.armature_before) << " -> "
+        << f(id.armature_after) << " |\n";
+  }
+  out << "\nwrote " << out_file << "\n";
+  err << "sirupp identify: next: sirupp fit-emulator --evaluate --virtual-model " << out_file
+      << "\n";
+  return 0;
+}
+
+}  // namespace sirupp::tools

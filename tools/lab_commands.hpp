@@ -1,0 +1,18 @@
+#pragma once
+// `sirupp fit-emulator` and `sirupp identify`: the paper's experiment in one process, the fit of
+// the emulated real arm to the paper's Table II, and the identification of a model's friction and
+// armature from real-arm data (lab/, docs/emulator-fit.md).
+
+#include <iosfwd>
+#include <string>
+#include <vector>
+
+namespace sirupp::tools {
+
+extern const char* const kFitEmulatorUsage;
+extern const char* const kIdentifyUsage;
+
+int RunFitEmulator(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
+int RunIdentify(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
+
+}  // namespace sirupp::tools
