@@ -21,7 +21,9 @@ constexpr double kDeg = 3.14159265358979323846 / 180;
 constexpr size_t kMaxFileBytes = 1024 * 1024;
 
 Response JsonResponse(const Json& body, int status = 200) {
-  return Response{status, "application/json", body.dump()};
+  // Text from files or messages may hold invalid UTF-8: replaced, never thrown on.
+  return Response{status, "application/json",
+                  body.dump(-1, ' ', false, Json::error_handler_t::replace)};
 }
 
 Response FromResult(const CommandResult& result) {
@@ -324,7 +326,7 @@ Response PanelApi::ReadFile(const std::string& path) {
   std::ifstream in(real, std::ios::binary);
   std::ostringstream text;
   text << in.rdbuf();
-  return JsonResponse(Json{{"path", path}, {"text", core::Printable(text.str())}});
+  return JsonResponse(Json{{"path", path}, {"text", text.str()}});
 }
 
 Response PanelApi::SolveIk(const Json& body) {

@@ -137,7 +137,7 @@ struct PanelServer::Impl {
             Json state = hub.StateJson();
             state["lock"] = api.LockHolder();
             state["sent_ms"] = WallMs();
-            frame = "data: " + state.dump() + "\n\n";
+            frame = "data: " + state.dump(-1, ' ', false, Json::error_handler_t::replace) + "\n\n";
           }
           return sink.write(frame.data(), frame.size());
         });

@@ -180,7 +180,8 @@ TEST_F(PanelApiTest, TokenIsRequiredOnChangesWhenInForce) {
 TEST_F(PanelApiTest, FilesOnlyUnderConfig) {
   Response ok = Get("/api/file", {{"path", "config/plans/set7.plan"}});
   ASSERT_EQ(ok.status, 200);
-  EXPECT_NE(Body(ok)["text"].get<std::string>().find("move"), std::string::npos);
+  EXPECT_NE(Body(ok)["text"].get<std::string>().find("move j1=90 j2=90 j3=90"), std::string::npos);
+  EXPECT_NE(Body(ok)["text"].get<std::string>().find("\nwait done\n"), std::string::npos);
   EXPECT_EQ(Get("/api/file", {{"path", "config/../CMakeLists.txt"}}).status, 403);
   EXPECT_EQ(Get("/api/file", {{"path", "/etc/passwd"}}).status, 403);
   EXPECT_EQ(Get("/api/file", {{"path", "config/plans/none.plan"}}).status, 404);

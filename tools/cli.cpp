@@ -18,6 +18,7 @@
 #include "tools/hardware_commands.hpp"
 #include "tools/kinematics_commands.hpp"
 #include "tools/launch_commands.hpp"
+#include "tools/panel_commands.hpp"
 #include "tools/replay_commands.hpp"
 #include "tools/report_commands.hpp"
 #include "tools/sim_commands.hpp"
@@ -68,6 +69,7 @@ const char* const kUsage =
     "  estop [--release]          emergency stop: real motors off, plans aborted\n"
     "  report FILE|DIR...         Table II report, CSV and plots of logger data files or LCM logs\n"
     "  replay LOG [--speed X]     play an lcm-logger file back onto the bus, original timing\n"
+    "  panel [--listen ADDR]      the lab panel in the browser (sirupp-panel); prints its address\n"
     "  view [--channel NAME]      show sirupp-viewer's images in a window (needs a display)\n"
     "  help                       this text\n"
     "\n"
@@ -164,6 +166,10 @@ int RunCli(const Args& args, std::ostream& out, std::ostream& err) {
     if (command == "status") {
       if (wants_help) return out << kStatusUsage, kExitOk;
       return RunStatus(rest, out);
+    }
+    if (command == "panel") {
+      if (wants_help) return out << kPanelUsage, kExitOk;
+      return RunPanel(rest, err);
     }
     if (command == "view") {
       if (wants_help) return out << kViewUsage, kExitOk;
