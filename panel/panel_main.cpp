@@ -81,6 +81,10 @@ int Run(const std::vector<std::string>& argv) {
     server_options.max_rate_hz = rate;
   }
   const double duration_s = args.Has("duration") ? args.Numbers("duration", 1)[0] : 0;
+  if (args.Has("duration") && !(duration_s > 0)) {
+    throw UsageError("sirupp-panel: --duration " + sirupp::core::FormatNumber(duration_s) +
+                     ": must be > 0 seconds");
+  }
   server_options.web_dir = sirupp::tools::ResolveDataPath("panel/web");
 
   panel::HubOptions hub_options;

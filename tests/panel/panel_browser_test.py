@@ -74,9 +74,9 @@ try:
         js(a, """const s = document.querySelector('#joint-2 .slider');
                  s.value = 30; s.dispatchEvent(new Event('input'));
                  s.dispatchEvent(new Event('change'));""")
-        # The set-point goes to 30 exactly; the arm within 1.5 deg (gravity against Ki = 0).
+        # The set-point goes to 30 (to the encoder count); the arm within 1.5 deg (gravity, Ki = 0).
         wait_for("joint 2 of the sim at 30 deg", lambda: abs(virtual_q(a, 2) - 30) < 1.5 and js(
-            a, "return Math.abs(latest.setpoint.goal[1] - 30) < 1e-6 &&"
+            a, "return Math.abs(latest.setpoint.goal[1] - 30) < 0.01 &&"
                " Math.abs(latest.setpoint.q[1] - 30) < 0.01"), 40)
         assert "ARM_TARGET" in a.find_element(By.ID, "message").text
     check("a slider moves joint 2 and the sim reaches it", slider_moves_joint2)
@@ -97,10 +97,12 @@ try:
                        ".filter(td => td.textContent === 'yes').length")
         assert within >= 1, "no configuration inside the limits"
         a.find_element(By.ID, "tool-apply").click()
+        # The set-point's tool reaches the target; the arm within 15 mm (gravity sag with the
+        # paper's gains, Ki = 0: about 1 degree at the shoulder).
         wait_for("the tool at the target", lambda: js(
             a, f"const t = latest.setpoint.tool; const v = latest.virtual.tool;"
                f"return Math.abs(t[2] - {z0 + 0.04}) < 1e-3 && Math.abs(t[0] - {x0 - 0.04}) < 1e-3"
-               f" && Math.abs(v[2] - {z0 + 0.04}) < 0.005 && Math.abs(v[0] - {x0 - 0.04}) < 0.005"), 40)
+               f" && Math.abs(v[2] - {z0 + 0.04}) < 0.015 && Math.abs(v[0] - {x0 - 0.04}) < 0.015"), 40)
     check("a tool target goes through the IK and the arm reaches it", tool_target)
     shot(a, "tool", "tool")
 
@@ -177,7 +179,10 @@ try:
         assert max(abs(x - y) for x, y in zip(q1, q2)) < 0.2, f"still moving: {q1} -> {q2}"
         c = js(a, "return latest.controller")
         assert c["state"] != "moving" and c["state"] != "waiting", c
-        assert all(abs(q - 90) > 1 for q in q2), "the plan reached its goal anyway"
+        # Set VII's first move takes the joints from 90 to 0: stopped half-way, not at 0.
+        assert max(abs(q) for q in q2) > 5, f"the first move ended anyway: {q2}"
+        assert js(a, "return latest.setpoint.goal.slice(0, 3).some(g => Math.abs(g) > 5) || "
+                     "latest.controller.plan_step < latest.controller.plan_steps"), "the plan went on"
     check("e-stop stops a running plan", estop_stops_plan)
     shot(a, "real", "real-arm")
 
@@ -210,7 +215,6 @@ try:
 
     def token_from_another_address():
         # The machine's own non-loopback address (the request comes from it), when it has one.
-        import socket
         addrs = [x for x in os.popen("hostname -I").read().split() if ":" not in x and not x.startswith("127.")]
         listen = addrs[0] if addrs else "127.0.0.1"
         extra = ["--listen", listen] + ([] if addrs else ["--require-token"])
@@ -227,7 +231,6 @@ try:
         status, body = http("POST", base + "api/lock", {"name": "teacher"}, dict(headers, **{"X-Sirupp-Token": token}))
         assert status == 200, (status, body)
         print(f"     listened on {listen} ({'non-loopback address' if addrs else 'loopback with --require-token'})")
-        socket.gethostname()
     check("without the token a request from another address is refused", token_from_another_address)
 finally:
     rig.stop()
