@@ -42,6 +42,17 @@ target_link_libraries(sirupp_ode_external INTERFACE ${ODE_LIBRARY})
 # nlohmann::json (nlohmann-json3-dev, header-only) for the commands' --json output.
 find_package(nlohmann_json 3 REQUIRED)
 
+# cpp-httplib (libcpp-httplib-dev) for sirupp-panel's HTTP server and event stream. Debian builds it
+# as a library with OpenSSL, zlib and Brotli support: its pkg-config flags must be used as they are,
+# since they change the layout of httplib::Request.
+find_package(PkgConfig REQUIRED)
+pkg_check_modules(CPPHTTPLIB IMPORTED_TARGET cpp-httplib)
+if(NOT CPPHTTPLIB_FOUND)
+  message(FATAL_ERROR "cpp-httplib not found (need libcpp-httplib-dev): run scripts/install-deps.sh")
+endif()
+add_library(sirupp_httplib_external INTERFACE)
+target_link_libraries(sirupp_httplib_external INTERFACE PkgConfig::CPPHTTPLIB)
+
 # TinyXML-2 (libtinyxml2-dev) for environment files; its CMake config defines tinyxml2::tinyxml2.
 find_package(tinyxml2 REQUIRED)
 

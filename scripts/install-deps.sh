@@ -31,8 +31,13 @@ packages=(
   libosmesa6-dev libgl-dev libglu1-mesa-dev
   # strict config files with line numbers
   libyaml-cpp-dev libtinyxml2-dev
-  # --json output of the sirupp commands
+  # --json output of the sirupp commands, and the panel's JSON
   nlohmann-json3-dev
+  # sirupp-panel: HTTP server (header-only), the page's 3D and plot libraries (served from
+  # /usr/share/javascript, never a CDN)
+  libcpp-httplib-dev libjs-three libjs-dygraphs
+  # the panel's browser tests: headless Chromium driven by Selenium (system python3)
+  chromium chromium-driver python3-selenium
   # tests; check_urdf for the URDF export, python3 to parse exported XML and JSON output
   libgtest-dev libgmock-dev liburdfdom-tools python3
   # multi-host tests (network namespaces), process tools

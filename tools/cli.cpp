@@ -20,6 +20,7 @@
 #include "tools/kinematics_commands.hpp"
 #include "tools/lab_commands.hpp"
 #include "tools/launch_commands.hpp"
+#include "tools/panel_commands.hpp"
 #include "tools/replay_commands.hpp"
 #include "tools/report_commands.hpp"
 #include "tools/sim_commands.hpp"
@@ -74,6 +75,7 @@ const char* const kUsage =
     "                             real arm's effects to the paper's Table II\n"
     "  identify DATA... --model M --out M2   fit a model's friction and armature to real data\n"
     "  replay LOG [--speed X]     play an lcm-logger file back onto the bus, original timing\n"
+    "  panel [--listen ADDR]      the lab panel in the browser (sirupp-panel); prints its address\n"
     "  view [--channel NAME]      show sirupp-viewer's images in a window (needs a display)\n"
     "  help                       this text\n"
     "\n"
@@ -170,6 +172,10 @@ int RunCli(const Args& args, std::ostream& out, std::ostream& err) {
     if (command == "status") {
       if (wants_help) return out << kStatusUsage, kExitOk;
       return RunStatus(rest, out);
+    }
+    if (command == "panel") {
+      if (wants_help) return out << kPanelUsage, kExitOk;
+      return RunPanel(rest, err);
     }
     if (command == "view") {
       if (wants_help) return out << kViewUsage, kExitOk;

@@ -1,0 +1,147 @@
+// sirupp-panel: the lab panel in the browser. Thin main over panel/: the hub on the bus, the API
+// and the HTTP server; prints the address (with the token when one is in force) and serves until
+// Ctrl-C or SIGTERM.
+
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <iostream>
+#include <random>
+#include <sstream>
+#include <thread>
+
+#include "core/bus.hpp"
+#include "core/errors.hpp"
+#include "core/model_loader.hpp"
+#include "panel/panel_api.hpp"
+#include "panel/panel_hub.hpp"
+#include "panel/panel_server.hpp"
+#include "tools/args.hpp"
+#include "tools/cli.hpp"
+#include "tools/launch_commands.hpp"
+#include "tools/process_main.hpp"
+
+namespace {
+
+using sirupp::core::UsageError;
+using sirupp::tools::Args;
+namespace panel = sirupp::panel;
+
+constexpr const char* kUsage =
+    "usage: sirupp-panel [--port N] [--listen ADDR] [--require-token] [--rate HZ]\n"
+    "                    [--results DIR] [--model FILE] [--open] [--duration S]\n"
+    "                    [--lcm-url URL] [--prefix PREFIX]\n"
+    "Serves the lab panel in the browser: the 3D view, joints, tool, plans, gains, plots, the\n"
+    "real arm, processes, model and environment, live from the bus. Binds 127.0.0.1:8765 by\n"
+    "default (this computer only). --listen ADDR (e.g. 0.0.0.0) opens it to a lab network; a\n"
+    "token is then printed and every request that changes anything must carry it (open the\n"
+    "printed address); --require-token asks for it on 127.0.0.1 too. --port 0: any free port.\n"
+    "--rate HZ: the fastest live stream a page may ask for (60). --results DIR: a folder the\n"
+    "page may read besides config/. --model FILE: drawn until ROBOT_MODEL arrives. --open\n"
+    "starts a browser (xdg-open) when there is a display. See panel/README.md.\n";
+
+std::string MakeToken() {
+  std::random_device random;
+  std::ostringstream text;
+  text << std::hex;
+  for (int i = 0; i < 4; ++i) text << random();
+  return text.str();
+}
+
+int Run(const std::vector<std::string>& argv) {
+  const Args args(argv, "sirupp-panel",
+                  {{"port", "N"},
+                   {"listen", "ADDR"},
+                   {"require-token", "(switch)"},
+                   {"rate", "HZ"},
+                   {"results", "DIR"},
+                   {"model", "robot model file"},
+                   {"open", "(switch)"},
+                   {"duration", "S"},
+                   {"lcm-url", "LCM URL"},
+                   {"prefix", "channel prefix of the rig"}});
+  panel::ServerOptions server_options;
+  if (args.Has("port")) {
+    const double port = args.Numbers("port", 1)[0];
+    if (port != static_cast<int>(port) || port < 0 || port > 65535) {
+      throw UsageError("sirupp-panel: --port " + sirupp::core::FormatNumber(port) +
+                       ": allowed whole numbers 0..65535 (0 = any free port)");
+    }
+    server_options.port = static_cast<int>(port);
+  }
+  if (args.Has("listen")) server_options.listen = args.String("listen");
+  if (args.Has("rate")) {
+    const double rate = args.Numbers("rate", 1)[0];
+    if (!(rate > 0 && rate <= 240)) {
+      throw UsageError("sirupp-panel: --rate " + sirupp::core::FormatNumber(rate) +
+                       ": allowed > 0 and <= 240 frames per second");
+    }
+    server_options.max_rate_hz = rate;
+  }
+  const double duration_s = args.Has("duration") ? args.Numbers("duration", 1)[0] : 0;
+  if (args.Has("duration") && !(duration_s > 0)) {
+    throw UsageError("sirupp-panel: --duration " + sirupp::core::FormatNumber(duration_s) +
+                     ": must be > 0 seconds");
+  }
+  server_options.web_dir = sirupp::tools::ResolveDataPath("panel/web");
+
+  panel::HubOptions hub_options;
+  if (args.Has("model")) {
+    hub_options.fallback_model =
+        sirupp::core::LoadRobotModel(sirupp::tools::ResolveDataPath(args.String("model")));
+  }
+  panel::ApiOptions api_options;
+  api_options.root = std::filesystem::path(sirupp::tools::ResolveDataPath("config/plans"))
+                         .parent_path()
+                         .parent_path()
+                         .string();
+  if (api_options.root.empty()) api_options.root = ".";
+  if (args.Has("results")) api_options.results_dir = args.String("results");
+  api_options.require_token =
+      args.Switch("require-token") || !panel::IsLoopback(server_options.listen);
+  if (api_options.require_token) api_options.token = MakeToken();
+
+  sirupp::core::Bus bus(args.Has("lcm-url") ? args.String("lcm-url") : "",
+                        args.Has("prefix") ? args.String("prefix") : "");
+  panel::PanelHub hub(bus, hub_options);
+  panel::PanelApi api(hub, api_options);
+  panel::PanelServer server(hub, api, server_options);
+  const int port = server.Bind();
+  const std::string host =
+      server_options.listen == "0.0.0.0" ? sirupp::tools::MachineName() : server_options.listen;
+  std::string address = "http://" + host + ":" + std::to_string(port) + "/";
+  if (api_options.require_token) address += "?token=" + api_options.token;
+  std::cout << "sirupp-panel: " << address << std::endl;
+  std::cerr << "sirupp-panel: on " << hub.url() << ", page files " << server_options.web_dir
+            << (api_options.require_token ? "; changes need the token in the address" : "")
+            << std::endl;
+  hub.Start();
+  std::thread serving([&] { server.Serve(); });
+  if (args.Switch("open") && std::getenv("DISPLAY") != nullptr) {
+    const pid_t child = fork();
+    if (child == 0) {
+      execlp("xdg-open", "xdg-open", address.c_str(), static_cast<char*>(nullptr));
+      _exit(127);
+    }
+  }
+  const auto start = std::chrono::steady_clock::now();
+  sirupp::tools::ServiceUntilSignal([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    return duration_s <= 0 ||
+           std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() <
+               duration_s;
+  });
+  hub.Stop();  // ends the event streams
+  server.Stop();
+  serving.join();
+  std::cerr << "sirupp-panel: stopped; " << hub.states_received() << " arm states received\n";
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  return sirupp::tools::ProcessMain(argc, argv, "sirupp-panel", kUsage, Run);
+}

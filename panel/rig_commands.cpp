@@ -1,0 +1,281 @@
+#include "panel/rig_commands.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <sirupp/estop_t.hpp>
+#include <sirupp/hardware_command_t.hpp>
+#include <sirupp/joint_target_t.hpp>
+#include <sirupp/plan_command_t.hpp>
+#include <sirupp/pose_target_t.hpp>
+
+#include "control/plan.hpp"
+#include "control/pose_goal.hpp"
+#include "core/errors.hpp"
+#include "core/geometry.hpp"
+#include "core/inverse_kinematics.hpp"
+#include "core/printable.hpp"
+#include "servo/chip_gains.hpp"
+
+namespace sirupp::panel {
+namespace {
+
+constexpr double kDeg = 3.14159265358979323846 / 180;
+
+// The model is needed for every check; without it nothing is sent.
+struct NoModel : std::runtime_error {
+  NoModel() : std::runtime_error("no robot model yet: is sirupp-sim running on this bus?") {}
+};
+
+}  // namespace
+
+int64_t RigCommands::NowMicros() const {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
+}
+
+CommandResult RigCommands::MoveJoints(const std::vector<std::optional<double>>& targets,
+                                      double speed_scale) {
+  std::optional<core::RobotModel> model = hub_.Model();
+  if (!model) return CommandResult::Fail(503, NoModel().what());
+  if (targets.size() != model->joints.size()) {
+    return CommandResult::Fail(400, "targets: " + std::to_string(targets.size()) +
+                                        " values; the model has " +
+                                        std::to_string(model->joints.size()) + " joints");
+  }
+  if (!(speed_scale > 0 && speed_scale <= 1)) {
+    return CommandResult::Fail(400, "speed: " + core::FormatNumber(speed_scale) +
+                                        ": allowed (0, 1], a fraction of the default speed");
+  }
+  const std::optional<std::vector<double>> goals = hub_.PresentGoals();
+  sirupp::joint_target_t target{};
+  target.utime = NowMicros();
+  target.seq = seq_++;
+  target.num_joints = model->num_joints();
+  bool any = false;
+  for (size_t j = 0; j < targets.size(); ++j) {
+    const core::Joint& joint = model->joints[j];
+    double goal = goals ? (*goals)[j] : joint.home;
+    if (targets[j]) {
+      const double value = *targets[j];
+      const double si = FromDisplay(joint, value);
+      if (!std::isfinite(value) || si < joint.position_min || si > joint.position_max) {
+        return CommandResult::Fail(
+            400,
+            "joint " + std::to_string(j + 1) + " (" + joint.name + "): " +
+                core::FormatNumber(value) + " " + DisplayUnit(joint) + " is outside its limits " +
+                core::FormatApprox(ToDisplay(joint, joint.position_min)) + ".." +
+                core::FormatApprox(ToDisplay(joint, joint.position_max)) + " " + DisplayUnit(joint),
+            Json{{"joint", j}});
+      }
+      goal = si;
+      any = true;
+    }
+    target.position.push_back(goal);
+    target.max_velocity.push_back(joint.servo.default_velocity * speed_scale);
+    target.acceleration.push_back(0.0);
+    target.active.push_back(targets[j] ? 1 : 0);
+  }
+  if (!any) return CommandResult::Fail(400, "targets: no joint given");
+  hub_.Publish(hub_.channels().arm_target, target);
+  return CommandResult{true, 200, "sent " + hub_.channels().arm_target, Json::object()};
+}
+
+CommandResult RigCommands::MovePose(const std::vector<double>& v, const std::string& config,
+                                    double speed_scale) {
+  std::optional<core::RobotModel> model = hub_.Model();
+  if (!model) return CommandResult::Fail(503, NoModel().what());
+  if (v.size() != 6) return CommandResult::Fail(400, "pose: expected x y z roll pitch yaw");
+  for (double value : v) {
+    if (!std::isfinite(value)) return CommandResult::Fail(400, "pose: values must be finite");
+  }
+  if (!(speed_scale > 0 && speed_scale <= 1)) {
+    return CommandResult::Fail(400,
+                               "speed: " + core::FormatNumber(speed_scale) + ": allowed (0, 1]");
+  }
+  control::PoseRequest request;
+  request.target.translation() << v[0], v[1], v[2];
+  const Eigen::Quaterniond orientation =
+      core::QuaternionFromRpy(v[3] * kDeg, v[4] * kDeg, v[5] * kDeg);
+  request.target.linear() = orientation.toRotationMatrix();
+  if (config != "nearest") {
+    const std::optional<core::IkConfiguration> parsed = core::IkConfiguration::Parse(config);
+    if (!parsed) {
+      return CommandResult::Fail(400, "config '" + config +
+                                          "' is not allowed; expected nearest or "
+                                          "SHOULDER-ELBOW-WRIST, e.g. right-up-noflip");
+    }
+    request.SetConfig(*parsed);
+  }
+  const std::optional<std::vector<double>> present = hub_.VirtualJoints();
+  const std::vector<double> reference = present && present->size() == model->joints.size()
+                                            ? *present
+                                            : control::HomePositions(*model);
+  const control::PoseGoal goal =
+      control::SolvePoseGoal(*model, request, core::ToJointVector(reference));
+  if (!goal.ok) return CommandResult::Fail(400, "no joint solution: " + goal.reason);
+  sirupp::pose_target_t target{};
+  target.utime = NowMicros();
+  target.seq = seq_++;
+  for (size_t i = 0; i < 3; ++i) target.position[i] = v[i];
+  target.orientation[0] = orientation.w();
+  target.orientation[1] = orientation.x();
+  target.orientation[2] = orientation.y();
+  target.orientation[3] = orientation.z();
+  using Pose = sirupp::pose_target_t;
+  if (request.shoulder_left) {
+    target.shoulder = *request.shoulder_left ? Pose::SHOULDER_LEFT : Pose::SHOULDER_RIGHT;
+  }
+  if (request.elbow_up) target.elbow = *request.elbow_up ? Pose::ELBOW_UP : Pose::ELBOW_DOWN;
+  if (request.wrist_flip) {
+    target.wrist = *request.wrist_flip ? Pose::WRIST_FLIP : Pose::WRIST_NO_FLIP;
+  }
+  target.speed_scale = speed_scale;
+  hub_.Publish(hub_.channels().arm_pose_target, target);
+  Json expected = Json::array();
+  for (size_t j = 0; j < model->joints.size(); ++j) {
+    expected.push_back(ToDisplay(model->joints[j], goal.q[static_cast<Eigen::Index>(j)]));
+  }
+  return CommandResult{true, 200, "sent " + hub_.channels().arm_pose_target,
+                       Json{{"expected", expected}, {"config", goal.config_name}}};
+}
+
+CommandResult RigCommands::CheckPlan(const std::string& name, const std::string& text) {
+  std::optional<core::RobotModel> model = hub_.Model();
+  if (!model) return CommandResult::Fail(503, NoModel().what());
+  const std::optional<std::vector<double>> goals = hub_.PresentGoals();
+  try {
+    const control::Plan plan =
+        control::ParsePlan(text, name, *model, goals ? *goals : control::HomePositions(*model));
+    Json steps = Json::array();
+    for (const control::PlanStep& step : plan.steps) {
+      steps.push_back(Json{{"line", step.line}, {"text", step.text}});
+    }
+    return CommandResult{true, 200,
+                         name + ": ok: " + std::to_string(plan.steps.size()) + " steps, " +
+                             std::to_string(plan.moves()) + " moves",
+                         Json{{"steps", steps}}};
+  } catch (const core::ConfigError& error) {
+    return CommandResult::Fail(422, error.what(),
+                               Json{{"line", error.where().line},
+                                    {"column", error.where().column},
+                                    {"problem", error.problem()}});
+  }
+}
+
+CommandResult RigCommands::RunPlan(const std::string& name, const std::string& text) {
+  CommandResult checked = CheckPlan(name, text);
+  if (!checked.ok) return checked;
+  sirupp::plan_command_t command{};
+  command.utime = NowMicros();
+  command.seq = seq_++;
+  command.command = sirupp::plan_command_t::COMMAND_RUN;
+  command.name = name;
+  command.text = text;
+  hub_.Publish(hub_.channels().arm_plan, command);
+  checked.message = "sent " + hub_.channels().arm_plan + ": " + checked.message;
+  return checked;
+}
+
+CommandResult RigCommands::PlanControl(const std::string& verb) {
+  using P = sirupp::plan_command_t;
+  static const std::pair<const char*, int8_t> kVerbs[] = {
+      {"pause", P::COMMAND_PAUSE},         {"resume", P::COMMAND_RESUME},
+      {"abort", P::COMMAND_ABORT},         {"manual", P::COMMAND_MANUAL},
+      {"automatic", P::COMMAND_AUTOMATIC}, {"clear-fault", P::COMMAND_CLEAR_FAULT}};
+  for (const auto& [word, code] : kVerbs) {
+    if (verb != word) continue;
+    sirupp::plan_command_t command{};
+    command.utime = NowMicros();
+    command.seq = seq_++;
+    command.command = code;
+    hub_.Publish(hub_.channels().arm_plan, command);
+    return CommandResult{true, 200, "sent " + hub_.channels().arm_plan + ": " + verb,
+                         Json::object()};
+  }
+  return CommandResult::Fail(
+      404, "plan command '" + core::Printable(verb) +
+               "' is unknown; allowed: pause, resume, abort, manual, automatic, clear-fault");
+}
+
+CommandResult RigCommands::SetGains(int joint,
+                                    const std::vector<std::pair<std::string, double>>& values) {
+  std::optional<core::RobotModel> model = hub_.Model();
+  if (!model) return CommandResult::Fail(503, NoModel().what());
+  if (joint < -1 || joint >= model->num_joints()) {
+    return CommandResult::Fail(400, "joint " + std::to_string(joint + 1) + ": allowed 1.." +
+                                        std::to_string(model->num_joints()) + " or all");
+  }
+  std::optional<sirupp::servo_gains_t> live = hub_.VirtualGains();
+  sirupp::servo_gains_t message = live && live->num_joints == model->num_joints()
+                                      ? *live
+                                      : servo::GainsMessage(servo::ChipGainsFromModel(*model));
+  using G = sirupp::servo_gains_t;
+  static const std::pair<const char*, std::vector<double> G::*> kFields[] = {
+      {"kp", &G::kp},           {"kd", &G::kd},
+      {"ki", &G::ki},           {"il", &G::integration_limit},
+      {"ol", &G::output_limit}, {"el", &G::error_limit},
+      {"db", &G::deadband}};
+  if (values.empty()) return CommandResult::Fail(400, "gains: no value given");
+  for (const auto& [field, value] : values) {
+    std::vector<double> G::*member = nullptr;
+    for (const auto& [name, pointer] : kFields) {
+      if (field == name) member = pointer;
+    }
+    if (!member) {
+      return CommandResult::Fail(400, "gains: field '" + core::Printable(field) +
+                                          "' is unknown; allowed: kp kd ki il ol el db");
+    }
+    for (size_t j = 0; j < (message.*member).size(); ++j) {
+      if (joint < 0 || static_cast<size_t>(joint) == j) (message.*member)[j] = value;
+    }
+  }
+  try {
+    servo::ChipGainsFromMessage(message, *model, hub_.channels().arm_gains);
+  } catch (const std::exception& error) {
+    return CommandResult::Fail(400, error.what());
+  }
+  message.utime = NowMicros();
+  message.seq = seq_++;
+  hub_.Publish(hub_.channels().arm_gains, message);
+  return CommandResult{true, 200, "sent " + hub_.channels().arm_gains, Json::object()};
+}
+
+CommandResult RigCommands::Estop(bool engaged, const std::string& who, const std::string& reason) {
+  sirupp::estop_t message{};
+  message.utime = NowMicros();
+  message.seq = seq_++;
+  message.engaged = engaged ? 1 : 0;
+  message.sender = sender_ + (who.empty() ? "" : " (" + core::Printable(who) + ")");
+  message.reason = reason.empty() ? (engaged ? "panel e-stop" : "released in the panel")
+                                  : core::Printable(reason);
+  hub_.Publish(hub_.channels().estop, message);
+  return CommandResult{true, 200,
+                       std::string(engaged ? "engaged " : "released ") + hub_.channels().estop,
+                       Json::object()};
+}
+
+CommandResult RigCommands::Hardware(const std::string& verb, const std::string& who) {
+  using H = sirupp::hardware_command_t;
+  static const std::pair<const char*, int8_t> kVerbs[] = {
+      {"connect", H::COMMAND_CONNECT}, {"calibrate", H::COMMAND_CALIBRATE},
+      {"arm", H::COMMAND_ARM},         {"disarm", H::COMMAND_DISARM},
+      {"link", H::COMMAND_LINK},       {"unlink", H::COMMAND_UNLINK},
+      {"home", H::COMMAND_HOME},       {"clear-faults", H::COMMAND_CLEAR_FAULTS}};
+  for (const auto& [word, code] : kVerbs) {
+    if (verb != word) continue;
+    sirupp::hardware_command_t command{};
+    command.utime = NowMicros();
+    command.seq = seq_++;
+    command.command = code;
+    command.sender = sender_ + (who.empty() ? "" : " (" + core::Printable(who) + ")");
+    hub_.Publish(hub_.channels().hardware_command, command);
+    return CommandResult{true, 200, "sent " + hub_.channels().hardware_command + ": " + verb,
+                         Json::object()};
+  }
+  return CommandResult::Fail(404, "hardware command '" + core::Printable(verb) +
+                                      "' is unknown; allowed: connect, calibrate, arm, disarm, "
+                                      "link, unlink, home, clear-faults");
+}
+
+}  // namespace sirupp::panel

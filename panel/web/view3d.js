@@ -1,0 +1,146 @@
+// The 3D view: the arm from ROBOT_MODEL's shapes (one group per DH frame, posed from the link
+// frames the panel computes), its set-point ghost, the real arm, the environment's objects and a
+// floor grid; OrbitControls for orbit/zoom/pan. World z is up, as in the model.
+'use strict';
+
+const View3d = (function () {
+  let renderer, scene, camera, controls;
+  const arms = {};       // virtual, setpoint, real: arrays of THREE.Group, one per frame
+  let envGroup = null, previewGroup = null;
+
+  function geometryOf(shape) {
+    const s = shape.size;
+    let g;
+    if (shape.type === 'box') {
+      g = new THREE.BoxGeometry(s[0], s[1], s[2]);
+    } else if (shape.type === 'sphere') {
+      g = new THREE.SphereGeometry(s[0], 20, 14);
+    } else if (shape.type === 'cylinder') {
+      g = new THREE.CylinderGeometry(s[0], s[0], s[1], 24);
+      g.rotateX(Math.PI / 2);  // three.js cylinders lie along y; ours along z
+    } else {  // capsule: a cylinder and two spheres
+      const group = new THREE.Geometry();
+      const body = new THREE.CylinderGeometry(s[0], s[0], s[1], 24);
+      body.rotateX(Math.PI / 2);
+      group.merge(body);
+      for (const end of [-0.5, 0.5]) {
+        const cap = new THREE.SphereGeometry(s[0], 16, 10);
+        cap.translate(0, 0, end * s[1]);
+        group.merge(cap);
+      }
+      g = group;
+    }
+    return g;
+  }
+
+  function meshOf(shape, material) {
+    const mesh = new THREE.Mesh(geometryOf(shape), material);
+    mesh.position.set(shape.position[0], shape.position[1], shape.position[2]);
+    const q = shape.orientation;  // w x y z
+    mesh.quaternion.set(q[1], q[2], q[3], q[0]);
+    return mesh;
+  }
+
+  function materialFor(kind, color) {
+    if (kind === 'virtual') {
+      return new THREE.MeshStandardMaterial({color: new THREE.Color(color[0], color[1], color[2]),
+        transparent: color[3] < 1, opacity: color[3], metalness: 0.1, roughness: 0.6});
+    }
+    const c = kind === 'setpoint' ? 0x43a047 : 0xff9800;
+    return new THREE.MeshStandardMaterial({color: c, transparent: true,
+      opacity: kind === 'setpoint' ? 0.35 : 0.55, depthWrite: false});
+  }
+
+  function init(container) {
+    renderer = new THREE.WebGLRenderer({antialias: true});
+    renderer.setPixelRatio(window.devicePixelRatio || 1);
+    container.appendChild(renderer.domElement);
+    scene = new THREE.Scene();
+    scene.background = new THREE.Color(0xdfe6ea);
+    camera = new THREE.PerspectiveCamera(45, 1, 0.01, 50);
+    camera.up.set(0, 0, 1);
+    camera.position.set(0.9, -0.9, 0.7);
+    controls = new THREE.OrbitControls(camera, renderer.domElement);
+    controls.target.set(0, 0, 0.25);
+    controls.update();
+    scene.add(new THREE.HemisphereLight(0xffffff, 0x444444, 0.8));
+    const sun = new THREE.DirectionalLight(0xffffff, 0.7);
+    sun.position.set(1, -1, 2);
+    scene.add(sun);
+    const grid = new THREE.GridHelper(2, 20, 0x888888, 0xbbbbbb);
+    grid.rotateX(Math.PI / 2);  // the grid lies in x-z; our floor is x-y
+    scene.add(grid);
+    scene.add(new THREE.AxesHelper(0.15));
+    resize(container);
+    window.addEventListener('resize', () => resize(container));
+  }
+
+  function resize(container) {
+    const w = container.clientWidth || 400, h = container.clientHeight || 300;
+    renderer.setSize(w, h);
+    camera.aspect = w / h;
+    camera.updateProjectionMatrix();
+  }
+
+  function clearArm(kind) {
+    for (const g of arms[kind] || []) scene.remove(g);
+    arms[kind] = [];
+  }
+
+  // model: /api/model; builds the three arms, hidden until a state poses them.
+  function setModel(model) {
+    for (const kind of ['virtual', 'setpoint', 'real']) {
+      clearArm(kind);
+      model.links.forEach((link) => {
+        const group = new THREE.Group();
+        for (const shape of link.shapes) group.add(meshOf(shape, materialFor(kind, shape.color)));
+        group.visible = false;
+        scene.add(group);
+        arms[kind].push(group);
+      });
+    }
+  }
+
+  function buildObjects(objects, preview) {
+    const group = new THREE.Group();
+    for (const o of objects) {
+      const c = o.shape.color;
+      const material = new THREE.MeshStandardMaterial({color: new THREE.Color(c[0], c[1], c[2]),
+        transparent: preview || c[3] < 1, opacity: preview ? 0.4 : c[3], wireframe: preview});
+      group.add(meshOf(o.shape, material));
+    }
+    return group;
+  }
+
+  function setEnvironment(env) {
+    if (envGroup) scene.remove(envGroup);
+    envGroup = buildObjects(env.objects || [], false);
+    scene.add(envGroup);
+  }
+
+  function setPreview(objects) {
+    if (previewGroup) scene.remove(previewGroup);
+    previewGroup = objects ? buildObjects(objects, true) : null;
+    if (previewGroup) scene.add(previewGroup);
+  }
+
+  // part: {frames: [[x y z qw qx qy qz] ...]} or undefined (hidden)
+  function pose(kind, part) {
+    const groups = arms[kind] || [];
+    groups.forEach((g, i) => {
+      const f = part && part.frames[i];
+      g.visible = !!f;
+      if (f) {
+        g.position.set(f[0], f[1], f[2]);
+        g.quaternion.set(f[4], f[5], f[6], f[3]);
+      }
+    });
+  }
+
+  function render() {
+    controls.update();
+    renderer.render(scene, camera);
+  }
+
+  return {init, setModel, setEnvironment, setPreview, pose, render};
+})();

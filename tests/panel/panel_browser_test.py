@@ -1,0 +1,246 @@
+#!/usr/bin/python3
+"""The lab panel in a real browser (headless Chromium + Selenium) against sirupp-sim +
+sirupp-control + the emulated real arm (sirupp-picservo-emu + sirupp-hardware) + sirupp-panel on a
+private udpm port with ttl=0. Usage: panel_browser_test.py BIN_DIR SOURCE_DIR [SHOTS_DIR]
+(SHOTS_DIR: where the screenshots of each panel go, e.g. docs/images). Prints one line per check;
+exit 1 when one failed."""
+
+import os
+import sys
+import time
+
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from panel_rig import Rig, http, open_panel, severe_errors, wait_for  # noqa: E402
+
+from selenium.webdriver.common.by import By  # noqa: E402
+
+BIN, SRC = sys.argv[1], sys.argv[2]
+SHOTS = sys.argv[3] if len(sys.argv) > 3 else None
+failures = []
+
+
+def check(name, fn):
+    t0 = time.time()
+    try:
+        fn()
+        print(f"ok   {name} ({time.time() - t0:.1f} s)", flush=True)
+    except Exception as error:  # one failed check does not hide the others
+        failures.append(name)
+        print(f"FAIL {name}: {error}", flush=True)
+
+
+def shot(driver, tab, name):
+    if not SHOTS:
+        return
+    driver.execute_script(f"showTab('{tab}')")
+    time.sleep(0.6)
+    driver.save_screenshot(os.path.join(SHOTS, f"panel-{name}.png"))
+
+
+def js(d, code):
+    return d.execute_script(code)
+
+
+def virtual_q(d, joint):
+    return js(d, f"return latest && latest.virtual ? latest.virtual.q[{joint - 1}] : null")
+
+
+# The emulated real arm only for the screenshots: on a loaded machine its serial timing is the
+# first thing to fail, and the checks below are about the panel.
+rig = Rig(BIN, SRC, hardware=SHOTS is not None).start()
+try:
+    a = rig.browser()
+
+    def page_loads():
+        open_panel(a, rig.address)
+        errors = severe_errors(a)
+        assert not errors, f"SEVERE console messages: {errors}"
+        assert js(a, "return document.querySelectorAll('#joints-table tbody tr').length") == 6
+        if rig.hardware:
+            wait_for("the real arm drawn", lambda: js(a, "return !!(latest && latest.real)"), 20)
+    check("page loads with no SEVERE console messages; the arm and its ghost live", page_loads)
+    shot(a, "processes", "processes")
+    shot(a, "model", "model")
+    shot(a, "environment", "environment")
+
+    def take_control():
+        js(a, "document.getElementById('lock-name').value = 'alice'")
+        a.find_element(By.ID, "take-control").click()
+        wait_for("alice holds control",
+                 lambda: "you hold control" in a.find_element(By.ID, "lock-state").text, 10)
+    check("first browser takes control", take_control)
+
+    def slider_moves_joint2():
+        js(a, """const s = document.querySelector('#joint-2 .slider');
+                 s.value = 30; s.dispatchEvent(new Event('input'));
+                 s.dispatchEvent(new Event('change'));""")
+        # The set-point goes to 30 (to the encoder count); the arm within 1.5 deg (gravity, Ki = 0).
+        wait_for("joint 2 of the sim at 30 deg", lambda: abs(virtual_q(a, 2) - 30) < 1.5 and js(
+            a, "return Math.abs(latest.setpoint.goal[1] - 30) < 0.01 &&"
+               " Math.abs(latest.setpoint.q[1] - 30) < 0.01"), 40)
+        assert "ARM_TARGET" in a.find_element(By.ID, "message").text
+    check("a slider moves joint 2 and the sim reaches it", slider_moves_joint2)
+    shot(a, "joints", "joints")
+
+    def tool_target():
+        a.execute_script("showTab('tool')")
+        a.find_element(By.ID, "tool-from-arm").click()
+        z0 = float(a.find_element(By.ID, "tz").get_attribute("value"))
+        x0 = float(a.find_element(By.ID, "tx").get_attribute("value"))
+        # Up and in, towards the shoulder: inside the workspace.
+        js(a, f"document.getElementById('tz').value = {z0 + 0.04}; "
+              f"document.getElementById('tx').value = {x0 - 0.04};")
+        a.find_element(By.ID, "ik-solve").click()
+        wait_for("8 configurations listed",
+                 lambda: js(a, "return document.querySelectorAll('#ik-table tbody tr').length") == 8)
+        within = js(a, "return [...document.querySelectorAll('#ik-table tbody tr td:nth-child(3)')]"
+                       ".filter(td => td.textContent === 'yes').length")
+        assert within >= 1, "no configuration inside the limits"
+        a.find_element(By.ID, "tool-apply").click()
+        # The set-point's tool reaches the target; the arm within 15 mm (gravity sag with the
+        # paper's gains, Ki = 0: about 1 degree at the shoulder).
+        wait_for("the tool at the target", lambda: js(
+            a, f"const t = latest.setpoint.tool; const v = latest.virtual.tool;"
+               f"return Math.abs(t[2] - {z0 + 0.04}) < 1e-3 && Math.abs(t[0] - {x0 - 0.04}) < 1e-3"
+               f" && Math.abs(v[2] - {z0 + 0.04}) < 0.015 && Math.abs(v[0] - {x0 - 0.04}) < 0.015"), 40)
+    check("a tool target goes through the IK and the arm reaches it", tool_target)
+    shot(a, "tool", "tool")
+
+    def bad_plan_line():
+        a.execute_script("showTab('plan')")
+        js(a, "const t = document.getElementById('plan-text');"
+              "t.value = 'units deg\\nmove j1=10\\nmove j2=500\\nwait done\\n';"
+              "t.dispatchEvent(new Event('input'));")
+        a.find_element(By.ID, "plan-check").click()
+        wait_for("line 3 marked", lambda: js(
+            a, "const e = document.querySelector('#plan-listing .line.error');"
+               "return e && e.dataset.line === '3'"), 10)
+        text = a.find_element(By.ID, "plan-result").text
+        assert "page.plan:3:" in text, text
+    check("a bad plan shows its error at its line", bad_plan_line)
+    shot(a, "plan", "plan-error")
+
+    def set7_runs():
+        js(a, "document.getElementById('plan-files').value = 'config/plans/set7.plan'")
+        a.find_element(By.ID, "plan-open").click()
+        wait_for("set7 in the editor", lambda: "move j1=90" in a.find_element(By.ID, "plan-text").get_attribute("value"))
+        a.find_element(By.ID, "plan-run").click()
+        seen = set()
+        shot_taken = [False]
+
+        def finished():
+            line = js(a, "const e = document.querySelector('#plan-listing .line.running');"
+                         "return e ? Number(e.dataset.line) : 0")
+            if line:
+                seen.add(line)
+                if line == 10 and not shot_taken[0] and SHOTS:
+                    a.save_screenshot(os.path.join(SHOTS, "panel-plan-running.png"))
+                    shot_taken[0] = True
+            c = js(a, "return latest.controller")
+            return len(seen) >= 2 and c["state"] == "idle" and c["plan_step"] >= c["plan_steps"]
+        wait_for("set VII to finish", finished, 90, 0.03)
+        # A move step starts its joints and hands over at once to the `wait done` below it, where
+        # the plan spends its time: lines 7 and 10 of set7.plan are highlighted while the arm moves.
+        assert {7, 10} <= seen, f"highlighted lines {sorted(seen)}; expected 7 and 10 (wait done)"
+        for j in (1, 2, 3):
+            assert abs(virtual_q(a, j) - 90) < 1.5, f"joint {j} at {virtual_q(a, j)}"
+        print(f"     highlighted lines: {sorted(seen)}")
+    check("set VII runs with its steps highlighted", set7_runs)
+
+    def gains_read_back():
+        a.execute_script("showTab('gains')")
+        a.execute_script("loadGains()")
+        wait_for("gains rows", lambda: a.find_elements(By.CSS_SELECTOR, "#gains-2 .kp"))
+        kp = a.find_element(By.CSS_SELECTOR, "#gains-2 .kp")
+        old = float(kp.get_attribute("value"))
+        new = old + 17
+        kp.clear()
+        kp.send_keys(str(int(new)))
+        a.find_element(By.CSS_SELECTOR, "#gains-2 .apply").click()
+        wait_for("the controller's read-back", lambda: float(a.find_element(
+            By.CSS_SELECTOR, "#gains-2 .kp").get_attribute("value")) == new, 10, 0.2)
+        status, g = http("GET", rig.address + "api/gains")
+        assert g["virtual"][1]["kp"] == new, g["virtual"][1]
+    check("gains read back after a change", gains_read_back)
+    shot(a, "gains", "gains")
+
+    def estop_stops_plan():
+        a.execute_script("showTab('plan')")
+        a.find_element(By.ID, "plan-run").click()  # set VII again: first back to zero
+        wait_for("moving", lambda: js(a, "return latest.controller.state === 'moving' && "
+                                         "latest.controller.plan_name === 'set7.plan'"), 10)
+        time.sleep(0.5)
+        a.find_element(By.ID, "estop").click()
+        wait_for("the e-stop seen", lambda: js(a, "return !!(latest.sim && latest.sim.estop)"), 5)
+        time.sleep(0.5)
+        q1 = [virtual_q(a, j) for j in (1, 2, 3)]
+        time.sleep(1.0)
+        q2 = [virtual_q(a, j) for j in (1, 2, 3)]
+        assert max(abs(x - y) for x, y in zip(q1, q2)) < 0.2, f"still moving: {q1} -> {q2}"
+        c = js(a, "return latest.controller")
+        assert c["state"] != "moving" and c["state"] != "waiting", c
+        # Set VII's first move takes the joints from 90 to 0: stopped half-way, not at 0.
+        assert max(abs(q) for q in q2) > 5, f"the first move ended anyway: {q2}"
+        assert js(a, "return latest.setpoint.goal.slice(0, 3).some(g => Math.abs(g) > 5) || "
+                     "latest.controller.plan_step < latest.controller.plan_steps"), "the plan went on"
+    check("e-stop stops a running plan", estop_stops_plan)
+    shot(a, "real", "real-arm")
+
+    def second_browser():
+        b = rig.browser()
+        open_panel(b, rig.address)
+        wait_for("b sees the holder", lambda: "held by alice" in b.find_element(By.ID, "lock-state").text, 5)
+        b.find_element(By.ID, "take-control").click()
+        wait_for("b refused", lambda: "held by 'alice'" in b.find_element(By.ID, "message").text, 5)
+        n = js(b, "return window.panelStats.received")
+        time.sleep(1)
+        assert js(b, "return window.panelStats.received") > n, "b gets no live state"
+        js(b, "document.querySelector('#joint-1 .apply').click()")
+        wait_for("b's move refused", lambda: "held by" in b.find_element(By.ID, "message").text, 5)
+        assert "you hold control" in a.find_element(By.ID, "lock-state").text
+    check("a second browser watches and is refused control while the first holds it", second_browser)
+
+    def release_estop():
+        a.find_element(By.ID, "estop-release").click()
+        wait_for("released", lambda: js(a, "return !(latest.sim && latest.sim.estop)"), 5)
+    check("the holder releases the e-stop", release_estop)
+
+    def plots():
+        a.execute_script("showTab('plots')")
+        time.sleep(1.5)
+        assert js(a, "return plotData.length") > 10
+        assert a.find_elements(By.CSS_SELECTOR, "#plot canvas")
+    check("live plots draw", plots)
+    shot(a, "plots", "plots")
+
+    def token_from_another_address():
+        # The machine's own non-loopback address (the request comes from it), when it has one.
+        addrs = [x for x in os.popen("hostname -I").read().split() if ":" not in x and not x.startswith("127.")]
+        listen = addrs[0] if addrs else "127.0.0.1"
+        extra = ["--listen", listen] + ([] if addrs else ["--require-token"])
+        p, address = rig.start_panel(extra)
+        assert "?token=" in address, address
+        base, token = address.split("?token=")
+        headers = {"X-Sirupp-Client": "t1", "Content-Type": "application/json"}
+        status, body = http("POST", base + "api/lock", {"name": "mallory"}, headers)
+        assert status == 403 and "token" in body["error"], (status, body)
+        status, body = http("POST", base + "api/estop", {}, headers)
+        assert status == 403, (status, body)
+        status, _ = http("GET", base + "api/state")
+        assert status == 200
+        status, body = http("POST", base + "api/lock", {"name": "teacher"}, dict(headers, **{"X-Sirupp-Token": token}))
+        assert status == 200, (status, body)
+        print(f"     listened on {listen} ({'non-loopback address' if addrs else 'loopback with --require-token'})")
+    check("without the token a request from another address is refused", token_from_another_address)
+finally:
+    rig.stop()
+    for name in ("panel",):
+        log = rig.log(name)
+        if "Sanitizer" in log or "terminate" in log:
+            failures.append(name + " log")
+            print(log)
+
+if failures:
+    print("panel_browser: FAILED: " + ", ".join(failures))
+    sys.exit(1)
+print("panel_browser: all checks passed")

@@ -1,0 +1,132 @@
+"""A private rig for the panel's browser tests and benchmark: sirupp-sim + sirupp-control
+(+ optionally the emulated real arm: sirupp-picservo-emu and sirupp-hardware) + sirupp-panel on
+their own udpm port with ttl=0, and headless Chromium through Selenium. Every process started here
+is ended by stop(). Uses Debian's python3-selenium (/usr/bin/python3)."""
+
+import json
+import os
+import re
+import signal
+import subprocess
+import tempfile
+import time
+import urllib.error
+import urllib.request
+
+from selenium import webdriver
+from selenium.webdriver.chrome.options import Options
+from selenium.webdriver.chrome.service import Service
+
+
+def wait_for(what, predicate, timeout=20.0, period=0.05):
+    """Polls predicate() until it returns a true value (returned) or raises after timeout."""
+    end = time.time() + timeout
+    last = None
+    while time.time() < end:
+        try:
+            last = predicate()
+            if last:
+                return last
+        except Exception as error:  # the page may be mid-update
+            last = error
+        time.sleep(period)
+    raise AssertionError(f"timed out after {timeout} s waiting for {what} (last: {last!r})")
+
+
+class Rig:
+    def __init__(self, bin_dir, source_dir, hardware=False, port=None, panel_args=()):
+        self.bin = bin_dir
+        self.src = source_dir
+        self.port = port or 7800 + os.getpid() % 150
+        self.url = f"udpm://239.255.76.67:{self.port}?ttl=0"
+        self.work = tempfile.mkdtemp(prefix="sirupp-panel-test-")
+        self.procs = []
+        self.drivers = []
+        self.hardware = hardware
+        self.panel_args = list(panel_args)
+        self.panel = None
+        self.address = None
+
+    def _start(self, name, args):
+        log = open(os.path.join(self.work, name + ".log"), "w")
+        p = subprocess.Popen([os.path.join(self.bin, args[0])] + args[1:], cwd=self.src,
+                             stdout=subprocess.PIPE if name == "panel" else log, stderr=log,
+                             text=True)
+        self.procs.append((name, p))
+        return p
+
+    def start(self):
+        pose = ["--pose", "ready"] if self.hardware else []
+        if self.hardware:
+            link = os.path.join(self.work, "puma-bus")
+            self._start("emulator", ["sirupp-picservo-emu", "--link", link, "--start-pose", "ready"])
+            wait_for("the emulator's device", lambda: os.path.exists(link), 10)
+        self._start("sim", ["sirupp-sim", "--lcm-url", self.url, "--mode", "realtime"] + pose)
+        self._start("control", ["sirupp-control", "--lcm-url", self.url])
+        if self.hardware:
+            self._start("hardware", ["sirupp-hardware", "--lcm-url", self.url, "--port", link,
+                                     "--emulated", "--calibrate", "--arm", "--link"])
+        self.panel, self.address = self.start_panel(self.panel_args)
+        return self
+
+    def start_panel(self, extra):
+        p = self._start("panel", ["sirupp-panel", "--lcm-url", self.url, "--port", "0"] + list(extra))
+        line = p.stdout.readline()
+        m = re.search(r"(http://\S+)", line)
+        if not m:
+            raise AssertionError("sirupp-panel printed no address: " + repr(line) + " " +
+                                 open(os.path.join(self.work, "panel.log")).read())
+        return p, m.group(1)
+
+    def browser(self, width=1400, height=900):
+        o = Options()
+        for a in ("--headless=new", "--no-sandbox", "--enable-unsafe-swiftshader",
+                  f"--window-size={width},{height}", "--disable-gpu-sandbox"):
+            o.add_argument(a)
+        o.set_capability("goog:loggingPrefs", {"browser": "ALL"})
+        d = webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=o)
+        self.drivers.append(d)
+        return d
+
+    def stop(self):
+        for d in self.drivers:
+            try:
+                d.quit()
+            except Exception:
+                pass
+        for name, p in reversed(self.procs):
+            if p.poll() is None:
+                p.send_signal(signal.SIGTERM)
+        for name, p in reversed(self.procs):
+            try:
+                p.wait(timeout=10)
+            except subprocess.TimeoutExpired:
+                p.kill()
+                p.wait()
+
+    def log(self, name):
+        with open(os.path.join(self.work, name + ".log")) as f:
+            return f.read()
+
+
+def http(method, url, body=None, headers=None):
+    """(status, parsed JSON body) of one request."""
+    data = json.dumps(body).encode() if body is not None else None
+    req = urllib.request.Request(url, data=data, method=method, headers=headers or {})
+    try:
+        with urllib.request.urlopen(req, timeout=5) as r:
+            return r.status, json.loads(r.read() or b"{}")
+    except urllib.error.HTTPError as e:
+        return e.code, json.loads(e.read() or b"{}")
+
+
+def open_panel(driver, address, hz=20):
+    # 20 frames a second of state: enough for the checks, lighter on a loaded machine.
+    driver.get(address + ("&" if "?" in address else "?") + f"hz={hz}")
+    wait_for("the page's model and live state", lambda: driver.execute_script(
+        "return window.panelReady && model !== null && document.getElementById('joint-2') !== null"
+        " && window.panelStats.received > 5"), 30)
+
+
+def severe_errors(driver):
+    return [e for e in driver.get_log("browser") if e["level"] == "SEVERE"]

@@ -1,0 +1,254 @@
+// The panel's request handling (panel/panel_api.cpp) on an in-process memq:// bus, without HTTP:
+// routes and bad requests, the control lock, the token rule, file access limited to config/,
+// and what each command puts on the bus (or that nothing goes out when it is refused).
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <sirupp/estop_t.hpp>
+#include <sirupp/joint_target_t.hpp>
+#include <sirupp/plan_command_t.hpp>
+#include <sirupp/pose_target_t.hpp>
+#include <sirupp/servo_gains_t.hpp>
+
+#include "core/bus.hpp"
+#include "core/kinematics.hpp"
+#include "core/model_loader.hpp"
+#include "core/translate.hpp"
+#include "panel/panel_api.hpp"
+#include "panel/panel_hub.hpp"
+#include "servo/chip_gains.hpp"
+
+namespace sirupp::panel {
+namespace {
+
+constexpr double kPi = 3.14159265358979323846;
+
+class PanelApiTest : public ::testing::Test {
+ protected:
+  PanelApiTest() {
+    bus_.Subscribe<sirupp::joint_target_t>(
+        "ARM_TARGET", [this](const sirupp::joint_target_t& m, const core::ReceiveInfo&) {
+          targets_.push_back(m);
+        });
+    bus_.Subscribe<sirupp::pose_target_t>(
+        "ARM_POSE_TARGET",
+        [this](const sirupp::pose_target_t& m, const core::ReceiveInfo&) { poses_.push_back(m); });
+    bus_.Subscribe<sirupp::estop_t>(
+        "ESTOP",
+        [this](const sirupp::estop_t& m, const core::ReceiveInfo&) { estops_.push_back(m); });
+    bus_.Subscribe<sirupp::plan_command_t>(
+        "ARM_PLAN",
+        [this](const sirupp::plan_command_t& m, const core::ReceiveInfo&) { plans_.push_back(m); });
+    bus_.Subscribe<sirupp::servo_gains_t>(
+        "ARM_GAINS",
+        [this](const sirupp::servo_gains_t& m, const core::ReceiveInfo&) { gains_.push_back(m); });
+  }
+
+  // The sim's model and the controller's gains arrive on the bus.
+  void PublishRig() {
+    bus_.Publish("ROBOT_MODEL", core::ToMessage(model_, 0, 0));
+    sirupp::servo_gains_t gains = servo::GainsMessage(servo::ChipGainsFromModel(model_));
+    bus_.Publish("CONTROLLER_GAINS", gains);
+    Pump();
+  }
+  void Pump() {
+    for (int i = 0; i < 5; ++i) hub_.ServiceOnce(0);
+  }
+
+  Response Post(const std::string& path, const std::string& body, const std::string& client = "a",
+                const std::string& token = "") {
+    Request r{"POST", path, {}, body, "127.0.0.1", client, token};
+    Response out = api_.Handle(r);
+    Pump();
+    return out;
+  }
+  Response Get(const std::string& path, std::map<std::string, std::string> query = {}) {
+    return api_.Handle(Request{"GET", path, std::move(query), "", "127.0.0.1", "a", ""});
+  }
+  static Json Body(const Response& r) { return Json::parse(r.body); }
+
+  core::RobotModel model_ = core::LoadRobotModel("config/robots/puma260.yaml");
+  core::Bus bus_{"memq://"};
+  PanelHub hub_{bus_, HubOptions{}};
+  PanelApi api_{hub_, ApiOptions{".", "", false, "", std::chrono::seconds(30)}};
+  std::vector<sirupp::joint_target_t> targets_;
+  std::vector<sirupp::pose_target_t> poses_;
+  std::vector<sirupp::estop_t> estops_;
+  std::vector<sirupp::plan_command_t> plans_;
+  std::vector<sirupp::servo_gains_t> gains_;
+};
+
+TEST_F(PanelApiTest, ModelComesFromTheBus) {
+  EXPECT_FALSE(Body(Get("/api/model"))["loaded"].get<bool>());
+  PublishRig();
+  const Json model = Body(Get("/api/model"));
+  ASSERT_TRUE(model["loaded"].get<bool>());
+  EXPECT_EQ(model["name"], "puma260");
+  ASSERT_EQ(model["joints"].size(), 6U);
+  EXPECT_EQ(model["joints"][1]["unit"], "deg");
+  EXPECT_NEAR(model["joints"][1]["max"].get<double>(), model_.joints[1].position_max * 180 / kPi,
+              1e-9);
+  EXPECT_EQ(model["links"].size(), 7U);
+}
+
+TEST_F(PanelApiTest, BadRequestsGet4xxWithAMessage) {
+  PublishRig();
+  EXPECT_EQ(Post("/api/move/joints", "{}", "").status, 400);  // no client header
+  Response r = Post("/api/move/joints", "{not json", "a");
+  EXPECT_EQ(r.status, 400);
+  EXPECT_NE(Body(r)["error"].get<std::string>().find("JSON"), std::string::npos);
+  EXPECT_EQ(Get("/api/nothing").status, 404);
+  EXPECT_EQ(api_.Handle(Request{"DELETE", "/api/lock", {}, "", "127.0.0.1", "a", ""}).status, 405);
+  EXPECT_EQ(Post("/api/lock", R"({"name": 5})").status, 400);
+  ASSERT_EQ(Post("/api/lock", R"({"name": "ann"})").status, 200);
+  EXPECT_EQ(Post("/api/move/joints", R"({"targets": "x"})").status, 400);
+  EXPECT_EQ(Post("/api/move/joints", R"({"targets": [1, 2]})").status, 400);  // 2 of 6 joints
+  EXPECT_EQ(Post("/api/move/pose", R"({"pose": [0, 0]})").status, 400);
+  EXPECT_EQ(Post("/api/gains", R"({"joint": 1.5, "values": {"kp": 1}})").status, 400);
+  EXPECT_EQ(Post("/api/hardware/explode", "{}").status, 404);
+  EXPECT_EQ(Post("/api/plan/jump", "{}").status, 404);
+  EXPECT_EQ(Get("/api/files", {{"dir", "/etc"}}).status, 400);
+  EXPECT_TRUE(targets_.empty());
+  EXPECT_TRUE(plans_.empty());
+}
+
+TEST_F(PanelApiTest, JointMoveNeedsTheLockAndStaysInLimits) {
+  PublishRig();
+  const std::string move = R"({"targets": [null, 30, null, null, null, null], "speed": 0.5})";
+  Response refused = Post("/api/move/joints", move);
+  EXPECT_EQ(refused.status, 409);
+  EXPECT_NE(Body(refused)["error"].get<std::string>().find("take control"), std::string::npos);
+  ASSERT_EQ(Post("/api/lock", R"({"name": "ann"})").status, 200);
+  ASSERT_EQ(Post("/api/move/joints", move).status, 200);
+  ASSERT_EQ(targets_.size(), 1U);
+  const sirupp::joint_target_t& t = targets_[0];
+  ASSERT_EQ(t.num_joints, 6);
+  EXPECT_EQ(t.active[0], 0);
+  EXPECT_EQ(t.active[1], 1);
+  EXPECT_NEAR(t.position[1], 30 * kPi / 180, 1e-12);
+  EXPECT_NEAR(t.max_velocity[1], model_.joints[1].servo.default_velocity * 0.5, 1e-12);
+
+  Response outside =
+      Post("/api/move/joints", R"({"targets": [null, 400, null, null, null, null]})");
+  EXPECT_EQ(outside.status, 400);
+  EXPECT_NE(Body(outside)["error"].get<std::string>().find("joint 2"), std::string::npos);
+  EXPECT_EQ(Post("/api/move/joints", R"({"targets": [1, 0, 0, 0, 0, 0], "speed": 3})").status, 400);
+  EXPECT_EQ(targets_.size(), 1U);
+}
+
+TEST_F(PanelApiTest, SecondClientIsRefusedUntilItTakesOverAndEstopIsAlwaysAllowed) {
+  PublishRig();
+  ASSERT_EQ(Post("/api/lock", R"({"name": "ann"})", "a").status, 200);
+  Response second = Post("/api/lock", R"({"name": "bob"})", "b");
+  EXPECT_EQ(second.status, 409);
+  EXPECT_EQ(Body(second)["holder"], "ann");
+  EXPECT_EQ(Post("/api/plan/abort", "{}", "b").status, 409);
+  EXPECT_TRUE(plans_.empty());
+  // Anyone may stop the arm; releasing needs control.
+  EXPECT_EQ(Post("/api/estop", R"({"who": "bob"})", "b").status, 200);
+  ASSERT_EQ(estops_.size(), 1U);
+  EXPECT_EQ(estops_[0].engaged, 1);
+  EXPECT_EQ(Post("/api/estop", R"({"engaged": false})", "b").status, 409);
+  EXPECT_EQ(estops_.size(), 1U);
+  // Explicit take-over; then the first client is the one refused.
+  ASSERT_EQ(Post("/api/lock", R"({"name": "bob", "take_over": true})", "b").status, 200);
+  EXPECT_EQ(api_.LockHolder(), "bob");
+  EXPECT_EQ(Post("/api/plan/abort", "{}", "a").status, 409);
+  EXPECT_EQ(Post("/api/plan/abort", "{}", "b").status, 200);
+  EXPECT_EQ(plans_.size(), 1U);
+}
+
+TEST_F(PanelApiTest, TokenIsRequiredOnChangesWhenInForce) {
+  PanelApi guarded(hub_, ApiOptions{".", "", true, "s3cret", std::chrono::seconds(30)});
+  PublishRig();
+  const auto post = [&](const std::string& path, const std::string& body,
+                        const std::string& token) {
+    return guarded.Handle(Request{"POST", path, {}, body, "10.0.0.7", "a", token});
+  };
+  EXPECT_EQ(post("/api/lock", R"({"name": "ann"})", "").status, 403);
+  EXPECT_EQ(post("/api/lock", R"({"name": "ann"})", "wrong").status, 403);
+  EXPECT_EQ(post("/api/estop", "{}", "").status, 403);
+  ASSERT_EQ(post("/api/lock", R"({"name": "ann"})", "s3cret").status, 200);
+  EXPECT_EQ(post("/api/plan/abort", "{}", "").status, 403);
+  EXPECT_EQ(post("/api/plan/abort", "{}", "s3cret").status, 200);
+  // Reading needs no token.
+  EXPECT_EQ(guarded.Handle(Request{"GET", "/api/state", {}, "", "10.0.0.7", "", ""}).status, 200);
+}
+
+TEST_F(PanelApiTest, FilesOnlyUnderConfig) {
+  Response ok = Get("/api/file", {{"path", "config/plans/set7.plan"}});
+  ASSERT_EQ(ok.status, 200);
+  EXPECT_NE(Body(ok)["text"].get<std::string>().find("move j1=90 j2=90 j3=90"), std::string::npos);
+  EXPECT_NE(Body(ok)["text"].get<std::string>().find("\nwait done\n"), std::string::npos);
+  EXPECT_EQ(Get("/api/file", {{"path", "config/../CMakeLists.txt"}}).status, 403);
+  EXPECT_EQ(Get("/api/file", {{"path", "/etc/passwd"}}).status, 403);
+  EXPECT_EQ(Get("/api/file", {{"path", "config/plans/none.plan"}}).status, 404);
+  EXPECT_EQ(Get("/api/file", {}).status, 400);
+  const Json plans = Body(Get("/api/files", {{"dir", "plans"}}));
+  EXPECT_NE(std::find(plans["files"].begin(), plans["files"].end(), "config/plans/set7.plan"),
+            plans["files"].end());
+}
+
+TEST_F(PanelApiTest, PlanCheckNamesTheLineAndRunSendsTheText) {
+  PublishRig();
+  Response bad =
+      Post("/api/plan/check", R"({"name": "p.plan", "text": "move j1=10\nmove j2=500\n"})");
+  EXPECT_EQ(bad.status, 422);
+  EXPECT_EQ(Body(bad)["line"], 2);
+  EXPECT_GT(Body(bad)["column"].get<int>(), 0);
+  ASSERT_EQ(Post("/api/lock", R"({"name": "ann"})").status, 200);
+  EXPECT_EQ(Post("/api/plan/run", R"({"name": "p.plan", "text": "move j2=500\n"})").status, 422);
+  EXPECT_TRUE(plans_.empty());
+  Response good = Post("/api/plan/run", R"({"name": "p.plan", "text": "move j2=20\nwait done\n"})");
+  ASSERT_EQ(good.status, 200);
+  EXPECT_EQ(Body(good)["steps"].size(), 2U);
+  ASSERT_EQ(plans_.size(), 1U);
+  EXPECT_EQ(plans_[0].command, sirupp::plan_command_t::COMMAND_RUN);
+  EXPECT_EQ(plans_[0].name, "p.plan");
+}
+
+TEST_F(PanelApiTest, GainsChangeOneJointWithinRange) {
+  PublishRig();
+  ASSERT_EQ(Post("/api/lock", R"({"name": "ann"})").status, 200);
+  Response range = Post("/api/gains", R"({"joint": 2, "values": {"kp": 40000}})");
+  EXPECT_EQ(range.status, 400);
+  EXPECT_NE(Body(range)["error"].get<std::string>().find("kp"), std::string::npos);
+  EXPECT_EQ(Post("/api/gains", R"({"joint": 2, "values": {"xx": 1}})").status, 400);
+  EXPECT_TRUE(gains_.empty());
+  ASSERT_EQ(Post("/api/gains", R"({"joint": 2, "values": {"kp": 150}})").status, 200);
+  ASSERT_EQ(gains_.size(), 1U);
+  EXPECT_EQ(gains_[0].kp[1], 150);
+  EXPECT_EQ(gains_[0].kp[0], model_.joints[0].servo.kp);
+}
+
+TEST_F(PanelApiTest, IkListsTheConfigurationsAndPoseTargetIsSent) {
+  PublishRig();
+  // The tool where a reachable joint pose puts it.
+  core::JointVector q(6);
+  q << 0.3, -0.5, 1.2, 0.1, 0.6, 0.2;
+  const Eigen::Isometry3d tool = core::ToolPose(model_, q);
+  const Eigen::Vector3d rpy = core::RollPitchYaw(tool.linear()) * 180 / kPi;
+  Json pose = Json::array({tool.translation().x(), tool.translation().y(), tool.translation().z(),
+                           rpy.x(), rpy.y(), rpy.z()});
+  Response ik = Post("/api/ik", Json{{"pose", pose}}.dump());
+  ASSERT_EQ(ik.status, 200) << ik.body;
+  const Json answer = Body(ik);
+  EXPECT_TRUE(answer["ok"].get<bool>());
+  ASSERT_EQ(answer["configurations"].size(), 8U);
+  int within = 0;
+  for (const Json& c : answer["configurations"]) within += c["within_limits"].get<bool>() ? 1 : 0;
+  EXPECT_GT(within, 0);
+  EXPECT_TRUE(poses_.empty());  // solving sends nothing
+  Response far = Post("/api/ik", R"({"pose": [3, 0, 0.2, 0, 0, 0]})");
+  EXPECT_FALSE(Body(far)["ok"].get<bool>());
+  ASSERT_EQ(Post("/api/lock", R"({"name": "ann"})").status, 200);
+  EXPECT_EQ(Post("/api/move/pose", R"({"pose": [3, 0, 0.2, 0, 0, 0]})").status, 400);
+  ASSERT_EQ(Post("/api/move/pose", Json{{"pose", pose}, {"config", "nearest"}}.dump()).status, 200);
+  ASSERT_EQ(poses_.size(), 1U);
+  EXPECT_NEAR(poses_[0].position[0], tool.translation().x(), 1e-12);
+}
+
+}  // namespace
+}  // namespace sirupp::panel
