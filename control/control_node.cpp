@@ -36,6 +36,7 @@ ControlNode::ControlNode(core::Bus& bus, const core::RobotModel& model, ControlO
       options_(std::move(options)),
       bank_(model),
       heartbeat_(bus, options_.name, options_.channels.heartbeat),
+      replier_(bus, options_.channels.controller_reply, options_.name),
       chip_gains_(servo::ChipGainsFromModel(model)),
       motion_limits_(core::DefaultMotionLimits(model)) {
   const core::Channels& channels = options_.channels;
@@ -45,20 +46,32 @@ ControlNode::ControlNode(core::Bus& bus, const core::RobotModel& model, ControlO
         OnState(message, info);
       },
       1000);
+  // Each command gets one answer on CONTROLLER_REPLY naming it (core/command_reply.hpp).
   bus_.Subscribe<sirupp::joint_target_t>(
-      channels.arm_target, [this](const sirupp::joint_target_t& message,
-                                  const core::ReceiveInfo& info) { OnTarget(message, info); });
+      channels.arm_target,
+      [this](const sirupp::joint_target_t& message, const core::ReceiveInfo& info) {
+        replier_.Answer(
+            message, info, [&] { OnTarget(message, info); }, [this] { return Facts(true); });
+      });
   bus_.Subscribe<sirupp::pose_target_t>(
       channels.arm_pose_target,
       [this](const sirupp::pose_target_t& message, const core::ReceiveInfo& info) {
-        OnPoseTarget(message, info);
+        replier_.Answer(
+            message, info, [&] { OnPoseTarget(message, info); }, [this] { return Facts(true); });
       });
   bus_.Subscribe<sirupp::plan_command_t>(
-      channels.arm_plan, [this](const sirupp::plan_command_t& message,
-                                const core::ReceiveInfo& info) { OnPlan(message, info); });
+      channels.arm_plan,
+      [this](const sirupp::plan_command_t& message, const core::ReceiveInfo& info) {
+        const bool run = message.command == sirupp::plan_command_t::COMMAND_RUN;
+        replier_.Answer(
+            message, info, [&] { OnPlan(message, info); }, [this, run] { return Facts(run); });
+      });
   bus_.Subscribe<sirupp::servo_gains_t>(
-      channels.arm_gains, [this](const sirupp::servo_gains_t& message,
-                                 const core::ReceiveInfo& info) { OnGains(message, info); });
+      channels.arm_gains,
+      [this](const sirupp::servo_gains_t& message, const core::ReceiveInfo& info) {
+        replier_.Answer(
+            message, info, [&] { OnGains(message, info); }, [this] { return Facts(false); });
+      });
   bus_.Subscribe<sirupp::estop_t>(
       channels.estop, [this](const sirupp::estop_t& message, const core::ReceiveInfo& info) {
         OnEstop(message, info);
@@ -745,6 +758,13 @@ void ControlNode::PublishStatus(bool force) {
   bus_.Publish(options_.channels.controller_status, status);
   last_reported_state_ = now_state;
   last_status_ = now;
+}
+
+core::ReplyFacts ControlNode::Facts(bool moves) const {
+  core::ReplyFacts facts;
+  facts.move_id = moves ? move_id_ : -1;
+  facts.status_seq = status_seq_ - 1;  // every handler sends a status before it returns or throws
+  return facts;
 }
 
 void ControlNode::PublishGains(bool force) {

@@ -5,7 +5,8 @@
 //      lockstep), ARM_TARGET (joint targets), ARM_POSE_TARGET (tool targets through IK), ARM_PLAN
 //      (movement plans: run, pause, resume, abort; manual/automatic mode), ARM_GAINS (live gains).
 // Out: ARM_MOVE (every move and stop, as LOAD_TRAJ), ARM_SETPOINT (every tick), CONTROLLER_STATUS
-//      (10 Hz and on every change), HEARTBEAT.
+//      (10 Hz and on every change), CONTROLLER_REPLY (one answer per ARM_TARGET, ARM_POSE_TARGET,
+//      ARM_PLAN and ARM_GAINS, naming the request), HEARTBEAT.
 //
 // Modes: MANUAL takes targets; a plan run switches to AUTOMATIC until the plan ends or is aborted.
 // COMMAND_AUTOMATIC also locks out targets with no plan running (until COMMAND_MANUAL), so a
@@ -36,6 +37,7 @@
 #include "control/servo_bank.hpp"
 #include "core/bus.hpp"
 #include "core/channels.hpp"
+#include "core/command_reply.hpp"
 #include "core/errors.hpp"
 #include "core/heartbeat.hpp"
 #include "core/motion_limits.hpp"
@@ -121,6 +123,8 @@ class ControlNode {
   void Refuse(const core::MessageError& error);
   void PublishSetpoint(const core::ArmState& state, const std::vector<double>& effort);
   void PublishStatus(bool force);
+  // The move and status a reply on CONTROLLER_REPLY names; `moves`: the command may start a move.
+  core::ReplyFacts Facts(bool moves) const;
   // Efforts from the student's law for this tick; false (and last_error_ set) if it failed.
   bool StudentEfforts(const core::ArmState& state, std::vector<double>& effort);
   // The servo that tripped its position-error limit (0-based), or -1.
@@ -131,6 +135,7 @@ class ControlNode {
   ControlOptions options_;
   ServoBank bank_;
   core::Heartbeat heartbeat_;
+  core::Replier replier_;  // CONTROLLER_REPLY: one answer per command
   bool servos_on_ = false;
   std::vector<JointMove> pending_;  // a target that arrived before the first arm state
   std::vector<double> positions_;   // the last measured joint positions

@@ -1,6 +1,7 @@
 #include "core/bus.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cinttypes>
 #include <cstdio>
 #include <cstdlib>
@@ -363,6 +364,25 @@ ChannelStats Bus::StatsFor(const std::string& channel, ChannelSide side) const {
   empty.channel = full;
   empty.publishing = side == ChannelSide::kPublishing;
   return empty;
+}
+
+bool HandleUntil(Bus& bus, const std::function<bool()>& done, double timeout_s) {
+  const auto end = std::chrono::steady_clock::now() +
+                   std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                       std::chrono::duration<double>(timeout_s));
+  while (!done()) {
+    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
+        end - std::chrono::steady_clock::now());
+    if (left.count() <= 0) return done();
+    bus.Handle(static_cast<int>(std::min<int64_t>(left.count(), 50)));
+  }
+  return true;
+}
+
+int64_t WallMicros() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::system_clock::now().time_since_epoch())
+      .count();
 }
 
 }  // namespace sirupp::core

@@ -332,4 +332,11 @@ class Latest {
   Subscription* subscription_;  // last: subscribes once everything above is ready
 };
 
+// Handles messages on `bus` until done() holds or timeout_s passed (waiting at most 50 ms at a
+// time, so done() is asked often); returns done().
+bool HandleUntil(Bus& bus, const std::function<bool()>& done, double timeout_s);
+
+// Microseconds since the Unix epoch: the utime of messages people and tools send.
+int64_t WallMicros();
+
 }  // namespace sirupp::core

@@ -26,17 +26,18 @@ std::size_t LongestDefaultName() {
 Channels Channels::WithPrefix(const std::string& prefix) {
   ValidateChannelPrefix(prefix);
   Channels channels;
-  for (std::string* name : {&channels.robot_model,      &channels.environment,
-                            &channels.sim_arm_state,    &channels.sim_arm_command,
-                            &channels.sim_reset,        &channels.sim_status,
-                            &channels.arm_move,         &channels.arm_setpoint,
-                            &channels.arm_gains,        &channels.controller_gains,
-                            &channels.arm_target,       &channels.arm_pose_target,
-                            &channels.arm_plan,         &channels.controller_status,
-                            &channels.real_arm_state,   &channels.real_arm_setpoint,
-                            &channels.real_arm_gains,   &channels.hardware_status,
-                            &channels.hardware_command, &channels.estop,
-                            &channels.heartbeat,        &channels.viewer_image,
+  for (std::string* name : {&channels.robot_model,       &channels.environment,
+                            &channels.sim_arm_state,     &channels.sim_arm_command,
+                            &channels.sim_reset,         &channels.sim_status,
+                            &channels.arm_move,          &channels.arm_setpoint,
+                            &channels.arm_gains,         &channels.controller_gains,
+                            &channels.arm_target,        &channels.arm_pose_target,
+                            &channels.arm_plan,          &channels.controller_status,
+                            &channels.controller_reply,  &channels.real_arm_state,
+                            &channels.real_arm_setpoint, &channels.real_arm_gains,
+                            &channels.hardware_status,   &channels.hardware_command,
+                            &channels.hardware_reply,    &channels.estop,
+                            &channels.heartbeat,         &channels.viewer_image,
                             &channels.viewer_camera}) {
     name->insert(0, prefix);
   }
@@ -44,11 +45,19 @@ Channels Channels::WithPrefix(const std::string& prefix) {
 }
 
 std::vector<std::string> Channels::All() const {
-  return {robot_model,       environment,     sim_arm_state,   sim_arm_command,   sim_reset,
-          sim_status,        arm_move,        arm_setpoint,    arm_gains,         controller_gains,
-          arm_target,        arm_pose_target, arm_plan,        controller_status, real_arm_state,
-          real_arm_setpoint, real_arm_gains,  hardware_status, hardware_command,  estop,
-          heartbeat,         viewer_image,    viewer_camera};
+  return {robot_model,       environment,
+          sim_arm_state,     sim_arm_command,
+          sim_reset,         sim_status,
+          arm_move,          arm_setpoint,
+          arm_gains,         controller_gains,
+          arm_target,        arm_pose_target,
+          arm_plan,          controller_status,
+          controller_reply,  real_arm_state,
+          real_arm_setpoint, real_arm_gains,
+          hardware_status,   hardware_command,
+          hardware_reply,    estop,
+          heartbeat,         viewer_image,
+          viewer_camera};
 }
 
 void ValidateChannelPrefix(const std::string& prefix) {
@@ -111,6 +120,10 @@ const std::vector<ChannelInfo>& ChannelTable() {
       {"CONTROLLER_STATUS", "sirupp.controller_status_t", "sirupp-control",
        "sirupp CLI, sirupp-logger, sirupp-viewer, sirupp-hardware", "10 Hz and on change",
        "mode, state, present move and plan step, last error"},
+      {"CONTROLLER_REPLY", "sirupp.command_reply_t", "sirupp-control", "sirupp CLI, sirupp demo",
+       "one per ARM_TARGET, ARM_POSE_TARGET, ARM_PLAN and ARM_GAINS",
+       "the answer to one command: its channel, utime and seq, accepted or refused and why, the "
+       "move it started"},
       {"REAL_ARM_STATE", "sirupp.arm_state_t", "sirupp-hardware", "sirupp-logger, sirupp-viewer",
        "every status poll (about 100-500 Hz)",
        "real arm: joint positions and velocities from the encoders, estimated efforts"},
@@ -124,6 +137,9 @@ const std::vector<ChannelInfo>& ChannelTable() {
        "bridge state (connected, armed, linked, fault), module status, serial errors"},
       {"HARDWARE_COMMAND", "sirupp.hardware_command_t", "sirupp CLI", "sirupp-hardware",
        "on demand", "connect, calibrate, arm, disarm, link, unlink, home, clear faults"},
+      {"HARDWARE_REPLY", "sirupp.command_reply_t", "sirupp-hardware", "sirupp CLI",
+       "one per HARDWARE_COMMAND and ARM_GAINS",
+       "the answer to one command: its channel, utime and seq, accepted or refused and why"},
       {"ESTOP", "sirupp.estop_t", "any process", "sirupp-sim, sirupp-control, sirupp-hardware",
        "on demand", "emergency stop engaged or released, by whom and why"},
       {"HEARTBEAT", "sirupp.heartbeat_t", "every process", "sirupp launch, sirupp CLI", "1 Hz",

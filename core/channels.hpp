@@ -29,11 +29,13 @@ struct Channels {
   std::string arm_pose_target = "ARM_POSE_TARGET";
   std::string arm_plan = "ARM_PLAN";
   std::string controller_status = "CONTROLLER_STATUS";
+  std::string controller_reply = "CONTROLLER_REPLY";
   std::string real_arm_state = "REAL_ARM_STATE";
   std::string real_arm_setpoint = "REAL_ARM_SETPOINT";
   std::string real_arm_gains = "REAL_ARM_GAINS";
   std::string hardware_status = "HARDWARE_STATUS";
   std::string hardware_command = "HARDWARE_COMMAND";
+  std::string hardware_reply = "HARDWARE_REPLY";
   std::string estop = "ESTOP";
   std::string heartbeat = "HEARTBEAT";
   std::string viewer_image = "VIEWER_IMAGE";

@@ -59,19 +59,24 @@ BridgeNode::BridgeNode(core::Bus& bus, const core::RobotModel& model, ArmLink& l
       options_(std::move(options)),
       model_watch_(model_, options_.name),
       heartbeat_(bus, options_.name, options_.channels.heartbeat),
+      replier_(bus, options_.channels.hardware_reply, options_.name),
       started_(Clock::now()),
       next_cycle_(Clock::now()) {
   const core::Channels& c = options_.channels;
   bus_.Subscribe<hardware_command_t>(
-      c.hardware_command,
-      [this](const hardware_command_t& m, const core::ReceiveInfo& info) { OnCommand(m, info); });
+      c.hardware_command, [this](const hardware_command_t& m, const core::ReceiveInfo& info) {
+        replier_.Answer(
+            m, info, [&] { OnCommand(m, info); }, [this] { return Facts(); });
+      });
   bus_.Subscribe<sirupp::servo_move_t>(
       c.arm_move,
       [this](const sirupp::servo_move_t& m, const core::ReceiveInfo& info) { OnMove(m, info); },
       100);
   bus_.Subscribe<sirupp::servo_gains_t>(
-      c.arm_gains,
-      [this](const sirupp::servo_gains_t& m, const core::ReceiveInfo& info) { OnGains(m, info); });
+      c.arm_gains, [this](const sirupp::servo_gains_t& m, const core::ReceiveInfo& info) {
+        replier_.Answer(
+            m, info, [&] { OnGains(m, info); }, [this] { return Facts(); });
+      });
   bus_.Subscribe<sirupp::estop_t>(
       c.estop,
       [this](const sirupp::estop_t& m, const core::ReceiveInfo& info) { OnEstop(m, info); });
@@ -96,6 +101,12 @@ BridgeNode::BridgeNode(core::Bus& bus, const core::RobotModel& model, ArmLink& l
         }
       });
   heartbeat_.Publish(core::ProcessState::kStarting, "");
+}
+
+core::ReplyFacts BridgeNode::Facts() const {
+  core::ReplyFacts facts;
+  facts.status_seq = status_seq_ - 1;
+  return facts;
 }
 
 int8_t BridgeNode::state() const {

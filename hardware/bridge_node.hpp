@@ -8,7 +8,8 @@
 //      at 10 Hz, and ARM_MOVE) for command expiry.
 // Out: REAL_ARM_STATE and REAL_ARM_SETPOINT every poll (poll_rate_hz), HARDWARE_STATUS (10 Hz and
 //      on every change), REAL_ARM_GAINS (what the modules acknowledged; 1 Hz and on every
-//      change, while connected), HEARTBEAT.
+//      change, while connected), HARDWARE_REPLY (one answer per HARDWARE_COMMAND and ARM_GAINS,
+//      naming the request), HEARTBEAT.
 //
 // Safety (each threshold a setting, docs/hardware.md):
 //  - nothing moves unless connected, calibrated and armed; ARM_MOVE only while linked;
@@ -36,6 +37,7 @@
 
 #include "core/bus.hpp"
 #include "core/channels.hpp"
+#include "core/command_reply.hpp"
 #include "core/heartbeat.hpp"
 #include "core/model_check.hpp"
 #include "core/robot_model.hpp"
@@ -77,6 +79,8 @@ class BridgeNode {
   int64_t moves_mirrored() const { return moves_mirrored_; }
 
  private:
+  // The status a reply on HARDWARE_REPLY names.
+  core::ReplyFacts Facts() const;
   void OnCommand(const sirupp::hardware_command_t& message, const core::ReceiveInfo& info);
   void OnMove(const sirupp::servo_move_t& message, const core::ReceiveInfo& info);
   void OnEstop(const sirupp::estop_t& message, const core::ReceiveInfo& info);
@@ -101,6 +105,7 @@ class BridgeNode {
   BridgeOptions options_;
   core::ModelWatch model_watch_;  // the sim's ROBOT_MODEL against ours: one robot
   core::Heartbeat heartbeat_;
+  core::Replier replier_;  // HARDWARE_REPLY: one answer per HARDWARE_COMMAND and ARM_GAINS
 
   Clock::time_point started_;
   Clock::time_point next_cycle_;

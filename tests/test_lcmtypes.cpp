@@ -6,6 +6,7 @@
 #include <set>
 #include <sirupp/arm_command_t.hpp>
 #include <sirupp/arm_state_t.hpp>
+#include <sirupp/command_reply_t.hpp>
 #include <sirupp/controller_status_t.hpp>
 #include <sirupp/environment_t.hpp>
 #include <sirupp/estop_t.hpp>
@@ -90,7 +91,8 @@ TEST(LcmTypes, EveryTopLevelTypeHasItsOwnFingerprint) {
       sirupp::controller_status_t::getHash(), sirupp::hardware_status_t::getHash(),
       sirupp::hardware_command_t::getHash(),  sirupp::estop_t::getHash(),
       sirupp::heartbeat_t::getHash(),         sirupp::robot_model_t::getHash(),
-      sirupp::environment_t::getHash(),       sirupp::image_t::getHash()};
+      sirupp::environment_t::getHash(),       sirupp::image_t::getHash(),
+      sirupp::command_reply_t::getHash()};
   EXPECT_EQ(std::set<int64_t>(hashes.begin(), hashes.end()).size(), hashes.size());
 }
 

@@ -59,12 +59,6 @@ core::Bus BusFromArgs(const Args& parsed) {
                    parsed.Has("prefix") ? parsed.String("prefix") : "");
 }
 
-int64_t WallMicros() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
-}
-
 void PrintSent(std::ostream& out, const core::Bus& bus, const std::string& channel,
                const core::RobotModel& model, const std::vector<double>& position) {
   out << "sent " << bus.FullName(channel) << ": " << model.name << " to";
@@ -81,19 +75,6 @@ const std::map<std::string, std::string> kRigFlags = {{"lcm-url", "LCM URL"},
 std::map<std::string, std::string> WithRigFlags(std::map<std::string, std::string> flags) {
   flags.insert(kRigFlags.begin(), kRigFlags.end());
   return flags;
-}
-
-bool HandleUntil(core::Bus& bus, const std::function<bool()>& done, double timeout_s) {
-  const auto end = std::chrono::steady_clock::now() +
-                   std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-                       std::chrono::duration<double>(timeout_s));
-  while (!done()) {
-    const auto left = std::chrono::duration_cast<std::chrono::milliseconds>(
-        end - std::chrono::steady_clock::now());
-    if (left.count() <= 0) return done();
-    bus.Handle(static_cast<int>(std::min<int64_t>(left.count(), 50)));
-  }
-  return true;
 }
 
 double TimeoutFrom(const Args& parsed, double fallback) {

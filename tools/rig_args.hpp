@@ -22,7 +22,7 @@ std::map<std::string, std::string> WithRigFlags(std::map<std::string, std::strin
 double TimeoutFrom(const Args& parsed, double fallback);
 
 // Handles messages on `bus` until done() holds or timeout_s passed; returns done().
-bool HandleUntil(core::Bus& bus, const std::function<bool()>& done, double timeout_s);
+using core::HandleUntil;
 
 // --model FILE, default config/robots/puma260.yaml (found from any working directory).
 core::RobotModel ModelFromArgs(const Args& parsed);
@@ -36,7 +36,7 @@ std::vector<double> PositionsFromArgs(const Args& parsed, const core::RobotModel
                                       const std::string& command);
 
 // Microseconds since the epoch (utime of messages sent by people).
-int64_t WallMicros();
+using core::WallMicros;
 
 // "sent CHANNEL: MODEL to Q1 .. QN (rad or m)" without a line end.
 void PrintSent(std::ostream& out, const core::Bus& bus, const std::string& channel,

@@ -1,0 +1,508 @@
+#include "client/client.hpp"
+
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <limits>
+#include <sirupp/estop_t.hpp>
+#include <sirupp/hardware_command_t.hpp>
+#include <sirupp/joint_target_t.hpp>
+#include <sirupp/plan_command_t.hpp>
+#include <sirupp/pose_target_t.hpp>
+#include <sirupp/sim_reset_t.hpp>
+#include <utility>
+
+#include "core/command_reply.hpp"
+#include "core/errors.hpp"
+
+namespace sirupp::client {
+namespace {
+
+using Status = sirupp::controller_status_t;
+using sirupp::hardware_command_t;
+using sirupp::hardware_status_t;
+
+int64_t SteadyMicros() {
+  return std::chrono::duration_cast<std::chrono::microseconds>(
+             std::chrono::steady_clock::now().time_since_epoch())
+      .count();
+}
+
+std::string DefaultSender() {
+  char host[256] = {};
+  ::gethostname(host, sizeof host - 1);
+  return "sirupp client (pid " + std::to_string(::getpid()) + "@" + host + ")";
+}
+
+const char* StateName(int8_t state) {
+  switch (state) {
+    case Status::STATE_IDLE:
+      return "idle";
+    case Status::STATE_MOVING:
+      return "moving";
+    case Status::STATE_WAITING:
+      return "waiting";
+    case Status::STATE_PAUSED:
+      return "paused";
+    case Status::STATE_FAULT:
+      return "fault";
+    case Status::STATE_OFF:
+      return "off";
+    default:
+      return "unknown";
+  }
+}
+
+struct HardwareVerb {
+  HardwareCommand command;
+  const char* name;
+  int8_t wire;
+};
+
+constexpr HardwareVerb kHardwareVerbs[] = {
+    {HardwareCommand::kConnect, "connect", hardware_command_t::COMMAND_CONNECT},
+    {HardwareCommand::kCalibrate, "calibrate", hardware_command_t::COMMAND_CALIBRATE},
+    {HardwareCommand::kArm, "arm", hardware_command_t::COMMAND_ARM},
+    {HardwareCommand::kDisarm, "disarm", hardware_command_t::COMMAND_DISARM},
+    {HardwareCommand::kLink, "link", hardware_command_t::COMMAND_LINK},
+    {HardwareCommand::kUnlink, "unlink", hardware_command_t::COMMAND_UNLINK},
+    {HardwareCommand::kHome, "home", hardware_command_t::COMMAND_HOME},
+    {HardwareCommand::kClearFaults, "clear-faults", hardware_command_t::COMMAND_CLEAR_FAULTS},
+};
+
+const HardwareVerb& Verb(HardwareCommand command) {
+  for (const HardwareVerb& verb : kHardwareVerbs) {
+    if (verb.command == command) return verb;
+  }
+  return kHardwareVerbs[0];  // unreachable: every enumerator is in the table
+}
+
+}  // namespace
+
+const char* HardwareCommandName(HardwareCommand command) { return Verb(command).name; }
+
+std::optional<HardwareCommand> HardwareCommandFromName(const std::string& name) {
+  for (const HardwareVerb& verb : kHardwareVerbs) {
+    if (name == verb.name) return verb.command;
+  }
+  return std::nullopt;
+}
+
+bool HardwareCommandDone(HardwareCommand command, const hardware_status_t& s) {
+  switch (command) {
+    case HardwareCommand::kConnect:
+    case HardwareCommand::kDisarm:
+      return s.state == hardware_status_t::STATE_CONNECTED;
+    case HardwareCommand::kCalibrate:
+      return s.calibrated == 1;
+    case HardwareCommand::kArm:
+    case HardwareCommand::kUnlink:
+      return s.state == hardware_status_t::STATE_ARMED;
+    case HardwareCommand::kLink:
+      return s.state == hardware_status_t::STATE_LINKED;
+    case HardwareCommand::kHome:
+      return s.state == hardware_status_t::STATE_ARMED ||
+             s.state == hardware_status_t::STATE_LINKED;
+    case HardwareCommand::kClearFaults:
+      return s.state != hardware_status_t::STATE_FAULT;
+  }
+  return false;
+}
+
+Client::Client(Options options)
+    : options_(std::move(options)),
+      owned_bus_(std::make_unique<core::Bus>(options_.lcm_url, options_.prefix)),
+      bus_(*owned_bus_) {
+  Subscribe();
+}
+
+Client::Client(core::Bus& bus, Options options) : options_(std::move(options)), bus_(bus) {
+  options_.lcm_url = bus.url();
+  options_.prefix = bus.prefix();
+  Subscribe();
+}
+
+void Client::Subscribe() {
+  if (options_.sender.empty()) options_.sender = DefaultSender();
+  bus_.Subscribe<Status>(channels_.controller_status,
+                         [this](const Status& message, const core::ReceiveInfo&) {
+                           snapshot_.controller = message;
+                           ++snapshot_.controller_statuses;
+                           last_status_wall_us_ = SteadyMicros();
+                         });
+  bus_.Subscribe<sirupp::command_reply_t>(
+      channels_.controller_reply,
+      [this](const sirupp::command_reply_t& message, const core::ReceiveInfo&) {
+        controller_replies_.push_back(message);
+      });
+  bus_.Subscribe<sirupp::command_reply_t>(
+      channels_.hardware_reply,
+      [this](const sirupp::command_reply_t& message, const core::ReceiveInfo&) {
+        hardware_replies_.push_back(message);
+      });
+  bus_.Subscribe<sirupp::sim_status_t>(
+      channels_.sim_status, [this](const sirupp::sim_status_t& message, const core::ReceiveInfo&) {
+        snapshot_.sim = message;
+      });
+  bus_.Subscribe<hardware_status_t>(
+      channels_.hardware_status,
+      [this](const hardware_status_t& message, const core::ReceiveInfo&) {
+        snapshot_.hardware = message;
+      });
+  bus_.Subscribe<sirupp::servo_gains_t>(
+      channels_.controller_gains,
+      [this](const sirupp::servo_gains_t& message, const core::ReceiveInfo&) {
+        snapshot_.virtual_gains = message;
+      });
+  bus_.Subscribe<sirupp::servo_gains_t>(
+      channels_.real_arm_gains,
+      [this](const sirupp::servo_gains_t& message, const core::ReceiveInfo&) {
+        snapshot_.real_gains = message;
+      });
+  bus_.Subscribe<sirupp::heartbeat_t>(
+      channels_.heartbeat, [this](const sirupp::heartbeat_t& message, const core::ReceiveInfo&) {
+        snapshot_.heartbeats[message.process + "@" + message.host] = message;
+      });
+  if (options_.watch_joints) WatchJoints(true);
+}
+
+bool Client::Until(const std::function<bool()>& done, double timeout_s) {
+  if (!idle_) return core::HandleUntil(bus_, done, timeout_s);
+  const auto end = std::chrono::steady_clock::now() +
+                   std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                       std::chrono::duration<double>(timeout_s));
+  while (!done()) {
+    if (std::chrono::steady_clock::now() >= end) return done();
+    idle_();
+    bus_.HandleAvailable();
+  }
+  return true;
+}
+
+void Client::Listen(double seconds) {
+  Until([] { return false; }, seconds);
+}
+
+void Client::WatchJoints(bool on) {
+  if (!on) {
+    for (core::Subscription* subscription : joint_subscriptions_) subscription->Unsubscribe();
+    joint_subscriptions_.clear();
+    return;
+  }
+  if (!joint_subscriptions_.empty()) return;
+  // Per-tick channels: a queue of 2, the newest message is all that is kept.
+  joint_subscriptions_.push_back(&bus_.Subscribe<sirupp::servo_setpoint_t>(
+      channels_.arm_setpoint,
+      [this](const sirupp::servo_setpoint_t& message, const core::ReceiveInfo&) {
+        snapshot_.setpoint = message;
+      },
+      2));
+  joint_subscriptions_.push_back(&bus_.Subscribe<sirupp::arm_state_t>(
+      channels_.sim_arm_state,
+      [this](const sirupp::arm_state_t& message, const core::ReceiveInfo&) {
+        snapshot_.sim_arm = message;
+      },
+      2));
+}
+
+bool Client::WaitForController(double timeout_s) {
+  return Until([this] { return snapshot_.controller.has_value(); }, timeout_s);
+}
+
+bool Client::WaitForHardware(double timeout_s) {
+  return Until([this] { return snapshot_.hardware.has_value(); }, timeout_s);
+}
+
+double Client::SinceControllerStatus() const {
+  if (!snapshot_.controller) return std::numeric_limits<double>::infinity();
+  return static_cast<double>(SteadyMicros() - last_status_wall_us_) * 1e-6;
+}
+
+bool Client::ControllerSilent(double seconds) const {
+  return snapshot_.controller.has_value() && SinceControllerStatus() >= seconds;
+}
+
+template <class Msg>
+RequestId Client::Send(const std::string& channel, Msg message) {
+  // A distinct utime per request of this client: with the seq, the request's id.
+  last_utime_ = std::max(core::WallMicros(), last_utime_ + 1);
+  message.utime = last_utime_;
+  message.seq = seq_[channel]++;
+  bus_.Publish(channel, message);
+  return RequestId{bus_.FullName(channel), message.utime, message.seq};
+}
+
+Answer Client::Await(const RequestId& request, double timeout_s, bool hardware) {
+  std::vector<sirupp::command_reply_t>& replies =
+      hardware ? hardware_replies_ : controller_replies_;
+  Answer answer;
+  answer.request = request;
+  std::optional<sirupp::command_reply_t> reply;
+  Until(
+      [&] {
+        for (auto it = replies.begin(); it != replies.end(); ++it) {
+          if (core::RepliesTo(*it, request.channel, request.utime, request.seq)) {
+            reply = *it;
+            replies.erase(it);
+            return true;
+          }
+        }
+        return false;
+      },
+      timeout_s);
+  // Replies to requests of other clients are of no use here; keep the list short.
+  if (replies.size() > 64) replies.erase(replies.begin(), replies.end() - 64);
+  if (!reply) {
+    const std::string& replies_on =
+        hardware ? channels_.hardware_reply : channels_.controller_reply;
+    answer.error = "no reply on " + bus_.FullName(replies_on) + " within " +
+                   core::FormatApprox(timeout_s) + " s to the request on " + request.channel +
+                   " (is " + (hardware ? "sirupp-hardware" : "sirupp-control") +
+                   " running, on the same --lcm-url and --prefix?)";
+    return answer;
+  }
+  answer.result = reply->result == sirupp::command_reply_t::RESULT_ACCEPTED ? Result::kAccepted
+                                                                            : Result::kRefused;
+  answer.error = reply->error;
+  answer.move_id = reply->move_id;
+  answer.status_seq = reply->status_seq;
+  // The status sent with the reply shows the command's effect: wait for it (briefly; LCM may
+  // drop it, and the next one comes within 0.1 s).
+  if (reply->status_seq >= 0) {
+    Until(
+        [&] {
+          if (hardware) return snapshot_.hardware && snapshot_.hardware->seq >= reply->status_seq;
+          return snapshot_.controller && snapshot_.controller->seq >= reply->status_seq;
+        },
+        0.5);
+  }
+  return answer;
+}
+
+Answer Client::AwaitControllerAnswer(const RequestId& request, double timeout_s) {
+  return Await(request, timeout_s, false);
+}
+
+Answer Client::AwaitHardwareAnswer(const RequestId& request, double timeout_s) {
+  return Await(request, timeout_s, true);
+}
+
+Answer Client::MoveJoints(const JointTarget& target) {
+  sirupp::joint_target_t message{};
+  const size_t n = target.position.size();
+  message.num_joints = static_cast<int32_t>(n);
+  message.position = target.position;
+  message.max_velocity =
+      target.max_velocity.empty() ? std::vector<double>(n, 0.0) : target.max_velocity;
+  message.acceleration =
+      target.acceleration.empty() ? std::vector<double>(n, 0.0) : target.acceleration;
+  message.active = target.active.empty() ? std::vector<int8_t>(n, 1) : target.active;
+  // Every array must have num_joints entries (core/bus.hpp): a short one would be read past.
+  message.max_velocity.resize(n, 0.0);
+  message.acceleration.resize(n, 0.0);
+  message.active.resize(n, 0);
+  return AwaitControllerAnswer(Send(channels_.arm_target, message), options_.answer_timeout_s);
+}
+
+Answer Client::MovePose(const PoseTarget& target) {
+  using Pose = sirupp::pose_target_t;
+  Pose message{};
+  std::copy(target.position, target.position + 3, message.position);
+  std::copy(target.orientation, target.orientation + 4, message.orientation);
+  message.position_only = target.position_only ? 1 : 0;
+  if (target.shoulder_left) {
+    message.shoulder = *target.shoulder_left ? Pose::SHOULDER_LEFT : Pose::SHOULDER_RIGHT;
+  }
+  if (target.elbow_up) message.elbow = *target.elbow_up ? Pose::ELBOW_UP : Pose::ELBOW_DOWN;
+  if (target.wrist_flip) {
+    message.wrist = *target.wrist_flip ? Pose::WRIST_FLIP : Pose::WRIST_NO_FLIP;
+  }
+  message.speed_scale = target.speed_scale;
+  return AwaitControllerAnswer(Send(channels_.arm_pose_target, message), options_.answer_timeout_s);
+}
+
+Answer Client::RunPlan(const std::string& name, const std::string& text) {
+  sirupp::plan_command_t message{};
+  message.command = sirupp::plan_command_t::COMMAND_RUN;
+  message.name = name;
+  message.text = text;
+  return AwaitControllerAnswer(Send(channels_.arm_plan, message), options_.answer_timeout_s);
+}
+
+Answer Client::Plan(PlanCommand command) {
+  using Command = sirupp::plan_command_t;
+  Command message{};
+  switch (command) {
+    case PlanCommand::kPause:
+      message.command = Command::COMMAND_PAUSE;
+      break;
+    case PlanCommand::kResume:
+      message.command = Command::COMMAND_RESUME;
+      break;
+    case PlanCommand::kAbort:
+      message.command = Command::COMMAND_ABORT;
+      break;
+    case PlanCommand::kManual:
+      message.command = Command::COMMAND_MANUAL;
+      break;
+    case PlanCommand::kAutomatic:
+      message.command = Command::COMMAND_AUTOMATIC;
+      break;
+    case PlanCommand::kClearFault:
+      message.command = Command::COMMAND_CLEAR_FAULT;
+      break;
+  }
+  return AwaitControllerAnswer(Send(channels_.arm_plan, message), options_.answer_timeout_s);
+}
+
+Answer Client::SetGains(const sirupp::servo_gains_t& gains) {
+  return AwaitControllerAnswer(Send(channels_.arm_gains, gains), options_.answer_timeout_s);
+}
+
+RequestId Client::ResetSim(const std::vector<double>& position, bool reset_objects,
+                           const std::vector<double>& velocity) {
+  sirupp::sim_reset_t message{};
+  message.sender = options_.sender;
+  message.num_joints = static_cast<int32_t>(position.size());
+  message.position = position;
+  message.num_velocities = static_cast<int32_t>(velocity.size());
+  message.velocity = velocity;
+  message.reset_objects = reset_objects ? 1 : 0;
+  return Send(channels_.sim_reset, message);
+}
+
+Answer Client::Hardware(HardwareCommand command) {
+  hardware_command_t message{};
+  message.command = Verb(command).wire;
+  message.sender = options_.sender;
+  return AwaitHardwareAnswer(Send(channels_.hardware_command, message), options_.answer_timeout_s);
+}
+
+bool Client::WaitHardwareDone(HardwareCommand command, double timeout_s) {
+  return Until(
+      [&] { return snapshot_.hardware && HardwareCommandDone(command, *snapshot_.hardware); },
+      timeout_s);
+}
+
+RequestId Client::Estop(bool engage, const std::string& reason) {
+  sirupp::estop_t message{};
+  message.engaged = engage ? 1 : 0;
+  message.sender = options_.sender;
+  message.reason = reason;
+  return Send(channels_.estop, message);
+}
+
+bool Client::WaitEstopShown(bool engaged, double timeout_s) {
+  return Until(
+      [&] {
+        return snapshot_.hardware &&
+               (snapshot_.hardware->state == hardware_status_t::STATE_ESTOPPED) == engaged;
+      },
+      timeout_s);
+}
+
+Outcome Client::WaitForMove(int64_t move_id, double timeout_s, int64_t from_status_seq) {
+  Outcome outcome;
+  if (!snapshot_.controller) {
+    outcome.end = End::kControllerSilent;
+    outcome.detail = "no " + bus_.FullName(channels_.controller_status) + " heard";
+    return outcome;
+  }
+  bool silent = false;
+  const bool ended = Until(
+      [&] {
+        const Status& s = *snapshot_.controller;
+        silent = ControllerSilent(kControllerSilentS);
+        if (silent) return true;
+        if (s.seq < from_status_seq) return false;
+        return s.state == Status::STATE_FAULT || s.move_id != move_id ||
+               s.state == Status::STATE_IDLE;
+      },
+      timeout_s);
+  const Status& s = *snapshot_.controller;
+  if (silent) {
+    outcome.end = End::kControllerSilent;
+    outcome.detail = "sirupp-control stopped answering: no " +
+                     bus_.FullName(channels_.controller_status) + " for " +
+                     core::FormatApprox(SinceControllerStatus()) +
+                     " s (it crashed or was stopped; its log says why)";
+  } else if (!ended) {
+    outcome.end = End::kTimeout;
+    outcome.detail = std::string("still ") + StateName(s.state) + " after " +
+                     core::FormatApprox(timeout_s) + " s";
+  } else if (s.state == Status::STATE_FAULT) {
+    outcome.end = End::kFault;
+    outcome.detail = "fault: " + s.last_error;
+  } else if (s.move_id != move_id) {
+    outcome.end = End::kSuperseded;
+    outcome.detail = "superseded by move " + std::to_string(s.move_id);
+  } else {
+    outcome.end = End::kDone;
+    outcome.detail = "move " + std::to_string(move_id) + " done";
+  }
+  return outcome;
+}
+
+Outcome Client::WaitForPlan(const std::string& name, int steps, double timeout_s,
+                            const std::function<void(int)>& on_step, int64_t from_status_seq) {
+  Outcome outcome;
+  if (!snapshot_.controller) {
+    outcome.end = End::kControllerSilent;
+    outcome.detail = "no " + bus_.FullName(channels_.controller_status) + " heard";
+    return outcome;
+  }
+  int shown_step = -1;
+  bool silent = false;
+  const bool ended = Until(
+      [&] {
+        const Status& s = *snapshot_.controller;
+        if ((silent = ControllerSilent(kControllerSilentS))) return true;
+        if (s.seq < from_status_seq) return false;
+        if (s.plan_name != name) return true;  // another plan replaced it
+        if (s.plan_step != shown_step && s.plan_step < steps && s.plan_step >= 0) {
+          shown_step = s.plan_step;
+          if (on_step) on_step(shown_step);
+        }
+        return s.state == Status::STATE_FAULT || s.state == Status::STATE_IDLE;
+      },
+      timeout_s);
+  const Status& s = *snapshot_.controller;
+  if (silent) {
+    outcome.end = End::kControllerSilent;
+    outcome.detail = "sirupp-control stopped answering: no " +
+                     bus_.FullName(channels_.controller_status) + " for " +
+                     core::FormatApprox(SinceControllerStatus()) +
+                     " s (it crashed or was stopped; its log says why)";
+  } else if (!ended) {
+    outcome.end = End::kTimeout;
+    outcome.detail = std::string("still ") + StateName(s.state) + " after " +
+                     core::FormatApprox(timeout_s) + " s";
+  } else if (s.state == Status::STATE_FAULT) {
+    outcome.end = End::kFault;
+    outcome.detail = "plan failed: " + s.last_error;
+  } else if (s.plan_name != name) {
+    outcome.end = End::kSuperseded;
+    outcome.detail = "plan " + name + " was replaced by " +
+                     (s.plan_name.empty() ? std::string("no plan") : s.plan_name);
+  } else if (s.plan_step < steps) {
+    // Ended early: a step that failed names itself in last_error; an abort leaves it empty.
+    outcome.end = End::kAborted;
+    outcome.detail = s.last_error.empty()
+                         ? "plan ended at step " + std::to_string(s.plan_step + 1) + " of " +
+                               std::to_string(steps) + " (aborted)"
+                         : "plan failed: " + s.last_error;
+  } else {
+    outcome.end = End::kDone;
+    outcome.detail = "plan " + name + " finished";
+  }
+  return outcome;
+}
+
+bool Client::SameFilterGains(const sirupp::servo_gains_t& a, const sirupp::servo_gains_t& b) {
+  return a.num_joints == b.num_joints && a.kp == b.kp && a.kd == b.kd && a.ki == b.ki &&
+         a.integration_limit == b.integration_limit && a.output_limit == b.output_limit &&
+         a.error_limit == b.error_limit && a.deadband == b.deadband;
+}
+
+}  // namespace sirupp::client

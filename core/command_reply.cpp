@@ -1,0 +1,36 @@
+#include "core/command_reply.hpp"
+
+namespace sirupp::core {
+
+sirupp::command_reply_t MakeReply(const std::string& sender, const std::string& request_channel,
+                                  int64_t request_utime, int64_t request_seq,
+                                  const std::string& error, const ReplyFacts& facts) {
+  sirupp::command_reply_t reply{};
+  reply.utime = WallMicros();
+  reply.sender = sender;
+  reply.request_channel = request_channel;
+  reply.request_utime = request_utime;
+  reply.request_seq = request_seq;
+  reply.result = error.empty() ? sirupp::command_reply_t::RESULT_ACCEPTED
+                               : sirupp::command_reply_t::RESULT_REFUSED;
+  reply.error = error;
+  reply.move_id = error.empty() ? facts.move_id : -1;
+  reply.status_seq = facts.status_seq;
+  return reply;
+}
+
+bool RepliesTo(const sirupp::command_reply_t& reply, const std::string& request_channel,
+               int64_t request_utime, int64_t request_seq) {
+  return reply.request_channel == request_channel && reply.request_utime == request_utime &&
+         reply.request_seq == request_seq;
+}
+
+void Replier::Send(const std::string& request_channel, int64_t request_utime, int64_t request_seq,
+                   const std::string& error, const ReplyFacts& facts) {
+  sirupp::command_reply_t reply =
+      MakeReply(sender_, request_channel, request_utime, request_seq, error, facts);
+  reply.seq = seq_++;
+  bus_.Publish(channel_, reply);
+}
+
+}  // namespace sirupp::core

@@ -1,0 +1,307 @@
+// The client library (client/client.hpp) against the real process logic on one in-process memq://
+// bus: sirupp-sim's and sirupp-control's nodes in lockstep, and sirupp-hardware's bridge on the
+// emulated PIC-SERVO boards. Every command's answer comes from the reply that names its request:
+// accepted, refused with the controller's reason, or none; waits follow a move or a plan to its
+// end.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+#include <sirupp/command_reply_t.hpp>
+#include <sirupp/controller_status_t.hpp>
+#include <sirupp/hardware_status_t.hpp>
+#include <string>
+#include <vector>
+
+#include "client/client.hpp"
+#include "control/control_node.hpp"
+#include "core/bus.hpp"
+#include "core/model_loader.hpp"
+#include "hardware/arm_link.hpp"
+#include "hardware/bridge_node.hpp"
+#include "hardware/emulator.hpp"
+#include "hardware/serial_port.hpp"
+#include "servo/chip_gains.hpp"
+#include "sim/sim_node.hpp"
+
+namespace sirupp::client {
+namespace {
+
+constexpr double kDeg = 3.14159265358979323846 / 180;
+// Wall-clock limits for waits: generous, since the in-process sim runs as fast as the (shared,
+// loaded) machine lets it; the tests check what happened, not how fast.
+constexpr double kLongWaitS = 120;
+
+using Status = sirupp::controller_status_t;
+using sirupp::hardware_status_t;
+
+const core::RobotModel& Puma() {
+  static const core::RobotModel model = core::LoadRobotModel("config/robots/puma260.yaml");
+  return model;
+}
+
+// sirupp-sim and sirupp-control on one memq bus; the client steps the sim while it waits.
+struct ControlRig {
+  ControlRig() {
+    client.SetIdle([this] {
+      sim.Service(0);
+      control.Service(0);
+    });
+    // The servos come on with the first arm state.
+    client.Until(
+        [this] {
+          const auto& status = client.snapshot().controller;
+          return status && status->state != Status::STATE_OFF;
+        },
+        kLongWaitS);
+  }
+  core::Bus bus{"memq://"};
+  sim::ArmWorld world{Puma(), core::Environment{}};
+  sim::SimNode sim{bus, world, core::Environment{}, sim::NodeOptions{}};
+  control::ControlNode control{bus, Puma(), control::ControlOptions{}};
+  Client client{bus, Options{}};
+};
+
+JointTarget Degrees(const std::vector<double>& degrees) {
+  JointTarget target;
+  for (double d : degrees) target.position.push_back(d * kDeg);
+  return target;
+}
+
+TEST(Client, AJointMoveIsAcceptedAndFollowedToItsEnd) {
+  ControlRig rig;
+  const Answer answer = rig.client.MoveJoints(Degrees({30, 0, 0, 0, 0, 0}));
+  ASSERT_EQ(answer.result, Result::kAccepted) << answer.error;
+  EXPECT_TRUE(answer.error.empty());
+  EXPECT_EQ(answer.request.channel, "ARM_TARGET");
+  EXPECT_GE(answer.move_id, 1);
+  ASSERT_TRUE(rig.client.snapshot().controller.has_value());
+  // The status the reply names is in the snapshot: the move is under way.
+  EXPECT_GE(rig.client.snapshot().controller->seq, answer.status_seq);
+  EXPECT_EQ(rig.client.snapshot().controller->move_id, answer.move_id);
+  const Outcome outcome = rig.client.WaitForMove(answer.move_id, kLongWaitS, answer.status_seq);
+  EXPECT_EQ(outcome.end, End::kDone) << outcome.detail;
+  EXPECT_NEAR(rig.world.State().position[0] / kDeg, 30.0, 1.0);
+}
+
+TEST(Client, ARefusedTargetAnswersWithTheControllersReasonAndNothingMoves) {
+  ControlRig rig;
+  const Answer answer = rig.client.MoveJoints(Degrees({0, 0, 0, 400, 0, 0}));  // beyond 310
+  ASSERT_EQ(answer.result, Result::kRefused);
+  EXPECT_EQ(answer.move_id, -1);
+  EXPECT_NE(answer.error.find("channel ARM_TARGET: position[3]: 6.98"), std::string::npos)
+      << answer.error;
+  EXPECT_EQ(rig.client.snapshot().controller->move_id, 0);
+  // The next request is answered on its own, not by the refusal before it.
+  const Answer next = rig.client.MoveJoints(Degrees({5, 0, 0, 0, 0, 0}));
+  EXPECT_EQ(next.result, Result::kAccepted) << next.error;
+  EXPECT_NE(next.request.utime, answer.request.utime);
+}
+
+TEST(Client, AnotherClientsRefusalIsNotTakenAsMyAnswer) {
+  ControlRig rig;
+  Client other(rig.bus, Options{});
+  other.SetIdle([&] {
+    rig.sim.Service(0);
+    rig.control.Service(0);
+  });
+  // The other client's bad target is answered while this client waits for its own.
+  sirupp::joint_target_t bad{};
+  bad.num_joints = 3;  // the model has 6
+  bad.position = {0, 0, 0};
+  bad.max_velocity = {0, 0, 0};
+  bad.acceleration = {0, 0, 0};
+  bad.active = {1, 1, 1};
+  rig.bus.Publish("ARM_TARGET", bad);
+  const Answer mine = rig.client.MoveJoints(Degrees({10, 0, 0, 0, 0, 0}));
+  EXPECT_EQ(mine.result, Result::kAccepted) << mine.error;
+  const Answer theirs = other.MoveJoints(Degrees({0, 0, 0, 0, 0, 999}));
+  EXPECT_EQ(theirs.result, Result::kRefused);
+  EXPECT_NE(theirs.error.find("position[5]"), std::string::npos) << theirs.error;
+}
+
+TEST(Client, APoseTargetIsSolvedByTheControllerOrRefusedWithWhy) {
+  ControlRig rig;
+  PoseTarget far;
+  far.position[0] = 5.0;  // metres: far out of reach
+  far.position_only = true;
+  const Answer refused = rig.client.MovePose(far);
+  ASSERT_EQ(refused.result, Result::kRefused);
+  EXPECT_NE(refused.error.find("no joint solution"), std::string::npos) << refused.error;
+  PoseTarget reach;
+  reach.position[0] = 0.3;
+  reach.position[1] = 0.1;
+  reach.position[2] = 0.3;
+  reach.position_only = true;
+  reach.speed_scale = 0.5;
+  const Answer accepted = rig.client.MovePose(reach);
+  EXPECT_EQ(accepted.result, Result::kAccepted) << accepted.error;
+  EXPECT_GE(accepted.move_id, 1);
+}
+
+TEST(Client, APlanRunsPausesResumesAndEnds) {
+  ControlRig rig;
+  const std::string text = "move j1=20\nwait done\nmove j1=0\nwait done\n";
+  const Answer run = rig.client.RunPlan("two.plan", text);
+  ASSERT_EQ(run.result, Result::kAccepted) << run.error;
+  EXPECT_EQ(rig.client.snapshot().controller->plan_name, "two.plan");
+  EXPECT_EQ(rig.client.snapshot().controller->mode, Status::MODE_AUTOMATIC);
+  // A target in automatic mode is refused, naming the plan.
+  const Answer target = rig.client.MoveJoints(Degrees({5, 0, 0, 0, 0, 0}));
+  EXPECT_EQ(target.result, Result::kRefused);
+  EXPECT_NE(target.error.find("plan two.plan is running"), std::string::npos) << target.error;
+
+  const Answer pause = rig.client.Plan(PlanCommand::kPause);
+  ASSERT_EQ(pause.result, Result::kAccepted) << pause.error;
+  // The present move ends first, then the plan waits.
+  EXPECT_TRUE(rig.client.Until(
+      [&] { return rig.client.snapshot().controller->state == Status::STATE_PAUSED; }, kLongWaitS));
+  const Answer again = rig.client.Plan(PlanCommand::kPause);
+  EXPECT_EQ(again.result, Result::kRefused);
+  EXPECT_NE(again.error.find("pause: no plan is running (it is paused already)"), std::string::npos)
+      << again.error;
+  const Answer resume = rig.client.Plan(PlanCommand::kResume);
+  ASSERT_EQ(resume.result, Result::kAccepted) << resume.error;
+
+  std::vector<int> steps;
+  const Outcome outcome = rig.client.WaitForPlan(
+      "two.plan", 4, kLongWaitS, [&](int step) { steps.push_back(step); }, resume.status_seq);
+  EXPECT_EQ(outcome.end, End::kDone) << outcome.detail;
+  ASSERT_FALSE(steps.empty());
+  EXPECT_EQ(steps.back(), 3);
+  EXPECT_NEAR(rig.world.State().position[0] / kDeg, 0.0, 1.0);
+  // Nothing paused any more.
+  EXPECT_EQ(rig.client.Plan(PlanCommand::kResume).result, Result::kRefused);
+}
+
+TEST(Client, ABadPlanIsRefusedNamingTheLineAndAnAbortStopsARunningOne) {
+  ControlRig rig;
+  const Answer bad = rig.client.RunPlan("lab3.plan", "move j1=30\nwait done\nmove j2=400\n");
+  ASSERT_EQ(bad.result, Result::kRefused);
+  EXPECT_NE(bad.error.find("lab3.plan:3:"), std::string::npos) << bad.error;
+  const Answer run = rig.client.RunPlan("slow.plan", "move j1=90 speed=20\nwait done\n");
+  ASSERT_EQ(run.result, Result::kAccepted) << run.error;
+  const Answer abort = rig.client.Plan(PlanCommand::kAbort);
+  ASSERT_EQ(abort.result, Result::kAccepted) << abort.error;
+  const Outcome outcome =
+      rig.client.WaitForPlan("slow.plan", 2, kLongWaitS, nullptr, abort.status_seq);
+  EXPECT_EQ(outcome.end, End::kAborted) << outcome.detail;
+  EXPECT_EQ(rig.client.snapshot().controller->mode, Status::MODE_MANUAL);
+}
+
+TEST(Client, GainsAreSetLiveOrRefusedWhole) {
+  ControlRig rig;
+  ASSERT_TRUE(rig.client.Until([&] { return rig.client.snapshot().virtual_gains.has_value(); },
+                               kLongWaitS));
+  sirupp::servo_gains_t gains = *rig.client.snapshot().virtual_gains;
+  gains.kp[0] = 150;
+  const Answer set = rig.client.SetGains(gains);
+  ASSERT_EQ(set.result, Result::kAccepted) << set.error;
+  ASSERT_TRUE(rig.client.Until(
+      [&] { return Client::SameFilterGains(*rig.client.snapshot().virtual_gains, gains); },
+      kLongWaitS));
+  sirupp::servo_gains_t bad = gains;
+  bad.output_limit[2] = 300;  // PWM is 0..255
+  const Answer refused = rig.client.SetGains(bad);
+  ASSERT_EQ(refused.result, Result::kRefused);
+  EXPECT_NE(refused.error.find("ARM_GAINS"), std::string::npos) << refused.error;
+}
+
+TEST(Client, AStatusSnapshotHasTheControllerTheSimAndHeartbeats) {
+  ControlRig rig;
+  rig.client.WatchJoints(true);
+  rig.client.Until(
+      [&] {
+        const Snapshot& s = rig.client.snapshot();
+        return s.controller && s.sim && s.sim_arm && s.setpoint && s.heartbeats.size() >= 2;
+      },
+      kLongWaitS);
+  const Snapshot& s = rig.client.snapshot();
+  ASSERT_TRUE(s.controller.has_value());
+  EXPECT_EQ(s.controller->state, Status::STATE_IDLE);
+  EXPECT_TRUE(s.sim.has_value());
+  ASSERT_TRUE(s.sim_arm.has_value());
+  EXPECT_EQ(s.sim_arm->num_joints, 6);
+  EXPECT_TRUE(s.setpoint.has_value());
+  EXPECT_GE(s.heartbeats.size(), 2u);  // sirupp-sim and sirupp-control
+  EXPECT_FALSE(rig.client.ControllerSilent(Client::kControllerSilentS));
+}
+
+TEST(Client, WithNoControllerACommandHasNoAnswerAndSaysWhere) {
+  core::Bus bus("memq://");
+  Options options;
+  options.answer_timeout_s = 0.2;
+  Client client(bus, options);
+  EXPECT_FALSE(client.WaitForController(0.2));
+  const Answer answer = client.Plan(PlanCommand::kAbort);
+  EXPECT_EQ(answer.result, Result::kNoAnswer);
+  EXPECT_NE(answer.error.find("no reply on CONTROLLER_REPLY"), std::string::npos) << answer.error;
+  EXPECT_EQ(client.WaitForMove(1, 0.1).end, End::kControllerSilent);
+}
+
+// The bridge on the emulated boards, driven through the client as `sirupp hardware` does.
+struct HardwareRig {
+  HardwareRig() {
+    hardware::EmulatorOptions eo;
+    eo.model = Puma();
+    eo.start_positions = {0, -90 * kDeg, 90 * kDeg, 0, 45 * kDeg, 0};
+    settings.calibration_pose = "ready";
+    settings.start_guard_s = 0;
+    settings.reply_margin_ms = 100;
+    settings.retries = 4;
+    settings.command_timeout_s = 600;  // no controller here: nothing expires during the test
+    emulator = std::make_unique<hardware::Emulator>(eo);
+    emulator->Start();
+    port = std::make_unique<hardware::SerialPort>(emulator->device(), hardware::nmc::kPowerUpBaud);
+    link = std::make_unique<hardware::ArmLink>(Puma(), settings, *port);
+    node = std::make_unique<hardware::BridgeNode>(bus, Puma(), *link, settings);
+    client = std::make_unique<Client>(bus, Options{});
+    client->SetIdle([this] { node->Service(1); });
+  }
+  ~HardwareRig() { emulator->Stop(); }
+  core::Bus bus{"memq://"};
+  hardware::BridgeSettings settings = hardware::DefaultBridgeSettings(Puma());
+  std::unique_ptr<hardware::Emulator> emulator;
+  std::unique_ptr<hardware::SerialPort> port;
+  std::unique_ptr<hardware::ArmLink> link;
+  std::unique_ptr<hardware::BridgeNode> node;
+  std::unique_ptr<Client> client;
+};
+
+TEST(Client, TheBridgeIsConnectedCalibratedArmedAndLinkedAndRefusesOutOfOrder) {
+  HardwareRig rig;
+  Client& client = *rig.client;
+  ASSERT_TRUE(client.WaitForHardware(kLongWaitS));
+  const Answer early = client.Hardware(HardwareCommand::kLink);
+  ASSERT_EQ(early.result, Result::kRefused);
+  EXPECT_NE(early.error.find("HARDWARE_COMMAND"), std::string::npos) << early.error;
+  for (HardwareCommand command : {HardwareCommand::kConnect, HardwareCommand::kCalibrate,
+                                  HardwareCommand::kArm, HardwareCommand::kLink}) {
+    const Answer answer = client.Hardware(command);
+    ASSERT_EQ(answer.result, Result::kAccepted)
+        << HardwareCommandName(command) << ": " << answer.error;
+    EXPECT_TRUE(client.WaitHardwareDone(command, kLongWaitS)) << HardwareCommandName(command);
+  }
+  EXPECT_EQ(client.snapshot().hardware->state, hardware_status_t::STATE_LINKED);
+  client.Estop(true, "test");
+  EXPECT_TRUE(client.WaitEstopShown(true, kLongWaitS));
+  const Answer refused = client.Hardware(HardwareCommand::kArm);
+  EXPECT_EQ(refused.result, Result::kRefused);
+  EXPECT_NE(refused.error.find("emergency stop"), std::string::npos) << refused.error;
+  client.Estop(false, "test over");
+  EXPECT_TRUE(client.WaitEstopShown(false, kLongWaitS));
+}
+
+TEST(Client, HardwareCommandNamesGoBothWays) {
+  for (HardwareCommand command :
+       {HardwareCommand::kConnect, HardwareCommand::kCalibrate, HardwareCommand::kArm,
+        HardwareCommand::kDisarm, HardwareCommand::kLink, HardwareCommand::kUnlink,
+        HardwareCommand::kHome, HardwareCommand::kClearFaults}) {
+    EXPECT_EQ(HardwareCommandFromName(HardwareCommandName(command)), command);
+  }
+  EXPECT_FALSE(HardwareCommandFromName("launch").has_value());
+}
+
+}  // namespace
+}  // namespace sirupp::client
