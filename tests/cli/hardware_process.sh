@@ -56,17 +56,19 @@ has link "$out" "bridge linked"
 
 # The virtual arm moves; the emulated one follows through the bridge.
 run move 0 move joints --lcm-url "$URL" --deg 30 0 0 0 0 0 --wait
-# Joint 1: 30 deg = 30/360 * 1000 * 46.72 counts, negative gear: about -3893. The real arm may
+# Joint 1: 30 deg = 30/360 * 1000 * 46.72 counts, negative gear: about -3893. The emulated real
+# arm (config/hardware/puma260-real.yaml, fitted to the paper) stops short by its friction, as the
+# paper's did (set I, joint 1: 1.72 deg steady-state error): allowed 2.5 deg, -3569..-4217. It may
 # finish a little after the virtual one on a loaded machine: wait for it, up to 5 s.
 pos=""
 for _ in $(seq 25); do
   "$SIRUPP" hardware status --lcm-url "$URL" >"$out" 2>"$err"
   pos=$(sed -n 's/^  module 1: .*position \(-*[0-9]*\) counts.*/\1/p' "$out")
-  [[ -n "$pos" && $pos -lt -3800 && $pos -gt -3990 ]] && break
+  [[ -n "$pos" && $pos -lt -3569 && $pos -gt -4217 ]] && break
   sleep 0.2
 done
 has status "$out" "bridge: linked, calibrated"
-[[ -n "$pos" && $pos -lt -3800 && $pos -gt -3990 ]] || { echo "FAIL mirrored j1: '$pos' counts"; cat "$out"; fail=1; }
+[[ -n "$pos" && $pos -lt -3569 && $pos -gt -4217 ]] || { echo "FAIL mirrored j1: '$pos' counts"; cat "$out"; fail=1; }
 
 run estop 0 estop --lcm-url "$URL" --reason "test stop"
 has estop "$out" "engaged ESTOP"
