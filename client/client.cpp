@@ -35,25 +35,6 @@ std::string DefaultSender() {
   return "sirupp client (pid " + std::to_string(::getpid()) + "@" + host + ")";
 }
 
-const char* StateName(int8_t state) {
-  switch (state) {
-    case Status::STATE_IDLE:
-      return "idle";
-    case Status::STATE_MOVING:
-      return "moving";
-    case Status::STATE_WAITING:
-      return "waiting";
-    case Status::STATE_PAUSED:
-      return "paused";
-    case Status::STATE_FAULT:
-      return "fault";
-    case Status::STATE_OFF:
-      return "off";
-    default:
-      return "unknown";
-  }
-}
-
 struct HardwareVerb {
   HardwareCommand command;
   const char* name;
@@ -79,6 +60,29 @@ const HardwareVerb& Verb(HardwareCommand command) {
 }
 
 }  // namespace
+
+const char* ControllerStateName(int8_t state) {
+  switch (state) {
+    case Status::STATE_IDLE:
+      return "idle";
+    case Status::STATE_MOVING:
+      return "moving";
+    case Status::STATE_WAITING:
+      return "waiting";
+    case Status::STATE_PAUSED:
+      return "paused";
+    case Status::STATE_FAULT:
+      return "fault";
+    case Status::STATE_OFF:
+      return "off";
+    default:
+      return "unknown";
+  }
+}
+
+const char* ControllerModeName(int8_t mode) {
+  return mode == Status::MODE_AUTOMATIC ? "automatic" : "manual";
+}
 
 const char* HardwareCommandName(HardwareCommand command) { return Verb(command).name; }
 
@@ -188,6 +192,8 @@ void Client::WatchJoints(bool on) {
   if (!on) {
     for (core::Subscription* subscription : joint_subscriptions_) subscription->Unsubscribe();
     joint_subscriptions_.clear();
+    snapshot_.sim_arm.reset();  // not followed any more: an old value would mislead
+    snapshot_.setpoint.reset();
     return;
   }
   if (!joint_subscriptions_.empty()) return;
@@ -429,7 +435,7 @@ Outcome Client::WaitForMove(int64_t move_id, double timeout_s, int64_t from_stat
                      " s (it crashed or was stopped; its log says why)";
   } else if (!ended) {
     outcome.end = End::kTimeout;
-    outcome.detail = std::string("still ") + StateName(s.state) + " after " +
+    outcome.detail = std::string("still ") + ControllerStateName(s.state) + " after " +
                      core::FormatApprox(timeout_s) + " s";
   } else if (s.state == Status::STATE_FAULT) {
     outcome.end = End::kFault;
@@ -476,7 +482,7 @@ Outcome Client::WaitForPlan(const std::string& name, int steps, double timeout_s
                      " s (it crashed or was stopped; its log says why)";
   } else if (!ended) {
     outcome.end = End::kTimeout;
-    outcome.detail = std::string("still ") + StateName(s.state) + " after " +
+    outcome.detail = std::string("still ") + ControllerStateName(s.state) + " after " +
                      core::FormatApprox(timeout_s) + " s";
   } else if (s.state == Status::STATE_FAULT) {
     outcome.end = End::kFault;

@@ -12,6 +12,7 @@
 #include <sirupp/hardware_status_t.hpp>
 #include <sstream>
 
+#include "client/client.hpp"
 #include "core/bus.hpp"
 #include "core/channels.hpp"
 #include "core/errors.hpp"
@@ -213,6 +214,11 @@ int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostrea
           if (bad && real_arm_problem.empty()) real_arm_problem = s.last_error;
         },
         1000);  // 10 Hz for the length of a set, handled after it
+    client::Options rig_options;
+    rig_options.lcm_url = layout.lcm_url;
+    rig_options.prefix = layout.prefix;
+    rig_options.sender = "sirupp demo";
+    client::Client rig(rig_options);
     for (size_t i = 0; i < sets.size() && !StopRequested(); ++i) {
       const auto t0 = Clock::now();
       out << "  set " << std::left << std::setw(4) << Roman(sets[i]) << std::right << " (" << i + 1
@@ -220,7 +226,7 @@ int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostrea
       std::ostringstream plan_out;
       int code = 1;
       try {
-        code = RunPlan({"run", plans[i], "--wait", "--lcm-url", layout.lcm_url}, plan_out);
+        code = RunPlanFile(rig, model, plans[i], /*wait_s=*/3600, plan_out);
       } catch (const std::exception& e) {
         plan_out << e.what() << "\n";
       }

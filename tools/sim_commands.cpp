@@ -2,8 +2,8 @@
 
 #include <chrono>
 #include <ostream>
-#include <sirupp/sim_reset_t.hpp>
 
+#include "client/client.hpp"
 #include "core/bus.hpp"
 #include "core/channels.hpp"
 #include "core/errors.hpp"
@@ -33,16 +33,15 @@ int RunReset(const std::vector<std::string>& args, std::ostream& out) {
                      {"lcm-url", "LCM URL"},
                      {"prefix", "channel prefix of the rig"}});
   const core::RobotModel model = ModelFromArgs(parsed);
-  sirupp::sim_reset_t reset{};
-  reset.utime = WallMicros();
-  reset.sender = "sirupp reset";
-  reset.num_joints = model.num_joints();
-  reset.position = PositionsFromArgs(parsed, model, "reset");
-  reset.reset_objects = parsed.Switch("objects") ? 1 : 0;
+  const std::vector<double> position = PositionsFromArgs(parsed, model, "reset");
+  const bool objects = parsed.Switch("objects");
   core::Bus bus = BusFromArgs(parsed);
-  bus.Publish(core::Channels{}.sim_reset, reset);
-  PrintSent(out, bus, core::Channels{}.sim_reset, model, reset.position);
-  out << (reset.reset_objects ? ", objects reset" : "") << "\n";
+  client::Options options;
+  options.sender = "sirupp reset";
+  client::Client rig(bus, options);
+  rig.ResetSim(position, objects);
+  PrintSent(out, bus, rig.channels().sim_reset, model, position);
+  out << (objects ? ", objects reset" : "") << "\n";
   return 0;
 }
 
