@@ -233,6 +233,11 @@ class Client {
   template <class Msg>
   RequestId Send(const std::string& channel, Msg message);
   Answer Await(const RequestId& request, double timeout_s, bool hardware);
+  // Handles messages until ended() holds for a status with seq >= from_status_seq. Returns the
+  // outcome when the wait was cut short (no controller, silent, timeout), nullopt when it ended.
+  std::optional<Outcome> Follow(
+      const std::function<bool(const sirupp::controller_status_t&)>& ended, double timeout_s,
+      int64_t from_status_seq);
 
   Options options_;
   std::unique_ptr<core::Bus> owned_bus_;

@@ -26,9 +26,9 @@
 #include "core/errors.hpp"
 #include "core/geometry.hpp"
 #include "core/heartbeat.hpp"
+#include "runtime/args.hpp"
 #include "servo/chip_gains.hpp"
 #include "servo/picservo.hpp"
-#include "tools/args.hpp"
 #include "tools/cli.hpp"
 #include "tools/rig_args.hpp"
 
@@ -97,7 +97,7 @@ std::string Degrees(const core::RobotModel& model, const std::vector<double>& q)
   return text.str();
 }
 
-double ScaleFrom(const Args& parsed, const std::string& command) {
+double ScaleFrom(const runtime::Args& parsed, const std::string& command) {
   if (!parsed.Has("scale")) return 1.0;
   const double scale = parsed.Numbers("scale", 1)[0];
   if (!(scale > 0) || scale > 1) {
@@ -108,14 +108,14 @@ double ScaleFrom(const Args& parsed, const std::string& command) {
 }
 
 int MoveJoints(const std::vector<std::string>& args, std::ostream& out) {
-  const Args parsed(args, "move joints",
-                    WithRigFlags({{"model", "robot model file"},
-                                  {"pose", "named pose"},
-                                  {"deg", "joint positions in degrees"},
-                                  {"rad", "joint positions in radians"},
-                                  {"scale", "fraction of the default speeds"},
-                                  {"wait", "wait until the move is done"},
-                                  {"timeout", "seconds to wait"}}));
+  const runtime::Args parsed(args, "move joints",
+                             WithRigFlags({{"model", "robot model file"},
+                                           {"pose", "named pose"},
+                                           {"deg", "joint positions in degrees"},
+                                           {"rad", "joint positions in radians"},
+                                           {"scale", "fraction of the default speeds"},
+                                           {"wait", "wait until the move is done"},
+                                           {"timeout", "seconds to wait"}}));
   const core::RobotModel model = ModelFromArgs(parsed);
   const double scale = ScaleFrom(parsed, "move joints");
   const bool wait = parsed.Switch("wait");
@@ -138,14 +138,14 @@ int MoveJoints(const std::vector<std::string>& args, std::ostream& out) {
 }
 
 int MovePose(const std::vector<std::string>& args, std::ostream& out) {
-  const Args parsed(args, "move pose",
-                    WithRigFlags({{"model", "robot model file"},
-                                  {"pose", "X Y Z ROLL PITCH YAW (m, deg)"},
-                                  {"position", "X Y Z (m), orientation free"},
-                                  {"config", "SHOULDER-ELBOW-WRIST or nearest"},
-                                  {"scale", "fraction of the default speeds"},
-                                  {"wait", "wait until the move is done"},
-                                  {"timeout", "seconds to wait"}}));
+  const runtime::Args parsed(args, "move pose",
+                             WithRigFlags({{"model", "robot model file"},
+                                           {"pose", "X Y Z ROLL PITCH YAW (m, deg)"},
+                                           {"position", "X Y Z (m), orientation free"},
+                                           {"config", "SHOULDER-ELBOW-WRIST or nearest"},
+                                           {"scale", "fraction of the default speeds"},
+                                           {"wait", "wait until the move is done"},
+                                           {"timeout", "seconds to wait"}}));
   const core::RobotModel model = ModelFromArgs(parsed);
   if (parsed.Has("pose") == parsed.Has("position")) {
     throw core::UsageError(
@@ -227,7 +227,7 @@ int PlanCheck(const std::vector<std::string>& args, std::ostream& out) {
   for (const std::string& arg : args) {
     (arg.rfind("--", 0) == 0 || !flags.empty() ? flags : files).push_back(arg);
   }
-  const Args parsed(flags, "plan check", {{"model", "robot model file"}});
+  const runtime::Args parsed(flags, "plan check", {{"model", "robot model file"}});
   if (files.empty()) throw core::UsageError("plan check: missing FILE");
   const core::RobotModel model = ModelFromArgs(parsed);
   for (const std::string& file : files) {
@@ -241,10 +241,10 @@ int PlanCheck(const std::vector<std::string>& args, std::ostream& out) {
 int PlanRun(const std::vector<std::string>& args, std::ostream& out) {
   if (args.empty() || args[0].rfind("--", 0) == 0) throw core::UsageError("plan run: missing FILE");
   const std::string file = args[0];
-  const Args parsed(std::vector<std::string>(args.begin() + 1, args.end()), "plan run",
-                    WithRigFlags({{"model", "robot model file"},
-                                  {"wait", "follow the plan to its end"},
-                                  {"timeout", "seconds to wait"}}));
+  const runtime::Args parsed(std::vector<std::string>(args.begin() + 1, args.end()), "plan run",
+                             WithRigFlags({{"model", "robot model file"},
+                                           {"wait", "follow the plan to its end"},
+                                           {"timeout", "seconds to wait"}}));
   const core::RobotModel model = ModelFromArgs(parsed);
   const bool wait = parsed.Switch("wait");
   const double timeout = TimeoutFrom(parsed, 3600);
@@ -255,7 +255,7 @@ int PlanRun(const std::vector<std::string>& args, std::ostream& out) {
 
 int PlanControl(client::PlanCommand command, const std::string& word,
                 const std::vector<std::string>& args, std::ostream& out) {
-  const Args parsed(args, "plan " + word, WithRigFlags({}));
+  const runtime::Args parsed(args, "plan " + word, WithRigFlags({}));
   core::Bus bus = BusFromArgs(parsed);
   client::Client rig(bus, {});
   if (!FirstStatus(rig, out)) return kExitFailed;
@@ -395,16 +395,16 @@ void PrintGains(std::ostream& out, const std::string& title, const sirupp::servo
 }  // namespace
 
 int RunGains(const std::vector<std::string>& args, std::ostream& out) {
-  const Args parsed(args, "gains",
-                    WithRigFlags({{"model", "robot model file"},
-                                  {"joint", "joint number, 1-based"},
-                                  {"kp", "position gain 0..32767"},
-                                  {"kd", "derivative gain 0..32767"},
-                                  {"ki", "integral gain 0..32767"},
-                                  {"il", "integration limit 0..32767"},
-                                  {"ol", "output limit 0..255"},
-                                  {"el", "position-error limit 0..16383 counts"},
-                                  {"db", "deadband 0..255"}}));
+  const runtime::Args parsed(args, "gains",
+                             WithRigFlags({{"model", "robot model file"},
+                                           {"joint", "joint number, 1-based"},
+                                           {"kp", "position gain 0..32767"},
+                                           {"kd", "derivative gain 0..32767"},
+                                           {"ki", "integral gain 0..32767"},
+                                           {"il", "integration limit 0..32767"},
+                                           {"ol", "output limit 0..255"},
+                                           {"el", "position-error limit 0..16383 counts"},
+                                           {"db", "deadband 0..255"}}));
   const core::RobotModel model = ModelFromArgs(parsed);
   const int n = model.num_joints();
   int only = -1;
@@ -522,7 +522,7 @@ int RunGains(const std::vector<std::string>& args, std::ostream& out) {
 }
 
 int RunStatus(const std::vector<std::string>& args, std::ostream& out) {
-  const Args parsed(
+  const runtime::Args parsed(
       args, "status",
       WithRigFlags({{"timeout", "seconds to listen"}, {"model", "robot model file"}}));
   const double listen = TimeoutFrom(parsed, 1.5);

@@ -11,7 +11,7 @@
 #include "core/bus.hpp"
 #include "core/channels.hpp"
 #include "core/errors.hpp"
-#include "tools/args.hpp"
+#include "runtime/args.hpp"
 #include "tools/rig_args.hpp"
 
 namespace sirupp::tools {
@@ -98,8 +98,9 @@ int RunHardware(const std::vector<std::string>& args, std::ostream& out) {
                            "'; allowed: connect, calibrate, arm, disarm, link, unlink, home, "
                            "clear-faults, status");
   }
-  const Args parsed(std::vector<std::string>(args.begin() + 1, args.end()), "hardware " + verb,
-                    WithRigFlags({{"timeout", "seconds to wait for the bridge"}}));
+  const runtime::Args parsed(std::vector<std::string>(args.begin() + 1, args.end()),
+                             "hardware " + verb,
+                             WithRigFlags({{"timeout", "seconds to wait for the bridge"}}));
   const double timeout = TimeoutFrom(parsed, 5);
   core::Bus bus = BusFromArgs(parsed);
   client::Options options;
@@ -134,8 +135,8 @@ int RunHardware(const std::vector<std::string>& args, std::ostream& out) {
 }
 
 int RunEstop(const std::vector<std::string>& args, std::ostream& out) {
-  const Args parsed(args, "estop",
-                    WithRigFlags({{"release", "release the stop"}, {"reason", "why, one line"}}));
+  const runtime::Args parsed(
+      args, "estop", WithRigFlags({{"release", "release the stop"}, {"reason", "why, one line"}}));
   const bool release = parsed.Switch("release");
   core::Bus bus = BusFromArgs(parsed);
   client::Options options;

@@ -6,7 +6,7 @@
 #include "core/channels.hpp"
 #include "core/errors.hpp"
 #include "logger/report.hpp"
-#include "tools/args.hpp"
+#include "runtime/args.hpp"
 
 namespace sirupp::tools {
 
@@ -35,7 +35,7 @@ const char* const kReportUsage =
 
 namespace {
 
-double NonNegative(const Args& args, const std::string& flag, double fallback) {
+double NonNegative(const runtime::Args& args, const std::string& flag, double fallback) {
   if (!args.Has(flag)) return fallback;
   const double value = args.Numbers(flag, 1)[0];
   if (value < 0) {
@@ -51,7 +51,7 @@ int RunReport(const std::vector<std::string>& argv, std::ostream& out, std::ostr
   std::vector<std::string> files;
   size_t i = 0;
   for (; i < argv.size() && argv[i].rfind("--", 0) != 0; ++i) files.push_back(argv[i]);
-  const Args args(
+  const runtime::Args args(
       std::vector<std::string>(argv.begin() + static_cast<std::ptrdiff_t>(i), argv.end()), "report",
       {{"out", "DIR"},
        {"no-plots", "(switch)"},

@@ -8,7 +8,7 @@
 #include "core/channels.hpp"
 #include "core/errors.hpp"
 #include "core/model_loader.hpp"
-#include "tools/args.hpp"
+#include "runtime/args.hpp"
 #include "tools/cli.hpp"
 #include "tools/rig_args.hpp"
 
@@ -24,14 +24,14 @@ const char* const kResetUsage =
     "  The sim refuses positions outside the joint limits (see its heartbeat or stderr).\n";
 
 int RunReset(const std::vector<std::string>& args, std::ostream& out) {
-  const Args parsed(args, "reset",
-                    {{"model", "robot model file"},
-                     {"pose", "named pose"},
-                     {"deg", "joint positions in degrees"},
-                     {"rad", "joint positions in radians"},
-                     {"objects", "reset the free objects too"},
-                     {"lcm-url", "LCM URL"},
-                     {"prefix", "channel prefix of the rig"}});
+  const runtime::Args parsed(args, "reset",
+                             {{"model", "robot model file"},
+                              {"pose", "named pose"},
+                              {"deg", "joint positions in degrees"},
+                              {"rad", "joint positions in radians"},
+                              {"objects", "reset the free objects too"},
+                              {"lcm-url", "LCM URL"},
+                              {"prefix", "channel prefix of the rig"}});
   const core::RobotModel model = ModelFromArgs(parsed);
   const std::vector<double> position = PositionsFromArgs(parsed, model, "reset");
   const bool objects = parsed.Switch("objects");
