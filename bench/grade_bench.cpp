@@ -10,10 +10,11 @@
 #include "core/model_loader.hpp"
 #include "grade/grade.hpp"
 #include "grade/report.hpp"
+#include "runtime/data_path.hpp"
 #include "tools/cli.hpp"
 
 namespace {
-std::string Resolve(const std::string& path) { return sirupp::tools::ResolveDataPath(path); }
+std::string Resolve(const std::string& path) { return sirupp::runtime::ResolveDataPath(path); }
 }  // namespace
 
 int main(int argc, char** argv) {

@@ -35,25 +35,6 @@ std::string DefaultSender() {
   return "sirupp client (pid " + std::to_string(::getpid()) + "@" + host + ")";
 }
 
-const char* StateName(int8_t state) {
-  switch (state) {
-    case Status::STATE_IDLE:
-      return "idle";
-    case Status::STATE_MOVING:
-      return "moving";
-    case Status::STATE_WAITING:
-      return "waiting";
-    case Status::STATE_PAUSED:
-      return "paused";
-    case Status::STATE_FAULT:
-      return "fault";
-    case Status::STATE_OFF:
-      return "off";
-    default:
-      return "unknown";
-  }
-}
-
 struct HardwareVerb {
   HardwareCommand command;
   const char* name;
@@ -79,6 +60,29 @@ const HardwareVerb& Verb(HardwareCommand command) {
 }
 
 }  // namespace
+
+const char* ControllerStateName(int8_t state) {
+  switch (state) {
+    case Status::STATE_IDLE:
+      return "idle";
+    case Status::STATE_MOVING:
+      return "moving";
+    case Status::STATE_WAITING:
+      return "waiting";
+    case Status::STATE_PAUSED:
+      return "paused";
+    case Status::STATE_FAULT:
+      return "fault";
+    case Status::STATE_OFF:
+      return "off";
+    default:
+      return "unknown";
+  }
+}
+
+const char* ControllerModeName(int8_t mode) {
+  return mode == Status::MODE_AUTOMATIC ? "automatic" : "manual";
+}
 
 const char* HardwareCommandName(HardwareCommand command) { return Verb(command).name; }
 
@@ -188,6 +192,8 @@ void Client::WatchJoints(bool on) {
   if (!on) {
     for (core::Subscription* subscription : joint_subscriptions_) subscription->Unsubscribe();
     joint_subscriptions_.clear();
+    snapshot_.sim_arm.reset();  // not followed any more: an old value would mislead
+    snapshot_.setpoint.reset();
     return;
   }
   if (!joint_subscriptions_.empty()) return;
@@ -402,7 +408,8 @@ bool Client::WaitEstopShown(bool engaged, double timeout_s) {
       timeout_s);
 }
 
-Outcome Client::WaitForMove(int64_t move_id, double timeout_s, int64_t from_status_seq) {
+std::optional<Outcome> Client::Follow(const std::function<bool(const Status&)>& ended,
+                                      double timeout_s, int64_t from_status_seq) {
   Outcome outcome;
   if (!snapshot_.controller) {
     outcome.end = End::kControllerSilent;
@@ -410,28 +417,42 @@ Outcome Client::WaitForMove(int64_t move_id, double timeout_s, int64_t from_stat
     return outcome;
   }
   bool silent = false;
-  const bool ended = Until(
+  const bool done = Until(
       [&] {
+        if ((silent = ControllerSilent(kControllerSilentS))) return true;
         const Status& s = *snapshot_.controller;
-        silent = ControllerSilent(kControllerSilentS);
-        if (silent) return true;
-        if (s.seq < from_status_seq) return false;
-        return s.state == Status::STATE_FAULT || s.move_id != move_id ||
-               s.state == Status::STATE_IDLE;
+        return s.seq >= from_status_seq && ended(s);
       },
       timeout_s);
-  const Status& s = *snapshot_.controller;
   if (silent) {
     outcome.end = End::kControllerSilent;
     outcome.detail = "sirupp-control stopped answering: no " +
                      bus_.FullName(channels_.controller_status) + " for " +
                      core::FormatApprox(SinceControllerStatus()) +
                      " s (it crashed or was stopped; its log says why)";
-  } else if (!ended) {
+    return outcome;
+  }
+  if (!done) {
     outcome.end = End::kTimeout;
-    outcome.detail = std::string("still ") + StateName(s.state) + " after " +
-                     core::FormatApprox(timeout_s) + " s";
-  } else if (s.state == Status::STATE_FAULT) {
+    outcome.detail = std::string("still ") + ControllerStateName(snapshot_.controller->state) +
+                     " after " + core::FormatApprox(timeout_s) + " s";
+    return outcome;
+  }
+  return std::nullopt;
+}
+
+Outcome Client::WaitForMove(int64_t move_id, double timeout_s, int64_t from_status_seq) {
+  if (std::optional<Outcome> cut = Follow(
+          [&](const Status& s) {
+            return s.state == Status::STATE_FAULT || s.move_id != move_id ||
+                   s.state == Status::STATE_IDLE;
+          },
+          timeout_s, from_status_seq)) {
+    return *cut;
+  }
+  const Status& s = *snapshot_.controller;
+  Outcome outcome;
+  if (s.state == Status::STATE_FAULT) {
     outcome.end = End::kFault;
     outcome.detail = "fault: " + s.last_error;
   } else if (s.move_id != move_id) {
@@ -446,39 +467,22 @@ Outcome Client::WaitForMove(int64_t move_id, double timeout_s, int64_t from_stat
 
 Outcome Client::WaitForPlan(const std::string& name, int steps, double timeout_s,
                             const std::function<void(int)>& on_step, int64_t from_status_seq) {
-  Outcome outcome;
-  if (!snapshot_.controller) {
-    outcome.end = End::kControllerSilent;
-    outcome.detail = "no " + bus_.FullName(channels_.controller_status) + " heard";
-    return outcome;
-  }
   int shown_step = -1;
-  bool silent = false;
-  const bool ended = Until(
-      [&] {
-        const Status& s = *snapshot_.controller;
-        if ((silent = ControllerSilent(kControllerSilentS))) return true;
-        if (s.seq < from_status_seq) return false;
-        if (s.plan_name != name) return true;  // another plan replaced it
-        if (s.plan_step != shown_step && s.plan_step < steps && s.plan_step >= 0) {
-          shown_step = s.plan_step;
-          if (on_step) on_step(shown_step);
-        }
-        return s.state == Status::STATE_FAULT || s.state == Status::STATE_IDLE;
-      },
-      timeout_s);
+  if (std::optional<Outcome> cut = Follow(
+          [&](const Status& s) {
+            if (s.plan_name != name) return true;  // another plan replaced it
+            if (s.plan_step != shown_step && s.plan_step < steps && s.plan_step >= 0) {
+              shown_step = s.plan_step;
+              if (on_step) on_step(shown_step);
+            }
+            return s.state == Status::STATE_FAULT || s.state == Status::STATE_IDLE;
+          },
+          timeout_s, from_status_seq)) {
+    return *cut;
+  }
   const Status& s = *snapshot_.controller;
-  if (silent) {
-    outcome.end = End::kControllerSilent;
-    outcome.detail = "sirupp-control stopped answering: no " +
-                     bus_.FullName(channels_.controller_status) + " for " +
-                     core::FormatApprox(SinceControllerStatus()) +
-                     " s (it crashed or was stopped; its log says why)";
-  } else if (!ended) {
-    outcome.end = End::kTimeout;
-    outcome.detail = std::string("still ") + StateName(s.state) + " after " +
-                     core::FormatApprox(timeout_s) + " s";
-  } else if (s.state == Status::STATE_FAULT) {
+  Outcome outcome;
+  if (s.state == Status::STATE_FAULT) {
     outcome.end = End::kFault;
     outcome.detail = "plan failed: " + s.last_error;
   } else if (s.plan_name != name) {

@@ -30,6 +30,7 @@
 #include <sirupp/servo_setpoint_t.hpp>
 #include <sirupp/sim_status_t.hpp>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "core/bus.hpp"
@@ -74,6 +75,10 @@ struct Answer {
 // A joint-space target (ARM_TARGET). Empty vectors mean the model's defaults (speed,
 // acceleration) and every joint active.
 struct JointTarget {
+  JointTarget() = default;
+  // Every joint to `joint_positions` at the default speeds: MoveJoints({{0.5, 0, 0, 0, 0, 0}}).
+  JointTarget(std::vector<double> joint_positions)  // NOLINT(google-explicit-constructor)
+      : position(std::move(joint_positions)) {}
   std::vector<double> position;      // rad or m, DH convention
   std::vector<double> max_velocity;  // rad/s or m/s, 0 = the joint's default
   std::vector<double> acceleration;  // rad/s^2 or m/s^2, 0 = the joint's default
@@ -109,6 +114,10 @@ const char* HardwareCommandName(HardwareCommand command);
 std::optional<HardwareCommand> HardwareCommandFromName(const std::string& name);
 // Whether a bridge status shows the command carried out (e.g. kArm: STATE_ARMED).
 bool HardwareCommandDone(HardwareCommand command, const sirupp::hardware_status_t& status);
+
+// "manual" or "automatic"; "idle", "moving", "waiting", "paused", "fault", "off" ("unknown" else).
+const char* ControllerModeName(int8_t mode);
+const char* ControllerStateName(int8_t state);
 
 // What the rig last reported, as seen by the calls that handle messages.
 struct Snapshot {
@@ -159,6 +168,7 @@ class Client {
   bool Until(const std::function<bool()>& done, double timeout_s);
   // Handles messages for `seconds`.
   void Listen(double seconds);
+  // Follows SIM_ARM_STATE and ARM_SETPOINT (on) or stops and forgets them (off).
   void WatchJoints(bool on);
   // Called between two rounds of message handling while a call waits (then the bus is polled
   // without blocking): to step an in-process sim in tests, or to serve a GUI. nullptr: none.
@@ -223,6 +233,11 @@ class Client {
   template <class Msg>
   RequestId Send(const std::string& channel, Msg message);
   Answer Await(const RequestId& request, double timeout_s, bool hardware);
+  // Handles messages until ended() holds for a status with seq >= from_status_seq. Returns the
+  // outcome when the wait was cut short (no controller, silent, timeout), nullopt when it ended.
+  std::optional<Outcome> Follow(
+      const std::function<bool(const sirupp::controller_status_t&)>& ended, double timeout_s,
+      int64_t from_status_seq);
 
   Options options_;
   std::unique_ptr<core::Bus> owned_bus_;

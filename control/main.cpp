@@ -10,9 +10,9 @@
 #include "core/bus.hpp"
 #include "core/errors.hpp"
 #include "core/model_loader.hpp"
-#include "tools/args.hpp"
-#include "tools/cli.hpp"
-#include "tools/process_main.hpp"
+#include "runtime/args.hpp"
+#include "runtime/data_path.hpp"
+#include "runtime/process_main.hpp"
 
 namespace {
 
@@ -41,21 +41,22 @@ constexpr const char* kUsage =
     "grade gives more: another participant may hold the lockstep sim that long).\n";
 
 int Run(const std::vector<std::string>& argv) {
-  const sirupp::tools::Args args(argv, "sirupp-control",
-                                 {{"model", "robot model file"},
-                                  {"name", "participant name"},
-                                  {"no-setpoints", "do not publish ARM_SETPOINT"},
-                                  {"lcm-url", "LCM URL"},
-                                  {"prefix", "channel prefix of the rig"},
-                                  {"rt-priority", "SCHED_FIFO priority 1..99 (0: off)"},
-                                  {"sim-timeout", "seconds without a sim state that abort a plan"},
-                                  {"controller", "controller library (.so)"},
-                                  {"controller-args", "arguments for the controller library"},
-                                  {"controller-tick-limit", "seconds one controller call may take"},
-                                  {"controller-in-process", "load the library into this process"}});
-  const int rt_priority = sirupp::tools::RtPriorityArg(args, "sirupp-control");
+  const sirupp::runtime::Args args(
+      argv, "sirupp-control",
+      {{"model", "robot model file"},
+       {"name", "participant name"},
+       {"no-setpoints", "do not publish ARM_SETPOINT"},
+       {"lcm-url", "LCM URL"},
+       {"prefix", "channel prefix of the rig"},
+       {"rt-priority", "SCHED_FIFO priority 1..99 (0: off)"},
+       {"sim-timeout", "seconds without a sim state that abort a plan"},
+       {"controller", "controller library (.so)"},
+       {"controller-args", "arguments for the controller library"},
+       {"controller-tick-limit", "seconds one controller call may take"},
+       {"controller-in-process", "load the library into this process"}});
+  const int rt_priority = sirupp::runtime::RtPriorityArg(args, "sirupp-control");
   const sirupp::core::RobotModel model =
-      sirupp::core::LoadRobotModel(sirupp::tools::ResolveDataPath(
+      sirupp::core::LoadRobotModel(sirupp::runtime::ResolveDataPath(
           args.Has("model") ? args.String("model") : "config/robots/puma260.yaml"));
   sirupp::control::ControlOptions options;
   if (args.Has("name")) options.name = args.String("name");
@@ -112,8 +113,8 @@ int Run(const std::vector<std::string>& argv) {
   sirupp::control::ControlNode node(bus, model, options);
   std::cerr << "sirupp-control: " << model.name << ", participant '" << options.name << "', on "
             << bus.url() << "\n";
-  sirupp::tools::RequestRealtimePriority(rt_priority, "sirupp-control");
-  sirupp::tools::ServiceUntilSignal([&node] {
+  sirupp::runtime::RequestRealtimePriority(rt_priority, "sirupp-control");
+  sirupp::runtime::ServiceUntilSignal([&node] {
     node.Service(50);
     return node.start_refusal().empty();
   });
@@ -130,5 +131,5 @@ int Run(const std::vector<std::string>& argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  return sirupp::tools::ProcessMain(argc, argv, "sirupp-control", kUsage, Run);
+  return sirupp::runtime::ProcessMain(argc, argv, "sirupp-control", kUsage, Run);
 }

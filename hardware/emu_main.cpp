@@ -11,9 +11,9 @@
 #include "core/errors.hpp"
 #include "core/model_loader.hpp"
 #include "hardware/emulator.hpp"
-#include "tools/args.hpp"
-#include "tools/cli.hpp"
-#include "tools/process_main.hpp"
+#include "runtime/args.hpp"
+#include "runtime/data_path.hpp"
+#include "runtime/process_main.hpp"
 
 namespace {
 
@@ -64,7 +64,7 @@ std::string Milliseconds(double s) {
   return text;
 }
 
-double Probability(const sirupp::tools::Args& args, const std::string& flag) {
+double Probability(const sirupp::runtime::Args& args, const std::string& flag) {
   const double p = args.Numbers(flag, 1)[0];
   if (!(p >= 0 && p <= 1)) {
     throw UsageError(std::string(kName) + ": --" + flag + " " + sirupp::core::FormatNumber(p) +
@@ -74,16 +74,16 @@ double Probability(const sirupp::tools::Args& args, const std::string& flag) {
 }
 
 // "K" or "K@SECONDS", K = 1..modules.
-void ParseFaults(const sirupp::tools::Args& args, const std::string& flag, TimedFault::Kind kind,
+void ParseFaults(const sirupp::runtime::Args& args, const std::string& flag, TimedFault::Kind kind,
                  int modules, std::vector<TimedFault>* faults) {
   if (!args.Has(flag)) return;
   for (const std::string& text : args.Values(flag, -1)) {
     const size_t at = text.find('@');
     const std::string what = std::string(kName) + " --" + flag + " '" + text + "'";
-    const double k = sirupp::tools::ParseNumberArg(text.substr(0, at), what + " module");
+    const double k = sirupp::runtime::ParseNumberArg(text.substr(0, at), what + " module");
     double seconds = 0;
     if (at != std::string::npos) {
-      seconds = sirupp::tools::ParseNumberArg(text.substr(at + 1), what + " seconds");
+      seconds = sirupp::runtime::ParseNumberArg(text.substr(at + 1), what + " seconds");
     }
     if (k < 1 || k > modules || k != static_cast<int>(k) || seconds < 0) {
       throw UsageError(what + ": allowed K or K@SECONDS with K a module 1.." +
@@ -94,25 +94,25 @@ void ParseFaults(const sirupp::tools::Args& args, const std::string& flag, Timed
 }
 
 int Run(const std::vector<std::string>& argv) {
-  const sirupp::tools::Args args(argv, kName,
-                                 {{"model", "robot model file"},
-                                  {"modules", "number of modules, 1..32"},
-                                  {"link", "symbolic link to the device"},
-                                  {"socket", "Unix socket path for the line, instead of a pty"},
-                                  {"friction-scale", "static and Coulomb friction factor, >= 0"},
-                                  {"real-arm", "real-arm effects file"},
-                                  {"start-pose", "named pose of the model to power up in"},
-                                  {"start-joints", "joint angles to power up in, degrees"},
-                                  {"seed", "random seed of the faults"},
-                                  {"checksum-errors", "probability 0..1"},
-                                  {"drop-bytes", "probability 0..1"},
-                                  {"silent-module", "K or K@SECONDS"},
-                                  {"overcurrent", "K or K@SECONDS"},
-                                  {"pos-error-trip", "K or K@SECONDS"},
-                                  {"rt-priority", "SCHED_FIFO priority 1..99 (0: off)"}});
-  const int rt_priority = sirupp::tools::RtPriorityArg(args, kName);
+  const sirupp::runtime::Args args(argv, kName,
+                                   {{"model", "robot model file"},
+                                    {"modules", "number of modules, 1..32"},
+                                    {"link", "symbolic link to the device"},
+                                    {"socket", "Unix socket path for the line, instead of a pty"},
+                                    {"friction-scale", "static and Coulomb friction factor, >= 0"},
+                                    {"real-arm", "real-arm effects file"},
+                                    {"start-pose", "named pose of the model to power up in"},
+                                    {"start-joints", "joint angles to power up in, degrees"},
+                                    {"seed", "random seed of the faults"},
+                                    {"checksum-errors", "probability 0..1"},
+                                    {"drop-bytes", "probability 0..1"},
+                                    {"silent-module", "K or K@SECONDS"},
+                                    {"overcurrent", "K or K@SECONDS"},
+                                    {"pos-error-trip", "K or K@SECONDS"},
+                                    {"rt-priority", "SCHED_FIFO priority 1..99 (0: off)"}});
+  const int rt_priority = sirupp::runtime::RtPriorityArg(args, kName);
   sirupp::hardware::EmulatorOptions options;
-  options.model = sirupp::core::LoadRobotModel(sirupp::tools::ResolveDataPath(
+  options.model = sirupp::core::LoadRobotModel(sirupp::runtime::ResolveDataPath(
       args.Has("model") ? args.String("model") : "config/robots/puma260.yaml"));
   const int joints = options.model.num_joints();
   if (args.Has("modules")) {
@@ -142,8 +142,8 @@ int Run(const std::vector<std::string>& argv) {
   }
   if (!args.Has("friction-scale")) {
     options.effects = sirupp::hardware::LoadRealArmParams(
-        sirupp::tools::ResolveDataPath(args.Has("real-arm") ? args.String("real-arm")
-                                                            : "config/hardware/puma260-real.yaml"),
+        sirupp::runtime::ResolveDataPath(
+            args.Has("real-arm") ? args.String("real-arm") : "config/hardware/puma260-real.yaml"),
         options.model);
   }
   if (args.Has("start-pose") && args.Has("start-joints")) {
@@ -174,7 +174,7 @@ int Run(const std::vector<std::string>& argv) {
                        " (one per joint, degrees)");
     }
     for (size_t j = 0; j < words.size(); ++j) {
-      const double deg = sirupp::tools::ParseNumberArg(
+      const double deg = sirupp::runtime::ParseNumberArg(
           words[j], std::string(kName) + " --start-joints value " + std::to_string(j + 1));
       const sirupp::core::Joint& joint = options.model.joints[j];
       const double min_deg = joint.position_min * 180 / 3.14159265358979323846;
@@ -216,7 +216,7 @@ int Run(const std::vector<std::string>& argv) {
   } catch (const std::invalid_argument& error) {
     throw UsageError(std::string(kName) + ": " + error.what());
   }
-  sirupp::tools::RequestRealtimePriority(rt_priority, kName);  // before the thread: it inherits
+  sirupp::runtime::RequestRealtimePriority(rt_priority, kName);  // before the thread: it inherits
   emulator->Start();
   std::cout << kName << ": " << emulator->num_modules() << " modules on ";
   if (emulator->on_socket()) {
@@ -228,7 +228,7 @@ int Run(const std::vector<std::string>& argv) {
   std::cout << std::endl;
 
   const auto start = std::chrono::steady_clock::now();
-  sirupp::tools::ServiceUntilSignal([&] {
+  sirupp::runtime::ServiceUntilSignal([&] {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     const double t =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -262,5 +262,5 @@ int Run(const std::vector<std::string>& argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  return sirupp::tools::ProcessMain(argc, argv, kName, kUsage, Run);
+  return sirupp::runtime::ProcessMain(argc, argv, kName, kUsage, Run);
 }

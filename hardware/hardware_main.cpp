@@ -15,9 +15,9 @@
 #include "hardware/bridge_settings.hpp"
 #include "hardware/nmc_protocol.hpp"
 #include "hardware/serial_port.hpp"
-#include "tools/args.hpp"
-#include "tools/cli.hpp"
-#include "tools/process_main.hpp"
+#include "runtime/args.hpp"
+#include "runtime/data_path.hpp"
+#include "runtime/process_main.hpp"
 
 namespace {
 
@@ -44,29 +44,29 @@ constexpr const char* kUsage =
 
 int Run(const std::vector<std::string>& argv) {
   using sirupp::core::UsageError;
-  const sirupp::tools::Args args(argv, "sirupp-hardware",
-                                 {{"port", "serial device"},
-                                  {"settings", "bridge settings file"},
-                                  {"model", "robot model file"},
-                                  {"baud", "baud rate"},
-                                  {"rate", "poll rate in Hz"},
-                                  {"emulated", "the arm is the emulator"},
-                                  {"calibrate", "calibrate at start-up"},
-                                  {"arm", "arm at start-up"},
-                                  {"link", "link at start-up"},
-                                  {"no-connect", "do not connect at start-up"},
-                                  {"trace", "print every packet"},
-                                  {"name", "process name"},
-                                  {"lcm-url", "LCM URL"},
-                                  {"prefix", "channel prefix of the rig"},
-                                  {"rt-priority", "SCHED_FIFO priority 1..99 (0: off)"}});
-  const int rt_priority = sirupp::tools::RtPriorityArg(args, "sirupp-hardware");
+  const sirupp::runtime::Args args(argv, "sirupp-hardware",
+                                   {{"port", "serial device"},
+                                    {"settings", "bridge settings file"},
+                                    {"model", "robot model file"},
+                                    {"baud", "baud rate"},
+                                    {"rate", "poll rate in Hz"},
+                                    {"emulated", "the arm is the emulator"},
+                                    {"calibrate", "calibrate at start-up"},
+                                    {"arm", "arm at start-up"},
+                                    {"link", "link at start-up"},
+                                    {"no-connect", "do not connect at start-up"},
+                                    {"trace", "print every packet"},
+                                    {"name", "process name"},
+                                    {"lcm-url", "LCM URL"},
+                                    {"prefix", "channel prefix of the rig"},
+                                    {"rt-priority", "SCHED_FIFO priority 1..99 (0: off)"}});
+  const int rt_priority = sirupp::runtime::RtPriorityArg(args, "sirupp-hardware");
   const sirupp::core::RobotModel model =
-      sirupp::core::LoadRobotModel(sirupp::tools::ResolveDataPath(
+      sirupp::core::LoadRobotModel(sirupp::runtime::ResolveDataPath(
           args.Has("model") ? args.String("model") : "config/robots/puma260.yaml"));
   sirupp::hardware::BridgeSettings settings = sirupp::hardware::LoadBridgeSettings(
-      sirupp::tools::ResolveDataPath(args.Has("settings") ? args.String("settings")
-                                                          : "config/hardware/puma260.yaml"),
+      sirupp::runtime::ResolveDataPath(args.Has("settings") ? args.String("settings")
+                                                            : "config/hardware/puma260.yaml"),
       model);
   if (args.Has("port")) settings.port = args.String("port");
   if (settings.port.empty()) {
@@ -108,7 +108,7 @@ int Run(const std::vector<std::string>& argv) {
     throw UsageError("sirupp-hardware: --link needs --arm, and --arm needs --calibrate");
   }
 
-  sirupp::tools::RequestRealtimePriority(rt_priority, "sirupp-hardware");
+  sirupp::runtime::RequestRealtimePriority(rt_priority, "sirupp-hardware");
   sirupp::hardware::SerialPort port(settings.port, sirupp::hardware::nmc::kPowerUpBaud);
   sirupp::hardware::ArmLink link(model, settings, port);
   if (args.Switch("trace")) {
@@ -151,7 +151,7 @@ int Run(const std::vector<std::string>& argv) {
                   : link.blind_reason() != "" ? "not calibrated"
                                               : "ready")
               << ", polling at " << settings.poll_rate_hz << " Hz, on " << bus.url() << "\n";
-    sirupp::tools::ServiceUntilSignal([&node] {
+    sirupp::runtime::ServiceUntilSignal([&node] {
       node.Service(20);
       return true;
     });
@@ -172,5 +172,5 @@ int Run(const std::vector<std::string>& argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  return sirupp::tools::ProcessMain(argc, argv, "sirupp-hardware", kUsage, Run);
+  return sirupp::runtime::ProcessMain(argc, argv, "sirupp-hardware", kUsage, Run);
 }

@@ -10,9 +10,9 @@
 #include "core/errors.hpp"
 #include "core/model_loader.hpp"
 #include "logger/logger_node.hpp"
-#include "tools/args.hpp"
-#include "tools/cli.hpp"
-#include "tools/process_main.hpp"
+#include "runtime/args.hpp"
+#include "runtime/data_path.hpp"
+#include "runtime/process_main.hpp"
 
 namespace {
 
@@ -34,7 +34,8 @@ constexpr const char* kUsage =
     "NAME-03-set2.1.csv; no file is ever replaced. Raw traffic: lcm-logger, see\n"
     "docs/logging.md. Report: sirupp report DIR\n";
 
-double PositiveSeconds(const sirupp::tools::Args& args, const std::string& flag, double fallback) {
+double PositiveSeconds(const sirupp::runtime::Args& args, const std::string& flag,
+                       double fallback) {
   if (!args.Has(flag)) return fallback;
   const double value = args.Numbers(flag, 1)[0];
   if (!(value > 0)) {
@@ -58,23 +59,23 @@ std::string WithReceiveBuffer(std::string url, int64_t bytes) {
 }
 
 int Run(const std::vector<std::string>& argv) {
-  const sirupp::tools::Args args(argv, "sirupp-logger",
-                                 {{"out", "DIR"},
-                                  {"name", "NAME"},
-                                  {"split", "plan|none"},
-                                  {"rate", "HZ"},
-                                  {"max-age", "S"},
-                                  {"idle", "S"},
-                                  {"velocities", "(switch)"},
-                                  {"efforts", "(switch)"},
-                                  {"note", "TEXT"},
-                                  {"duration", "S"},
-                                  {"recv-buf", "BYTES"},
-                                  {"model", "robot model file"},
-                                  {"lcm-url", "LCM URL"},
-                                  {"prefix", "channel prefix of the rig"}});
+  const sirupp::runtime::Args args(argv, "sirupp-logger",
+                                   {{"out", "DIR"},
+                                    {"name", "NAME"},
+                                    {"split", "plan|none"},
+                                    {"rate", "HZ"},
+                                    {"max-age", "S"},
+                                    {"idle", "S"},
+                                    {"velocities", "(switch)"},
+                                    {"efforts", "(switch)"},
+                                    {"note", "TEXT"},
+                                    {"duration", "S"},
+                                    {"recv-buf", "BYTES"},
+                                    {"model", "robot model file"},
+                                    {"lcm-url", "LCM URL"},
+                                    {"prefix", "channel prefix of the rig"}});
   const sirupp::core::RobotModel model =
-      sirupp::core::LoadRobotModel(sirupp::tools::ResolveDataPath(
+      sirupp::core::LoadRobotModel(sirupp::runtime::ResolveDataPath(
           args.Has("model") ? args.String("model") : "config/robots/puma260.yaml"));
   sirupp::logger::LoggerOptions options;
   if (args.Has("out")) options.out_dir = args.String("out");
@@ -129,7 +130,7 @@ int Run(const std::vector<std::string>& argv) {
               << std::endl;
   }
   const auto start = std::chrono::steady_clock::now();
-  sirupp::tools::ServiceUntilSignal([&] {
+  sirupp::runtime::ServiceUntilSignal([&] {
     node.Service(20);
     if (node.failed()) return false;
     return duration_s <= 0 ||
@@ -153,5 +154,5 @@ int Run(const std::vector<std::string>& argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  return sirupp::tools::ProcessMain(argc, argv, "sirupp-logger", kUsage, Run);
+  return sirupp::runtime::ProcessMain(argc, argv, "sirupp-logger", kUsage, Run);
 }

@@ -18,15 +18,21 @@
 #include "panel/panel_api.hpp"
 #include "panel/panel_hub.hpp"
 #include "panel/panel_server.hpp"
-#include "tools/args.hpp"
-#include "tools/cli.hpp"
-#include "tools/launch_commands.hpp"
-#include "tools/process_main.hpp"
+#include "runtime/args.hpp"
+#include "runtime/data_path.hpp"
+#include "runtime/process_main.hpp"
 
 namespace {
 
 using sirupp::core::UsageError;
-using sirupp::tools::Args;
+using sirupp::runtime::Args;
+
+// The address shown when the panel listens on every interface.
+std::string HostName() {
+  char name[256] = {};
+  if (::gethostname(name, sizeof name - 1) != 0) return "localhost";
+  return name;
+}
 namespace panel = sirupp::panel;
 
 constexpr const char* kUsage =
@@ -85,15 +91,15 @@ int Run(const std::vector<std::string>& argv) {
     throw UsageError("sirupp-panel: --duration " + sirupp::core::FormatNumber(duration_s) +
                      ": must be > 0 seconds");
   }
-  server_options.web_dir = sirupp::tools::ResolveDataPath("panel/web");
+  server_options.web_dir = sirupp::runtime::ResolveDataPath("panel/web");
 
   panel::HubOptions hub_options;
   if (args.Has("model")) {
     hub_options.fallback_model =
-        sirupp::core::LoadRobotModel(sirupp::tools::ResolveDataPath(args.String("model")));
+        sirupp::core::LoadRobotModel(sirupp::runtime::ResolveDataPath(args.String("model")));
   }
   panel::ApiOptions api_options;
-  api_options.root = std::filesystem::path(sirupp::tools::ResolveDataPath("config/plans"))
+  api_options.root = std::filesystem::path(sirupp::runtime::ResolveDataPath("config/plans"))
                          .parent_path()
                          .parent_path()
                          .string();
@@ -109,8 +115,7 @@ int Run(const std::vector<std::string>& argv) {
   panel::PanelApi api(hub, api_options);
   panel::PanelServer server(hub, api, server_options);
   const int port = server.Bind();
-  const std::string host =
-      server_options.listen == "0.0.0.0" ? sirupp::tools::MachineName() : server_options.listen;
+  const std::string host = server_options.listen == "0.0.0.0" ? HostName() : server_options.listen;
   std::string address = "http://" + host + ":" + std::to_string(port) + "/";
   if (api_options.require_token) address += "?token=" + api_options.token;
   std::cout << "sirupp-panel: " << address << std::endl;
@@ -127,7 +132,7 @@ int Run(const std::vector<std::string>& argv) {
     }
   }
   const auto start = std::chrono::steady_clock::now();
-  sirupp::tools::ServiceUntilSignal([&] {
+  sirupp::runtime::ServiceUntilSignal([&] {
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
     return duration_s <= 0 ||
            std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count() <
@@ -143,5 +148,5 @@ int Run(const std::vector<std::string>& argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  return sirupp::tools::ProcessMain(argc, argv, "sirupp-panel", kUsage, Run);
+  return sirupp::runtime::ProcessMain(argc, argv, "sirupp-panel", kUsage, Run);
 }

@@ -1,6 +1,7 @@
 // sirupp-sim: the arm in ODE as an LCM process. Thin main: arguments in, SimNode loop, summary out.
 // Usage and options: sim/README.md, or `sirupp-sim --help`.
 
+#include <functional>
 #include <iostream>
 #include <optional>
 #include <sstream>
@@ -9,12 +10,12 @@
 #include "core/environment.hpp"
 #include "core/errors.hpp"
 #include "core/model_loader.hpp"
+#include "runtime/args.hpp"
+#include "runtime/data_path.hpp"
+#include "runtime/process_main.hpp"
 #include "sim/arm_world.hpp"
 #include "sim/model_change.hpp"
 #include "sim/sim_node.hpp"
-#include "tools/args.hpp"
-#include "tools/cli.hpp"
-#include "tools/process_main.hpp"
 
 namespace {
 
@@ -39,7 +40,7 @@ constexpr const char* kUsage =
     "the tool point, every friction effort scaled, no gravity); controllers keep their model.\n";
 
 int Run(const std::vector<std::string>& argv) {
-  using sirupp::tools::Args;
+  using sirupp::runtime::Args;
   const Args args(argv, "sirupp-sim",
                   {{"model", "robot model file"},
                    {"environment", "environment XML file"},
@@ -62,8 +63,8 @@ int Run(const std::vector<std::string>& argv) {
                    {"lcm-url", "LCM URL"},
                    {"prefix", "channel prefix of the rig"},
                    {"rt-priority", "SCHED_FIFO priority 1..99 (0: off)"}});
-  const int rt_priority = sirupp::tools::RtPriorityArg(args, "sirupp-sim");
-  const std::string model_file = sirupp::tools::ResolveDataPath(
+  const int rt_priority = sirupp::runtime::RtPriorityArg(args, "sirupp-sim");
+  const std::string model_file = sirupp::runtime::ResolveDataPath(
       args.Has("model") ? args.String("model") : "config/robots/puma260.yaml");
   sirupp::core::RobotModel model = sirupp::core::LoadRobotModel(model_file);
   sirupp::sim::ModelChange change;
@@ -80,7 +81,7 @@ int Run(const std::vector<std::string>& argv) {
   sirupp::core::Environment environment;
   if (args.Has("environment")) {
     environment =
-        sirupp::core::LoadEnvironment(sirupp::tools::ResolveDataPath(args.String("environment")));
+        sirupp::core::LoadEnvironment(sirupp::runtime::ResolveDataPath(args.String("environment")));
   }
 
   sirupp::sim::WorldOptions world_options;
@@ -165,12 +166,33 @@ int Run(const std::vector<std::string>& argv) {
   }
   sirupp::core::Bus bus(args.Has("lcm-url") ? args.String("lcm-url") : "",
                         args.Has("prefix") ? args.String("prefix") : "");
+  // Each flag on its own against the node's rules, so the message names the flag and its value.
+  const auto check_flag = [&](const std::string& flag,
+                              const std::function<void(sirupp::sim::NodeOptions&)>& apply) {
+    if (!args.Has(flag)) return;
+    sirupp::sim::NodeOptions probe;  // the defaults pass
+    probe.mode = options.mode;
+    if (flag != "participants" && !options.participants.empty()) {
+      probe.participants = {options.participants.front()};
+    }
+    apply(probe);
+    try {
+      sirupp::sim::CheckNodeOptions(probe);
+    } catch (const std::invalid_argument& error) {
+      std::string given;
+      for (const std::string& value : args.Values(flag, -1)) given += " " + value;
+      throw sirupp::core::UsageError("sirupp-sim: --" + flag + given + ": " + error.what());
+    }
+  };
+  check_flag("participants", [&](auto& p) { p.participants = options.participants; });
+  check_flag("lockstep-timeout",
+             [&](auto& p) { p.lockstep_timeout_s = options.lockstep_timeout_s; });
+  check_flag("watchdog", [&](auto& p) { p.watchdog_s = options.watchdog_s; });
+  check_flag("duration", [&](auto& p) { p.duration_s = options.duration_s; });
   std::optional<sirupp::sim::SimNode> node_storage;
   try {
     node_storage.emplace(bus, world, environment, options);
   } catch (const std::invalid_argument& error) {
-    // Every option the node refuses came from a flag: --state-every, --lockstep-timeout,
-    // --watchdog, --duration, --participants.
     throw sirupp::core::UsageError(std::string("sirupp-sim: ") + error.what());
   }
   sirupp::sim::SimNode& node = *node_storage;
@@ -178,8 +200,8 @@ int Run(const std::vector<std::string>& argv) {
             << environment.objects.size() << " environment objects, "
             << sirupp::sim::TimingModeName(options.mode) << " mode, step "
             << sirupp::core::FormatNumber(world.step_s() * 1e3) << " ms, on " << bus.url() << "\n";
-  sirupp::tools::RequestRealtimePriority(rt_priority, "sirupp-sim");
-  sirupp::tools::ServiceUntilSignal([&node] { return node.Service(50); });
+  sirupp::runtime::RequestRealtimePriority(rt_priority, "sirupp-sim");
+  sirupp::runtime::ServiceUntilSignal([&node] { return node.Service(50); });
   std::cerr << "sirupp-sim: " << node.Summary() << "\n";
   std::cerr << "sirupp-sim: final joint positions (rad or m):";
   for (double q : world.State().position) std::cerr << " " << sirupp::core::FormatApprox(q);
@@ -190,5 +212,5 @@ int Run(const std::vector<std::string>& argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  return sirupp::tools::ProcessMain(argc, argv, "sirupp-sim", kUsage, Run);
+  return sirupp::runtime::ProcessMain(argc, argv, "sirupp-sim", kUsage, Run);
 }

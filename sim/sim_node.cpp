@@ -100,6 +100,35 @@ TimingMode ParseTimingMode(const std::string& text) {
                               "': allowed lockstep, realtime, fast, freerun");
 }
 
+void CheckNodeOptions(const NodeOptions& options) {
+  auto bad = [](const std::string& what) { throw std::invalid_argument(what); };
+  if (!options.clock.now || !options.clock.sleep_until) bad("clock: now and sleep_until needed");
+  if (options.state_every < 1) {
+    bad("state_every " + std::to_string(options.state_every) + ": allowed 1 or more ticks");
+  }
+  if (!(options.lockstep_timeout_s > 0) || !std::isfinite(options.lockstep_timeout_s)) {
+    bad("lockstep timeout " + core::FormatNumber(options.lockstep_timeout_s) + " s: allowed > 0");
+  }
+  if (!(options.watchdog_s > 0) || !std::isfinite(options.watchdog_s)) {
+    bad("watchdog " + core::FormatNumber(options.watchdog_s) + " s: allowed > 0");
+  }
+  if (!(options.duration_s >= 0) || !std::isfinite(options.duration_s)) {
+    bad("duration " + core::FormatNumber(options.duration_s) + " s: allowed >= 0 (0 = no end)");
+  }
+  if (options.idle == core::CommandMode::kEffort) bad("idle: allowed hold or limp");
+  if (options.mode == TimingMode::kLockstep || options.mode == TimingMode::kRealtime) {
+    if (options.participants.empty()) {
+      bad(std::string(TimingModeName(options.mode)) + " needs at least one participant");
+    }
+    for (const std::string& name : options.participants) {
+      if (name.empty()) bad("participant names must not be empty");
+      if (std::count(options.participants.begin(), options.participants.end(), name) > 1) {
+        bad("participant '" + name + "' is listed twice");
+      }
+    }
+  }
+}
+
 SimNode::SimNode(core::Bus& bus, ArmWorld& world, core::Environment environment,
                  NodeOptions options)
     : bus_(bus),
@@ -108,30 +137,9 @@ SimNode::SimNode(core::Bus& bus, ArmWorld& world, core::Environment environment,
       options_(std::move(options)),
       heartbeat_(bus, options_.process_name, options_.channels.heartbeat),
       run_id_(NewRunId()) {
-  auto bad = [](const std::string& what) { throw std::invalid_argument(what); };
-  if (!options_.clock.now || !options_.clock.sleep_until) bad("clock: now and sleep_until needed");
-  if (options_.state_every < 1) {
-    bad("state_every " + std::to_string(options_.state_every) + ": allowed 1 or more ticks");
-  }
-  if (!(options_.lockstep_timeout_s > 0) || !std::isfinite(options_.lockstep_timeout_s)) {
-    bad("lockstep timeout " + core::FormatNumber(options_.lockstep_timeout_s) + " s: allowed > 0");
-  }
-  if (!(options_.watchdog_s > 0) || !std::isfinite(options_.watchdog_s)) {
-    bad("watchdog " + core::FormatNumber(options_.watchdog_s) + " s: allowed > 0");
-  }
-  if (!(options_.duration_s >= 0) || !std::isfinite(options_.duration_s)) {
-    bad("duration " + core::FormatNumber(options_.duration_s) + " s: allowed >= 0 (0 = no end)");
-  }
-  if (options_.idle == core::CommandMode::kEffort) bad("idle: allowed hold or limp");
+  CheckNodeOptions(options_);
   if (Gated()) {
-    if (options_.participants.empty()) {
-      bad(std::string(TimingModeName(options_.mode)) + " needs at least one participant");
-    }
     for (const std::string& name : options_.participants) {
-      if (name.empty()) bad("participant names must not be empty");
-      if (std::count(options_.participants.begin(), options_.participants.end(), name) > 1) {
-        bad("participant '" + name + "' is listed twice");
-      }
       Participant participant;
       participant.name = name;
       participants_.push_back(participant);

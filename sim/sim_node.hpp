@@ -107,6 +107,9 @@ struct NodeCounters {
   double slipped_s = 0;  // realtime: wall time given up when too far behind to catch up
 };
 
+// Throws std::invalid_argument naming the bad option (the text SimNode's constructor gives).
+void CheckNodeOptions(const NodeOptions& options);
+
 class SimNode {
  public:
   // Subscribes to the command, reset and e-stop channels and publishes the model and environment

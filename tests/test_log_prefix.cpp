@@ -1,4 +1,4 @@
-// Timestamps and levels on process log lines (tools/log_prefix.hpp): the time format, the level
+// Timestamps and levels on process log lines (runtime/log_prefix.hpp): the time format, the level
 // rules, the name and level words moved into the prefix, and the installed buffer writing whole
 // lines from several threads.
 #include <gtest/gtest.h>
@@ -9,9 +9,9 @@
 #include <thread>
 #include <vector>
 
-#include "tools/log_prefix.hpp"
+#include "runtime/log_prefix.hpp"
 
-namespace sirupp::tools {
+namespace sirupp::runtime {
 namespace {
 
 const std::regex kPrefix(
@@ -104,4 +104,4 @@ TEST(LogPrefix, EveryLineOfEveryThreadIsPrefixedAndWhole) {
 }
 
 }  // namespace
-}  // namespace sirupp::tools
+}  // namespace sirupp::runtime

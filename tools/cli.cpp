@@ -27,10 +27,6 @@
 #include "tools/spy_commands.hpp"
 #include "tools/view_commands.hpp"
 
-#ifndef SIRUPP_SOURCE_DIR
-#define SIRUPP_SOURCE_DIR "."
-#endif
-
 namespace sirupp::tools {
 
 namespace {
@@ -106,13 +102,6 @@ int ModelShow(const Args& files, std::ostream& out) {
 
 // The arm in ODE: released limp from its home pose, one second with joint friction.
 }  // namespace
-
-std::string ResolveDataPath(const std::string& path) {
-  namespace fs = std::filesystem;
-  if (fs::exists(path) || fs::path(path).is_absolute()) return path;
-  const fs::path in_source = fs::path(SIRUPP_SOURCE_DIR) / path;
-  return fs::exists(in_source) ? in_source.string() : path;
-}
 
 int RunCli(const Args& args, std::ostream& out, std::ostream& err) {
   try {

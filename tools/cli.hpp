@@ -11,8 +11,4 @@ namespace sirupp::tools {
 
 int RunCli(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
 
-// Resolves a path to a shipped file (config/...): as given when it exists, else relative to the
-// source tree the program was built from. Lets `sirupp demo` work from any directory.
-std::string ResolveDataPath(const std::string& path);
-
 }  // namespace sirupp::tools

@@ -18,6 +18,7 @@
 #include <sirupp/sim_status_t.hpp>
 #include <sstream>
 
+#include "client/client.hpp"
 #include "control/plan.hpp"
 #include "control/pose_goal.hpp"
 #include "control/servo_bank.hpp"
@@ -25,202 +26,63 @@
 #include "core/errors.hpp"
 #include "core/geometry.hpp"
 #include "core/heartbeat.hpp"
+#include "runtime/args.hpp"
 #include "servo/chip_gains.hpp"
 #include "servo/picservo.hpp"
-#include "tools/args.hpp"
 #include "tools/cli.hpp"
 #include "tools/rig_args.hpp"
 
 namespace sirupp::tools {
 namespace {
 
-using Clock = std::chrono::steady_clock;
 using Status = sirupp::controller_status_t;
+using client::ControllerModeName;
+using client::ControllerStateName;
 constexpr double kDeg = 3.14159265358979323846 / 180;
-constexpr double kFirstStatusS = 1.5;
-// CONTROLLER_STATUS comes at 10 Hz: silent this long, the controller is gone.
-constexpr double kControllerSilentS =
-    1.5;  // CONTROLLER_STATUS comes at 10 Hz: wait this long for one
+constexpr double kFirstStatusS = 1.5;  // CONTROLLER_STATUS comes at 10 Hz: wait this long for one
 constexpr int kExitFailed = 1;
 
-const char* ModeName(int8_t mode) {
-  return mode == Status::MODE_AUTOMATIC ? "automatic" : "manual";
+// Waits for the first CONTROLLER_STATUS; false (and a message on `out`) if none came.
+bool FirstStatus(client::Client& rig, std::ostream& out) {
+  if (rig.WaitForController(kFirstStatusS)) return true;
+  out << "no " << rig.bus().FullName(rig.channels().controller_status) << " within "
+      << kFirstStatusS << " s on " << rig.bus().url()
+      << ": is sirupp-control running (same --lcm-url and --prefix)?\n";
+  return false;
 }
 
-const char* StateName(int8_t state) {
-  switch (state) {
-    case Status::STATE_IDLE:
-      return "idle";
-    case Status::STATE_MOVING:
-      return "moving";
-    case Status::STATE_WAITING:
-      return "waiting";
-    case Status::STATE_PAUSED:
-      return "paused";
-    case Status::STATE_FAULT:
-      return "fault";
-    case Status::STATE_OFF:
-      return "off";
-    default:
-      return "unknown";
+// Prints the controller's answer to a request; returns the exit code (0 accepted, 1 otherwise).
+int Report(const client::Answer& answer, std::ostream& out) {
+  switch (answer.result) {
+    case client::Result::kAccepted:
+      return 0;
+    case client::Result::kRefused:
+      out << "refused by sirupp-control: " << answer.error << "\n";
+      return kExitFailed;
+    case client::Result::kNoAnswer:
+      out << "sirupp-control did not confirm: " << answer.error << "\n";
+      return kExitFailed;
   }
+  return kExitFailed;
 }
 
-// What the rig reports, kept up to date while Until() handles messages.
-class RigWatch {
- public:
-  RigWatch(core::Bus& bus, bool joints) : bus_(bus) {
-    const core::Channels channels;
-    bus_.Subscribe<Status>(channels.controller_status,
-                           [this](const Status& message, const core::ReceiveInfo&) {
-                             status = message;
-                             ++statuses;
-                             last_status_at = std::chrono::steady_clock::now();
-                           });
-    bus_.Subscribe<sirupp::sim_status_t>(
-        channels.sim_status,
-        [this](const sirupp::sim_status_t& message, const core::ReceiveInfo&) { sim = message; });
-    bus_.Subscribe<sirupp::servo_gains_t>(
-        channels.controller_gains, [this](const sirupp::servo_gains_t& message,
-                                          const core::ReceiveInfo&) { virtual_gains = message; });
-    bus_.Subscribe<sirupp::servo_gains_t>(
-        channels.real_arm_gains, [this](const sirupp::servo_gains_t& message,
-                                        const core::ReceiveInfo&) { real_gains = message; });
-    bus_.Subscribe<sirupp::heartbeat_t>(
-        channels.heartbeat, [this](const sirupp::heartbeat_t& message, const core::ReceiveInfo&) {
-          heartbeats[message.process + "@" + message.host] = message;
-        });
-    if (joints) ListenToJoints(true);
-  }
-
-  // Per-tick channels (ARM_SETPOINT, SIM_ARM_STATE), newest message only. A command that waits
-  // long turns them off, so it does not take CPU from the loop it watches.
-  void ListenToJoints(bool on) {
-    if (!on) {
-      for (core::Subscription* subscription : joint_subscriptions_) subscription->Unsubscribe();
-      joint_subscriptions_.clear();
-      return;
-    }
-    if (!joint_subscriptions_.empty()) return;
-    const core::Channels channels;
-    joint_subscriptions_.push_back(&bus_.Subscribe<sirupp::servo_setpoint_t>(
-        channels.arm_setpoint,
-        [this](const sirupp::servo_setpoint_t& message, const core::ReceiveInfo&) {
-          setpoint = message;
-        },
-        2));
-    joint_subscriptions_.push_back(&bus_.Subscribe<sirupp::arm_state_t>(
-        channels.sim_arm_state,
-        [this](const sirupp::arm_state_t& message, const core::ReceiveInfo&) { state = message; },
-        2));
-  }
-
-  // Handles messages until done() holds or timeout_s passed; returns done().
-  bool Until(const std::function<bool()>& done, double timeout_s) {
-    return HandleUntil(bus_, done, timeout_s);
-  }
-
-  // Waits for the first CONTROLLER_STATUS; false (and a message on `out`) if none came.
-  bool FirstStatus(std::ostream& out) {
-    if (Until([this] { return status.has_value(); }, kFirstStatusS)) return true;
-    out << "no " << bus_.FullName(core::Channels{}.controller_status) << " within " << kFirstStatusS
-        << " s on " << bus_.url() << ": is sirupp-control running (same --lcm-url and --prefix)?\n";
-    return false;
-  }
-
-  // True when sirupp-control has sent no status for `seconds` (it sends at 10 Hz): it crashed or
-  // was stopped. `out` gets the reason.
-  bool ControllerSilent(double seconds, std::ostream& out) const {
-    const double silent =
-        std::chrono::duration<double>(std::chrono::steady_clock::now() - last_status_at).count();
-    if (!status || silent < seconds) return false;
-    out << "sirupp-control stopped answering: no "
-        << bus_.FullName(core::Channels{}.controller_status) << " for "
-        << core::FormatApprox(silent) << " s (it crashed or was stopped; its log says why)\n";
-    return true;
-  }
-
-  std::optional<Status> status;
-  int64_t statuses = 0;
-  std::chrono::steady_clock::time_point last_status_at;
-  std::optional<sirupp::sim_status_t> sim;
-  std::optional<sirupp::servo_gains_t> virtual_gains;
-  std::optional<sirupp::servo_gains_t> real_gains;
-  std::optional<sirupp::servo_setpoint_t> setpoint;
-  std::optional<sirupp::arm_state_t> state;
-  std::map<std::string, sirupp::heartbeat_t> heartbeats;
-
- private:
-  core::Bus& bus_;
-  std::vector<core::Subscription*> joint_subscriptions_;
-};
-
-// The controller's answer to what was just sent on `channel`: accepted() on a newer status, or a
-// new last_error naming the channel (refused). Prints the outcome; returns the exit code.
-// With no `accepted` (a message that leaves no trace when taken), silence for timeout_s is taken.
-int Confirm(RigWatch& watch, const core::Bus& bus, const std::string& channel,
-            const std::function<bool(const Status&)>& accepted, std::ostream& out,
-            double timeout_s = 2.0) {
-  const int64_t base_seq = watch.status->seq;
-  const std::string base_error = watch.status->last_error;
-  const std::string prefix = "channel " + bus.FullName(channel) + ":";
-  bool refused = false;
-  const bool answered = watch.Until(
-      [&] {
-        if (watch.status->seq <= base_seq) return false;
-        const std::string& error = watch.status->last_error;
-        if (error.rfind(prefix, 0) == 0 && error != base_error) return refused = true;
-        return accepted && accepted(*watch.status);
-      },
-      timeout_s);
-  if (refused) {
-    out << "refused by sirupp-control: " << watch.status->last_error << "\n";
-    return kExitFailed;
-  }
-  if (!answered && accepted) {
-    out << "sirupp-control did not confirm within " << timeout_s << " s (last error: "
-        << (watch.status->last_error.empty() ? "none" : watch.status->last_error) << ")\n";
-    return kExitFailed;
-  }
-  return 0;
-}
-
-// After an accepted move: waits until the controller is idle with this move (or a fault).
-int WaitForMove(RigWatch& watch, int64_t move_id, double timeout_s, std::ostream& out) {
-  bool silent = false;
-  const bool ended = watch.Until(
-      [&] {
-        const Status& s = *watch.status;
-        silent = watch.ControllerSilent(kControllerSilentS, out);
-        return silent || s.state == Status::STATE_FAULT || s.move_id != move_id ||
-               s.state == Status::STATE_IDLE;
-      },
-      timeout_s);
-  if (silent) return kExitFailed;
-  const Status& s = *watch.status;
-  if (!ended) {
-    out << "still " << StateName(s.state) << " after " << timeout_s << " s (--timeout)\n";
-    return kExitFailed;
-  }
-  if (s.state == Status::STATE_FAULT) {
-    out << "fault: " << s.last_error << "\n";
-    return kExitFailed;
-  }
-  if (s.move_id != move_id) {
-    out << "superseded by move " << s.move_id << "\n";
-    return kExitFailed;
-  }
-  out << "move " << move_id << " done\n";
-  return 0;
+// After an accepted move: follows it to its end.
+int WaitForMove(client::Client& rig, const client::Answer& answer, double timeout_s,
+                std::ostream& out) {
+  const client::Outcome outcome = rig.WaitForMove(answer.move_id, timeout_s, answer.status_seq);
+  out << outcome.detail << (outcome.end == client::End::kTimeout ? " (--timeout)" : "") << "\n";
+  return outcome.ok() ? 0 : kExitFailed;
 }
 
 // The joints' present goals from ARM_SETPOINT (where a new plan starts), or home when none came.
-std::vector<double> PresentGoals(RigWatch& watch, const core::RobotModel& model,
+std::vector<double> PresentGoals(client::Client& rig, const core::RobotModel& model,
                                  std::string& source) {
-  watch.Until([&] { return watch.setpoint.has_value(); }, 0.5);
-  if (watch.setpoint && watch.setpoint->num_joints == model.num_joints()) {
+  rig.WatchJoints(true);
+  rig.Until([&] { return rig.snapshot().setpoint.has_value(); }, 0.5);
+  const auto& setpoint = rig.snapshot().setpoint;
+  if (setpoint && setpoint->num_joints == model.num_joints()) {
     source = "the arm's present goals";
-    return watch.setpoint->goal;
+    return setpoint->goal;
   }
   source = "the home pose (no ARM_SETPOINT heard)";
   return control::HomePositions(model);
@@ -235,7 +97,7 @@ std::string Degrees(const core::RobotModel& model, const std::vector<double>& q)
   return text.str();
 }
 
-double ScaleFrom(const Args& parsed, const std::string& command) {
+double ScaleFrom(const runtime::Args& parsed, const std::string& command) {
   if (!parsed.Has("scale")) return 1.0;
   const double scale = parsed.Numbers("scale", 1)[0];
   if (!(scale > 0) || scale > 1) {
@@ -246,52 +108,44 @@ double ScaleFrom(const Args& parsed, const std::string& command) {
 }
 
 int MoveJoints(const std::vector<std::string>& args, std::ostream& out) {
-  const Args parsed(args, "move joints",
-                    WithRigFlags({{"model", "robot model file"},
-                                  {"pose", "named pose"},
-                                  {"deg", "joint positions in degrees"},
-                                  {"rad", "joint positions in radians"},
-                                  {"scale", "fraction of the default speeds"},
-                                  {"wait", "wait until the move is done"},
-                                  {"timeout", "seconds to wait"}}));
+  const runtime::Args parsed(args, "move joints",
+                             WithRigFlags({{"model", "robot model file"},
+                                           {"pose", "named pose"},
+                                           {"deg", "joint positions in degrees"},
+                                           {"rad", "joint positions in radians"},
+                                           {"scale", "fraction of the default speeds"},
+                                           {"wait", "wait until the move is done"},
+                                           {"timeout", "seconds to wait"}}));
   const core::RobotModel model = ModelFromArgs(parsed);
   const double scale = ScaleFrom(parsed, "move joints");
   const bool wait = parsed.Switch("wait");
   const double timeout = TimeoutFrom(parsed, 60);
-  sirupp::joint_target_t target{};
-  target.utime = WallMicros();
-  target.num_joints = model.num_joints();
+  client::JointTarget target;
   target.position = PositionsFromArgs(parsed, model, "move joints");
   for (const core::Joint& joint : model.joints) {
     target.max_velocity.push_back(joint.servo.default_velocity * scale);
-    target.acceleration.push_back(0.0);  // 0 = the model's default
   }
-  target.active.assign(target.position.size(), 1);
 
   core::Bus bus = BusFromArgs(parsed);
-  RigWatch watch(bus, false);
-  if (!watch.FirstStatus(out)) return kExitFailed;
-  const int64_t base_move = watch.status->move_id;
-  bus.Publish(core::Channels{}.arm_target, target);
-  PrintSent(out, bus, core::Channels{}.arm_target, model, target.position);
+  client::Client rig(bus, {});
+  if (!FirstStatus(rig, out)) return kExitFailed;
+  PrintSent(out, bus, rig.channels().arm_target, model, target.position);
   out << "\n";
-  const int code = Confirm(
-      watch, bus, core::Channels{}.arm_target,
-      [&](const Status& s) { return s.move_id > base_move; }, out);
-  if (code != 0) return code;
-  out << "accepted as move " << watch.status->move_id << "\n";
-  return wait ? WaitForMove(watch, watch.status->move_id, timeout, out) : 0;
+  const client::Answer answer = rig.MoveJoints(target);
+  if (const int code = Report(answer, out); code != 0) return code;
+  out << "accepted as move " << answer.move_id << "\n";
+  return wait ? WaitForMove(rig, answer, timeout, out) : 0;
 }
 
 int MovePose(const std::vector<std::string>& args, std::ostream& out) {
-  const Args parsed(args, "move pose",
-                    WithRigFlags({{"model", "robot model file"},
-                                  {"pose", "X Y Z ROLL PITCH YAW (m, deg)"},
-                                  {"position", "X Y Z (m), orientation free"},
-                                  {"config", "SHOULDER-ELBOW-WRIST or nearest"},
-                                  {"scale", "fraction of the default speeds"},
-                                  {"wait", "wait until the move is done"},
-                                  {"timeout", "seconds to wait"}}));
+  const runtime::Args parsed(args, "move pose",
+                             WithRigFlags({{"model", "robot model file"},
+                                           {"pose", "X Y Z ROLL PITCH YAW (m, deg)"},
+                                           {"position", "X Y Z (m), orientation free"},
+                                           {"config", "SHOULDER-ELBOW-WRIST or nearest"},
+                                           {"scale", "fraction of the default speeds"},
+                                           {"wait", "wait until the move is done"},
+                                           {"timeout", "seconds to wait"}}));
   const core::RobotModel model = ModelFromArgs(parsed);
   if (parsed.Has("pose") == parsed.Has("position")) {
     throw core::UsageError(
@@ -323,36 +177,32 @@ int MovePose(const std::vector<std::string>& args, std::ostream& out) {
   const double timeout = TimeoutFrom(parsed, 60);
 
   core::Bus bus = BusFromArgs(parsed);
-  RigWatch watch(bus, true);
+  client::Client rig(bus, {});
+  rig.WatchJoints(true);
   // Checked here from the arm's present joints, as sirupp-control will.
-  watch.Until([&] { return watch.state.has_value(); }, 0.5);
-  const std::vector<double> reference = watch.state && watch.state->num_joints == model.num_joints()
-                                            ? watch.state->position
+  rig.Until([&] { return rig.snapshot().sim_arm.has_value(); }, 0.5);
+  const auto& state = rig.snapshot().sim_arm;
+  const std::vector<double> reference = state && state->num_joints == model.num_joints()
+                                            ? state->position
                                             : control::HomePositions(model);
   const control::PoseGoal goal =
       control::SolvePoseGoal(model, request, core::ToJointVector(reference));
   if (!goal.ok) throw core::UsageError("move pose: no joint solution: " + goal.reason);
-  if (!watch.FirstStatus(out)) return kExitFailed;
+  rig.WatchJoints(false);
+  if (!FirstStatus(rig, out)) return kExitFailed;
 
-  sirupp::pose_target_t target{};
-  target.utime = WallMicros();
+  client::PoseTarget target;
   for (int i = 0; i < 3; ++i) target.position[i] = v[static_cast<size_t>(i)];
   target.orientation[0] = orientation.w();
   target.orientation[1] = orientation.x();
   target.orientation[2] = orientation.y();
   target.orientation[3] = orientation.z();
-  target.position_only = position_only ? 1 : 0;
-  using Pose = sirupp::pose_target_t;
-  if (request.shoulder_left) {
-    target.shoulder = *request.shoulder_left ? Pose::SHOULDER_LEFT : Pose::SHOULDER_RIGHT;
-  }
-  if (request.elbow_up) target.elbow = *request.elbow_up ? Pose::ELBOW_UP : Pose::ELBOW_DOWN;
-  if (request.wrist_flip)
-    target.wrist = *request.wrist_flip ? Pose::WRIST_FLIP : Pose::WRIST_NO_FLIP;
+  target.position_only = position_only;
+  target.shoulder_left = request.shoulder_left;
+  target.elbow_up = request.elbow_up;
+  target.wrist_flip = request.wrist_flip;
   target.speed_scale = scale;
-  const int64_t base_move = watch.status->move_id;
-  bus.Publish(core::Channels{}.arm_pose_target, target);
-  out << "sent " << bus.FullName(core::Channels{}.arm_pose_target) << ": tool to [" << v[0] << " "
+  out << "sent " << bus.FullName(rig.channels().arm_pose_target) << ": tool to [" << v[0] << " "
       << v[1] << " " << v[2] << "] m"
       << (position_only ? ""
                         : ", rpy [" + core::FormatApprox(v[3]) + " " + core::FormatApprox(v[4]) +
@@ -360,12 +210,10 @@ int MovePose(const std::vector<std::string>& args, std::ostream& out) {
       << "; expected joints ["
       << Degrees(model, std::vector<double>(goal.q.data(), goal.q.data() + goal.q.size()))
       << "] deg" << (goal.config_name.empty() ? "" : " (" + goal.config_name + ")") << "\n";
-  const int code = Confirm(
-      watch, bus, core::Channels{}.arm_pose_target,
-      [&](const Status& s) { return s.move_id > base_move; }, out);
-  if (code != 0) return code;
-  out << "accepted as move " << watch.status->move_id << "\n";
-  return wait ? WaitForMove(watch, watch.status->move_id, timeout, out) : 0;
+  const client::Answer answer = rig.MovePose(target);
+  if (const int code = Report(answer, out); code != 0) return code;
+  out << "accepted as move " << answer.move_id << "\n";
+  return wait ? WaitForMove(rig, answer, timeout, out) : 0;
 }
 
 void PrintPlan(std::ostream& out, const core::RobotModel& model, const control::Plan& plan) {
@@ -379,7 +227,7 @@ int PlanCheck(const std::vector<std::string>& args, std::ostream& out) {
   for (const std::string& arg : args) {
     (arg.rfind("--", 0) == 0 || !flags.empty() ? flags : files).push_back(arg);
   }
-  const Args parsed(flags, "plan check", {{"model", "robot model file"}});
+  const runtime::Args parsed(flags, "plan check", {{"model", "robot model file"}});
   if (files.empty()) throw core::UsageError("plan check: missing FILE");
   const core::RobotModel model = ModelFromArgs(parsed);
   for (const std::string& file : files) {
@@ -393,118 +241,30 @@ int PlanCheck(const std::vector<std::string>& args, std::ostream& out) {
 int PlanRun(const std::vector<std::string>& args, std::ostream& out) {
   if (args.empty() || args[0].rfind("--", 0) == 0) throw core::UsageError("plan run: missing FILE");
   const std::string file = args[0];
-  const Args parsed(std::vector<std::string>(args.begin() + 1, args.end()), "plan run",
-                    WithRigFlags({{"model", "robot model file"},
-                                  {"wait", "follow the plan to its end"},
-                                  {"timeout", "seconds to wait"}}));
+  const runtime::Args parsed(std::vector<std::string>(args.begin() + 1, args.end()), "plan run",
+                             WithRigFlags({{"model", "robot model file"},
+                                           {"wait", "follow the plan to its end"},
+                                           {"timeout", "seconds to wait"}}));
   const core::RobotModel model = ModelFromArgs(parsed);
   const bool wait = parsed.Switch("wait");
   const double timeout = TimeoutFrom(parsed, 3600);
-  const std::string text = control::ReadPlanText(file);
   core::Bus bus = BusFromArgs(parsed);
-  RigWatch watch(bus, true);
-  std::string start_source;
-  const std::vector<double> start = PresentGoals(watch, model, start_source);
-  const control::Plan plan = control::ParsePlan(text, file, model, start);  // exit 2 if bad
-  out << "checked from " << start_source << ": ";
-  PrintPlan(out, model, plan);
-  if (!watch.FirstStatus(out)) return kExitFailed;
-
-  sirupp::plan_command_t command{};
-  command.utime = WallMicros();
-  command.command = sirupp::plan_command_t::COMMAND_RUN;
-  command.name = file;
-  command.text = text;
-  const int64_t base_move = watch.status->move_id;
-  bus.Publish(core::Channels{}.arm_plan, command);
-  const int code = Confirm(
-      watch, bus, core::Channels{}.arm_plan,
-      [&](const Status& s) { return s.plan_name == file && s.move_id > base_move; }, out);
-  if (code != 0) return code;
-  out << "running " << file << "\n";
-  if (!wait) return 0;
-  watch.ListenToJoints(false);
-
-  int shown_step = -1;
-  const auto steps = static_cast<int>(plan.steps.size());
-  bool silent = false;
-  const bool ended = watch.Until(
-      [&] {
-        const Status& s = *watch.status;
-        if ((silent = watch.ControllerSilent(kControllerSilentS, out))) return true;
-        if (s.plan_name != file) return true;  // another plan replaced it
-        if (s.plan_step != shown_step && s.plan_step < steps) {
-          shown_step = s.plan_step;
-          const control::PlanStep& step = plan.steps[static_cast<size_t>(shown_step)];
-          out << "  step " << shown_step + 1 << "/" << steps << " (line " << step.line
-              << "): " << step.text << "\n";
-        }
-        return s.state == Status::STATE_FAULT || s.state == Status::STATE_IDLE;
-      },
-      timeout);
-  if (silent) return kExitFailed;
-  const Status& s = *watch.status;
-  if (!ended) {
-    out << "still " << StateName(s.state) << " after " << timeout << " s (--timeout)\n";
-    return kExitFailed;
-  }
-  if (s.state == Status::STATE_FAULT || !s.last_error.empty()) {
-    out << "plan failed: " << s.last_error << "\n";
-    return kExitFailed;
-  }
-  if (s.plan_name != file || s.plan_step < steps) {
-    out << "plan ended at step " << s.plan_step + 1 << " of " << steps << " (aborted)\n";
-    return kExitFailed;
-  }
-  watch.state.reset();
-  watch.ListenToJoints(true);
-  if (watch.Until([&] { return watch.state.has_value(); }, 0.5)) {
-    out << "finished; joints [" << Degrees(model, watch.state->position) << "] deg\n";
-  } else {
-    out << "finished\n";
-  }
-  return 0;
+  client::Client rig(bus, {});
+  return RunPlanFile(rig, model, file, wait ? timeout : 0, out);
 }
 
-int PlanControl(int8_t command, const std::string& word, const std::vector<std::string>& args,
-                std::ostream& out) {
-  const Args parsed(args, "plan " + word, WithRigFlags({}));
+int PlanControl(client::PlanCommand command, const std::string& word,
+                const std::vector<std::string>& args, std::ostream& out) {
+  const runtime::Args parsed(args, "plan " + word, WithRigFlags({}));
   core::Bus bus = BusFromArgs(parsed);
-  RigWatch watch(bus, false);
-  if (!watch.FirstStatus(out)) return kExitFailed;
-  sirupp::plan_command_t message{};
-  message.utime = WallMicros();
-  message.command = command;
-  bus.Publish(core::Channels{}.arm_plan, message);
-  const int code = Confirm(
-      watch, bus, core::Channels{}.arm_plan,
-      [&](const Status& s) {
-        switch (command) {
-          case sirupp::plan_command_t::COMMAND_PAUSE:
-            return s.state == Status::STATE_PAUSED;
-          case sirupp::plan_command_t::COMMAND_RESUME:
-            return s.state != Status::STATE_PAUSED;
-          case sirupp::plan_command_t::COMMAND_MANUAL:
-            return s.mode == Status::MODE_MANUAL;
-          case sirupp::plan_command_t::COMMAND_AUTOMATIC:
-            return s.mode == Status::MODE_AUTOMATIC;
-          case sirupp::plan_command_t::COMMAND_CLEAR_FAULT:
-            return s.state != Status::STATE_FAULT;
-          case sirupp::plan_command_t::COMMAND_ABORT:
-            // A status sent before the controller took the abort may still be on its way: the
-            // plan has ended once the controller is manual again (or, locked in automatic, once
-            // the arm is at rest with no plan waiting or paused).
-            return s.mode == Status::MODE_MANUAL ||
-                   (s.state != Status::STATE_MOVING && s.state != Status::STATE_WAITING &&
-                    s.state != Status::STATE_PAUSED);
-          default:
-            return true;
-        }
-      },
-      out);
-  if (code != 0) return code;
-  out << word << ": done; controller " << ModeName(watch.status->mode) << ", "
-      << StateName(watch.status->state) << "\n";
+  client::Client rig(bus, {});
+  if (!FirstStatus(rig, out)) return kExitFailed;
+  const client::Answer answer = rig.Plan(command);
+  if (const int code = Report(answer, out); code != 0) return code;
+  // The status the reply names shows the command's effect.
+  const Status& s = *rig.snapshot().controller;
+  out << word << ": done; controller " << ControllerModeName(s.mode) << ", "
+      << ControllerStateName(s.state) << "\n";
   return 0;
 }
 
@@ -557,6 +317,42 @@ const char* const kStatusUsage =
     "  sim's timing mode, real-time factor, participants and refused senders (SIM_STATUS).\n"
     "  Exit 1 if no controller status was heard.\n";
 
+int RunPlanFile(client::Client& rig, const core::RobotModel& model, const std::string& file,
+                double wait_s, std::ostream& out) {
+  const std::string text = control::ReadPlanText(file);
+  std::string start_source;
+  const std::vector<double> start = PresentGoals(rig, model, start_source);
+  const control::Plan plan = control::ParsePlan(text, file, model, start);  // exit 2 if bad
+  out << "checked from " << start_source << ": ";
+  PrintPlan(out, model, plan);
+  rig.WatchJoints(false);  // a long wait must not take CPU from the loop it watches
+  if (!FirstStatus(rig, out)) return kExitFailed;
+  const client::Answer answer = rig.RunPlan(file, text);
+  if (const int code = Report(answer, out); code != 0) return code;
+  out << "running " << file << "\n";
+  if (wait_s <= 0) return 0;
+  const auto steps = static_cast<int>(plan.steps.size());
+  const client::Outcome outcome = rig.WaitForPlan(
+      file, steps, wait_s,
+      [&](int k) {
+        const control::PlanStep& step = plan.steps[static_cast<size_t>(k)];
+        out << "  step " << k + 1 << "/" << steps << " (line " << step.line << "): " << step.text
+            << "\n";
+      },
+      answer.status_seq);
+  if (!outcome.ok()) {
+    out << outcome.detail << (outcome.end == client::End::kTimeout ? " (--timeout)" : "") << "\n";
+    return kExitFailed;
+  }
+  rig.WatchJoints(true);
+  if (rig.Until([&] { return rig.snapshot().sim_arm.has_value(); }, 0.5)) {
+    out << "finished; joints [" << Degrees(model, rig.snapshot().sim_arm->position) << "] deg\n";
+  } else {
+    out << "finished\n";
+  }
+  return 0;
+}
+
 int RunMove(const std::vector<std::string>& args, std::ostream& out) {
   if (args.empty() || (args[0] != "joints" && args[0] != "pose")) {
     throw core::UsageError("move: expected 'joints' or 'pose'; see sirupp move --help");
@@ -569,15 +365,15 @@ int RunPlan(const std::vector<std::string>& args, std::ostream& out) {
   if (args.empty()) throw core::UsageError("plan: expected a subcommand; see sirupp plan --help");
   const std::vector<std::string> rest(args.begin() + 1, args.end());
   const std::string& word = args[0];
-  using Command = sirupp::plan_command_t;
+  using Command = client::PlanCommand;
   if (word == "check") return PlanCheck(rest, out);
   if (word == "run") return PlanRun(rest, out);
-  if (word == "pause") return PlanControl(Command::COMMAND_PAUSE, word, rest, out);
-  if (word == "resume") return PlanControl(Command::COMMAND_RESUME, word, rest, out);
-  if (word == "abort") return PlanControl(Command::COMMAND_ABORT, word, rest, out);
-  if (word == "manual") return PlanControl(Command::COMMAND_MANUAL, word, rest, out);
-  if (word == "automatic") return PlanControl(Command::COMMAND_AUTOMATIC, word, rest, out);
-  if (word == "clear-fault") return PlanControl(Command::COMMAND_CLEAR_FAULT, word, rest, out);
+  if (word == "pause") return PlanControl(Command::kPause, word, rest, out);
+  if (word == "resume") return PlanControl(Command::kResume, word, rest, out);
+  if (word == "abort") return PlanControl(Command::kAbort, word, rest, out);
+  if (word == "manual") return PlanControl(Command::kManual, word, rest, out);
+  if (word == "automatic") return PlanControl(Command::kAutomatic, word, rest, out);
+  if (word == "clear-fault") return PlanControl(Command::kClearFault, word, rest, out);
   throw core::UsageError("plan: unknown subcommand '" + word +
                          "'; allowed: check, run, pause, resume, abort, manual, automatic");
 }
@@ -596,25 +392,19 @@ void PrintGains(std::ostream& out, const std::string& title, const sirupp::servo
   }
 }
 
-bool SameFilterGains(const sirupp::servo_gains_t& a, const sirupp::servo_gains_t& b) {
-  return a.num_joints == b.num_joints && a.kp == b.kp && a.kd == b.kd && a.ki == b.ki &&
-         a.integration_limit == b.integration_limit && a.output_limit == b.output_limit &&
-         a.error_limit == b.error_limit && a.deadband == b.deadband;
-}
-
 }  // namespace
 
 int RunGains(const std::vector<std::string>& args, std::ostream& out) {
-  const Args parsed(args, "gains",
-                    WithRigFlags({{"model", "robot model file"},
-                                  {"joint", "joint number, 1-based"},
-                                  {"kp", "position gain 0..32767"},
-                                  {"kd", "derivative gain 0..32767"},
-                                  {"ki", "integral gain 0..32767"},
-                                  {"il", "integration limit 0..32767"},
-                                  {"ol", "output limit 0..255"},
-                                  {"el", "position-error limit 0..16383 counts"},
-                                  {"db", "deadband 0..255"}}));
+  const runtime::Args parsed(args, "gains",
+                             WithRigFlags({{"model", "robot model file"},
+                                           {"joint", "joint number, 1-based"},
+                                           {"kp", "position gain 0..32767"},
+                                           {"kd", "derivative gain 0..32767"},
+                                           {"ki", "integral gain 0..32767"},
+                                           {"il", "integration limit 0..32767"},
+                                           {"ol", "output limit 0..255"},
+                                           {"el", "position-error limit 0..16383 counts"},
+                                           {"db", "deadband 0..255"}}));
   const core::RobotModel model = ModelFromArgs(parsed);
   const int n = model.num_joints();
   int only = -1;
@@ -667,19 +457,20 @@ int RunGains(const std::vector<std::string>& args, std::ostream& out) {
     apply_flags(check);
   }
   core::Bus bus = BusFromArgs(parsed);
-  RigWatch watch(bus, false);
-  if (!watch.FirstStatus(out)) return kExitFailed;
+  client::Client rig(bus, {});
+  if (!FirstStatus(rig, out)) return kExitFailed;
+  const client::Snapshot& seen = rig.snapshot();
   // The live gains: the controller sends them at 1 Hz; the bridge too when it runs.
-  watch.Until([&] { return watch.virtual_gains.has_value() && watch.real_gains.has_value(); }, 1.5);
-  const core::Channels channels;
+  rig.Until([&] { return seen.virtual_gains.has_value() && seen.real_gains.has_value(); }, 1.5);
+  const core::Channels& channels = rig.channels();
   if (!change) {
-    if (!watch.virtual_gains) {
+    if (!seen.virtual_gains) {
       out << "no " << bus.FullName(channels.controller_gains) << " within 1.5 s\n";
       return kExitFailed;
     }
-    PrintGains(out, "virtual servos (sirupp-control):", *watch.virtual_gains);
-    if (watch.real_gains) {
-      PrintGains(out, "real boards (sirupp-hardware):", *watch.real_gains);
+    PrintGains(out, "virtual servos (sirupp-control):", *seen.virtual_gains);
+    if (seen.real_gains) {
+      PrintGains(out, "real boards (sirupp-hardware):", *seen.real_gains);
     } else {
       out << "real boards: no " << bus.FullName(channels.real_arm_gains)
           << " heard (no bridge running)\n";
@@ -688,57 +479,65 @@ int RunGains(const std::vector<std::string>& args, std::ostream& out) {
   }
   // Only what is named changes; the rest stays as the controller has it now.
   sirupp::servo_gains_t message{};
-  if (watch.virtual_gains && watch.virtual_gains->num_joints == n) {
-    message = *watch.virtual_gains;
+  if (seen.virtual_gains && seen.virtual_gains->num_joints == n) {
+    message = *seen.virtual_gains;
   } else {
     out << "no live gains heard on " << bus.FullName(channels.controller_gains)
         << ": starting from the model's\n";
     message = from_model;
   }
-  message.utime = WallMicros();
-  message.seq = 0;
   apply_flags(message);
   PrintGains(out, "sending:", message);
-  bus.Publish(channels.arm_gains, message);
+  const bool had_real = seen.real_gains.has_value();
+  const client::Answer answer = rig.SetGains(message);
   out << "sent " << bus.FullName(channels.arm_gains) << "\n";
-  const int code = Confirm(watch, bus, channels.arm_gains, nullptr, out, 0.3);
-  if (code != 0) return code;
-  const bool had_real = watch.real_gains.has_value();
-  const bool taken = watch.Until(
+  if (const int code = Report(answer, out); code != 0) return code;
+  if (had_real) {  // the bridge answers too, on its own reply channel
+    const client::Answer bridge = rig.AwaitHardwareAnswer(answer.request, 2.0);
+    if (bridge.result == client::Result::kRefused) {
+      out << "refused by sirupp-hardware: " << bridge.error << "\n";
+      return kExitFailed;
+    }
+  }
+  const bool taken = rig.Until(
       [&] {
-        return watch.virtual_gains && SameFilterGains(*watch.virtual_gains, message) &&
-               (!had_real || SameFilterGains(*watch.real_gains, message));
+        return seen.virtual_gains &&
+               client::Client::SameFilterGains(*seen.virtual_gains, message) &&
+               (!had_real || client::Client::SameFilterGains(*seen.real_gains, message));
       },
       2.5);
   out << "virtual servos: "
-      << (watch.virtual_gains && SameFilterGains(*watch.virtual_gains, message)
+      << (seen.virtual_gains && client::Client::SameFilterGains(*seen.virtual_gains, message)
               ? "running the new gains"
               : "not confirmed")
       << "\n";
   if (had_real) {
     out << "real boards: "
-        << (SameFilterGains(*watch.real_gains, message) ? "running the new gains (read back)"
-                                                        : "not confirmed")
+        << (client::Client::SameFilterGains(*seen.real_gains, message)
+                ? "running the new gains (read back)"
+                : "not confirmed")
         << "\n";
   }
   return taken ? 0 : kExitFailed;
 }
 
 int RunStatus(const std::vector<std::string>& args, std::ostream& out) {
-  const Args parsed(
+  const runtime::Args parsed(
       args, "status",
       WithRigFlags({{"timeout", "seconds to listen"}, {"model", "robot model file"}}));
   const double listen = TimeoutFrom(parsed, 1.5);
   const core::RobotModel model = ModelFromArgs(parsed);
   core::Bus bus = BusFromArgs(parsed);
-  RigWatch watch(bus, true);
-  watch.Until([] { return false; }, listen);
+  client::Client rig(bus, {});
+  rig.WatchJoints(true);
+  rig.Listen(listen);
+  const client::Snapshot& watch = rig.snapshot();
   out << "rig on " << bus.url() << (bus.prefix().empty() ? "" : ", prefix " + bus.prefix())
       << ", listened " << listen << " s\n";
-  if (watch.status) {
-    const Status& s = *watch.status;
-    out << "controller: " << ModeName(s.mode) << ", " << StateName(s.state) << ", move "
-        << s.move_id;
+  if (watch.controller) {
+    const Status& s = *watch.controller;
+    out << "controller: " << ControllerModeName(s.mode) << ", " << ControllerStateName(s.state)
+        << ", move " << s.move_id;
     if (!s.plan_name.empty()) {
       const bool running = s.state == Status::STATE_MOVING || s.state == Status::STATE_WAITING ||
                            s.state == Status::STATE_PAUSED;
@@ -754,9 +553,9 @@ int RunStatus(const std::vector<std::string>& args, std::ostream& out) {
   } else {
     out << "controller: no " << bus.FullName(core::Channels{}.controller_status) << " heard\n";
   }
-  if (watch.state && watch.state->num_joints == model.num_joints()) {
-    out << "joints (deg): [" << Degrees(model, watch.state->position) << "] at tick "
-        << watch.state->tick << ", sim time " << static_cast<double>(watch.state->utime) * 1e-6
+  if (watch.sim_arm && watch.sim_arm->num_joints == model.num_joints()) {
+    out << "joints (deg): [" << Degrees(model, watch.sim_arm->position) << "] at tick "
+        << watch.sim_arm->tick << ", sim time " << static_cast<double>(watch.sim_arm->utime) * 1e-6
         << " s\n";
   }
   if (watch.setpoint && watch.setpoint->num_joints == model.num_joints()) {
@@ -802,7 +601,7 @@ int RunStatus(const std::vector<std::string>& args, std::ostream& out) {
           << " decode errors\n";
     }
   }
-  return watch.status ? 0 : kExitFailed;
+  return watch.controller ? 0 : kExitFailed;
 }
 
 }  // namespace sirupp::tools

@@ -12,6 +12,7 @@
 #include <sirupp/hardware_status_t.hpp>
 #include <sstream>
 
+#include "client/client.hpp"
 #include "core/bus.hpp"
 #include "core/channels.hpp"
 #include "core/errors.hpp"
@@ -20,11 +21,12 @@
 #include "launch/layout.hpp"
 #include "launch/supervisor.hpp"
 #include "logger/report.hpp"
-#include "tools/args.hpp"
+#include "runtime/args.hpp"
+#include "runtime/data_path.hpp"
+#include "runtime/process_main.hpp"
 #include "tools/cli.hpp"
 #include "tools/control_commands.hpp"
 #include "tools/launch_commands.hpp"
-#include "tools/process_main.hpp"
 #include "tools/report_commands.hpp"
 #include "tools/rig_args.hpp"
 
@@ -132,8 +134,8 @@ bool WaitLinked(const std::string& url, const std::string& prefix, double timeou
 }  // namespace
 
 int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  const Args parsed(args, "demo",
-                    {{"out", "DIR"}, {"sets", "N..."}, {"layout", "FILE"}, {"lcm-url", "URL"}});
+  const runtime::Args parsed(
+      args, "demo", {{"out", "DIR"}, {"sets", "N..."}, {"layout", "FILE"}, {"lcm-url", "URL"}});
   std::vector<int> sets = {1, 2, 3, 4, 5, 6, 7};
   if (parsed.Has("sets")) {
     sets.clear();
@@ -149,8 +151,8 @@ int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostrea
       sets.push_back(n);
     }
   }
-  const std::string layout_file =
-      ResolveDataPath(parsed.Has("layout") ? parsed.String("layout") : "config/labs/demo.yaml");
+  const std::string layout_file = runtime::ResolveDataPath(
+      parsed.Has("layout") ? parsed.String("layout") : "config/labs/demo.yaml");
   launch::Layout layout = launch::LoadLayout(layout_file);
   layout.lcm_url =
       parsed.Has("lcm-url")
@@ -165,19 +167,19 @@ int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   fs::create_directories(dir);
   std::vector<std::string> plans;
   for (int n : sets) {
-    plans.push_back(ResolveDataPath("config/plans/set" + std::to_string(n) + ".plan"));
+    plans.push_back(runtime::ResolveDataPath("config/plans/set" + std::to_string(n) + ".plan"));
   }
 
   const auto started = Clock::now();
   const core::RobotModel model =
-      core::LoadRobotModel(ResolveDataPath("config/robots/puma260.yaml"));
+      core::LoadRobotModel(runtime::ResolveDataPath("config/robots/puma260.yaml"));
   out << "SIRUPP-LCM demo: the paper's experiment (Table II), headless\n"
       << "  robot: " << core::ModelSummary(model) << "\n"
       << "  sets: " << sets.size() << ", processes: " << layout.processes.size() << " ("
       << layout_file << "), bus " << layout.lcm_url << "\n"
       << "  results: " << dir.string() << "\n\n";
 
-  InstallStopHandlers();
+  runtime::InstallStopHandlers();
   launch::SupervisorOptions options;
   options.machine = MachineName();
   options.host = launch::ChooseHost(layout, "", options.machine);
@@ -187,7 +189,7 @@ int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   options.events = &events;
   launch::Supervisor supervisor(layout, options);
   out << "[1/4] starting the processes ..." << std::flush;
-  bool ok = supervisor.Start([] { return !StopRequested(); });
+  bool ok = supervisor.Start([] { return !runtime::StopRequested(); });
   if (ok) {
     std::string last;
     ok = WaitLinked(layout.lcm_url, layout.prefix, 20, &last);
@@ -214,14 +216,19 @@ int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostrea
           if (bad && real_arm_problem.empty()) real_arm_problem = s.last_error;
         },
         1000);  // 10 Hz for the length of a set, handled after it
-    for (size_t i = 0; i < sets.size() && !StopRequested(); ++i) {
+    client::Options rig_options;
+    rig_options.lcm_url = layout.lcm_url;
+    rig_options.prefix = layout.prefix;
+    rig_options.sender = "sirupp demo";
+    client::Client rig(rig_options);
+    for (size_t i = 0; i < sets.size() && !runtime::StopRequested(); ++i) {
       const auto t0 = Clock::now();
       out << "  set " << std::left << std::setw(4) << Roman(sets[i]) << std::right << " (" << i + 1
           << "/" << sets.size() << ") " << PlanTitle(plans[i]) << " ..." << std::flush;
       std::ostringstream plan_out;
       int code = 1;
       try {
-        code = RunPlan({"run", plans[i], "--wait", "--lcm-url", layout.lcm_url}, plan_out);
+        code = RunPlanFile(rig, model, plans[i], /*wait_s=*/3600, plan_out);
       } catch (const std::exception& e) {
         plan_out << e.what() << "\n";
       }
@@ -285,8 +292,8 @@ int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   }
   out << "Results in " << dir.string() << " (" << Fixed(Since(started), 0) << " s in all):\n";
   ListResults(dir, out);
-  const bool all =
-      ok && failed_sets.empty() && supervisor.failures().empty() && reported && !StopRequested();
+  const bool all = ok && failed_sets.empty() && supervisor.failures().empty() && reported &&
+                   !runtime::StopRequested();
   if (!failed_sets.empty()) {
     std::string list;
     for (const std::string& s : failed_sets) list += " " + s;

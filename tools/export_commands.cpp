@@ -7,6 +7,7 @@
 #include "core/errors.hpp"
 #include "core/model_export.hpp"
 #include "core/model_loader.hpp"
+#include "runtime/data_path.hpp"
 #include "tools/cli.hpp"
 
 namespace sirupp::tools {
@@ -61,7 +62,7 @@ int RunModelExport(const std::vector<std::string>& args, std::ostream& out) {
   if (urdf == "-" && mjcf == "-") {
     throw core::UsageError("model export: only one of --urdf and --mjcf can write to '-'");
   }
-  const core::RobotModel model = core::LoadRobotModel(ResolveDataPath(model_file));
+  const core::RobotModel model = core::LoadRobotModel(runtime::ResolveDataPath(model_file));
   if (!urdf.empty()) Write(urdf, core::ExportUrdf(model), out);
   if (!mjcf.empty()) Write(mjcf, core::ExportMjcf(model), out);
   return 0;

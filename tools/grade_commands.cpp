@@ -11,6 +11,8 @@
 #include "grade/grade.hpp"
 #include "grade/report.hpp"
 #include "grade/submission.hpp"
+#include "runtime/args.hpp"
+#include "runtime/data_path.hpp"
 #include "tools/cli.hpp"
 
 namespace sirupp::tools {
@@ -39,7 +41,7 @@ std::string BinDir() {
   return fs::read_symlink("/proc/self/exe").parent_path().string();
 }
 
-std::string Resolve(const std::string& path) { return ResolveDataPath(path); }
+std::string Resolve(const std::string& path) { return runtime::ResolveDataPath(path); }
 
 std::string LoadProblem(const grade::ControllerResult& result) {
   const std::string prefix = "the controller could not be loaded: ";

@@ -2,18 +2,16 @@
 
 #include <unistd.h>
 
-#include <chrono>
-#include <functional>
+#include <algorithm>
 #include <optional>
 #include <ostream>
-#include <sirupp/estop_t.hpp>
-#include <sirupp/hardware_command_t.hpp>
 #include <sirupp/hardware_status_t.hpp>
 
+#include "client/client.hpp"
 #include "core/bus.hpp"
 #include "core/channels.hpp"
 #include "core/errors.hpp"
-#include "tools/args.hpp"
+#include "runtime/args.hpp"
 #include "tools/rig_args.hpp"
 
 namespace sirupp::tools {
@@ -42,40 +40,12 @@ const char* const kEstopUsage =
 
 namespace {
 
-using sirupp::hardware_command_t;
 using sirupp::hardware_status_t;
-using Clock = std::chrono::steady_clock;
 
-struct Verb {
-  const char* name;
-  int8_t command;
-  // Whether a status shows the command done.
-  std::function<bool(const hardware_status_t&)> done;
-};
-
-const std::vector<Verb>& Verbs() {
-  static const std::vector<Verb> verbs = {
-      {"connect", hardware_command_t::COMMAND_CONNECT,
-       [](const hardware_status_t& s) { return s.state == hardware_status_t::STATE_CONNECTED; }},
-      {"calibrate", hardware_command_t::COMMAND_CALIBRATE,
-       [](const hardware_status_t& s) { return s.calibrated == 1; }},
-      {"arm", hardware_command_t::COMMAND_ARM,
-       [](const hardware_status_t& s) { return s.state == hardware_status_t::STATE_ARMED; }},
-      {"disarm", hardware_command_t::COMMAND_DISARM,
-       [](const hardware_status_t& s) { return s.state == hardware_status_t::STATE_CONNECTED; }},
-      {"link", hardware_command_t::COMMAND_LINK,
-       [](const hardware_status_t& s) { return s.state == hardware_status_t::STATE_LINKED; }},
-      {"unlink", hardware_command_t::COMMAND_UNLINK,
-       [](const hardware_status_t& s) { return s.state == hardware_status_t::STATE_ARMED; }},
-      {"home", hardware_command_t::COMMAND_HOME,
-       [](const hardware_status_t& s) {
-         return s.state == hardware_status_t::STATE_ARMED ||
-                s.state == hardware_status_t::STATE_LINKED;
-       }},
-      {"clear-faults", hardware_command_t::COMMAND_CLEAR_FAULTS,
-       [](const hardware_status_t& s) { return s.state != hardware_status_t::STATE_FAULT; }},
-  };
-  return verbs;
+std::string Sender() {
+  char host[256] = {};
+  ::gethostname(host, sizeof host - 1);
+  return "sirupp CLI (pid " + std::to_string(::getpid()) + "@" + host + ")";
 }
 
 const char* StateName(int8_t state) {
@@ -98,29 +68,6 @@ const char* StateName(int8_t state) {
       return "unknown";
   }
 }
-
-std::string Sender() {
-  char host[256] = {};
-  ::gethostname(host, sizeof host - 1);
-  return "sirupp CLI (pid " + std::to_string(::getpid()) + "@" + host + ")";
-}
-
-// The newest HARDWARE_STATUS, kept up to date while Until() handles messages.
-class StatusWatch {
- public:
-  explicit StatusWatch(core::Bus& bus) : bus_(bus) {
-    bus_.Subscribe<hardware_status_t>(
-        core::Channels{}.hardware_status,
-        [this](const hardware_status_t& m, const core::ReceiveInfo&) { status = m; });
-  }
-  bool Until(const std::function<bool()>& done, double timeout_s) {
-    return HandleUntil(bus_, done, timeout_s);
-  }
-  std::optional<hardware_status_t> status;
-
- private:
-  core::Bus& bus_;
-};
 
 void PrintStatus(const hardware_status_t& s, std::ostream& out) {
   out << "bridge: " << StateName(s.state) << (s.calibrated ? ", calibrated" : ", not calibrated")
@@ -145,88 +92,61 @@ int RunHardware(const std::vector<std::string>& args, std::ostream& out) {
         "clear-faults or status");
   }
   const std::string verb = args[0];
-  const Args parsed(std::vector<std::string>(args.begin() + 1, args.end()), "hardware " + verb,
-                    WithRigFlags({{"timeout", "seconds to wait for the bridge"}}));
-  const double timeout = TimeoutFrom(parsed, 5);
-  core::Bus bus = BusFromArgs(parsed);
-  StatusWatch watch(bus);
-  const std::string channel = bus.FullName(core::Channels{}.hardware_status);
-  if (verb == "status") {
-    if (!watch.Until([&] { return watch.status.has_value(); }, timeout)) {
-      out << "no " << channel << " within " << timeout << " s on " << bus.url()
-          << ": is sirupp-hardware running (same --lcm-url and --prefix)?\n";
-      return 1;
-    }
-    PrintStatus(*watch.status, out);
-    return 0;
-  }
-  const Verb* chosen = nullptr;
-  for (const Verb& v : Verbs()) {
-    if (verb == v.name) chosen = &v;
-  }
-  if (!chosen) {
+  const std::optional<client::HardwareCommand> command = client::HardwareCommandFromName(verb);
+  if (!command && verb != "status") {
     throw core::UsageError("hardware: unknown command '" + verb +
                            "'; allowed: connect, calibrate, arm, disarm, link, unlink, home, "
                            "clear-faults, status");
   }
-  // The bridge's present status first, so its answer can be told from what it said before.
-  if (!watch.Until([&] { return watch.status.has_value(); }, std::min(timeout, 2.0))) {
-    out << "no " << channel << " within " << std::min(timeout, 2.0) << " s on " << bus.url()
+  const runtime::Args parsed(std::vector<std::string>(args.begin() + 1, args.end()),
+                             "hardware " + verb,
+                             WithRigFlags({{"timeout", "seconds to wait for the bridge"}}));
+  const double timeout = TimeoutFrom(parsed, 5);
+  core::Bus bus = BusFromArgs(parsed);
+  client::Options options;
+  options.sender = Sender();
+  options.answer_timeout_s = timeout;
+  client::Client rig(bus, options);
+  const std::string channel = bus.FullName(rig.channels().hardware_status);
+  // The bridge's present status first: it shows a bridge runs.
+  const double first = verb == "status" ? timeout : std::min(timeout, 2.0);
+  if (!rig.WaitForHardware(first)) {
+    out << "no " << channel << " within " << first << " s on " << bus.url()
         << ": is sirupp-hardware running (same --lcm-url and --prefix)?\n";
     return 1;
   }
-  const int64_t base_seq = watch.status->seq;
-  const std::string base_error = watch.status->last_error;
-  hardware_command_t c{};
-  c.utime = WallMicros();
-  c.command = chosen->command;
-  c.sender = Sender();
-  bus.Publish(core::Channels{}.hardware_command, c);
-  const std::string refusal = "channel " + bus.FullName(core::Channels{}.hardware_command) + ":";
-  bool refused = false;
-  const bool answered = watch.Until(
-      [&] {
-        if (watch.status->seq <= base_seq) return false;
-        const std::string& e = watch.status->last_error;
-        if (e.rfind(refusal, 0) == 0 && e != base_error) return refused = true;
-        return chosen->done(*watch.status);
-      },
-      timeout);
-  if (refused) {
-    out << "refused by sirupp-hardware: " << watch.status->last_error << "\n";
+  if (!command) {
+    PrintStatus(*rig.snapshot().hardware, out);
+    return 0;
+  }
+  const client::Answer answer = rig.Hardware(*command);
+  if (answer.result == client::Result::kRefused) {
+    out << "refused by sirupp-hardware: " << answer.error << "\n";
     return 1;
   }
-  if (!answered) {
-    out << verb << ": the bridge did not get there within " << timeout << " s\n";
-    PrintStatus(*watch.status, out);
+  if (answer.result == client::Result::kNoAnswer || !rig.WaitHardwareDone(*command, timeout)) {
+    out << verb << ": the bridge did not get there within " << timeout << " s"
+        << (answer.accepted() ? "" : " (" + answer.error + ")") << "\n";
+    PrintStatus(*rig.snapshot().hardware, out);
     return 1;
   }
-  out << verb << ": done; bridge " << StateName(watch.status->state) << "\n";
+  out << verb << ": done; bridge " << StateName(rig.snapshot().hardware->state) << "\n";
   return 0;
 }
 
 int RunEstop(const std::vector<std::string>& args, std::ostream& out) {
-  const Args parsed(args, "estop",
-                    WithRigFlags({{"release", "release the stop"}, {"reason", "why, one line"}}));
+  const runtime::Args parsed(
+      args, "estop", WithRigFlags({{"release", "release the stop"}, {"reason", "why, one line"}}));
   const bool release = parsed.Switch("release");
   core::Bus bus = BusFromArgs(parsed);
-  StatusWatch watch(bus);
-  sirupp::estop_t m{};
-  m.utime = WallMicros();
-  m.engaged = release ? 0 : 1;
-  m.sender = Sender();
-  m.reason =
-      parsed.Has("reason") ? parsed.String("reason") : (release ? "released" : "sirupp estop");
-  bus.Publish(core::Channels{}.estop, m);
-  out << (release ? "released " : "engaged ") << bus.FullName(core::Channels{}.estop) << "\n";
-  const bool heard = watch.Until(
-      [&] {
-        return watch.status &&
-               (watch.status->state == hardware_status_t::STATE_ESTOPPED) == !release;
-      },
-      2.0);
-  if (heard) {
-    out << "bridge: " << StateName(watch.status->state) << "\n";
+  client::Options options;
+  options.sender = Sender();
+  client::Client rig(bus, options);
+  rig.Estop(!release, parsed.Has("reason") ? parsed.String("reason")
+                                           : (release ? "released" : "sirupp estop"));
+  out << (release ? "released " : "engaged ") << bus.FullName(rig.channels().estop) << "\n";
+  if (rig.WaitEstopShown(!release, 2.0)) {
+    out << "bridge: " << StateName(rig.snapshot().hardware->state) << "\n";
   } else {
     out << "no bridge confirmed it within 2 s (none running, or it is on another --prefix)\n";
   }

@@ -8,7 +8,7 @@
 #include "core/errors.hpp"
 #include "core/inverse_kinematics.hpp"
 #include "core/model_loader.hpp"
-#include "tools/args.hpp"
+#include "runtime/args.hpp"
 #include "tools/json_output.hpp"
 
 namespace sirupp::tools {
@@ -101,8 +101,8 @@ std::string SolutionText(const core::RobotModel& model, const core::IkSolution& 
 }  // namespace
 
 int RunFk(const std::vector<std::string>& raw, std::ostream& out) {
-  const Args args(raw, "fk",
-                  {{"model", "FILE"}, {"deg", "Q1 .. QN"}, {"rad", "Q1 .. QN"}, {"json", ""}});
+  const runtime::Args args(
+      raw, "fk", {{"model", "FILE"}, {"deg", "Q1 .. QN"}, {"rad", "Q1 .. QN"}, {"json", ""}});
   const core::RobotModel model = core::LoadRobotModel(args.String("model"));
   const int n = model.num_joints();
   if (args.Has("deg") == args.Has("rad")) {
@@ -159,14 +159,14 @@ int RunFk(const std::vector<std::string>& raw, std::ostream& out) {
 }
 
 int RunIk(const std::vector<std::string>& raw, std::ostream& out) {
-  const Args args(raw, "ik",
-                  {{"model", "FILE"},
-                   {"pose", "X Y Z ROLL PITCH YAW"},
-                   {"config", "NAME|all|nearest"},
-                   {"from", "Q1 .. QN"},
-                   {"numeric", ""},
-                   {"position-only", ""},
-                   {"json", ""}});
+  const runtime::Args args(raw, "ik",
+                           {{"model", "FILE"},
+                            {"pose", "X Y Z ROLL PITCH YAW"},
+                            {"config", "NAME|all|nearest"},
+                            {"from", "Q1 .. QN"},
+                            {"numeric", ""},
+                            {"position-only", ""},
+                            {"json", ""}});
   const core::RobotModel model = core::LoadRobotModel(args.String("model"));
   const int n = model.num_joints();
   const std::vector<double> pose = args.Numbers("pose", 6);

@@ -17,7 +17,8 @@
 #include "lab/experiment.hpp"
 #include "lab/identify.hpp"
 #include "logger/report.hpp"
-#include "tools/args.hpp"
+#include "runtime/args.hpp"
+#include "runtime/data_path.hpp"
 #include "tools/cli.hpp"
 
 namespace sirupp::tools {
@@ -60,7 +61,7 @@ const char* const kIdentifyUsage =
 
 namespace {
 
-std::vector<int> ParseSets(const Args& args) {
+std::vector<int> ParseSets(const runtime::Args& args) {
   std::vector<int> sets;
   if (!args.Has("sets")) return {1, 2, 3, 4, 5, 6, 7};
   for (const std::string& text : args.Values("sets", -1)) {
@@ -84,21 +85,21 @@ double Since(std::chrono::steady_clock::time_point t) {
 }  // namespace
 
 int RunFitEmulator(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
-  const Args args(argv, "fit-emulator",
-                  {{"real-arm", "FILE"},
-                   {"model", "FILE"},
-                   {"virtual-model", "FILE"},
-                   {"sets", "N..."},
-                   {"evaluate", "(switch)"},
-                   {"evaluations", "N"},
-                   {"out", "FILE"},
-                   {"data", "DIR"}});
-  const std::string model_file =
-      ResolveDataPath(args.Has("model") ? args.String("model") : "config/robots/puma260.yaml");
+  const runtime::Args args(argv, "fit-emulator",
+                           {{"real-arm", "FILE"},
+                            {"model", "FILE"},
+                            {"virtual-model", "FILE"},
+                            {"sets", "N..."},
+                            {"evaluate", "(switch)"},
+                            {"evaluations", "N"},
+                            {"out", "FILE"},
+                            {"data", "DIR"}});
+  const std::string model_file = runtime::ResolveDataPath(
+      args.Has("model") ? args.String("model") : "config/robots/puma260.yaml");
   const core::RobotModel model = core::LoadRobotModel(model_file);
   const core::RobotModel virtual_model =
       args.Has("virtual-model") ? core::LoadRobotModel(args.String("virtual-model")) : model;
-  const std::string arm_file = ResolveDataPath(
+  const std::string arm_file = runtime::ResolveDataPath(
       args.Has("real-arm") ? args.String("real-arm") : "config/hardware/puma260-real.yaml");
   const hardware::RealArmParams start = hardware::LoadRealArmParams(arm_file, model);
   lab::FitOptions options;
@@ -169,7 +170,7 @@ int RunIdentify(const std::vector<std::string>& argv, std::ostream& out, std::os
   std::vector<std::string> files;
   size_t i = 0;
   for (; i < argv.size() && argv[i].rfind("--", 0) != 0; ++i) files.push_back(argv[i]);
-  const Args args(
+  const runtime::Args args(
       std::vector<std::string>(argv.begin() + static_cast<std::ptrdiff_t>(i), argv.end()),
       "identify", {{"model", "FILE"}, {"out", "FILE"}, {"joints", "N..."}, {"evaluations", "N"}});
   if (files.empty())

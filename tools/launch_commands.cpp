@@ -14,9 +14,10 @@
 #include "core/errors.hpp"
 #include "launch/layout.hpp"
 #include "launch/supervisor.hpp"
-#include "tools/args.hpp"
+#include "runtime/args.hpp"
+#include "runtime/data_path.hpp"
+#include "runtime/process_main.hpp"
 #include "tools/cli.hpp"
-#include "tools/process_main.hpp"
 
 namespace sirupp::tools {
 
@@ -85,23 +86,23 @@ int RunLaunch(const std::vector<std::string>& args, std::ostream& out, std::ostr
   if (args.empty() || args[0].rfind("--", 0) == 0) {
     throw core::UsageError("launch: missing LAYOUT (a file in config/labs/)");
   }
-  const std::string file = ResolveDataPath(args[0]);
-  const Args parsed(std::vector<std::string>(args.begin() + 1, args.end()), "launch",
-                    {{"host", "NAME"},
-                     {"run-dir", "DIR"},
-                     {"duration", "S"},
-                     {"status-every", "S"},
-                     {"lcm-url", "URL"},
-                     {"prefix", "PREFIX"},
-                     {"dry-run", ""}});
+  const std::string file = runtime::ResolveDataPath(args[0]);
+  const runtime::Args parsed(std::vector<std::string>(args.begin() + 1, args.end()), "launch",
+                             {{"host", "NAME"},
+                              {"run-dir", "DIR"},
+                              {"duration", "S"},
+                              {"status-every", "S"},
+                              {"lcm-url", "URL"},
+                              {"prefix", "PREFIX"},
+                              {"dry-run", ""}});
   double duration = 0;
   if (parsed.Has("duration")) {
-    duration = ParseNumberArg(parsed.String("duration"), "--duration");
+    duration = runtime::ParseNumberArg(parsed.String("duration"), "--duration");
     if (duration <= 0) throw core::UsageError("--duration: expected seconds > 0");
   }
   double status_every = 10;
   if (parsed.Has("status-every")) {
-    status_every = ParseNumberArg(parsed.String("status-every"), "--status-every");
+    status_every = runtime::ParseNumberArg(parsed.String("status-every"), "--status-every");
     if (status_every <= 0) throw core::UsageError("--status-every: expected seconds > 0");
   }
   launch::Layout layout = launch::LoadLayout(file);
@@ -142,20 +143,20 @@ int RunLaunch(const std::vector<std::string>& args, std::ostream& out, std::ostr
     }
     return 0;
   }
-  InstallStopHandlers();
+  runtime::InstallStopHandlers();
   const std::unique_ptr<launch::Supervisor> owned = make();
   launch::Supervisor& supervisor = *owned;
   const auto started = std::chrono::steady_clock::now();
   auto elapsed = [&] {
     return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
   };
-  const bool up = supervisor.Start([] { return !StopRequested(); });
+  const bool up = supervisor.Start([] { return !runtime::StopRequested(); });
   if (tty) out << recent.str();
   if (up) {
     out << "all " << layout.ProcessesOn(options.host).size() << " processes of host "
         << options.host << " are up; Ctrl-C stops them\n";
     double next_table = 0;
-    while (!StopRequested() && (duration <= 0 || elapsed() < duration)) {
+    while (!runtime::StopRequested() && (duration <= 0 || elapsed() < duration)) {
       if (!supervisor.Service(200)) break;
       if (elapsed() >= next_table) {
         if (tty) out << "\033[H\033[J";  // redraw in place, like top

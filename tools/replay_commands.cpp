@@ -10,8 +10,8 @@
 #include <thread>
 
 #include "core/errors.hpp"
-#include "tools/args.hpp"
-#include "tools/process_main.hpp"
+#include "runtime/args.hpp"
+#include "runtime/process_main.hpp"
 
 namespace sirupp::tools {
 
@@ -74,8 +74,8 @@ int RunReplay(const std::vector<std::string>& raw, std::ostream& out) {
     throw core::UsageError("replay: missing LOG (an lcm-logger file)");
   }
   const std::string path = raw[0];
-  const Args args(std::vector<std::string>(raw.begin() + 1, raw.end()), "replay",
-                  {{"speed", "X"}, {"lcm-url", "URL"}});
+  const runtime::Args args(std::vector<std::string>(raw.begin() + 1, raw.end()), "replay",
+                           {{"speed", "X"}, {"lcm-url", "URL"}});
   const double speed = args.Has("speed") ? args.Numbers("speed", 1)[0] : 1.0;
   if (!(speed > 0)) {
     throw core::UsageError("replay: --speed " + core::FormatNumber(speed) +
@@ -84,8 +84,8 @@ int RunReplay(const std::vector<std::string>& raw, std::ostream& out) {
   const std::string url = args.Has("lcm-url") ? args.String("lcm-url") : "";
   lcm::LCM lcm(url);
   if (!lcm.good()) throw std::runtime_error("replay: cannot open LCM URL '" + url + "'");
-  InstallStopHandlers();
-  const ReplayStats stats = ReplayLog(path, lcm, speed, StopRequested);
+  runtime::InstallStopHandlers();
+  const ReplayStats stats = ReplayLog(path, lcm, speed, runtime::StopRequested);
   char line[256];
   std::snprintf(line, sizeof line,
                 "replay: %lld messages on %lld channels, log span %.3f s played in %.3f s at "

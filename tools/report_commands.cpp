@@ -7,7 +7,7 @@
 #include "core/errors.hpp"
 #include "lab/experiment.hpp"
 #include "logger/report.hpp"
-#include "tools/args.hpp"
+#include "runtime/args.hpp"
 
 namespace sirupp::tools {
 
@@ -54,7 +54,7 @@ logger::ReferenceColumn PaperReference() {
 
 namespace {
 
-double NonNegative(const Args& args, const std::string& flag, double fallback) {
+double NonNegative(const runtime::Args& args, const std::string& flag, double fallback) {
   if (!args.Has(flag)) return fallback;
   const double value = args.Numbers(flag, 1)[0];
   if (value < 0) {
@@ -70,7 +70,7 @@ int RunReport(const std::vector<std::string>& argv, std::ostream& out, std::ostr
   std::vector<std::string> files;
   size_t i = 0;
   for (; i < argv.size() && argv[i].rfind("--", 0) != 0; ++i) files.push_back(argv[i]);
-  const Args args(
+  const runtime::Args args(
       std::vector<std::string>(argv.begin() + static_cast<std::ptrdiff_t>(i), argv.end()), "report",
       {{"out", "DIR"},
        {"no-plots", "(switch)"},

@@ -6,18 +6,19 @@
 
 #include "core/errors.hpp"
 #include "core/model_loader.hpp"
+#include "runtime/data_path.hpp"
 #include "tools/cli.hpp"
 
 namespace sirupp::tools {
 
-core::RobotModel ModelFromArgs(const Args& parsed) {
-  return core::LoadRobotModel(
-      ResolveDataPath(parsed.Has("model") ? parsed.String("model") : "config/robots/puma260.yaml"));
+core::RobotModel ModelFromArgs(const runtime::Args& parsed) {
+  return core::LoadRobotModel(runtime::ResolveDataPath(
+      parsed.Has("model") ? parsed.String("model") : "config/robots/puma260.yaml"));
 }
 
 // Joint positions (rad or m) from exactly one of --pose NAME, --deg Q.., --rad Q.., each within the
 // joint's limits; throws core::UsageError naming `command`, the joint and the allowed range.
-std::vector<double> PositionsFromArgs(const Args& parsed, const core::RobotModel& model,
+std::vector<double> PositionsFromArgs(const runtime::Args& parsed, const core::RobotModel& model,
                                       const std::string& command) {
   const int given =
       (parsed.Has("pose") ? 1 : 0) + (parsed.Has("deg") ? 1 : 0) + (parsed.Has("rad") ? 1 : 0);
@@ -54,7 +55,7 @@ std::vector<double> PositionsFromArgs(const Args& parsed, const core::RobotModel
   return position;
 }
 
-core::Bus BusFromArgs(const Args& parsed) {
+core::Bus BusFromArgs(const runtime::Args& parsed) {
   return core::Bus(parsed.Has("lcm-url") ? parsed.String("lcm-url") : "",
                    parsed.Has("prefix") ? parsed.String("prefix") : "");
 }
@@ -77,7 +78,7 @@ std::map<std::string, std::string> WithRigFlags(std::map<std::string, std::strin
   return flags;
 }
 
-double TimeoutFrom(const Args& parsed, double fallback) {
+double TimeoutFrom(const runtime::Args& parsed, double fallback) {
   if (!parsed.Has("timeout")) return fallback;
   const double timeout = parsed.Numbers("timeout", 1)[0];
   if (!(timeout > 0)) {

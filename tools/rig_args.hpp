@@ -11,28 +11,28 @@
 
 #include "core/bus.hpp"
 #include "core/robot_model.hpp"
-#include "tools/args.hpp"
+#include "runtime/args.hpp"
 
 namespace sirupp::tools {
 
-// `flags` plus --lcm-url URL and --prefix PREFIX, for Args.
+// `flags` plus --lcm-url URL and --prefix PREFIX, for runtime::Args.
 std::map<std::string, std::string> WithRigFlags(std::map<std::string, std::string> flags);
 
 // --timeout S (seconds > 0), or `fallback` when absent; throws core::UsageError otherwise.
-double TimeoutFrom(const Args& parsed, double fallback);
+double TimeoutFrom(const runtime::Args& parsed, double fallback);
 
 // Handles messages on `bus` until done() holds or timeout_s passed; returns done().
 using core::HandleUntil;
 
 // --model FILE, default config/robots/puma260.yaml (found from any working directory).
-core::RobotModel ModelFromArgs(const Args& parsed);
+core::RobotModel ModelFromArgs(const runtime::Args& parsed);
 
 // --lcm-url URL and --prefix PREFIX (defaults: LCM's default URL, no prefix).
-core::Bus BusFromArgs(const Args& parsed);
+core::Bus BusFromArgs(const runtime::Args& parsed);
 
 // Joint positions (rad or m) from exactly one of --pose NAME, --deg Q.., --rad Q.., each within the
 // joint's limits; throws core::UsageError naming `command`, the joint and the allowed range.
-std::vector<double> PositionsFromArgs(const Args& parsed, const core::RobotModel& model,
+std::vector<double> PositionsFromArgs(const runtime::Args& parsed, const core::RobotModel& model,
                                       const std::string& command);
 
 // Microseconds since the epoch (utime of messages sent by people).

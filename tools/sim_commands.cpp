@@ -2,13 +2,13 @@
 
 #include <chrono>
 #include <ostream>
-#include <sirupp/sim_reset_t.hpp>
 
+#include "client/client.hpp"
 #include "core/bus.hpp"
 #include "core/channels.hpp"
 #include "core/errors.hpp"
 #include "core/model_loader.hpp"
-#include "tools/args.hpp"
+#include "runtime/args.hpp"
 #include "tools/cli.hpp"
 #include "tools/rig_args.hpp"
 
@@ -24,25 +24,24 @@ const char* const kResetUsage =
     "  The sim refuses positions outside the joint limits (see its heartbeat or stderr).\n";
 
 int RunReset(const std::vector<std::string>& args, std::ostream& out) {
-  const Args parsed(args, "reset",
-                    {{"model", "robot model file"},
-                     {"pose", "named pose"},
-                     {"deg", "joint positions in degrees"},
-                     {"rad", "joint positions in radians"},
-                     {"objects", "reset the free objects too"},
-                     {"lcm-url", "LCM URL"},
-                     {"prefix", "channel prefix of the rig"}});
+  const runtime::Args parsed(args, "reset",
+                             {{"model", "robot model file"},
+                              {"pose", "named pose"},
+                              {"deg", "joint positions in degrees"},
+                              {"rad", "joint positions in radians"},
+                              {"objects", "reset the free objects too"},
+                              {"lcm-url", "LCM URL"},
+                              {"prefix", "channel prefix of the rig"}});
   const core::RobotModel model = ModelFromArgs(parsed);
-  sirupp::sim_reset_t reset{};
-  reset.utime = WallMicros();
-  reset.sender = "sirupp reset";
-  reset.num_joints = model.num_joints();
-  reset.position = PositionsFromArgs(parsed, model, "reset");
-  reset.reset_objects = parsed.Switch("objects") ? 1 : 0;
+  const std::vector<double> position = PositionsFromArgs(parsed, model, "reset");
+  const bool objects = parsed.Switch("objects");
   core::Bus bus = BusFromArgs(parsed);
-  bus.Publish(core::Channels{}.sim_reset, reset);
-  PrintSent(out, bus, core::Channels{}.sim_reset, model, reset.position);
-  out << (reset.reset_objects ? ", objects reset" : "") << "\n";
+  client::Options options;
+  options.sender = "sirupp reset";
+  client::Client rig(bus, options);
+  rig.ResetSim(position, objects);
+  PrintSent(out, bus, rig.channels().sim_reset, model, position);
+  out << (objects ? ", objects reset" : "") << "\n";
   return 0;
 }
 

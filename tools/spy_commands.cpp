@@ -10,7 +10,7 @@
 
 #include "core/errors.hpp"
 #include "launch/supervisor.hpp"
-#include "tools/args.hpp"
+#include "runtime/args.hpp"
 #include "tools/launch_commands.hpp"
 
 namespace sirupp::tools {
@@ -36,8 +36,8 @@ constexpr const char* kChartJar = "/usr/share/java/jchart2d.jar";
 }  // namespace
 
 int RunSpy(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  const Args parsed(args, "spy",
-                    {{"lcm-url", "URL"}, {"jar", "FILE"}, {"check", ""}, {"print-command", ""}});
+  const runtime::Args parsed(
+      args, "spy", {{"lcm-url", "URL"}, {"jar", "FILE"}, {"check", ""}, {"print-command", ""}});
   std::string jar = (fs::path(ProgramDir()) / ".." / "java" / "sirupp_lcmtypes.jar").string();
   if (parsed.Has("jar")) jar = parsed.String("jar");
   const bool check = parsed.Switch("check");

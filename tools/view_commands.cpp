@@ -16,7 +16,7 @@
 #include "core/bus.hpp"
 #include "core/channels.hpp"
 #include "core/errors.hpp"
-#include "tools/args.hpp"
+#include "runtime/args.hpp"
 #include "tools/rig_args.hpp"
 #include "viewer/image_codec.hpp"
 
@@ -64,8 +64,8 @@ std::optional<sirupp::viewer_camera_t> CameraOf(const sirupp::image_t& image) {
 }  // namespace
 
 int RunView(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  const Args parsed(args, "view",
-                    WithRigFlags({{"channel", "NAME"}, {"save", "DIR"}, {"duration", "S"}}));
+  const runtime::Args parsed(
+      args, "view", WithRigFlags({{"channel", "NAME"}, {"save", "DIR"}, {"duration", "S"}}));
   const std::string channel =
       parsed.Has("channel") ? parsed.String("channel") : core::Channels{}.viewer_image;
   const std::string save_dir = parsed.Has("save") ? parsed.String("save") : ".";

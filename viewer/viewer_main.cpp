@@ -17,9 +17,9 @@
 #include "core/environment.hpp"
 #include "core/errors.hpp"
 #include "core/model_loader.hpp"
-#include "tools/args.hpp"
-#include "tools/cli.hpp"
-#include "tools/process_main.hpp"
+#include "runtime/args.hpp"
+#include "runtime/data_path.hpp"
+#include "runtime/process_main.hpp"
 #include "viewer/viewer_config.hpp"
 #include "viewer/viewer_node.hpp"
 
@@ -27,7 +27,7 @@ namespace {
 
 using sirupp::core::FormatNumber;
 using sirupp::core::UsageError;
-using sirupp::tools::Args;
+using sirupp::runtime::Args;
 namespace viewer = sirupp::viewer;
 
 constexpr double kDegToRad = M_PI / 180.0;
@@ -79,7 +79,7 @@ double PositiveNumber(const Args& args, const std::string& flag, const std::stri
 viewer::ViewerOptions OptionsFromArgs(const Args& args) {
   viewer::ViewerOptions options;
   if (args.Has("config")) {
-    viewer::ApplyViewerConfig(sirupp::tools::ResolveDataPath(args.String("config")), options);
+    viewer::ApplyViewerConfig(sirupp::runtime::ResolveDataPath(args.String("config")), options);
   }
   if (args.Has("width")) options.render.width = WholeNumber(args, "width", 16, 4096);
   if (args.Has("height")) options.render.height = WholeNumber(args, "height", 16, 4096);
@@ -166,12 +166,12 @@ int RenderOnce(const Args& args, const viewer::ViewerOptions& options) {
     throw UsageError("sirupp-viewer: --once '" + out + "': the file name must end in .png");
   }
   const sirupp::core::RobotModel model =
-      sirupp::core::LoadRobotModel(sirupp::tools::ResolveDataPath(
+      sirupp::core::LoadRobotModel(sirupp::runtime::ResolveDataPath(
           args.Has("model") ? args.String("model") : "config/robots/puma260.yaml"));
   std::optional<sirupp::core::Environment> environment;
   if (args.Has("environment")) {
     environment =
-        sirupp::core::LoadEnvironment(sirupp::tools::ResolveDataPath(args.String("environment")));
+        sirupp::core::LoadEnvironment(sirupp::runtime::ResolveDataPath(args.String("environment")));
   }
   viewer::ViewState state;
   state.virtual_position = JointsFromArgs(args, "deg", model);
@@ -223,12 +223,12 @@ int Run(const std::vector<std::string>& argv) {
   const double duration_s = args.Has("duration") ? PositiveNumber(args, "duration", "s") : 0;
   std::optional<sirupp::core::RobotModel> model;
   if (args.Has("model")) {
-    model = sirupp::core::LoadRobotModel(sirupp::tools::ResolveDataPath(args.String("model")));
+    model = sirupp::core::LoadRobotModel(sirupp::runtime::ResolveDataPath(args.String("model")));
   }
   std::optional<sirupp::core::Environment> environment;
   if (args.Has("environment")) {
     environment =
-        sirupp::core::LoadEnvironment(sirupp::tools::ResolveDataPath(args.String("environment")));
+        sirupp::core::LoadEnvironment(sirupp::runtime::ResolveDataPath(args.String("environment")));
   }
   sirupp::core::Bus bus(args.Has("lcm-url") ? args.String("lcm-url") : "",
                         args.Has("prefix") ? args.String("prefix") : "");
@@ -245,7 +245,7 @@ int Run(const std::vector<std::string>& argv) {
   std::signal(SIGUSR1, OnSnapshotSignal);
   int snapshots_seen = 0;
   const auto start = std::chrono::steady_clock::now();
-  sirupp::tools::ServiceUntilSignal([&] {
+  sirupp::runtime::ServiceUntilSignal([&] {
     try {
       node.Service(50);
     } catch (const sirupp::core::BusError&) {
@@ -284,5 +284,5 @@ int Run(const std::vector<std::string>& argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  return sirupp::tools::ProcessMain(argc, argv, "sirupp-viewer", kUsage, Run);
+  return sirupp::runtime::ProcessMain(argc, argv, "sirupp-viewer", kUsage, Run);
 }

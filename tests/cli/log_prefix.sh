@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Every process's log lines carry the time, the process name and a level
-# (`2026-11-24T10:15:03.123 sirupp-sim info: ...`, tools/log_prefix.hpp): sirupp-sim and
+# (`2026-11-24T10:15:03.123 sirupp-sim info: ...`, runtime/log_prefix.hpp): sirupp-sim and
 # sirupp-logger run briefly on an in-process LCM (memq://), and a bad argument gives an error line
 # followed by the usage text as it is.
 set -u

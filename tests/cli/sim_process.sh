@@ -89,6 +89,19 @@ grep -q "/nonexistent.xml" "$work/out" || fail "$(cat "$work/out")"
 "$SIRUPP_SIM" --position 0 0 0 400 0 0 >"$work/out" 2>&1; code=$?
 [ "$code" = 2 ] || fail "--position beyond limits exited $code"
 grep -q "joints\[3\] (wrist_roll)" "$work/out" || fail "$(cat "$work/out")"
+# Options the sim's own rules refuse: exit 2, the flag and its value named.
+for bad in "--step 0.5|--step: step 0.5 s: allowed 0 < step <= 0.01 s" \
+           "--watchdog 0|--watchdog 0: watchdog 0 s: allowed > 0" \
+           "--participants a a|--participants a a: participant 'a' is listed twice" \
+           "--lockstep-timeout -1|--lockstep-timeout -1: lockstep timeout -1 s: allowed > 0" \
+           "--mode fast --duration -2|--duration -2: duration -2 s: allowed >= 0" \
+           "--state-every 0|--state-every 0: allowed a whole number >= 1"; do
+  flags=${bad%%|*}
+  # shellcheck disable=SC2086  # the flags are words
+  "$SIRUPP_SIM" $flags --lcm-url memq:// >"$work/out" 2>&1; code=$?
+  [ "$code" = 2 ] || fail "$flags exited $code: $(cat "$work/out")"
+  grep -qF -- "${bad#*|}" "$work/out" || fail "$flags: lacks '${bad#*|}': $(cat "$work/out")"
+done
 "$SIRUPP_SIM" --rt-priority 100 >"$work/out" 2>&1; code=$?
 [ "$code" = 2 ] || fail "--rt-priority 100 exited $code"
 grep -q "rt-priority '100' is not allowed; allowed: 0 (off) or 1 to 99" "$work/out" || fail "$(cat "$work/out")"

@@ -8,7 +8,7 @@
 #include <string>
 #include <vector>
 
-namespace sirupp::tools {
+namespace sirupp::runtime {
 
 class Args {
  public:
@@ -34,4 +34,4 @@ class Args {
 // Parses a decimal number strictly (whole text, finite); throws UsageError naming `what`.
 double ParseNumberArg(const std::string& text, const std::string& what);
 
-}  // namespace sirupp::tools
+}  // namespace sirupp::runtime

@@ -1,4 +1,4 @@
-#include "tools/process_main.hpp"
+#include "runtime/process_main.hpp"
 
 #include <sched.h>
 #include <sys/prctl.h>
@@ -13,9 +13,9 @@
 
 #include "core/bus.hpp"
 #include "core/errors.hpp"
-#include "tools/log_prefix.hpp"
+#include "runtime/log_prefix.hpp"
 
-namespace sirupp::tools {
+namespace sirupp::runtime {
 namespace {
 
 std::atomic<bool> g_stop{false};
@@ -95,4 +95,4 @@ void ServiceUntilSignal(const std::function<bool()>& service) {
   }
 }
 
-}  // namespace sirupp::tools
+}  // namespace sirupp::runtime

@@ -6,9 +6,9 @@
 #include <string>
 #include <vector>
 
-#include "tools/args.hpp"
+#include "runtime/args.hpp"
 
-namespace sirupp::tools {
+namespace sirupp::runtime {
 
 // Runs `run` on the arguments after the program name. --help or -h anywhere prints `usage` and
 // exits 0. core::UsageError: its message and the usage, exit 2. core::ConfigError (a bad model,
@@ -34,4 +34,4 @@ int RtPriorityArg(const Args& args, const std::string& process_name);
 
 void ServiceUntilSignal(const std::function<bool()>& service);
 
-}  // namespace sirupp::tools
+}  // namespace sirupp::runtime

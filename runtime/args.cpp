@@ -1,4 +1,4 @@
-#include "tools/args.hpp"
+#include "runtime/args.hpp"
 
 #include <cctype>
 #include <cmath>
@@ -6,7 +6,7 @@
 
 #include "core/errors.hpp"
 
-namespace sirupp::tools {
+namespace sirupp::runtime {
 
 namespace {
 bool IsFlag(const std::string& text) {
@@ -82,4 +82,4 @@ bool Args::Switch(const std::string& flag) const {
   return true;
 }
 
-}  // namespace sirupp::tools
+}  // namespace sirupp::runtime

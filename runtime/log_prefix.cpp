@@ -1,4 +1,4 @@
-#include "tools/log_prefix.hpp"
+#include "runtime/log_prefix.hpp"
 
 #include <algorithm>
 #include <cctype>
@@ -10,7 +10,7 @@
 #include <streambuf>
 #include <thread>
 
-namespace sirupp::tools {
+namespace sirupp::runtime {
 
 namespace {
 
@@ -198,4 +198,4 @@ std::ostream& Mark(std::ostream& stream, LogLevel level) {
 std::ostream& LogWarn(std::ostream& stream) { return Mark(stream, LogLevel::kWarn); }
 std::ostream& LogError(std::ostream& stream) { return Mark(stream, LogLevel::kError); }
 
-}  // namespace sirupp::tools
+}  // namespace sirupp::runtime

@@ -17,7 +17,7 @@
 #include <ostream>
 #include <string>
 
-namespace sirupp::tools {
+namespace sirupp::runtime {
 
 enum class LogLevel { kInfo, kWarn, kError };
 const char* LogLevelName(LogLevel level);
@@ -60,4 +60,4 @@ class LogPrefix {
 std::ostream& LogWarn(std::ostream& stream);
 std::ostream& LogError(std::ostream& stream);
 
-}  // namespace sirupp::tools
+}  // namespace sirupp::runtime
