@@ -55,7 +55,15 @@ int Run(const std::vector<std::string>& argv) {
       sirupp::core::LoadRobotModel(sirupp::runtime::ResolveDataPath(
           args.Has("model") ? args.String("model") : "config/robots/puma260.yaml"));
   sirupp::control::ControlOptions options;
-  if (args.Has("name")) options.name = args.String("name");
+  if (args.Has("name")) {
+    options.name = args.String("name");
+    // The name the sim waits for in lockstep (--participants); it refuses an empty one too.
+    if (options.name.empty()) {
+      throw sirupp::core::UsageError(
+          "sirupp-control: --name '': allowed a non-empty participant name (as in sirupp-sim "
+          "--participants)");
+    }
+  }
   options.publish_setpoints = !args.Switch("no-setpoints");
   for (const char* flag : {"controller-args", "controller-tick-limit", "controller-in-process"}) {
     if (args.Has(flag) && !args.Has("controller")) {
