@@ -76,11 +76,9 @@ ControlNode::ControlNode(core::Bus& bus, const core::RobotModel& model, ControlO
       channels.estop, [this](const sirupp::estop_t& message, const core::ReceiveInfo& info) {
         OnEstop(message, info);
       });
-  bus_.Subscribe<sirupp::hardware_status_t>(
-      channels.hardware_status,
-      [this](const sirupp::hardware_status_t& message, const core::ReceiveInfo& info) {
-        OnHardwareStatus(message, info);
-      });
+  bus_.Subscribe<sirupp::command_reply_t>(
+      channels.hardware_reply, [this](const sirupp::command_reply_t& message,
+                                      const core::ReceiveInfo&) { OnBridgeReply(message); });
   bus_.Subscribe<sirupp::robot_model_t>(
       channels.robot_model, [this](const sirupp::robot_model_t& message,
                                    const core::ReceiveInfo& info) { OnModel(message, info); });
@@ -331,21 +329,16 @@ void ControlNode::CheckMotionLimits(const std::string& channel,
   }
 }
 
-void ControlNode::OnHardwareStatus(const sirupp::hardware_status_t& message,
-                                   const core::ReceiveInfo& info) {
-  if (message.state < sirupp::hardware_status_t::STATE_DISCONNECTED ||
-      message.state > sirupp::hardware_status_t::STATE_ESTOPPED) {
-    throw core::MessageError(info.channel, "state",
-                             std::to_string(message.state) + ": allowed 0..6 (STATE_*)");
+void ControlNode::OnBridgeReply(const sirupp::command_reply_t& reply) {
+  // The bridge's answer to our latest ARM_MOVE, matched by its channel, utime and seq: the
+  // virtual arm must not make a move the real one refused.
+  if (reply.result != sirupp::command_reply_t::RESULT_REFUSED || move_seq_ == 0 ||
+      !core::RepliesTo(reply, bus_.FullName(options_.channels.arm_move), last_move_utime_,
+                       move_seq_ - 1)) {
+    return;
   }
-  // The bridge names a move it refused as "channel ARM_MOVE: move <id>: <reason>": the virtual
-  // arm must not make a move the real one does not.
-  const std::string tag = "channel " + bus_.FullName(options_.channels.arm_move) + ": move " +
-                          std::to_string(move_id_) + ":";
-  if (message.last_error.rfind(tag, 0) != 0 || message.last_error == bridge_refusal_) return;
-  bridge_refusal_ = message.last_error;
-  const std::string cause = "sirupp-hardware refused move " + std::to_string(move_id_) + ": " +
-                            message.last_error.substr(tag.size() + 1);
+  const std::string cause =
+      "sirupp-hardware refused move " + std::to_string(move_id_) + " (" + reply.error + ")";
   std::cerr << "sirupp-control: " << cause << "; the virtual arm stops too\n";
   if (servos_on_) bank_.StopSmooth();
   PublishStop(sirupp::servo_move_t::COMMAND_STOP_SMOOTH);
@@ -376,6 +369,7 @@ void ControlNode::PublishMove(int8_t command, const std::vector<JointMove>& move
   sirupp::servo_move_t move{};
   move.utime = last_state_utime_;
   move.seq = move_seq_++;
+  last_move_utime_ = move.utime;
   move.move_id = move_id_;
   move.command = command;
   move.num_joints = model_.num_joints();

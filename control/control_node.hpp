@@ -22,8 +22,8 @@
 #include <optional>
 #include <sirupp/arm_command_t.hpp>
 #include <sirupp/arm_state_t.hpp>
+#include <sirupp/command_reply_t.hpp>
 #include <sirupp/estop_t.hpp>
-#include <sirupp/hardware_status_t.hpp>
 #include <sirupp/joint_target_t.hpp>
 #include <sirupp/plan_command_t.hpp>
 #include <sirupp/pose_target_t.hpp>
@@ -99,7 +99,8 @@ class ControlNode {
   void CheckSimAlive();
   // Throws MessageError on `channel` if a move breaks the motion limits the bridge applies.
   void CheckMotionLimits(const std::string& channel, const std::vector<JointMove>& moves) const;
-  void OnHardwareStatus(const sirupp::hardware_status_t& message, const core::ReceiveInfo& info);
+  // A refusal of our latest ARM_MOVE on HARDWARE_REPLY stops the virtual arm too.
+  void OnBridgeReply(const sirupp::command_reply_t& reply);
   // CONTROLLER_GAINS: the live gains, 1 Hz and on change.
   void PublishGains(bool force);
   // Throws MessageError on `channel` while the emergency stop is engaged.
@@ -153,7 +154,6 @@ class ControlNode {
   int64_t gains_seq_ = 0;
   std::vector<servo::ChipGains> chip_gains_;  // the gains in force, as ARM_GAINS set them
   core::MotionLimits motion_limits_;          // the bridge's rule (core/motion_limits.hpp)
-  std::string bridge_refusal_;                // the last refusal taken from HARDWARE_STATUS
 
   // Sequencer.
   std::string estop_;              // who engaged the emergency stop and why; empty when released
@@ -171,6 +171,7 @@ class ControlNode {
   int64_t command_seq_ = 0;
   int64_t setpoint_seq_ = 0;
   int64_t move_seq_ = 0;
+  int64_t last_move_utime_ = 0;  // of the latest ARM_MOVE, to match the bridge's reply
   int64_t status_seq_ = 0;
   std::string last_error_;
   bool law_reset_ = false;

@@ -59,7 +59,15 @@ int Run(const std::vector<std::string>& argv) {
       sirupp::core::LoadRobotModel(sirupp::runtime::ResolveDataPath(
           args.Has("model") ? args.String("model") : "config/robots/puma260.yaml"));
   sirupp::control::ControlOptions options;
-  if (args.Has("name")) options.name = args.String("name");
+  if (args.Has("name")) {
+    options.name = args.String("name");
+    // The name the sim waits for in lockstep (--participants); it refuses an empty one too.
+    if (options.name.empty()) {
+      throw sirupp::core::UsageError(
+          "sirupp-control: --name '': allowed a non-empty participant name (as in sirupp-sim "
+          "--participants)");
+    }
+  }
   options.publish_setpoints = !args.Switch("no-setpoints");
   if (args.Has("sim-timeout")) {
     options.sim_timeout_s = args.Numbers("sim-timeout", 1)[0];

@@ -70,7 +70,10 @@ BridgeNode::BridgeNode(core::Bus& bus, const core::RobotModel& model, ArmLink& l
       });
   bus_.Subscribe<sirupp::servo_move_t>(
       c.arm_move,
-      [this](const sirupp::servo_move_t& m, const core::ReceiveInfo& info) { OnMove(m, info); },
+      [this](const sirupp::servo_move_t& m, const core::ReceiveInfo& info) {
+        replier_.Answer(
+            m, info, [&] { OnMove(m, info); }, [this] { return Facts(); });
+      },
       100);
   bus_.Subscribe<sirupp::servo_gains_t>(
       c.arm_gains, [this](const sirupp::servo_gains_t& m, const core::ReceiveInfo& info) {

@@ -8,8 +8,8 @@
 //      at 10 Hz, and ARM_MOVE) for command expiry.
 // Out: REAL_ARM_STATE and REAL_ARM_SETPOINT every poll (poll_rate_hz), HARDWARE_STATUS (10 Hz and
 //      on every change), REAL_ARM_GAINS (what the modules acknowledged; 1 Hz and on every
-//      change, while connected), HARDWARE_REPLY (one answer per HARDWARE_COMMAND and ARM_GAINS,
-//      naming the request), HEARTBEAT.
+//      change, while connected), HARDWARE_REPLY (one answer per HARDWARE_COMMAND, ARM_MOVE and
+//      ARM_GAINS, naming the request), HEARTBEAT.
 //
 // Safety (each threshold a setting, docs/hardware.md):
 //  - nothing moves unless connected, calibrated and armed; ARM_MOVE only while linked;
@@ -105,7 +105,7 @@ class BridgeNode {
   BridgeOptions options_;
   core::ModelWatch model_watch_;  // the sim's ROBOT_MODEL against ours: one robot
   core::Heartbeat heartbeat_;
-  core::Replier replier_;  // HARDWARE_REPLY: one answer per HARDWARE_COMMAND and ARM_GAINS
+  core::Replier replier_;  // HARDWARE_REPLY: one answer per HARDWARE_COMMAND, ARM_MOVE, ARM_GAINS
 
   Clock::time_point started_;
   Clock::time_point next_cycle_;

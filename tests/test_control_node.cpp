@@ -16,6 +16,7 @@
 #include <sirupp/servo_setpoint_t.hpp>
 
 #include "control/control_node.hpp"
+#include "core/command_reply.hpp"
 #include "core/kinematics.hpp"
 #include "core/model_loader.hpp"
 #include "core/translate.hpp"
@@ -543,12 +544,19 @@ TEST(ControlNode, OneSetOfMotionLimitsWithTheBridge) {
   rig.Send(Target({30, 0, 0, 0, 0, 0}, {1, 0, 0, 0, 0, 0}));
   ASSERT_EQ(rig.control.move_id(), 1);
   for (int64_t k = 5; k < 50; ++k) rig.State(k);
-  sirupp::hardware_status_t refused{};
-  refused.last_error = "channel ARM_MOVE: move 1: joint j1 (waist): speed too high";
-  rig.bus.Publish("HARDWARE_STATUS", refused);
+  // The bridge's reply names the move by its channel, utime and seq; a refusal of another
+  // request (here an older seq) changes nothing.
+  const sirupp::servo_move_t sent = rig.moves.back();
+  const std::string problem = "channel ARM_MOVE: move 1: joint j1 (waist): speed too high";
+  rig.bus.Publish("HARDWARE_REPLY", core::MakeReply("sirupp-hardware", "ARM_MOVE", sent.utime,
+                                                    sent.seq - 1, problem, {}));
+  rig.control.Service(0);
+  EXPECT_EQ(rig.moves.back().command, sirupp::servo_move_t::COMMAND_MOVE);
+  rig.bus.Publish("HARDWARE_REPLY", core::MakeReply("sirupp-hardware", "ARM_MOVE", sent.utime,
+                                                    sent.seq, problem, {}));
   rig.control.Service(0);
   EXPECT_EQ(rig.moves.back().command, sirupp::servo_move_t::COMMAND_STOP_SMOOTH);
-  EXPECT_NE(rig.control.last_error().find("sirupp-hardware refused move 1: joint j1"),
+  EXPECT_NE(rig.control.last_error().find("sirupp-hardware refused move 1 (" + problem + ")"),
             std::string::npos)
       << rig.control.last_error();
 }

@@ -20,6 +20,10 @@ has no_controller_move "$out" "is sirupp-control running"
 # Checks that need no rig.
 run check_sets 0 plan check config/plans/set1.plan config/plans/set7.plan config/plans/tour.plan
 has check_sets "$out" "config/plans/set7.plan: ok: 6 steps, 2 moves; ends at [90 90 90 0 0 0] deg"
+# Bad options of the process itself: exit 2 naming the flag.
+"$SIRUPP_CONTROL" --name "" --lcm-url memq:// >"$out" 2>"$err"; rc=$?
+[[ $rc -eq 2 ]] || { echo "FAIL control_name: exit $rc, expected 2"; fail=1; }
+has control_name "$err" "--name '': allowed a non-empty participant name"
 run check_bad 2 plan check tests/data/bad_plans/04_outside_limits.plan
 has check_bad "$err" "04_outside_limits.plan:2:9: move: joint j2 (shoulder) goal 200 deg is outside"
 run run_bad 2 plan run tests/data/bad_plans/13_unknown_pose.plan --lcm-url "$URL"
