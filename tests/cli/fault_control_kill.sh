@@ -64,7 +64,7 @@ done
 # A new move runs to its goal on both arms (the real arm checked by real_reaches).
 "$SIRUPP" move joints --deg -30 -90 90 0 45 0 --wait --lcm-url "$URL" --timeout 30 >"$work/move2.out" 2>&1 ||
   { echo "FAIL: move 2"; cat "$work/move2.out"; fail=1; }
-real_reaches "" 1 -30 1.5 20
+real_reaches "" 1 -30 2.5 20  # the fitted real arm stops short by its friction (docs/emulator-fit.md)
 watch_arms "" 0.5 "$work/move2.watch"
 cat "$work/move2.watch"
 within virtual_goal "$(arm_value "$work/move2.watch" virtual last 1)" -30 1.0

@@ -21,10 +21,14 @@ for mode in realtime lockstep; do
     "$SIRUPP" status --timeout 1 --lcm-url "$URL" >"$work/status0-$mode.out" 2>&1 && break
     sleep 0.5
   done
-  "$SIRUPP" plan run config/plans/set7.plan --wait --timeout 60 --lcm-url "$URL" \
+  stdbuf -oL "$SIRUPP" plan run config/plans/set7.plan --wait --timeout 60 --lcm-url "$URL" \
     >"$work/plan-$mode.out" 2>&1 &
   plan=$!
-  sleep 2  # into the plan's first move
+  # Into the plan's main move (lockstep runs faster than real time: poll, do not sleep).
+  for ((i = 0; i < 400; ++i)); do
+    grep -q "step 4/6" "$work/plan-$mode.out" 2>/dev/null && break
+    sleep 0.02
+  done
   kill -KILL "$sim"
   wait "$sim" 2>/dev/null
   "$SIRUPP_SIM" --lcm-url "$URL" --mode "$mode" 2>"$work/sim2-$mode.err" &
