@@ -15,16 +15,9 @@
 #include <stdexcept>
 #include <thread>
 
-namespace sirupp::grade {
+#include "core/signal_name.hpp"
 
-std::string SignalText(int signal_number) {
-  const char* abbreviation = sigabbrev_np(signal_number);
-  const char* description = sigdescr_np(signal_number);
-  std::string name = abbreviation != nullptr ? std::string("SIG") + abbreviation
-                                             : "signal " + std::to_string(signal_number);
-  if (description != nullptr) name += std::string(" (") + description + ")";
-  return name;
-}
+namespace sirupp::grade {
 
 Child::~Child() {
   if (pid_ > 0 && !ended_) Stop(0.2);
@@ -85,7 +78,7 @@ bool Child::Running() {
 
 std::string Child::HowEnded() const {
   if (!ended_) return "";
-  if (WIFSIGNALED(status_)) return "crashed with " + SignalText(WTERMSIG(status_));
+  if (WIFSIGNALED(status_)) return "crashed with " + core::SignalDescription(WTERMSIG(status_));
   if (WIFEXITED(status_)) return "exit code " + std::to_string(WEXITSTATUS(status_));
   return "wait status " + std::to_string(status_);
 }

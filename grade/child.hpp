@@ -43,7 +43,4 @@ class Child {
   std::string log_file_;
 };
 
-// "SIGSEGV (Segmentation fault)".
-std::string SignalText(int signal_number);
-
 }  // namespace sirupp::grade

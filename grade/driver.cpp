@@ -1,42 +1,36 @@
 #include "grade/driver.hpp"
 
-#include <sirupp/plan_command_t.hpp>
-
-#include "core/channels.hpp"
+#include <sirupp/controller_status_t.hpp>
 
 namespace sirupp::grade {
+namespace {
 
-PlanDriver::PlanDriver(core::Bus& bus) : bus_(bus) {
-  bus_.Subscribe<sirupp::controller_status_t>(
-      core::Channels{}.controller_status,
-      [this](const sirupp::controller_status_t& message, const core::ReceiveInfo&) {
-        status_ = message;
-        have_status_ = true;
-      });
+client::Options DriverOptions(double answer_timeout_s) {
+  client::Options options;
+  options.sender = "sirupp-grade";
+  options.answer_timeout_s = answer_timeout_s;
+  return options;
 }
 
-void PlanDriver::RunPlan(const std::string& name, const std::string& text) {
-  sirupp::plan_command_t command{};
-  command.utime = 0;
-  command.seq = 0;
-  command.command = sirupp::plan_command_t::COMMAND_RUN;
-  command.name = name;
-  command.text = text;
-  bus_.Publish(core::Channels{}.arm_plan, command);
-  sent_ = true;
+}  // namespace
+
+PlanDriver::PlanDriver(core::Bus& bus, double answer_timeout_s)
+    : client_(bus, DriverOptions(answer_timeout_s)) {}
+
+std::string PlanDriver::RunPlan(const std::string& name, const std::string& text) {
+  const client::Answer answer = client_.RunPlan(name, text);
+  accepted_ = answer.accepted();
+  if (accepted_) return "";
+  if (answer.result == client::Result::kRefused) {
+    return "the controller refused the plan: " + answer.error;
+  }
+  return "the plan was not taken: " + answer.error;
 }
 
-bool PlanDriver::PlanAccepted(const std::string& name) const {
-  using S = sirupp::controller_status_t;
-  return have_status_ && status_.plan_name == name &&
-         (status_.move_id > 0 || status_.state == S::STATE_MOVING ||
-          status_.state == S::STATE_WAITING);
-}
-
-std::string PlanDriver::Problem() const {
-  if (!have_status_ || !sent_) return "";
-  if (Faulted()) return status_.last_error.empty() ? "fault (no cause given)" : status_.last_error;
-  return status_.last_error;
+std::string PlanDriver::Fault() const {
+  const auto& status = client_.snapshot().controller;
+  if (!status || status->state != sirupp::controller_status_t::STATE_FAULT) return "";
+  return status->last_error.empty() ? "fault (no cause given)" : status->last_error;
 }
 
 }  // namespace sirupp::grade

@@ -88,7 +88,7 @@ TaskRecord RunTask(const Suite& suite, const core::RobotModel& model, const Task
   Clock::time_point progress = Clock::now();
 
   core::Bus bus(options.lcm_url);
-  PlanDriver driver(bus);
+  PlanDriver driver(bus, suite.limits.start_s);
   const core::Channels channels;
   const auto answer = [&](int64_t tick) {
     sirupp::arm_command_t command{};
@@ -108,7 +108,7 @@ TaskRecord RunTask(const Suite& suite, const core::RobotModel& model, const Task
     answered = std::max(answered, tick);
   };
   const auto may_answer = [&](int64_t tick) {
-    return tick > 0 || !via_control || driver.PlanAccepted(task.plan_name);
+    return tick > 0 || !via_control || driver.PlanAccepted();
   };
   bus.Subscribe<sirupp::arm_state_t>(channels.sim_arm_state,
                                      [&](const sirupp::arm_state_t& m, const core::ReceiveInfo&) {
@@ -228,17 +228,16 @@ TaskRecord RunTask(const Suite& suite, const core::RobotModel& model, const Task
     bus.Handle(10);
     bus.HandleAvailable();
     if (via_control && !plan_sent && controller_tick >= 0) {
-      driver.RunPlan(task.plan_name, task.plan_text);
+      // Waits for the controller's reply; the bus is handled meanwhile (tick 0 is held until
+      // the plan is taken).
       plan_sent = true;
+      failure = driver.RunPlan(task.plan_name, task.plan_text);
+      if (!failure.empty()) break;
     }
     if (last_state == 0 && answered < 0 && may_answer(0)) answer(0);
-    if (via_control && !driver.Problem().empty()) {
-      if (driver.Faulted()) {
-        failure = "fault: " + driver.Problem();
-      } else if (plan_sent && !driver.PlanAccepted(task.plan_name)) {
-        failure = "the controller refused the plan: " + driver.Problem();
-      }
-      if (!failure.empty()) break;
+    if (via_control && !driver.Fault().empty()) {
+      failure = "fault: " + driver.Fault();
+      break;
     }
     if (!sim.Running()) {
       sim_done = true;

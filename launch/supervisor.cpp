@@ -22,6 +22,7 @@
 #include "core/bus.hpp"
 #include "core/channels.hpp"
 #include "core/errors.hpp"
+#include "core/signal_name.hpp"
 
 namespace sirupp::launch {
 
@@ -67,9 +68,7 @@ const char* HeartbeatState(int8_t state) {
 std::string DescribeStatus(int status) {
   if (WIFEXITED(status)) return "exit code " + std::to_string(WEXITSTATUS(status));
   if (WIFSIGNALED(status)) {
-    const int sig = WTERMSIG(status);
-    const char* name = sigabbrev_np(sig);
-    return std::string("killed by SIG") + (name ? name : std::to_string(sig).c_str());
+    return "killed by " + core::SignalName(WTERMSIG(status));
   }
   return "status " + std::to_string(status);
 }

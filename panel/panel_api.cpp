@@ -81,7 +81,7 @@ Response ErrorResponse(int status, const std::string& message) {
 }
 
 PanelApi::PanelApi(PanelHub& hub, ApiOptions options)
-    : hub_(hub), options_(std::move(options)), commands_(hub, "sirupp-panel") {}
+    : hub_(hub), options_(std::move(options)), commands_(hub) {}
 
 std::string PanelApi::LockHolder() {
   const std::lock_guard<std::mutex> guard(lock_mutex_);
@@ -241,7 +241,7 @@ Response PanelApi::Post(const Request& request, const Json& body) {
     return FromResult(commands_.Estop(engaged, Text(body, "who"), Text(body, "reason")));
   }
   if (path.rfind("/api/hardware/", 0) == 0) {
-    return FromResult(commands_.Hardware(path.substr(14), Text(body, "who")));
+    return FromResult(commands_.Hardware(path.substr(14)));
   }
   return ErrorResponse(404, "no such command: " + core::Printable(path, 200));
 }

@@ -94,6 +94,20 @@ PanelHub::PanelHub(core::Bus& bus, HubOptions options)
       heartbeat_(bus_, "sirupp-panel", channels_.heartbeat) {
   if (options_.fallback_model) SetModel(*options_.fallback_model);
   Subscribe();
+  client::Options client_options;
+  client_options.sender = "sirupp-panel";
+  client_options.answer_timeout_s = options_.answer_timeout_s;
+  client_ = std::make_unique<client::Client>(bus_, client_options);
+  // Called by the client between rounds of handling while a command waits for its reply, with
+  // mutex_ held (WithClient): waits for the bus without the lock, as ServiceOnce does.
+  client_->SetIdle([this] {
+    pollfd fd{};
+    fd.fd = bus_.Fileno();
+    fd.events = POLLIN;
+    mutex_.unlock();
+    ::poll(&fd, 1, 5);
+    mutex_.lock();
+  });
   heartbeat_.Publish(core::ProcessState::kStarting, "");
 }
 

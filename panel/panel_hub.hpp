@@ -1,8 +1,10 @@
 #pragma once
 // The panel's side of the bus: one core::Bus served by one thread, the newest message of every
 // channel the page shows, and the JSON the page is given (model, environment, live state, gains,
-// processes). HTTP threads read snapshots and publish through it; one mutex guards the bus and the
-// data, held only for a HandleAvailable() batch, a snapshot or a publish.
+// processes). HTTP threads read snapshots and send commands through its client (client/, the typed
+// API with replies matched to requests); one mutex guards the bus, the client and the data, held
+// for a HandleAvailable() batch, a snapshot or a command, and let go while a command waits for its
+// reply.
 //
 // The live state is decimated: the sim may publish at 1953 Hz, the hub keeps the newest message and
 // bumps a generation counter; each page's event stream samples it at that page's rate.
@@ -11,6 +13,7 @@
 #include <condition_variable>
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -27,6 +30,7 @@
 #include <string>
 #include <thread>
 
+#include "client/client.hpp"
 #include "core/bus.hpp"
 #include "core/channels.hpp"
 #include "core/heartbeat.hpp"
@@ -41,6 +45,8 @@ struct HubOptions {
   double real_fresh_s = 0.5;  // the real arm is drawn while its newest state is younger than this
   // Drawn until ROBOT_MODEL arrives (--model FILE); the bus's model replaces it.
   std::optional<core::RobotModel> fallback_model;
+  // How long a command waits for sirupp-control's (or sirupp-hardware's) reply.
+  double answer_timeout_s = 2.0;
 };
 
 class PanelHub {
@@ -57,11 +63,15 @@ class PanelHub {
   // Handles what is waiting on the bus, waiting up to timeout_ms for the first message.
   void ServiceOnce(int timeout_ms);
 
-  // Publishes under the hub's lock. Throws core::BusError.
-  template <class Msg>
-  void Publish(const std::string& channel, const Msg& msg) {
+  // Runs fn(client) under the hub's lock and returns what it returns: every command the panel
+  // sends goes through here. While the client waits for a reply it lets go of the lock (polling
+  // the bus without it), so the hub thread keeps serving the pages and an e-stop from another
+  // HTTP thread goes out at once; the client's state is only touched under the lock, so commands
+  // of several threads may interleave, each matched to its own reply. Throws core::BusError.
+  template <class Fn>
+  auto WithClient(Fn&& fn) {
     const std::lock_guard<std::mutex> lock(mutex_);
-    bus_.Publish(channel, msg);
+    return fn(*client_);
   }
 
   const core::Channels& channels() const { return channels_; }
@@ -126,6 +136,8 @@ class PanelHub {
   std::optional<sirupp::servo_gains_t> real_gains_;
   std::optional<sirupp::estop_t> estop_;
   std::map<std::string, std::pair<sirupp::heartbeat_t, int64_t>> heartbeats_;  // key process@host
+  // Last: subscribes on bus_ after the hub's own handlers; its idle function lets go of mutex_.
+  std::unique_ptr<client::Client> client_;
 };
 
 // Shared with the API: degrees (revolute) or millimetres (prismatic) <-> rad / m.

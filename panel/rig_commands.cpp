@@ -1,12 +1,6 @@
 #include "panel/rig_commands.hpp"
 
-#include <chrono>
 #include <cmath>
-#include <sirupp/estop_t.hpp>
-#include <sirupp/hardware_command_t.hpp>
-#include <sirupp/joint_target_t.hpp>
-#include <sirupp/plan_command_t.hpp>
-#include <sirupp/pose_target_t.hpp>
 
 #include "control/plan.hpp"
 #include "control/pose_goal.hpp"
@@ -28,10 +22,26 @@ struct NoModel : std::runtime_error {
 
 }  // namespace
 
-int64_t RigCommands::NowMicros() const {
-  return std::chrono::duration_cast<std::chrono::microseconds>(
-             std::chrono::system_clock::now().time_since_epoch())
-      .count();
+CommandResult FromAnswer(const client::Answer& answer, const std::string& what, Json detail) {
+  detail["request"] = Json{{"channel", answer.request.channel},
+                           {"utime", answer.request.utime},
+                           {"seq", answer.request.seq}};
+  switch (answer.result) {
+    case client::Result::kAccepted: {
+      detail["move_id"] = answer.move_id;
+      detail["status_seq"] = answer.status_seq;
+      std::string message = answer.request.channel + ": " + what + " accepted";
+      if (answer.move_id >= 0) message += " (move " + std::to_string(answer.move_id) + ")";
+      return CommandResult{true, 200, message, std::move(detail)};
+    }
+    case client::Result::kRefused:
+      return CommandResult::Fail(409,
+                                 answer.request.channel + ": " + what + " refused: " + answer.error,
+                                 std::move(detail));
+    case client::Result::kNoAnswer:
+      break;
+  }
+  return CommandResult::Fail(504, answer.error, std::move(detail));
 }
 
 CommandResult RigCommands::MoveJoints(const std::vector<std::optional<double>>& targets,
@@ -48,10 +58,7 @@ CommandResult RigCommands::MoveJoints(const std::vector<std::optional<double>>& 
                                         ": allowed (0, 1], a fraction of the default speed");
   }
   const std::optional<std::vector<double>> goals = hub_.PresentGoals();
-  sirupp::joint_target_t target{};
-  target.utime = NowMicros();
-  target.seq = seq_++;
-  target.num_joints = model->num_joints();
+  client::JointTarget target;
   bool any = false;
   for (size_t j = 0; j < targets.size(); ++j) {
     const core::Joint& joint = model->joints[j];
@@ -77,8 +84,8 @@ CommandResult RigCommands::MoveJoints(const std::vector<std::optional<double>>& 
     target.active.push_back(targets[j] ? 1 : 0);
   }
   if (!any) return CommandResult::Fail(400, "targets: no joint given");
-  hub_.Publish(hub_.channels().arm_target, target);
-  return CommandResult{true, 200, "sent " + hub_.channels().arm_target, Json::object()};
+  return FromAnswer(hub_.WithClient([&](client::Client& rig) { return rig.MoveJoints(target); }),
+                    "joint target");
 }
 
 CommandResult RigCommands::MovePose(const std::vector<double>& v, const std::string& config,
@@ -114,30 +121,24 @@ CommandResult RigCommands::MovePose(const std::vector<double>& v, const std::str
   const control::PoseGoal goal =
       control::SolvePoseGoal(*model, request, core::ToJointVector(reference));
   if (!goal.ok) return CommandResult::Fail(400, "no joint solution: " + goal.reason);
-  sirupp::pose_target_t target{};
-  target.utime = NowMicros();
-  target.seq = seq_++;
+  client::PoseTarget target;
   for (size_t i = 0; i < 3; ++i) target.position[i] = v[i];
   target.orientation[0] = orientation.w();
   target.orientation[1] = orientation.x();
   target.orientation[2] = orientation.y();
   target.orientation[3] = orientation.z();
-  using Pose = sirupp::pose_target_t;
-  if (request.shoulder_left) {
-    target.shoulder = *request.shoulder_left ? Pose::SHOULDER_LEFT : Pose::SHOULDER_RIGHT;
-  }
-  if (request.elbow_up) target.elbow = *request.elbow_up ? Pose::ELBOW_UP : Pose::ELBOW_DOWN;
-  if (request.wrist_flip) {
-    target.wrist = *request.wrist_flip ? Pose::WRIST_FLIP : Pose::WRIST_NO_FLIP;
-  }
+  target.shoulder_left = request.shoulder_left;
+  target.elbow_up = request.elbow_up;
+  target.wrist_flip = request.wrist_flip;
   target.speed_scale = speed_scale;
-  hub_.Publish(hub_.channels().arm_pose_target, target);
+  const client::Answer answer =
+      hub_.WithClient([&](client::Client& rig) { return rig.MovePose(target); });
   Json expected = Json::array();
   for (size_t j = 0; j < model->joints.size(); ++j) {
     expected.push_back(ToDisplay(model->joints[j], goal.q[static_cast<Eigen::Index>(j)]));
   }
-  return CommandResult{true, 200, "sent " + hub_.channels().arm_pose_target,
-                       Json{{"expected", expected}, {"config", goal.config_name}}};
+  return FromAnswer(answer, "tool target",
+                    Json{{"expected", expected}, {"config", goal.config_name}});
 }
 
 CommandResult RigCommands::CheckPlan(const std::string& name, const std::string& text) {
@@ -166,32 +167,21 @@ CommandResult RigCommands::CheckPlan(const std::string& name, const std::string&
 CommandResult RigCommands::RunPlan(const std::string& name, const std::string& text) {
   CommandResult checked = CheckPlan(name, text);
   if (!checked.ok) return checked;
-  sirupp::plan_command_t command{};
-  command.utime = NowMicros();
-  command.seq = seq_++;
-  command.command = sirupp::plan_command_t::COMMAND_RUN;
-  command.name = name;
-  command.text = text;
-  hub_.Publish(hub_.channels().arm_plan, command);
-  checked.message = "sent " + hub_.channels().arm_plan + ": " + checked.message;
-  return checked;
+  const client::Answer answer =
+      hub_.WithClient([&](client::Client& rig) { return rig.RunPlan(name, text); });
+  return FromAnswer(answer, "plan " + name, checked.detail);
 }
 
 CommandResult RigCommands::PlanControl(const std::string& verb) {
-  using P = sirupp::plan_command_t;
-  static const std::pair<const char*, int8_t> kVerbs[] = {
-      {"pause", P::COMMAND_PAUSE},         {"resume", P::COMMAND_RESUME},
-      {"abort", P::COMMAND_ABORT},         {"manual", P::COMMAND_MANUAL},
-      {"automatic", P::COMMAND_AUTOMATIC}, {"clear-fault", P::COMMAND_CLEAR_FAULT}};
-  for (const auto& [word, code] : kVerbs) {
+  using P = client::PlanCommand;
+  static const std::pair<const char*, P> kVerbs[] = {
+      {"pause", P::kPause},   {"resume", P::kResume},       {"abort", P::kAbort},
+      {"manual", P::kManual}, {"automatic", P::kAutomatic}, {"clear-fault", P::kClearFault}};
+  for (const auto& [word, command] : kVerbs) {
     if (verb != word) continue;
-    sirupp::plan_command_t command{};
-    command.utime = NowMicros();
-    command.seq = seq_++;
-    command.command = code;
-    hub_.Publish(hub_.channels().arm_plan, command);
-    return CommandResult{true, 200, "sent " + hub_.channels().arm_plan + ": " + verb,
-                         Json::object()};
+    const P plan_command = command;
+    return FromAnswer(hub_.WithClient([&](client::Client& rig) { return rig.Plan(plan_command); }),
+                      std::string("plan ") + word);
   }
   return CommandResult::Fail(
       404, "plan command '" + core::Printable(verb) +
@@ -235,47 +225,30 @@ CommandResult RigCommands::SetGains(int joint,
   } catch (const std::exception& error) {
     return CommandResult::Fail(400, error.what());
   }
-  message.utime = NowMicros();
-  message.seq = seq_++;
-  hub_.Publish(hub_.channels().arm_gains, message);
-  return CommandResult{true, 200, "sent " + hub_.channels().arm_gains, Json::object()};
+  return FromAnswer(hub_.WithClient([&](client::Client& rig) { return rig.SetGains(message); }),
+                    "gains");
 }
 
 CommandResult RigCommands::Estop(bool engaged, const std::string& who, const std::string& reason) {
-  sirupp::estop_t message{};
-  message.utime = NowMicros();
-  message.seq = seq_++;
-  message.engaged = engaged ? 1 : 0;
-  message.sender = sender_ + (who.empty() ? "" : " (" + core::Printable(who) + ")");
-  message.reason = reason.empty() ? (engaged ? "panel e-stop" : "released in the panel")
-                                  : core::Printable(reason);
-  hub_.Publish(hub_.channels().estop, message);
-  return CommandResult{true, 200,
-                       std::string(engaged ? "engaged " : "released ") + hub_.channels().estop,
+  // ESTOP has no reply (every process obeys it); who pressed it goes in the reason.
+  std::string why = reason.empty() ? (engaged ? "panel e-stop" : "released in the panel")
+                                   : core::Printable(reason);
+  if (!who.empty()) why += " (" + core::Printable(who) + ")";
+  const client::RequestId sent =
+      hub_.WithClient([&](client::Client& rig) { return rig.Estop(engaged, why); });
+  return CommandResult{true, 200, std::string(engaged ? "engaged " : "released ") + sent.channel,
                        Json::object()};
 }
 
-CommandResult RigCommands::Hardware(const std::string& verb, const std::string& who) {
-  using H = sirupp::hardware_command_t;
-  static const std::pair<const char*, int8_t> kVerbs[] = {
-      {"connect", H::COMMAND_CONNECT}, {"calibrate", H::COMMAND_CALIBRATE},
-      {"arm", H::COMMAND_ARM},         {"disarm", H::COMMAND_DISARM},
-      {"link", H::COMMAND_LINK},       {"unlink", H::COMMAND_UNLINK},
-      {"home", H::COMMAND_HOME},       {"clear-faults", H::COMMAND_CLEAR_FAULTS}};
-  for (const auto& [word, code] : kVerbs) {
-    if (verb != word) continue;
-    sirupp::hardware_command_t command{};
-    command.utime = NowMicros();
-    command.seq = seq_++;
-    command.command = code;
-    command.sender = sender_ + (who.empty() ? "" : " (" + core::Printable(who) + ")");
-    hub_.Publish(hub_.channels().hardware_command, command);
-    return CommandResult{true, 200, "sent " + hub_.channels().hardware_command + ": " + verb,
-                         Json::object()};
+CommandResult RigCommands::Hardware(const std::string& verb) {
+  const std::optional<client::HardwareCommand> command = client::HardwareCommandFromName(verb);
+  if (!command) {
+    return CommandResult::Fail(404, "hardware command '" + core::Printable(verb) +
+                                        "' is unknown; allowed: connect, calibrate, arm, disarm, "
+                                        "link, unlink, home, clear-faults");
   }
-  return CommandResult::Fail(404, "hardware command '" + core::Printable(verb) +
-                                      "' is unknown; allowed: connect, calibrate, arm, disarm, "
-                                      "link, unlink, home, clear-faults");
+  return FromAnswer(hub_.WithClient([&](client::Client& rig) { return rig.Hardware(*command); }),
+                    "hardware " + verb);
 }
 
 }  // namespace sirupp::panel

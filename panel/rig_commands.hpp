@@ -1,15 +1,15 @@
 #pragma once
 // Every command the panel sends to the rig, in one place: joint and tool targets, plans,
-// gains, the e-stop and the hardware bridge's verbs. Each checks what it can before sending
-// (limits, the plan text, gain ranges, with the rules of the libraries the controller uses:
-// control::ParsePlan, servo::ChipGainsFromMessage) and then publishes one message through the hub.
-// The controller's answer (accepted, refused and why) reaches the page through CONTROLLER_STATUS
-// in the live state, as it reaches `sirupp status`.
-//
-// This file is the seam for the client library (client/): when it lands these functions become
-// calls into it, and nothing else in panel/ changes.
+// gains, the e-stop and the hardware bridge's verbs. Each turns the page's input (display units,
+// joints left alone, one joint's gains) into the client library's request (client/client.hpp),
+// checks what the page needs shown at a field before sending (limits in the page's units, the
+// plan's line and column, the IK's configuration, gain ranges: with the libraries the controller
+// itself uses, control::ParsePlan, control::SolvePoseGoal, servo::ChipGainsFromMessage), sends it
+// through the hub's client and answers with the reply that names the request:
+//   accepted -> 200 with "CHANNEL: accepted ..." (and move_id, status_seq),
+//   refused  -> 409 with the replier's reason,
+//   no reply -> 504 saying which process was not heard.
 
-#include <atomic>
 #include <optional>
 #include <string>
 #include <vector>
@@ -33,7 +33,7 @@ struct CommandResult {
 
 class RigCommands {
  public:
-  RigCommands(PanelHub& hub, std::string sender) : hub_(hub), sender_(std::move(sender)) {}
+  explicit RigCommands(PanelHub& hub) : hub_(hub) {}
 
   // Joint targets in the model's display units (deg / mm); nullopt leaves the joint alone.
   // speed_scale in (0, 1].
@@ -50,14 +50,14 @@ class RigCommands {
   CommandResult SetGains(int joint, const std::vector<std::pair<std::string, double>>& values);
   CommandResult Estop(bool engaged, const std::string& who, const std::string& reason);
   // "connect", "calibrate", "arm", "disarm", "link", "unlink", "home", "clear-faults".
-  CommandResult Hardware(const std::string& verb, const std::string& who);
+  CommandResult Hardware(const std::string& verb);
 
  private:
-  int64_t NowMicros() const;
-
   PanelHub& hub_;
-  std::string sender_;
-  std::atomic<int64_t> seq_{0};  // HTTP threads send concurrently
 };
+
+// The HTTP answer for a reply (see above); `what` says what was sent, for the message.
+CommandResult FromAnswer(const client::Answer& answer, const std::string& what,
+                         Json detail = Json::object());
 
 }  // namespace sirupp::panel

@@ -1,18 +1,22 @@
 // The panel's request handling (panel/panel_api.cpp) on an in-process memq:// bus, without HTTP:
 // routes and bad requests, the control lock, the token rule, file access limited to config/,
-// and what each command puts on the bus (or that nothing goes out when it is refused).
+// what each command puts on the bus (or that nothing goes out when it is refused), and that the
+// reply naming the request (command_reply_t, through the client library) is the HTTP answer: a
+// stand-in controller and bridge here answer as sirupp-control and sirupp-hardware do.
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <sirupp/estop_t.hpp>
+#include <sirupp/hardware_command_t.hpp>
 #include <sirupp/joint_target_t.hpp>
 #include <sirupp/plan_command_t.hpp>
 #include <sirupp/pose_target_t.hpp>
 #include <sirupp/servo_gains_t.hpp>
 
 #include "core/bus.hpp"
+#include "core/command_reply.hpp"
 #include "core/kinematics.hpp"
 #include "core/model_loader.hpp"
 #include "core/translate.hpp"
@@ -29,21 +33,50 @@ class PanelApiTest : public ::testing::Test {
  protected:
   PanelApiTest() {
     bus_.Subscribe<sirupp::joint_target_t>(
-        "ARM_TARGET", [this](const sirupp::joint_target_t& m, const core::ReceiveInfo&) {
+        "ARM_TARGET", [this](const sirupp::joint_target_t& m, const core::ReceiveInfo& info) {
           targets_.push_back(m);
+          Answer(controller_, m, info, 7);
         });
     bus_.Subscribe<sirupp::pose_target_t>(
-        "ARM_POSE_TARGET",
-        [this](const sirupp::pose_target_t& m, const core::ReceiveInfo&) { poses_.push_back(m); });
+        "ARM_POSE_TARGET", [this](const sirupp::pose_target_t& m, const core::ReceiveInfo& info) {
+          poses_.push_back(m);
+          Answer(controller_, m, info, 8);
+        });
     bus_.Subscribe<sirupp::estop_t>(
         "ESTOP",
         [this](const sirupp::estop_t& m, const core::ReceiveInfo&) { estops_.push_back(m); });
     bus_.Subscribe<sirupp::plan_command_t>(
-        "ARM_PLAN",
-        [this](const sirupp::plan_command_t& m, const core::ReceiveInfo&) { plans_.push_back(m); });
+        "ARM_PLAN", [this](const sirupp::plan_command_t& m, const core::ReceiveInfo& info) {
+          plans_.push_back(m);
+          Answer(controller_, m, info, m.command == sirupp::plan_command_t::COMMAND_RUN ? 9 : -1);
+        });
     bus_.Subscribe<sirupp::servo_gains_t>(
-        "ARM_GAINS",
-        [this](const sirupp::servo_gains_t& m, const core::ReceiveInfo&) { gains_.push_back(m); });
+        "ARM_GAINS", [this](const sirupp::servo_gains_t& m, const core::ReceiveInfo& info) {
+          gains_.push_back(m);
+          Answer(controller_, m, info, -1);
+        });
+    bus_.Subscribe<sirupp::hardware_command_t>(
+        "HARDWARE_COMMAND",
+        [this](const sirupp::hardware_command_t& m, const core::ReceiveInfo& info) {
+          hardware_.push_back(m);
+          Answer(bridge_, m, info, -1);
+        });
+  }
+
+  // The stand-in replier answers as the real one does: accepted, or refused with refuse_ (as the
+  // real one throws); nothing at all while silent_.
+  template <class Msg>
+  void Answer(core::Replier& replier, const Msg& m, const core::ReceiveInfo& info,
+              int64_t move_id) {
+    if (silent_) return;
+    replier.Answer(
+        m, info,
+        [this] {
+          if (!refuse_.empty()) throw std::invalid_argument(refuse_);
+        },
+        [&] {
+          return core::ReplyFacts{refuse_.empty() ? move_id : -1, -1};
+        });
   }
 
   // The sim's model and the controller's gains arrive on the bus.
@@ -71,13 +104,18 @@ class PanelApiTest : public ::testing::Test {
 
   core::RobotModel model_ = core::LoadRobotModel("config/robots/puma260.yaml");
   core::Bus bus_{"memq://"};
-  PanelHub hub_{bus_, HubOptions{}};
+  PanelHub hub_{bus_, HubOptions{0.5, std::nullopt, 0.5}};
+  core::Replier controller_{bus_, "CONTROLLER_REPLY", "stand-in sirupp-control"};
+  core::Replier bridge_{bus_, "HARDWARE_REPLY", "stand-in sirupp-hardware"};
+  std::string refuse_;   // the stand-ins refuse with this text when not empty
+  bool silent_ = false;  // the stand-ins do not answer at all
   PanelApi api_{hub_, ApiOptions{".", "", false, "", std::chrono::seconds(30)}};
   std::vector<sirupp::joint_target_t> targets_;
   std::vector<sirupp::pose_target_t> poses_;
   std::vector<sirupp::estop_t> estops_;
   std::vector<sirupp::plan_command_t> plans_;
   std::vector<sirupp::servo_gains_t> gains_;
+  std::vector<sirupp::hardware_command_t> hardware_;
 };
 
 TEST_F(PanelApiTest, ModelComesFromTheBus) {
@@ -248,6 +286,47 @@ TEST_F(PanelApiTest, IkListsTheConfigurationsAndPoseTargetIsSent) {
   ASSERT_EQ(Post("/api/move/pose", Json{{"pose", pose}, {"config", "nearest"}}.dump()).status, 200);
   ASSERT_EQ(poses_.size(), 1U);
   EXPECT_NEAR(poses_[0].position[0], tool.translation().x(), 1e-12);
+}
+
+TEST_F(PanelApiTest, TheReplyToTheRequestIsTheHttpAnswer) {
+  PublishRig();
+  ASSERT_EQ(Post("/api/lock", R"({"name": "ann"})").status, 200);
+  const std::string move = R"({"targets": [null, 30, null, null, null, null]})";
+  // Accepted: the channel, the move the controller started, the request it answered.
+  Response taken = Post("/api/move/joints", move);
+  ASSERT_EQ(taken.status, 200) << taken.body;
+  EXPECT_EQ(Body(taken)["message"], "ARM_TARGET: joint target accepted (move 7)");
+  EXPECT_EQ(Body(taken)["move_id"], 7);
+  ASSERT_EQ(targets_.size(), 1U);
+  EXPECT_EQ(Body(taken)["request"]["utime"], targets_[0].utime);
+  // Refused: the controller's reason, word for word.
+  refuse_ = "channel ARM_TARGET: mode: manual only";
+  Response refused = Post("/api/move/joints", move);
+  EXPECT_EQ(refused.status, 409);
+  EXPECT_EQ(Body(refused)["error"],
+            "ARM_TARGET: joint target refused: channel ARM_TARGET: mode: manual only");
+  EXPECT_EQ(Post("/api/plan/pause", "{}").status, 409);
+  EXPECT_EQ(Post("/api/gains", R"({"joint": 2, "values": {"kp": 150}})").status, 409);
+  Response hardware = Post("/api/hardware/arm", "{}");
+  EXPECT_EQ(hardware.status, 409);
+  EXPECT_NE(Body(hardware)["error"].get<std::string>().find("HARDWARE_COMMAND: hardware arm"),
+            std::string::npos);
+  ASSERT_EQ(hardware_.size(), 1U);
+  EXPECT_EQ(hardware_[0].command, sirupp::hardware_command_t::COMMAND_ARM);
+  // No controller: the answer says which reply was not heard.
+  refuse_.clear();
+  silent_ = true;
+  Response none = Post("/api/move/joints", move);
+  EXPECT_EQ(none.status, 504);
+  EXPECT_NE(Body(none)["error"].get<std::string>().find("no reply on CONTROLLER_REPLY"),
+            std::string::npos)
+      << none.body;
+  EXPECT_EQ(Post("/api/hardware/connect", "{}").status, 504);
+  // The e-stop has no reply and goes out regardless.
+  EXPECT_EQ(Post("/api/estop", R"({"who": "ann"})").status, 200);
+  ASSERT_EQ(estops_.size(), 1U);
+  EXPECT_EQ(estops_[0].reason, "panel e-stop (ann)");
+  EXPECT_EQ(estops_[0].sender, "sirupp-panel");
 }
 
 }  // namespace
