@@ -2,9 +2,11 @@
 // PD effort towards a fixed pose until it has seen the state of tick --ticks, then prints the
 // number of states and an FNV-1a hash of their bytes (positions, velocities, efforts, flags), so
 // two runs can be compared for bit-identical output. Exit 0 on success, 1 on timeout, 2 on bad
-// arguments.
+// arguments. As a broken student controller (--fault): `joints` sends one effort too few, `nan`
+// sends NaN for joint 1; (--name gives a misspelled sender name).
 
 #include <chrono>
+#include <cmath>
 #include <cstdint>
 #include <cstdio>
 #include <cstring>
@@ -31,6 +33,7 @@ int main(int argc, char** argv) {
   std::string url;
   std::string name = "probe";
   long ticks = 500;
+  std::string fault;
   for (int i = 1; i + 1 < argc; i += 2) {
     const std::string flag = argv[i];
     if (flag == "--lcm-url") {
@@ -39,6 +42,9 @@ int main(int argc, char** argv) {
       name = argv[i + 1];
     } else if (flag == "--ticks") {
       ticks = std::stol(argv[i + 1]);
+    } else if (flag == "--fault" &&
+               (std::strcmp(argv[i + 1], "joints") == 0 || std::strcmp(argv[i + 1], "nan") == 0)) {
+      fault = argv[i + 1];
     } else {
       std::fprintf(stderr, "sim_probe: unknown flag %s\n", flag.c_str());
       return 2;
@@ -77,6 +83,11 @@ int main(int argc, char** argv) {
           command.effort.push_back(8.0 * (target - state.position[static_cast<size_t>(j)]) -
                                    0.4 * state.velocity[static_cast<size_t>(j)]);
         }
+        if (fault == "joints") {
+          command.effort.pop_back();
+          command.num_joints = static_cast<int32_t>(command.effort.size());
+        }
+        if (fault == "nan") command.effort[0] = std::nan("");
         bus.Publish("SIM_ARM_COMMAND", command);
       });
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
