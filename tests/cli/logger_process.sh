@@ -58,7 +58,13 @@ run set1 0 plan run config/plans/set1.plan --wait --lcm-url "$URL" --timeout 60
 # middle of move 3.
 "$SIRUPP" plan run config/plans/set2.plan --wait --lcm-url "$URL" --timeout 60 >"$work/set2.out" 2>&1 &
 plan=$!
-sleep 1.2
+# Into move 3: once logger b has opened set II's file (polled: a sanitizer build is slower), a
+# little more.
+for ((i = 0; i < 400; ++i)); do
+  [[ -e "$work/data/b-03-set2.csv" ]] && break
+  sleep 0.05
+done
+sleep 0.4
 kill -9 "$logger_b"
 wait "$logger_b" 2>/dev/null
 # Restarted with the same command line (what a layout's `restart: on-failure` does): it goes on in
