@@ -26,6 +26,7 @@
 
 #include "control/plugin_controller.hpp"
 #include "core/errors.hpp"
+#include "core/signal_name.hpp"
 #include "core/translate.hpp"
 
 namespace sirupp::control {
@@ -113,22 +114,12 @@ bool SendByte(int socket_fd, char byte) {
 
 std::string ErrnoText(const std::string& what) { return what + ": " + std::strerror(errno); }
 
-// "SIGSEGV (Segmentation fault)".
-std::string SignalName(int signal_number) {
-  const char* abbreviation = sigabbrev_np(signal_number);
-  const char* description = sigdescr_np(signal_number);
-  std::string name = abbreviation != nullptr ? std::string("SIG") + abbreviation
-                                             : "signal " + std::to_string(signal_number);
-  if (description != nullptr) name += std::string(" (") + description + ")";
-  return name;
-}
-
 // How a host process ended, from waitpid's status, while running `where` ("in Update",
 // "while loading ..."): "crashed with SIGSEGV (Segmentation fault) in Update".
 std::string DescribeEnd(int status, const std::string& where) {
   if (WIFSIGNALED(status)) {
     const int signal_number = WTERMSIG(status);
-    std::string text = "crashed with " + SignalName(signal_number) + " " + where;
+    std::string text = "crashed with " + core::SignalDescription(signal_number) + " " + where;
     if (signal_number == SIGABRT) text += ": abort(), a failed assert() or std::terminate";
     return text;
   }

@@ -177,9 +177,7 @@ void ArmLink::Connect() {
   connected_ = true;
 }
 
-void ArmLink::SendGains(int j) {
-  const auto i = static_cast<size_t>(j);
-  const servo::ChipGains& g = gains_[i];
+nmc::Gains BoardGains(const servo::ChipGains& g) {
   nmc::Gains chip;
   chip.kp = static_cast<int16_t>(g.kp);
   chip.kd = static_cast<int16_t>(g.kd);
@@ -190,6 +188,13 @@ void ArmLink::SendGains(int j) {
   chip.error_limit = static_cast<int16_t>(g.error_limit);
   chip.servo_rate = static_cast<uint8_t>(g.servo_rate_divisor);
   chip.deadband = static_cast<uint8_t>(g.deadband);
+  return chip;
+}
+
+void ArmLink::SendGains(int j) {
+  const auto i = static_cast<size_t>(j);
+  const servo::ChipGains& g = gains_[i];
+  const nmc::Gains chip = BoardGains(g);
   board_gains_[i].reset();  // unknown until acknowledged
   bus_.Command(nmc::SetGain(Address(j), chip));
   board_gains_[i] = g;

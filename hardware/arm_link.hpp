@@ -51,6 +51,10 @@ struct ArmReading {
   std::vector<double> effort;           // estimated from the error through Kp (see docs)
 };
 
+// The gains a PIC-SERVO board's SET_GAIN carries, from the chip units servo::ChipGains holds: the
+// one conversion, used by the bridge and by lab/'s in-process experiment.
+nmc::Gains BoardGains(const servo::ChipGains& gains);
+
 class ArmLink {
  public:
   ArmLink(const core::RobotModel& model, const BridgeSettings& settings, BytePort& port);

@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "control/servo_bank.hpp"
+#include "hardware/arm_link.hpp"
 #include "hardware/emulated_arm.hpp"
 #include "hardware/picservo_module.hpp"
 #include "logger/analysis.hpp"
@@ -22,18 +23,7 @@ constexpr double kMaxRunS = 20;
 namespace nmc = hardware::nmc;  // a set that has not finished by then is cut off
 
 nmc::Gains BoardGains(const core::ServoParams& servo) {
-  const servo::ChipGains g = servo::ChipGainsFromModel(servo);
-  nmc::Gains chip;
-  chip.kp = static_cast<int16_t>(g.kp);
-  chip.kd = static_cast<int16_t>(g.kd);
-  chip.ki = static_cast<int16_t>(g.ki);
-  chip.integration_limit = static_cast<int16_t>(g.integration_limit);
-  chip.output_limit = static_cast<uint8_t>(g.output_limit);
-  chip.current_limit = static_cast<uint8_t>(g.current_limit);
-  chip.error_limit = static_cast<int16_t>(g.error_limit);
-  chip.servo_rate = static_cast<uint8_t>(g.servo_rate_divisor);
-  chip.deadband = static_cast<uint8_t>(g.deadband);
-  return chip;
+  return hardware::BoardGains(servo::ChipGainsFromModel(servo));
 }
 
 std::string Fixed(double v, int digits) {
