@@ -42,6 +42,12 @@ target_link_libraries(sirupp_ode_external INTERFACE ${ODE_LIBRARY})
 # nlohmann::json (nlohmann-json3-dev, header-only) for the commands' --json output.
 find_package(nlohmann_json 3 REQUIRED)
 
+# CLI11 (libcli11-dev 2.1, header-only): the command line of every process and `sirupp` command
+# (runtime/args.hpp). Its CLI11Config.cmake defines CLI11::CLI11.
+find_package(CLI11 2.1 REQUIRED)
+add_library(sirupp_cli11_external INTERFACE)
+target_link_libraries(sirupp_cli11_external INTERFACE CLI11::CLI11)
+
 # cpp-httplib (libcpp-httplib-dev) for sirupp-panel's HTTP server and event stream. Debian builds it
 # as a library with OpenSSL, zlib and Brotli support: its pkg-config flags must be used as they are,
 # since they change the layout of httplib::Request.

@@ -16,12 +16,9 @@
 
 namespace {
 
-constexpr const char* kUsage =
-    "usage: sirupp-control [--model FILE] [--name NAME] [--no-setpoints] [--lcm-url URL]\n"
-    "                      [--prefix PREFIX] [--sim-timeout S] [--controller LIB.so "
-    "[--controller-args TEXT]\n"
-    "                      [--controller-tick-limit S] [--controller-in-process]] [--rt-priority "
-    "N]\n"
+using sirupp::runtime::Flag;
+
+constexpr const char* kAbout =
     "The sequencer and the virtual PIC-SERVOs: answers every SIM_ARM_STATE with joint efforts on\n"
     "SIM_ARM_COMMAND (as participant NAME, default sirupp-control); takes joint targets\n"
     "(ARM_TARGET), tool targets through IK (ARM_POSE_TARGET), movement plans and modes (ARM_PLAN)\n"
@@ -43,21 +40,24 @@ constexpr const char* kUsage =
 int Run(const std::vector<std::string>& argv) {
   const sirupp::runtime::Args args(
       argv, "sirupp-control",
-      {{"model", "robot model file"},
-       {"name", "participant name"},
-       {"no-setpoints", "do not publish ARM_SETPOINT"},
-       {"lcm-url", "LCM URL"},
-       {"prefix", "channel prefix of the rig"},
-       {"rt-priority", "SCHED_FIFO priority 1..99 (0: off)"},
-       {"sim-timeout", "seconds without a sim state that abort a plan"},
-       {"controller", "controller library (.so)"},
-       {"controller-args", "arguments for the controller library"},
-       {"controller-tick-limit", "seconds one controller call may take"},
-       {"controller-in-process", "load the library into this process"}});
-  const int rt_priority = sirupp::runtime::RtPriorityArg(args, "sirupp-control");
+      {sirupp::runtime::ModelFlag(), Flag("name", "participant name").Takes("NAME"),
+       Flag("no-setpoints", "do not publish ARM_SETPOINT").Switch(),
+       Flag("lcm-url", "LCM URL").Takes("URL"),
+       Flag("prefix", "channel prefix of the rig").Takes("PREFIX"),
+       sirupp::runtime::RtPriorityFlag(),
+       Flag("sim-timeout", "seconds without a sim state that abort a plan")
+           .Takes("S")
+           .Above(0, 3600),
+       Flag("controller", "controller library (.so)").Takes("LIB.so"),
+       Flag("controller-args", "arguments for the controller library").Takes("TEXT", -1),
+       Flag("controller-tick-limit", "seconds one controller call may take")
+           .Takes("S")
+           .Above(0, 60),
+       Flag("controller-in-process", "load the library into this process").Switch()},
+      kAbout);
+  const int rt_priority = static_cast<int>(args.Integer("rt-priority", 0));
   const sirupp::core::RobotModel model =
-      sirupp::core::LoadRobotModel(sirupp::runtime::ResolveDataPath(
-          args.Has("model") ? args.String("model") : "config/robots/puma260.yaml"));
+      sirupp::core::LoadRobotModel(sirupp::runtime::ModelFileArg(args));
   sirupp::control::ControlOptions options;
   if (args.Has("name")) {
     options.name = args.String("name");
@@ -69,14 +69,7 @@ int Run(const std::vector<std::string>& argv) {
     }
   }
   options.publish_setpoints = !args.Switch("no-setpoints");
-  if (args.Has("sim-timeout")) {
-    options.sim_timeout_s = args.Numbers("sim-timeout", 1)[0];
-    if (!(options.sim_timeout_s > 0) || options.sim_timeout_s > 3600) {
-      throw sirupp::core::UsageError("sirupp-control: --sim-timeout " +
-                                     sirupp::core::FormatNumber(options.sim_timeout_s) +
-                                     ": allowed more than 0 and at most 3600 s");
-    }
-  }
+  options.sim_timeout_s = args.Number("sim-timeout", options.sim_timeout_s);
   for (const char* flag : {"controller-args", "controller-tick-limit", "controller-in-process"}) {
     if (args.Has(flag) && !args.Has("controller")) {
       throw sirupp::core::UsageError(std::string("sirupp-control: --") + flag +
@@ -93,13 +86,7 @@ int Run(const std::vector<std::string>& argv) {
       }
     }
     sirupp::control::IsolationOptions isolation;
-    if (args.Has("controller-tick-limit")) {
-      isolation.tick_limit_s = args.Numbers("controller-tick-limit", 1)[0];
-      if (!(isolation.tick_limit_s > 0) || isolation.tick_limit_s > 60) {
-        throw sirupp::core::UsageError(
-            "sirupp-control: --controller-tick-limit must be more than 0 and at most 60 s");
-      }
-    }
+    isolation.tick_limit_s = args.Number("controller-tick-limit", isolation.tick_limit_s);
     const bool in_process = args.Switch("controller-in-process");
     if (in_process) {
       options.effort_law = std::make_shared<sirupp::control::PluginEffortLaw>(
@@ -139,5 +126,5 @@ int Run(const std::vector<std::string>& argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  return sirupp::runtime::ProcessMain(argc, argv, "sirupp-control", kUsage, Run);
+  return sirupp::runtime::ProcessMain(argc, argv, "sirupp-control", Run);
 }

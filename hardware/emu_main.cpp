@@ -13,18 +13,15 @@
 #include "hardware/emulator.hpp"
 #include "runtime/args.hpp"
 #include "runtime/data_path.hpp"
+#include "runtime/joint_args.hpp"
 #include "runtime/process_main.hpp"
 
 namespace {
 
+using sirupp::runtime::Flag;
+
 constexpr const char* kName = "sirupp-picservo-emu";
-constexpr const char* kUsage =
-    "usage: sirupp-picservo-emu [--model FILE] [--modules N] [--link PATH | --socket PATH]\n"
-    "                           [--real-arm FILE | --friction-scale X]\n"
-    "                           [--start-pose NAME | --start-joints \"DEG DEG ...\"] [--seed S]\n"
-    "                           [--checksum-errors P] [--drop-bytes P] [--silent-module K[@T]...]\n"
-    "                           [--overcurrent K[@T]...] [--pos-error-trip K[@T]...]\n"
-    "                           [--rt-priority N]\n"
+constexpr const char* kAbout =
     "A bus of N emulated PIC-SERVO SC modules (default: one per joint of the model, default\n"
     "config/robots/puma260.yaml) on a pseudo-terminal, each driving one joint of the emulated "
     "arm.\n"
@@ -64,15 +61,6 @@ std::string Milliseconds(double s) {
   return text;
 }
 
-double Probability(const sirupp::runtime::Args& args, const std::string& flag) {
-  const double p = args.Numbers(flag, 1)[0];
-  if (!(p >= 0 && p <= 1)) {
-    throw UsageError(std::string(kName) + ": --" + flag + " " + sirupp::core::FormatNumber(p) +
-                     ": allowed a probability 0..1");
-  }
-  return p;
-}
-
 // "K" or "K@SECONDS", K = 1..modules.
 void ParseFaults(const sirupp::runtime::Args& args, const std::string& flag, TimedFault::Kind kind,
                  int modules, std::vector<TimedFault>* faults) {
@@ -94,49 +82,36 @@ void ParseFaults(const sirupp::runtime::Args& args, const std::string& flag, Tim
 }
 
 int Run(const std::vector<std::string>& argv) {
-  const sirupp::runtime::Args args(argv, kName,
-                                   {{"model", "robot model file"},
-                                    {"modules", "number of modules, 1..32"},
-                                    {"link", "symbolic link to the device"},
-                                    {"socket", "Unix socket path for the line, instead of a pty"},
-                                    {"friction-scale", "static and Coulomb friction factor, >= 0"},
-                                    {"real-arm", "real-arm effects file"},
-                                    {"start-pose", "named pose of the model to power up in"},
-                                    {"start-joints", "joint angles to power up in, degrees"},
-                                    {"seed", "random seed of the faults"},
-                                    {"checksum-errors", "probability 0..1"},
-                                    {"drop-bytes", "probability 0..1"},
-                                    {"silent-module", "K or K@SECONDS"},
-                                    {"overcurrent", "K or K@SECONDS"},
-                                    {"pos-error-trip", "K or K@SECONDS"},
-                                    {"rt-priority", "SCHED_FIFO priority 1..99 (0: off)"}});
-  const int rt_priority = sirupp::runtime::RtPriorityArg(args, kName);
+  const sirupp::runtime::Args args(
+      argv, kName,
+      {sirupp::runtime::ModelFlag(),
+       Flag("modules", "number of modules, 1..32").Takes("N").Integer(1, 32),
+       Flag("link", "symbolic link to the device").Takes("PATH"),
+       Flag("socket", "Unix socket path for the line, instead of a pty").Takes("PATH"),
+       Flag("friction-scale", "static and Coulomb friction factor").Takes("S").AtLeast(0),
+       Flag("real-arm", "real-arm effects file").Takes("FILE"),
+       Flag("start-pose", "named pose of the model to power up in").Takes("NAME"),
+       Flag("start-joints", "joint values to power up in: revolute in degrees, prismatic in metres")
+           .Takes("Q", -1),
+       Flag("seed", "random seed of the faults").Takes("S").Integer(0, 4294967295L),
+       Flag("checksum-errors", "probability 0..1").Takes("P").Range(0, 1),
+       Flag("drop-bytes", "probability 0..1").Takes("P").Range(0, 1),
+       Flag("silent-module", "K or K@SECONDS").Takes("K[@S]"),
+       Flag("overcurrent", "K or K@SECONDS").Takes("K[@S]"),
+       Flag("pos-error-trip", "K or K@SECONDS").Takes("K[@S]"), sirupp::runtime::RtPriorityFlag()},
+      kAbout);
+  const int rt_priority = static_cast<int>(args.Integer("rt-priority", 0));
   sirupp::hardware::EmulatorOptions options;
-  options.model = sirupp::core::LoadRobotModel(sirupp::runtime::ResolveDataPath(
-      args.Has("model") ? args.String("model") : "config/robots/puma260.yaml"));
+  options.model = sirupp::core::LoadRobotModel(sirupp::runtime::ModelFileArg(args));
   const int joints = options.model.num_joints();
-  if (args.Has("modules")) {
-    const double n = args.Numbers("modules", 1)[0];
-    if (n < 1 || n > 32 || n != static_cast<int>(n)) {
-      throw UsageError(std::string(kName) + ": --modules " + sirupp::core::FormatNumber(n) +
-                       ": allowed a whole number 1..32");
-    }
-    options.modules = static_cast<int>(n);
-  }
+  options.modules = static_cast<int>(args.Integer("modules", options.modules));
   const int modules = options.modules == 0 ? joints : options.modules;
   if (args.Has("link")) options.link = args.String("link");
   if (args.Has("socket")) options.socket = args.String("socket");
   if (args.Has("link") && args.Has("socket")) {
     throw UsageError(std::string(kName) + ": --link and --socket: allowed one of them");
   }
-  if (args.Has("friction-scale")) {
-    options.friction_scale = args.Numbers("friction-scale", 1)[0];
-    if (!(options.friction_scale >= 0)) {
-      throw UsageError(std::string(kName) + ": --friction-scale " +
-                       sirupp::core::FormatNumber(options.friction_scale) +
-                       ": allowed a number >= 0");
-    }
-  }
+  options.friction_scale = args.Number("friction-scale", options.friction_scale);
   if (args.Has("real-arm") && args.Has("friction-scale")) {
     throw UsageError(std::string(kName) + ": give --real-arm or --friction-scale, not both");
   }
@@ -170,35 +145,29 @@ int Run(const std::vector<std::string>& argv) {
     }
     if (static_cast<int>(words.size()) != joints) {
       throw UsageError(std::string(kName) + ": --start-joints: " + std::to_string(words.size()) +
-                       " angles given; allowed exactly " + std::to_string(joints) +
-                       " (one per joint, degrees)");
+                       " values given; allowed exactly " + std::to_string(joints) +
+                       " (one per joint: revolute in degrees, prismatic in metres)");
     }
+    std::vector<double> values;
     for (size_t j = 0; j < words.size(); ++j) {
-      const double deg = sirupp::runtime::ParseNumberArg(
-          words[j], std::string(kName) + " --start-joints value " + std::to_string(j + 1));
+      values.push_back(sirupp::runtime::ParseNumberArg(
+          words[j], std::string(kName) + " --start-joints value " + std::to_string(j + 1)));
+    }
+    options.start_positions = sirupp::runtime::FromDegrees(values, options.model);
+    for (size_t j = 0; j < words.size(); ++j) {
       const sirupp::core::Joint& joint = options.model.joints[j];
-      const double min_deg = joint.position_min * 180 / 3.14159265358979323846;
-      const double max_deg = joint.position_max * 180 / 3.14159265358979323846;
-      if (!(deg >= min_deg && deg <= max_deg)) {
+      const double q = options.start_positions[j];
+      if (!(q >= joint.position_min && q <= joint.position_max)) {
         throw UsageError(std::string(kName) + ": --start-joints value " + std::to_string(j + 1) +
-                         " (" + joint.name + ") " + words[j] + " deg: allowed " +
-                         sirupp::core::FormatNumber(min_deg) + ".." +
-                         sirupp::core::FormatNumber(max_deg) + " deg");
+                         " (" + joint.name + ") " + words[j] + ": allowed " +
+                         sirupp::core::FormatNumber(joint.position_min) + ".." +
+                         sirupp::core::FormatNumber(joint.position_max) + " rad or m");
       }
-      options.start_positions.push_back(deg * 3.14159265358979323846 / 180);
     }
   }
-  if (args.Has("seed")) {
-    const double seed = args.Numbers("seed", 1)[0];
-    if (seed < 0 || seed > 4294967295.0 || seed != static_cast<double>(static_cast<long>(seed))) {
-      throw UsageError(std::string(kName) + ": --seed " + sirupp::core::FormatNumber(seed) +
-                       ": allowed a whole number 0..4294967295");
-    }
-    options.seed = static_cast<uint32_t>(seed);
-  }
-  if (args.Has("checksum-errors"))
-    options.checksum_error_rate = Probability(args, "checksum-errors");
-  if (args.Has("drop-bytes")) options.drop_rate = Probability(args, "drop-bytes");
+  options.seed = static_cast<uint32_t>(args.Integer("seed", static_cast<long>(options.seed)));
+  options.checksum_error_rate = args.Number("checksum-errors", options.checksum_error_rate);
+  options.drop_rate = args.Number("drop-bytes", options.drop_rate);
   std::vector<TimedFault> faults;
   ParseFaults(args, "silent-module", TimedFault::kSilent, modules, &faults);
   ParseFaults(args, "overcurrent", TimedFault::kOvercurrent, modules, &faults);
@@ -261,6 +230,4 @@ int Run(const std::vector<std::string>& argv) {
 
 }  // namespace
 
-int main(int argc, char** argv) {
-  return sirupp::runtime::ProcessMain(argc, argv, kName, kUsage, Run);
-}
+int main(int argc, char** argv) { return sirupp::runtime::ProcessMain(argc, argv, kName, Run); }

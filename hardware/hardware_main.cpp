@@ -21,11 +21,9 @@
 
 namespace {
 
-constexpr const char* kUsage =
-    "usage: sirupp-hardware --port DEVICE [--settings FILE] [--model FILE] [--baud N]\n"
-    "                       [--rate HZ] [--emulated] [--calibrate] [--arm] [--link]\n"
-    "                       [--no-connect] [--trace] [--name NAME] [--lcm-url URL]\n"
-    "                       [--prefix PREFIX] [--rt-priority N]\n"
+using sirupp::runtime::Flag;
+
+constexpr const char* kAbout =
     "The bridge to the real arm: starts the PIC-SERVO modules as the vendor library does (reset,\n"
     "address, ids, baud, gains), then obeys HARDWARE_COMMAND (connect, calibrate, arm, disarm,\n"
     "link, unlink, home, clear-faults; `sirupp hardware --help`) and ESTOP, mirrors every\n"
@@ -44,26 +42,24 @@ constexpr const char* kUsage =
 
 int Run(const std::vector<std::string>& argv) {
   using sirupp::core::UsageError;
-  const sirupp::runtime::Args args(argv, "sirupp-hardware",
-                                   {{"port", "serial device"},
-                                    {"settings", "bridge settings file"},
-                                    {"model", "robot model file"},
-                                    {"baud", "baud rate"},
-                                    {"rate", "poll rate in Hz"},
-                                    {"emulated", "the arm is the emulator"},
-                                    {"calibrate", "calibrate at start-up"},
-                                    {"arm", "arm at start-up"},
-                                    {"link", "link at start-up"},
-                                    {"no-connect", "do not connect at start-up"},
-                                    {"trace", "print every packet"},
-                                    {"name", "process name"},
-                                    {"lcm-url", "LCM URL"},
-                                    {"prefix", "channel prefix of the rig"},
-                                    {"rt-priority", "SCHED_FIFO priority 1..99 (0: off)"}});
-  const int rt_priority = sirupp::runtime::RtPriorityArg(args, "sirupp-hardware");
+  const sirupp::runtime::Args args(
+      argv, "sirupp-hardware",
+      {Flag("port", "serial device").Takes("DEVICE"),
+       Flag("settings", "bridge settings file").Takes("FILE"), sirupp::runtime::ModelFlag(),
+       Flag("baud", "baud rate").Takes("N"),
+       Flag("rate", "poll rate in Hz").Takes("HZ").Range(1, 1000),
+       Flag("emulated", "the arm is the emulator").Switch(),
+       Flag("calibrate", "calibrate at start-up").Switch(), Flag("arm", "arm at start-up").Switch(),
+       Flag("link", "link at start-up").Switch(),
+       Flag("no-connect", "do not connect at start-up").Switch(),
+       Flag("trace", "print every packet").Switch(), Flag("name", "process name").Takes("NAME"),
+       Flag("lcm-url", "LCM URL").Takes("URL"),
+       Flag("prefix", "channel prefix of the rig").Takes("PREFIX"),
+       sirupp::runtime::RtPriorityFlag()},
+      kAbout);
+  const int rt_priority = static_cast<int>(args.Integer("rt-priority", 0));
   const sirupp::core::RobotModel model =
-      sirupp::core::LoadRobotModel(sirupp::runtime::ResolveDataPath(
-          args.Has("model") ? args.String("model") : "config/robots/puma260.yaml"));
+      sirupp::core::LoadRobotModel(sirupp::runtime::ModelFileArg(args));
   sirupp::hardware::BridgeSettings settings = sirupp::hardware::LoadBridgeSettings(
       sirupp::runtime::ResolveDataPath(args.Has("settings") ? args.String("settings")
                                                             : "config/hardware/puma260.yaml"),
@@ -82,14 +78,7 @@ int Run(const std::vector<std::string>& argv) {
     }
     settings.baud = static_cast<int>(baud);
   }
-  if (args.Has("rate")) {
-    const double rate = args.Numbers("rate", 1)[0];
-    if (!(rate >= 1 && rate <= 1000)) {
-      throw UsageError("sirupp-hardware: --rate " + sirupp::core::FormatNumber(rate) +
-                       " Hz is not allowed; allowed: 1 to 1000");
-    }
-    settings.poll_rate_hz = rate;
-  }
+  settings.poll_rate_hz = args.Number("rate", settings.poll_rate_hz);
   if (args.Switch("emulated")) {
     settings.emulated = true;
     // The emulator is a thread of a user process on a shared machine: a reply held up by the
@@ -172,5 +161,5 @@ int Run(const std::vector<std::string>& argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  return sirupp::runtime::ProcessMain(argc, argv, "sirupp-hardware", kUsage, Run);
+  return sirupp::runtime::ProcessMain(argc, argv, "sirupp-hardware", Run);
 }

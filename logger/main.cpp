@@ -16,11 +16,9 @@
 
 namespace {
 
-constexpr const char* kUsage =
-    "usage: sirupp-logger [--out DIR] [--name NAME] [--split plan|none] [--rate HZ]\n"
-    "                     [--max-age S] [--idle S] [--velocities] [--efforts] [--note TEXT]\n"
-    "                     [--duration S] [--recv-buf BYTES] [--model FILE] [--lcm-url URL]\n"
-    "                     [--prefix PREFIX]\n"
+using sirupp::runtime::Flag;
+
+constexpr const char* kAbout =
     "Writes the paper's data files: per sample time the set-point (ARM_SETPOINT), the virtual\n"
     "arm (SIM_ARM_STATE) and the real arm (REAL_ARM_STATE) joint positions, as CSV with a\n"
     "commented header, one file per movement set (CONTROLLER_STATUS plan runs):\n"
@@ -59,24 +57,18 @@ std::string WithReceiveBuffer(std::string url, int64_t bytes) {
 }
 
 int Run(const std::vector<std::string>& argv) {
-  const sirupp::runtime::Args args(argv, "sirupp-logger",
-                                   {{"out", "DIR"},
-                                    {"name", "NAME"},
-                                    {"split", "plan|none"},
-                                    {"rate", "HZ"},
-                                    {"max-age", "S"},
-                                    {"idle", "S"},
-                                    {"velocities", "(switch)"},
-                                    {"efforts", "(switch)"},
-                                    {"note", "TEXT"},
-                                    {"duration", "S"},
-                                    {"recv-buf", "BYTES"},
-                                    {"model", "robot model file"},
-                                    {"lcm-url", "LCM URL"},
-                                    {"prefix", "channel prefix of the rig"}});
+  const sirupp::runtime::Args args(
+      argv, "sirupp-logger",
+      {Flag("out", "").Takes("DIR"), Flag("name", "").Takes("NAME"),
+       Flag("split", "").Takes("MODE").OneOf({"plan", "none"}), Flag("rate", "").Takes("HZ"),
+       Flag("max-age", "").Takes("S"), Flag("idle", "").Takes("S"), Flag("velocities", "").Switch(),
+       Flag("efforts", "").Switch(), Flag("note", "").Takes("TEXT", -1),
+       Flag("duration", "").Takes("S"), Flag("recv-buf", "").Takes("BYTES"),
+       sirupp::runtime::ModelFlag(), Flag("lcm-url", "LCM URL").Takes("URL"),
+       Flag("prefix", "channel prefix of the rig").Takes("PREFIX")},
+      kAbout);
   const sirupp::core::RobotModel model =
-      sirupp::core::LoadRobotModel(sirupp::runtime::ResolveDataPath(
-          args.Has("model") ? args.String("model") : "config/robots/puma260.yaml"));
+      sirupp::core::LoadRobotModel(sirupp::runtime::ModelFileArg(args));
   sirupp::logger::LoggerOptions options;
   if (args.Has("out")) options.out_dir = args.String("out");
   if (args.Has("name")) {
@@ -154,5 +146,5 @@ int Run(const std::vector<std::string>& argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  return sirupp::runtime::ProcessMain(argc, argv, "sirupp-logger", kUsage, Run);
+  return sirupp::runtime::ProcessMain(argc, argv, "sirupp-logger", Run);
 }

@@ -24,6 +24,8 @@
 
 namespace {
 
+using sirupp::runtime::Flag;
+
 using sirupp::core::UsageError;
 using sirupp::runtime::Args;
 
@@ -35,10 +37,7 @@ std::string HostName() {
 }
 namespace panel = sirupp::panel;
 
-constexpr const char* kUsage =
-    "usage: sirupp-panel [--port N] [--listen ADDR] [--require-token] [--rate HZ]\n"
-    "                    [--results DIR] [--model FILE] [--open] [--duration S]\n"
-    "                    [--lcm-url URL] [--prefix PREFIX]\n"
+constexpr const char* kAbout =
     "Serves the lab panel in the browser: the 3D view, joints, tool, plans, gains, plots, the\n"
     "real arm, processes, model and environment, live from the bus. Binds 127.0.0.1:8765 by\n"
     "default (this computer only). --listen ADDR (e.g. 0.0.0.0) opens it to a lab network; a\n"
@@ -57,17 +56,14 @@ std::string MakeToken() {
 }
 
 int Run(const std::vector<std::string>& argv) {
-  const Args args(argv, "sirupp-panel",
-                  {{"port", "N"},
-                   {"listen", "ADDR"},
-                   {"require-token", "(switch)"},
-                   {"rate", "HZ"},
-                   {"results", "DIR"},
-                   {"model", "robot model file"},
-                   {"open", "(switch)"},
-                   {"duration", "S"},
-                   {"lcm-url", "LCM URL"},
-                   {"prefix", "channel prefix of the rig"}});
+  const Args args(
+      argv, "sirupp-panel",
+      {Flag("port", "").Takes("N"), Flag("listen", "").Takes("ADDR"),
+       Flag("require-token", "").Switch(), Flag("rate", "").Takes("HZ"),
+       Flag("results", "").Takes("DIR"), sirupp::runtime::ModelFlag(), Flag("open", "").Switch(),
+       Flag("duration", "").Takes("S"), Flag("lcm-url", "LCM URL").Takes("URL"),
+       Flag("prefix", "channel prefix of the rig").Takes("PREFIX")},
+      kAbout);
   panel::ServerOptions server_options;
   if (args.Has("port")) {
     const double port = args.Numbers("port", 1)[0];
@@ -148,5 +144,5 @@ int Run(const std::vector<std::string>& argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  return sirupp::runtime::ProcessMain(argc, argv, "sirupp-panel", kUsage, Run);
+  return sirupp::runtime::ProcessMain(argc, argv, "sirupp-panel", Run);
 }

@@ -15,4 +15,13 @@ std::string ResolveDataPath(const std::string& path) {
   return fs::exists(in_source) ? in_source.string() : path;
 }
 
+Flag ModelFlag() {
+  return Flag("model", std::string("robot model file (default ") + kDefaultModelFile + ")")
+      .Takes("FILE");
+}
+
+std::string ModelFileArg(const Args& args) {
+  return ResolveDataPath(args.Has("model") ? args.String("model") : kDefaultModelFile);
+}
+
 }  // namespace sirupp::runtime

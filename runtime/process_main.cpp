@@ -23,23 +23,19 @@ extern "C" void OnStopSignal(int /*signal*/) { g_stop = true; }
 
 }  // namespace
 
-int ProcessMain(int argc, char** argv, const char* name, const char* usage,
+int ProcessMain(int argc, char** argv, const char* name,
                 const std::function<int(const std::vector<std::string>&)>& run) {
   const std::vector<std::string> args(argv + 1, argv + argc);
-  for (const std::string& arg : args) {
-    if (arg == "--help" || arg == "-h") {
-      std::cout << usage;
-      return 0;
-    }
-  }
   // Every line the process writes to std::cerr or std::cout from here on carries the time, its
   // name and a level (log_prefix.hpp).
   const LogPrefix prefix(name);
   try {
     return run(args);
+  } catch (const HelpRequested& help) {
+    std::ostream(prefix.original(std::cout)) << help.text;  // as it is, unprefixed
+    return 0;
   } catch (const core::UsageError& error) {
     LogError(std::cerr) << error.what() << "\n";
-    std::ostream(prefix.original(std::cerr)) << usage;  // the usage text as it is, unprefixed
     return 2;
   } catch (const core::ConfigError& error) {
     LogError(std::cerr) << name << ": " << error.what() << "\n";
@@ -64,16 +60,11 @@ bool RequestRealtimePriority(int priority, const std::string& process_name) {
   return true;
 }
 
-int RtPriorityArg(const Args& args, const std::string& process_name) {
-  if (!args.Has("rt-priority")) return 0;
-  const std::string text = args.String("rt-priority");
-  char* end = nullptr;
-  const long value = std::strtol(text.c_str(), &end, 10);
-  if (text.empty() || *end != '\0' || value < 0 || value > 99) {
-    throw core::UsageError(process_name + ": --rt-priority '" + text +
-                           "' is not allowed; allowed: 0 (off) or 1 to 99 (SCHED_FIFO)");
-  }
-  return static_cast<int>(value);
+Flag RtPriorityFlag() {
+  return Flag("rt-priority",
+              "run under SCHED_FIFO at priority N (needs root or CAP_SYS_NICE); 0: off")
+      .Takes("N")
+      .Integer(0, 99);
 }
 
 void InstallStopHandlers() {

@@ -10,11 +10,11 @@
 
 namespace sirupp::runtime {
 
-// Runs `run` on the arguments after the program name. --help or -h anywhere prints `usage` and
-// exits 0. core::UsageError: its message and the usage, exit 2. core::ConfigError (a bad model,
-// environment or plan file): "NAME: file:line: ...", exit 2. Any other exception: "NAME: what",
-// exit 1.
-int ProcessMain(int argc, char** argv, const char* name, const char* usage,
+// Runs `run` on the arguments after the program name; `run` parses them with Args. --help and
+// --version (HelpRequested): the text on stdout, exit 0. core::UsageError: its one line (the
+// flag, the bad value, what is allowed), exit 2. core::ConfigError (a bad model, environment or
+// plan file): "NAME: file:line: ...", exit 2. Any other exception: "NAME: what", exit 1.
+int ProcessMain(int argc, char** argv, const char* name,
                 const std::function<int(const std::vector<std::string>&)>& run);
 
 // Calls `service` until it returns false or SIGINT / SIGTERM arrives. A core::BusError raised
@@ -29,8 +29,9 @@ bool StopRequested();
 // CAP_SYS_NICE or an rtprio limit; when refused, one line on stderr and the process carries on at
 // normal priority. Returns whether it was granted. 0 does nothing.
 bool RequestRealtimePriority(int priority, const std::string& process_name);
-// The value of --rt-priority (0 when not given); throws core::UsageError outside 0..99.
-int RtPriorityArg(const Args& args, const std::string& process_name);
+// The declaration of --rt-priority N (a whole number 0..99; 0: off); read it with
+// args.Integer("rt-priority", 0).
+Flag RtPriorityFlag();
 
 void ServiceUntilSignal(const std::function<bool()>& service);
 

@@ -33,6 +33,8 @@ packages=(
   libyaml-cpp-dev libtinyxml2-dev
   # --json output of the sirupp commands, and the panel's JSON
   nlohmann-json3-dev
+  # every command line (flags, --help, --version, checks): CLI11, header-only
+  libcli11-dev
   # sirupp-panel: HTTP server (header-only), the page's 3D and plot libraries (served from
   # /usr/share/javascript, never a CDN)
   libcpp-httplib-dev libjs-three libjs-dygraphs

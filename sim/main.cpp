@@ -12,6 +12,7 @@
 #include "core/model_loader.hpp"
 #include "runtime/args.hpp"
 #include "runtime/data_path.hpp"
+#include "runtime/joint_args.hpp"
 #include "runtime/process_main.hpp"
 #include "sim/arm_world.hpp"
 #include "sim/model_change.hpp"
@@ -19,53 +20,52 @@
 
 namespace {
 
-constexpr const char* kUsage =
-    "usage: sirupp-sim [--model FILE] [--environment FILE] [--mode "
-    "lockstep|realtime|fast|freerun]\n"
-    "                  [--participants NAME...] [--step SECONDS] [--state-every N]\n"
-    "                  [--lockstep-timeout SECONDS] [--watchdog SECONDS] [--duration SECONDS]\n"
-    "                  [--idle hold|limp] [--pose NAME | --position VALUES...] [--no-friction]\n"
-    "                  [--payload-kg KG] [--friction-scale S] [--gravity-off] [--lcm-url URL] "
-    "[--prefix PREFIX] [--rt-priority N]\n"
-    "The ODE physics of a robot model: takes SIM_ARM_COMMAND, publishes SIM_ARM_STATE every tick,\n"
-    "ROBOT_MODEL and ENVIRONMENT at 1 Hz and HEARTBEAT. Positions for --position are in the model\n"
-    "file's angle unit. Defaults: config/robots/puma260.yaml, lockstep with participant\n"
-    "sirupp-control, the model's servo tick (0.512 ms for the PUMA 260). See sim/README.md.\n"
-    "realtime = lockstep paced by the wall clock (every participant answers every tick; the sim\n"
-    "time slips rather than the physics when the PC cannot keep up); freerun = paced, the newest\n"
+using sirupp::runtime::Flag;
+
+constexpr const char* kAbout =
+    "The ODE physics of a robot model: takes SIM_ARM_COMMAND, publishes SIM_ARM_STATE every tick, "
+    "ROBOT_MODEL and ENVIRONMENT at 1 Hz and HEARTBEAT. Defaults: the PUMA 260 model, lockstep "
+    "with participant sirupp-control, the model's servo tick (0.512 ms for the PUMA 260). See "
+    "sim/README.md.\n"
+    "realtime = lockstep paced by the wall clock (every participant answers every tick; the sim "
+    "time slips rather than the physics when the PC cannot keep up); freerun = paced, the newest "
     "command of any sender held (opt-in; stale efforts under load). docs/timing.md.\n"
-    "--rt-priority N: run under SCHED_FIFO at priority N (1..99; needs root or CAP_SYS_NICE), so\n"
-    "realtime ticks start on time on a busy machine (docs/timing.md).\n"
-    "--payload-kg, --friction-scale, --gravity-off change the simulated arm only (a point mass at\n"
-    "the tool point, every friction effort scaled, no gravity); controllers keep their model.\n";
+    "Joint values: docs/command-line.md (--deg: revolute in degrees, prismatic in metres).";
 
 int Run(const std::vector<std::string>& argv) {
   using sirupp::runtime::Args;
-  const Args args(argv, "sirupp-sim",
-                  {{"model", "robot model file"},
-                   {"environment", "environment XML file"},
-                   {"mode", "lockstep, realtime, fast or freerun"},
-                   {"participants", "participant names (lockstep and realtime)"},
-                   {"step", "physics step in seconds"},
-                   {"state-every", "publish the state every N ticks"},
-                   {"lockstep-timeout", "seconds before a silent participant is reported"},
-                   {"watchdog",
-                    "realtime: seconds a participant may be silent before the arm brakes (0.5); "
-                    "freerun: age of a held command (0.05)"},
-                   {"duration", "simulated seconds to run (0 = until stopped)"},
-                   {"idle", "hold or limp before the first command"},
-                   {"pose", "named pose to start in"},
-                   {"position", "start positions, in the model file's angle unit"},
-                   {"no-friction", "switch joint friction off"},
-                   {"payload-kg", "point mass at the tool point, kg"},
-                   {"friction-scale", "scale every friction effort"},
-                   {"gravity-off", "no gravity"},
-                   {"lcm-url", "LCM URL"},
-                   {"prefix", "channel prefix of the rig"},
-                   {"rt-priority", "SCHED_FIFO priority 1..99 (0: off)"}});
-  const int rt_priority = sirupp::runtime::RtPriorityArg(args, "sirupp-sim");
-  const std::string model_file = sirupp::runtime::ResolveDataPath(
-      args.Has("model") ? args.String("model") : "config/robots/puma260.yaml");
+
+  std::vector<Flag> flags = {
+      sirupp::runtime::ModelFlag(),
+      Flag("environment", "environment XML file").Takes("FILE"),
+      Flag("mode", "timing mode").Takes("MODE").OneOf({"lockstep", "realtime", "fast", "freerun"}),
+      Flag("participants", "participant names (lockstep and realtime)").Takes("NAME", -1),
+      Flag("step", "physics step in seconds").Takes("SECONDS"),
+      Flag("state-every", "publish the state every N ticks")
+          .Takes("N")
+          .Integer(1, sirupp::runtime::Flag::kMany),
+      Flag("lockstep-timeout", "seconds before a silent participant is reported").Takes("SECONDS"),
+      Flag("watchdog",
+           "realtime: seconds a participant may be silent before the arm brakes (0.5); freerun: "
+           "age of a held command (0.05)")
+          .Takes("SECONDS"),
+      Flag("duration", "simulated seconds to run (0 = until stopped)").Takes("SECONDS"),
+      Flag("idle", "before the first command").Takes("MODE").OneOf({"hold", "limp"}),
+      Flag("no-friction", "switch joint friction off").Switch(),
+      Flag("payload-kg",
+           "point mass at the tool point, kg (the simulated arm only; controllers keep their "
+           "model)")
+          .Takes("KG"),
+      Flag("friction-scale", "scale every friction effort (the simulated arm only)").Takes("S"),
+      Flag("gravity-off", "no gravity (the simulated arm only)").Switch(),
+      Flag("lcm-url", "LCM URL").Takes("URL"),
+      Flag("prefix", "channel prefix of the rig").Takes("PREFIX"),
+      sirupp::runtime::RtPriorityFlag()};
+  const std::vector<Flag> joint_flags = sirupp::runtime::JointFlags();  // the start position
+  flags.insert(flags.end(), joint_flags.begin(), joint_flags.end());
+  const Args args(argv, "sirupp-sim", flags, kAbout);
+  const int rt_priority = static_cast<int>(args.Integer("rt-priority", 0));
+  const std::string model_file = sirupp::runtime::ModelFileArg(args);
   sirupp::core::RobotModel model = sirupp::core::LoadRobotModel(model_file);
   sirupp::sim::ModelChange change;
   if (args.Has("payload-kg")) change.payload_kg = args.Numbers("payload-kg", 1)[0];
@@ -92,26 +92,14 @@ int Run(const std::vector<std::string>& argv) {
   try {
     if (args.Has("mode")) options.mode = sirupp::sim::ParseTimingMode(args.String("mode"));
     if (args.Has("idle")) {
-      const std::string idle = args.String("idle");
-      if (idle != "hold" && idle != "limp") {
-        throw std::invalid_argument("--idle '" + idle + "': allowed hold, limp");
-      }
-      options.idle =
-          idle == "hold" ? sirupp::core::CommandMode::kHold : sirupp::core::CommandMode::kLimp;
+      options.idle = args.String("idle") == "hold" ? sirupp::core::CommandMode::kHold
+                                                   : sirupp::core::CommandMode::kLimp;
     }
   } catch (const std::invalid_argument& error) {
     throw sirupp::core::UsageError(std::string("sirupp-sim: ") + error.what());
   }
   if (args.Has("participants")) options.participants = args.Values("participants", -1);
-  if (args.Has("state-every")) {
-    const double every = args.Numbers("state-every", 1)[0];
-    if (every < 1 || every != static_cast<int>(every)) {
-      throw sirupp::core::UsageError("sirupp-sim: --state-every " +
-                                     sirupp::core::FormatNumber(every) +
-                                     ": allowed a whole number >= 1");
-    }
-    options.state_every = static_cast<int>(every);
-  }
+  options.state_every = static_cast<int>(args.Integer("state-every", options.state_every));
   if (args.Has("lockstep-timeout")) {
     options.lockstep_timeout_s = args.Numbers("lockstep-timeout", 1)[0];
   }
@@ -122,30 +110,8 @@ int Run(const std::vector<std::string>& argv) {
   }
   if (args.Has("duration")) options.duration_s = args.Numbers("duration", 1)[0];
 
-  std::vector<double> start;
-  if (args.Has("pose") && args.Has("position")) {
-    throw sirupp::core::UsageError("sirupp-sim: give --pose or --position, not both");
-  }
-  if (args.Has("pose")) {
-    const sirupp::core::NamedPose* pose = model.FindNamedPose(args.String("pose"));
-    if (pose == nullptr) {
-      std::string names;
-      for (const auto& named : model.named_poses) names += (names.empty() ? "" : ", ") + named.name;
-      throw sirupp::core::UsageError("sirupp-sim: --pose '" + args.String("pose") +
-                                     "': the model has " + names);
-    }
-    start = pose->position;
-  } else if (args.Has("position")) {
-    start = args.Numbers("position", model.num_joints());
-    const double scale = model.file_angle_unit == "deg" ? 3.14159265358979323846 / 180 : 1.0;
-    for (int j = 0; j < model.num_joints(); ++j) {
-      if (model.joints[static_cast<size_t>(j)].type == sirupp::core::JointType::kRevolute) {
-        start[static_cast<size_t>(j)] *= scale;
-      } else {
-        start[static_cast<size_t>(j)] *= model.file_length_unit_m;
-      }
-    }
-  }
+  const std::vector<double> start = sirupp::runtime::PositionsArg(args, model, "sirupp-sim", false)
+                                        .value_or(std::vector<double>{});
 
   std::optional<sirupp::sim::ArmWorld> world_storage;
   try {
@@ -212,5 +178,5 @@ int Run(const std::vector<std::string>& argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  return sirupp::runtime::ProcessMain(argc, argv, "sirupp-sim", kUsage, Run);
+  return sirupp::runtime::ProcessMain(argc, argv, "sirupp-sim", Run);
 }

@@ -1,5 +1,6 @@
 #include "tools/cli.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -11,6 +12,9 @@
 #include "core/errors.hpp"
 #include "core/model_loader.hpp"
 #include "core/model_report.hpp"
+#include "runtime/app_format.hpp"
+#include "runtime/args.hpp"
+#include "runtime/data_path.hpp"
 #include "tools/control_commands.hpp"
 #include "tools/demo_commands.hpp"
 #include "tools/environment_commands.hpp"
@@ -32,194 +36,212 @@ namespace sirupp::tools {
 namespace {
 
 constexpr int kExitOk = 0;
-constexpr int kExitUsage = 2;
-constexpr const char* kDefaultModel = "config/robots/puma260.yaml";
-
-const char* const kUsage =
-    "usage: sirupp <command> [arguments]\n"
-    "\n"
-    "commands:\n"
-    "  demo [--out DIR] [--sets N..]  the main job: the paper's experiment headless (sim, "
-    "control,\n"
-    "                             emulated real arm, logger, viewer; Table II report, images)\n"
-    "  launch LAYOUT [--host NAME]  run a lab layout's processes (config/labs/*.yaml), live table\n"
-    "  spy [--lcm-url URL]        lcm-spy with our types: every channel decodes by name\n"
-    "  model check FILE...        validate robot model files; exit 2 on the first bad one\n"
-    "  model show FILE            print the DH table and link data, in SI and the file's units\n"
-    "  model export --urdf F | --mjcf F MODEL   the model as URDF or MJCF for other tools\n"
-    "  fk --model FILE --deg Q..  tool pose for joint positions (see sirupp fk --help)\n"
-    "  ik --model FILE --pose X Y Z ROLL PITCH YAW   joint solutions (see sirupp ik --help)\n"
-    "  env check FILE...          validate environment files (objects around the robot); exit 2 on "
-    "a bad one\n"
-    "  env show FILE              list an environment's objects: shape, size, pose, static or "
-    "mass\n"
-    "  reset (--pose NAME | --deg Q..)  teleport the simulated arm (see sirupp reset --help)\n"
-    "  move joints (--pose NAME | --deg Q..) [--wait]  a joint target for sirupp-control\n"
-    "  move pose --pose X Y Z R P Y [--config C]    a tool target, through IK\n"
-    "  plan check FILE...         validate movement plans; exit 2 naming file:line\n"
-    "  plan run FILE [--wait]     run a plan in sirupp-control (also pause, resume, abort,\n"
-    "                             manual, automatic)\n"
-    "  gains [--joint N] [--kp V] [--kd V] ...   the live servo gains: show, or change\n"
-    "  clear-fault                clear sirupp-control's latched fault (servos on, arm held)\n"
-    "  status                     what the controller, the arm and every process report\n"
-    "  hardware connect|calibrate|arm|disarm|link|unlink|home|clear-faults|status\n"
-    "                             the bridge to the real arm (or sirupp-picservo-emu)\n"
-    "  estop [--release]          emergency stop: real motors off, plans aborted\n"
-    "  report FILE|DIR...         Table II report, CSV and plots of logger data files or LCM logs\n"
-    "  grade LIB.so --suite FILE  score a controller beside the PIC-SERVO baseline (--batch DIR)\n"
-    "  fit-emulator [--evaluate]  the paper's sets in one process, both arms; fit the emulated\n"
-    "                             real arm's effects to the paper's Table II\n"
-    "  identify DATA... --model M --out M2   fit a model's friction and armature to real data\n"
-    "  replay LOG [--speed X]     play an lcm-logger file back onto the bus, original timing\n"
-    "  panel [--listen ADDR]      the lab panel in the browser (sirupp-panel); prints its address\n"
-    "  view [--channel NAME]      show sirupp-viewer's images in a window (needs a display)\n"
-    "  help                       this text\n"
-    "\n"
-    "Model files: config/robots/*.yaml, format in docs/model-format.md.\n"
-    "Environment files: config/environments/*.xml, format in docs/environment-format.md.\n"
-    "Plan files: config/plans/*.plan, format in docs/plan-format.md.\n"
-    "Exit codes: 0 success, 1 failure while running, 2 bad arguments or bad input.\n";
+constexpr int kExitAbout = 2;
 
 using Args = std::vector<std::string>;
+using Run = std::function<int(const Args&)>;
 
-int ModelCheck(const Args& files, std::ostream& out) {
-  if (files.empty()) throw core::UsageError("model check: missing FILE");
-  for (const std::string& file : files) {
+const char* const kAbout =
+    "The command line of SIRUPP-LCM. `sirupp COMMAND --help` shows a command's flags.";
+
+const char* const kFooter =
+    "Processes (each with --help): sirupp-sim (ODE physics), sirupp-control (sequencer and "
+    "virtual PIC-SERVOs), sirupp-hardware (bridge to the real arm), sirupp-picservo-emu "
+    "(emulated real arm), sirupp-logger (data files), sirupp-viewer (off-screen images), "
+    "sirupp-panel (browser panel).\n"
+    "Files: config/robots/*.yaml (docs/model-format.md), config/environments/*.xml "
+    "(docs/environment-format.md), config/plans/*.plan (docs/plan-format.md). Joint values on "
+    "every command line: docs/command-line.md.\n"
+    "Exit codes: 0 success, 1 failure while running, 2 bad arguments or bad input.";
+
+int ModelCheck(const Args& args, std::ostream& out) {
+  const runtime::Args parsed(
+      args, "model check", {runtime::Flag("files", "robot model files").Positional("FILE", -1)},
+      "Validates robot model files (docs/model-format.md): one line per file; exit 2 on the "
+      "first bad one, naming file:line.");
+  for (const std::string& file : parsed.Values("files", -1)) {
     const core::RobotModel model = core::LoadRobotModel(file);
     out << file << ": ok: " << core::ModelSummary(model) << "\n";
   }
   return kExitOk;
 }
 
-int ModelShow(const Args& files, std::ostream& out) {
-  if (files.size() != 1) {
-    throw core::UsageError("model show: expected exactly one FILE, got " +
-                           std::to_string(files.size()));
-  }
-  out << core::ModelReport(core::LoadRobotModel(files[0]));
+int ModelShow(const Args& args, std::ostream& out) {
+  const runtime::Args parsed(args, "model show",
+                             {runtime::Flag("file", "robot model file").Positional("FILE", 1)},
+                             "Prints the DH table and link data, in SI and in the file's units.");
+  out << core::ModelReport(core::LoadRobotModel(parsed.String("file")));
   return kExitOk;
 }
 
-// The arm in ODE: released limp from its home pose, one second with joint friction.
+// A command of the tree: the word(s), one summary line, and the function given the arguments
+// after the word(s). The function parses them with runtime::Args, which answers --help.
+struct Command {
+  std::string group;  // "" for a top-level command
+  std::string name;
+  std::string summary;
+  Run run;
+};
+
+std::vector<Command> Commands(std::ostream& out, std::ostream& err) {
+  const auto with = [](const std::string& word, Run run) {
+    return [word, run](const Args& rest) {
+      Args args{word};
+      args.insert(args.end(), rest.begin(), rest.end());
+      return run(args);
+    };
+  };
+  const Run move = [&out](const Args& a) { return RunMove(a, out); };
+  const Run plan = [&out](const Args& a) { return RunPlan(a, out); };
+  const Run hardware = [&out](const Args& a) { return RunHardware(a, out); };
+  const Run env = [&out, &err](const Args& a) { return RunEnv(a, out, err); };
+  std::vector<Command> commands = {
+      {"", "demo", "the main job: the paper's experiment headless, Table II report, images",
+       [&](const Args& a) { return RunDemo(a, out, err); }},
+      {"", "launch", "run a lab layout's processes (config/labs/*.yaml), live table",
+       [&](const Args& a) { return RunLaunch(a, out, err); }},
+      {"", "spy", "lcm-spy with our types: every channel decodes by name",
+       [&](const Args& a) { return RunSpy(a, out, err); }},
+      {"model", "check", "validate robot model files",
+       [&](const Args& a) { return ModelCheck(a, out); }},
+      {"model", "show", "the DH table and link data, in SI and the file's units",
+       [&](const Args& a) { return ModelShow(a, out); }},
+      {"model", "export", "the model as URDF or MJCF for other tools",
+       [&](const Args& a) { return RunModelExport(a, out); }},
+      {"", "fk", "tool pose for joint positions", [&](const Args& a) { return RunFk(a, out); }},
+      {"", "ik", "joint solutions for a tool pose", [&](const Args& a) { return RunIk(a, out); }},
+      {"env", "check", "validate environment files", with("check", env)},
+      {"env", "show", "list an environment's objects", with("show", env)},
+      {"", "reset", "teleport the simulated arm", [&](const Args& a) { return RunReset(a, out); }},
+      {"move", "joints", "a joint target for sirupp-control", with("joints", move)},
+      {"move", "pose", "a tool target, through IK", with("pose", move)},
+      {"plan", "check", "validate movement plans, naming file:line", with("check", plan)},
+      {"plan", "run", "run a plan in sirupp-control", with("run", plan)},
+      {"plan", "pause", "pause the running plan", with("pause", plan)},
+      {"plan", "resume", "resume the paused plan", with("resume", plan)},
+      {"plan", "abort", "abort the plan (the arm holds)", with("abort", plan)},
+      {"plan", "manual", "manual mode: the operator steps the plan", with("manual", plan)},
+      {"plan", "automatic", "automatic mode: the plan runs on", with("automatic", plan)},
+      {"", "gains", "the live servo gains: show, or change",
+       [&](const Args& a) { return RunGains(a, out); }},
+      {"", "clear-fault", "clear sirupp-control's latched fault (servos on, arm held)",
+       with("clear-fault", plan)},
+      {"", "status", "what the controller, the arm and every process report",
+       [&](const Args& a) { return RunStatus(a, out); }},
+      {"", "estop", "emergency stop: real motors off, plans aborted",
+       [&](const Args& a) { return RunEstop(a, out); }},
+      {"", "report", "Table II report, CSV and plots of data files or LCM logs",
+       [&](const Args& a) { return RunReport(a, out, err); }},
+      {"", "grade", "score a controller beside the PIC-SERVO baseline",
+       [&](const Args& a) { return RunGrade(a, out, err); }},
+      {"", "fit-emulator", "fit the emulated real arm's effects to the paper's Table II",
+       [&](const Args& a) { return RunFitEmulator(a, out, err); }},
+      {"", "identify", "fit a model's friction and armature to real data",
+       [&](const Args& a) { return RunIdentify(a, out, err); }},
+      {"", "replay", "play an lcm-logger file back onto the bus, original timing",
+       [&](const Args& a) { return RunReplay(a, out); }},
+      {"", "panel", "the lab panel in the browser (sirupp-panel)",
+       [&](const Args& a) { return RunPanel(a, err); }},
+      {"", "view", "show sirupp-viewer's images in a window (needs a display)",
+       [&](const Args& a) { return RunView(a, out, err); }},
+  };
+  for (const std::string& verb : HardwareVerbs()) {
+    commands.push_back({"hardware", verb, HardwareVerbSummary(verb), with(verb, hardware)});
+  }
+  return commands;
+}
+
+const std::map<std::string, std::string> kGroups = {
+    {"model", "robot model files: check, show, export"},
+    {"env", "environment files: check, show"},
+    {"move", "a joint or tool target for sirupp-control"},
+    {"plan", "movement plans: check, run, pause, resume, abort, modes"},
+    {"hardware", "the bridge to the real arm (or sirupp-picservo-emu)"}};
+
+// The help of `level` itself (CLI::App::help() gives a parsed subcommand's instead).
+std::string HelpOf(const CLI::App& level) {
+  const std::string name =
+      level.get_parent() == nullptr ? level.get_name() : "sirupp " + level.get_name();
+  return level.get_formatter()->make_help(&level, name, CLI::AppFormatMode::Normal);
+}
+
 }  // namespace
 
 int RunCli(const Args& args, std::ostream& out, std::ostream& err) {
-  try {
-    if (args.empty() || args[0] == "help" || args[0] == "--help" || args[0] == "-h") {
-      (args.empty() ? err : out) << kUsage;
-      return args.empty() ? kExitUsage : kExitOk;
-    }
-    const std::string& command = args[0];
-    const Args rest(args.begin() + 1, args.end());
-    const bool wants_help = !rest.empty() && (rest[0] == "--help" || rest[0] == "-h");
-    if (command == "demo") {
-      if (wants_help) return out << kDemoUsage, kExitOk;
-      return RunDemo(rest, out, err);
-    }
-    if (command == "launch") {
-      if (wants_help) return out << kLaunchUsage, kExitOk;
-      return RunLaunch(rest, out, err);
-    }
-    if (command == "spy") {
-      if (wants_help) return out << kSpyUsage, kExitOk;
-      return RunSpy(rest, out, err);
-    }
-    if (command == "fk") {
-      if (wants_help) return out << kFkUsage, kExitOk;
-      return RunFk(rest, out);
-    }
-    if (command == "ik") {
-      if (wants_help) return out << kIkUsage, kExitOk;
-      return RunIk(rest, out);
-    }
-    if (command == "move") {
-      if (wants_help) return out << kMoveUsage, kExitOk;
-      return RunMove(rest, out);
-    }
-    if (command == "plan") {
-      if (wants_help) return out << kPlanUsage, kExitOk;
-      return RunPlan(rest, out);
-    }
-    if (command == "clear-fault") {
-      if (wants_help) return out << kPlanUsage, kExitOk;
-      Args plan_args{"clear-fault"};
-      plan_args.insert(plan_args.end(), rest.begin(), rest.end());
-      return RunPlan(plan_args, out);
-    }
-    if (command == "gains") {
-      if (wants_help) return out << kGainsUsage, kExitOk;
-      return RunGains(rest, out);
-    }
-    if (command == "hardware") {
-      if (wants_help) return out << kHardwareUsage, kExitOk;
-      return RunHardware(rest, out);
-    }
-    if (command == "estop") {
-      if (wants_help) return out << kEstopUsage, kExitOk;
-      return RunEstop(rest, out);
-    }
-    if (command == "status") {
-      if (wants_help) return out << kStatusUsage, kExitOk;
-      return RunStatus(rest, out);
-    }
-    if (command == "panel") {
-      if (wants_help) return out << kPanelUsage, kExitOk;
-      return RunPanel(rest, err);
-    }
-    if (command == "view") {
-      if (wants_help) return out << kViewUsage, kExitOk;
-      return RunView(rest, out, err);
-    }
-    if (command == "report") {
-      if (wants_help) return out << kReportUsage, kExitOk;
-      return RunReport(rest, out, err);
-    }
-    if (command == "grade") {
-      if (wants_help) return out << kGradeUsage, kExitOk;
-      return RunGrade(rest, out, err);
-    }
-    if (command == "fit-emulator") {
-      if (wants_help) return out << kFitEmulatorUsage, kExitOk;
-      return RunFitEmulator(rest, out, err);
-    }
-    if (command == "identify") {
-      if (wants_help) return out << kIdentifyUsage, kExitOk;
-      return RunIdentify(rest, out, err);
-    }
-    if (command == "replay") {
-      if (wants_help) return out << kReplayUsage, kExitOk;
-      return RunReplay(rest, out);
-    }
-    if (command == "reset") {
-      if (wants_help) return out << kResetUsage, kExitOk;
-      return RunReset(rest, out);
-    }
-    if (command == "env") {
-      if (wants_help) return out << kEnvUsage, kExitOk;
-      return RunEnv(rest, out, err);
-    }
-    if (command == "model") {
-      if (rest.empty())
-        throw core::UsageError("model: expected a subcommand: check, show or export");
-      const Args files(rest.begin() + 1, rest.end());
-      if (rest[0] == "check") return ModelCheck(files, out);
-      if (rest[0] == "show") return ModelShow(files, out);
-      if (rest[0] == "export") {
-        if (!files.empty() && (files[0] == "--help" || files[0] == "-h")) {
-          return out << kModelExportUsage, kExitOk;
-        }
-        return RunModelExport(files, out);
+  CLI::App app(kAbout, "sirupp");
+  runtime::ConfigureApp(app, std::string("sirupp ") + runtime::Version());
+  app.footer(kFooter);
+  app.require_subcommand(1);
+  const std::vector<Command> commands = Commands(out, err);
+  std::map<std::string, CLI::App*> groups;
+  const Run* chosen = nullptr;
+  CLI::App* chosen_app = nullptr;
+  CLI::App* help = app.add_subcommand("help", "this text");
+  for (const Command& command : commands) {
+    CLI::App* parent = &app;
+    if (!command.group.empty()) {
+      CLI::App*& group = groups[command.group];
+      if (group == nullptr) {
+        group = app.add_subcommand(command.group, kGroups.at(command.group));
+        group->require_subcommand(1);
+        group->formatter(app.get_formatter());
+        group->set_help_flag("-h,--help", "print this help and exit");
       }
-      throw core::UsageError("model: unknown subcommand '" + rest[0] +
-                             "'; allowed: check, show, export");
+      parent = group;
     }
-    throw core::UsageError("unknown command '" + command + "'; run 'sirupp help'");
+    CLI::App* leaf = parent->add_subcommand(command.name, command.summary);
+    // The leaf's flags are its own (runtime::Args in its function), --help included.
+    leaf->prefix_command();
+    leaf->set_help_flag();
+    leaf->set_version_flag();
+    leaf->callback([&chosen, &chosen_app, &command, leaf] {
+      chosen = &command.run;
+      chosen_app = leaf;
+    });
+  }
+  try {
+    if (args.empty()) {
+      err << HelpOf(app);
+      return kExitAbout;
+    }
+    const auto& subcommands = app.get_subcommands({});
+    if (args[0].rfind("-", 0) != 0 &&
+        std::none_of(subcommands.begin(), subcommands.end(),
+                     [&args](const CLI::App* sub) { return sub->get_name() == args[0]; })) {
+      throw core::UsageError("unknown command '" + args[0] + "'; run 'sirupp help'");
+    }
+    try {
+      std::vector<std::string> reversed(args.rbegin(), args.rend());
+      app.parse(reversed);
+    } catch (const CLI::CallForHelp&) {
+      // The help of the level asked for: `sirupp --help`, `sirupp move --help`.
+      const CLI::App* level = &app;
+      for (const auto& [name, group] : groups) {
+        if (group->parsed()) level = group;
+      }
+      out << HelpOf(*level);
+      return kExitOk;
+    } catch (const CLI::CallForVersion&) {
+      out << "sirupp " << runtime::Version() << "\n";
+      return kExitOk;
+    } catch (const CLI::RequiredError& error) {
+      if (help->parsed()) return out << HelpOf(app), kExitOk;
+      throw core::UsageError(error.what());
+    } catch (const CLI::ParseError& error) {
+      throw core::UsageError(error.what());
+    }
+    if (help->parsed()) return out << HelpOf(app), kExitOk;
+    if (chosen == nullptr) throw core::UsageError("expected a command; run 'sirupp help'");
+    return (*chosen)(chosen_app->remaining());
+  } catch (const runtime::HelpRequested& help_text) {
+    out << help_text.text;
+    return kExitOk;
   } catch (const core::UsageError& error) {
     err << "sirupp: " << error.what() << "\n";
-    return kExitUsage;
+    return kExitAbout;
   } catch (const core::ConfigError& error) {
     err << "error: " << error.what() << "\n";
-    return kExitUsage;
+    return kExitAbout;
   }
 }
 

@@ -108,14 +108,16 @@ double ScaleFrom(const runtime::Args& parsed, const std::string& command) {
 }
 
 int MoveJoints(const std::vector<std::string>& args, std::ostream& out) {
-  const runtime::Args parsed(args, "move joints",
-                             WithRigFlags({{"model", "robot model file"},
-                                           {"pose", "named pose"},
-                                           {"deg", "joint positions in degrees"},
-                                           {"rad", "joint positions in radians"},
-                                           {"scale", "fraction of the default speeds"},
-                                           {"wait", "wait until the move is done"},
-                                           {"timeout", "seconds to wait"}}));
+  const runtime::Args parsed(
+      args, "move joints",
+      WithRigFlags({runtime::ModelFlag(),
+                    {"pose", "named pose"},
+                    {"deg", "joint positions in degrees"},
+                    {"rad", "joint positions in radians"},
+                    {"scale", "fraction of the default speeds"},
+                    runtime::Flag("wait", "wait until the move is done").Switch(),
+                    TimeoutFlag("seconds to wait")}),
+      kMoveAbout);
   const core::RobotModel model = ModelFromArgs(parsed);
   const double scale = ScaleFrom(parsed, "move joints");
   const bool wait = parsed.Switch("wait");
@@ -138,14 +140,16 @@ int MoveJoints(const std::vector<std::string>& args, std::ostream& out) {
 }
 
 int MovePose(const std::vector<std::string>& args, std::ostream& out) {
-  const runtime::Args parsed(args, "move pose",
-                             WithRigFlags({{"model", "robot model file"},
-                                           {"pose", "X Y Z ROLL PITCH YAW (m, deg)"},
-                                           {"position", "X Y Z (m), orientation free"},
-                                           {"config", "SHOULDER-ELBOW-WRIST or nearest"},
-                                           {"scale", "fraction of the default speeds"},
-                                           {"wait", "wait until the move is done"},
-                                           {"timeout", "seconds to wait"}}));
+  const runtime::Args parsed(
+      args, "move pose",
+      WithRigFlags({runtime::ModelFlag(),
+                    {"pose", "X Y Z ROLL PITCH YAW (m, deg)"},
+                    {"position", "X Y Z (m), orientation free"},
+                    {"config", "SHOULDER-ELBOW-WRIST or nearest"},
+                    {"scale", "fraction of the default speeds"},
+                    runtime::Flag("wait", "wait until the move is done").Switch(),
+                    TimeoutFlag("seconds to wait")}),
+      kMoveAbout);
   const core::RobotModel model = ModelFromArgs(parsed);
   if (parsed.Has("pose") == parsed.Has("position")) {
     throw core::UsageError(
@@ -222,13 +226,11 @@ void PrintPlan(std::ostream& out, const core::RobotModel& model, const control::
 }
 
 int PlanCheck(const std::vector<std::string>& args, std::ostream& out) {
-  std::vector<std::string> files;
-  std::vector<std::string> flags;
-  for (const std::string& arg : args) {
-    (arg.rfind("--", 0) == 0 || !flags.empty() ? flags : files).push_back(arg);
-  }
-  const runtime::Args parsed(flags, "plan check", {{"model", "robot model file"}});
-  if (files.empty()) throw core::UsageError("plan check: missing FILE");
+  const runtime::Args parsed(
+      args, "plan check",
+      {runtime::Flag("files", "plan files").Positional("FILE", -1), runtime::ModelFlag()},
+      kPlanAbout);
+  const std::vector<std::string>& files = parsed.Values("files", -1);
   const core::RobotModel model = ModelFromArgs(parsed);
   for (const std::string& file : files) {
     PrintPlan(out, model,
@@ -239,23 +241,23 @@ int PlanCheck(const std::vector<std::string>& args, std::ostream& out) {
 }
 
 int PlanRun(const std::vector<std::string>& args, std::ostream& out) {
-  if (args.empty() || args[0].rfind("--", 0) == 0) throw core::UsageError("plan run: missing FILE");
-  const std::string file = args[0];
-  const runtime::Args parsed(std::vector<std::string>(args.begin() + 1, args.end()), "plan run",
-                             WithRigFlags({{"model", "robot model file"},
-                                           {"wait", "follow the plan to its end"},
-                                           {"timeout", "seconds to wait"}}));
+  const runtime::Args parsed(
+      args, "plan run",
+      WithRigFlags({runtime::Flag("file", "plan file").Positional("FILE"), runtime::ModelFlag(),
+                    runtime::Flag("wait", "follow the plan to its end").Switch(),
+                    TimeoutFlag("seconds to wait")}),
+      kPlanAbout);
   const core::RobotModel model = ModelFromArgs(parsed);
   const bool wait = parsed.Switch("wait");
   const double timeout = TimeoutFrom(parsed, 3600);
   core::Bus bus = BusFromArgs(parsed);
   client::Client rig(bus, {});
-  return RunPlanFile(rig, model, file, wait ? timeout : 0, out);
+  return RunPlanFile(rig, model, parsed.String("file"), wait ? timeout : 0, out);
 }
 
 int PlanControl(client::PlanCommand command, const std::string& word,
                 const std::vector<std::string>& args, std::ostream& out) {
-  const runtime::Args parsed(args, "plan " + word, WithRigFlags({}));
+  const runtime::Args parsed(args, "plan " + word, WithRigFlags({}), kPlanAbout);
   core::Bus bus = BusFromArgs(parsed);
   client::Client rig(bus, {});
   if (!FirstStatus(rig, out)) return kExitFailed;
@@ -270,11 +272,7 @@ int PlanControl(client::PlanCommand command, const std::string& word,
 
 }  // namespace
 
-const char* const kMoveUsage =
-    "usage: sirupp move joints (--pose NAME | --deg Q1 .. QN | --rad Q1 .. QN) [--scale F]\n"
-    "       sirupp move pose (--pose X Y Z ROLL PITCH YAW | --position X Y Z)\n"
-    "                        [--config SHOULDER-ELBOW-WRIST | --config nearest] [--scale F]\n"
-    "  common: [--wait] [--timeout S] [--model FILE] [--lcm-url URL] [--prefix PREFIX]\n"
+const char* const kMoveAbout =
     "  joints: every joint to the given positions (ARM_TARGET), one trapezoidal move per joint.\n"
     "  pose: the tool to a pose in the world frame, metres and degrees (ARM_POSE_TARGET);\n"
     "  sirupp-control solves the IK and takes the configuration asked (e.g. right-up-noflip) or\n"
@@ -283,11 +281,7 @@ const char* const kMoveUsage =
     "  Then the controller's answer is shown: accepted (exit 0) or refused (exit 1, with why);\n"
     "  --wait follows the move until it is done.\n";
 
-const char* const kPlanUsage =
-    "usage: sirupp plan check FILE... [--model FILE]\n"
-    "       sirupp plan run FILE [--wait] [--timeout S] [--model FILE]\n"
-    "       sirupp plan pause | resume | abort | manual | automatic\n"
-    "  common: [--lcm-url URL] [--prefix PREFIX]\n"
+const char* const kPlanAbout =
     "  check: validates plans completely (from the model's home pose); exit 2 naming file:line.\n"
     "  run: validates from the arm's present goals, sends the plan text on ARM_PLAN and confirms\n"
     "  it started; --wait prints each step and exits 0 when the plan finished, 1 if it was\n"
@@ -298,9 +292,7 @@ const char* const kPlanUsage =
     "  the arm and refuses targets and plans, naming its first cause, until `sirupp "
     "clear-fault`.\n";
 
-const char* const kGainsUsage =
-    "usage: sirupp gains [--joint N] [--kp V] [--kd V] [--ki V] [--il V] [--ol V] [--el V]\n"
-    "                    [--db V] [--model FILE] [--lcm-url URL] [--prefix PREFIX]\n"
+const char* const kGainsAbout =
     "  Sets the servo filter gains of sirupp-control live (ARM_GAINS), in PIC-SERVO units\n"
     "  (docs/servo-units.md): Kp, Kd, Ki, integration limit, output limit (PWM 0..255), error\n"
     "  limit (counts) and deadband. Only what is named changes: the rest is taken from the live\n"
@@ -309,8 +301,7 @@ const char* const kGainsUsage =
     "  the real boards (REAL_ARM_GAINS); the bridge loads ARM_GAINS into the boards too.\n"
     "  Out-of-range values exit 2; nothing is sent.\n";
 
-const char* const kStatusUsage =
-    "usage: sirupp status [--timeout S] [--lcm-url URL] [--prefix PREFIX]\n"
+const char* const kStatusAbout =
     "  What the rig reports over about one second (--timeout, default 1.5): sirupp-control's\n"
     "  mode, state, move, plan step and last error; the arm's joints and set-points; and every\n"
     "  process heard on HEARTBEAT with its refused messages and decode errors per channel; the\n"
@@ -396,7 +387,7 @@ void PrintGains(std::ostream& out, const std::string& title, const sirupp::servo
 
 int RunGains(const std::vector<std::string>& args, std::ostream& out) {
   const runtime::Args parsed(args, "gains",
-                             WithRigFlags({{"model", "robot model file"},
+                             WithRigFlags({runtime::ModelFlag(),
                                            {"joint", "joint number, 1-based"},
                                            {"kp", "position gain 0..32767"},
                                            {"kd", "derivative gain 0..32767"},
@@ -404,7 +395,8 @@ int RunGains(const std::vector<std::string>& args, std::ostream& out) {
                                            {"il", "integration limit 0..32767"},
                                            {"ol", "output limit 0..255"},
                                            {"el", "position-error limit 0..16383 counts"},
-                                           {"db", "deadband 0..255"}}));
+                                           {"db", "deadband 0..255"}}),
+                             kGainsAbout);
   const core::RobotModel model = ModelFromArgs(parsed);
   const int n = model.num_joints();
   int only = -1;
@@ -522,9 +514,9 @@ int RunGains(const std::vector<std::string>& args, std::ostream& out) {
 }
 
 int RunStatus(const std::vector<std::string>& args, std::ostream& out) {
-  const runtime::Args parsed(
-      args, "status",
-      WithRigFlags({{"timeout", "seconds to listen"}, {"model", "robot model file"}}));
+  const runtime::Args parsed(args, "status",
+                             WithRigFlags({TimeoutFlag("seconds to listen"), runtime::ModelFlag()}),
+                             kStatusAbout);
   const double listen = TimeoutFrom(parsed, 1.5);
   const core::RobotModel model = ModelFromArgs(parsed);
   core::Bus bus = BusFromArgs(parsed);

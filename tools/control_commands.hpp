@@ -17,10 +17,10 @@
 
 namespace sirupp::tools {
 
-extern const char* const kMoveUsage;
-extern const char* const kPlanUsage;
-extern const char* const kGainsUsage;
-extern const char* const kStatusUsage;
+extern const char* const kMoveAbout;
+extern const char* const kPlanAbout;
+extern const char* const kGainsAbout;
+extern const char* const kStatusAbout;
 
 int RunMove(const std::vector<std::string>& args, std::ostream& out);
 int RunPlan(const std::vector<std::string>& args, std::ostream& out);

@@ -34,8 +34,7 @@ namespace sirupp::tools {
 
 namespace fs = std::filesystem;
 
-const char* const kDemoUsage =
-    "usage: sirupp demo [--out DIR] [--sets N...] [--layout FILE] [--lcm-url URL]\n"
+const char* const kDemoAbout =
     "The main job: the SIRUPP paper's experiment, headless. Starts the processes of --layout\n"
     "(default config/labs/demo.yaml: sirupp-picservo-emu, sirupp-sim, sirupp-control,\n"
     "sirupp-hardware linked to the emulated arm, sirupp-logger, sirupp-viewer), runs the movement\n"
@@ -135,7 +134,10 @@ bool WaitLinked(const std::string& url, const std::string& prefix, double timeou
 
 int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   const runtime::Args parsed(
-      args, "demo", {{"out", "DIR"}, {"sets", "N..."}, {"layout", "FILE"}, {"lcm-url", "URL"}});
+      args, "demo",
+      {runtime::Flag("out", "").Takes("DIR"), runtime::Flag("sets", "").Takes("N..."),
+       runtime::Flag("layout", "").Takes("FILE"), runtime::Flag("lcm-url", "").Takes("URL")},
+      kDemoAbout);
   std::vector<int> sets = {1, 2, 3, 4, 5, 6, 7};
   if (parsed.Has("sets")) {
     sets.clear();

@@ -9,7 +9,7 @@
 
 namespace sirupp::tools {
 
-extern const char* const kDemoUsage;
+extern const char* const kDemoAbout;
 
 // Exit 0 when every set ran and every process stopped cleanly, 1 otherwise, 2 for bad arguments.
 int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);

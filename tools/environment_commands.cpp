@@ -8,12 +8,11 @@
 #include "core/environment.hpp"
 #include "core/errors.hpp"
 #include "core/kinematics.hpp"
+#include "runtime/args.hpp"
 
 namespace sirupp::tools {
 
-const char* const kEnvUsage =
-    "usage: sirupp env check FILE...\n"
-    "       sirupp env show FILE\n"
+const char* const kEnvAbout =
     "  Environment files (config/environments/*.xml) list the objects around the robot: boxes,\n"
     "  cylinders, spheres and capsules, static or free, in the world frame (z up).\n"
     "  check: one line per file, 'FILE: ok: ...' or 'error: FILE:LINE: path: problem'.\n"
@@ -106,10 +105,12 @@ std::string Report(const core::Environment& environment) {
   return text;
 }
 
-int Check(const std::vector<std::string>& files, std::ostream& out, std::ostream& err) {
-  if (files.empty()) throw core::UsageError("env check: missing FILE");
+int Check(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  const runtime::Args parsed(args, "env check",
+                             {runtime::Flag("files", "environment files").Positional("FILE", -1)},
+                             kEnvAbout);
   int status = kExitOk;
-  for (const std::string& file : files) {
+  for (const std::string& file : parsed.Values("files", -1)) {
     try {
       const core::Environment environment = core::LoadEnvironment(file);
       out << file << ": ok: " << Summary(environment) << "\n";
@@ -121,13 +122,11 @@ int Check(const std::vector<std::string>& files, std::ostream& out, std::ostream
   return status;
 }
 
-int Show(const std::vector<std::string>& files, std::ostream& out, std::ostream& err) {
-  if (files.size() != 1) {
-    throw core::UsageError("env show: expected exactly one FILE, got " +
-                           std::to_string(files.size()));
-  }
+int Show(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  const runtime::Args parsed(
+      args, "env show", {runtime::Flag("file", "environment file").Positional("FILE")}, kEnvAbout);
   try {
-    const core::Environment environment = core::LoadEnvironment(files[0]);
+    const core::Environment environment = core::LoadEnvironment(parsed.String("file"));
     out << Report(environment);
   } catch (const core::ConfigError& error) {
     err << "error: " << error.what() << "\n";
@@ -139,8 +138,6 @@ int Show(const std::vector<std::string>& files, std::ostream& out, std::ostream&
 }  // namespace
 
 int RunEnv(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  if (args.empty()) throw core::UsageError("env: expected a subcommand: check or show");
-  if (args[0] == "--help" || args[0] == "-h") return out << kEnvUsage, kExitOk;
   const std::vector<std::string> files(args.begin() + 1, args.end());
   if (args[0] == "check") return Check(files, out, err);
   if (args[0] == "show") return Show(files, out, err);

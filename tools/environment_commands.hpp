@@ -8,7 +8,7 @@
 
 namespace sirupp::tools {
 
-extern const char* const kEnvUsage;
+extern const char* const kEnvAbout;
 
 // args: the words after "env". Exit 0 when every file loads, 2 with one error line per bad file;
 // bad arguments throw core::UsageError (exit 2).

@@ -12,8 +12,7 @@
 
 namespace sirupp::tools {
 
-const char* const kModelExportUsage =
-    "usage: sirupp model export (--urdf FILE | --mjcf FILE)... MODEL.yaml\n"
+const char* const kModelExportAbout =
     "  Writes the robot model as URDF (ROS, MoveIt, Drake, PyBullet) and/or MJCF (MuJoCo): links\n"
     "  with mass, centre of mass and inertia; joints with limits, effort, velocity, friction and\n"
     "  armature; visual and collision shapes; base and tool poses. FILE '-' writes to standard\n"
@@ -37,25 +36,15 @@ void Write(const std::string& path, const std::string& text, std::ostream& out) 
 }  // namespace
 
 int RunModelExport(const std::vector<std::string>& args, std::ostream& out) {
-  std::string urdf, mjcf, model_file;
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& arg = args[i];
-    if (arg == "--urdf" || arg == "--mjcf") {
-      std::string& target = arg == "--urdf" ? urdf : mjcf;
-      if (i + 1 >= args.size()) throw core::UsageError("model export: " + arg + " needs a FILE");
-      if (!target.empty()) throw core::UsageError("model export: " + arg + " given twice");
-      target = args[++i];
-      if (target.empty()) throw core::UsageError("model export: " + arg + " needs a FILE");
-    } else if (arg.size() > 1 && arg[0] == '-' && arg[1] == '-') {
-      throw core::UsageError("model export: unknown option '" + arg + "'; allowed: --urdf, --mjcf");
-    } else if (model_file.empty()) {
-      model_file = arg;
-    } else {
-      throw core::UsageError("model export: expected one MODEL.yaml, got '" + model_file +
-                             "' and '" + arg + "'");
-    }
-  }
-  if (model_file.empty()) throw core::UsageError("model export: missing MODEL.yaml");
+  const runtime::Args parsed(
+      args, "model export",
+      {runtime::Flag("model", "the robot model file").Positional("MODEL.yaml"),
+       runtime::Flag("urdf", "write URDF to FILE ('-': stdout)").Takes("FILE"),
+       runtime::Flag("mjcf", "write MJCF to FILE ('-': stdout)").Takes("FILE")},
+      kModelExportAbout);
+  const std::string urdf = parsed.Has("urdf") ? parsed.String("urdf") : "";
+  const std::string mjcf = parsed.Has("mjcf") ? parsed.String("mjcf") : "";
+  const std::string model_file = parsed.String("model");
   if (urdf.empty() && mjcf.empty()) {
     throw core::UsageError("model export: nothing to write: give --urdf FILE and/or --mjcf FILE");
   }

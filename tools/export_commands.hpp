@@ -7,7 +7,7 @@
 
 namespace sirupp::tools {
 
-extern const char* const kModelExportUsage;
+extern const char* const kModelExportAbout;
 
 // args: what follows `sirupp model export`.
 int RunModelExport(const std::vector<std::string>& args, std::ostream& out);

@@ -18,10 +18,9 @@
 namespace sirupp::tools {
 namespace fs = std::filesystem;
 
-const char* const kGradeUsage =
-    "usage: sirupp grade LIB.so --suite FILE [--args TEXT] [--out DIR] [-j N] [--no-baseline]\n"
-    "       sirupp grade --suite FILE [--out DIR] [-j N] [--no-baseline] -- COMMAND ...\n"
-    "       sirupp grade --batch DIR --suite FILE [--out DIR] [-j N]\n"
+const char* const kGradeAbout =
+    "Three forms: LIB.so (a controller library), -- COMMAND ... (a process controller), or\n"
+    "--batch DIR (a class).\n"
     "Runs every task of the suite (config/grading/basic.yaml, advanced.yaml) for a student's\n"
     "controller and for the baseline (the PIC-SERVO PID with the model's gains), each task in\n"
     "lockstep on a private bus with the controller in its own process, N tasks at a time.\n"
@@ -52,47 +51,33 @@ std::string LoadProblem(const grade::ControllerResult& result) {
 }  // namespace
 
 int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  std::string suite_file, out_dir = "grade-out", batch, library, library_args;
-  std::vector<std::string> command;
-  int jobs = 1;
-  bool baseline = true;
-  const auto value = [&args](size_t& i) {
-    if (i + 1 >= args.size()) throw core::UsageError("grade: " + args[i] + " needs a value");
-    return args[++i];
-  };
-  for (size_t i = 0; i < args.size(); ++i) {
-    const std::string& arg = args[i];
-    if (arg == "--") {
-      command.assign(args.begin() + static_cast<long>(i) + 1, args.end());
-      if (command.empty()) throw core::UsageError("grade: -- needs a COMMAND");
-      break;
-    }
-    if (arg == "--suite") {
-      suite_file = value(i);
-    } else if (arg == "--out") {
-      out_dir = value(i);
-    } else if (arg == "--batch") {
-      batch = value(i);
-    } else if (arg == "--args") {
-      library_args = value(i);
-    } else if (arg == "--no-baseline") {
-      baseline = false;
-    } else if (arg == "-j" || arg == "--jobs") {
-      const std::string text = value(i);
-      char* end = nullptr;
-      const long n = std::strtol(text.c_str(), &end, 10);
-      if (end == text.c_str() || *end != '\0' || n < 1 || n > 64) {
-        throw core::UsageError("grade: -j '" + text + "': allowed a whole number 1..64");
-      }
-      jobs = static_cast<int>(n);
-    } else if (arg.rfind("-", 0) == 0) {
-      throw core::UsageError("grade: unknown option '" + arg + "' (see sirupp grade --help)");
-    } else if (library.empty()) {
-      library = arg;
-    } else {
-      throw core::UsageError("grade: more than one controller ('" + library + "', '" + arg + "')");
-    }
+  // Everything after "--" is the process controller's command line, not ours.
+  const auto dash = std::find(args.begin(), args.end(), std::string("--"));
+  const std::vector<std::string> command(dash == args.end() ? dash : dash + 1, args.end());
+  if (dash != args.end() && command.empty()) throw core::UsageError("grade: -- needs a COMMAND");
+  const runtime::Args parsed(
+      std::vector<std::string>(args.begin(), dash), "grade",
+      {runtime::Flag("library", "a controller library").Positional("LIB.so", 0),
+       runtime::Flag("suite", "the grading suite").Takes("FILE"),
+       runtime::Flag("args", "arguments for the library's constructor").Takes("TEXT"),
+       runtime::Flag("out", "report folder (default grade-out)").Takes("DIR"),
+       runtime::Flag("batch", "one controller per sub-folder").Takes("DIR"),
+       runtime::Flag("no-baseline", "do not grade the baseline").Switch(),
+       runtime::Flag("jobs", "tasks at a time").Short('j').Takes("N").Integer(1, 64)},
+      kGradeAbout);
+  const std::vector<std::string> libraries =
+      parsed.Has("library") ? parsed.Values("library", -1) : std::vector<std::string>{};
+  if (libraries.size() > 1) {
+    throw core::UsageError("grade: more than one controller ('" + libraries[0] + "', '" +
+                           libraries[1] + "')");
   }
+  const std::string library = libraries.empty() ? "" : libraries[0];
+  const std::string suite_file = parsed.Has("suite") ? parsed.String("suite") : "";
+  const std::string out_dir = parsed.Has("out") ? parsed.String("out") : "grade-out";
+  const std::string batch = parsed.Has("batch") ? parsed.String("batch") : "";
+  const std::string library_args = parsed.Has("args") ? parsed.String("args") : "";
+  const int jobs = static_cast<int>(parsed.Integer("jobs", 1));
+  const bool baseline = !parsed.Switch("no-baseline");
   if (suite_file.empty()) throw core::UsageError("grade: missing --suite FILE");
   const int given = (library.empty() ? 0 : 1) + (command.empty() ? 0 : 1) + (batch.empty() ? 0 : 1);
   if (given != 1) {

@@ -8,7 +8,7 @@
 
 namespace sirupp::tools {
 
-extern const char* const kGradeUsage;
+extern const char* const kGradeAbout;
 
 int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
 

@@ -16,24 +16,40 @@
 
 namespace sirupp::tools {
 
-const char* const kHardwareUsage =
-    "usage: sirupp hardware COMMAND [--timeout S] [--lcm-url URL] [--prefix PREFIX]\n"
-    "Commands for sirupp-hardware (the bridge to the real arm or the emulator), on\n"
-    "HARDWARE_COMMAND; the bridge's answer is read from HARDWARE_STATUS:\n"
-    "  connect       reset and address the modules, set baud and gains (servos off)\n"
-    "  calibrate     define the present pose as the settings' calibration pose (and home)\n"
-    "  arm           servos on, holding where the arm is\n"
-    "  disarm        stop smoothly, then servos off\n"
-    "  link          mirror every ARM_MOVE of the controller to the real arm\n"
-    "  unlink        stop mirroring (the arm holds)\n"
-    "  home          move every joint to the model's home position\n"
-    "  clear-faults  clear latched module bits after a fault (then arm again)\n"
-    "  status        print the bridge's state, modules and serial counters\n"
+namespace {
+// Each command of sirupp-hardware and what it does; the help of `sirupp hardware` lists them.
+const std::vector<std::pair<std::string, std::string>> kVerbs = {
+    {"connect", "reset and address the modules, set baud and gains (servos off)"},
+    {"calibrate", "define the present pose as the settings' calibration pose (and home)"},
+    {"arm", "servos on, holding where the arm is"},
+    {"disarm", "stop smoothly, then servos off"},
+    {"link", "mirror every ARM_MOVE of the controller to the real arm"},
+    {"unlink", "stop mirroring (the arm holds)"},
+    {"home", "move every joint to the model's home position"},
+    {"clear-faults", "clear latched module bits after a fault (then arm again)"},
+    {"status", "print the bridge's state, modules and serial counters"}};
+}  // namespace
+
+const char* const kHardwareAbout =
+    "A command for sirupp-hardware (the bridge to the real arm or the emulator), on\n"
+    "HARDWARE_COMMAND; the bridge's answer is read from HARDWARE_STATUS.\n"
     "Exit 0 when the bridge reached the state the command leads to, 1 when it refused (its reason\n"
     "is printed) or no bridge answered within --timeout (default 5 s), 2 on bad arguments.\n";
 
-const char* const kEstopUsage =
-    "usage: sirupp estop [--release] [--reason TEXT] [--lcm-url URL] [--prefix PREFIX]\n"
+std::vector<std::string> HardwareVerbs() {
+  std::vector<std::string> verbs;
+  for (const auto& [verb, what] : kVerbs) verbs.push_back(verb);
+  return verbs;
+}
+
+std::string HardwareVerbSummary(const std::string& verb) {
+  for (const auto& [name, what] : kVerbs) {
+    if (name == verb) return what;
+  }
+  return "";
+}
+
+const char* const kEstopAbout =
     "Engages the emergency stop on ESTOP (or releases it): sirupp-hardware stops the real motors\n"
     "abruptly and turns them off, sirupp-control aborts its plan and holds. Release never starts\n"
     "a motion: arm (and link) again afterwards. Prints what the bridge reports, if one runs.\n";
@@ -100,7 +116,8 @@ int RunHardware(const std::vector<std::string>& args, std::ostream& out) {
   }
   const runtime::Args parsed(std::vector<std::string>(args.begin() + 1, args.end()),
                              "hardware " + verb,
-                             WithRigFlags({{"timeout", "seconds to wait for the bridge"}}));
+                             WithRigFlags({TimeoutFlag("seconds to wait for the bridge (5)")}),
+                             HardwareVerbSummary(verb) + ".\n" + kHardwareAbout);
   const double timeout = TimeoutFrom(parsed, 5);
   core::Bus bus = BusFromArgs(parsed);
   client::Options options;
@@ -136,7 +153,8 @@ int RunHardware(const std::vector<std::string>& args, std::ostream& out) {
 
 int RunEstop(const std::vector<std::string>& args, std::ostream& out) {
   const runtime::Args parsed(
-      args, "estop", WithRigFlags({{"release", "release the stop"}, {"reason", "why, one line"}}));
+      args, "estop", WithRigFlags({{"release", "release the stop"}, {"reason", "why, one line"}}),
+      kEstopAbout);
   const bool release = parsed.Switch("release");
   core::Bus bus = BusFromArgs(parsed);
   client::Options options;

@@ -10,8 +10,12 @@
 
 namespace sirupp::tools {
 
-extern const char* const kHardwareUsage;
-extern const char* const kEstopUsage;
+extern const char* const kHardwareAbout;
+extern const char* const kEstopAbout;
+
+// The commands of `sirupp hardware` and one line on each.
+std::vector<std::string> HardwareVerbs();
+std::string HardwareVerbSummary(const std::string& verb);
 
 int RunHardware(const std::vector<std::string>& args, std::ostream& out);
 int RunEstop(const std::vector<std::string>& args, std::ostream& out);

@@ -13,17 +13,14 @@
 
 namespace sirupp::tools {
 
-const char* const kFkUsage =
-    "usage: sirupp fk --model FILE (--deg Q1 .. QN | --rad Q1 .. QN) [--json]\n"
+const char* const kFkAbout =
     "  Tool pose for the given joints. --deg: revolute joints in degrees; --rad: in radians;\n"
     "  prismatic joints in metres either way. Joint i follows the model's DH convention.\n"
     "  Prints the position in metres and in the model file's length unit, the rotation matrix,\n"
     "  roll-pitch-yaw in degrees (R = Rz(yaw) Ry(pitch) Rx(roll), fixed axes) and the quaternion\n"
     "  (w x y z), all in the world frame (the frame the model's base pose is given in).\n";
 
-const char* const kIkUsage =
-    "usage: sirupp ik --model FILE --pose X Y Z ROLL PITCH YAW [--config NAME|all|nearest]\n"
-    "                 [--from Q1 .. QN] [--numeric] [--position-only] [--json]\n"
+const char* const kIkAbout =
     "  Joint solutions that put the tool at the pose: X Y Z in metres, ROLL PITCH YAW in degrees\n"
     "  (R = Rz(yaw) Ry(pitch) Rx(roll)), world frame. PUMA-type arms use the closed-form solver\n"
     "  (8 configurations, named SHOULDER-ELBOW-WRIST: left|right, up|down, noflip|flip); other "
@@ -101,8 +98,12 @@ std::string SolutionText(const core::RobotModel& model, const core::IkSolution& 
 }  // namespace
 
 int RunFk(const std::vector<std::string>& raw, std::ostream& out) {
-  const runtime::Args args(
-      raw, "fk", {{"model", "FILE"}, {"deg", "Q1 .. QN"}, {"rad", "Q1 .. QN"}, {"json", ""}});
+  const runtime::Args args(raw, "fk",
+                           {runtime::Flag("model", "").Takes("FILE"),
+                            {"deg", "Q1 .. QN"},
+                            {"rad", "Q1 .. QN"},
+                            {"json", ""}},
+                           kFkAbout);
   const core::RobotModel model = core::LoadRobotModel(args.String("model"));
   const int n = model.num_joints();
   if (args.Has("deg") == args.Has("rad")) {
@@ -160,13 +161,14 @@ int RunFk(const std::vector<std::string>& raw, std::ostream& out) {
 
 int RunIk(const std::vector<std::string>& raw, std::ostream& out) {
   const runtime::Args args(raw, "ik",
-                           {{"model", "FILE"},
-                            {"pose", "X Y Z ROLL PITCH YAW"},
+                           {runtime::Flag("model", "").Takes("FILE"),
+                            runtime::Flag("pose", "").Takes("X Y Z ROLL PITCH YAW", 6),
                             {"config", "NAME|all|nearest"},
                             {"from", "Q1 .. QN"},
                             {"numeric", ""},
                             {"position-only", ""},
-                            {"json", ""}});
+                            {"json", ""}},
+                           kIkAbout);
   const core::RobotModel model = core::LoadRobotModel(args.String("model"));
   const int n = model.num_joints();
   const std::vector<double> pose = args.Numbers("pose", 6);

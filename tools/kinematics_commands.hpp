@@ -7,8 +7,8 @@
 
 namespace sirupp::tools {
 
-extern const char* const kFkUsage;
-extern const char* const kIkUsage;
+extern const char* const kFkAbout;
+extern const char* const kIkAbout;
 
 int RunFk(const std::vector<std::string>& args, std::ostream& out);
 int RunIk(const std::vector<std::string>& args, std::ostream& out);

@@ -23,9 +23,7 @@
 
 namespace sirupp::tools {
 
-const char* const kFitEmulatorUsage =
-    "usage: sirupp fit-emulator [--real-arm FILE] [--model FILE] [--virtual-model FILE]\n"
-    "                           [--sets N...] [--evaluate] [--evaluations N] [--out FILE]\n"
+const char* const kFitEmulatorAbout =
     "The SIRUPP paper's experiment in one process: the movement sets (default all seven) on the\n"
     "virtual arm (ODE sim and virtual PIC-SERVOs, lockstep) and on the emulated real arm\n"
     "(emulated PIC-SERVO modules and the arm with its effects, emulated time, no serial line).\n"
@@ -44,8 +42,7 @@ const char* const kFitEmulatorUsage =
     "                        is --real-arm itself)\n"
     "docs/emulator-fit.md. Exit 0, 2 for bad arguments or files.\n";
 
-const char* const kIdentifyUsage =
-    "usage: sirupp identify DATA|DIR... --model M --out M2 [--joints N...] [--evaluations N]\n"
+const char* const kIdentifyAbout =
     "Fits the model's joint friction (static, Coulomb per direction, viscous, Stribeck speed) and\n"
     "armature to a real arm's logged data (sirupp-logger data files or LCM logs, e.g. a demo's\n"
     "data/ or `sirupp fit-emulator --data DIR`): the model's arm under PIC-SERVO chips with the\n"
@@ -85,15 +82,13 @@ double Since(std::chrono::steady_clock::time_point t) {
 }  // namespace
 
 int RunFitEmulator(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
-  const runtime::Args args(argv, "fit-emulator",
-                           {{"real-arm", "FILE"},
-                            {"model", "FILE"},
-                            {"virtual-model", "FILE"},
-                            {"sets", "N..."},
-                            {"evaluate", "(switch)"},
-                            {"evaluations", "N"},
-                            {"out", "FILE"},
-                            {"data", "DIR"}});
+  const runtime::Args args(
+      argv, "fit-emulator",
+      {runtime::Flag("real-arm", "").Takes("FILE"), runtime::Flag("model", "").Takes("FILE"),
+       runtime::Flag("virtual-model", "").Takes("FILE"), runtime::Flag("sets", "").Takes("N..."),
+       runtime::Flag("evaluate", "").Switch(), runtime::Flag("evaluations", "").Takes("N"),
+       runtime::Flag("out", "").Takes("FILE"), runtime::Flag("data", "").Takes("DIR")},
+      kFitEmulatorAbout);
   const std::string model_file = runtime::ResolveDataPath(
       args.Has("model") ? args.String("model") : "config/robots/puma260.yaml");
   const core::RobotModel model = core::LoadRobotModel(model_file);
@@ -172,7 +167,10 @@ int RunIdentify(const std::vector<std::string>& argv, std::ostream& out, std::os
   for (; i < argv.size() && argv[i].rfind("--", 0) != 0; ++i) files.push_back(argv[i]);
   const runtime::Args args(
       std::vector<std::string>(argv.begin() + static_cast<std::ptrdiff_t>(i), argv.end()),
-      "identify", {{"model", "FILE"}, {"out", "FILE"}, {"joints", "N..."}, {"evaluations", "N"}});
+      "identify",
+      {runtime::Flag("model", "").Takes("FILE"), runtime::Flag("out", "").Takes("FILE"),
+       runtime::Flag("joints", "").Takes("N..."), runtime::Flag("evaluations", "").Takes("N")},
+      kIdentifyAbout);
   if (files.empty())
     throw core::UsageError("identify: give at least one DATA file (before the options)");
   if (!args.Has("model")) throw core::UsageError("identify: --model M is required");

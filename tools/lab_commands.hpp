@@ -9,8 +9,8 @@
 
 namespace sirupp::tools {
 
-extern const char* const kFitEmulatorUsage;
-extern const char* const kIdentifyUsage;
+extern const char* const kFitEmulatorAbout;
+extern const char* const kIdentifyAbout;
 
 int RunFitEmulator(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
 int RunIdentify(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);

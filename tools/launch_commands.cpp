@@ -23,9 +23,7 @@ namespace sirupp::tools {
 
 namespace fs = std::filesystem;
 
-const char* const kLaunchUsage =
-    "usage: sirupp launch LAYOUT [--host NAME] [--run-dir DIR] [--duration S]\n"
-    "                     [--status-every S] [--lcm-url URL] [--prefix PREFIX] [--dry-run]\n"
+const char* const kLaunchAbout =
     "Starts the processes LAYOUT (config/labs/*.yaml) puts on this host, in order, each once the\n"
     "previous is ready, with the layout's LCM URL and channel prefix; restarts those the layout\n"
     "says; shows a status table of every process heard on the bus (its own and other hosts');\n"
@@ -83,18 +81,18 @@ std::string LastLines(const std::string& text, size_t count) {
 }  // namespace
 
 int RunLaunch(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  if (args.empty() || args[0].rfind("--", 0) == 0) {
-    throw core::UsageError("launch: missing LAYOUT (a file in config/labs/)");
-  }
-  const std::string file = runtime::ResolveDataPath(args[0]);
-  const runtime::Args parsed(std::vector<std::string>(args.begin() + 1, args.end()), "launch",
-                             {{"host", "NAME"},
-                              {"run-dir", "DIR"},
-                              {"duration", "S"},
-                              {"status-every", "S"},
-                              {"lcm-url", "URL"},
-                              {"prefix", "PREFIX"},
-                              {"dry-run", ""}});
+  const runtime::Args parsed(
+      args, "launch",
+      {runtime::Flag("layout", "a file in config/labs/").Positional("LAYOUT"),
+       runtime::Flag("host", "").Takes("NAME"),
+       runtime::Flag("run-dir", "").Takes("DIR"),
+       runtime::Flag("duration", "").Takes("S"),
+       runtime::Flag("status-every", "").Takes("S"),
+       runtime::Flag("lcm-url", "").Takes("URL"),
+       runtime::Flag("prefix", "").Takes("PREFIX"),
+       {"dry-run", ""}},
+      kLaunchAbout);
+  const std::string file = runtime::ResolveDataPath(parsed.String("layout"));
   double duration = 0;
   if (parsed.Has("duration")) {
     duration = runtime::ParseNumberArg(parsed.String("duration"), "--duration");

@@ -8,7 +8,7 @@
 
 namespace sirupp::tools {
 
-extern const char* const kLaunchUsage;
+extern const char* const kLaunchAbout;
 
 // Exit 0 when every process ran and stopped cleanly, 1 when one failed (crash, non-zero exit, not
 // ready in time, killed at stop), 2 for a bad layout or bad arguments.

@@ -10,9 +10,7 @@
 
 namespace sirupp::tools {
 
-const char* const kPanelUsage =
-    "usage: sirupp panel [--no-open] [--port N] [--listen ADDR] [--require-token] [--rate HZ]\n"
-    "                    [--results DIR] [--lcm-url URL] [--prefix PREFIX]\n"
+const char* const kPanelAbout =
     "  Starts sirupp-panel, the lab panel in the browser, and prints its address\n"
     "  (http://127.0.0.1:8765/ by default); opens a browser on it when there is a display\n"
     "  (--no-open: do not). --listen ADDR serves a lab network: the printed address then\n"
@@ -23,6 +21,10 @@ int RunPanel(const std::vector<std::string>& args, std::ostream& err) {
   std::vector<std::string> forwarded{program};
   bool open = true;
   for (const std::string& arg : args) {
+    if (arg == "--help" || arg == "-h") {
+      // This command's own flag, then sirupp-panel's flags (it takes the rest).
+      err << "sirupp panel [--no-open] [sirupp-panel flags]\n" << kPanelAbout << std::flush;
+    }
     if (arg == "--no-open") {
       open = false;
     } else {

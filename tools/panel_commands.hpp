@@ -8,7 +8,7 @@
 
 namespace sirupp::tools {
 
-extern const char* const kPanelUsage;
+extern const char* const kPanelAbout;
 
 // Replaces this process with sirupp-panel (found beside `sirupp`); returns only when that fails.
 int RunPanel(const std::vector<std::string>& args, std::ostream& err);

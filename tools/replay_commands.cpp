@@ -15,8 +15,7 @@
 
 namespace sirupp::tools {
 
-const char* const kReplayUsage =
-    "usage: sirupp replay LOG [--speed X] [--lcm-url URL]\n"
+const char* const kReplayAbout =
     "  Plays an LCM log file (as lcm-logger writes it) back onto the bus: every message on its\n"
     "  channel, in order, with the gaps between them as recorded, divided by --speed (default 1;\n"
     "  2 = twice as fast, 0.5 = half speed). --lcm-url: where to publish (default LCM's default\n"
@@ -70,17 +69,13 @@ ReplayStats ReplayLog(const std::string& path, lcm::LCM& lcm, double speed,
 }
 
 int RunReplay(const std::vector<std::string>& raw, std::ostream& out) {
-  if (raw.empty() || raw[0].rfind("--", 0) == 0) {
-    throw core::UsageError("replay: missing LOG (an lcm-logger file)");
-  }
-  const std::string path = raw[0];
-  const runtime::Args args(std::vector<std::string>(raw.begin() + 1, raw.end()), "replay",
-                           {{"speed", "X"}, {"lcm-url", "URL"}});
-  const double speed = args.Has("speed") ? args.Numbers("speed", 1)[0] : 1.0;
-  if (!(speed > 0)) {
-    throw core::UsageError("replay: --speed " + core::FormatNumber(speed) +
-                           " is not allowed; expected a number > 0");
-  }
+  const runtime::Args args(raw, "replay",
+                           {runtime::Flag("log", "an lcm-logger file").Positional("LOG"),
+                            runtime::Flag("speed", "playback speed").Takes("X").Above(0),
+                            runtime::Flag("lcm-url", "LCM URL").Takes("URL")},
+                           kReplayAbout);
+  const std::string path = args.String("log");
+  const double speed = args.Number("speed", 1.0);
   const std::string url = args.Has("lcm-url") ? args.String("lcm-url") : "";
   lcm::LCM lcm(url);
   if (!lcm.good()) throw std::runtime_error("replay: cannot open LCM URL '" + url + "'");

@@ -14,7 +14,7 @@ class LCM;
 
 namespace sirupp::tools {
 
-extern const char* const kReplayUsage;
+extern const char* const kReplayAbout;
 
 struct ReplayStats {
   int64_t events = 0;       // messages published

@@ -11,11 +11,7 @@
 
 namespace sirupp::tools {
 
-const char* const kReportUsage =
-    "usage: sirupp report FILE|DIR... [--out DIR] [--no-plots] [--joints N..] [--settle-window S]\n"
-    "                     [--start-threshold DEG] [--band-percent P] [--min-travel DEG]\n"
-    "                     [--last-move] [--prefix PREFIX] [--rate HZ] [--max-age S] [--whole-log]\n"
-    "                     [--reference paper]\n"
+const char* const kReportAbout =
     "The paper's Table II for every movement set and joint in the files: mean error in the\n"
     "transient and in the steady state, RMS and maximum error, for set-point vs virtual,\n"
     "set-point vs real and virtual vs real; start delay, settling time and overshoot per stream.\n"
@@ -67,25 +63,24 @@ double NonNegative(const runtime::Args& args, const std::string& flag, double fa
 }  // namespace
 
 int RunReport(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
-  std::vector<std::string> files;
-  size_t i = 0;
-  for (; i < argv.size() && argv[i].rfind("--", 0) != 0; ++i) files.push_back(argv[i]);
   const runtime::Args args(
-      std::vector<std::string>(argv.begin() + static_cast<std::ptrdiff_t>(i), argv.end()), "report",
-      {{"out", "DIR"},
-       {"no-plots", "(switch)"},
-       {"joints", "N.."},
-       {"last-move", "(switch)"},
-       {"settle-window", "S"},
-       {"start-threshold", "DEG"},
-       {"band-percent", "P"},
-       {"min-travel", "DEG"},
-       {"prefix", "PREFIX"},
-       {"rate", "HZ"},
-       {"max-age", "S"},
-       {"whole-log", "(switch)"},
-       {"reference", "paper"}});
-  if (files.empty()) throw core::UsageError("report: give at least one FILE (before the options)");
+      argv, "report",
+      {runtime::Flag("files", "data files, folders or LCM logs").Positional("FILE|DIR", -1),
+       runtime::Flag("out", "").Takes("DIR"),
+       runtime::Flag("no-plots", "").Switch(),
+       runtime::Flag("joints", "").Takes("N", -1),
+       runtime::Flag("last-move", "").Switch(),
+       runtime::Flag("settle-window", "").Takes("S"),
+       runtime::Flag("start-threshold", "").Takes("DEG"),
+       runtime::Flag("band-percent", "").Takes("P"),
+       runtime::Flag("min-travel", "").Takes("DEG"),
+       runtime::Flag("prefix", "").Takes("PREFIX"),
+       runtime::Flag("rate", "").Takes("HZ"),
+       runtime::Flag("max-age", "").Takes("S"),
+       runtime::Flag("whole-log", "").Switch(),
+       {"reference", "paper"}},
+      kReportAbout);
+  const std::vector<std::string>& files = args.Values("files", -1);
 
   logger::ReportOptions options;
   if (args.Has("out")) options.out_dir = args.String("out");

@@ -10,7 +10,7 @@
 
 namespace sirupp::tools {
 
-extern const char* const kReportUsage;
+extern const char* const kReportAbout;
 
 // The SIRUPP paper's Table II as a reference column (`--reference paper`, and sirupp demo).
 logger::ReferenceColumn PaperReference();

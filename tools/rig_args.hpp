@@ -12,26 +12,29 @@
 #include "core/bus.hpp"
 #include "core/robot_model.hpp"
 #include "runtime/args.hpp"
+#include "runtime/data_path.hpp"
 
 namespace sirupp::tools {
 
 // `flags` plus --lcm-url URL and --prefix PREFIX, for runtime::Args.
-std::map<std::string, std::string> WithRigFlags(std::map<std::string, std::string> flags);
+std::vector<runtime::Flag> WithRigFlags(std::vector<runtime::Flag> flags);
 
-// --timeout S (seconds > 0), or `fallback` when absent; throws core::UsageError otherwise.
+// The declaration of --timeout S (seconds > 0) and its value, or `fallback` when absent.
+runtime::Flag TimeoutFlag(const std::string& what);
 double TimeoutFrom(const runtime::Args& parsed, double fallback);
 
 // Handles messages on `bus` until done() holds or timeout_s passed; returns done().
 using core::HandleUntil;
 
-// --model FILE, default config/robots/puma260.yaml (found from any working directory).
+// --model FILE, default runtime::kDefaultModelFile (found from any working directory).
 core::RobotModel ModelFromArgs(const runtime::Args& parsed);
 
 // --lcm-url URL and --prefix PREFIX (defaults: LCM's default URL, no prefix).
 core::Bus BusFromArgs(const runtime::Args& parsed);
 
-// Joint positions (rad or m) from exactly one of --pose NAME, --deg Q.., --rad Q.., each within the
-// joint's limits; throws core::UsageError naming `command`, the joint and the allowed range.
+// Joint positions (rad or m) from exactly one of --pose NAME, --deg Q.., --rad Q..
+// (runtime/joint_args.hpp: the one convention), each within the joint's limits; throws
+// core::UsageError naming `command`, the joint and the allowed range.
 std::vector<double> PositionsFromArgs(const runtime::Args& parsed, const core::RobotModel& model,
                                       const std::string& command);
 

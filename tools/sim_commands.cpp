@@ -14,9 +14,7 @@
 
 namespace sirupp::tools {
 
-const char* const kResetUsage =
-    "usage: sirupp reset [--model FILE] (--pose NAME | --deg Q1 .. QN | --rad Q1 .. QN)\n"
-    "                    [--objects] [--lcm-url URL] [--prefix PREFIX]\n"
+const char* const kResetAbout =
     "  Teleports the arm in a running sirupp-sim: every joint to the given position, at rest.\n"
     "  --pose: a named pose of the model (default model config/robots/puma260.yaml); --deg:\n"
     "  revolute joints in degrees, --rad: in radians, prismatic joints in metres either way.\n"
@@ -25,13 +23,14 @@ const char* const kResetUsage =
 
 int RunReset(const std::vector<std::string>& args, std::ostream& out) {
   const runtime::Args parsed(args, "reset",
-                             {{"model", "robot model file"},
+                             {runtime::ModelFlag(),
                               {"pose", "named pose"},
                               {"deg", "joint positions in degrees"},
                               {"rad", "joint positions in radians"},
                               {"objects", "reset the free objects too"},
-                              {"lcm-url", "LCM URL"},
-                              {"prefix", "channel prefix of the rig"}});
+                              runtime::Flag("lcm-url", "").Takes("LCM URL", 2),
+                              {"prefix", "channel prefix of the rig"}},
+                             kResetAbout);
   const core::RobotModel model = ModelFromArgs(parsed);
   const std::vector<double> position = PositionsFromArgs(parsed, model, "reset");
   const bool objects = parsed.Switch("objects");

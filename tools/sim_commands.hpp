@@ -7,7 +7,7 @@
 
 namespace sirupp::tools {
 
-extern const char* const kResetUsage;
+extern const char* const kResetAbout;
 
 // args: the words after "reset". Publishes one sim_reset_t and returns 0; bad arguments throw
 // core::UsageError (exit 2), a bad model core::ConfigError (exit 2).

@@ -17,8 +17,7 @@ namespace sirupp::tools {
 
 namespace fs = std::filesystem;
 
-const char* const kSpyUsage =
-    "usage: sirupp spy [--lcm-url URL] [--jar FILE] [--check | --print-command]\n"
+const char* const kSpyAbout =
     "Starts lcm-spy with this build's types (build/java/sirupp_lcmtypes.jar), so every SIRUPP\n"
     "channel decodes by name. Needs a display (DISPLAY; over ssh use ssh -X, on a server\n"
     "xvfb-run). Channels show with their rig prefix.\n"
@@ -36,8 +35,12 @@ constexpr const char* kChartJar = "/usr/share/java/jchart2d.jar";
 }  // namespace
 
 int RunSpy(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  const runtime::Args parsed(
-      args, "spy", {{"lcm-url", "URL"}, {"jar", "FILE"}, {"check", ""}, {"print-command", ""}});
+  const runtime::Args parsed(args, "spy",
+                             {runtime::Flag("lcm-url", "").Takes("URL"),
+                              runtime::Flag("jar", "").Takes("FILE"),
+                              {"check", ""},
+                              {"print-command", ""}},
+                             kSpyAbout);
   std::string jar = (fs::path(ProgramDir()) / ".." / "java" / "sirupp_lcmtypes.jar").string();
   if (parsed.Has("jar")) jar = parsed.String("jar");
   const bool check = parsed.Switch("check");

@@ -9,7 +9,7 @@
 
 namespace sirupp::tools {
 
-extern const char* const kSpyUsage;
+extern const char* const kSpyAbout;
 
 // Replaces this process with Java running lcm.spy.Spy (exit 1 if it cannot), or with --check lists
 // the types lcm-spy will find, or with --print-command prints the command line.

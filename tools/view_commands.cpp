@@ -22,9 +22,7 @@
 
 namespace sirupp::tools {
 
-const char* const kViewUsage =
-    "usage: sirupp view [--channel NAME] [--save DIR] [--duration S] [--lcm-url URL]\n"
-    "                   [--prefix PREFIX]\n"
+const char* const kViewAbout =
     "  Shows sirupp-viewer's images (--channel, default VIEWER_IMAGE) in a window; needs a\n"
     "  display ($DISPLAY). Keys: j / l turn the camera left / right, i / k up / down, + / -\n"
     "  closer / farther, f DH frames on / off, g ghost on / off, p the viewer writes a PNG\n"
@@ -64,8 +62,11 @@ std::optional<sirupp::viewer_camera_t> CameraOf(const sirupp::image_t& image) {
 }  // namespace
 
 int RunView(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  const runtime::Args parsed(
-      args, "view", WithRigFlags({{"channel", "NAME"}, {"save", "DIR"}, {"duration", "S"}}));
+  const runtime::Args parsed(args, "view",
+                             WithRigFlags({runtime::Flag("channel", "").Takes("NAME"),
+                                           runtime::Flag("save", "").Takes("DIR"),
+                                           runtime::Flag("duration", "").Takes("S")}),
+                             kViewAbout);
   const std::string channel =
       parsed.Has("channel") ? parsed.String("channel") : core::Channels{}.viewer_image;
   const std::string save_dir = parsed.Has("save") ? parsed.String("save") : ".";

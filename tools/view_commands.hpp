@@ -9,7 +9,7 @@
 
 namespace sirupp::tools {
 
-extern const char* const kViewUsage;
+extern const char* const kViewAbout;
 
 // Exit 0 when the window is closed (or q / Esc, or --duration ends); 1 without a display or when
 // no window can be opened; bad arguments throw core::UsageError (exit 2).

@@ -19,11 +19,14 @@
 #include "core/model_loader.hpp"
 #include "runtime/args.hpp"
 #include "runtime/data_path.hpp"
+#include "runtime/joint_args.hpp"
 #include "runtime/process_main.hpp"
 #include "viewer/viewer_config.hpp"
 #include "viewer/viewer_node.hpp"
 
 namespace {
+
+using sirupp::runtime::Flag;
 
 using sirupp::core::FormatNumber;
 using sirupp::core::UsageError;
@@ -32,15 +35,7 @@ namespace viewer = sirupp::viewer;
 
 constexpr double kDegToRad = M_PI / 180.0;
 
-constexpr const char* kUsage =
-    "usage: sirupp-viewer [--width W] [--height H] [--rate HZ] [--format jpeg|rgb] [--quality Q]\n"
-    "                     [--supersample N] [--png DIR [--png-every S]] [--video FILE.avi]\n"
-    "                     [--camera AZ EL DIST] [--target X Y Z] [--fov DEG] [--axes]\n"
-    "                     [--no-ghost] [--no-floor] [--real-fresh S] [--keepalive S]\n"
-    "                     [--model FILE] [--environment FILE] [--config FILE] [--duration S]\n"
-    "                     [--lcm-url URL] [--prefix PREFIX]\n"
-    "       sirupp-viewer --once OUT.png [--model FILE] [--environment FILE] [--deg Q..]\n"
-    "                     [--ghost-deg Q..] [--real-deg Q..] [size, camera and scene flags]\n"
+constexpr const char* kAbout =
     "Renders the virtual arm (SIM_ARM_STATE), its set-point ghost (ARM_SETPOINT), the real arm\n"
     "(REAL_ARM_STATE, while fresh) and the environment off-screen with OSMesa (no GPU, no\n"
     "display needed) and publishes the frames as image_t on VIEWER_IMAGE: JPEG (MJPG, default)\n"
@@ -52,8 +47,9 @@ constexpr const char* kUsage =
     "run time (`sirupp view` keys). --png DIR: snapshots (VIEWER_CAMERA, or kill -USR1) and, with\n"
     "--png-every S, a frame every S seconds. --video FILE.avi: Motion-JPEG at HZ, finalised on\n"
     "Ctrl-C, SIGTERM or the end of --duration. --supersample N: anti-aliasing (2).\n"
-    "--once renders one frame to OUT.png (joint values in degrees, or mm for prismatic joints;\n"
-    "default model config/robots/puma260.yaml, home pose) and exits. See viewer/README.md.\n";
+    "--once renders one frame to OUT.png (joint values as everywhere: revolute in degrees,\n"
+    "prismatic in metres, docs/command-line.md; default model the PUMA 260, home pose) and\n"
+    "exits. See viewer/README.md.\n";
 
 std::atomic<int> g_snapshot_signals{0};
 extern "C" void OnSnapshotSignal(int /*signal*/) { ++g_snapshot_signals; }
@@ -147,36 +143,22 @@ viewer::ViewerOptions OptionsFromArgs(const Args& args) {
   return options;
 }
 
-// Joint values from --FLAG Q.. in degrees (mm for prismatic joints), one per joint.
-std::optional<std::vector<double>> JointsFromArgs(const Args& args, const std::string& flag,
-                                                  const sirupp::core::RobotModel& model) {
-  if (!args.Has(flag)) return std::nullopt;
-  const std::vector<double> values = args.Numbers(flag, model.num_joints());
-  std::vector<double> position;
-  for (size_t i = 0; i < values.size(); ++i) {
-    const bool prismatic = model.joints[i].type == sirupp::core::JointType::kPrismatic;
-    position.push_back(prismatic ? values[i] / 1000.0 : values[i] * kDegToRad);
-  }
-  return position;
-}
-
 int RenderOnce(const Args& args, const viewer::ViewerOptions& options) {
   const std::string out = args.String("once");
   if (std::filesystem::path(out).extension() != ".png") {
     throw UsageError("sirupp-viewer: --once '" + out + "': the file name must end in .png");
   }
   const sirupp::core::RobotModel model =
-      sirupp::core::LoadRobotModel(sirupp::runtime::ResolveDataPath(
-          args.Has("model") ? args.String("model") : "config/robots/puma260.yaml"));
+      sirupp::core::LoadRobotModel(sirupp::runtime::ModelFileArg(args));
   std::optional<sirupp::core::Environment> environment;
   if (args.Has("environment")) {
     environment =
         sirupp::core::LoadEnvironment(sirupp::runtime::ResolveDataPath(args.String("environment")));
   }
   viewer::ViewState state;
-  state.virtual_position = JointsFromArgs(args, "deg", model);
-  state.setpoint_position = JointsFromArgs(args, "ghost-deg", model);
-  state.real_position = JointsFromArgs(args, "real-deg", model);
+  state.virtual_position = sirupp::runtime::DegreesArg(args, "deg", model);
+  state.setpoint_position = sirupp::runtime::DegreesArg(args, "ghost-deg", model);
+  state.real_position = sirupp::runtime::DegreesArg(args, "real-deg", model);
   const cv::Mat image = viewer::RenderStill(&model, environment ? &*environment : nullptr, state,
                                             options.camera, options.scene, options.render);
   if (!cv::imwrite(out, image)) throw std::runtime_error(out + ": cannot write the PNG");
@@ -186,33 +168,34 @@ int RenderOnce(const Args& args, const viewer::ViewerOptions& options) {
 
 int Run(const std::vector<std::string>& argv) {
   const Args args(argv, "sirupp-viewer",
-                  {{"width", "W"},
-                   {"height", "H"},
-                   {"rate", "HZ"},
-                   {"keepalive", "S"},
-                   {"format", "jpeg|rgb"},
-                   {"quality", "Q"},
-                   {"supersample", "N"},
-                   {"png", "DIR"},
-                   {"png-every", "S"},
-                   {"video", "FILE.avi"},
-                   {"camera", "AZ EL DIST"},
-                   {"target", "X Y Z"},
-                   {"fov", "DEG"},
-                   {"axes", "(switch)"},
-                   {"no-ghost", "(switch)"},
-                   {"no-floor", "(switch)"},
-                   {"real-fresh", "S"},
-                   {"model", "robot model file"},
-                   {"environment", "environment file"},
-                   {"config", "viewer settings file (YAML)"},
-                   {"duration", "S"},
-                   {"once", "OUT.png"},
-                   {"deg", "Q.. (one per joint)"},
-                   {"ghost-deg", "Q.. (one per joint)"},
-                   {"real-deg", "Q.. (one per joint)"},
-                   {"lcm-url", "LCM URL"},
-                   {"prefix", "channel prefix of the rig"}});
+                  {Flag("width", "").Takes("W"),
+                   Flag("height", "").Takes("H"),
+                   Flag("rate", "").Takes("HZ"),
+                   Flag("keepalive", "").Takes("S"),
+                   Flag("format", "").Takes("MODE").OneOf({"jpeg", "rgb"}),
+                   Flag("quality", "").Takes("Q"),
+                   Flag("supersample", "").Takes("N"),
+                   Flag("png", "").Takes("DIR"),
+                   Flag("png-every", "").Takes("S"),
+                   Flag("video", "").Takes("FILE.avi"),
+                   Flag("camera", "").Takes("AZ EL DIST", 3),
+                   Flag("target", "").Takes("X Y Z", 3),
+                   Flag("fov", "").Takes("DEG"),
+                   Flag("axes", "").Switch(),
+                   Flag("no-ghost", "").Switch(),
+                   Flag("no-floor", "").Switch(),
+                   Flag("real-fresh", "").Takes("S"),
+                   sirupp::runtime::ModelFlag(),
+                   Flag("environment", "environment file").Takes("FILE"),
+                   Flag("config", "viewer settings file (YAML)").Takes("FILE"),
+                   Flag("duration", "").Takes("S"),
+                   Flag("once", "").Takes("OUT.png"),
+                   sirupp::runtime::DegreesFlag("deg", "the virtual arm for --once"),
+                   sirupp::runtime::DegreesFlag("ghost-deg", "the set-point ghost for --once"),
+                   sirupp::runtime::DegreesFlag("real-deg", "the real arm for --once"),
+                   Flag("lcm-url", "LCM URL").Takes("URL"),
+                   Flag("prefix", "channel prefix of the rig").Takes("PREFIX")},
+                  kAbout);
   const viewer::ViewerOptions options = OptionsFromArgs(args);
   if (args.Has("once")) return RenderOnce(args, options);
   for (const char* flag : {"deg", "ghost-deg", "real-deg"}) {
@@ -284,5 +267,5 @@ int Run(const std::vector<std::string>& argv) {
 }  // namespace
 
 int main(int argc, char** argv) {
-  return sirupp::runtime::ProcessMain(argc, argv, "sirupp-viewer", kUsage, Run);
+  return sirupp::runtime::ProcessMain(argc, argv, "sirupp-viewer", Run);
 }

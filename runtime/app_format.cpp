@@ -1,0 +1,90 @@
+#include "runtime/app_format.hpp"
+
+#include <memory>
+#include <sstream>
+
+namespace sirupp::runtime {
+namespace {
+
+constexpr size_t kWidth = 80;
+constexpr size_t kColumn = 26;  // flag names; descriptions start here
+
+class Formatter : public CLI::Formatter {
+ public:
+  Formatter() {
+    column_width(kColumn);
+    label("Usage", "usage");
+    label("OPTIONS", "options");
+    label("SUBCOMMAND", "COMMAND");
+    label("SUBCOMMANDS", "COMMAND");
+    label("Subcommands", "Commands");
+  }
+
+  std::string make_help(const CLI::App* app, std::string name,
+                        CLI::AppFormatMode mode) const override {
+    if (mode == CLI::AppFormatMode::Sub) return make_expanded(app);
+    std::ostringstream out;
+    out << make_usage(app, name) << make_description(app) << make_positionals(app)
+        << make_groups(app, mode) << make_subcommands(app, mode);
+    const std::string footer = make_footer(app);
+    if (!footer.empty()) out << "\n" << footer;
+    return out.str();
+  }
+
+  std::string make_description(const CLI::App* app) const override {
+    const std::string description = app->get_description();
+    return description.empty() ? "" : Wrap(description, kWidth) + "\n";
+  }
+
+  std::string make_footer(const CLI::App* app) const override {
+    const std::string footer = app->get_footer();
+    return footer.empty() ? "" : Wrap(footer, kWidth) + "\n";
+  }
+
+  std::string make_option_desc(const CLI::Option* option) const override {
+    return Wrap(option->get_description(), kWidth - kColumn);
+  }
+
+  std::string make_subcommand(const CLI::App* sub) const override {
+    std::ostringstream out;
+    CLI::detail::format_help(out, sub->get_name(), Wrap(sub->get_description(), kWidth - kColumn),
+                             kColumn);
+    return out.str();
+  }
+};
+
+}  // namespace
+
+std::string Wrap(const std::string& text, size_t width) {
+  std::string wrapped;
+  std::istringstream lines(text);
+  std::string line;
+  bool first_line = true;
+  while (std::getline(lines, line)) {
+    if (!first_line) wrapped += "\n";
+    first_line = false;
+    // Leading spaces (an indented line) are kept; the rest is filled word by word.
+    const size_t indent_end = line.find_first_not_of(' ');
+    const std::string indent = line.substr(0, indent_end == std::string::npos ? 0 : indent_end);
+    std::istringstream words(line.substr(indent.size()));
+    std::string word;
+    std::string current = indent;
+    while (words >> word) {
+      if (current.size() > indent.size() && current.size() + 1 + word.size() > width) {
+        wrapped += current + "\n";
+        current = indent;
+      }
+      current += (current.size() > indent.size() ? " " : "") + word;
+    }
+    wrapped += current;
+  }
+  return wrapped;
+}
+
+void ConfigureApp(CLI::App& app, const std::string& version_text) {
+  app.formatter(std::make_shared<Formatter>());
+  app.set_help_flag("-h,--help", "print this help and exit");
+  app.set_version_flag("--version", version_text, "print the version and exit");
+}
+
+}  // namespace sirupp::runtime
