@@ -24,15 +24,6 @@ double Since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();
 }
 
-// Values in the model file's units (deg or rad, and its length unit), as sirupp-sim's
-// --position takes them.
-std::string FileUnits(const core::RobotModel& model, size_t j, double si) {
-  if (model.joints[j].type == core::JointType::kRevolute) {
-    return core::FormatNumber(model.file_angle_unit == "deg" ? si * 180 / kPi : si);
-  }
-  return core::FormatNumber(si / model.file_length_unit_m);
-}
-
 // Degrees (mm) for placeholders.
 std::string Degrees(const core::RobotModel& model, size_t j, double si) {
   return core::FormatNumber(model.joints[j].type == core::JointType::kRevolute ? si * 180 / kPi
@@ -201,8 +192,8 @@ TaskRecord RunTask(const Suite& suite, const core::RobotModel& model, const Task
                                        core::FormatNumber(task.duration_s),
                                        "--lockstep-timeout",
                                        "1",
-                                       "--position"};
-  for (size_t j = 0; j < n; ++j) sim_argv.push_back(FileUnits(model, j, task.start[j]));
+                                       "--rad"};  // SI: revolute rad, prismatic m
+  for (size_t j = 0; j < n; ++j) sim_argv.push_back(core::FormatNumber(task.start[j]));
   if (task.arm.payload_kg > 0) {
     sim_argv.insert(sim_argv.end(), {"--payload-kg", core::FormatNumber(task.arm.payload_kg)});
   }

@@ -56,23 +56,16 @@ std::string MakeToken() {
 }
 
 int Run(const std::vector<std::string>& argv) {
-  const Args args(
-      argv, "sirupp-panel",
-      {Flag("port", "").Takes("N"), Flag("listen", "").Takes("ADDR"),
-       Flag("require-token", "").Switch(), Flag("rate", "").Takes("HZ"),
-       Flag("results", "").Takes("DIR"), sirupp::runtime::ModelFlag(), Flag("open", "").Switch(),
-       Flag("duration", "").Takes("S"), Flag("lcm-url", "LCM URL").Takes("URL"),
-       Flag("prefix", "channel prefix of the rig").Takes("PREFIX")},
-      kAbout);
+  const Args args(argv, "sirupp-panel",
+                  {Flag("port", "0: any free port").Takes("N").Integer(0, 65535),
+                   Flag("listen", "").Takes("ADDR"), Flag("require-token", "").Switch(),
+                   Flag("rate", "").Takes("HZ"), Flag("results", "").Takes("DIR"),
+                   sirupp::runtime::ModelFlag(), Flag("open", "").Switch(),
+                   Flag("duration", "").Takes("S"), Flag("lcm-url", "LCM URL").Takes("URL"),
+                   Flag("prefix", "channel prefix of the rig").Takes("PREFIX")},
+                  kAbout);
   panel::ServerOptions server_options;
-  if (args.Has("port")) {
-    const double port = args.Numbers("port", 1)[0];
-    if (port != static_cast<int>(port) || port < 0 || port > 65535) {
-      throw UsageError("sirupp-panel: --port " + sirupp::core::FormatNumber(port) +
-                       ": allowed whole numbers 0..65535 (0 = any free port)");
-    }
-    server_options.port = static_cast<int>(port);
-  }
+  server_options.port = static_cast<int>(args.Integer("port", server_options.port));
   if (args.Has("listen")) server_options.listen = args.String("listen");
   if (args.Has("rate")) {
     const double rate = args.Numbers("rate", 1)[0];

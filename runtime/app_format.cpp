@@ -1,5 +1,6 @@
 #include "runtime/app_format.hpp"
 
+#include <algorithm>
 #include <memory>
 #include <sstream>
 
@@ -55,7 +56,35 @@ class Formatter : public CLI::Formatter {
 
 }  // namespace
 
-std::string Wrap(const std::string& text, size_t width) {
+std::string Wrap(const std::string& text, size_t width) { return Fill(Reflow(text), width); }
+
+std::string Reflow(const std::string& text) {
+  // A line break stays where the indentation changes, before a flag ("--x") or an item
+  // ("pose: ..."), and after a sentence or a colon; elsewhere the hand-made break is a space.
+  std::string flowed;
+  std::istringstream lines(text);
+  std::string line;
+  std::string previous;
+  size_t previous_indent = 0;
+  bool first = true;
+  while (std::getline(lines, line)) {
+    const size_t indent = std::min(line.find_first_not_of(' '), line.size());
+    const std::string body = line.substr(indent);
+    const size_t colon = body.find(": ");
+    const bool item = colon != std::string::npos && colon < 14 && body.find(' ') > colon;
+    const bool keep = first || previous.empty() || body.empty() || indent != previous_indent ||
+                      body.rfind("--", 0) == 0 || item || previous.back() == '.' ||
+                      previous.back() == ':';
+    if (!first) flowed += keep ? "\n" : " ";
+    flowed += keep ? line : body;
+    previous = line;
+    previous_indent = indent;
+    first = false;
+  }
+  return flowed;
+}
+
+std::string Fill(const std::string& text, size_t width) {
   std::string wrapped;
   std::istringstream lines(text);
   std::string line;

@@ -11,7 +11,13 @@ namespace sirupp::runtime {
 // Sets the formatter, --help/-h and --version (printing "NAME VERSION") on `app`.
 void ConfigureApp(CLI::App& app, const std::string& version_text);
 
-// `text` wrapped at spaces to lines of at most `width` characters; existing line ends are kept.
+// `text` reflowed (Reflow) and filled to lines of at most `width` characters (a longer word
+// stays whole).
 std::string Wrap(const std::string& text, size_t width);
+// Hand-wrapped prose joined into paragraphs: a line break stays after a sentence or a colon and
+// before an indented line or a flag.
+std::string Reflow(const std::string& text);
+// Each line filled at spaces to at most `width` characters; leading indentation kept.
+std::string Fill(const std::string& text, size_t width);
 
 }  // namespace sirupp::runtime

@@ -175,11 +175,18 @@ Args::Args(const std::vector<std::string>& args, const std::string& command,
       // Every count is checked below, so the messages name the flag and the count the same way
       // for every flag.
       option = app.add_option(flag.positional() ? flag.name() : names)->description(help);
-      option->expected(0, CLI::detail::expected_max_vector_size)->allow_extra_args();
+      // A declared count of one or more is CLI11's (the next words are positionals); other
+      // counts are checked below, so the messages name the flag and the count the same way.
+      if (flag.count() > 0 && !flag.positional()) {
+        option->expected(flag.count());
+      } else {
+        option->expected(0, CLI::detail::expected_max_vector_size)->allow_extra_args();
+      }
+      option->type_name(flag.value_name());
       option->option_text(flag.positional()           ? ""
                           : flag.value_name().empty() ? "VALUE ..."
                                                       : ValueText(flag));
-      if (flag.positional()) option->type_name(ValueText(flag));
+      if (flag.positional()) option->type_name(flag.value_name());
       if (!flag.Allowed().empty()) {
         option->check(CLI::Validator([&flag](std::string& text) { return flag.Validate(text); }, "",
                                      flag.name()));
@@ -215,7 +222,8 @@ Args::Args(const std::vector<std::string>& args, const std::string& command,
     if (flag->is_switch()) {
       // CLI11 records a plain switch as "true"; `--switch=VALUE` keeps VALUE.
       if (values.size() == 1 && values[0] == "true") values.clear();
-    } else if (values.size() == 1 && values[0].empty() && !flag->positional()) {
+    } else if (values.size() == 1 && values[0].empty() && !flag->positional() &&
+               flag->count() <= 0) {
       values.clear();  // --flag without a value
     }
     values_[flag->name()] = values;

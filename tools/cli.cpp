@@ -177,6 +177,7 @@ int RunCli(const Args& args, std::ostream& out, std::ostream& err) {
   const Run* chosen = nullptr;
   CLI::App* chosen_app = nullptr;
   CLI::App* help = app.add_subcommand("help", "this text");
+  help->group("Commands");
   for (const Command& command : commands) {
     CLI::App* parent = &app;
     if (!command.group.empty()) {
@@ -186,10 +187,14 @@ int RunCli(const Args& args, std::ostream& out, std::ostream& err) {
         group->require_subcommand(1);
         group->formatter(app.get_formatter());
         group->set_help_flag("-h,--help", "print this help and exit");
+        group->footer("");
+        group->group("Commands");
+        group->allow_extras();
       }
       parent = group;
     }
     CLI::App* leaf = parent->add_subcommand(command.name, command.summary);
+    leaf->group("Commands");
     // The leaf's flags are its own (runtime::Args in its function), --help included.
     leaf->prefix_command();
     leaf->set_help_flag();
@@ -226,6 +231,18 @@ int RunCli(const Args& args, std::ostream& out, std::ostream& err) {
       return kExitOk;
     } catch (const CLI::RequiredError& error) {
       if (help->parsed()) return out << HelpOf(app), kExitOk;
+      for (const auto& [name, group] : groups) {
+        if (!group->parsed()) continue;
+        std::string allowed;
+        for (const CLI::App* sub : group->get_subcommands({})) {
+          allowed += (allowed.empty() ? "" : ", ") + sub->get_name();
+        }
+        const std::vector<std::string> extra = group->remaining();
+        throw core::UsageError(name + ": " +
+                               (extra.empty() ? "expected a subcommand"
+                                              : "unknown subcommand '" + extra.front() + "'") +
+                               "; allowed: " + allowed);
+      }
       throw core::UsageError(error.what());
     } catch (const CLI::ParseError& error) {
       throw core::UsageError(error.what());

@@ -97,26 +97,18 @@ std::string Degrees(const core::RobotModel& model, const std::vector<double>& q)
   return text.str();
 }
 
-double ScaleFrom(const runtime::Args& parsed, const std::string& command) {
-  if (!parsed.Has("scale")) return 1.0;
-  const double scale = parsed.Numbers("scale", 1)[0];
-  if (!(scale > 0) || scale > 1) {
-    throw core::UsageError(command + ": --scale " + core::FormatNumber(scale) +
-                           ": allowed (0, 1], a fraction of each joint's default speed");
-  }
-  return scale;
+double ScaleFrom(const runtime::Args& parsed, const std::string& /*command*/) {
+  return parsed.Number("scale", 1.0);  // (0, 1]: declared with the flag
 }
 
 int MoveJoints(const std::vector<std::string>& args, std::ostream& out) {
   const runtime::Args parsed(
       args, "move joints",
-      WithRigFlags({runtime::ModelFlag(),
-                    {"pose", "named pose"},
-                    {"deg", "joint positions in degrees"},
-                    {"rad", "joint positions in radians"},
-                    {"scale", "fraction of the default speeds"},
-                    runtime::Flag("wait", "wait until the move is done").Switch(),
-                    TimeoutFlag("seconds to wait")}),
+      WithRigFlags(WithJointFlags(
+          {runtime::ModelFlag(),
+           runtime::Flag("scale", "fraction of each joint's default speed").Takes("F").Above(0, 1),
+           runtime::Flag("wait", "wait until the move is done").Switch(),
+           TimeoutFlag("seconds to wait")})),
       kMoveAbout);
   const core::RobotModel model = ModelFromArgs(parsed);
   const double scale = ScaleFrom(parsed, "move joints");
@@ -142,13 +134,14 @@ int MoveJoints(const std::vector<std::string>& args, std::ostream& out) {
 int MovePose(const std::vector<std::string>& args, std::ostream& out) {
   const runtime::Args parsed(
       args, "move pose",
-      WithRigFlags({runtime::ModelFlag(),
-                    {"pose", "X Y Z ROLL PITCH YAW (m, deg)"},
-                    {"position", "X Y Z (m), orientation free"},
-                    {"config", "SHOULDER-ELBOW-WRIST or nearest"},
-                    {"scale", "fraction of the default speeds"},
-                    runtime::Flag("wait", "wait until the move is done").Switch(),
-                    TimeoutFlag("seconds to wait")}),
+      WithRigFlags(
+          {runtime::ModelFlag(),
+           {"pose", "X Y Z ROLL PITCH YAW (m, deg)"},
+           {"position", "X Y Z (m), orientation free"},
+           {"config", "SHOULDER-ELBOW-WRIST or nearest"},
+           runtime::Flag("scale", "fraction of each joint's default speed").Takes("F").Above(0, 1),
+           runtime::Flag("wait", "wait until the move is done").Switch(),
+           TimeoutFlag("seconds to wait")}),
       kMoveAbout);
   const core::RobotModel model = ModelFromArgs(parsed);
   if (parsed.Has("pose") == parsed.Has("position")) {
@@ -257,7 +250,8 @@ int PlanRun(const std::vector<std::string>& args, std::ostream& out) {
 
 int PlanControl(client::PlanCommand command, const std::string& word,
                 const std::vector<std::string>& args, std::ostream& out) {
-  const runtime::Args parsed(args, "plan " + word, WithRigFlags({}), kPlanAbout);
+  const runtime::Args parsed(args, word == "clear-fault" ? word : "plan " + word, WithRigFlags({}),
+                             kPlanAbout);
   core::Bus bus = BusFromArgs(parsed);
   client::Client rig(bus, {});
   if (!FirstStatus(rig, out)) return kExitFailed;

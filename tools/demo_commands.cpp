@@ -136,7 +136,7 @@ int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   const runtime::Args parsed(
       args, "demo",
       {runtime::Flag("out", "").Takes("DIR"), runtime::Flag("sets", "").Takes("N..."),
-       runtime::Flag("layout", "").Takes("FILE"), runtime::Flag("lcm-url", "").Takes("URL")},
+       runtime::Flag("layout", "").Takes("FILE"), runtime::Flag("lcm-url", "LCM URL").Takes("URL")},
       kDemoAbout);
   std::vector<int> sets = {1, 2, 3, 4, 5, 6, 7};
   if (parsed.Has("sets")) {

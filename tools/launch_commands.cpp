@@ -88,7 +88,7 @@ int RunLaunch(const std::vector<std::string>& args, std::ostream& out, std::ostr
        runtime::Flag("run-dir", "").Takes("DIR"),
        runtime::Flag("duration", "").Takes("S"),
        runtime::Flag("status-every", "").Takes("S"),
-       runtime::Flag("lcm-url", "").Takes("URL"),
+       runtime::Flag("lcm-url", "LCM URL").Takes("URL"),
        runtime::Flag("prefix", "").Takes("PREFIX"),
        {"dry-run", ""}},
       kLaunchAbout);

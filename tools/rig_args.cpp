@@ -41,6 +41,12 @@ std::vector<runtime::Flag> WithRigFlags(std::vector<runtime::Flag> flags) {
   return flags;
 }
 
+std::vector<runtime::Flag> WithJointFlags(std::vector<runtime::Flag> flags) {
+  const std::vector<runtime::Flag> joints = runtime::JointFlags();
+  flags.insert(flags.begin() + (flags.empty() ? 0 : 1), joints.begin(), joints.end());
+  return flags;
+}
+
 runtime::Flag TimeoutFlag(const std::string& what) {
   return runtime::Flag("timeout", what).Takes("S").Above(0);
 }

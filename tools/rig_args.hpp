@@ -19,6 +19,9 @@ namespace sirupp::tools {
 // `flags` plus --lcm-url URL and --prefix PREFIX, for runtime::Args.
 std::vector<runtime::Flag> WithRigFlags(std::vector<runtime::Flag> flags);
 
+// `flags` plus --pose NAME, --deg Q.., --rad Q.. (runtime/joint_args.hpp).
+std::vector<runtime::Flag> WithJointFlags(std::vector<runtime::Flag> flags);
+
 // The declaration of --timeout S (seconds > 0) and its value, or `fallback` when absent.
 runtime::Flag TimeoutFlag(const std::string& what);
 double TimeoutFrom(const runtime::Args& parsed, double fallback);

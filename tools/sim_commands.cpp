@@ -22,15 +22,13 @@ const char* const kResetAbout =
     "  The sim refuses positions outside the joint limits (see its heartbeat or stderr).\n";
 
 int RunReset(const std::vector<std::string>& args, std::ostream& out) {
-  const runtime::Args parsed(args, "reset",
-                             {runtime::ModelFlag(),
-                              {"pose", "named pose"},
-                              {"deg", "joint positions in degrees"},
-                              {"rad", "joint positions in radians"},
-                              {"objects", "reset the free objects too"},
-                              runtime::Flag("lcm-url", "").Takes("LCM URL", 2),
-                              {"prefix", "channel prefix of the rig"}},
-                             kResetAbout);
+  const runtime::Args parsed(
+      args, "reset",
+      WithJointFlags({runtime::ModelFlag(),
+                      {"objects", "reset the free objects too"},
+                      runtime::Flag("lcm-url", "LCM URL").Takes("URL"),
+                      runtime::Flag("prefix", "channel prefix of the rig").Takes("PREFIX")}),
+      kResetAbout);
   const core::RobotModel model = ModelFromArgs(parsed);
   const std::vector<double> position = PositionsFromArgs(parsed, model, "reset");
   const bool objects = parsed.Switch("objects");

@@ -36,7 +36,7 @@ constexpr const char* kChartJar = "/usr/share/java/jchart2d.jar";
 
 int RunSpy(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   const runtime::Args parsed(args, "spy",
-                             {runtime::Flag("lcm-url", "").Takes("URL"),
+                             {runtime::Flag("lcm-url", "LCM URL").Takes("URL"),
                               runtime::Flag("jar", "").Takes("FILE"),
                               {"check", ""},
                               {"print-command", ""}},

@@ -50,16 +50,16 @@ has "missing file" "$err" "error: /nonexistent/env.xml: cannot read the file: No
 
 # Usage errors: exit 2.
 run "env alone" 2 env
-has "env alone" "$err" "env: expected a subcommand: check or show"
+has "env alone" "$err" "env: expected a subcommand; allowed: check, show"
 run "env bad subcommand" 2 env list config/environments/table.xml
 has "env bad subcommand" "$err" "unknown subcommand 'list'; allowed: check, show"
 run "check without file" 2 env check
 has "check without file" "$err" "env check: missing FILE"
 run "show two files" 2 env show config/environments/table.xml config/environments/empty.xml
-has "show two files" "$err" "env show: expected exactly one FILE, got 2"
+has "show two files" "$err" "env show: FILE takes 1 value(s), got 2"
 run "env help" 0 env --help
-has "env help" "$out" "usage: sirupp env check FILE..."
+has "env help" "$out" "usage: sirupp env [options] COMMAND"
 run "help lists env" 0 help
-has "help lists env" "$out" "env check FILE..."
+has "help lists env" "$out" "environment files: check, show"
 
 finish cli_environment_commands "$count malformed environments"

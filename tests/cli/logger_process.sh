@@ -26,7 +26,7 @@ command -v lcm-logger >/dev/null || { echo "FAIL: lcm-logger not found (liblcm-b
 # Bad options and bad files: exit 2, one line naming the place.
 "$SIRUPP_LOGGER" --split bogus >"$out" 2>"$err"; rc=$?
 [[ $rc -eq 2 ]] || { echo "FAIL split: exit $rc"; fail=1; }
-has split "$err" "--split 'bogus' is not allowed; allowed: plan, none"
+has split "$err" "--split: 'bogus' is not allowed; allowed: plan, none"
 run bad_file 2 report tests/data/bad_logs/09_not_a_number.csv --out "$work/bad"
 has bad_file "$err" "09_not_a_number.csv:6: column 3 (j1_virt_deg): 'abc' is not a finite decimal number"
 run bad_log 2 report tests/data/bad_logs/25_lcm_bad_sync_word.lcm --out "$work/bad"

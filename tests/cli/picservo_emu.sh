@@ -8,13 +8,13 @@ work=$(mktemp -d)
 trap 'kill $(jobs -p) 2>/dev/null; wait 2>/dev/null; rm -rf "$work" "$out" "$err"' EXIT
 
 run bad_modules 2 --modules 40
-has bad_modules "$err" "--modules 40: allowed a whole number 1..32"
+has bad_modules "$err" "--modules: '40' is not allowed; allowed: a whole number from 1 to 32"
 run bad_rate 2 --drop-bytes 1.5
-has bad_rate "$err" "--drop-bytes 1.5: allowed a probability 0..1"
+has bad_rate "$err" "--drop-bytes: '1.5' is not allowed; allowed: a number from 0 to 1"
 run bad_fault 2 --overcurrent 7@1
 has bad_fault "$err" "--overcurrent '7@1': allowed K or K@SECONDS with K a module 1..6"
 run bad_joints 2 --start-joints "0 0 0"
-has bad_joints "$err" "3 angles given; allowed exactly 6"
+has bad_joints "$err" "3 values given; allowed exactly 6"
 run bad_pose 2 --start-pose sleep
 has bad_pose "$err" "--start-pose 'sleep': allowed zero, ready, set_end"
 run help 0 --help

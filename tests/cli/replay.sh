@@ -65,7 +65,7 @@ PY
 
 run "no log" 2 replay
 run "bad speed" 2 replay "$work/run.lcm" --speed 0
-has "bad speed" "$err" "expected a number > 0"
+has "bad speed" "$err" "--speed: '0' is not allowed; allowed: a number > 0"
 run "unknown flag" 2 replay "$work/run.lcm" --rate 3
 run "missing file" 1 replay "$work/none.lcm" --lcm-url "$URL"
 has "missing file" "$err" "cannot open LCM log"

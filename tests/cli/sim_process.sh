@@ -80,22 +80,22 @@ awk -v q="$q1" 'BEGIN { d = q - 1.5707963; exit !(d < 0.0175 && d > -0.0175) }' 
 # Bad arguments: exit 2, one line naming the problem.
 "$SIRUPP_SIM" --mode warp >"$work/out" 2>&1; code=$?
 [ "$code" = 2 ] || fail "--mode warp exited $code"
-grep -q "timing mode 'warp': allowed lockstep, realtime, fast" "$work/out" || fail "$(cat "$work/out")"
+grep -q -- "--mode: 'warp' is not allowed; allowed: lockstep, realtime, fast, freerun" "$work/out" || fail "$(cat "$work/out")"
 "$SIRUPP_SIM" --model tests/data/bad_models/$(ls tests/data/bad_models | head -1) >"$work/out" 2>&1; code=$?
 [ "$code" = 2 ] || fail "bad model exited $code"
 "$SIRUPP_SIM" --environment /nonexistent.xml >"$work/out" 2>&1; code=$?
 [ "$code" = 2 ] || fail "missing environment exited $code"
 grep -q "/nonexistent.xml" "$work/out" || fail "$(cat "$work/out")"
-"$SIRUPP_SIM" --position 0 0 0 400 0 0 >"$work/out" 2>&1; code=$?
-[ "$code" = 2 ] || fail "--position beyond limits exited $code"
-grep -q "joints\[3\] (wrist_roll)" "$work/out" || fail "$(cat "$work/out")"
+"$SIRUPP_SIM" --deg 0 0 0 400 0 0 >"$work/out" 2>&1; code=$?
+[ "$code" = 2 ] || fail "--deg beyond limits exited $code"
+grep -q "joint 4 (wrist_roll)" "$work/out" || fail "$(cat "$work/out")"
 # Options the sim's own rules refuse: exit 2, the flag and its value named.
 for bad in "--step 0.5|--step: step 0.5 s: allowed 0 < step <= 0.01 s" \
            "--watchdog 0|--watchdog 0: watchdog 0 s: allowed > 0" \
            "--participants a a|--participants a a: participant 'a' is listed twice" \
            "--lockstep-timeout -1|--lockstep-timeout -1: lockstep timeout -1 s: allowed > 0" \
            "--mode fast --duration -2|--duration -2: duration -2 s: allowed >= 0" \
-           "--state-every 0|--state-every 0: allowed a whole number >= 1"; do
+           "--state-every 0|--state-every: '0' is not allowed; allowed: a whole number >= 1"; do
   flags=${bad%%|*}
   # shellcheck disable=SC2086  # the flags are words
   "$SIRUPP_SIM" $flags --lcm-url memq:// >"$work/out" 2>&1; code=$?
@@ -104,7 +104,7 @@ for bad in "--step 0.5|--step: step 0.5 s: allowed 0 < step <= 0.01 s" \
 done
 "$SIRUPP_SIM" --rt-priority 100 >"$work/out" 2>&1; code=$?
 [ "$code" = 2 ] || fail "--rt-priority 100 exited $code"
-grep -q "rt-priority '100' is not allowed; allowed: 0 (off) or 1 to 99" "$work/out" || fail "$(cat "$work/out")"
+grep -q "rt-priority: '100' is not allowed; allowed: a whole number from 0 to 99" "$work/out" || fail "$(cat "$work/out")"
 # A granted or refused priority: either way the sim runs (one line says which).
 "$SIRUPP_SIM" --mode fast --duration 0.05 --rt-priority 10 >"$work/out" 2>&1; code=$?
 [ "$code" = 0 ] || fail "--rt-priority 10 exited $code: $(cat "$work/out")"

@@ -50,7 +50,7 @@ wait_for() {  # wait_for SECONDS COMMAND...: polls until COMMAND succeeds
 
 # Bad flags and files: exit 2, one line naming the flag, the value and what is allowed.
 viewer format 2 --format bmp
-has format "$err" "--format 'bmp' is not allowed; allowed: jpeg, rgb"
+has format "$err" "--format: 'bmp' is not allowed; allowed: jpeg, rgb"
 viewer width 2 --width 8
 has width "$err" "--width 8: allowed whole numbers 16..4096"
 viewer video_name 2 --video "$work/run.mp4"
@@ -68,7 +68,7 @@ viewer config 2 --config "$work/bad.yaml"
 has config "$err" "bad.yaml:2"
 has config "$err" "bmp"
 viewer once_count 2 --once "$work/x.png" --deg 1 2 3
-has once_count "$err" "--deg Q.. (one per joint) takes 6 value(s), got 3"
+has once_count "$err" "--deg Q ... takes 6 value(s), got 3"
 viewer no_dir 2 --png /proc/nope/png --duration 1
 has no_dir "$err" "/proc/nope/png: cannot create the directory"
 
