@@ -94,5 +94,21 @@ for case in "sim|--mode=warp|--mode: 'warp' is not allowed; allowed: lockstep, r
   [[ $(wc -l <"$work/err") -eq 1 ]] || bad "sirupp-$program $flag: more than one line: $(cat "$work/err")"
 done
 
+# Bash completion (scripts/sirupp-completion.bash) reads the same generated help.
+# shellcheck source=/dev/null
+source "$(dirname "$0")/../../scripts/sirupp-completion.bash"
+PATH="$(dirname "$SIRUPP"):$BIN:$PATH"
+complete_line() {  # the words of a command line, the last one being completed
+  COMP_WORDS=("$@")
+  COMP_CWORD=$(($# - 1))
+  COMPREPLY=()
+  _sirupp
+  echo "${COMPREPLY[*]}"
+}
+[[ $(complete_line sirupp mo) == "model move" ]] || bad "completion of 'sirupp mo': $(complete_line sirupp mo)"
+[[ $(complete_line sirupp move j) == "joints" ]] || bad "completion of 'sirupp move j': $(complete_line sirupp move j)"
+[[ $(complete_line sirupp move joints --sc) == "--scale" ]] || bad "completion of '--sc': $(complete_line sirupp move joints --sc)"
+[[ $(complete_line sirupp-sim --gra) == "--gravity-off" ]] || bad "completion of 'sirupp-sim --gra': $(complete_line sirupp-sim --gra)"
+
 if [[ $fail -ne 0 ]]; then echo "command_lines: FAILED"; exit 1; fi
 echo "command_lines: all checks passed"
