@@ -174,7 +174,7 @@ int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostrea
 
   const auto started = Clock::now();
   const core::RobotModel model =
-      core::LoadRobotModel(runtime::ResolveDataPath("config/robots/puma260.yaml"));
+      core::LoadRobotModel(runtime::ResolveDataPath(runtime::kDefaultModelFile));
   out << "SIRUPP-LCM demo: the paper's experiment (Table II), headless\n"
       << "  robot: " << core::ModelSummary(model) << "\n"
       << "  sets: " << sets.size() << ", processes: " << layout.processes.size() << " ("

@@ -89,8 +89,7 @@ int RunFitEmulator(const std::vector<std::string>& argv, std::ostream& out, std:
        runtime::Flag("evaluate", "").Switch(), runtime::Flag("evaluations", "").Takes("N"),
        runtime::Flag("out", "").Takes("FILE"), runtime::Flag("data", "").Takes("DIR")},
       kFitEmulatorAbout);
-  const std::string model_file = runtime::ResolveDataPath(
-      args.Has("model") ? args.String("model") : "config/robots/puma260.yaml");
+  const std::string model_file = runtime::ModelFileArg(args);
   const core::RobotModel model = core::LoadRobotModel(model_file);
   const core::RobotModel virtual_model =
       args.Has("virtual-model") ? core::LoadRobotModel(args.String("virtual-model")) : model;
