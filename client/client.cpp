@@ -212,6 +212,25 @@ void Client::WatchJoints(bool on) {
       2));
 }
 
+Client::Rest Client::WaitVirtualAtRest(double timeout_s) {
+  const bool watching = !joint_subscriptions_.empty();
+  WatchJoints(true);
+  snapshot_.sim_arm.reset();  // only a state heard from now on
+  auto at_rest = [this] {
+    const std::optional<sirupp::arm_state_t>& state = snapshot_.sim_arm;
+    return state.has_value() && !state->flags.empty() &&
+           std::all_of(state->flags.begin(), state->flags.end(), [](int8_t flags) {
+             return (flags & sirupp::arm_state_t::FLAG_AT_REST) != 0;
+           });
+  };
+  Rest rest = Rest::kNoSimState;
+  if (Until([this] { return snapshot_.sim_arm.has_value(); }, std::min(timeout_s, 0.5))) {
+    rest = Until(at_rest, timeout_s) ? Rest::kAtRest : Rest::kNotAtRest;
+  }
+  if (!watching) WatchJoints(false);
+  return rest;
+}
+
 bool Client::WaitForController(double timeout_s) {
   return Until([this] { return snapshot_.controller.has_value(); }, timeout_s);
 }

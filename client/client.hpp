@@ -177,6 +177,11 @@ class Client {
   bool WaitForController(double timeout_s = 1.5);
   // Waits for a HARDWARE_STATUS; false if none came.
   bool WaitForHardware(double timeout_s = 2.0);
+  // Waits until SIM_ARM_STATE shows the virtual arm at rest (every joint FLAG_AT_REST: the sim
+  // keeps a settled arm exactly still, docs/physics.md). A plan or move started then starts from
+  // the same state whatever tick it lands on. kNoSimState when no state came within 0.5 s.
+  enum class Rest { kAtRest, kNotAtRest, kNoSimState };
+  Rest WaitVirtualAtRest(double timeout_s);
   // True when sirupp-control, heard before, sent no status for `seconds` (it sends at 10 Hz).
   bool ControllerSilent(double seconds) const;
   // Seconds since the last CONTROLLER_STATUS (infinity before the first).

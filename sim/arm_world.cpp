@@ -27,6 +27,8 @@ constexpr double kRezeroAngle = kPi / 2;
 // The brake of kHold holds up to this multiple of the joint's effort limit.
 constexpr double kBrakeEffortFactor = 10.0;
 constexpr int kMaxContactsPerPair = 8;
+// Steps every joint must stay held, under one command, before the arm is at rest.
+constexpr int kRestSteps = 32;
 
 void OdeMessage(int errnum, const char* msg, va_list ap) {
   std::fprintf(stderr, "sirupp-sim: ODE message %d: ", errnum);
@@ -156,6 +158,17 @@ struct ArmWorld::Impl {
   };
   std::vector<BodyState> saved_bodies;
   int64_t redone_steps = 0;
+  // Rest (WorldOptions::rest). After a teleport to zero speeds the arm is at rest for any hold
+  // command (the brake keeps it where it is); after settling, for the command it settled under.
+  bool at_rest = false;
+  bool rest_any_hold = false;
+  core::CommandMode rest_mode = core::CommandMode::kHold;
+  std::vector<double> rest_effort;
+  int quiet_steps = 0;
+  core::CommandMode previous_mode = core::CommandMode::kHold;
+  std::vector<double> previous_effort;
+  bool have_previous = false;
+  int64_t rest_ticks = 0;
 
   Impl(const core::RobotModel& robot, const core::Environment& environment,
        const WorldOptions& opts)
@@ -175,6 +188,47 @@ struct ArmWorld::Impl {
     contact_group = dJointGroupCreate(0);
     BuildArm();
     BuildEnvironment(environment);
+    StartRest(true);
+  }
+
+  bool RestAllowed() const { return options.rest && free_count == 0; }
+
+  // At rest from now on: for any hold command (after a teleport to zero speeds) or for the
+  // previous command (after settling). The state stays the last step's, speeds (below
+  // stick_speed) included, so that a law answering it keeps answering the same.
+  void StartRest(bool any_hold) {
+    quiet_steps = 0;
+    at_rest = RestAllowed();
+    if (!at_rest) return;
+    rest_any_hold = any_hold;
+    rest_mode = previous_mode;
+    rest_effort = previous_effort;
+  }
+
+  static bool SameCommand(core::CommandMode mode_a, const std::vector<double>& effort_a,
+                          const core::ArmCommand& b) {
+    return mode_a == b.mode && (b.mode != core::CommandMode::kEffort || effort_a == b.effort);
+  }
+
+  bool KeepsRest(const core::ArmCommand& command) const {
+    return at_rest && ((rest_any_hold && command.mode == core::CommandMode::kHold) ||
+                       SameCommand(rest_mode, rest_effort, command));
+  }
+
+  // After a step: counts the steps every joint stayed held under the same command.
+  void NoteRest(const core::ArmCommand& command) {
+    bool held =
+        RestAllowed() && have_previous && SameCommand(previous_mode, previous_effort, command);
+    for (const JointSim& sim : joints) {
+      held = held && std::abs(sim.qd) <= options.stick_speed &&
+             (sim.braked || (sim.has_friction && sim.friction_row && sim.stuck));
+    }
+    quiet_steps = held ? quiet_steps + 1 : 0;
+    previous_mode = command.mode;
+    previous_effort =
+        command.mode == core::CommandMode::kEffort ? command.effort : std::vector<double>{};
+    have_previous = true;
+    if (quiet_steps >= kRestSteps) StartRest(false);
   }
 
   ~Impl() {
@@ -533,6 +587,15 @@ struct ArmWorld::Impl {
         if (object.body != nullptr) PlaceObject(object);  // static objects never moved
       }
     }
+    have_previous = false;
+    const bool still =
+        std::all_of(joints.begin(), joints.end(), [](const JointSim& sim) { return sim.qd == 0; });
+    if (still) {
+      StartRest(true);
+    } else {
+      at_rest = false;
+      quiet_steps = 0;
+    }
   }
 
   static void UpdateLimitFlags(JointSim& sim) {
@@ -738,6 +801,15 @@ struct ArmWorld::Impl {
         }
       }
     }
+    if (KeepsRest(command)) {
+      // Held still under the same command: nothing moves, so nothing is integrated.
+      for (JointSim& sim : joints) sim.braked = command.mode == core::CommandMode::kHold;
+      last_rows = 0;
+      ++rest_ticks;
+      ++tick;
+      return;
+    }
+    at_rest = false;
     // Sliding joints take their kinetic friction as a plain torque, which saves the constraint
     // row; that is exact as long as the joint keeps sliding the same way through the step. If one
     // reached or crossed zero speed, the step is undone and redone with that joint's row, so the
@@ -790,6 +862,7 @@ struct ArmWorld::Impl {
     }
     last_rows = rows + contact_rows;
     ++tick;
+    NoteRest(command);
   }
 
   core::ArmState State() const {
@@ -809,6 +882,7 @@ struct ArmWorld::Impl {
       } else if (sim.stuck && sim.has_friction) {
         flags |= sirupp::arm_state_t::FLAG_STICKING;
       }
+      if (at_rest) flags |= sirupp::arm_state_t::FLAG_AT_REST;
       state.flags.push_back(static_cast<int8_t>(flags));
     }
     return state;
@@ -872,5 +946,9 @@ std::vector<ObjectPose> ArmWorld::ObjectPoses() const {
 const std::vector<std::string>& ArmWorld::Omissions() const { return impl_->omissions; }
 
 int ArmWorld::LastStepRows() const { return impl_->last_rows; }
+
+bool ArmWorld::AtRest() const { return impl_->at_rest; }
+
+int64_t ArmWorld::RestTicks() const { return impl_->rest_ticks; }
 
 }  // namespace sirupp::sim
