@@ -265,24 +265,24 @@ void ControlNode::OnState(const sirupp::arm_state_t& message, const core::Receiv
 }
 
 void ControlNode::PublishSetpoint(const core::ArmState& state, const std::vector<double>& effort) {
-  sirupp::servo_setpoint_t setpoint{};
+  core::ServoSetpoint setpoint;
   setpoint.utime = state.utime;
   setpoint.seq = setpoint_seq_++;
   setpoint.tick = state.tick;
   setpoint.move_id = move_id_;
-  setpoint.num_joints = model_.num_joints();
   for (int j = 0; j < model_.num_joints(); ++j) {
     const PicServo& servo = bank_.servo(j);
     const JointDrive& drive = bank_.drive(j);
-    setpoint.position.push_back(bank_.SetpointPosition(j));
-    setpoint.velocity.push_back(bank_.SetpointVelocity(j));
-    setpoint.goal.push_back(bank_.Goal(j));
-    setpoint.position_error.push_back(static_cast<double>(servo.position_error()) /
-                                      drive.counts_per_unit());
-    setpoint.effort.push_back(effort[static_cast<size_t>(j)]);
-    setpoint.status.push_back(static_cast<int8_t>(servo.status()));
+    core::JointSetpoint joint;
+    joint.position = bank_.SetpointPosition(j);
+    joint.velocity = bank_.SetpointVelocity(j);
+    joint.goal = bank_.Goal(j);
+    joint.position_error = static_cast<double>(servo.position_error()) / drive.counts_per_unit();
+    joint.effort = effort[static_cast<size_t>(j)];
+    joint.status = static_cast<int8_t>(servo.status());
+    setpoint.joints.push_back(joint);
   }
-  bus_.Publish(options_.channels.arm_setpoint, setpoint);
+  bus_.Publish(options_.channels.arm_setpoint, core::ToMessage(setpoint));
 }
 
 void ControlNode::CheckJointCount(const std::string& channel, int32_t num_joints) const {
@@ -734,11 +734,11 @@ void ControlNode::PublishStatus(bool force) {
       std::chrono::duration<double>(now - last_status_).count() < kStatusPeriodS) {
     return;
   }
-  Status status{};
+  core::ControllerStatus status;
   status.utime = last_state_utime_;
   status.seq = status_seq_++;
-  status.mode = mode();
-  status.state = now_state;
+  status.mode = static_cast<core::ControllerMode>(mode());
+  status.state = static_cast<core::ControllerState>(now_state);
   status.move_id = move_id_;
   status.plan_step = -1;
   if (plan_) {
@@ -749,7 +749,7 @@ void ControlNode::PublishStatus(bool force) {
     status.plan_line = plan_step_ < steps ? plan_->steps[static_cast<size_t>(plan_step_)].line : 0;
   }
   status.last_error = last_error_;
-  bus_.Publish(options_.channels.controller_status, status);
+  bus_.Publish(options_.channels.controller_status, core::ToMessage(status));
   last_reported_state_ = now_state;
   last_status_ = now;
 }

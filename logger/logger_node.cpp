@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "core/errors.hpp"
+#include "core/translate.hpp"
 
 namespace sirupp::logger {
 
@@ -80,34 +81,6 @@ std::string HeaderWord(const std::string& name) {
     if (c == ' ' || c == ';' || c == ',' || c == '\t') c = '_';
   }
   return word;
-}
-
-// A data file holds finite numbers only: a message with a NaN or infinite value is refused whole
-// (counted as rejected on its channel), whoever sent it.
-void CheckFinite(const std::string& channel, const char* field, const std::vector<double>& values) {
-  for (size_t j = 0; j < values.size(); ++j) {
-    if (!std::isfinite(values[j])) {
-      throw core::MessageError(channel, std::string(field) + "[" + std::to_string(j) + "]",
-                               core::FormatNumber(values[j]) + ": allowed finite values");
-    }
-  }
-}
-
-void CheckArmState(const std::string& channel, const sirupp::arm_state_t& message) {
-  CheckFinite(channel, "position", message.position);
-  CheckFinite(channel, "velocity", message.velocity);
-  CheckFinite(channel, "effort", message.effort);
-}
-
-// Plan runs split the files: a status with a mode or state no controller sends is refused.
-void CheckStatus(const std::string& channel, const sirupp::controller_status_t& message) {
-  using Status = sirupp::controller_status_t;
-  if (message.mode != Status::MODE_MANUAL && message.mode != Status::MODE_AUTOMATIC) {
-    throw core::MessageError(channel, "mode", std::to_string(message.mode) + ": allowed 0 or 1");
-  }
-  if (message.state < Status::STATE_IDLE || message.state > Status::STATE_OFF) {
-    throw core::MessageError(channel, "state", std::to_string(message.state) + ": allowed 0..5");
-  }
 }
 
 }  // namespace
@@ -199,12 +172,10 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
   subscriptions_.push_back(&bus_.Subscribe<sirupp::servo_setpoint_t>(
       options_.channels.arm_setpoint,
       [this, check](const sirupp::servo_setpoint_t& message, const core::ReceiveInfo& info) {
+        // A data file holds finite numbers only: the translation refuses a NaN or infinite
+        // value whole (counted as rejected on its channel), whoever sent it.
         check(info.channel, message.num_joints);
-        CheckFinite(info.channel, "position", message.position);
-        CheckFinite(info.channel, "velocity", message.velocity);
-        CheckFinite(info.channel, "goal", message.goal);
-        CheckFinite(info.channel, "position_error", message.position_error);
-        CheckFinite(info.channel, "effort", message.effort);
+        core::ServoSetpointFromMessage(message, info.channel);
         Sample sample = SampleFromSetpoint(message, info.recv_utime);
         sample.lost_before = set_seq_.Next(message.seq);
         Push(std::move(sample), Stream::kSetpoint);
@@ -214,7 +185,7 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
       options_.channels.sim_arm_state,
       [this, check](const sirupp::arm_state_t& message, const core::ReceiveInfo& info) {
         check(info.channel, message.num_joints);
-        CheckArmState(info.channel, message);
+        core::ArmStateFromMessage(message, info.channel, -1);
         Sample sample = SampleFromArmState(message, Stream::kVirtual, info.recv_utime);
         sample.lost_before = virt_seq_.Next(message.seq);
         Push(std::move(sample), Stream::kVirtual);
@@ -224,7 +195,7 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
       options_.channels.real_arm_state,
       [this, check](const sirupp::arm_state_t& message, const core::ReceiveInfo& info) {
         check(info.channel, message.num_joints);
-        CheckArmState(info.channel, message);
+        core::ArmStateFromMessage(message, info.channel, -1);
         Sample sample = SampleFromArmState(message, Stream::kReal, info.recv_utime);
         sample.lost_before = real_seq_.Next(message.seq);
         Push(std::move(sample), Stream::kReal);
@@ -233,7 +204,8 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
   subscriptions_.push_back(&bus_.Subscribe<sirupp::controller_status_t>(
       options_.channels.controller_status,
       [this](const sirupp::controller_status_t& message, const core::ReceiveInfo& info) {
-        CheckStatus(info.channel, message);
+        // Plan runs split the files: a status no controller could send is refused.
+        core::ControllerStatusFromMessage(message, info.channel);
         Push(StatusFromMessage(message, info.recv_utime), Stream::kSetpoint);
       },
       kQueue));
@@ -249,10 +221,8 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
         [this, check, gains_source = source](const sirupp::servo_gains_t& message,
                                              const core::ReceiveInfo& info) {
           check(info.channel, message.num_joints);
+          core::ServoGainsFromMessage(message, info.channel);
           GainsRecord gains = GainsFromMessage(message, gains_source, info.recv_utime);
-          for (int f = 0; f < kNumGainFields; ++f) {
-            CheckFinite(info.channel, GainFieldName(f), GainField(gains, f));
-          }
           Push(std::move(gains), Stream::kSetpoint);
         },
         kQueue));
