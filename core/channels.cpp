@@ -29,6 +29,7 @@ Channels Channels::WithPrefix(const std::string& prefix) {
   for (std::string* name : {&channels.robot_model,       &channels.environment,
                             &channels.sim_arm_state,     &channels.sim_arm_command,
                             &channels.sim_reset,         &channels.sim_status,
+                            &channels.sim_command,       &channels.sim_reply,
                             &channels.arm_move,          &channels.arm_setpoint,
                             &channels.arm_gains,         &channels.controller_gains,
                             &channels.arm_target,        &channels.arm_pose_target,
@@ -36,7 +37,8 @@ Channels Channels::WithPrefix(const std::string& prefix) {
                             &channels.controller_reply,  &channels.real_arm_state,
                             &channels.real_arm_setpoint, &channels.real_arm_gains,
                             &channels.hardware_status,   &channels.hardware_command,
-                            &channels.hardware_reply,    &channels.estop,
+                            &channels.hardware_reply,    &channels.logger_command,
+                            &channels.logger_reply,      &channels.estop,
                             &channels.heartbeat,         &channels.viewer_image,
                             &channels.viewer_camera}) {
     name->insert(0, prefix);
@@ -48,6 +50,7 @@ std::vector<std::string> Channels::All() const {
   return {robot_model,       environment,
           sim_arm_state,     sim_arm_command,
           sim_reset,         sim_status,
+          sim_command,       sim_reply,
           arm_move,          arm_setpoint,
           arm_gains,         controller_gains,
           arm_target,        arm_pose_target,
@@ -55,7 +58,8 @@ std::vector<std::string> Channels::All() const {
           controller_reply,  real_arm_state,
           real_arm_setpoint, real_arm_gains,
           hardware_status,   hardware_command,
-          hardware_reply,    estop,
+          hardware_reply,    logger_command,
+          logger_reply,      estop,
           heartbeat,         viewer_image,
           viewer_camera};
 }
@@ -100,6 +104,13 @@ const std::vector<ChannelInfo>& ChannelTable() {
        "1 Hz, on a participant's change and on a new refusal",
        "run id, timing mode, real-time factor, slipped time, e-stop, each participant's answer "
        "time and state, refused commands per sender with the reason"},
+      {"SIM_COMMAND", "sirupp.sim_command_t", "sirupp-panel (client library)", "sirupp-sim",
+       "on demand",
+       "load an environment (the XML text) into the running sim between two ticks, the arm "
+       "untouched"},
+      {"SIM_REPLY", "sirupp.command_reply_t", "sirupp-sim", "sirupp-panel (client library)",
+       "one per SIM_COMMAND",
+       "the answer to one command: its channel, utime and seq, accepted or refused and why"},
       {"ARM_MOVE", "sirupp.servo_move_t", "sirupp-control", "sirupp-hardware", "one per move",
        "per-joint goal, maximum velocity and acceleration: the PIC-SERVO LOAD_TRAJ analogue"},
       {"ARM_SETPOINT", "sirupp.servo_setpoint_t", "sirupp-control", "sirupp-logger, sirupp-viewer",
@@ -141,6 +152,11 @@ const std::vector<ChannelInfo>& ChannelTable() {
       {"HARDWARE_REPLY", "sirupp.command_reply_t", "sirupp-hardware",
        "sirupp-control, sirupp CLI, sirupp-panel",
        "one per HARDWARE_COMMAND, ARM_MOVE and ARM_GAINS",
+       "the answer to one command: its channel, utime and seq, accepted or refused and why"},
+      {"LOGGER_COMMAND", "sirupp.logger_command_t", "sirupp-panel (client library)",
+       "sirupp-logger", "on demand", "start recording a named run, or stop the present one"},
+      {"LOGGER_REPLY", "sirupp.command_reply_t", "sirupp-logger", "sirupp-panel (client library)",
+       "one per LOGGER_COMMAND",
        "the answer to one command: its channel, utime and seq, accepted or refused and why"},
       {"ESTOP", "sirupp.estop_t", "any process", "sirupp-sim, sirupp-control, sirupp-hardware",
        "on demand", "emergency stop engaged or released, by whom and why"},

@@ -21,6 +21,8 @@ struct Channels {
   std::string sim_arm_command = "SIM_ARM_COMMAND";
   std::string sim_reset = "SIM_RESET";
   std::string sim_status = "SIM_STATUS";
+  std::string sim_command = "SIM_COMMAND";
+  std::string sim_reply = "SIM_REPLY";
   std::string arm_move = "ARM_MOVE";
   std::string arm_setpoint = "ARM_SETPOINT";
   std::string arm_gains = "ARM_GAINS";
@@ -36,6 +38,8 @@ struct Channels {
   std::string hardware_status = "HARDWARE_STATUS";
   std::string hardware_command = "HARDWARE_COMMAND";
   std::string hardware_reply = "HARDWARE_REPLY";
+  std::string logger_command = "LOGGER_COMMAND";
+  std::string logger_reply = "LOGGER_REPLY";
   std::string estop = "ESTOP";
   std::string heartbeat = "HEARTBEAT";
   std::string viewer_image = "VIEWER_IMAGE";
