@@ -467,7 +467,8 @@ Response PanelApi::RecordJson() {
   // The logger as its heartbeat shows it; "recording NAME: ..." names the run being written.
   Json logger = nullptr;
   std::string recording;
-  for (const Json& row : hub_.ProcessesJson()["processes"]) {
+  const Json processes = hub_.ProcessesJson();
+  for (const Json& row : processes["processes"]) {
     if (row["process"] != "sirupp-logger" || !row["alive"].get<bool>()) continue;
     const std::string detail = row["detail"].get<std::string>();
     logger = Json{{"state", row["state"]}, {"detail", detail}, {"host", row["host"]}};
@@ -616,7 +617,13 @@ Response PanelApi::ModelEdit(const Json& body, bool save) {
     CheckModelFileName(name);
     target = "config/robots/" + name + ".yaml";
   }
-  const ModelCheck check = CheckModelText(edited, target, EditableFields(edited, target));
+  ModelCheck check = CheckModelText(edited, target, EditableFields(edited, target));
+  if (!check.ok && check.field.empty()) {
+    // An error about a whole value ("joints[0].limits") names the edited part of it.
+    for (const auto& [key, value] : edits) {
+      if (!check.key_path.empty() && key.rfind(check.key_path, 0) == 0) check.field = key;
+    }
+  }
   if (!check.ok) {
     return JsonResponse(Json{{"ok", false},
                              {"error", check.error},

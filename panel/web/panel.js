@@ -46,7 +46,7 @@ async function post(path, body, quiet) {
 let model = null;
 let latest = null;         // newest state frame
 let drawnGeneration = -1;
-const stats = {frames: 0, fps: 0, latencies: [], received: 0};
+const stats = {frames: 0, fps: 0, latencies: [], received: 0, drawn: 0};
 window.panelStats = stats;  // read by the benchmark and the browser tests
 
 // --- tabs ---------------------------------------------------------------------------------------
@@ -135,7 +135,7 @@ $('targets-from-arm').onclick = () => {
   });
 };
 function updateJoints(s) {
-  if (!model) return;
+  if (!model || !$('tab-joints').classList.contains('active')) return;
   model.joints.forEach((j, i) => {
     const tr = $('joint-' + (i + 1));
     if (!tr) return;
@@ -351,7 +351,7 @@ for (const verb of ['connect', 'calibrate', 'arm', 'disarm', 'link', 'unlink', '
 }
 function updateHardware(s) {
   const h = s.hardware;
-  if (!h) return;
+  if (!h || !$('tab-real').classList.contains('active')) return;
   $('hw-status').textContent = `bridge ${h.state}, ${h.calibrated ? 'calibrated' : 'not calibrated'}, port ${h.port} ${h.baud} baud, ` +
     `${h.checksum_errors} checksum errors, ${h.timeouts} timeouts` + (h.last_error ? `; last error: ${h.last_error}` : '');
   $('hw-modules').tBodies[0].innerHTML = h.modules.map((m, i) =>
@@ -560,16 +560,23 @@ function frame() {
     View3d.pose('virtual', s.virtual);
     View3d.pose('setpoint', s.setpoint);
     View3d.pose('real', s.real);
-    updateJoints(s);
-    updatePlan(s);
-    updateHardware(s);
+    // The tables change text at most 10 times a second (reading them faster helps nobody, and
+    // each change costs the page a layout).
+    const now = performance.now();
+    if (now - lastTables >= 100) {
+      lastTables = now;
+      updateJoints(s);
+      updatePlan(s);
+      updateHardware(s);
+    }
     if (s.recv_ms) {
       stats.latencies.push(performance.timeOrigin + performance.now() - s.recv_ms);
       if (stats.latencies.length > 5000) stats.latencies.shift();
     }
   }
-  View3d.render();
+  if (View3d.render()) stats.drawn++;
 }
+let lastTables = 0;
 
 let fpsCount = 0;
 setInterval(() => {

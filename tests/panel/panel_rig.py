@@ -36,8 +36,8 @@ def wait_for(what, predicate, timeout=20.0, period=0.05):
 
 class Rig:
     def __init__(self, bin_dir, source_dir, hardware=False, port=None, panel_args=(), logger=False):
-        self.bin = bin_dir
-        self.src = source_dir
+        self.bin = os.path.abspath(bin_dir)  # the panel may run in another folder (logger=True)
+        self.src = os.path.abspath(source_dir)
         self.port = port or 7800 + os.getpid() % 150
         self.url = f"udpm://239.255.76.67:{self.port}?ttl=0"
         self.work = tempfile.mkdtemp(prefix="sirupp-panel-test-")
