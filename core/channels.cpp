@@ -34,6 +34,7 @@ std::vector<ChannelName*> Channels::Each() {
   return {&robot_model,       &environment,
           &sim_arm_state,     &sim_arm_command,
           &sim_reset,         &sim_status,
+          &sim_command,       &sim_reply,
           &arm_move,          &arm_setpoint,
           &arm_gains,         &controller_gains,
           &arm_target,        &arm_pose_target,
@@ -41,7 +42,8 @@ std::vector<ChannelName*> Channels::Each() {
           &controller_reply,  &real_arm_state,
           &real_arm_setpoint, &real_arm_gains,
           &hardware_status,   &hardware_command,
-          &hardware_reply,    &estop,
+          &hardware_reply,    &logger_command,
+          &logger_reply,      &estop,
           &heartbeat,         &viewer_image,
           &viewer_camera};
 }
@@ -106,6 +108,11 @@ std::vector<ChannelInfo> BuildTable() {
        "1 Hz, on a participant's change and on a new refusal",
        "run id, timing mode, real-time factor, slipped time, e-stop, each participant's answer "
        "time and state, refused commands per sender with the reason"},
+      {"SIM_COMMAND", "sirupp-panel (client library)", "sirupp-sim", "on demand",
+       "load an environment (the XML text) into the running sim between two ticks, the arm "
+       "untouched"},
+      {"SIM_REPLY", "sirupp-sim", "sirupp-panel (client library)", "one per SIM_COMMAND",
+       "the answer to one command: its channel, utime and seq, accepted or refused and why"},
       {"ARM_MOVE", "sirupp-control", "sirupp-hardware", "one per move",
        "per-joint goal, maximum velocity and acceleration: the PIC-SERVO LOAD_TRAJ analogue"},
       {"ARM_SETPOINT", "sirupp-control", "sirupp-logger, sirupp-viewer", "every servo tick",
@@ -141,6 +148,10 @@ std::vector<ChannelInfo> BuildTable() {
        "connect, calibrate, arm, disarm, link, unlink, home, clear faults"},
       {"HARDWARE_REPLY", "sirupp-hardware", "sirupp-control, sirupp CLI, sirupp-panel",
        "one per HARDWARE_COMMAND, ARM_MOVE and ARM_GAINS",
+       "the answer to one command: its channel, utime and seq, accepted or refused and why"},
+      {"LOGGER_COMMAND", "sirupp-panel (client library)", "sirupp-logger", "on demand",
+       "start recording a named run, or stop the present one"},
+      {"LOGGER_REPLY", "sirupp-logger", "sirupp-panel (client library)", "one per LOGGER_COMMAND",
        "the answer to one command: its channel, utime and seq, accepted or refused and why"},
       {"ESTOP", "any process", "sirupp-sim, sirupp-control, sirupp-hardware", "on demand",
        "emergency stop engaged or released, by whom and why"},

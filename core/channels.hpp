@@ -18,12 +18,14 @@
 #include <sirupp/heartbeat_t.hpp>
 #include <sirupp/image_t.hpp>
 #include <sirupp/joint_target_t.hpp>
+#include <sirupp/logger_command_t.hpp>
 #include <sirupp/plan_command_t.hpp>
 #include <sirupp/pose_target_t.hpp>
 #include <sirupp/robot_model_t.hpp>
 #include <sirupp/servo_gains_t.hpp>
 #include <sirupp/servo_move_t.hpp>
 #include <sirupp/servo_setpoint_t.hpp>
+#include <sirupp/sim_command_t.hpp>
 #include <sirupp/sim_reset_t.hpp>
 #include <sirupp/sim_status_t.hpp>
 #include <sirupp/viewer_camera_t.hpp>
@@ -43,6 +45,8 @@ struct Channels {
   Channel<sirupp::arm_command_t> sim_arm_command{"SIM_ARM_COMMAND"};
   Channel<sirupp::sim_reset_t> sim_reset{"SIM_RESET"};
   Channel<sirupp::sim_status_t> sim_status{"SIM_STATUS"};
+  Channel<sirupp::sim_command_t> sim_command{"SIM_COMMAND"};
+  Channel<sirupp::command_reply_t> sim_reply{"SIM_REPLY"};
   Channel<sirupp::servo_move_t> arm_move{"ARM_MOVE"};
   Channel<sirupp::servo_setpoint_t> arm_setpoint{"ARM_SETPOINT"};
   Channel<sirupp::servo_gains_t> arm_gains{"ARM_GAINS"};
@@ -58,6 +62,8 @@ struct Channels {
   Channel<sirupp::hardware_status_t> hardware_status{"HARDWARE_STATUS"};
   Channel<sirupp::hardware_command_t> hardware_command{"HARDWARE_COMMAND"};
   Channel<sirupp::command_reply_t> hardware_reply{"HARDWARE_REPLY"};
+  Channel<sirupp::logger_command_t> logger_command{"LOGGER_COMMAND"};
+  Channel<sirupp::command_reply_t> logger_reply{"LOGGER_REPLY"};
   Channel<sirupp::estop_t> estop{"ESTOP"};
   Channel<sirupp::heartbeat_t> heartbeat{"HEARTBEAT"};
   Channel<sirupp::image_t> viewer_image{"VIEWER_IMAGE"};

@@ -91,7 +91,11 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
     : bus_(bus),
       model_(model),
       options_(std::move(options)),
-      heartbeat_(bus, options_.process_name, options_.channels.heartbeat),
+      own_heartbeat_(options_.heartbeat != nullptr
+                         ? nullptr
+                         : std::make_unique<core::Heartbeat>(bus, options_.process_name,
+                                                             options_.channels.heartbeat)),
+      heartbeat_(options_.heartbeat != nullptr ? *options_.heartbeat : *own_heartbeat_),
       model_watch_(model_, options_.process_name),
       aligner_(options_.aligner) {
   if (options_.name.empty()) options_.name = DefaultRunName();
@@ -235,7 +239,7 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
           heartbeat_.Publish(core::ProcessState::kFault, model_watch_.mismatch());
         }
       }));
-  heartbeat_.Publish(core::ProcessState::kStarting, "");
+  if (own_heartbeat_) heartbeat_.Publish(core::ProcessState::kStarting, "");
   writer_ = std::thread([this] { WriterLoop(); });
 }
 
@@ -270,7 +274,8 @@ void LoggerNode::Service(int max_wait_ms) {
   } else {
     heartbeat_.PublishIfDue(
         core::ProcessState::kRunning,
-        std::to_string(now.rows) + " rows" + (now.files.empty() ? "" : " in " + now.files.back()));
+        "recording " + options_.name + ": " + std::to_string(now.rows) + " rows" +
+            (now.files.empty() ? "" : " in " + now.files.back()));
   }
 }
 

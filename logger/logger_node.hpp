@@ -50,6 +50,9 @@ struct LoggerOptions {
   core::Channels channels;       // names without the rig prefix (the Bus adds it)
   std::string note;              // free text for the header (e.g. the lab layout)
   std::string process_name = "sirupp-logger";
+  // Publish the heartbeat on this one (a Recorder's, which outlives its runs); nullptr: the node
+  // has its own.
+  core::Heartbeat* heartbeat = nullptr;
 };
 
 struct LoggerStats {
@@ -100,7 +103,8 @@ class LoggerNode {
   core::RobotModel model_;
   LoggerOptions options_;
   ColumnLayout layout_;
-  core::Heartbeat heartbeat_;
+  std::unique_ptr<core::Heartbeat> own_heartbeat_;  // when options_.heartbeat is null
+  core::Heartbeat& heartbeat_;
   // One robot: the sim's ROBOT_MODEL against the model the columns are labelled from; a mismatch
   // is a fault on the heartbeat (the data would carry the wrong robot's names and units).
   core::ModelWatch model_watch_;

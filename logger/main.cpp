@@ -9,7 +9,7 @@
 #include "core/bus.hpp"
 #include "core/errors.hpp"
 #include "core/model_loader.hpp"
-#include "logger/logger_node.hpp"
+#include "logger/recorder.hpp"
 #include "runtime/args.hpp"
 #include "runtime/data_path.hpp"
 #include "runtime/process_main.hpp"
@@ -31,7 +31,9 @@ constexpr const char* kUsage =
     "--recv-buf of 2097152 bytes (0: LCM's default), so a busy machine does not drop datagrams\n"
     "(the kernel caps it at net.core.rmem_max). Started again with data files of NAME in DIR\n"
     "(a restart), it continues the run in new files: NAME-03-set2.csv goes on in\n"
-    "NAME-03-set2.1.csv; no file is ever replaced. Raw traffic: lcm-logger, see\n"
+    "NAME-03-set2.1.csv; no file is ever replaced. LOGGER_COMMAND stops the run and starts\n"
+    "new named ones (answered on LOGGER_REPLY; the lab panel's Record view). Raw traffic:\n"
+    "lcm-logger, see\n"
     "docs/logging.md. Report: sirupp report DIR\n";
 
 double PositiveSeconds(const sirupp::runtime::Args& args, const std::string& flag,
@@ -120,7 +122,7 @@ int Run(const std::vector<std::string>& argv) {
   sirupp::core::Bus bus(WithReceiveBuffer(args.Has("lcm-url") ? args.String("lcm-url") : "",
                                           static_cast<int64_t>(recv_buf)),
                         args.Has("prefix") ? args.String("prefix") : "");
-  sirupp::logger::LoggerNode node(bus, model, options);
+  sirupp::logger::Recorder node(bus, model, options);
   std::cerr << "sirupp-logger: " << model.name << ", files " << options.out_dir << "/"
             << node.name() << (options.split_per_plan ? "-NN-SET.csv" : ".csv") << ", a row every "
             << options.aligner.period_us << " us, on " << bus.url() << std::endl;

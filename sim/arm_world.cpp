@@ -146,6 +146,7 @@ struct ArmWorld::Impl {
     core::Pose start;
   };
   std::vector<Object> objects;
+  core::Environment built_environment;  // what the objects were built from
   std::vector<std::unique_ptr<Material>> materials;
   int last_rows = 0;
   int contact_rows = 0;
@@ -188,6 +189,7 @@ struct ArmWorld::Impl {
     contact_group = dJointGroupCreate(0);
     BuildArm();
     BuildEnvironment(environment);
+    built_environment = environment;
     StartRest(true);
   }
 
@@ -415,6 +417,64 @@ struct ArmWorld::Impl {
         dGeomSetQuaternion(geom, rotation);
       }
     }
+  }
+
+  // Removes every environment object (geoms, bodies, their materials and spaces).
+  void ClearEnvironment() {
+    dJointGroupEmpty(contact_group);
+    for (const Object& object : objects) {
+      if (object.body != nullptr) dBodyDestroy(object.body);
+    }
+    if (static_space != nullptr) dSpaceDestroy(static_space);  // destroys its geoms
+    static_space = nullptr;
+    dSpaceDestroy(free_space);
+    free_space = dSimpleSpaceCreate(nullptr);
+    objects.clear();
+    saved_bodies.clear();
+    static_count = 0;
+    free_count = 0;
+    materials.erase(std::remove_if(materials.begin(), materials.end(),
+                                   [](const std::unique_ptr<Material>& m) { return !m->arm; }),
+                    materials.end());
+  }
+
+  // The first object overlapping one of the arm's moving links by more than 1 mm, as
+  // "object 'NAME' overlaps link I" (empty when none does).
+  std::string FindOverlap() {
+    struct Probe {
+      Impl* self;
+      std::string found;
+    } probe{this, {}};
+    const auto callback = [](void* data, dGeomID a, dGeomID b) {
+      auto* p = static_cast<Probe*>(data);
+      if (!p->found.empty()) return;
+      if (dGeomGetBody(a) == nullptr && dGeomGetBody(b) == nullptr) return;
+      dContactGeom contacts[kMaxContactsPerPair];
+      const int count = dCollide(a, b, kMaxContactsPerPair, contacts, sizeof(dContactGeom));
+      for (int k = 0; k < count; ++k) {
+        if (contacts[k].depth <= 0.001) continue;
+        for (const Object& object : p->self->objects) {
+          if (object.geom != a && object.geom != b) continue;
+          const dGeomID arm_geom = object.geom == a ? b : a;
+          const dBodyID body = dGeomGetBody(arm_geom);
+          const auto& links = p->self->bodies;
+          const auto it = std::find(links.begin(), links.end(), body);
+          p->found = "object '" + object.name + "' overlaps " +
+                     (it == links.end() ? std::string("the base")
+                                        : "link " + std::to_string(it - links.begin() + 1)) +
+                     " by " + FormatNumber(std::round(contacts[k].depth * 1e4) / 10) + " mm";
+          return;
+        }
+      }
+    };
+    const auto arm = reinterpret_cast<dGeomID>(arm_space);
+    if (static_space != nullptr) {
+      dSpaceCollide2(arm, reinterpret_cast<dGeomID>(static_space), &probe, callback);
+    }
+    if (probe.found.empty() && free_count > 0) {
+      dSpaceCollide2(arm, reinterpret_cast<dGeomID>(free_space), &probe, callback);
+    }
+    return probe.found;
   }
 
   void BuildEnvironment(const core::Environment& environment) {
@@ -903,6 +963,24 @@ double ArmWorld::time_s() const { return static_cast<double>(impl_->tick) * impl
 void ArmWorld::SetJointState(const std::vector<double>& position,
                              const std::vector<double>& velocity, bool reset_objects) {
   impl_->Teleport(position, velocity, reset_objects);
+}
+
+void ArmWorld::ReplaceEnvironment(const core::Environment& environment) {
+  const core::Environment previous = impl_->built_environment;
+  impl_->ClearEnvironment();
+  impl_->BuildEnvironment(environment);
+  const std::string overlap = impl_->FindOverlap();
+  if (overlap.empty()) {
+    impl_->built_environment = environment;
+    if (!impl_->RestAllowed()) {  // free objects now: they may move and push the arm
+      impl_->at_rest = false;
+      impl_->quiet_steps = 0;
+    }
+    return;
+  }
+  impl_->ClearEnvironment();
+  impl_->BuildEnvironment(previous);
+  throw std::invalid_argument(overlap + " where the arm stands now");
 }
 
 void ArmWorld::Step(const core::ArmCommand& command) { impl_->Step(command); }

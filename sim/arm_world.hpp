@@ -73,6 +73,12 @@ class ArmWorld {
   void SetJointState(const std::vector<double>& position, const std::vector<double>& velocity = {},
                      bool reset_objects = false);
 
+  // Replaces the environment's objects with `environment`'s, between two steps: the arm, its
+  // joints, time and friction state are untouched. Throws std::invalid_argument naming the object
+  // and the link when a new object would overlap the arm where it stands (deeper than 1 mm); the
+  // old objects are then put back as they were built (free objects at their start poses).
+  void ReplaceEnvironment(const core::Environment& environment);
+
   // Advances one step under `command`: efforts (clamped to each joint's effort_max) in
   // kEffort mode, every joint braked still in kHold, no actuator effort in kLimp. Throws
   // std::invalid_argument if the command's joint count is wrong or an effort is not finite; the
