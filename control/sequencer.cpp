@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <stdexcept>
 #include <utility>
 
@@ -370,11 +371,16 @@ std::vector<JointMove> Sequencer::JointTargetMoves(const JointTargetCommand& com
 }
 
 void Sequencer::Target(const JointTargetCommand& command) {
+  TakeTarget(command.source, [&] { return JointTargetMoves(command); });
+}
+
+void Sequencer::TakeTarget(const std::string& source,
+                           const std::function<std::vector<JointMove>()>& make_moves) {
   std::vector<JointMove> moves;
   try {
-    RequireManual(command.source);
-    moves = JointTargetMoves(command);
-    CheckMotionLimits(command.source, moves);
+    RequireManual(source);
+    moves = make_moves();
+    CheckMotionLimits(source, moves);
   } catch (const core::MessageError& error) {
     Refuse(error.what());
     throw;
@@ -407,18 +413,7 @@ std::vector<JointMove> Sequencer::PoseTargetMoves(const PoseTargetCommand& comma
 }
 
 void Sequencer::PoseTarget(const PoseTargetCommand& command) {
-  std::vector<JointMove> moves;
-  try {
-    RequireManual(command.source);
-    moves = PoseTargetMoves(command);
-    CheckMotionLimits(command.source, moves);
-  } catch (const core::MessageError& error) {
-    Refuse(error.what());
-    throw;
-  }
-  last_error_.clear();
-  StartMove(moves);
-  SendStatus();
+  TakeTarget(command.source, [&] { return PoseTargetMoves(command); });
 }
 
 void Sequencer::SetGains(const std::vector<ServoGains>& gains) {

@@ -18,6 +18,7 @@
 
 #include <array>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <optional>
 #include <string>
@@ -196,6 +197,10 @@ class Sequencer {
   void RequireManual(const std::string& source) const;
   // Throws MessageError on `source` if a move breaks the motion limits the bridge applies.
   void CheckMotionLimits(const std::string& source, const std::vector<JointMove>& moves) const;
+  // A target's moves from make_moves(), checked and started; refused (rethrown) in automatic mode,
+  // under an e-stop or a fault, or when make_moves() or the motion limits refuse it.
+  void TakeTarget(const std::string& source,
+                  const std::function<std::vector<JointMove>()>& make_moves);
   std::vector<JointMove> JointTargetMoves(const JointTargetCommand& command) const;
   std::vector<JointMove> PoseTargetMoves(const PoseTargetCommand& command) const;
   void RunPlan(const PlanCommand& command);
