@@ -223,6 +223,32 @@ struct EStop {
   std::string reason;
 };
 
+// ---- sim_command_t (SIM_COMMAND)
+
+enum class SimAction { kLoadEnvironment };
+
+struct SimCommand {
+  int64_t utime = 0;
+  int64_t seq = 0;
+  std::string sender;
+  SimAction action = SimAction::kLoadEnvironment;
+  std::string name;  // where the text came from (a file name), for its errors
+  std::string text;  // the environment's XML, at most kMaxSimCommandText bytes
+};
+constexpr size_t kMaxSimCommandText = size_t{1} << 20;
+
+// ---- logger_command_t (LOGGER_COMMAND)
+
+enum class LoggerAction { kStart, kStop };
+
+struct LoggerCommand {
+  int64_t utime = 0;
+  int64_t seq = 0;
+  std::string sender;
+  LoggerAction action = LoggerAction::kStart;
+  std::string name;  // the run to start (kStart)
+};
+
 // ---- sim_reset_t (SIM_RESET)
 
 struct SimReset {

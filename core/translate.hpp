@@ -26,6 +26,7 @@
 #include <sirupp/joint_model_t.hpp>
 #include <sirupp/joint_target_t.hpp>
 #include <sirupp/link_model_t.hpp>
+#include <sirupp/logger_command_t.hpp>
 #include <sirupp/named_pose_t.hpp>
 #include <sirupp/plan_command_t.hpp>
 #include <sirupp/pose_target_t.hpp>
@@ -34,6 +35,7 @@
 #include <sirupp/servo_move_t.hpp>
 #include <sirupp/servo_setpoint_t.hpp>
 #include <sirupp/shape_t.hpp>
+#include <sirupp/sim_command_t.hpp>
 #include <sirupp/sim_reset_t.hpp>
 #include <sirupp/sim_status_t.hpp>
 #include <sirupp/viewer_camera_t.hpp>
@@ -103,6 +105,11 @@ HardwareCommand HardwareCommandFromMessage(const sirupp::hardware_command_t& mes
                                            const std::string& channel);
 sirupp::estop_t ToMessage(const EStop& estop);
 EStop EStopFromMessage(const sirupp::estop_t& message, const std::string& channel);
+sirupp::sim_command_t ToMessage(const SimCommand& command);
+SimCommand SimCommandFromMessage(const sirupp::sim_command_t& message, const std::string& channel);
+sirupp::logger_command_t ToMessage(const LoggerCommand& command);
+LoggerCommand LoggerCommandFromMessage(const sirupp::logger_command_t& message,
+                                       const std::string& channel);
 sirupp::sim_reset_t ToMessage(const SimReset& reset);
 // velocity: empty or as many as position.
 SimReset SimResetFromMessage(const sirupp::sim_reset_t& message, const std::string& channel);

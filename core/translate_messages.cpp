@@ -365,6 +365,66 @@ EStop EStopFromMessage(const sirupp::estop_t& m, const std::string& channel) {
   return estop;
 }
 
+// ---- sim_command_t
+
+sirupp::sim_command_t ToMessage(const SimCommand& command) {
+  sirupp::sim_command_t m{};
+  m.utime = command.utime;
+  m.seq = command.seq;
+  m.sender = command.sender;
+  m.command = sirupp::sim_command_t::COMMAND_LOAD_ENVIRONMENT;
+  m.name = command.name;
+  m.text = command.text;
+  return m;
+}
+
+SimCommand SimCommandFromMessage(const sirupp::sim_command_t& m, const std::string& channel) {
+  SimCommand command;
+  command.utime = m.utime;
+  command.seq = m.seq;
+  command.sender = m.sender;
+  if (m.command != sirupp::sim_command_t::COMMAND_LOAD_ENVIRONMENT) {
+    Refuse(channel, "command", std::to_string(m.command), "0 (load environment)");
+  }
+  if (m.text.size() > kMaxSimCommandText) {
+    Refuse(channel, "text", std::to_string(m.text.size()) + " bytes",
+           "at most " + std::to_string(kMaxSimCommandText) + " bytes");
+  }
+  command.name = m.name;
+  command.text = m.text;
+  return command;
+}
+
+// ---- logger_command_t
+
+sirupp::logger_command_t ToMessage(const LoggerCommand& command) {
+  sirupp::logger_command_t m{};
+  m.utime = command.utime;
+  m.seq = command.seq;
+  m.sender = command.sender;
+  m.command = command.action == LoggerAction::kStart ? sirupp::logger_command_t::COMMAND_START
+                                                     : sirupp::logger_command_t::COMMAND_STOP;
+  m.name = command.name;
+  return m;
+}
+
+LoggerCommand LoggerCommandFromMessage(const sirupp::logger_command_t& m,
+                                       const std::string& channel) {
+  LoggerCommand command;
+  command.utime = m.utime;
+  command.seq = m.seq;
+  command.sender = m.sender;
+  if (m.command == sirupp::logger_command_t::COMMAND_START) {
+    command.action = LoggerAction::kStart;
+  } else if (m.command == sirupp::logger_command_t::COMMAND_STOP) {
+    command.action = LoggerAction::kStop;
+  } else {
+    Refuse(channel, "command", std::to_string(m.command), "0 (start) or 1 (stop)");
+  }
+  command.name = m.name;
+  return command;
+}
+
 // ---- sim_reset_t
 
 sirupp::sim_reset_t ToMessage(const SimReset& reset) {

@@ -8,6 +8,7 @@
 
 #include "core/errors.hpp"
 #include "core/printable.hpp"
+#include "core/translate.hpp"
 
 namespace sirupp::logger {
 
@@ -63,19 +64,16 @@ Recorder::Recorder(core::Bus& bus, const core::RobotModel& model, LoggerOptions 
   subscription_ = &bus_.Subscribe<sirupp::logger_command_t>(
       options_.channels.logger_command,
       [this](const sirupp::logger_command_t& message, const core::ReceiveInfo& info) {
-        const bool start = message.command == sirupp::logger_command_t::COMMAND_START;
         try {
           replier_.Answer(
               message, info,
               [&] {
-                if (start) {
-                  Start(message.name, message.sender);
-                } else if (message.command == sirupp::logger_command_t::COMMAND_STOP) {
-                  Stop(message.sender);
+                const core::LoggerCommand command =
+                    core::LoggerCommandFromMessage(message, info.channel);
+                if (command.action == core::LoggerAction::kStart) {
+                  Start(command.name, command.sender);
                 } else {
-                  throw core::MessageError(
-                      info.channel, "command",
-                      std::to_string(message.command) + ": allowed 0 (start), 1 (stop)");
+                  Stop(command.sender);
                 }
               },
               [] { return core::ReplyFacts{}; });

@@ -308,19 +308,10 @@ void SimNode::OnCommand(const sirupp::arm_command_t& message, const core::Receiv
 }
 
 void SimNode::OnSimCommand(const sirupp::sim_command_t& message, const core::ReceiveInfo& info) {
-  if (message.command != sirupp::sim_command_t::COMMAND_LOAD_ENVIRONMENT) {
-    throw core::MessageError(info.channel, "command",
-                             std::to_string(message.command) + ": allowed 0 (load environment)");
-  }
-  constexpr size_t kMaxText = 1 << 20;
-  if (message.text.size() > kMaxText) {
-    throw core::MessageError(info.channel, "text",
-                             std::to_string(message.text.size()) + " bytes: allowed at most " +
-                                 std::to_string(kMaxText));
-  }
-  const std::string name = message.name.empty() ? "(environment text)" : message.name;
+  const core::SimCommand command = core::SimCommandFromMessage(message, info.channel);
+  const std::string name = command.name.empty() ? "(environment text)" : command.name;
   // The file's own error names name:line and the field.
-  const core::Environment environment = core::ParseEnvironment(message.text, name);
+  const core::Environment environment = core::ParseEnvironment(command.text, name);
   // A moving arm would meet objects it was not planned around: load while it stands still.
   const core::ArmState state = world_.State();
   for (size_t j = 0; j < state.velocity.size(); ++j) {

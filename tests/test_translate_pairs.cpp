@@ -281,6 +281,16 @@ RoundTrips AllRoundTrips() {
     ExpectRoundTrip(EStop{1, 2, true, "panel", "test"},
                     [&](const auto& m) { return EStopFromMessage(m, ch); });
   });
+  Add<sirupp::sim_command_t>(trips, [ch] {
+    ExpectRoundTrip(SimCommand{1, 2, "panel", SimAction::kLoadEnvironment, "cell.xml", "<x/>"},
+                    [&](const auto& m) { return SimCommandFromMessage(m, ch); });
+  });
+  Add<sirupp::logger_command_t>(trips, [ch] {
+    ExpectRoundTrip(LoggerCommand{1, 2, "panel", LoggerAction::kStart, "run1"},
+                    [&](const auto& m) { return LoggerCommandFromMessage(m, ch); });
+    ExpectRoundTrip(LoggerCommand{1, 2, "panel", LoggerAction::kStop, ""},
+                    [&](const auto& m) { return LoggerCommandFromMessage(m, ch); });
+  });
   Add<sirupp::sim_reset_t>(trips, [ch] {
     ExpectRoundTrip(SimReset{1, 2, "cli", {0.1, 0.2}, {0, -1}, true},
                     [&](const auto& m) { return SimResetFromMessage(m, ch); });
@@ -524,6 +534,14 @@ TEST(TranslatePairs, EnumsFlagsAndBitsMustBeKnown) {
   h.state = 7;
   EXPECT_EQ(Error([&] { HardwareStatusFromMessage(h, "HARDWARE_STATUS"); }),
             "channel HARDWARE_STATUS: state: 7 is not allowed; expected 0..6 (STATE_*)");
+  sirupp::sim_command_t sc = ToMessage(SimCommand{});
+  sc.command = 3;
+  EXPECT_EQ(Error([&] { SimCommandFromMessage(sc, "SIM_COMMAND"); }),
+            "channel SIM_COMMAND: command: 3 is not allowed; expected 0 (load environment)");
+  sirupp::logger_command_t lc = ToMessage(LoggerCommand{});
+  lc.command = 2;
+  EXPECT_EQ(Error([&] { LoggerCommandFromMessage(lc, "LOGGER_COMMAND"); }),
+            "channel LOGGER_COMMAND: command: 2 is not allowed; expected 0 (start) or 1 (stop)");
   sirupp::estop_t e = ToMessage(EStop{});
   e.engaged = 3;
   EXPECT_EQ(Error([&] { EStopFromMessage(e, "ESTOP"); }),
