@@ -19,6 +19,7 @@
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
+#include <lcm/lcm-cpp.hpp>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -50,6 +51,14 @@ struct LoggerOptions {
   core::Channels channels;       // names without the rig prefix (the Bus adds it)
   std::string note;              // free text for the header (e.g. the lab layout)
   std::string process_name = "sirupp-logger";
+  // Raw log: every message on the bus (all channels, with or without the prefix) in lcm-logger's
+  // format, each event stamped with the receive time this logger aligned it with. "" = none. An
+  // existing file is never replaced: NAME.lcmlog becomes NAME.1.lcmlog, NAME.2.lcmlog, ...
+  std::string raw_log;
+  // Replay: no writer thread and no wall clock; the caller feeds recorded messages
+  // (core::Bus::DeliverRecorded) and moves the clock on with AdvanceTo(), as the writer thread
+  // would have run live (ReplayRawLog below).
+  bool replay = false;
 };
 
 struct LoggerStats {
@@ -76,6 +85,11 @@ class LoggerNode {
   // Stops the writer after writing every row received, and closes the files with their "# end"
   // line. Idempotent.
   void Close();
+  // Replay only: what the writer thread does once per flush period, at time now_utime (the log's
+  // clock): takes the messages delivered so far and writes the rows that are final.
+  void AdvanceTo(int64_t now_utime);
+  // The raw log being written ("" when none).
+  const std::string& raw_log() const { return raw_path_; }
 
   LoggerStats stats() const;
   bool failed() const;
@@ -89,6 +103,10 @@ class LoggerNode {
 
   void Push(Input input, Stream stream);
   void WriterLoop();
+  // One pass of the writer over `batch` at time now_utime; stopping: close the files after it.
+  void ProcessBatch(std::vector<Input>& batch, int64_t now_utime, bool stopping);
+  void OpenRawLog();
+  void RecordRaw(const lcm::ReceiveBuffer* rbuf, const std::string& channel);
   void WriteRow(const Row& row);
   void OpenFile(const Row& row);
   void CloseFile();
@@ -158,7 +176,23 @@ class LoggerNode {
 
   std::thread writer_;
   bool closed_ = false;
+  // Writer side (writer thread, or the replay caller).
+  std::array<int64_t, kNumStreams> carry_{};  // overflow not yet put into a sample's lost_before
+  bool write_failed_ = false;
+
+  // Raw log (bus thread only).
+  std::string raw_path_;
+  std::unique_ptr<lcm::LogFile> raw_file_;
+  lcm::Subscription* raw_subscription_ = nullptr;
+  std::chrono::steady_clock::time_point raw_flushed_;
 };
+
+// Runs a logger over a raw log (LoggerOptions::raw_log of an earlier run): every message goes to
+// the node with its recorded receive time, and the writer runs every flush period of the log's
+// clock, as it did live; the data files are then the ones the live logger wrote (docs/logging.md,
+// "Raw logs"). `options.replay` is set here. Throws core::ConfigError for a damaged log.
+LoggerStats ReplayRawLog(const std::string& log_path, const core::RobotModel& model,
+                         LoggerOptions options, const std::string& prefix);
 
 // "sirupp-YYYYmmdd-HHMMSS" for the present local time.
 std::string DefaultRunName();

@@ -35,6 +35,8 @@ if command -v xvfb-run >/dev/null; then
   kill -TERM -- "-$spy_pid" 2>/dev/null
   wait "$spy_pid" 2>/dev/null
   has "spy types" "$spy_out" "Found $types LCM types"
+  # Our image_t plugin (lcmtypes/java/sirupp/spy/ImagePlugin.java) is in the types jar.
+  has "spy image plugin" "$spy_out" "Found 1 plugins"
   if grep -q "Exception\|Unrecognized option" "$spy_out"; then
     echo "FAIL spy: Java reported a problem"; cat "$spy_out"; fail=1
   fi
