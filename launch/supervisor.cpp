@@ -429,11 +429,16 @@ void Supervisor::Stop() {
       const std::string how = DescribeStatus(status);
       const bool fine = CleanExit(status) || (WIFSIGNALED(status) && WTERMSIG(status) == SIGINT);
       if (!fine) failures_.push_back(child.spec.name + ": stopped with " + how);
+      NoteInLog(child, child.spec.name + " (pid " + std::to_string(child.pid) +
+                           ") ended: stopped (" + how + ")");
       Event("stopped " + child.spec.name + " (" + how + ")");
       child.state = "stopped";
     } else {
       ::kill(-child.pid, SIGKILL);
       ::waitpid(child.pid, &status, 0);
+      NoteInLog(child, "error: " + child.spec.name + " (pid " + std::to_string(child.pid) +
+                           ") ended: did not stop within " +
+                           core::FormatNumber(child.spec.stop_timeout_s) + " s of SIGINT; killed");
       failures_.push_back(child.spec.name + ": did not stop within " +
                           core::FormatNumber(child.spec.stop_timeout_s) + " s of SIGINT; killed");
       Event(failures_.back());

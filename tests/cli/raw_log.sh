@@ -13,6 +13,17 @@ source "$(dirname "$0")/lib.sh"
 dir=$(mktemp -d)
 trap 'rm -rf "$dir" "$out" "$err"' EXIT
 
+# Bad input: exit 2 naming the problem.
+"$SIRUPP_LOGGER" --from-log "$dir/none.lcmlog" --out "$dir/x" >"$out" 2>"$err"; rc=$?
+[[ $rc -eq 2 ]] || { echo "FAIL missing log: exit $rc"; cat "$err"; fail=1; }
+has "missing log" "$err" "none.lcmlog"
+"$SIRUPP_LOGGER" --from-log "$dir/none.lcmlog" --raw "$dir/r.lcmlog" >"$out" 2>"$err"; rc=$?
+[[ $rc -eq 2 ]] || { echo "FAIL --from-log with --raw: exit $rc"; cat "$err"; fail=1; }
+has "from-log with raw" "$err" "--from-log reads a recorded log: --raw, --lcm-url and --duration do not apply"
+"$SIRUPP_LOGGER" --from-log tests/data/bad_logs/25_lcm_bad_sync_word.lcm --out "$dir/x" >"$out" 2>"$err"; rc=$?
+[[ $rc -eq 2 ]] || { echo "FAIL damaged log: exit $rc"; cat "$err"; fail=1; }
+has "damaged log" "$err" "expected the event sync word 0xEDA1DA01"
+
 layout=$PWD/tests/data/labs/demo-raw.yaml
 (cd "$dir" && "$SIRUPP" demo --sets 1 --layout "$layout" --out live >"$dir/demo.out" 2>&1)
 rc=$?
