@@ -196,6 +196,8 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
           std::to_string(count) + " joints; the model has " + std::to_string(joints));
     }
   };
+  // The raw log first: from the first message on, it gets every message the handlers below get.
+  if (!options_.raw_log.empty()) OpenRawLog();
   constexpr int kQueue = 10000;  // LCM's own per-subscription queue between two Handle() calls
   subscriptions_.push_back(&bus_.Subscribe<sirupp::servo_setpoint_t>(
       options_.channels.arm_setpoint,
@@ -266,7 +268,6 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
           heartbeat_.Publish(core::ProcessState::kFault, model_watch_.mismatch());
         }
       }));
-  if (!options_.raw_log.empty()) OpenRawLog();
   if (options_.replay) return;  // no heartbeat, no writer thread: the caller drives it
   heartbeat_.Publish(core::ProcessState::kStarting, "");
   writer_ = std::thread([this] { WriterLoop(); });
@@ -383,24 +384,52 @@ void LoggerNode::ProcessBatch(std::vector<Input>& batch, int64_t now_utime, bool
       overflow_[s] = 0;
     }
   }
+  // The aligner's clock is the receive time of the newest message taken, not the wall clock: the
+  // rows then depend on the messages and their receive times only, so a replay of the raw log
+  // writes the same rows, and a bus thread that lags behind under load does not make every
+  // stream look idle. Rows are taken after each message, as the LCM log importer does. When the
+  // whole bus has been quiet for kQuietUs (wall clock live, receive times in a replay), the clock
+  // moves on by that much, so the last rows reach the file.
+  std::string error;
+  auto take = [&](int64_t clock_utime, bool final_flush) {
+    if (write_failed_) return;
+    try {
+      aligner_.TakeRows(clock_utime, final_flush, [this](const Row& row) { WriteRow(row); });
+    } catch (const std::exception& e) {
+      write_failed_ = true;
+      error = e.what();
+      file_.reset();
+    }
+  };
+  auto quiet = [&](int64_t at_utime) {
+    if (bus_now_ > 0 && at_utime >= bus_now_ + kQuietUs && quiet_taken_ != bus_now_) {
+      quiet_taken_ = bus_now_;
+      take(bus_now_ + kQuietUs, false);
+    }
+  };
   for (Input& input : batch) {
+    std::visit([&](const auto& in) { quiet(in.recv_utime); }, input);
     if (auto* sample = std::get_if<Sample>(&input)) {
       int64_t& pending = carry_[static_cast<size_t>(sample->stream)];
       sample->lost_before += pending;
       pending = 0;
+      bus_now_ = std::max(bus_now_, sample->recv_utime);
       aligner_.Add(std::move(*sample));
     } else if (auto* status = std::get_if<PlanStatus>(&input)) {
       last_mode_ = status->mode;
+      bus_now_ = std::max(bus_now_, status->recv_utime);
       aligner_.AddStatus(*status);
     } else if (auto* gains = std::get_if<GainsRecord>(&input)) {
       NoteGains(*gains);
+      continue;
     }
+    take(bus_now_, false);
   }
   batch.clear();
-  std::string error;
+  quiet(now_utime);
+  if (stopping) take(bus_now_, true);
   if (!write_failed_) {
     try {
-      aligner_.TakeRows(now_utime, stopping, [this](const Row& row) { WriteRow(row); });
       if (file_) file_->Flush();
       if (stopping) {
         stopping_ = true;
@@ -437,10 +466,10 @@ void LoggerNode::OpenRawLog() {
                              (error ? ": " + error.message() : ""));
   }
   raw_path_ = path.string();
-  // Every channel, whatever its prefix; its own queue as deep as all the logger's together.
+  // Every channel, whatever its prefix.
   raw_subscription_ = bus_.raw_lcm().subscribe(".*", &LoggerNode::RecordRaw, this);
   if (raw_subscription_ == nullptr) throw std::runtime_error("--raw: LCM refused the subscription");
-  raw_subscription_->setQueueCapacity(100000);
+  raw_subscription_->setQueueCapacity(0);  // no limit of its own: it must not drop what they keep
   raw_flushed_ = std::chrono::steady_clock::now();
 }
 

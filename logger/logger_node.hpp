@@ -103,7 +103,8 @@ class LoggerNode {
 
   void Push(Input input, Stream stream);
   void WriterLoop();
-  // One pass of the writer over `batch` at time now_utime; stopping: close the files after it.
+  // One pass of the writer over `batch`; now_utime: the wall clock live, the log's clock in a
+  // replay (only for a quiet bus); stopping: close the files after it.
   void ProcessBatch(std::vector<Input>& batch, int64_t now_utime, bool stopping);
   void OpenRawLog();
   void RecordRaw(const lcm::ReceiveBuffer* rbuf, const std::string& channel);
@@ -179,6 +180,9 @@ class LoggerNode {
   // Writer side (writer thread, or the replay caller).
   std::array<int64_t, kNumStreams> carry_{};  // overflow not yet put into a sample's lost_before
   bool write_failed_ = false;
+  int64_t bus_now_ = 0;  // receive time of the newest message taken: the aligner's clock
+  int64_t quiet_taken_ = 0;
+  static constexpr int64_t kQuietUs = 500000;  // the whole bus quiet this long: rows move on
 
   // Raw log (bus thread only).
   std::string raw_path_;

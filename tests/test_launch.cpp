@@ -190,7 +190,7 @@ TEST_F(SupervisorTest, StartsInOrderWaitsForReadinessAndStopsCleanly) {
   ASSERT_EQ(lines.size(), 3u);
   const std::regex stamp(R"(^\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d\.\d{3} sirupp-launch info: )");
   EXPECT_TRUE(std::regex_search(lines[0], stamp)) << lines[0];
-  EXPECT_NE(lines[0].find("starting second: sh -c "), std::string::npos) << lines[0];
+  EXPECT_NE(lines[0].find(" -c test -e "), std::string::npos) << lines[0];
   EXPECT_EQ(lines[1], "saw it");
   EXPECT_TRUE(std::regex_search(lines[2], stamp)) << lines[2];
   EXPECT_NE(lines[2].find("second (pid " + std::to_string(second) + ") ended: "), std::string::npos)

@@ -34,13 +34,13 @@ raw=$live/raw/demo.lcmlog
 [[ -s $raw ]] || { echo "FAIL: no raw log $raw"; ls -R "$live"; exit 1; }
 head -c 4 "$raw" | od -An -tx1 | grep -q "ed a1 da 01" || { echo "FAIL: $raw does not start with LCM's event sync word"; fail=1; }
 # The whole bus: our channels and every process's heartbeat.
-for channel in ROBOT_MODEL SIM_ARM_STATE ARM_SETPOINT REAL_ARM_STATE CONTROLLER_STATUS HARDWARE_STATUS HEARTBEAT PLAN_COMMAND; do
+for channel in ROBOT_MODEL SIM_ARM_STATE ARM_SETPOINT REAL_ARM_STATE CONTROLLER_STATUS HARDWARE_STATUS HEARTBEAT ARM_PLAN; do
   grep -qa "$channel" "$raw" || { echo "FAIL: no $channel in the raw log"; fail=1; }
 done
 has "layout sees the bus" "$live/bus-url.txt" "bus udpm://239.255.76.67:"
 has "private port" "$dir/demo.out" "bus udpm://239.255.76.67:"
 url=$(sed -n 's/.*, bus \(udpm:[^ ]*\)$/\1/p' "$dir/demo.out")
-has "the same URL" "$live/bus-url.txt" "bus $url prefix ''"
+has "the same URL" "$live/bus-url.txt" "bus $url prefix"
 
 # The data files again, from the raw log alone.
 "$SIRUPP_LOGGER" --from-log "$raw" --out "$dir/again" --name demo >"$out" 2>"$err"
