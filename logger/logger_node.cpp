@@ -387,7 +387,8 @@ void LoggerNode::ProcessBatch(std::vector<Input>& batch, int64_t now_utime, bool
   // The aligner's clock is the receive time of the newest message taken, not the wall clock: the
   // rows then depend on the messages and their receive times only, so a replay of the raw log
   // writes the same rows, and a bus thread that lags behind under load does not make every
-  // stream look idle. Rows are taken after each message, as the LCM log importer does. When the
+  // stream look idle. Rows are taken once per pass (every flush period), so a plan's status
+  // that arrives a few ms after its first set-point still starts that plan's file. When the
   // whole bus has been quiet for kQuietUs (wall clock live, receive times in a replay), the clock
   // moves on by that much, so the last rows reach the file.
   std::string error;
@@ -421,13 +422,11 @@ void LoggerNode::ProcessBatch(std::vector<Input>& batch, int64_t now_utime, bool
       aligner_.AddStatus(*status);
     } else if (auto* gains = std::get_if<GainsRecord>(&input)) {
       NoteGains(*gains);
-      continue;
     }
-    take(bus_now_, false);
   }
   batch.clear();
   quiet(now_utime);
-  if (stopping) take(bus_now_, true);
+  take(bus_now_, stopping);
   if (!write_failed_) {
     try {
       if (file_) file_->Flush();

@@ -10,6 +10,7 @@ types=$(ls lcmtypes/*.lcm | wc -l)
 run "check" 0 spy --check
 has "check count" "$out" "lcm-spy finds $types sirupp types"
 has "check lists" "$out" "sirupp.arm_state_t"
+has "check plugin" "$out" "plugin sirupp.spy.ImagePlugin"
 
 DISPLAY= run "no display" 1 spy --lcm-url "$URL"
 has "no display" "$err" "lcm-spy needs a display and DISPLAY is not set"
