@@ -236,6 +236,12 @@ class Bus {
   // Handles the messages already queued without blocking, at most max_messages of them. Returns the
   // number handled.
   int HandleAvailable(int max_messages = kDefaultHandleLimit);
+  // Hands one recorded message (an LCM log event: full channel name, encoded bytes, the time it was
+  // received when recorded) to this bus's subscriptions of that channel, as if it had just arrived
+  // with that receive time. Used to run a node over a raw log exactly as it ran live
+  // (sirupp-logger --from-log). Returns how many subscriptions took it.
+  int DeliverRecorded(const std::string& full_channel, const void* data, int size_bytes,
+                      int64_t recv_utime);
   // A file descriptor that becomes readable when a message is waiting: for poll()/select() loops.
   int Fileno();
 

@@ -20,7 +20,7 @@ constexpr const char* kUsage =
     "usage: sirupp-logger [--out DIR] [--name NAME] [--split plan|none] [--rate HZ]\n"
     "                     [--max-age S] [--idle S] [--velocities] [--efforts] [--note TEXT]\n"
     "                     [--duration S] [--recv-buf BYTES] [--model FILE] [--lcm-url URL]\n"
-    "                     [--prefix PREFIX]\n"
+    "                     [--prefix PREFIX] [--raw FILE] [--from-log LOG]\n"
     "Writes the paper's data files: per sample time the set-point (ARM_SETPOINT), the virtual\n"
     "arm (SIM_ARM_STATE) and the real arm (REAL_ARM_STATE) joint positions, as CSV with a\n"
     "commented header, one file per movement set (CONTROLLER_STATUS plan runs):\n"
@@ -32,9 +32,14 @@ constexpr const char* kUsage =
     "(the kernel caps it at net.core.rmem_max). Started again with data files of NAME in DIR\n"
     "(a restart), it continues the run in new files: NAME-03-set2.csv goes on in\n"
     "NAME-03-set2.1.csv; no file is ever replaced. LOGGER_COMMAND stops the run and starts\n"
-    "new named ones (answered on LOGGER_REPLY; the lab panel's Record view). Raw traffic:\n"
-    "lcm-logger, see\n"
-    "docs/logging.md. Report: sirupp report DIR\n";
+    "new named ones (answered on LOGGER_REPLY; the lab panel's Record view). Report: sirupp\n"
+    "report DIR\n"
+    "  --raw FILE       also record every message on the bus (all channels) in lcm-logger's\n"
+    "                   format, stamped with the receive times the data files were aligned with\n"
+    "                   (each recorded run: a new file, FILE.1.lcmlog, ...)\n"
+    "  --from-log LOG   no bus: write the data files again from such a raw log, as the live\n"
+    "                   logger wrote them; --prefix as recorded\n"
+    "docs/logging.md (\"Raw logs\").\n";
 
 double PositiveSeconds(const sirupp::runtime::Args& args, const std::string& flag,
                        double fallback) {
@@ -75,7 +80,9 @@ int Run(const std::vector<std::string>& argv) {
                                     {"recv-buf", "BYTES"},
                                     {"model", "robot model file"},
                                     {"lcm-url", "LCM URL"},
-                                    {"prefix", "channel prefix of the rig"}});
+                                    {"prefix", "channel prefix of the rig"},
+                                    {"raw", "FILE"},
+                                    {"from-log", "LOG"}});
   const sirupp::core::RobotModel model =
       sirupp::core::LoadRobotModel(sirupp::runtime::ResolveDataPath(
           args.Has("model") ? args.String("model") : "config/robots/puma260.yaml"));
@@ -119,13 +126,34 @@ int Run(const std::vector<std::string>& argv) {
                                      ": allowed whole bytes from 0 to 1073741824");
     }
   }
+  const std::string prefix = args.Has("prefix") ? args.String("prefix") : "";
+  if (args.Has("from-log")) {
+    if (args.Has("raw") || args.Has("lcm-url") || args.Has("duration")) {
+      throw sirupp::core::UsageError(
+          "sirupp-logger: --from-log reads a recorded log: --raw, --lcm-url and --duration do not "
+          "apply");
+    }
+    const std::string log = args.String("from-log");
+    const sirupp::logger::LoggerStats stats =
+        sirupp::logger::ReplayRawLog(log, model, options, prefix);
+    std::cerr << "sirupp-logger: from " << log << ": " << stats.rows << " rows in "
+              << stats.files.size() << " file(s)\n";
+    for (const std::string& file : stats.files) std::cerr << "  " << file << "\n";
+    if (!stats.error.empty()) {
+      std::cerr << "sirupp-logger: " << stats.error << "\n";
+      return 1;
+    }
+    return 0;
+  }
+  if (args.Has("raw")) options.raw_log = args.String("raw");
   sirupp::core::Bus bus(WithReceiveBuffer(args.Has("lcm-url") ? args.String("lcm-url") : "",
                                           static_cast<int64_t>(recv_buf)),
-                        args.Has("prefix") ? args.String("prefix") : "");
+                        prefix);
   sirupp::logger::Recorder node(bus, model, options);
   std::cerr << "sirupp-logger: " << model.name << ", files " << options.out_dir << "/"
             << node.name() << (options.split_per_plan ? "-NN-SET.csv" : ".csv") << ", a row every "
-            << options.aligner.period_us << " us, on " << bus.url() << std::endl;
+            << options.aligner.period_us << " us, on " << bus.url()
+            << (node.raw_log().empty() ? "" : "; raw log " + node.raw_log()) << std::endl;
   if (!node.continues().empty()) {
     std::cerr << "sirupp-logger: " << node.continues()
               << " exists: continuing that run in new files (a restart; no file is replaced)"

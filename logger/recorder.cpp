@@ -86,6 +86,8 @@ Recorder::Recorder(core::Bus& bus, const core::RobotModel& model, LoggerOptions 
       });
 }
 
+std::string Recorder::raw_log() const { return node_ ? node_->raw_log() : ""; }
+
 Recorder::~Recorder() {
   if (subscription_ != nullptr) subscription_->Unsubscribe();
   try {

@@ -50,6 +50,8 @@ class Recorder {
   const std::string& name() const { return name_; }
   // The first run continues an earlier logger's files (LoggerNode::continues()); "" if not.
   const std::string& continues() const { return continues_; }
+  // The present run's raw log file (LoggerOptions::raw_log), "" when none or no run.
+  std::string raw_log() const;
 
   // Throws std::invalid_argument naming the rule unless `name` can be a run's file stem: 1 to 100
   // characters, letters, digits, '_', '-' and '.', not starting with '.' or '-'.
