@@ -151,10 +151,14 @@ FitResult FitEmulator(const core::RobotModel& virtual_model, const core::RobotMo
     for (size_t i = 0; i < n; ++i) params[i].set(a, params[i].FromUnit(u[i]));
     return a;
   };
-  hardware::RealArmParams best = start;
+  // The start's cost as given; the search's best starts as the start clamped into the fit's
+  // ranges, so the result is always an arm within them.
   std::vector<TableRow> best_table;
+  result.cost_before = evaluate(start, &best_table);
+  std::vector<double> centre(n);
+  for (size_t i = 0; i < n; ++i) centre[i] = params[i].ToUnit(params[i].get(start));
+  hardware::RealArmParams best = at(centre);
   double best_cost = evaluate(best, &best_table);
-  result.cost_before = best_cost;
   auto cost_of = [&](const std::vector<double>& u) {
     const hardware::RealArmParams a = at(u);
     try {
@@ -172,15 +176,12 @@ FitResult FitEmulator(const core::RobotModel& virtual_model, const core::RobotMo
     }
     return cost;
   };
-  std::vector<double> centre(n);
-  for (size_t i = 0; i < n; ++i) centre[i] = params[i].ToUnit(params[i].get(start));
   // Nelder-Mead on the unit box (points clamped into it), restarted around the best point with a
   // smaller simplex whenever the simplex collapses, until the budget is spent.
   double size = 0.15;
   while (result.evaluations + static_cast<int>(n) + 2 <= options.max_evaluations) {
     std::vector<std::vector<double>> simplex(n + 1, centre);
-    std::vector<double> f(n + 1);
-    f[0] = cost_of(simplex[0]);  // the start clamped into the fit's ranges, or the best so far
+    std::vector<double> f(n + 1, best_cost);
     for (size_t i = 0; i < n; ++i) {
       double& u = simplex[i + 1][i];
       u = u + size <= 1 ? u + size : u - size;
