@@ -17,7 +17,7 @@
 namespace sirupp::logger {
 
 struct AnalysisOptions {
-  double settle_window_s = 0.25;       // the transient lasts until move-done + this
+  double settle_window_s = 0.25;  // the transient lasts until move-done + this
   // The steady state lasts until the next move, and at most this long after the transient: the
   // last move of a file then ends at the same row whenever the next set started (a wall-clock
   // matter), so its figures do not depend on the machine's timing.

@@ -282,10 +282,9 @@ void LoggerNode::Service(int max_wait_ms) {
   } else if (!now.error.empty()) {
     heartbeat_.PublishIfDue(core::ProcessState::kFault, now.error);
   } else {
-    heartbeat_.PublishIfDue(
-        core::ProcessState::kRunning,
-        "recording " + options_.name + ": " + std::to_string(now.rows) + " rows" +
-            (now.files.empty() ? "" : " in " + now.files.back()));
+    heartbeat_.PublishIfDue(core::ProcessState::kRunning,
+                            "recording " + options_.name + ": " + std::to_string(now.rows) +
+                                " rows" + (now.files.empty() ? "" : " in " + now.files.back()));
   }
 }
 

@@ -15,8 +15,8 @@
 
 #include <chrono>
 #include <filesystem>
-#include <optional>
 #include <map>
+#include <optional>
 #include <string>
 
 #include "panel/panel_hub.hpp"

@@ -1,11 +1,12 @@
 #pragma once
 // Every command the panel sends to the rig, in one place: joint and tool targets, plans,
-// gains, the e-stop, the hardware bridge's verbs, environment loads and recording. Each turns the page's input (display units,
-// joints left alone, one joint's gains) into the client library's request (client/client.hpp),
-// checks what the page needs shown at a field before sending (limits in the page's units, the
-// plan's line and column, the IK's configuration, gain ranges: with the libraries the controller
-// itself uses, control::ParsePlan, control::SolvePoseGoal, servo::ChipGainsFromMessage), sends it
-// through the hub's client and answers with the reply that names the request:
+// gains, the e-stop, the hardware bridge's verbs, environment loads and recording. Each turns the
+// page's input (display units, joints left alone, one joint's gains) into the client library's
+// request (client/client.hpp), checks what the page needs shown at a field before sending (limits
+// in the page's units, the plan's line and column, the IK's configuration, gain ranges: with the
+// libraries the controller itself uses, control::ParsePlan, control::SolvePoseGoal,
+// servo::ChipGainsFromMessage), sends it through the hub's client and answers with the reply that
+// names the request:
 //   accepted -> 200 with "CHANNEL: accepted ..." (and move_id, status_seq),
 //   refused  -> 409 with the replier's reason,
 //   no reply -> 504 saying which process was not heard.
