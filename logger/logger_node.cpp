@@ -291,7 +291,7 @@ void LoggerNode::Service(int max_wait_ms) {
 void LoggerNode::Close() {
   if (closed_) return;
   if (raw_subscription_ != nullptr) {
-    bus_.raw_lcm().unsubscribe(raw_subscription_);
+    lcm_unsubscribe(bus_.raw_lcm().getUnderlyingLCM(), raw_subscription_);
     raw_subscription_ = nullptr;
   }
   raw_file_.reset();  // flushes and closes
@@ -440,25 +440,30 @@ void LoggerNode::OpenRawLog() {
   }
   raw_path_ = path.string();
   // Every channel, whatever its prefix.
-  raw_subscription_ = bus_.raw_lcm().subscribe(".*", &LoggerNode::RecordRaw, this);
+  raw_subscription_ =
+      lcm_subscribe(bus_.raw_lcm().getUnderlyingLCM(), ".*", &LoggerNode::RecordRaw, this);
   if (raw_subscription_ == nullptr) throw std::runtime_error("--raw: LCM refused the subscription");
-  raw_subscription_->setQueueCapacity(0);  // no limit of its own: it must not drop what they keep
+  // No limit of its own: it must not drop what the logger's own subscriptions keep.
+  lcm_subscription_set_queue_capacity(raw_subscription_, 0);
   raw_flushed_ = std::chrono::steady_clock::now();
 }
 
 // Bus thread: called by LCM in the same dispatch as the logger's own handler of the message, so
 // the log holds the messages in the order, and with the receive times, the logger aligned them.
-void LoggerNode::RecordRaw(const lcm::ReceiveBuffer* rbuf, const std::string& channel) {
-  if (!raw_file_) return;
+void LoggerNode::RecordRaw(const lcm_recv_buf_t* rbuf, const char* channel, void* node) {
+  auto* self = static_cast<LoggerNode*>(node);
+  if (!self->raw_file_) return;
   lcm::LogEvent event{};
   event.eventnum = 0;  // numbered by LCM
   event.timestamp = rbuf->recv_utime;
   event.channel = channel;
   event.datalen = static_cast<int32_t>(rbuf->data_size);
   event.data = rbuf->data;
-  if (raw_file_->writeEvent(&event) != 0) {
-    std::lock_guard<std::mutex> lock(mutex_);
-    if (stats_.error.empty()) stats_.error = "--raw " + raw_path_ + ": write failed (disk full?)";
+  if (self->raw_file_->writeEvent(&event) != 0) {
+    std::lock_guard<std::mutex> lock(self->mutex_);
+    if (self->stats_.error.empty()) {
+      self->stats_.error = "--raw " + self->raw_path_ + ": write failed (disk full?)";
+    }
   }
 }
 

@@ -110,7 +110,8 @@ class LoggerNode {
   // replay (only for a quiet bus); stopping: close the files after it.
   void ProcessBatch(std::vector<Input>& batch, int64_t now_utime, bool stopping);
   void OpenRawLog();
-  void RecordRaw(const lcm::ReceiveBuffer* rbuf, const std::string& channel);
+  // Through LCM's C interface: LCM 1.3.1's C++ untyped subscription trips UBSan's vptr check.
+  static void RecordRaw(const lcm_recv_buf_t* rbuf, const char* channel, void* node);
   void WriteRow(const Row& row);
   void OpenFile(const Row& row);
   void CloseFile();
@@ -191,7 +192,7 @@ class LoggerNode {
   // Raw log (bus thread only).
   std::string raw_path_;
   std::unique_ptr<lcm::LogFile> raw_file_;
-  lcm::Subscription* raw_subscription_ = nullptr;
+  lcm_subscription_t* raw_subscription_ = nullptr;
   std::chrono::steady_clock::time_point raw_flushed_;
 };
 
