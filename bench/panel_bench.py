@@ -29,6 +29,20 @@ def cpu_seconds(pid):
     return (int(fields[11]) + int(fields[12])) / TICK  # utime + stime
 
 
+def thread_cpu(pid):
+    """{thread name/tid: CPU seconds} of every thread of `pid` (the profile: where the time goes)."""
+    out = {}
+    for tid in os.listdir(f"/proc/{pid}/task"):
+        try:
+            with open(f"/proc/{pid}/task/{tid}/stat") as f:
+                head, rest = f.read().rsplit(")", 1)
+            fields = rest.split()
+            out[head.split("(", 1)[1] + "/" + tid] = (int(fields[11]) + int(fields[12])) / TICK
+        except OSError:
+            pass
+    return out
+
+
 def rss_mib(pid):
     with open(f"/proc/{pid}/status") as f:
         for line in f:
@@ -50,11 +64,15 @@ try:
     time.sleep(2)  # warm up
     page.execute_script("window.panelStats.latencies = []")
     frames0 = page.execute_script("return window.panelStats.frames")
+    drawn0 = page.execute_script("return window.panelStats.drawn || 0")
     cpu0, t0 = cpu_seconds(rig.panel.pid), time.time()
+    threads0 = thread_cpu(rig.panel.pid)
     states0 = page.execute_script("return window.panelStats.received")
     time.sleep(SECONDS)
     frames1 = page.execute_script("return window.panelStats.frames")
     cpu1, t1 = cpu_seconds(rig.panel.pid), time.time()
+    threads1 = thread_cpu(rig.panel.pid)
+    drawn1 = page.execute_script("return window.panelStats.drawn || 0")
     states1 = page.execute_script("return window.panelStats.received")
     latencies = sorted(page.execute_script("return window.panelStats.latencies"))
     rss = rss_mib(rig.panel.pid)
@@ -70,7 +88,11 @@ try:
         print(f"state-to-browser latency: median {statistics.median(latencies):.1f} ms, p95 {p95:.1f} ms "
               f"over {len(latencies)} drawn states (goal: median < 50 ms)")
     print(f"states received by the page: {(states1 - states0) / wall:.1f} per s (asked 60)")
-    print(f"page frame rate: {(frames1 - frames0) / wall:.1f} fps (goal >= 30)")
+    print(f"page frame rate: {(frames1 - frames0) / wall:.1f} fps (goal >= 30); "
+          f"3D renders {(drawn1 - drawn0) / wall:.1f} per s (0: a page without that counter)")
     print(f"sirupp-panel: {100 * (cpu1 - cpu0) / wall:.1f} % of one core (goal < 10 %), {rss:.1f} MiB resident")
+    busiest = sorted(((threads1[k] - threads0.get(k, 0), k) for k in threads1), reverse=True)[:4]
+    print("sirupp-panel threads (% of one core): " +
+          ", ".join(f"{name} {100 * sec / wall:.1f}" for sec, name in busiest))
 finally:
     rig.stop()

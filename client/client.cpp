@@ -8,8 +8,10 @@
 #include <sirupp/estop_t.hpp>
 #include <sirupp/hardware_command_t.hpp>
 #include <sirupp/joint_target_t.hpp>
+#include <sirupp/logger_command_t.hpp>
 #include <sirupp/plan_command_t.hpp>
 #include <sirupp/pose_target_t.hpp>
+#include <sirupp/sim_command_t.hpp>
 #include <sirupp/sim_reset_t.hpp>
 #include <utility>
 
@@ -145,6 +147,14 @@ void Client::Subscribe() {
       [this](const sirupp::command_reply_t& message, const core::ReceiveInfo&) {
         hardware_replies_.push_back(message);
       });
+  bus_.Subscribe<sirupp::command_reply_t>(
+      channels_.sim_reply, [this](const sirupp::command_reply_t& message,
+                                  const core::ReceiveInfo&) { sim_replies_.push_back(message); });
+  bus_.Subscribe<sirupp::command_reply_t>(
+      channels_.logger_reply,
+      [this](const sirupp::command_reply_t& message, const core::ReceiveInfo&) {
+        logger_replies_.push_back(message);
+      });
   bus_.Subscribe<sirupp::sim_status_t>(
       channels_.sim_status, [this](const sirupp::sim_status_t& message, const core::ReceiveInfo&) {
         snapshot_.sim = message;
@@ -212,6 +222,25 @@ void Client::WatchJoints(bool on) {
       2));
 }
 
+Client::Rest Client::WaitVirtualAtRest(double timeout_s) {
+  const bool watching = !joint_subscriptions_.empty();
+  WatchJoints(true);
+  snapshot_.sim_arm.reset();  // only a state heard from now on
+  auto at_rest = [this] {
+    const std::optional<sirupp::arm_state_t>& state = snapshot_.sim_arm;
+    return state.has_value() && !state->flags.empty() &&
+           std::all_of(state->flags.begin(), state->flags.end(), [](int8_t flags) {
+             return (flags & sirupp::arm_state_t::FLAG_AT_REST) != 0;
+           });
+  };
+  Rest rest = Rest::kNoSimState;
+  if (Until([this] { return snapshot_.sim_arm.has_value(); }, std::min(timeout_s, 0.5))) {
+    rest = Until(at_rest, timeout_s) ? Rest::kAtRest : Rest::kNotAtRest;
+  }
+  if (!watching) WatchJoints(false);
+  return rest;
+}
+
 bool Client::WaitForController(double timeout_s) {
   return Until([this] { return snapshot_.controller.has_value(); }, timeout_s);
 }
@@ -239,9 +268,13 @@ RequestId Client::Send(const std::string& channel, Msg message) {
   return RequestId{bus_.FullName(channel), message.utime, message.seq};
 }
 
-Answer Client::Await(const RequestId& request, double timeout_s, bool hardware) {
-  std::vector<sirupp::command_reply_t>& replies =
-      hardware ? hardware_replies_ : controller_replies_;
+Answer Client::Await(const RequestId& request, double timeout_s, Replier replier) {
+  const bool hardware = replier == Replier::kHardware;
+  std::vector<sirupp::command_reply_t>& replies = replier == Replier::kHardware ? hardware_replies_
+                                                  : replier == Replier::kSim    ? sim_replies_
+                                                  : replier == Replier::kLogger
+                                                      ? logger_replies_
+                                                      : controller_replies_;
   Answer answer;
   answer.request = request;
   std::optional<sirupp::command_reply_t> reply;
@@ -260,12 +293,17 @@ Answer Client::Await(const RequestId& request, double timeout_s, bool hardware) 
   // Replies to requests of other clients are of no use here; keep the list short.
   if (replies.size() > 64) replies.erase(replies.begin(), replies.end() - 64);
   if (!reply) {
-    const std::string& replies_on =
-        hardware ? channels_.hardware_reply : channels_.controller_reply;
+    const std::string& replies_on = replier == Replier::kHardware ? channels_.hardware_reply
+                                    : replier == Replier::kSim    ? channels_.sim_reply
+                                    : replier == Replier::kLogger ? channels_.logger_reply
+                                                                  : channels_.controller_reply;
+    const char* process = replier == Replier::kHardware ? "sirupp-hardware"
+                          : replier == Replier::kSim    ? "sirupp-sim"
+                          : replier == Replier::kLogger ? "sirupp-logger"
+                                                        : "sirupp-control";
     answer.error = "no reply on " + bus_.FullName(replies_on) + " within " +
                    core::FormatApprox(timeout_s) + " s to the request on " + request.channel +
-                   " (is " + (hardware ? "sirupp-hardware" : "sirupp-control") +
-                   " running, on the same --lcm-url and --prefix?)";
+                   " (is " + process + " running, on the same --lcm-url and --prefix?)";
     return answer;
   }
   answer.result = reply->result == sirupp::command_reply_t::RESULT_ACCEPTED ? Result::kAccepted
@@ -275,7 +313,7 @@ Answer Client::Await(const RequestId& request, double timeout_s, bool hardware) 
   answer.status_seq = reply->status_seq;
   // The status sent with the reply shows the command's effect: wait for it (briefly; LCM may
   // drop it, and the next one comes within 0.1 s).
-  if (reply->status_seq >= 0) {
+  if (reply->status_seq >= 0 && (hardware || replier == Replier::kController)) {
     Until(
         [&] {
           if (hardware) return snapshot_.hardware && snapshot_.hardware->seq >= reply->status_seq;
@@ -287,11 +325,19 @@ Answer Client::Await(const RequestId& request, double timeout_s, bool hardware) 
 }
 
 Answer Client::AwaitControllerAnswer(const RequestId& request, double timeout_s) {
-  return Await(request, timeout_s, false);
+  return Await(request, timeout_s, Replier::kController);
 }
 
 Answer Client::AwaitHardwareAnswer(const RequestId& request, double timeout_s) {
-  return Await(request, timeout_s, true);
+  return Await(request, timeout_s, Replier::kHardware);
+}
+
+Answer Client::AwaitSimAnswer(const RequestId& request, double timeout_s) {
+  return Await(request, timeout_s, Replier::kSim);
+}
+
+Answer Client::AwaitLoggerAnswer(const RequestId& request, double timeout_s) {
+  return Await(request, timeout_s, Replier::kLogger);
 }
 
 Answer Client::MoveJoints(const JointTarget& target) {
@@ -376,6 +422,30 @@ RequestId Client::ResetSim(const std::vector<double>& position, bool reset_objec
   message.velocity = velocity;
   message.reset_objects = reset_objects ? 1 : 0;
   return Send(channels_.sim_reset, message);
+}
+
+Answer Client::LoadEnvironment(const std::string& name, const std::string& xml) {
+  sirupp::sim_command_t message{};
+  message.sender = options_.sender;
+  message.command = sirupp::sim_command_t::COMMAND_LOAD_ENVIRONMENT;
+  message.name = name;
+  message.text = xml;
+  return AwaitSimAnswer(Send(channels_.sim_command, message), options_.answer_timeout_s);
+}
+
+Answer Client::StartRecording(const std::string& name) {
+  sirupp::logger_command_t message{};
+  message.sender = options_.sender;
+  message.command = sirupp::logger_command_t::COMMAND_START;
+  message.name = name;
+  return AwaitLoggerAnswer(Send(channels_.logger_command, message), options_.answer_timeout_s);
+}
+
+Answer Client::StopRecording() {
+  sirupp::logger_command_t message{};
+  message.sender = options_.sender;
+  message.command = sirupp::logger_command_t::COMMAND_STOP;
+  return AwaitLoggerAnswer(Send(channels_.logger_command, message), options_.answer_timeout_s);
 }
 
 Answer Client::Hardware(HardwareCommand command) {

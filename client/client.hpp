@@ -177,6 +177,11 @@ class Client {
   bool WaitForController(double timeout_s = 1.5);
   // Waits for a HARDWARE_STATUS; false if none came.
   bool WaitForHardware(double timeout_s = 2.0);
+  // Waits until SIM_ARM_STATE shows the virtual arm at rest (every joint FLAG_AT_REST: the sim
+  // keeps a settled arm exactly still, docs/physics.md). A plan or move started then starts from
+  // the same state whatever tick it lands on. kNoSimState when no state came within 0.5 s.
+  enum class Rest { kAtRest, kNotAtRest, kNoSimState };
+  Rest WaitVirtualAtRest(double timeout_s);
   // True when sirupp-control, heard before, sent no status for `seconds` (it sends at 10 Hz).
   bool ControllerSilent(double seconds) const;
   // Seconds since the last CONTROLLER_STATUS (infinity before the first).
@@ -195,6 +200,17 @@ class Client {
   RequestId ResetSim(const std::vector<double>& position, bool reset_objects = false,
                      const std::vector<double>& velocity = {});
 
+  // --- sirupp-sim commands (answers on SIM_REPLY)
+  // Replaces the sim's environment objects with those of `xml` (an environment file's text;
+  // `name` is the file it came from, for messages), the arm untouched. Refused with the parser's
+  // name:line error, while the arm moves, or when an object would overlap the arm.
+  Answer LoadEnvironment(const std::string& name, const std::string& xml);
+
+  // --- sirupp-logger (answers on LOGGER_REPLY)
+  // Starts recording run `name` ("" = the logger's default name) / stops the present run.
+  Answer StartRecording(const std::string& name);
+  Answer StopRecording();
+
   // --- sirupp-hardware (answers on HARDWARE_REPLY)
   Answer Hardware(HardwareCommand command);
   // After an accepted Hardware(): waits until HARDWARE_STATUS shows it carried out.
@@ -210,6 +226,8 @@ class Client {
   // it names, so snapshot() shows the command's effect. Replies that came earlier are kept.
   Answer AwaitControllerAnswer(const RequestId& request, double timeout_s);
   Answer AwaitHardwareAnswer(const RequestId& request, double timeout_s);
+  Answer AwaitSimAnswer(const RequestId& request, double timeout_s);
+  Answer AwaitLoggerAnswer(const RequestId& request, double timeout_s);
 
   // --- waiting for the end
   // Both judge only statuses with seq >= from_status_seq (pass Answer::status_seq, so a status
@@ -232,7 +250,9 @@ class Client {
   void Subscribe();
   template <class Msg>
   RequestId Send(const std::string& channel, Msg message);
-  Answer Await(const RequestId& request, double timeout_s, bool hardware);
+  // Who answers a request: its reply list, reply channel and process name.
+  enum class Replier { kController, kHardware, kSim, kLogger };
+  Answer Await(const RequestId& request, double timeout_s, Replier replier);
   // Handles messages until ended() holds for a status with seq >= from_status_seq. Returns the
   // outcome when the wait was cut short (no controller, silent, timeout), nullopt when it ended.
   std::optional<Outcome> Follow(
@@ -250,6 +270,8 @@ class Client {
   std::map<std::string, int64_t> seq_;  // per channel
   std::vector<sirupp::command_reply_t> controller_replies_;
   std::vector<sirupp::command_reply_t> hardware_replies_;
+  std::vector<sirupp::command_reply_t> sim_replies_;
+  std::vector<sirupp::command_reply_t> logger_replies_;
   std::vector<core::Subscription*> joint_subscriptions_;
 };
 

@@ -1,11 +1,13 @@
-# sirupp_lcm_types(TARGET <name> PACKAGE <pkg> FILES <a.lcm> ... [JAR <jar-target>])
+# sirupp_lcm_types(TARGET <name> PACKAGE <pkg> FILES <a.lcm> ... [JAR <jar-target>]
+#                  [JAVA_SOURCES <b.java> ...])
 #
 # Runs lcm-gen at build time on each .lcm file (one type per file, named like the file) and makes:
 #   <name>          an INTERFACE library whose include directory holds <pkg>/<type>.hpp (C++11 API)
-#   <jar-target>    (optional) build/java/<name>.jar, the compiled Java classes, for lcm-spy
+#   <jar-target>    (optional) build/java/<name>.jar, the compiled Java classes, for lcm-spy,
+#                   with JAVA_SOURCES (hand-written classes, e.g. lcm-spy plugins) compiled in too
 # Written for LCM 1.3.1 (no lcmConfig.cmake); works the same with newer lcm-gen.
 function(sirupp_lcm_types)
-  cmake_parse_arguments(ARG "" "TARGET;PACKAGE;JAR" "FILES" ${ARGN})
+  cmake_parse_arguments(ARG "" "TARGET;PACKAGE;JAR" "FILES;JAVA_SOURCES" ${ARGN})
   set(cpp_dir ${CMAKE_CURRENT_BINARY_DIR}/cpp)
   set(java_dir ${CMAKE_CURRENT_BINARY_DIR}/java)
   set(hpp_outputs)
@@ -46,7 +48,7 @@ function(sirupp_lcm_types)
 
   if(ARG_JAR)
     add_jar(${ARG_JAR}
-      SOURCES ${java_outputs}
+      SOURCES ${java_outputs} ${ARG_JAVA_SOURCES}
       INCLUDE_JARS ${LCM_JAR}
       OUTPUT_NAME ${ARG_TARGET}
       OUTPUT_DIR ${CMAKE_BINARY_DIR}/java)

@@ -103,4 +103,22 @@ double ServoBank::Goal(int joint) const {
   return static_cast<double>(servos_[j].profile().goal()) / 65536.0 / drives_[j].counts_per_unit();
 }
 
+double ServoBank::PositionError(int joint) const {
+  const auto j = static_cast<size_t>(joint);
+  return static_cast<double>(servos_[j].position_error()) / drives_[j].counts_per_unit();
+}
+
+uint8_t ServoBank::Status(int joint) const { return servos_[static_cast<size_t>(joint)].status(); }
+
+const ServoGains& ServoBank::Gains(int joint) const {
+  return servos_[static_cast<size_t>(joint)].gains();
+}
+
+int ServoBank::TrippedJoint() const {
+  for (int j = 0; j < num_joints(); ++j) {
+    if (Status(j) & servo::kPositionError) return j;
+  }
+  return -1;
+}
+
 }  // namespace sirupp::control

@@ -53,6 +53,13 @@ class ServoBank {
   double SetpointAcceleration(int joint) const;
   // Where the joint's present move ends, SI.
   double Goal(int joint) const;
+  // The chip's position error (command minus actual), SI.
+  double PositionError(int joint) const;
+  // The chip's status byte (servo::kMoveDone, kPositionError, ...).
+  uint8_t Status(int joint) const;
+  const ServoGains& Gains(int joint) const;
+  // The first servo that tripped its position-error limit (0-based), or -1.
+  int TrippedJoint() const;
 
  private:
   std::vector<JointDrive> drives_;

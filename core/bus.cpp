@@ -259,6 +259,28 @@ int Bus::HandleAvailable(int max_messages) {
   return handled;
 }
 
+int Bus::DeliverRecorded(const std::string& full_channel, const void* data, int size_bytes,
+                         int64_t recv_utime) {
+  if (dispatching_) throw BusError("Bus::DeliverRecorded called from inside a message handler");
+  lcm::ReceiveBuffer rbuf{};
+  rbuf.data = const_cast<void*>(data);  // LCM's type; handlers only read it
+  rbuf.data_size = static_cast<uint32_t>(size_bytes);
+  rbuf.recv_utime = recv_utime;
+  std::vector<Subscription*> matching;
+  for (const auto& subscription : subscriptions_) {
+    if (subscription->active_ && subscription->channel() == full_channel) {
+      matching.push_back(subscription.get());
+    }
+  }
+  dispatching_ = true;
+  for (Subscription* subscription : matching) subscription->Dispatch(rbuf, full_channel);
+  dispatching_ = false;
+  std::vector<Subscription*> removals;
+  removals.swap(pending_removal_);
+  for (Subscription* subscription : removals) Remove(subscription);
+  return static_cast<int>(matching.size());
+}
+
 int Bus::Fileno() { return lcm_.getFileno(); }
 
 // ---- Counting

@@ -29,6 +29,8 @@
 #include <utility>
 #include <vector>
 
+#include "core/channel.hpp"
+
 namespace sirupp::core {
 
 // Any failure of the bus: bad URL or channel name, a message that cannot be encoded or sent, an LCM
@@ -196,6 +198,12 @@ class Bus {
     const int encoded_bytes = msg.encode(buffer, 0, size_bytes);
     SendEncoded(channel, Msg::getTypeName(), encoded_bytes);
   }
+  // Same on a typed channel: compiles only when Msg is the channel's type.
+  template <class Msg, class ChannelMsg>
+  void Publish(const Channel<ChannelMsg>& channel, const Msg& msg) {
+    CheckChannelType<Msg, ChannelMsg>();
+    Publish(channel.name(), msg);
+  }
 
   // Calls handler for each message on prefix + channel that decodes as Msg. Messages that do not
   // decode are counted as decode_errors and never reach the handler; an exception from the handler
@@ -210,6 +218,14 @@ class Bus {
                                                                          std::move(handler)),
                   queue_capacity);
   }
+  // Same on a typed channel: compiles only when Msg is the channel's type.
+  template <class Msg, class ChannelMsg>
+  Subscription& Subscribe(const Channel<ChannelMsg>& channel,
+                          std::function<void(const Msg&, const ReceiveInfo&)> handler,
+                          int queue_capacity = kDefaultQueueCapacity) {
+    CheckChannelType<Msg, ChannelMsg>();
+    return Subscribe<Msg>(channel.name(), std::move(handler), queue_capacity);
+  }
   // Same as subscription.Unsubscribe().
   void Unsubscribe(Subscription& subscription);
 
@@ -220,6 +236,12 @@ class Bus {
   // Handles the messages already queued without blocking, at most max_messages of them. Returns the
   // number handled.
   int HandleAvailable(int max_messages = kDefaultHandleLimit);
+  // Hands one recorded message (an LCM log event: full channel name, encoded bytes, the time it was
+  // received when recorded) to this bus's subscriptions of that channel, as if it had just arrived
+  // with that receive time. Used to run a node over a raw log exactly as it ran live
+  // (sirupp-logger --from-log). Returns how many subscriptions took it.
+  int DeliverRecorded(const std::string& full_channel, const void* data, int size_bytes,
+                      int64_t recv_utime);
   // A file descriptor that becomes readable when a message is waiting: for poll()/select() loops.
   int Fileno();
 
@@ -293,6 +315,13 @@ class Latest {
         subscription_(&bus.Subscribe<Msg>(
             channel, [this](const Msg& msg, const ReceiveInfo& info) { Accept(msg, info); },
             queue_capacity)) {}
+  // Same on a typed channel: compiles only when Msg is the channel's type.
+  template <class ChannelMsg>
+  Latest(Bus& bus, const Channel<ChannelMsg>& channel, Validator validator = nullptr,
+         int queue_capacity = Bus::kDefaultQueueCapacity)
+      : Latest(bus, channel.name(), std::move(validator), queue_capacity) {
+    CheckChannelType<Msg, ChannelMsg>();
+  }
   ~Latest() { subscription_->Unsubscribe(); }
   Latest(const Latest&) = delete;
   Latest& operator=(const Latest&) = delete;

@@ -26,38 +26,37 @@ std::size_t LongestDefaultName() {
 Channels Channels::WithPrefix(const std::string& prefix) {
   ValidateChannelPrefix(prefix);
   Channels channels;
-  for (std::string* name : {&channels.robot_model,       &channels.environment,
-                            &channels.sim_arm_state,     &channels.sim_arm_command,
-                            &channels.sim_reset,         &channels.sim_status,
-                            &channels.arm_move,          &channels.arm_setpoint,
-                            &channels.arm_gains,         &channels.controller_gains,
-                            &channels.arm_target,        &channels.arm_pose_target,
-                            &channels.arm_plan,          &channels.controller_status,
-                            &channels.controller_reply,  &channels.real_arm_state,
-                            &channels.real_arm_setpoint, &channels.real_arm_gains,
-                            &channels.hardware_status,   &channels.hardware_command,
-                            &channels.hardware_reply,    &channels.estop,
-                            &channels.heartbeat,         &channels.viewer_image,
-                            &channels.viewer_camera}) {
-    name->insert(0, prefix);
-  }
+  for (ChannelName* channel : channels.Each()) channel->SetName(prefix + channel->name());
   return channels;
 }
 
+std::vector<ChannelName*> Channels::Each() {
+  return {&robot_model,       &environment,
+          &sim_arm_state,     &sim_arm_command,
+          &sim_reset,         &sim_status,
+          &sim_command,       &sim_reply,
+          &arm_move,          &arm_setpoint,
+          &arm_gains,         &controller_gains,
+          &arm_target,        &arm_pose_target,
+          &arm_plan,          &controller_status,
+          &controller_reply,  &real_arm_state,
+          &real_arm_setpoint, &real_arm_gains,
+          &hardware_status,   &hardware_command,
+          &hardware_reply,    &logger_command,
+          &logger_reply,      &estop,
+          &heartbeat,         &viewer_image,
+          &viewer_camera};
+}
+
+std::vector<const ChannelName*> Channels::Each() const {
+  std::vector<ChannelName*> channels = const_cast<Channels*>(this)->Each();
+  return {channels.begin(), channels.end()};
+}
+
 std::vector<std::string> Channels::All() const {
-  return {robot_model,       environment,
-          sim_arm_state,     sim_arm_command,
-          sim_reset,         sim_status,
-          arm_move,          arm_setpoint,
-          arm_gains,         controller_gains,
-          arm_target,        arm_pose_target,
-          arm_plan,          controller_status,
-          controller_reply,  real_arm_state,
-          real_arm_setpoint, real_arm_gains,
-          hardware_status,   hardware_command,
-          hardware_reply,    estop,
-          heartbeat,         viewer_image,
-          viewer_camera};
+  std::vector<std::string> names;
+  for (const ChannelName* channel : Each()) names.push_back(channel->name());
+  return names;
 }
 
 void ValidateChannelPrefix(const std::string& prefix) {
@@ -77,83 +76,114 @@ void ValidateChannelPrefix(const std::string& prefix) {
   }
 }
 
-const std::vector<ChannelInfo>& ChannelTable() {
+namespace {
+
+// The part of a table row that is prose: who sends and reads a channel, how often, what it carries.
+// Name and type come from Channels.
+struct ChannelProse {
+  std::string name;
+  std::string publisher;
+  std::string subscribers;
+  std::string rate;
+  std::string carries;
+};
+
+std::vector<ChannelInfo> BuildTable() {
   // Keep in step with docs/channels.md (tests/test_channels.cpp compares them row by row).
-  static const std::vector<ChannelInfo> table = {
-      {"ROBOT_MODEL", "sirupp.robot_model_t", "sirupp-sim",
-       "sirupp-control, sirupp-hardware, sirupp-logger, sirupp-viewer", "1 Hz and at start-up",
+  const std::vector<ChannelProse> prose = {
+      {"ROBOT_MODEL", "sirupp-sim", "sirupp-control, sirupp-hardware, sirupp-logger, sirupp-viewer",
+       "1 Hz and at start-up",
        "the robot model as the physics loaded it: DH rows, links, mass properties, limits, "
        "friction, servo parameters"},
-      {"ENVIRONMENT", "sirupp.environment_t", "sirupp-sim", "sirupp-viewer", "1 Hz",
+      {"ENVIRONMENT", "sirupp-sim", "sirupp-viewer", "1 Hz",
        "the objects around the robot: shape, pose, size, colour, static or dynamic"},
-      {"SIM_ARM_STATE", "sirupp.arm_state_t", "sirupp-sim",
-       "sirupp-control, sirupp-logger, sirupp-viewer",
+      {"SIM_ARM_STATE", "sirupp-sim", "sirupp-control, sirupp-logger, sirupp-viewer",
        "every physics tick (1953.125 Hz by default)",
        "virtual arm: tick, joint positions, velocities, applied efforts, limit and brake flags"},
-      {"SIM_ARM_COMMAND", "sirupp.arm_command_t", "sirupp-control (or a student's controller)",
-       "sirupp-sim", "one per SIM_ARM_STATE",
-       "joint efforts for the tick it answers, or hold / limp"},
-      {"SIM_RESET", "sirupp.sim_reset_t", "sirupp CLI, lesson scripts, tests", "sirupp-sim",
-       "on demand", "teleport: joint positions (and speeds) set at once, objects optionally reset"},
-      {"SIM_STATUS", "sirupp.sim_status_t", "sirupp-sim",
-       "sirupp CLI, bench_system, student controllers",
+      {"SIM_ARM_COMMAND", "sirupp-control (or a student's controller)", "sirupp-sim",
+       "one per SIM_ARM_STATE", "joint efforts for the tick it answers, or hold / limp"},
+      {"SIM_RESET", "sirupp CLI, lesson scripts, tests", "sirupp-sim", "on demand",
+       "teleport: joint positions (and speeds) set at once, objects optionally reset"},
+      {"SIM_STATUS", "sirupp-sim", "sirupp CLI, bench_system, student controllers",
        "1 Hz, on a participant's change and on a new refusal",
        "run id, timing mode, real-time factor, slipped time, e-stop, each participant's answer "
        "time and state, refused commands per sender with the reason"},
-      {"ARM_MOVE", "sirupp.servo_move_t", "sirupp-control", "sirupp-hardware", "one per move",
+      {"SIM_COMMAND", "sirupp-panel (client library)", "sirupp-sim", "on demand",
+       "load an environment (the XML text) into the running sim between two ticks, the arm "
+       "untouched"},
+      {"SIM_REPLY", "sirupp-sim", "sirupp-panel (client library)", "one per SIM_COMMAND",
+       "the answer to one command: its channel, utime and seq, accepted or refused and why"},
+      {"ARM_MOVE", "sirupp-control", "sirupp-hardware", "one per move",
        "per-joint goal, maximum velocity and acceleration: the PIC-SERVO LOAD_TRAJ analogue"},
-      {"ARM_SETPOINT", "sirupp.servo_setpoint_t", "sirupp-control", "sirupp-logger, sirupp-viewer",
-       "every servo tick",
+      {"ARM_SETPOINT", "sirupp-control", "sirupp-logger, sirupp-viewer", "every servo tick",
        "profiled set-point position and velocity, goal, position error, effort, move-done per "
        "joint"},
-      {"ARM_GAINS", "sirupp.servo_gains_t", "sirupp CLI or user",
-       "sirupp-control, sirupp-hardware, sirupp-logger", "on change",
-       "Kp, Kd, Ki, integration, output and error limits per joint, in chip units"},
-      {"CONTROLLER_GAINS", "sirupp.servo_gains_t", "sirupp-control", "sirupp CLI, sirupp-logger",
-       "1 Hz and on change", "the gains the virtual servos run with now, in chip units"},
-      {"ARM_TARGET", "sirupp.joint_target_t", "sirupp CLI or user", "sirupp-control", "on demand",
+      {"ARM_GAINS", "sirupp CLI or user", "sirupp-control, sirupp-hardware, sirupp-logger",
+       "on change", "Kp, Kd, Ki, integration, output and error limits per joint, in chip units"},
+      {"CONTROLLER_GAINS", "sirupp-control", "sirupp CLI, sirupp-logger", "1 Hz and on change",
+       "the gains the virtual servos run with now, in chip units"},
+      {"ARM_TARGET", "sirupp CLI or user", "sirupp-control", "on demand",
        "a joint-space target with per-joint speed and acceleration"},
-      {"ARM_POSE_TARGET", "sirupp.pose_target_t", "sirupp CLI", "sirupp-control", "on demand",
+      {"ARM_POSE_TARGET", "sirupp CLI", "sirupp-control", "on demand",
        "an end-effector pose and the wanted IK configuration (shoulder, elbow, wrist)"},
-      {"ARM_PLAN", "sirupp.plan_command_t", "sirupp CLI", "sirupp-control", "on demand",
+      {"ARM_PLAN", "sirupp CLI", "sirupp-control", "on demand",
        "plan text and run / pause / resume / abort, manual or automatic mode"},
-      {"CONTROLLER_STATUS", "sirupp.controller_status_t", "sirupp-control",
+      {"CONTROLLER_STATUS", "sirupp-control",
        "sirupp CLI, sirupp-logger, sirupp-viewer, sirupp-hardware", "10 Hz and on change",
        "mode, state, present move and plan step, last error"},
-      {"CONTROLLER_REPLY", "sirupp.command_reply_t", "sirupp-control",
-       "sirupp CLI, sirupp demo, sirupp-panel, sirupp grade",
+      {"CONTROLLER_REPLY", "sirupp-control", "sirupp CLI, sirupp demo, sirupp-panel, sirupp grade",
        "one per ARM_TARGET, ARM_POSE_TARGET, ARM_PLAN and ARM_GAINS",
        "the answer to one command: its channel, utime and seq, accepted or refused and why, the "
        "move it started"},
-      {"REAL_ARM_STATE", "sirupp.arm_state_t", "sirupp-hardware", "sirupp-logger, sirupp-viewer",
+      {"REAL_ARM_STATE", "sirupp-hardware", "sirupp-logger, sirupp-viewer",
        "every status poll (about 100-500 Hz)",
        "real arm: joint positions and velocities from the encoders, estimated efforts"},
-      {"REAL_ARM_SETPOINT", "sirupp.servo_setpoint_t", "sirupp-hardware", "lcm-spy",
-       "with every REAL_ARM_STATE",
+      {"REAL_ARM_SETPOINT", "sirupp-hardware", "lcm-spy", "with every REAL_ARM_STATE",
        "the real chips' own command positions (position + position error), goals, status"},
-      {"REAL_ARM_GAINS", "sirupp.servo_gains_t", "sirupp-hardware", "sirupp CLI, sirupp-logger",
-       "1 Hz and on change", "the gains loaded into the real boards (SET_GAIN), in chip units"},
-      {"HARDWARE_STATUS", "sirupp.hardware_status_t", "sirupp-hardware", "sirupp CLI, sirupp demo",
-       "10 Hz and on change",
+      {"REAL_ARM_GAINS", "sirupp-hardware", "sirupp CLI, sirupp-logger", "1 Hz and on change",
+       "the gains loaded into the real boards (SET_GAIN), in chip units"},
+      {"HARDWARE_STATUS", "sirupp-hardware", "sirupp CLI, sirupp demo", "10 Hz and on change",
        "bridge state (connected, armed, linked, fault), module status, serial errors"},
-      {"HARDWARE_COMMAND", "sirupp.hardware_command_t", "sirupp CLI", "sirupp-hardware",
-       "on demand", "connect, calibrate, arm, disarm, link, unlink, home, clear faults"},
-      {"HARDWARE_REPLY", "sirupp.command_reply_t", "sirupp-hardware",
-       "sirupp-control, sirupp CLI, sirupp-panel",
+      {"HARDWARE_COMMAND", "sirupp CLI", "sirupp-hardware", "on demand",
+       "connect, calibrate, arm, disarm, link, unlink, home, clear faults"},
+      {"HARDWARE_REPLY", "sirupp-hardware", "sirupp-control, sirupp CLI, sirupp-panel",
        "one per HARDWARE_COMMAND, ARM_MOVE and ARM_GAINS",
        "the answer to one command: its channel, utime and seq, accepted or refused and why"},
-      {"ESTOP", "sirupp.estop_t", "any process", "sirupp-sim, sirupp-control, sirupp-hardware",
-       "on demand", "emergency stop engaged or released, by whom and why"},
-      {"HEARTBEAT", "sirupp.heartbeat_t", "every process", "sirupp launch, sirupp CLI", "1 Hz",
+      {"LOGGER_COMMAND", "sirupp-panel (client library)", "sirupp-logger", "on demand",
+       "start recording a named run, or stop the present one"},
+      {"LOGGER_REPLY", "sirupp-logger", "sirupp-panel (client library)", "one per LOGGER_COMMAND",
+       "the answer to one command: its channel, utime and seq, accepted or refused and why"},
+      {"ESTOP", "any process", "sirupp-sim, sirupp-control, sirupp-hardware", "on demand",
+       "emergency stop engaged or released, by whom and why"},
+      {"HEARTBEAT", "every process", "sirupp launch, sirupp CLI", "1 Hz",
        "process name, host, pid, state and per-channel traffic counters"},
-      {"VIEWER_IMAGE", "sirupp.image_t", "sirupp-viewer", "sirupp view, lcm-spy",
-       "chosen rate (e.g. 10-30 Hz)",
+      {"VIEWER_IMAGE", "sirupp-viewer", "sirupp view, lcm-spy", "chosen rate (e.g. 10-30 Hz)",
        "rendered frames (JPEG or raw pixels) in the bot_core.image_t layout"},
-      {"VIEWER_CAMERA", "sirupp.viewer_camera_t", "sirupp view, lesson scripts or user",
-       "sirupp-viewer", "on demand",
+      {"VIEWER_CAMERA", "sirupp view, lesson scripts or user", "sirupp-viewer", "on demand",
        "camera azimuth, elevation, distance and target; DH frames and ghost on or off; a PNG "
        "snapshot"},
   };
+  const Channels channels;
+  const std::vector<const ChannelName*> typed = channels.Each();
+  if (typed.size() != prose.size())
+    throw std::logic_error("channel table: rows do not match Channels");
+  std::vector<ChannelInfo> table;
+  for (std::size_t i = 0; i < typed.size(); ++i) {
+    const ChannelProse& row = prose[i];
+    if (row.name != typed[i]->name()) {
+      throw std::logic_error("channel table: row " + std::to_string(i) + " is " + row.name +
+                             ", Channels has " + typed[i]->name());
+    }
+    table.push_back(ChannelInfo{typed[i]->name(), typed[i]->lcm_type(), row.publisher,
+                                row.subscribers, row.rate, row.carries});
+  }
+  return table;
+}
+
+}  // namespace
+
+const std::vector<ChannelInfo>& ChannelTable() {
+  static const std::vector<ChannelInfo> table = BuildTable();
   return table;
 }
 

@@ -7,39 +7,67 @@
 //  - or build Channels::WithPrefix(prefix) for code that talks to LCM without a Bus (lcm-logger
 //    channel filters, scripts, listings of full names).
 
+#include <sirupp/arm_command_t.hpp>
+#include <sirupp/arm_state_t.hpp>
+#include <sirupp/command_reply_t.hpp>
+#include <sirupp/controller_status_t.hpp>
+#include <sirupp/environment_t.hpp>
+#include <sirupp/estop_t.hpp>
+#include <sirupp/hardware_command_t.hpp>
+#include <sirupp/hardware_status_t.hpp>
+#include <sirupp/heartbeat_t.hpp>
+#include <sirupp/image_t.hpp>
+#include <sirupp/joint_target_t.hpp>
+#include <sirupp/logger_command_t.hpp>
+#include <sirupp/plan_command_t.hpp>
+#include <sirupp/pose_target_t.hpp>
+#include <sirupp/robot_model_t.hpp>
+#include <sirupp/servo_gains_t.hpp>
+#include <sirupp/servo_move_t.hpp>
+#include <sirupp/servo_setpoint_t.hpp>
+#include <sirupp/sim_command_t.hpp>
+#include <sirupp/sim_reset_t.hpp>
+#include <sirupp/sim_status_t.hpp>
+#include <sirupp/viewer_camera_t.hpp>
 #include <string>
 #include <vector>
 
+#include "core/channel.hpp"
+
 namespace sirupp::core {
 
-// One std::string per channel, defaults as on the wire without prefix. Members are settable so that
-// a lab layout can rename a channel without touching code.
+// One typed channel per name (core/channel.hpp), defaults as on the wire without prefix. Names are
+// settable so that a lab layout can rename a channel without touching code; types are not.
 struct Channels {
-  std::string robot_model = "ROBOT_MODEL";
-  std::string environment = "ENVIRONMENT";
-  std::string sim_arm_state = "SIM_ARM_STATE";
-  std::string sim_arm_command = "SIM_ARM_COMMAND";
-  std::string sim_reset = "SIM_RESET";
-  std::string sim_status = "SIM_STATUS";
-  std::string arm_move = "ARM_MOVE";
-  std::string arm_setpoint = "ARM_SETPOINT";
-  std::string arm_gains = "ARM_GAINS";
-  std::string controller_gains = "CONTROLLER_GAINS";
-  std::string arm_target = "ARM_TARGET";
-  std::string arm_pose_target = "ARM_POSE_TARGET";
-  std::string arm_plan = "ARM_PLAN";
-  std::string controller_status = "CONTROLLER_STATUS";
-  std::string controller_reply = "CONTROLLER_REPLY";
-  std::string real_arm_state = "REAL_ARM_STATE";
-  std::string real_arm_setpoint = "REAL_ARM_SETPOINT";
-  std::string real_arm_gains = "REAL_ARM_GAINS";
-  std::string hardware_status = "HARDWARE_STATUS";
-  std::string hardware_command = "HARDWARE_COMMAND";
-  std::string hardware_reply = "HARDWARE_REPLY";
-  std::string estop = "ESTOP";
-  std::string heartbeat = "HEARTBEAT";
-  std::string viewer_image = "VIEWER_IMAGE";
-  std::string viewer_camera = "VIEWER_CAMERA";
+  Channel<sirupp::robot_model_t> robot_model{"ROBOT_MODEL"};
+  Channel<sirupp::environment_t> environment{"ENVIRONMENT"};
+  Channel<sirupp::arm_state_t> sim_arm_state{"SIM_ARM_STATE"};
+  Channel<sirupp::arm_command_t> sim_arm_command{"SIM_ARM_COMMAND"};
+  Channel<sirupp::sim_reset_t> sim_reset{"SIM_RESET"};
+  Channel<sirupp::sim_status_t> sim_status{"SIM_STATUS"};
+  Channel<sirupp::sim_command_t> sim_command{"SIM_COMMAND"};
+  Channel<sirupp::command_reply_t> sim_reply{"SIM_REPLY"};
+  Channel<sirupp::servo_move_t> arm_move{"ARM_MOVE"};
+  Channel<sirupp::servo_setpoint_t> arm_setpoint{"ARM_SETPOINT"};
+  Channel<sirupp::servo_gains_t> arm_gains{"ARM_GAINS"};
+  Channel<sirupp::servo_gains_t> controller_gains{"CONTROLLER_GAINS"};
+  Channel<sirupp::joint_target_t> arm_target{"ARM_TARGET"};
+  Channel<sirupp::pose_target_t> arm_pose_target{"ARM_POSE_TARGET"};
+  Channel<sirupp::plan_command_t> arm_plan{"ARM_PLAN"};
+  Channel<sirupp::controller_status_t> controller_status{"CONTROLLER_STATUS"};
+  Channel<sirupp::command_reply_t> controller_reply{"CONTROLLER_REPLY"};
+  Channel<sirupp::arm_state_t> real_arm_state{"REAL_ARM_STATE"};
+  Channel<sirupp::servo_setpoint_t> real_arm_setpoint{"REAL_ARM_SETPOINT"};
+  Channel<sirupp::servo_gains_t> real_arm_gains{"REAL_ARM_GAINS"};
+  Channel<sirupp::hardware_status_t> hardware_status{"HARDWARE_STATUS"};
+  Channel<sirupp::hardware_command_t> hardware_command{"HARDWARE_COMMAND"};
+  Channel<sirupp::command_reply_t> hardware_reply{"HARDWARE_REPLY"};
+  Channel<sirupp::logger_command_t> logger_command{"LOGGER_COMMAND"};
+  Channel<sirupp::command_reply_t> logger_reply{"LOGGER_REPLY"};
+  Channel<sirupp::estop_t> estop{"ESTOP"};
+  Channel<sirupp::heartbeat_t> heartbeat{"HEARTBEAT"};
+  Channel<sirupp::image_t> viewer_image{"VIEWER_IMAGE"};
+  Channel<sirupp::viewer_camera_t> viewer_camera{"VIEWER_CAMERA"};
 
   // The defaults with `prefix` in front of each. Throws std::invalid_argument if the prefix is not
   // allowed (see ValidateChannelPrefix).
@@ -47,6 +75,9 @@ struct Channels {
 
   // Every name, in the order of ChannelTable().
   std::vector<std::string> All() const;
+  // Every channel, name and type, in the order of ChannelTable().
+  std::vector<const ChannelName*> Each() const;
+  std::vector<ChannelName*> Each();
 };
 
 // Throws std::invalid_argument naming the bad value unless `prefix` is empty or made of letters,
@@ -55,8 +86,8 @@ void ValidateChannelPrefix(const std::string& prefix);
 
 // One row of the channel table. Plain text (no markup); docs/channels.md shows the same rows.
 struct ChannelInfo {
-  std::string name;         // default name, without prefix
-  std::string lcm_type;     // fully qualified LCM type, e.g. "sirupp.arm_state_t"
+  std::string name;         // default name, without prefix (from Channels)
+  std::string lcm_type;     // fully qualified LCM type, e.g. "sirupp.arm_state_t" (from Channels)
   std::string publisher;    // process(es) that send it
   std::string subscribers;  // process(es) that listen
   std::string rate;         // how often it is sent

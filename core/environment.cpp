@@ -489,8 +489,11 @@ void CheckMessageShape(const Shape& shape, const std::string& channel, const std
   }
 }
 
-EnvironmentObject ObjectFromMessage(const sirupp::environment_object_t& message,
-                                    const std::string& channel, const std::string& field) {
+}  // namespace
+
+EnvironmentObject EnvironmentObjectFromMessage(const sirupp::environment_object_t& message,
+                                               const std::string& channel,
+                                               const std::string& field) {
   if (message.name.empty()) {
     throw MessageError(channel, field + ".name",
                        "an empty name is not allowed; expected a unique, non-empty object name");
@@ -528,7 +531,16 @@ EnvironmentObject ObjectFromMessage(const sirupp::environment_object_t& message,
   return object;
 }
 
-}  // namespace
+sirupp::environment_object_t ToMessage(const EnvironmentObject& object) {
+  sirupp::environment_object_t o{};
+  o.name = object.name;
+  o.shape = detail::ShapeToMessage(object.shape);
+  o.is_static = object.is_static ? 1 : 0;
+  o.mass = object.mass_kg;
+  o.friction = object.friction;
+  o.restitution = object.restitution;
+  return o;
+}
 
 Environment ParseEnvironment(const std::string& xml_text, const std::string& file_name) {
   XMLDocument document;
@@ -620,14 +632,7 @@ sirupp::environment_t ToMessage(const Environment& environment, int64_t utime, i
   message.name = environment.name;
   message.source_file = environment.source_file;
   for (const EnvironmentObject& object : environment.objects) {
-    sirupp::environment_object_t o{};
-    o.name = object.name;
-    o.shape = detail::ShapeToMessage(object.shape);
-    o.is_static = object.is_static ? 1 : 0;
-    o.mass = object.mass_kg;
-    o.friction = object.friction;
-    o.restitution = object.restitution;
-    message.objects.push_back(o);
+    message.objects.push_back(ToMessage(object));
   }
   message.num_objects = static_cast<int32_t>(message.objects.size());
   return message;
@@ -644,7 +649,7 @@ Environment EnvironmentFromMessage(const sirupp::environment_t& message,
   size_t frees = 0;
   for (size_t i = 0; i < message.objects.size(); ++i) {
     const std::string field = Indexed("objects", i);
-    EnvironmentObject object = ObjectFromMessage(message.objects[i], channel, field);
+    EnvironmentObject object = EnvironmentObjectFromMessage(message.objects[i], channel, field);
     const auto [earlier, unique] = names.emplace(object.name, i);
     if (!unique) {
       throw MessageError(channel, field + ".name",

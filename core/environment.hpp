@@ -46,6 +46,13 @@ Environment LoadEnvironment(const std::string& path);
 // Same, from the text of a file; `file_name` stands for the file in messages and source_file.
 Environment ParseEnvironment(const std::string& xml_text, const std::string& file_name);
 
+// One object of an environment (`field` names it in errors, e.g. "objects[3]"): checks the name,
+// shape, flags, mass, friction and restitution; uniqueness is EnvironmentFromMessage's.
+sirupp::environment_object_t ToMessage(const EnvironmentObject& object);
+EnvironmentObject EnvironmentObjectFromMessage(const sirupp::environment_object_t& message,
+                                               const std::string& channel,
+                                               const std::string& field);
+
 // source_line is not sent; every other field travels exactly.
 sirupp::environment_t ToMessage(const Environment& environment, int64_t utime, int64_t seq);
 // Rebuilds the environment, checking counts, shape types, finiteness, sizes (> 0 where the shape

@@ -14,8 +14,6 @@ using detail::GetQuaternion;
 using detail::GetVector;
 using detail::PutQuaternion;
 using detail::PutVector;
-using detail::ShapeFromMessage;
-using detail::ShapeToMessage;
 
 void CheckJointCount(const std::string& channel, int32_t num_joints, int expected_joints) {
   if (num_joints < 0 || (expected_joints >= 0 && num_joints != expected_joints)) {
@@ -60,67 +58,13 @@ sirupp::robot_model_t ToMessage(const RobotModel& model, int64_t utime, int64_t 
   PutVector(model.gravity_m_s2, message.gravity);
   message.servo_tick_s = model.servo_tick_s;
 
-  for (const Joint& joint : model.joints) {
-    sirupp::joint_model_t j{};
-    j.name = joint.name;
-    j.type = joint.type == JointType::kRevolute ? sirupp::joint_model_t::TYPE_REVOLUTE
-                                                : sirupp::joint_model_t::TYPE_PRISMATIC;
-    j.dh_a = joint.dh.a_m;
-    j.dh_alpha = joint.dh.alpha_rad;
-    j.dh_d = joint.dh.d_m;
-    j.dh_theta = joint.dh.theta_rad;
-    j.position_min = joint.position_min;
-    j.position_max = joint.position_max;
-    j.velocity_max = joint.velocity_max;
-    j.effort_max = joint.effort_max;
-    j.armature = joint.armature;
-    j.friction_static = joint.friction.static_effort;
-    j.friction_coulomb_positive = joint.friction.coulomb_positive;
-    j.friction_coulomb_negative = joint.friction.coulomb_negative;
-    j.friction_viscous = joint.friction.viscous;
-    j.friction_stribeck_velocity = joint.friction.stribeck_velocity;
-    const ServoParams& s = joint.servo;
-    j.encoder_counts_per_rev = s.encoder_counts_per_rev;
-    j.gear_ratio = s.gear_ratio;
-    j.motor_torque_max = s.motor_torque_max_nm;
-    j.default_velocity = s.default_velocity;
-    j.default_acceleration = s.default_acceleration;
-    j.kp = s.kp;
-    j.kd = s.kd;
-    j.ki = s.ki;
-    j.integration_limit = s.integration_limit;
-    j.output_limit = s.output_limit;
-    j.current_limit = s.current_limit;
-    j.error_limit = s.error_limit;
-    j.servo_rate_divisor = s.servo_rate_divisor;
-    j.deadband = s.deadband;
-    j.home = joint.home;
-    message.joints.push_back(j);
-  }
+  for (const Joint& joint : model.joints) message.joints.push_back(ToMessage(joint));
   message.num_joints = static_cast<int32_t>(message.joints.size());
 
-  for (const Link& link : model.links) {
-    sirupp::link_model_t l{};
-    l.name = link.name;
-    l.mass = link.mass_kg;
-    PutVector(link.com_m, l.com);
-    const Eigen::Matrix3d& I = link.inertia_kg_m2;
-    const double elements[6] = {I(0, 0), I(1, 1), I(2, 2), I(0, 1), I(0, 2), I(1, 2)};
-    for (int k = 0; k < 6; ++k) l.inertia[k] = elements[k];
-    l.inertia_derived = link.inertia_derived ? 1 : 0;
-    for (const Shape& shape : link.shapes) l.shapes.push_back(ShapeToMessage(shape));
-    l.num_shapes = static_cast<int32_t>(l.shapes.size());
-    message.links.push_back(l);
-  }
+  for (const Link& link : model.links) message.links.push_back(ToMessage(link));
   message.num_links = static_cast<int32_t>(message.links.size());
 
-  for (const NamedPose& pose : model.named_poses) {
-    sirupp::named_pose_t p{};
-    p.name = pose.name;
-    p.position = pose.position;
-    p.num_joints = static_cast<int32_t>(p.position.size());
-    message.named_poses.push_back(p);
-  }
+  for (const NamedPose& pose : model.named_poses) message.named_poses.push_back(ToMessage(pose));
   message.num_named_poses = static_cast<int32_t>(message.named_poses.size());
   return message;
 }
@@ -157,67 +101,16 @@ RobotModel RobotModelFromMessage(const sirupp::robot_model_t& message, const std
   model.servo_tick_s = message.servo_tick_s;
 
   for (size_t i = 0; i < message.joints.size(); ++i) {
-    const sirupp::joint_model_t& j = message.joints[i];
-    if (j.type != sirupp::joint_model_t::TYPE_REVOLUTE &&
-        j.type != sirupp::joint_model_t::TYPE_PRISMATIC) {
-      throw MessageError(channel, "joints[" + std::to_string(i) + "].type",
-                         std::to_string(j.type) + " is not allowed; expected 0 or 1");
-    }
-    Joint joint;
-    joint.name = j.name;
-    joint.type = j.type == sirupp::joint_model_t::TYPE_REVOLUTE ? JointType::kRevolute
-                                                                : JointType::kPrismatic;
-    joint.dh = DhRow{j.dh_a, j.dh_alpha, j.dh_d, j.dh_theta};
-    joint.position_min = j.position_min;
-    joint.position_max = j.position_max;
-    joint.velocity_max = j.velocity_max;
-    joint.effort_max = j.effort_max;
-    joint.armature = j.armature;
-    joint.home = j.home;
-    joint.friction =
-        Friction{j.friction_static, j.friction_coulomb_positive, j.friction_coulomb_negative,
-                 j.friction_viscous, j.friction_stribeck_velocity};
-    ServoParams& s = joint.servo;
-    s.encoder_counts_per_rev = j.encoder_counts_per_rev;
-    s.gear_ratio = j.gear_ratio;
-    s.motor_torque_max_nm = j.motor_torque_max;
-    s.default_velocity = j.default_velocity;
-    s.default_acceleration = j.default_acceleration;
-    s.kp = j.kp;
-    s.kd = j.kd;
-    s.ki = j.ki;
-    s.integration_limit = j.integration_limit;
-    s.output_limit = j.output_limit;
-    s.current_limit = j.current_limit;
-    s.error_limit = j.error_limit;
-    s.servo_rate_divisor = j.servo_rate_divisor;
-    s.deadband = j.deadband;
-    model.joints.push_back(joint);
+    model.joints.push_back(
+        JointFromMessage(message.joints[i], channel, "joints[" + std::to_string(i) + "]"));
   }
-
   for (size_t i = 0; i < message.links.size(); ++i) {
-    const sirupp::link_model_t& l = message.links[i];
-    const std::string field = "links[" + std::to_string(i) + "]";
-    CheckCount(channel, field + ".num_shapes", l.num_shapes, l.shapes);
-    Link link;
-    link.name = l.name;
-    link.mass_kg = l.mass;
-    link.com_m = GetVector(l.com);
-    link.inertia_kg_m2 << l.inertia[0], l.inertia[3], l.inertia[4], l.inertia[3], l.inertia[1],
-        l.inertia[5], l.inertia[4], l.inertia[5], l.inertia[2];
-    link.inertia_derived = l.inertia_derived != 0;
-    for (size_t k = 0; k < l.shapes.size(); ++k) {
-      link.shapes.push_back(
-          ShapeFromMessage(l.shapes[k], channel, field + ".shapes[" + std::to_string(k) + "]"));
-    }
-    model.links.push_back(link);
+    model.links.push_back(
+        LinkFromMessage(message.links[i], channel, "links[" + std::to_string(i) + "]"));
   }
-
   for (size_t i = 0; i < message.named_poses.size(); ++i) {
-    const sirupp::named_pose_t& p = message.named_poses[i];
-    CheckCount(channel, "named_poses[" + std::to_string(i) + "].num_joints", p.num_joints,
-               p.position);
-    model.named_poses.push_back(NamedPose{p.name, p.position});
+    model.named_poses.push_back(NamedPoseFromMessage(message.named_poses[i], channel,
+                                                     "named_poses[" + std::to_string(i) + "]"));
   }
 
   // A received model passes the same physical checks as a loaded file.
@@ -225,6 +118,135 @@ RobotModel RobotModelFromMessage(const sirupp::robot_model_t& message, const std
     throw MessageError(channel, problem->path, problem->problem);
   }
   return model;
+}
+
+sirupp::joint_model_t ToMessage(const Joint& joint) {
+  sirupp::joint_model_t j{};
+  j.name = joint.name;
+  j.type = joint.type == JointType::kRevolute ? sirupp::joint_model_t::TYPE_REVOLUTE
+                                              : sirupp::joint_model_t::TYPE_PRISMATIC;
+  j.dh_a = joint.dh.a_m;
+  j.dh_alpha = joint.dh.alpha_rad;
+  j.dh_d = joint.dh.d_m;
+  j.dh_theta = joint.dh.theta_rad;
+  j.position_min = joint.position_min;
+  j.position_max = joint.position_max;
+  j.velocity_max = joint.velocity_max;
+  j.effort_max = joint.effort_max;
+  j.armature = joint.armature;
+  j.friction_static = joint.friction.static_effort;
+  j.friction_coulomb_positive = joint.friction.coulomb_positive;
+  j.friction_coulomb_negative = joint.friction.coulomb_negative;
+  j.friction_viscous = joint.friction.viscous;
+  j.friction_stribeck_velocity = joint.friction.stribeck_velocity;
+  const ServoParams& s = joint.servo;
+  j.encoder_counts_per_rev = s.encoder_counts_per_rev;
+  j.gear_ratio = s.gear_ratio;
+  j.motor_torque_max = s.motor_torque_max_nm;
+  j.default_velocity = s.default_velocity;
+  j.default_acceleration = s.default_acceleration;
+  j.kp = s.kp;
+  j.kd = s.kd;
+  j.ki = s.ki;
+  j.integration_limit = s.integration_limit;
+  j.output_limit = s.output_limit;
+  j.current_limit = s.current_limit;
+  j.error_limit = s.error_limit;
+  j.servo_rate_divisor = s.servo_rate_divisor;
+  j.deadband = s.deadband;
+  j.home = joint.home;
+  return j;
+}
+
+Joint JointFromMessage(const sirupp::joint_model_t& j, const std::string& channel,
+                       const std::string& field) {
+  if (j.type != sirupp::joint_model_t::TYPE_REVOLUTE &&
+      j.type != sirupp::joint_model_t::TYPE_PRISMATIC) {
+    throw MessageError(channel, field + ".type",
+                       std::to_string(j.type) + " is not allowed; expected 0 or 1");
+  }
+  Joint joint;
+  joint.name = j.name;
+  joint.type =
+      j.type == sirupp::joint_model_t::TYPE_REVOLUTE ? JointType::kRevolute : JointType::kPrismatic;
+  joint.dh = DhRow{j.dh_a, j.dh_alpha, j.dh_d, j.dh_theta};
+  joint.position_min = j.position_min;
+  joint.position_max = j.position_max;
+  joint.velocity_max = j.velocity_max;
+  joint.effort_max = j.effort_max;
+  joint.armature = j.armature;
+  joint.home = j.home;
+  joint.friction =
+      Friction{j.friction_static, j.friction_coulomb_positive, j.friction_coulomb_negative,
+               j.friction_viscous, j.friction_stribeck_velocity};
+  ServoParams& s = joint.servo;
+  s.encoder_counts_per_rev = j.encoder_counts_per_rev;
+  s.gear_ratio = j.gear_ratio;
+  s.motor_torque_max_nm = j.motor_torque_max;
+  s.default_velocity = j.default_velocity;
+  s.default_acceleration = j.default_acceleration;
+  s.kp = j.kp;
+  s.kd = j.kd;
+  s.ki = j.ki;
+  s.integration_limit = j.integration_limit;
+  s.output_limit = j.output_limit;
+  s.current_limit = j.current_limit;
+  s.error_limit = j.error_limit;
+  s.servo_rate_divisor = j.servo_rate_divisor;
+  s.deadband = j.deadband;
+  return joint;
+}
+
+sirupp::link_model_t ToMessage(const Link& link) {
+  sirupp::link_model_t l{};
+  l.name = link.name;
+  l.mass = link.mass_kg;
+  PutVector(link.com_m, l.com);
+  const Eigen::Matrix3d& I = link.inertia_kg_m2;
+  const double elements[6] = {I(0, 0), I(1, 1), I(2, 2), I(0, 1), I(0, 2), I(1, 2)};
+  for (int k = 0; k < 6; ++k) l.inertia[k] = elements[k];
+  l.inertia_derived = link.inertia_derived ? 1 : 0;
+  for (const Shape& shape : link.shapes) l.shapes.push_back(ToMessage(shape));
+  l.num_shapes = static_cast<int32_t>(l.shapes.size());
+  return l;
+}
+
+Link LinkFromMessage(const sirupp::link_model_t& l, const std::string& channel,
+                     const std::string& field) {
+  CheckCount(channel, field + ".num_shapes", l.num_shapes, l.shapes);
+  Link link;
+  link.name = l.name;
+  link.mass_kg = l.mass;
+  link.com_m = GetVector(l.com);
+  link.inertia_kg_m2 << l.inertia[0], l.inertia[3], l.inertia[4], l.inertia[3], l.inertia[1],
+      l.inertia[5], l.inertia[4], l.inertia[5], l.inertia[2];
+  link.inertia_derived = l.inertia_derived != 0;
+  for (size_t k = 0; k < l.shapes.size(); ++k) {
+    link.shapes.push_back(
+        ShapeFromMessage(l.shapes[k], channel, field + ".shapes[" + std::to_string(k) + "]"));
+  }
+  return link;
+}
+
+sirupp::named_pose_t ToMessage(const NamedPose& pose) {
+  sirupp::named_pose_t p{};
+  p.name = pose.name;
+  p.position = pose.position;
+  p.num_joints = static_cast<int32_t>(p.position.size());
+  return p;
+}
+
+NamedPose NamedPoseFromMessage(const sirupp::named_pose_t& p, const std::string& channel,
+                               const std::string& field) {
+  CheckCount(channel, field + ".num_joints", p.num_joints, p.position);
+  return NamedPose{p.name, p.position};
+}
+
+sirupp::shape_t ToMessage(const Shape& shape) { return detail::ShapeToMessage(shape); }
+
+Shape ShapeFromMessage(const sirupp::shape_t& message, const std::string& channel,
+                       const std::string& field) {
+  return detail::ShapeFromMessage(message, channel, field);
 }
 
 sirupp::arm_state_t ToMessage(const ArmState& state, int64_t seq) {

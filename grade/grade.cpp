@@ -8,6 +8,8 @@
 #include <regex>
 #include <thread>
 
+#include "grade/port_lease.hpp"
+
 namespace sirupp::grade {
 
 const char* const kBaselineLabel =
@@ -47,8 +49,10 @@ std::vector<ControllerResult> RunControllers(const Suite& suite, const core::Rob
       jobs.push_back({c, t});
     }
   }
-  const int port_base =
-      options.port_base > 0 ? options.port_base : 20000 + static_cast<int>(::getpid() % 300) * 100;
+  // Ports from a lease (grade/port_lease.hpp): no two tasks of any graders on this machine share
+  // one. Each process starts its search elsewhere in the range, so few locks are tried.
+  const int port_base = options.port_base > 0 ? options.port_base : kPortBase;
+  const int port_offset = static_cast<int>(::getpid() % 97) * 100;
   std::atomic<size_t> next{0};
   std::mutex mutex;
   std::vector<char> load_failed(controllers.size(), 0);
@@ -69,10 +73,17 @@ std::vector<ControllerResult> RunControllers(const Suite& suite, const core::Rob
       run.work_dir = options.work_dir + "/" + std::to_string(job.controller) + "_" + task.name;
       std::filesystem::create_directories(run.work_dir);
       // Its own port for each job (and each grader process): no task hears another.
-      run.lcm_url =
-          "udpm://239.255.76.67:" + std::to_string(port_base + static_cast<int>(i % 100)) +
-          "?ttl=0";
+      PortLease lease;
+      try {
+        lease = PortLease::Acquire(port_base, kPortCount, port_offset + static_cast<int>(i),
+                                   options.port_lock_dir);
+      } catch (const std::exception& error) {
+        result.ended = error.what();
+        continue;
+      }
+      run.lcm_url = "udpm://239.255.76.67:" + std::to_string(lease.port()) + "?ttl=0";
       TaskRecord record = RunTask(suite, model, task, controllers[job.controller], run);
+      lease.Release();
       if (!record.completed) {
         // Process ids differ from run to run; the reason must not.
         static const std::regex pid(R"(process \d+)");

@@ -37,8 +37,14 @@ struct GradeOptions {
   bool baseline = true;
   std::string bin_dir;   // where sirupp-sim and sirupp-control are
   std::string work_dir;  // task logs: WORK/CONTROLLER_TASK/
-  int port_base = 0;     // 0: from the process id
+  // Task ports come from [port_base, port_base + kPortCount), each held with a PortLease
+  // (grade/port_lease.hpp) while its task runs; 0 = kPortBase. Lock files in port_lock_dir
+  // ("" = the system's).
+  int port_base = 0;
+  std::string port_lock_dir;
 };
+inline constexpr int kPortBase = 20000;
+inline constexpr int kPortCount = 10000;
 
 // Runs `controllers` (each over the whole suite) with `jobs` tasks at a time; the results are in
 // the same order whatever `jobs` is. Tasks of one controller stop early (each listed as not run)

@@ -29,6 +29,10 @@ Json TaskJson(const TaskResult& task) {
   out["failed_checks"] = task.metrics.failed_checks;
   out["ticks"] = task.record.ticks();
   out["missing_rows"] = task.record.missing_rows;
+  // A tracking task through sirupp-control: how closely the chip's set-point followed the path.
+  if (task.record.has_reference && task.record.setpoint_deviation > 0) {
+    out["setpoint_vs_path_deg"] = task.record.setpoint_deviation * 180 / kPi;
+  }
   Json joints = Json::array();
   for (size_t j = 0; j < task.metrics.joints.size(); ++j) {
     const JointMetrics& m = task.metrics.joints[j];
@@ -93,7 +97,9 @@ std::string Plot(const std::string& out_dir, const Task& task, const TaskResult&
   spec.x_label = "time (s)";
   spec.y_label = "joint " + std::to_string(j + 1) + " (deg)";
   spec.series.push_back(series(student.record, student.record.reference,
-                               student.record.has_reference ? "set-point" : "goal",
+                               !student.record.has_reference ? "goal"
+                               : task.track                  ? "path"
+                                                             : "set-point",
                                {120, 120, 120}));
   spec.series.push_back(
       series(student.record, student.record.position, "controller", {200, 40, 40}));

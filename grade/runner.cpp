@@ -32,9 +32,22 @@ std::string Degrees(const core::RobotModel& model, size_t j, double si) {
 
 }  // namespace
 
+std::vector<MinJerkPath::Sample> ReferenceAt(const Task& task, double t_s) {
+  std::vector<MinJerkPath::Sample> row(task.goal.size());
+  for (size_t j = 0; j < row.size(); ++j) {
+    if (task.track && static_cast<size_t>(task.track->joint) == j) {
+      row[j] = task.track->path.At(t_s);
+    } else {
+      row[j].position = task.goal[j];
+    }
+  }
+  return row;
+}
+
 std::vector<std::string> ExpandCommand(const std::vector<std::string>& command,
                                        const core::RobotModel& model, const Task& task,
-                                       const std::string& url, const std::string& name) {
+                                       const std::string& url, const std::string& name,
+                                       const std::string& reference_file) {
   std::vector<std::string> out;
   for (const std::string& word : command) {
     if (word == "{goal_deg}" || word == "{start_deg}") {
@@ -52,6 +65,7 @@ std::vector<std::string> ExpandCommand(const std::vector<std::string>& command,
     replace("{url}", url);
     replace("{name}", name);
     replace("{duration_s}", core::FormatNumber(task.duration_s));
+    replace("{reference_csv}", reference_file);
     out.push_back(text);
   }
   return out;
@@ -65,7 +79,7 @@ TaskRecord RunTask(const Suite& suite, const core::RobotModel& model, const Task
   TaskRecord record;
   record.num_joints = model.num_joints();
   record.tick_s = model.servo_tick_s;
-  record.has_reference = via_control;
+  record.has_reference = via_control || task.track.has_value();
 
   // Rows by tick, filled as the messages come.
   const auto expected = static_cast<size_t>(std::ceil(task.duration_s / model.servo_tick_s)) + 4;
@@ -176,7 +190,21 @@ TaskRecord RunTask(const Suite& suite, const core::RobotModel& model, const Task
       }
     }
   } else {
-    control_argv = ExpandCommand(controller.command, model, task, url, participant);
+    const std::string reference_file = options.work_dir + "/reference.csv";
+    control_argv = ExpandCommand(controller.command, model, task, url, participant, reference_file);
+    const bool wants_reference = std::any_of(
+        controller.command.begin(), controller.command.end(),
+        [](const std::string& word) { return word.find("{reference_csv}") != std::string::npos; });
+    if (wants_reference) {
+      try {
+        WriteReferenceCsv(reference_file, model, expected, [&](size_t tick) {
+          return ReferenceAt(task, static_cast<double>(tick) * model.servo_tick_s);
+        });
+      } catch (const std::exception& error) {
+        record.failure = std::string("could not write the reference: ") + error.what();
+        return record;
+      }
+    }
   }
   std::vector<std::string> sim_argv = {options.bin_dir + "/sirupp-sim",
                                        "--model",
@@ -284,11 +312,21 @@ TaskRecord RunTask(const Suite& suite, const core::RobotModel& model, const Task
       const size_t at = row * n + j;
       const size_t before = row > 0 ? at - n : at;
       record.position.push_back(position[at]);
-      if (via_control) {
-        if (!setpoint && row > 0) {
-          reference[at] = reference[before];
-          goal[at] = goal[before];
+      if (via_control && !setpoint && row > 0) {
+        reference[at] = reference[before];
+        goal[at] = goal[before];
+      }
+      if (task.track) {
+        // Every controller is measured against the path and the task's goal (the path ends where
+        // it starts, so no joint makes a step); the chip's set-point is kept apart.
+        const double path = ReferenceAt(task, record.time_s.back())[j].position;
+        record.reference.push_back(path);
+        record.goal.push_back(task.goal[j]);
+        if (via_control && setpoint && static_cast<int>(j) == task.track->joint) {
+          record.setpoint_deviation =
+              std::max(record.setpoint_deviation, std::abs(reference[at] - path));
         }
+      } else if (via_control) {
         record.reference.push_back(setpoint || row > 0 ? reference[at] : position[at]);
         record.goal.push_back(setpoint || row > 0 ? goal[at] : position[at]);
       } else {

@@ -4,14 +4,15 @@
 // track), a change to the simulated arm (payload on the flange, friction scaled, gravity off), an
 // optional disturbance torque, a duration and pass thresholds. Read strictly (core/yaml_reader):
 // every problem is one ConfigError naming file:line:column, the key path, the bad value and what
-// is allowed. Plans are validated against the model when the suite is loaded, so a bad suite
-// stops before any process starts.
+// is allowed (tests/test_grade_suite.cpp has a case per rule). Plans are validated against the
+// model when the suite is loaded, so a bad suite stops before any process starts.
 
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "core/robot_model.hpp"
+#include "grade/trajectory.hpp"
 #include "sim/model_change.hpp"
 
 namespace sirupp::grade {
@@ -36,6 +37,13 @@ struct Disturbance {
   double from_s = 0, to_s = 0;
 };
 
+// A tracking task's path (grade/trajectory.hpp): one joint on a minimum-jerk path, the others
+// holding their start.
+struct Track {
+  int joint = 0;  // 0-based
+  MinJerkPath path;
+};
+
 struct Task {
   std::string name;
   int line = 0;               // where the task starts in the suite file
@@ -48,6 +56,7 @@ struct Task {
   double duration_s = 0;      // simulated time
   sim::ModelChange arm;       // the simulated arm's change
   std::optional<Disturbance> disturbance;
+  std::optional<Track> track;  // kind "track"
   Thresholds pass;
 };
 

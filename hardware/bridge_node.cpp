@@ -9,6 +9,7 @@
 #include <sirupp/robot_model_t.hpp>
 
 #include "core/errors.hpp"
+#include "core/translate.hpp"
 
 namespace sirupp::hardware {
 namespace {
@@ -87,13 +88,7 @@ BridgeNode::BridgeNode(core::Bus& bus, const core::RobotModel& model, ArmLink& l
       c.controller_status,
       [this](const sirupp::controller_status_t& m, const core::ReceiveInfo& info) {
         // Only a status a controller could have sent shows that one is alive; others are refused.
-        using Status = sirupp::controller_status_t;
-        if (m.mode < Status::MODE_MANUAL || m.mode > Status::MODE_AUTOMATIC ||
-            m.state < Status::STATE_IDLE || m.state > Status::STATE_OFF) {
-          throw core::MessageError(info.channel, "mode/state",
-                                   std::to_string(m.mode) + "/" + std::to_string(m.state) +
-                                       ": allowed mode 0..1, state 0..5");
-        }
+        core::ControllerStatusFromMessage(m, info.channel);
         NoteController();
       });
   // One robot: the real arm is not driven for a model other than the one the sim runs.
@@ -442,32 +437,30 @@ void BridgeNode::Service(int max_wait_ms) {
 
 void BridgeNode::PublishState() {
   const ArmReading& r = reading_;
-  const int n = static_cast<int>(r.position.size());
-  sirupp::arm_state_t s{};
+  const size_t n = r.position.size();
+  core::ArmState s;
   s.utime = r.wall_us;
-  s.seq = state_seq_++;
   s.tick =
       static_cast<int64_t>(static_cast<double>(r.wall_us - first_poll_us_) * 1e-6 / kServoTickS);
-  s.source =
-      settings_.emulated ? sirupp::arm_state_t::SOURCE_EMULATED : sirupp::arm_state_t::SOURCE_REAL;
-  s.num_joints = n;
+  s.source = settings_.emulated ? core::StateSource::kEmulated : core::StateSource::kReal;
   s.position = r.position;
   s.velocity = r.velocity;
   s.effort = r.effort;
-  s.flags.assign(static_cast<size_t>(n), 0);
-  sirupp::servo_setpoint_t sp{};
+  s.flags.assign(n, 0);
+  // REAL_ARM_SETPOINT: the chips' own command position; they report no profile velocity (0).
+  core::ServoSetpoint sp;
   sp.utime = r.wall_us;
   sp.seq = setpoint_seq_++;
   sp.tick = s.tick;
   sp.move_id = move_id_;
-  sp.num_joints = n;
-  sp.position = r.setpoint;
-  sp.velocity.assign(static_cast<size_t>(n), 0.0);  // not reported by the chip
-  sp.goal = link_.goals();
-  sp.effort = r.effort;
-  sp.status.assign(static_cast<size_t>(n), 0);
-  for (size_t j = 0; j < static_cast<size_t>(n); ++j) {
-    sp.position_error.push_back(r.setpoint[j] - r.position[j]);
+  const std::vector<double>& goals = link_.goals();
+  sp.joints.resize(n);
+  for (size_t j = 0; j < n; ++j) {
+    core::JointSetpoint& joint = sp.joints[j];
+    joint.position = r.setpoint[j];
+    joint.goal = j < goals.size() ? goals[j] : 0.0;
+    joint.position_error = r.setpoint[j] - r.position[j];
+    joint.effort = r.effort[j];
     int8_t& f = s.flags[j];
     if (r.status[j] & nmc::kStatusLimit1) f |= sirupp::arm_state_t::FLAG_AT_LOWER_LIMIT;
     if (r.status[j] & nmc::kStatusLimit2) f |= sirupp::arm_state_t::FLAG_AT_UPPER_LIMIT;
@@ -475,13 +468,13 @@ void BridgeNode::PublishState() {
         (r.status[j] & (nmc::kStatusOvercurrent | nmc::kStatusPositionError) && link_.armed())) {
       f |= sirupp::arm_state_t::FLAG_FAULT;
     }
-    int8_t& st = sp.status[j];
+    int8_t& st = joint.status;
     if (r.status[j] & nmc::kStatusMoveDone) st |= sirupp::servo_setpoint_t::STATUS_MOVE_DONE;
     if (r.aux[j] & nmc::kAuxServoOn) st |= sirupp::servo_setpoint_t::STATUS_SERVO_ON;
     if (r.status[j] & nmc::kStatusPositionError) st |= sirupp::servo_setpoint_t::STATUS_POS_ERROR;
   }
-  bus_.Publish(options_.channels.real_arm_state, s);
-  bus_.Publish(options_.channels.real_arm_setpoint, sp);
+  bus_.Publish(options_.channels.real_arm_state, core::ToMessage(s, state_seq_++));
+  bus_.Publish(options_.channels.real_arm_setpoint, core::ToMessage(sp));
 }
 
 void BridgeNode::PublishStatus() {

@@ -2,7 +2,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <sstream>
+#include <stdexcept>
 
 #include "core/errors.hpp"
 
@@ -15,30 +17,41 @@ double Robust(double z) { return z * z / (1 + z * z / 4); }
 
 double Tolerance(double paper) { return std::max(0.3 * paper, 0.5); }
 
-// One fitted number: how to read and write it, its range, and whether steps multiply it.
+// One fitted number: how to read and write it and its range. The search works on u in [0, 1]:
+// x = min + u (max - min), or min (max / min)^u for a log-scaled number.
 struct Param {
   std::string name;
   std::function<double(const hardware::RealArmParams&)> get;
   std::function<void(hardware::RealArmParams&, double)> set;
   double min, max;
-  bool multiplicative;
-  double step;
+  bool log_scale;
+
+  double FromUnit(double u) const {
+    u = std::clamp(u, 0.0, 1.0);
+    return log_scale ? min * std::pow(max / min, u) : min + u * (max - min);
+  }
+  double ToUnit(double x) const {
+    x = std::clamp(x, min, max);
+    return log_scale ? std::log(x / min) / std::log(max / min) : (x - min) / (max - min);
+  }
 };
 
+// The fitted numbers. The fit's ranges are the file's, narrowed to what a PUMA 260's small DC
+// servo motors and their supply plausibly are (docs/emulator-fit.md): torque constant 0.02..0.08
+// N*m/A, winding resistance 1..8 ohm, supply 18..48 V with at most 2 ohm source resistance.
 std::vector<Param> Params() {
   std::vector<Param> p;
   p.push_back({"board.command_latency_s",
                [](const hardware::RealArmParams& a) { return a.command_latency_s; },
                [](hardware::RealArmParams& a, double v) { a.command_latency_s = v; },
-               range::kCommandLatency.min, range::kCommandLatency.max, false, 0.04});
+               range::kCommandLatency.min, 0.2, false});
   p.push_back({"supply.voltage_v",
                [](const hardware::RealArmParams& a) { return a.supply_voltage_v; },
-               [](hardware::RealArmParams& a, double v) { a.supply_voltage_v = v; },
-               range::kSupplyVoltage.min, range::kSupplyVoltage.max, true, 0.25});
+               [](hardware::RealArmParams& a, double v) { a.supply_voltage_v = v; }, 18, 48, true});
   p.push_back({"supply.resistance_ohm",
                [](const hardware::RealArmParams& a) { return a.supply_resistance_ohm; },
                [](hardware::RealArmParams& a, double v) { a.supply_resistance_ohm = v; },
-               range::kSupplyResistance.min, range::kSupplyResistance.max, false, 0.5});
+               range::kSupplyResistance.min, 2, false});
   for (size_t j = 0; j < 3; ++j) {
     const std::string at = "joints[" + std::to_string(j) + "].";
     p.push_back({at + "motor.torque_constant_nm_a",
@@ -48,7 +61,12 @@ std::vector<Param> Params() {
                  [j](hardware::RealArmParams& a, double v) {
                    a.joints[j].motor.torque_constant_nm_per_a = v;
                  },
-                 range::kTorqueConstant.min, range::kTorqueConstant.max, true, 0.3});
+                 0.02, 0.08, true});
+    p.push_back(
+        {at + "motor.resistance_ohm",
+         [j](const hardware::RealArmParams& a) { return a.joints[j].motor.resistance_ohm; },
+         [j](hardware::RealArmParams& a, double v) { a.joints[j].motor.resistance_ohm = v; }, 1, 8,
+         true});
     // The friction levels together (static and Coulomb, both ways), by the positive static level.
     p.push_back({at + "friction.static_nm[0] (all levels scaled)",
                  [j](const hardware::RealArmParams& a) { return a.joints[j].static_nm[0]; },
@@ -60,7 +78,20 @@ std::vector<Param> Params() {
                      e.coulomb_nm[d] *= k;
                    }
                  },
-                 0.05, range::kStatic.max / 1.2, true, 0.3});
+                 0.1, range::kStatic.max / 1.2, true});
+    // Coulomb over static (both ways scaled): how far the friction drops once the joint slides.
+    p.push_back({at + "friction.coulomb_nm[0] / static_nm[0]",
+                 [j](const hardware::RealArmParams& a) {
+                   return a.joints[j].coulomb_nm[0] / a.joints[j].static_nm[0];
+                 },
+                 [j](hardware::RealArmParams& a, double v) {
+                   hardware::JointEffects& e = a.joints[j];
+                   const double k = v * e.static_nm[0] / e.coulomb_nm[0];
+                   for (int d = 0; d < 2; ++d) {
+                     e.coulomb_nm[d] = std::min(e.coulomb_nm[d] * k, e.static_nm[d]);
+                   }
+                 },
+                 0.3, 1.0, false});
   }
   return p;
 }
@@ -110,45 +141,108 @@ FitResult FitEmulator(const core::RobotModel& virtual_model, const core::RobotMo
     ++result.evaluations;
     return FitCost(*table);
   };
-  hardware::RealArmParams best = start;
-  hardware::CheckRealArmParams(best, real_model);
+  const std::vector<Param> params = Params();
+  const size_t n = params.size();
+  hardware::CheckRealArmParams(start, real_model);
+  // The parameters at u (those of `start` for the rest); the cost of an arm outside a range the
+  // file allows is infinite.
+  auto at = [&](const std::vector<double>& u) {
+    hardware::RealArmParams a = start;
+    for (size_t i = 0; i < n; ++i) params[i].set(a, params[i].FromUnit(u[i]));
+    return a;
+  };
+  // The start's cost as given; the search's best starts as the start clamped into the fit's
+  // ranges, so the result is always an arm within them.
   std::vector<TableRow> best_table;
+  result.cost_before = evaluate(start, &best_table);
+  std::vector<double> centre(n);
+  for (size_t i = 0; i < n; ++i) centre[i] = params[i].ToUnit(params[i].get(start));
+  hardware::RealArmParams best = at(centre);
   double best_cost = evaluate(best, &best_table);
-  result.cost_before = best_cost;
-  std::vector<Param> params = Params();
-  bool any_step = true;
-  while (any_step && result.evaluations < options.max_evaluations) {
-    any_step = false;
-    for (Param& p : params) {
-      if (result.evaluations >= options.max_evaluations) break;
-      if (p.step < (p.multiplicative ? 0.02 : 0.002 * (p.max - p.min + 1))) continue;
-      any_step = true;
-      const double x = p.get(best);
-      bool improved = false;
-      for (double sign : {1.0, -1.0}) {
-        double candidate = p.multiplicative ? x * (1 + sign * p.step) : x + sign * p.step;
-        candidate = std::clamp(candidate, p.min, p.max);
-        if (candidate == x) continue;
-        hardware::RealArmParams trial = best;
-        p.set(trial, candidate);
-        try {
-          hardware::CheckRealArmParams(trial, real_model);
-        } catch (const std::invalid_argument&) {
-          continue;  // outside a range the file allows
-        }
-        std::vector<TableRow> table;
-        const double cost = evaluate(trial, &table);
-        if (cost < best_cost) {
-          best = trial;
-          best_cost = cost;
-          best_table = table;
-          improved = true;
-          if (options.progress) options.progress(result.evaluations, cost, Describe(p, candidate));
-          break;
+  auto cost_of = [&](const std::vector<double>& u) {
+    const hardware::RealArmParams a = at(u);
+    try {
+      hardware::CheckRealArmParams(a, real_model);
+    } catch (const std::invalid_argument&) {
+      return std::numeric_limits<double>::infinity();
+    }
+    std::vector<TableRow> table;
+    const double cost = evaluate(a, &table);
+    if (cost < best_cost) {
+      best = a;
+      best_cost = cost;
+      best_table = table;
+      if (options.progress) options.progress(result.evaluations, cost, "new best");
+    }
+    return cost;
+  };
+  // Nelder-Mead on the unit box (points clamped into it), restarted around the best point with a
+  // smaller simplex whenever the simplex collapses, until the budget is spent.
+  double size = 0.15;
+  while (result.evaluations + static_cast<int>(n) + 2 <= options.max_evaluations) {
+    std::vector<std::vector<double>> simplex(n + 1, centre);
+    std::vector<double> f(n + 1, best_cost);
+    for (size_t i = 0; i < n; ++i) {
+      double& u = simplex[i + 1][i];
+      u = u + size <= 1 ? u + size : u - size;
+      f[i + 1] = cost_of(simplex[i + 1]);
+    }
+    auto clamp_unit = [](std::vector<double> u) {
+      for (double& x : u) x = std::clamp(x, 0.0, 1.0);
+      return u;
+    };
+    while (result.evaluations + 2 <= options.max_evaluations) {
+      std::vector<size_t> order(n + 1);
+      for (size_t i = 0; i <= n; ++i) order[i] = i;
+      std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return f[a] < f[b]; });
+      const size_t lo = order[0], hi = order[n], second = order[n - 1];
+      double spread = 0;
+      for (size_t i = 0; i <= n; ++i) {
+        for (size_t d = 0; d < n; ++d) {
+          spread = std::max(spread, std::abs(simplex[i][d] - simplex[lo][d]));
         }
       }
-      if (!improved) p.step /= 2;
+      if (spread < 0.004) break;
+      std::vector<double> mean(n, 0.0);
+      for (size_t i = 0; i <= n; ++i) {
+        if (i == hi) continue;
+        for (size_t d = 0; d < n; ++d) mean[d] += simplex[i][d] / static_cast<double>(n);
+      }
+      auto along = [&](double t) {
+        std::vector<double> u(n);
+        for (size_t d = 0; d < n; ++d) u[d] = mean[d] + t * (simplex[hi][d] - mean[d]);
+        return clamp_unit(u);
+      };
+      const std::vector<double> reflected = along(-1);
+      const double fr = cost_of(reflected);
+      if (fr < f[lo]) {
+        const std::vector<double> expanded = along(-2);
+        const double fe = cost_of(expanded);
+        simplex[hi] = fe < fr ? expanded : reflected;
+        f[hi] = std::min(fe, fr);
+      } else if (fr < f[second]) {
+        simplex[hi] = reflected;
+        f[hi] = fr;
+      } else {
+        const std::vector<double> contracted = along(fr < f[hi] ? -0.5 : 0.5);
+        const double fc = cost_of(contracted);
+        if (fc < std::min(fr, f[hi])) {
+          simplex[hi] = contracted;
+          f[hi] = fc;
+        } else {
+          for (size_t i = 0; i <= n; ++i) {  // shrink towards the best
+            if (i == lo) continue;
+            if (result.evaluations + 1 > options.max_evaluations) break;
+            for (size_t d = 0; d < n; ++d) {
+              simplex[i][d] = simplex[lo][d] + 0.5 * (simplex[i][d] - simplex[lo][d]);
+            }
+            f[i] = cost_of(simplex[i]);
+          }
+        }
+      }
     }
+    for (size_t i = 0; i < n; ++i) centre[i] = params[i].ToUnit(params[i].get(best));
+    size = std::max(0.03, size / 2);
   }
   result.params = best;
   result.table = best_table;

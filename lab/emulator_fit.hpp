@@ -1,9 +1,12 @@
 #pragma once
 // Fits the emulated real arm's effects (hardware/real_arm.hpp) to the SIRUPP paper's Table II and
-// joint 1's start delay: a bounded coordinate search over the parameters that shape the paper's
-// numbers (board latency, supply resistance, and per arm joint the motor's torque constant and the
-// friction levels), each evaluation running the seven sets on the emulated arm against the virtual
-// arm's runs (made once). Reads the models and a starting file; writes nothing itself.
+// joint 1's start delay: Nelder-Mead on the unit box of the parameters that shape the paper's
+// numbers (board latency, supply voltage and resistance, and per arm joint the motor's torque
+// constant and resistance, the friction level and the Coulomb-to-static ratio), restarted around
+// the best point until the budget is spent. The ranges are the file's narrowed to a plausible
+// PUMA 260 motor (torque constant 0.02-0.08 N*m/A). Each evaluation runs the seven sets on the
+// emulated arm against the virtual arm's runs (made once). Reads the models and a starting file;
+// writes nothing itself.
 
 #include <functional>
 #include <optional>

@@ -4,8 +4,10 @@
 #include <array>
 #include <cmath>
 #include <iomanip>
+#include <limits>
 #include <sstream>
 
+#include "core/dynamics.hpp"
 #include "core/errors.hpp"
 #include "core/yaml_reader.hpp"
 #include "hardware/emulated_arm.hpp"
@@ -193,6 +195,272 @@ void Set(core::RobotModel& m, size_t j, int p, double v) {
   }
 }
 
+// The torque regression. Along a track, the effort each joint's motor gave is known from the
+// set-point and the real angles (the chip's PID recomputed, the model's PWM-to-effort); what the
+// model's rigid links need of it follows from its inverse dynamics. The rest is the joint's
+// armature times its acceleration plus its friction, which for a fixed Stribeck speed is linear in
+// the static and Coulomb levels, the viscous coefficient and the armature. Integrated over windows
+// of W ticks (so accelerations enter as velocity changes, and encoder steps average out):
+//
+//   sum tau T - M_j(q) dv - sum bias_j T = armature dv_j + sum friction_j(v) T
+//
+// Static friction is also measured where a stuck joint breaks away (the effort then, less the
+// links' own need, between the last tick it held and the first it moved).
+constexpr size_t kWindow = 20;  // ticks per regression window
+constexpr size_t kSmooth = 4;   // velocities over +-kSmooth ticks
+
+struct Regression {
+  // Per joint: window rows (sliding windows only) and breakaway estimates of static friction.
+  struct Row {
+    double target;              // N*m*s
+    double dv;                  // the joint's velocity change over the window (rad/s)
+    double up, down;            // time sliding positive / negative (s), with each tick's speed
+    std::vector<double> speed;  // signed speed of each tick (rad/s), for the Stribeck terms
+    double travel;              // displacement (rad): the viscous term
+  };
+  std::vector<std::vector<Row>> rows;
+  std::vector<std::vector<double>> breakaway;
+};
+
+void Collect(const core::RobotModel& model, const Track& track, Regression* out) {
+  const size_t n = model.joints.size();
+  const double tick = model.servo_tick_s;
+  const size_t ticks = track.setpoint.size();
+  // The real angles at every tick (after that tick's step), filled in between samples.
+  std::vector<std::vector<double>> q(ticks, std::vector<double>(n, std::nan("")));
+  for (const Track::Sample& s : track.samples) q[s.tick][s.joint] = s.real;
+  for (size_t j = 0; j < n; ++j) {
+    size_t last = ticks;
+    for (size_t k = 0; k < ticks; ++k) {
+      if (std::isnan(q[k][j])) continue;
+      if (last == ticks) {
+        for (size_t i = 0; i < k; ++i) q[i][j] = q[k][j];
+      } else {
+        for (size_t i = last + 1; i < k; ++i) {
+          const double f = static_cast<double>(i - last) / static_cast<double>(k - last);
+          q[i][j] = q[last][j] + f * (q[k][j] - q[last][j]);
+        }
+      }
+      last = k;
+    }
+    if (last == ticks) {
+      for (size_t k = 0; k < ticks; ++k) q[k][j] = track.start[j];
+    } else {
+      for (size_t i = last + 1; i < ticks; ++i) q[i][j] = q[last][j];
+    }
+  }
+  // The motors' efforts: tau[k] drove the step from q[k-1] (track.start for k = 0) to q[k].
+  std::vector<servo::JointDrive> drives;
+  for (const core::Joint& joint : model.joints) drives.emplace_back(joint, tick);
+  std::vector<servo::PicServo> chips(n);
+  std::vector<int64_t> zero(n);
+  for (size_t j = 0; j < n; ++j) {
+    chips[j].SetGains(servo::GainsFromModel(model.joints[j].servo));
+    chips[j].ServoOn(0);
+    zero[j] = drives[j].ToCounts(track.start[j]);
+  }
+  std::vector<std::vector<double>> tau(ticks, std::vector<double>(n));
+  for (size_t k = 0; k < ticks; ++k) {
+    for (size_t j = 0; j < n; ++j) {
+      const int64_t actual = drives[j].ToCounts(k == 0 ? track.start[j] : q[k - 1][j]) - zero[j];
+      chips[j].StopHere(drives[j].ToCounts(track.setpoint[k][j]) - zero[j], actual);
+      tau[k][j] = drives[j].EffortFromPwm(chips[j].Tick(actual));
+    }
+  }
+  // Velocities at each tick (smoothed) and during each step.
+  auto at = [&](size_t k, size_t j) { return q[std::min(k, ticks - 1)][j]; };
+  std::vector<std::vector<double>> v(ticks, std::vector<double>(n, 0.0));
+  for (size_t k = kSmooth; k + kSmooth < ticks; ++k) {
+    for (size_t j = 0; j < n; ++j) {
+      v[k][j] = (at(k + kSmooth, j) - at(k - kSmooth, j)) / (2.0 * kSmooth * tick);
+    }
+  }
+  core::RobotModel rigid = model;  // the links alone: armature is fitted
+  for (core::Joint& joint : rigid.joints) joint.armature = 0;
+  const core::Dynamics dynamics(rigid);
+  out->rows.resize(n);
+  out->breakaway.resize(n);
+  // Breakaways: the joint held (no change over two steps), then moved.
+  for (size_t k = 2; k < ticks; ++k) {
+    std::vector<double> still(n, 0.0);
+    const core::JointVector bias = dynamics.BiasEffort(
+        Eigen::Map<const Eigen::VectorXd>(q[k - 1].data(), static_cast<Eigen::Index>(n)),
+        Eigen::Map<const Eigen::VectorXd>(still.data(), static_cast<Eigen::Index>(n)));
+    for (size_t j = 0; j < n; ++j) {
+      if (q[k - 1][j] != q[k - 2][j] || q[k][j] == q[k - 1][j]) continue;
+      const double push = 0.5 * (tau[k][j] + tau[k - 1][j]) - bias[static_cast<Eigen::Index>(j)];
+      out->breakaway[j].push_back(std::abs(push));
+    }
+  }
+  // Windows in which a joint slides one way throughout.
+  for (size_t a = kSmooth + 1; a + kWindow + kSmooth < ticks; a += kWindow) {
+    const size_t b = a + kWindow;
+    std::vector<double> mid(n), dv(n);
+    for (size_t j = 0; j < n; ++j) {
+      mid[j] = q[(a + b) / 2][j];
+      dv[j] = v[b][j] - v[a][j];
+    }
+    const Eigen::MatrixXd mass = dynamics.MassMatrix(
+        Eigen::Map<const Eigen::VectorXd>(mid.data(), static_cast<Eigen::Index>(n)));
+    std::vector<double> bias_sum(n, 0.0);
+    for (size_t k = a + 1; k <= b; ++k) {
+      const core::JointVector bias = dynamics.BiasEffort(
+          Eigen::Map<const Eigen::VectorXd>(q[k].data(), static_cast<Eigen::Index>(n)),
+          Eigen::Map<const Eigen::VectorXd>(v[k].data(), static_cast<Eigen::Index>(n)));
+      for (size_t j = 0; j < n; ++j) bias_sum[j] += bias[static_cast<Eigen::Index>(j)] * tick;
+    }
+    for (size_t j = 0; j < n; ++j) {
+      // Sliding one way from a - kSmooth to b + kSmooth: every step moves, all the same way.
+      int sign = 0;
+      bool sliding = true;
+      for (size_t k = a - kSmooth; k <= b + kSmooth && sliding; ++k) {
+        const double step = q[k][j] - q[k - 1][j];
+        const int s = (step > 0) - (step < 0);
+        if (s == 0 || (sign != 0 && s != sign)) sliding = false;
+        sign = s;
+      }
+      if (!sliding) continue;
+      Regression::Row row;
+      row.dv = dv[j];
+      row.travel = q[b][j] - q[a][j];
+      row.up = row.down = 0;
+      double effort = 0;
+      for (size_t k = a + 1; k <= b; ++k) {
+        effort += tau[k][j] * tick;
+        row.speed.push_back((q[k][j] - q[k - 1][j]) / tick);
+      }
+      (sign > 0 ? row.up : row.down) = static_cast<double>(kWindow) * tick;
+      double coupled = 0;
+      for (size_t i = 0; i < n; ++i) {
+        coupled += mass(static_cast<Eigen::Index>(j), static_cast<Eigen::Index>(i)) * dv[i];
+      }
+      row.target = effort - coupled - bias_sum[j];
+      out->rows[j].push_back(std::move(row));
+    }
+  }
+}
+
+// Least squares for one joint at Stribeck speed vs: friction levels, viscous, armature. Returns
+// the residual sum of squares; `fixed_static` >= 0 fixes the static level.
+double SolveJoint(const std::vector<Regression::Row>& rows, double vs, double fixed_static,
+                  double tick, core::Friction* friction, double* armature) {
+  // Unknowns: coulomb+, coulomb-, static (unless fixed), viscous, armature.
+  const bool fit_static = fixed_static < 0;
+  const Eigen::Index cols = fit_static ? 5 : 4;
+  Eigen::MatrixXd a(static_cast<Eigen::Index>(rows.size()), cols);
+  Eigen::VectorXd y(static_cast<Eigen::Index>(rows.size()));
+  for (size_t r = 0; r < rows.size(); ++r) {
+    const Regression::Row& row = rows[r];
+    double up = 0, down = 0, peak = 0;  // the Coulomb and Stribeck parts, integrated
+    for (double w : row.speed) {
+      const double ratio = w / vs;
+      const double g = std::exp(-ratio * ratio);
+      if (w > 0) {
+        up += (1 - g) * tick;
+        peak += g * tick;
+      } else {
+        down -= (1 - g) * tick;
+        peak -= g * tick;
+      }
+    }
+    const auto i = static_cast<Eigen::Index>(r);
+    a(i, 0) = up;
+    a(i, 1) = down;
+    a(i, 2) = row.travel;
+    a(i, 3) = row.dv;
+    y[i] = row.target;
+    if (fit_static) {
+      a(i, 4) = peak;
+    } else {
+      y[i] -= fixed_static * peak;
+    }
+  }
+  // Columns scaled to unit norm for the solve.
+  Eigen::VectorXd scale(cols);
+  for (Eigen::Index c = 0; c < cols; ++c) {
+    scale[c] = a.col(c).norm() > 0 ? a.col(c).norm() : 1.0;
+    a.col(c) /= scale[c];
+  }
+  Eigen::VectorXd x = a.colPivHouseholderQr().solve(y);
+  const double rss = (a * x - y).squaredNorm();
+  x = x.cwiseQuotient(scale);
+  friction->coulomb_positive = std::max(x[0], 0.0);
+  friction->coulomb_negative = std::max(x[1], 0.0);
+  friction->viscous = std::max(x[2], 0.0);
+  *armature = std::max(x[3], 1e-5);
+  friction->static_effort = fit_static ? x[4] : fixed_static;
+  friction->static_effort = std::max(
+      {friction->static_effort, friction->coulomb_positive, friction->coulomb_negative, 1e-4});
+  friction->stribeck_velocity = vs;
+  return rss;
+}
+
+// Whether the windows sample the friction curve at low speeds (below 0.2 rad/s, both ways),
+// where the regression sees the static level itself; else breakaways measure it.
+bool HasSlowSliding(const std::vector<Regression::Row>& rows) {
+  int up = 0, down = 0;
+  for (const Regression::Row& row : rows) {
+    double sum = 0;
+    for (double w : row.speed) sum += w;
+    const double speed = sum / static_cast<double>(std::max<size_t>(1, row.speed.size()));
+    if (speed > 0 && speed < 0.2) ++up;
+    if (speed < 0 && speed > -0.2) ++down;
+  }
+  return up >= 10 && down >= 10;
+}
+
+// The regression's model: joints with too little data keep the model's values.
+core::RobotModel Regress(const core::RobotModel& model, const std::vector<Track>& tracks,
+                         const std::vector<size_t>& joints) {
+  Regression data;
+  for (const Track& t : tracks) Collect(model, t, &data);
+  core::RobotModel out = model;
+  for (size_t j : joints) {
+    const std::vector<Regression::Row>& rows = data.rows[j];
+    if (rows.size() < 20) continue;
+    std::vector<double> breaks = data.breakaway[j];
+    double fixed_static = -1;
+    if (breaks.size() >= 3 && !HasSlowSliding(rows)) {
+      std::sort(breaks.begin(), breaks.end());
+      // The middle half's mean: robust to a breakaway pushed by another joint's start.
+      const size_t lo = breaks.size() / 4, hi = breaks.size() - breaks.size() / 4;
+      double sum = 0;
+      for (size_t i = lo; i < hi; ++i) sum += breaks[i];
+      fixed_static = sum / static_cast<double>(hi - lo);
+    }
+    // The Stribeck speed: the best of a log grid, then refined by golden section in log speed.
+    auto rss_at = [&](double log_vs, core::Friction* f, double* armature) {
+      return SolveJoint(rows, std::exp(log_vs), fixed_static, model.servo_tick_s, f, armature);
+    };
+    core::Friction f;
+    double armature = 0;
+    double best_log = std::log(1e-3), best_rss = std::numeric_limits<double>::infinity();
+    for (int i = 0; i <= 40; ++i) {
+      const double lv = std::log(1e-3) + i * (std::log(3.0) - std::log(1e-3)) / 40;
+      const double rss = rss_at(lv, &f, &armature);
+      if (rss < best_rss) {
+        best_rss = rss;
+        best_log = lv;
+      }
+    }
+    const double width = (std::log(3.0) - std::log(1e-3)) / 40;
+    double lo = best_log - width, hi = best_log + width;
+    const double golden = 0.5 * (std::sqrt(5.0) - 1);
+    for (int i = 0; i < 30; ++i) {
+      const double x1 = hi - golden * (hi - lo), x2 = lo + golden * (hi - lo);
+      if (rss_at(x1, &f, &armature) < rss_at(x2, &f, &armature)) {
+        hi = x2;
+      } else {
+        lo = x1;
+      }
+    }
+    rss_at(0.5 * (lo + hi), &f, &armature);
+    out.joints[j].friction = f;
+    out.joints[j].armature = armature;
+  }
+  return out;
+}
+
 }  // namespace
 
 IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger::RunTable>& tables,
@@ -230,7 +498,8 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
     if (counts) *counts = count;
     return sse;
   };
-  core::RobotModel best = model;
+  // The torque regression gives the start; the output-error search below refines it.
+  core::RobotModel best = Regress(model, tracks, joints);
   // A joint without viscous friction gets a small start, so multiplicative steps can move it.
   for (size_t j : joints) {
     if (best.joints[j].friction.viscous <= 0) best.joints[j].friction.viscous = 0.01;
@@ -239,8 +508,19 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
   std::vector<int64_t> counts;
   const std::vector<double> before = evaluate(model, &counts);
   std::vector<double> best_sse = evaluate(best, nullptr);
+  // A joint the regression fits worse than the model had it (data the model cannot explain, e.g.
+  // a real arm's latency) starts the search from the model's values instead.
+  bool reverted = false;
+  for (size_t j : joints) {
+    if (best_sse[j] > before[j]) {
+      best.joints[j].friction = model.joints[j].friction;
+      best.joints[j].armature = model.joints[j].armature;
+      reverted = true;
+    }
+  }
+  if (reverted) best_sse = evaluate(best, nullptr);
   std::vector<std::array<double, kParams>> step(n);
-  for (auto& s : step) s.fill(0.3);
+  for (auto& s : step) s.fill(0.1);
   bool moving = true;
   while (moving && result.evaluations + 3 <= options.max_evaluations) {
     moving = false;

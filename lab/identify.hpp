@@ -1,11 +1,17 @@
 #pragma once
 // Identification, the paper's "better friction model" as a lab exercise: fits a robot model's
 // joint friction (static, Coulomb per direction, viscous, Stribeck speed) and armature to a real
-// arm's logged data (logger data files, the emulator's or a real PUMA's). Output-error fit: the
-// model's arm (joint-space rigid-body dynamics with exact stick-slip, hardware::EmulatedArm without
-// real-arm effects) under PIC-SERVO chips with the model's gains follows the logged set-point, tick
-// by tick; the parameters minimise the squared difference between its joint angles and the real
-// ones at every fresh real sample. Reads the model and the tables; writes nothing itself.
+// arm's logged data (logger data files, the emulator's or a real PUMA's). Two stages:
+// 1. Torque regression: the motor effort at each tick is the chip's PID recomputed from the logged
+//    set-point and real angles (model gains, model PWM-to-effort); less what the model's rigid
+//    links need (inverse dynamics), it is armature x acceleration + friction, linear in the
+//    friction levels, viscous coefficient and armature for a given Stribeck speed. Least squares
+//    over windows in which the joint slides, with a line search over the Stribeck speed.
+// 2. Output-error polish: the model's arm (hardware::EmulatedArm without real-arm effects) under
+//    PIC-SERVO chips follows the logged set-point; a coordinate search lowers the squared
+//    difference to the real angles. A joint the regression fits worse than the model starts the
+//    polish from the model's values.
+// Reads the model and the tables; writes nothing itself.
 
 #include <string>
 #include <vector>
@@ -17,7 +23,7 @@ namespace sirupp::lab {
 
 struct IdentifyOptions {
   std::vector<int> joints;    // 1-based joints to fit; empty: every joint the set-point moves
-  int max_evaluations = 150;  // simulations of all the data
+  int max_evaluations = 150;  // simulations of all the data (the polish; 3 or less: none)
 };
 
 struct JointIdentification {

@@ -23,6 +23,7 @@
 #include "core/channels.hpp"
 #include "core/errors.hpp"
 #include "core/signal_name.hpp"
+#include "runtime/log_prefix.hpp"
 
 namespace sirupp::launch {
 
@@ -48,6 +49,12 @@ struct Supervisor::Heard {
 };
 
 namespace {
+
+// The launcher's own lines (its event log, launch.log, and what it notes in each process's log):
+// the same time, name and level prefix as every process's lines (runtime/log_prefix.hpp).
+std::string LaunchLogLine(const std::string& text) {
+  return runtime::FormatLogLine(std::chrono::system_clock::now(), "sirupp-launch", text);
+}
 
 const char* HeartbeatState(int8_t state) {
   switch (state) {
@@ -99,8 +106,11 @@ std::string ResolveProgram(const std::string& program, const std::string& bin_di
 
 Supervisor::Supervisor(Layout layout, SupervisorOptions options)
     : layout_(std::move(layout)), options_(std::move(options)) {
-  const std::vector<std::pair<std::string, std::string>> base = {
-      {"RUN_DIR", options_.run_dir}, {"LAB", layout_.lab}, {"HOST", options_.host}};
+  const std::vector<std::pair<std::string, std::string>> base = {{"RUN_DIR", options_.run_dir},
+                                                                 {"LAB", layout_.lab},
+                                                                 {"HOST", options_.host},
+                                                                 {"LCM_URL", layout_.lcm_url},
+                                                                 {"PREFIX", layout_.prefix}};
   for (const auto& v : base) options_.variables.push_back(v);
   for (const ProcessSpec& spec : layout_.ProcessesOn(options_.host)) {
     auto child = std::make_unique<Child>();
@@ -163,7 +173,13 @@ pid_t Supervisor::PidOf(const std::string& name) const {
 }
 
 void Supervisor::Event(const std::string& line) const {
-  if (options_.events) *options_.events << "[" << options_.host << "] " << line << std::endl;
+  if (options_.events)
+    *options_.events << LaunchLogLine("[" + options_.host + "] " + line) << std::endl;
+}
+
+void Supervisor::NoteInLog(const Child& child, const std::string& line) const {
+  std::ofstream log(child.log_file, std::ios::app);
+  log << LaunchLogLine(line) << "\n";
 }
 
 std::string Supervisor::LogTail(const Child& child) const {
@@ -194,6 +210,11 @@ bool Supervisor::Spawn(Child& child) {
   std::vector<char*> argv;
   for (std::string& word : child.command) argv.push_back(word.data());
   argv.push_back(nullptr);
+  std::string command_line;
+  for (const std::string& w : child.command) command_line += (command_line.empty() ? "" : " ") + w;
+  // Made before the fork: the child may only make async-signal-safe calls until exec.
+  const std::string exec_failed = LaunchLogLine("error: exec failed: " + command_line) + "\n";
+  NoteInLog(child, "starting " + child.spec.name + ": " + command_line);
   const pid_t parent = ::getpid();
   const pid_t pid = ::fork();
   if (pid == 0) {
@@ -212,8 +233,7 @@ bool Supervisor::Spawn(Child& child) {
     ::signal(SIGINT, SIG_DFL);
     ::signal(SIGTERM, SIG_DFL);
     ::execv(argv[0], argv.data());
-    const char message[] = "sirupp launch: exec failed\n";
-    ssize_t ignored = ::write(STDERR_FILENO, message, sizeof message - 1);
+    ssize_t ignored = ::write(STDERR_FILENO, exec_failed.data(), exec_failed.size());
     (void)ignored;
     ::_exit(127);
   }
@@ -228,9 +248,7 @@ bool Supervisor::Spawn(Child& child) {
   child.started = Clock::now();
   child.state = "starting";
   child.ever_started = true;
-  std::string line;
-  for (const std::string& w : child.command) line += (line.empty() ? "" : " ") + w;
-  Event("started " + child.spec.name + " (pid " + std::to_string(pid) + "): " + line);
+  Event("started " + child.spec.name + " (pid " + std::to_string(pid) + "): " + command_line);
   return true;
 }
 
@@ -310,6 +328,7 @@ bool Supervisor::Start(const std::function<bool()>& keep_going) {
 void Supervisor::Ended(Child& child, int status) {
   const double ran = Seconds(Clock::now() - child.started);
   const std::string how = DescribeStatus(status);
+  NoteInLog(child, child.spec.name + " (pid " + std::to_string(child.pid) + ") ended: " + how);
   child.pid = 0;
   if (stopping_) {
     child.state = "stopped";
@@ -410,11 +429,16 @@ void Supervisor::Stop() {
       const std::string how = DescribeStatus(status);
       const bool fine = CleanExit(status) || (WIFSIGNALED(status) && WTERMSIG(status) == SIGINT);
       if (!fine) failures_.push_back(child.spec.name + ": stopped with " + how);
+      NoteInLog(child, child.spec.name + " (pid " + std::to_string(child.pid) +
+                           ") ended: stopped (" + how + ")");
       Event("stopped " + child.spec.name + " (" + how + ")");
       child.state = "stopped";
     } else {
       ::kill(-child.pid, SIGKILL);
       ::waitpid(child.pid, &status, 0);
+      NoteInLog(child, "error: " + child.spec.name + " (pid " + std::to_string(child.pid) +
+                           ") ended: did not stop within " +
+                           core::FormatNumber(child.spec.stop_timeout_s) + " s of SIGINT; killed");
       failures_.push_back(child.spec.name + ": did not stop within " +
                           core::FormatNumber(child.spec.stop_timeout_s) + " s of SIGINT; killed");
       Event(failures_.back());

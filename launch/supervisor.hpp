@@ -92,6 +92,8 @@ class Supervisor {
   void Ended(Child& child, int status);
   void HandleHeartbeats(int wait_ms);
   void Event(const std::string& line) const;
+  // Appends a timestamped line of the launcher's own to the process's log file.
+  void NoteInLog(const Child& child, const std::string& line) const;
   std::string LogTail(const Child& child) const;
 
   Layout layout_;

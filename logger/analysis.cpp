@@ -232,12 +232,24 @@ Analysis Analyze(const RunTable& table, const AnalysisOptions& options) {
       }
       result.done_seen = done_row < end;
       result.done_s = result.done_seen ? table.time_s[done_row] : result.end_s;
+      size_t window_end = end;
+      if (result.done_seen) {
+        const double last_s = result.done_s + options.settle_window_s + options.steady_window_s;
+        for (size_t i = done_row; i < end; ++i) {
+          if (table.time_s[i] > last_s) {
+            window_end = i;
+            break;
+          }
+        }
+      }
+      result.end = window_end;
+      result.end_s = table.time_s[window_end - 1];
       result.transient_end_s = std::min(result.done_s + options.settle_window_s, result.end_s);
 
       for (Pair pair : kAllPairs) {
         PairMetrics& metrics = result.pairs[static_cast<size_t>(pair)];
         double sum_transient = 0, sum_steady = 0, sum_squares = 0;
-        for (const PairPoint& point : PairErrors(table, pair, j, begin, end, period)) {
+        for (const PairPoint& point : PairErrors(table, pair, j, begin, window_end, period)) {
           const double error = std::abs(point.error);
           if (point.time_s <= result.done_s + options.settle_window_s) {
             sum_transient += error;
@@ -263,7 +275,7 @@ Analysis Analyze(const RunTable& table, const AnalysisOptions& options) {
       for (Stream stream : kAllStreams) {
         StreamResponse& response = result.streams[static_cast<size_t>(stream)];
         response = Respond(table, stream, table.position[j][static_cast<size_t>(stream)], begin,
-                           end, to - from, options);
+                           window_end, to - from, options);
         if (response.has()) response.final_error = response.final_value - to;
       }
       analysis.moves.push_back(result);

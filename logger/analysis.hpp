@@ -17,7 +17,11 @@
 namespace sirupp::logger {
 
 struct AnalysisOptions {
-  double settle_window_s = 0.25;       // the transient lasts until move-done + this
+  double settle_window_s = 0.25;  // the transient lasts until move-done + this
+  // The steady state lasts until the next move, and at most this long after the transient: the
+  // last move of a file then ends at the same row whenever the next set started (a wall-clock
+  // matter), so its figures do not depend on the machine's timing.
+  double steady_window_s = 1.0;
   double start_threshold = 0.5;        // deg (mm): a stream has started once it moved this far
   double settle_band_fraction = 0.02;  // settling band: this fraction of the travel, +-
   double final_window_s = 0.1;         // final value: the stream's mean over the move's last ...

@@ -21,6 +21,8 @@
 #include <vector>
 
 #include "core/errors.hpp"
+#include "core/translate.hpp"
+#include "logger/lcm_log.hpp"
 
 namespace sirupp::logger {
 
@@ -82,34 +84,6 @@ std::string HeaderWord(const std::string& name) {
   return word;
 }
 
-// A data file holds finite numbers only: a message with a NaN or infinite value is refused whole
-// (counted as rejected on its channel), whoever sent it.
-void CheckFinite(const std::string& channel, const char* field, const std::vector<double>& values) {
-  for (size_t j = 0; j < values.size(); ++j) {
-    if (!std::isfinite(values[j])) {
-      throw core::MessageError(channel, std::string(field) + "[" + std::to_string(j) + "]",
-                               core::FormatNumber(values[j]) + ": allowed finite values");
-    }
-  }
-}
-
-void CheckArmState(const std::string& channel, const sirupp::arm_state_t& message) {
-  CheckFinite(channel, "position", message.position);
-  CheckFinite(channel, "velocity", message.velocity);
-  CheckFinite(channel, "effort", message.effort);
-}
-
-// Plan runs split the files: a status with a mode or state no controller sends is refused.
-void CheckStatus(const std::string& channel, const sirupp::controller_status_t& message) {
-  using Status = sirupp::controller_status_t;
-  if (message.mode != Status::MODE_MANUAL && message.mode != Status::MODE_AUTOMATIC) {
-    throw core::MessageError(channel, "mode", std::to_string(message.mode) + ": allowed 0 or 1");
-  }
-  if (message.state < Status::STATE_IDLE || message.state > Status::STATE_OFF) {
-    throw core::MessageError(channel, "state", std::to_string(message.state) + ": allowed 0..5");
-  }
-}
-
 }  // namespace
 
 std::string DefaultRunName() { return "sirupp-" + LocalTimeText(true); }
@@ -118,7 +92,11 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
     : bus_(bus),
       model_(model),
       options_(std::move(options)),
-      heartbeat_(bus, options_.process_name, options_.channels.heartbeat),
+      own_heartbeat_(options_.heartbeat != nullptr
+                         ? nullptr
+                         : std::make_unique<core::Heartbeat>(bus, options_.process_name,
+                                                             options_.channels.heartbeat)),
+      heartbeat_(options_.heartbeat != nullptr ? *options_.heartbeat : *own_heartbeat_),
       model_watch_(model_, options_.process_name),
       aligner_(options_.aligner) {
   if (options_.name.empty()) options_.name = DefaultRunName();
@@ -195,16 +173,16 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
           std::to_string(count) + " joints; the model has " + std::to_string(joints));
     }
   };
+  // The raw log first: from the first message on, it gets every message the handlers below get.
+  if (!options_.raw_log.empty()) OpenRawLog();
   constexpr int kQueue = 10000;  // LCM's own per-subscription queue between two Handle() calls
   subscriptions_.push_back(&bus_.Subscribe<sirupp::servo_setpoint_t>(
       options_.channels.arm_setpoint,
       [this, check](const sirupp::servo_setpoint_t& message, const core::ReceiveInfo& info) {
+        // A data file holds finite numbers only: the translation refuses a NaN or infinite
+        // value whole (counted as rejected on its channel), whoever sent it.
         check(info.channel, message.num_joints);
-        CheckFinite(info.channel, "position", message.position);
-        CheckFinite(info.channel, "velocity", message.velocity);
-        CheckFinite(info.channel, "goal", message.goal);
-        CheckFinite(info.channel, "position_error", message.position_error);
-        CheckFinite(info.channel, "effort", message.effort);
+        core::ServoSetpointFromMessage(message, info.channel);
         Sample sample = SampleFromSetpoint(message, info.recv_utime);
         sample.lost_before = set_seq_.Next(message.seq);
         Push(std::move(sample), Stream::kSetpoint);
@@ -214,7 +192,7 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
       options_.channels.sim_arm_state,
       [this, check](const sirupp::arm_state_t& message, const core::ReceiveInfo& info) {
         check(info.channel, message.num_joints);
-        CheckArmState(info.channel, message);
+        core::ArmStateFromMessage(message, info.channel, -1);
         Sample sample = SampleFromArmState(message, Stream::kVirtual, info.recv_utime);
         sample.lost_before = virt_seq_.Next(message.seq);
         Push(std::move(sample), Stream::kVirtual);
@@ -224,7 +202,7 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
       options_.channels.real_arm_state,
       [this, check](const sirupp::arm_state_t& message, const core::ReceiveInfo& info) {
         check(info.channel, message.num_joints);
-        CheckArmState(info.channel, message);
+        core::ArmStateFromMessage(message, info.channel, -1);
         Sample sample = SampleFromArmState(message, Stream::kReal, info.recv_utime);
         sample.lost_before = real_seq_.Next(message.seq);
         Push(std::move(sample), Stream::kReal);
@@ -233,7 +211,8 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
   subscriptions_.push_back(&bus_.Subscribe<sirupp::controller_status_t>(
       options_.channels.controller_status,
       [this](const sirupp::controller_status_t& message, const core::ReceiveInfo& info) {
-        CheckStatus(info.channel, message);
+        // Plan runs split the files: a status no controller could send is refused.
+        core::ControllerStatusFromMessage(message, info.channel);
         Push(StatusFromMessage(message, info.recv_utime), Stream::kSetpoint);
       },
       kQueue));
@@ -249,10 +228,8 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
         [this, check, gains_source = source](const sirupp::servo_gains_t& message,
                                              const core::ReceiveInfo& info) {
           check(info.channel, message.num_joints);
+          core::ServoGainsFromMessage(message, info.channel);
           GainsRecord gains = GainsFromMessage(message, gains_source, info.recv_utime);
-          for (int f = 0; f < kNumGainFields; ++f) {
-            CheckFinite(info.channel, GainFieldName(f), GainField(gains, f));
-          }
           Push(std::move(gains), Stream::kSetpoint);
         },
         kQueue));
@@ -265,7 +242,8 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
           heartbeat_.Publish(core::ProcessState::kFault, model_watch_.mismatch());
         }
       }));
-  heartbeat_.Publish(core::ProcessState::kStarting, "");
+  if (options_.replay) return;  // no heartbeat, no writer thread: the caller drives it
+  if (own_heartbeat_) heartbeat_.Publish(core::ProcessState::kStarting, "");
   writer_ = std::thread([this] { WriterLoop(); });
 }
 
@@ -292,20 +270,41 @@ void LoggerNode::Push(Input input, Stream stream) {
 void LoggerNode::Service(int max_wait_ms) {
   bus_.HandleAvailable();
   bus_.Handle(max_wait_ms);
+  // The raw log reaches the disk at least every 0.1 s (a killed logger loses no more).
+  if (raw_file_ &&
+      std::chrono::steady_clock::now() - raw_flushed_ > std::chrono::milliseconds(100)) {
+    std::fflush(raw_file_->getFilePtr());
+    raw_flushed_ = std::chrono::steady_clock::now();
+  }
   const LoggerStats now = stats();
   if (!model_watch_.mismatch().empty()) {
     heartbeat_.PublishIfDue(core::ProcessState::kFault, model_watch_.mismatch());
   } else if (!now.error.empty()) {
     heartbeat_.PublishIfDue(core::ProcessState::kFault, now.error);
   } else {
-    heartbeat_.PublishIfDue(
-        core::ProcessState::kRunning,
-        std::to_string(now.rows) + " rows" + (now.files.empty() ? "" : " in " + now.files.back()));
+    heartbeat_.PublishIfDue(core::ProcessState::kRunning,
+                            "recording " + options_.name + ": " + std::to_string(now.rows) +
+                                " rows" + (now.files.empty() ? "" : " in " + now.files.back()));
   }
 }
 
 void LoggerNode::Close() {
   if (closed_) return;
+  if (raw_subscription_ != nullptr) {
+    lcm_unsubscribe(bus_.raw_lcm().getUnderlyingLCM(), raw_subscription_);
+    raw_subscription_ = nullptr;
+  }
+  raw_file_.reset();  // flushes and closes
+  if (options_.replay) {
+    std::vector<Input> batch;
+    {
+      std::lock_guard<std::mutex> lock(mutex_);
+      batch.swap(queue_);
+    }
+    ProcessBatch(batch, 0, true);
+    closed_ = true;
+    return;
+  }
   {
     std::lock_guard<std::mutex> lock(mutex_);
     stop_ = true;
@@ -327,8 +326,6 @@ bool LoggerNode::failed() const {
 
 void LoggerNode::WriterLoop() {
   std::vector<Input> batch;
-  std::array<int64_t, kNumStreams> carry{};
-  bool failed = false;
   while (true) {
     bool stopping = false;
     {
@@ -336,49 +333,137 @@ void LoggerNode::WriterLoop() {
       wake_.wait_for(lock, std::chrono::milliseconds(options_.flush_period_ms),
                      [this] { return stop_; });
       batch.swap(queue_);
-      for (size_t s = 0; s < kNumStreams; ++s) {
-        carry[s] += overflow_[s];
-        overflow_[s] = 0;
-      }
       stopping = stop_;
     }
-    for (Input& input : batch) {
-      if (auto* sample = std::get_if<Sample>(&input)) {
-        int64_t& pending = carry[static_cast<size_t>(sample->stream)];
-        sample->lost_before += pending;
-        pending = 0;
-        aligner_.Add(std::move(*sample));
-      } else if (auto* status = std::get_if<PlanStatus>(&input)) {
-        last_mode_ = status->mode;
-        aligner_.AddStatus(*status);
-      } else if (auto* gains = std::get_if<GainsRecord>(&input)) {
-        NoteGains(*gains);
-      }
-    }
-    batch.clear();
-    std::string error;
-    if (!failed) {
-      try {
-        aligner_.TakeRows(WallMicros(), stopping, [this](const Row& row) { WriteRow(row); });
-        if (file_) file_->Flush();
-        if (stopping) {
-          stopping_ = true;
-          CloseFile();
-        }
-      } catch (const std::exception& e) {
-        failed = true;
-        error = e.what();
-        file_.reset();
-      }
-    }
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      stats_.samples = aligner_.samples();
-      stats_.lost = aligner_.lost_total();
-      for (size_t s = 0; s < kNumStreams; ++s) stats_.lost[s] += carry[s];
-      if (!error.empty()) stats_.error = error;
-    }
+    ProcessBatch(batch, WallMicros(), stopping);
     if (stopping) break;
+  }
+}
+
+void LoggerNode::AdvanceTo(int64_t now_utime) {
+  if (!options_.replay) throw std::logic_error("LoggerNode::AdvanceTo: not a replay");
+  std::vector<Input> batch;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    batch.swap(queue_);
+  }
+  ProcessBatch(batch, now_utime, false);
+}
+
+void LoggerNode::ProcessBatch(std::vector<Input>& batch, int64_t now_utime, bool stopping) {
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (size_t s = 0; s < kNumStreams; ++s) {
+      carry_[s] += overflow_[s];
+      overflow_[s] = 0;
+    }
+  }
+  // The aligner's clock is the receive time of the newest message taken, not the wall clock: the
+  // rows then depend on the messages and their receive times only, so a replay of the raw log
+  // writes the same rows, and a bus thread that lags behind under load does not make every
+  // stream look idle. Rows are taken once per pass (every flush period), so a plan's status
+  // that arrives a few ms after its first set-point still starts that plan's file. When the
+  // whole bus has been quiet for kQuietUs (wall clock live, receive times in a replay), the clock
+  // moves on by that much, so the last rows reach the file.
+  std::string error;
+  auto take = [&](int64_t clock_utime, bool final_flush) {
+    if (write_failed_) return;
+    try {
+      aligner_.TakeRows(clock_utime, final_flush, [this](const Row& row) { WriteRow(row); });
+    } catch (const std::exception& e) {
+      write_failed_ = true;
+      error = e.what();
+      file_.reset();
+    }
+  };
+  auto quiet = [&](int64_t at_utime) {
+    if (bus_now_ > 0 && at_utime >= bus_now_ + kQuietUs && quiet_taken_ != bus_now_) {
+      quiet_taken_ = bus_now_;
+      take(bus_now_ + kQuietUs, false);
+    }
+  };
+  for (Input& input : batch) {
+    std::visit([&](const auto& in) { quiet(in.recv_utime); }, input);
+    if (auto* sample = std::get_if<Sample>(&input)) {
+      int64_t& pending = carry_[static_cast<size_t>(sample->stream)];
+      sample->lost_before += pending;
+      pending = 0;
+      bus_now_ = std::max(bus_now_, sample->recv_utime);
+      aligner_.Add(std::move(*sample));
+    } else if (auto* status = std::get_if<PlanStatus>(&input)) {
+      last_mode_ = status->mode;
+      bus_now_ = std::max(bus_now_, status->recv_utime);
+      aligner_.AddStatus(*status);
+    } else if (auto* gains = std::get_if<GainsRecord>(&input)) {
+      NoteGains(*gains);
+    }
+  }
+  batch.clear();
+  quiet(now_utime);
+  take(bus_now_, stopping);
+  if (!write_failed_) {
+    try {
+      if (file_) file_->Flush();
+      if (stopping) {
+        stopping_ = true;
+        CloseFile();
+      }
+    } catch (const std::exception& e) {
+      write_failed_ = true;
+      error = e.what();
+      file_.reset();
+    }
+  }
+  std::lock_guard<std::mutex> lock(mutex_);
+  stats_.samples = aligner_.samples();
+  stats_.lost = aligner_.lost_total();
+  for (size_t s = 0; s < kNumStreams; ++s) stats_.lost[s] += carry_[s];
+  if (!error.empty()) stats_.error = error;
+}
+
+void LoggerNode::OpenRawLog() {
+  namespace fs = std::filesystem;
+  fs::path path(options_.raw_log);
+  std::error_code error;
+  if (path.has_parent_path()) fs::create_directories(path.parent_path(), error);
+  // Never replace a file: a restarted logger with the same command line goes on in NAME.1.EXT.
+  for (int k = 1; fs::exists(path); ++k) {
+    const fs::path original(options_.raw_log);
+    path = original.parent_path() /
+           (original.stem().string() + "." + std::to_string(k) + original.extension().string());
+  }
+  raw_file_ = std::make_unique<lcm::LogFile>(path.string(), "w");
+  if (!raw_file_->good()) {
+    raw_file_.reset();
+    throw std::runtime_error("--raw " + path.string() + ": cannot create the file" +
+                             (error ? ": " + error.message() : ""));
+  }
+  raw_path_ = path.string();
+  // Every channel, whatever its prefix.
+  raw_subscription_ =
+      lcm_subscribe(bus_.raw_lcm().getUnderlyingLCM(), ".*", &LoggerNode::RecordRaw, this);
+  if (raw_subscription_ == nullptr) throw std::runtime_error("--raw: LCM refused the subscription");
+  // No limit of its own: it must not drop what the logger's own subscriptions keep.
+  lcm_subscription_set_queue_capacity(raw_subscription_, 0);
+  raw_flushed_ = std::chrono::steady_clock::now();
+}
+
+// Bus thread: called by LCM in the same dispatch as the logger's own handler of the message, so
+// the log holds the messages in the order, and with the receive times, the logger aligned them.
+void LoggerNode::RecordRaw(const lcm_recv_buf_t* rbuf, const char* channel, void* node) {
+  auto* self = static_cast<LoggerNode*>(node);
+  if (!self->raw_file_) return;
+  lcm::LogEvent event{};
+  event.eventnum = 0;  // numbered by LCM
+  event.timestamp = rbuf->recv_utime;
+  event.channel = channel;
+  event.datalen = static_cast<int32_t>(rbuf->data_size);
+  event.data = rbuf->data;
+  if (self->raw_file_->writeEvent(&event) != 0) {
+    std::lock_guard<std::mutex> lock(self->mutex_);
+    if (self->stats_.error.empty()) {
+      self->stats_.error = "--raw " + self->raw_path_ + ": write failed (disk full?)";
+    }
   }
 }
 
@@ -604,6 +689,37 @@ std::string LoggerNode::EndLine() const {
     text += std::string(" ") + StreamKey(s) + " " + std::to_string(lost[static_cast<size_t>(s)]);
   }
   return text + " (sequence gaps and logger overflow)";
+}
+
+LoggerStats ReplayRawLog(const std::string& log_path, const core::RobotModel& model,
+                         LoggerOptions options, const std::string& prefix) {
+  options.replay = true;
+  options.raw_log.clear();
+  core::Bus bus("memq://", prefix);
+  LoggerNode node(bus, model, options);
+  const auto period = static_cast<int64_t>(options.flush_period_ms) * 1000;
+  LcmLogReader reader(log_path);
+  LcmLogEvent event;
+  bool started = false;
+  int64_t next_pass = 0;
+  while (reader.Next(event)) {
+    if (!started) {
+      started = true;
+      next_pass = event.timestamp_us + period;
+    }
+    // The writer's passes due before this message arrived (the quiet stretches included).
+    while (event.timestamp_us >= next_pass) {
+      node.AdvanceTo(next_pass);
+      next_pass += period;
+    }
+    bus.DeliverRecorded(event.channel, event.data.data(), static_cast<int>(event.data.size()),
+                        event.timestamp_us);
+  }
+  node.Close();
+  for (const std::string& note : reader.notes()) {
+    std::cerr << options.process_name << ": " << log_path << ": " << note << "\n";
+  }
+  return node.stats();
 }
 
 }  // namespace sirupp::logger

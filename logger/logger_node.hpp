@@ -19,6 +19,7 @@
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
+#include <lcm/lcm-cpp.hpp>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -50,6 +51,17 @@ struct LoggerOptions {
   core::Channels channels;       // names without the rig prefix (the Bus adds it)
   std::string note;              // free text for the header (e.g. the lab layout)
   std::string process_name = "sirupp-logger";
+  // Publish the heartbeat on this one (a Recorder's, which outlives its runs); nullptr: the node
+  // has its own.
+  core::Heartbeat* heartbeat = nullptr;
+  // Raw log: every message on the bus (all channels, with or without the prefix) in lcm-logger's
+  // format, each event stamped with the receive time this logger aligned it with. "" = none. An
+  // existing file is never replaced: NAME.lcmlog becomes NAME.1.lcmlog, NAME.2.lcmlog, ...
+  std::string raw_log;
+  // Replay: no writer thread and no wall clock; the caller feeds recorded messages
+  // (core::Bus::DeliverRecorded) and moves the clock on with AdvanceTo(), as the writer thread
+  // would have run live (ReplayRawLog below).
+  bool replay = false;
 };
 
 struct LoggerStats {
@@ -76,6 +88,11 @@ class LoggerNode {
   // Stops the writer after writing every row received, and closes the files with their "# end"
   // line. Idempotent.
   void Close();
+  // Replay only: what the writer thread does once per flush period, at time now_utime (the log's
+  // clock): takes the messages delivered so far and writes the rows that are final.
+  void AdvanceTo(int64_t now_utime);
+  // The raw log being written ("" when none).
+  const std::string& raw_log() const { return raw_path_; }
 
   LoggerStats stats() const;
   bool failed() const;
@@ -89,6 +106,12 @@ class LoggerNode {
 
   void Push(Input input, Stream stream);
   void WriterLoop();
+  // One pass of the writer over `batch`; now_utime: the wall clock live, the log's clock in a
+  // replay (only for a quiet bus); stopping: close the files after it.
+  void ProcessBatch(std::vector<Input>& batch, int64_t now_utime, bool stopping);
+  void OpenRawLog();
+  // Through LCM's C interface: LCM 1.3.1's C++ untyped subscription trips UBSan's vptr check.
+  static void RecordRaw(const lcm_recv_buf_t* rbuf, const char* channel, void* node);
   void WriteRow(const Row& row);
   void OpenFile(const Row& row);
   void CloseFile();
@@ -100,7 +123,8 @@ class LoggerNode {
   core::RobotModel model_;
   LoggerOptions options_;
   ColumnLayout layout_;
-  core::Heartbeat heartbeat_;
+  std::unique_ptr<core::Heartbeat> own_heartbeat_;  // when options_.heartbeat is null
+  core::Heartbeat& heartbeat_;
   // One robot: the sim's ROBOT_MODEL against the model the columns are labelled from; a mismatch
   // is a fault on the heartbeat (the data would carry the wrong robot's names and units).
   core::ModelWatch model_watch_;
@@ -158,7 +182,26 @@ class LoggerNode {
 
   std::thread writer_;
   bool closed_ = false;
+  // Writer side (writer thread, or the replay caller).
+  std::array<int64_t, kNumStreams> carry_{};  // overflow not yet put into a sample's lost_before
+  bool write_failed_ = false;
+  int64_t bus_now_ = 0;  // receive time of the newest message taken: the aligner's clock
+  int64_t quiet_taken_ = 0;
+  static constexpr int64_t kQuietUs = 500000;  // the whole bus quiet this long: rows move on
+
+  // Raw log (bus thread only).
+  std::string raw_path_;
+  std::unique_ptr<lcm::LogFile> raw_file_;
+  lcm_subscription_t* raw_subscription_ = nullptr;
+  std::chrono::steady_clock::time_point raw_flushed_;
 };
+
+// Runs a logger over a raw log (LoggerOptions::raw_log of an earlier run): every message goes to
+// the node with its recorded receive time, and the writer runs every flush period of the log's
+// clock, as it did live; the data files are then the ones the live logger wrote (docs/logging.md,
+// "Raw logs"). `options.replay` is set here. Throws core::ConfigError for a damaged log.
+LoggerStats ReplayRawLog(const std::string& log_path, const core::RobotModel& model,
+                         LoggerOptions options, const std::string& prefix);
 
 // "sirupp-YYYYmmdd-HHMMSS" for the present local time.
 std::string DefaultRunName();

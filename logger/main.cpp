@@ -9,7 +9,7 @@
 #include "core/bus.hpp"
 #include "core/errors.hpp"
 #include "core/model_loader.hpp"
-#include "logger/logger_node.hpp"
+#include "logger/recorder.hpp"
 #include "runtime/args.hpp"
 #include "runtime/data_path.hpp"
 #include "runtime/process_main.hpp"
@@ -29,8 +29,9 @@ constexpr const char* kAbout =
     "--recv-buf of 2097152 bytes (0: LCM's default), so a busy machine does not drop datagrams\n"
     "(the kernel caps it at net.core.rmem_max). Started again with data files of NAME in DIR\n"
     "(a restart), it continues the run in new files: NAME-03-set2.csv goes on in\n"
-    "NAME-03-set2.1.csv; no file is ever replaced. Raw traffic: lcm-logger, see\n"
-    "docs/logging.md. Report: sirupp report DIR\n";
+    "NAME-03-set2.1.csv; no file is ever replaced. LOGGER_COMMAND stops the run and starts\n"
+    "new named ones (answered on LOGGER_REPLY; the lab panel's Record view). Report: sirupp\n"
+    "report DIR. Raw logs: docs/logging.md (\"Raw logs\").\n";
 
 double PositiveSeconds(const sirupp::runtime::Args& args, const std::string& flag,
                        double fallback) {
@@ -59,13 +60,30 @@ std::string WithReceiveBuffer(std::string url, int64_t bytes) {
 int Run(const std::vector<std::string>& argv) {
   const sirupp::runtime::Args args(
       argv, "sirupp-logger",
-      {Flag("out", "").Takes("DIR"), Flag("name", "").Takes("NAME"),
-       Flag("split", "").Takes("MODE").OneOf({"plan", "none"}), Flag("rate", "").Takes("HZ"),
-       Flag("max-age", "").Takes("S"), Flag("idle", "").Takes("S"), Flag("velocities", "").Switch(),
-       Flag("efforts", "").Switch(), Flag("note", "").Takes("TEXT", -1),
-       Flag("duration", "").Takes("S"), Flag("recv-buf", "").Takes("BYTES"),
+      {Flag("out", "folder of the data files (default logs)").Takes("DIR"),
+       Flag("name", "file name stem (default sirupp-YYYYmmdd-HHMMSS)").Takes("NAME"),
+       Flag("split", "one file per movement set (plan) or one for the run (none)")
+           .Takes("MODE")
+           .OneOf({"plan", "none"}),
+       Flag("rate", "row clock in Hz (default: the model's servo tick)").Takes("HZ"),
+       Flag("max-age", "a stream older than this leaves its cell empty (default 0.025)")
+           .Takes("S"),
+       Flag("idle", "rows stop after the bus is quiet this long (default 0.05)").Takes("S"),
+       Flag("velocities", "also the joint velocities").Switch(),
+       Flag("efforts", "also the joint efforts").Switch(),
+       Flag("note", "a line for the files' header").Takes("TEXT", -1),
+       Flag("duration", "stop after this many seconds").Takes("S"),
+       Flag("recv-buf", "udpm receive buffer (default 2097152; 0: LCM's default)")
+           .Takes("BYTES"),
        sirupp::runtime::ModelFlag(), Flag("lcm-url", "LCM URL").Takes("URL"),
-       Flag("prefix", "channel prefix of the rig").Takes("PREFIX")},
+       Flag("prefix", "channel prefix of the rig").Takes("PREFIX"),
+       Flag("raw",
+            "also record every message on the bus in lcm-logger's format, stamped with the "
+            "receive times the rows were aligned with (each recorded run: a new file)")
+           .Takes("FILE"),
+       Flag("from-log",
+            "no bus: write the data files again from such a raw log; --prefix as recorded")
+           .Takes("LOG")},
       kAbout);
   const sirupp::core::RobotModel model =
       sirupp::core::LoadRobotModel(sirupp::runtime::ModelFileArg(args));
@@ -109,13 +127,34 @@ int Run(const std::vector<std::string>& argv) {
                                      ": allowed whole bytes from 0 to 1073741824");
     }
   }
+  const std::string prefix = args.Has("prefix") ? args.String("prefix") : "";
+  if (args.Has("from-log")) {
+    if (args.Has("raw") || args.Has("lcm-url") || args.Has("duration")) {
+      throw sirupp::core::UsageError(
+          "sirupp-logger: --from-log reads a recorded log: --raw, --lcm-url and --duration do not "
+          "apply");
+    }
+    const std::string log = args.String("from-log");
+    const sirupp::logger::LoggerStats stats =
+        sirupp::logger::ReplayRawLog(log, model, options, prefix);
+    std::cerr << "sirupp-logger: from " << log << ": " << stats.rows << " rows in "
+              << stats.files.size() << " file(s)\n";
+    for (const std::string& file : stats.files) std::cerr << "  " << file << "\n";
+    if (!stats.error.empty()) {
+      std::cerr << "sirupp-logger: " << stats.error << "\n";
+      return 1;
+    }
+    return 0;
+  }
+  if (args.Has("raw")) options.raw_log = args.String("raw");
   sirupp::core::Bus bus(WithReceiveBuffer(args.Has("lcm-url") ? args.String("lcm-url") : "",
                                           static_cast<int64_t>(recv_buf)),
-                        args.Has("prefix") ? args.String("prefix") : "");
-  sirupp::logger::LoggerNode node(bus, model, options);
+                        prefix);
+  sirupp::logger::Recorder node(bus, model, options);
   std::cerr << "sirupp-logger: " << model.name << ", files " << options.out_dir << "/"
             << node.name() << (options.split_per_plan ? "-NN-SET.csv" : ".csv") << ", a row every "
-            << options.aligner.period_us << " us, on " << bus.url() << std::endl;
+            << options.aligner.period_us << " us, on " << bus.url()
+            << (node.raw_log().empty() ? "" : "; raw log " + node.raw_log()) << std::endl;
   if (!node.continues().empty()) {
     std::cerr << "sirupp-logger: " << node.continues()
               << " exists: continuing that run in new files (a restart; no file is replaced)"

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
+#include <map>
+#include <regex>
 #include <sstream>
 
 #include "control/plan.hpp"
@@ -11,6 +13,8 @@
 #include "core/geometry.hpp"
 #include "core/inverse_kinematics.hpp"
 #include "core/printable.hpp"
+#include "logger/report.hpp"
+#include "panel/model_edit.hpp"
 
 namespace sirupp::panel {
 namespace {
@@ -19,6 +23,7 @@ namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
 constexpr double kDeg = 3.14159265358979323846 / 180;
 constexpr size_t kMaxFileBytes = 1024 * 1024;
+constexpr uintmax_t kMaxDownloadBytes = uintmax_t{256} * 1024 * 1024;
 
 Response JsonResponse(const Json& body, int status = 200) {
   // Text from files or messages may hold invalid UTF-8: replaced, never thrown on.
@@ -71,7 +76,7 @@ bool Inside(const fs::path& path, const fs::path& dir) {
 // The routes that change nothing (reads and checks): no token, no lock.
 bool ChangesNothing(const std::string& path) {
   return path == "/api/ik" || path == "/api/plan/check" || path == "/api/environment/check" ||
-         path == "/api/lock" || path == "/api/unlock";
+         path == "/api/model/check" || path == "/api/lock" || path == "/api/unlock";
 }
 
 }  // namespace
@@ -176,11 +181,15 @@ Response PanelApi::Get(const Request& request) {
     const auto it = request.query.find("dir");
     return ListFiles(it == request.query.end() ? "" : it->second);
   }
-  if (path == "/api/file") {
+  if (path == "/api/file" || path == "/api/download" || path == "/api/model/fields") {
     const auto it = request.query.find("path");
+    if (path == "/api/model/fields") {
+      return ModelFields(it == request.query.end() ? "" : it->second);
+    }
     if (it == request.query.end()) return ErrorResponse(400, "missing ?path=");
-    return ReadFile(it->second);
+    return path == "/api/file" ? ReadFile(it->second) : Download(it->second);
   }
+  if (path == "/api/record") return RecordJson();
   return ErrorResponse(404, "no such page: " + core::Printable(path, 200));
 }
 
@@ -194,6 +203,15 @@ Response PanelApi::Post(const Request& request, const Json& body) {
   }
   if (path == "/api/ik") return SolveIk(body);
   if (path == "/api/environment/check") return CheckEnvironment(body);
+  if (path == "/api/environment/load") {
+    return FromResult(
+        commands_.LoadEnvironment(Text(body, "name", "page.xml"), Text(body, "text")));
+  }
+  if (path == "/api/record/start") return FromResult(commands_.StartRecording(Text(body, "name")));
+  if (path == "/api/record/stop") return FromResult(commands_.StopRecording());
+  if (path == "/api/record/report") return RunReport(body);
+  if (path == "/api/model/check") return ModelEdit(body, false);
+  if (path == "/api/model/save") return ModelEdit(body, true);
   if (path == "/api/plan/check") {
     return FromResult(commands_.CheckPlan(Text(body, "name", "page.plan"), Text(body, "text")));
   }
@@ -299,31 +317,40 @@ Response PanelApi::ListFiles(const std::string& which) {
   return JsonResponse(Json{{"dir", shown}, {"files", files}});
 }
 
-Response PanelApi::ReadFile(const std::string& path) {
-  if (path.empty() || path.size() > 1000 || !core::IsPrintable(path)) {
-    return ErrorResponse(400, "path: 1..1000 printable characters");
-  }
+std::optional<fs::path> PanelApi::Allowed(const std::string& path, bool results) const {
+  if (path.empty() || path.size() > 1000 || !core::IsPrintable(path)) return std::nullopt;
   std::error_code error;
   const fs::path root = fs::weakly_canonical(options_.root, error);
   const fs::path config = fs::weakly_canonical(root / "config", error);
   const fs::path given = fs::path(path).is_absolute() ? fs::path(path) : root / path;
   const fs::path real = fs::weakly_canonical(given, error);
-  bool allowed = !error && Inside(real, config);
-  if (!allowed && !options_.results_dir.empty()) {
-    allowed = Inside(real, fs::weakly_canonical(options_.results_dir, error));
+  if (error) return std::nullopt;
+  if (Inside(real, config)) return real;
+  if (results && !options_.results_dir.empty() &&
+      Inside(real, fs::weakly_canonical(options_.results_dir, error))) {
+    return real;
   }
-  if (!allowed) {
+  return std::nullopt;
+}
+
+Response PanelApi::ReadFile(const std::string& path) {
+  if (path.empty() || path.size() > 1000 || !core::IsPrintable(path)) {
+    return ErrorResponse(400, "path: 1..1000 printable characters");
+  }
+  const std::optional<fs::path> real = Allowed(path, true);
+  if (!real) {
     return ErrorResponse(403, "'" + core::Printable(path, 200) +
                                   "': the panel reads files under config/ and the results "
                                   "folder only");
   }
-  if (!fs::is_regular_file(real, error)) {
+  std::error_code error;
+  if (!fs::is_regular_file(*real, error)) {
     return ErrorResponse(404, "'" + core::Printable(path, 200) + "': no such file");
   }
-  if (fs::file_size(real, error) > kMaxFileBytes) {
+  if (fs::file_size(*real, error) > kMaxFileBytes) {
     return ErrorResponse(413, "'" + core::Printable(path, 200) + "': larger than 1 MiB");
   }
-  std::ifstream in(real, std::ios::binary);
+  std::ifstream in(*real, std::ios::binary);
   std::ostringstream text;
   text << in.rdbuf();
   return JsonResponse(Json{{"path", path}, {"text", text.str()}});
@@ -408,6 +435,228 @@ Response PanelApi::CheckEnvironment(const Json& body) {
                              {"column", error.where().column}},
                         422);
   }
+}
+
+Response PanelApi::Download(const std::string& path) {
+  const std::optional<fs::path> real = Allowed(path, true);
+  std::error_code error;
+  if (!real || !fs::is_regular_file(*real, error)) {
+    return ErrorResponse(real ? 404 : 403,
+                         "'" + core::Printable(path, 200) +
+                             (real ? "': no such file"
+                                   : "': the panel gives files under config/ and the results "
+                                     "folder only"));
+  }
+  if (fs::file_size(*real, error) > kMaxDownloadBytes) {
+    return ErrorResponse(413, "'" + core::Printable(path, 200) +
+                                  "': larger than 256 MiB; copy it from the results folder");
+  }
+  std::ifstream in(*real, std::ios::binary);
+  std::ostringstream text;
+  text << in.rdbuf();
+  const std::string ext = real->extension().string();
+  return Response{200,
+                  ext == ".csv"                    ? "text/csv"
+                  : ext == ".md" || ext == ".yaml" ? "text/plain; charset=utf-8"
+                  : ext == ".png"                  ? "image/png"
+                                                   : "application/octet-stream",
+                  text.str()};
+}
+
+Response PanelApi::RecordJson() {
+  // The logger as its heartbeat shows it; "recording NAME: ..." names the run being written.
+  Json logger = nullptr;
+  std::string recording;
+  const Json processes = hub_.ProcessesJson();
+  for (const Json& row : processes["processes"]) {
+    if (row["process"] != "sirupp-logger" || !row["alive"].get<bool>()) continue;
+    const std::string detail = row["detail"].get<std::string>();
+    logger = Json{{"state", row["state"]}, {"detail", detail}, {"host", row["host"]}};
+    if (detail.rfind("recording ", 0) == 0) {
+      recording = detail.substr(
+          10, detail.find(':') == std::string::npos ? std::string::npos : detail.find(':') - 10);
+    }
+  }
+  Json runs = Json::array();
+  if (!options_.results_dir.empty()) {
+    // Data files grouped by run: NAME-NN-SET.csv, NAME-rK.csv, NAME.csv (and .K continuations).
+    static const std::regex kSplit(R"(^(.+)-\d\d-[^.]+(\.\d+)?$)");
+    static const std::regex kRestart(R"(^(.+)-r\d+(\.\d+)?$)");
+    static const std::regex kContinued(R"(^(.+)\.\d+$)");
+    std::map<std::string, std::vector<std::pair<std::string, uintmax_t>>> by_run;
+    std::map<std::string, fs::file_time_type> newest;
+    std::error_code error;
+    for (const fs::directory_entry& entry : fs::directory_iterator(options_.results_dir, error)) {
+      if (!entry.is_regular_file() || entry.path().extension() != ".csv") continue;
+      const std::string stem = entry.path().stem().string();
+      std::smatch match;
+      std::string run = stem;
+      if (std::regex_match(stem, match, kSplit) || std::regex_match(stem, match, kRestart) ||
+          std::regex_match(stem, match, kContinued)) {
+        run = match[1];
+      }
+      std::error_code size_error;
+      by_run[run].emplace_back(entry.path().string(), entry.file_size(size_error));
+      const fs::file_time_type time = entry.last_write_time(size_error);
+      if (!newest.count(run) || time > newest[run]) newest[run] = time;
+    }
+    std::vector<std::string> names;
+    for (const auto& [name, files] : by_run) names.push_back(name);
+    std::sort(names.begin(), names.end(),
+              [&](const std::string& a, const std::string& b) { return newest[a] > newest[b]; });
+    for (const std::string& name : names) {
+      std::vector<std::pair<std::string, uintmax_t>>& files = by_run[name];
+      std::sort(files.begin(), files.end());
+      Json list = Json::array();
+      uintmax_t total = 0;
+      for (const auto& [file, size] : files) {
+        list.push_back(Json{{"path", file}, {"size", size}});
+        total += size;
+      }
+      const fs::path report = fs::path(options_.results_dir) / (name + "-report") / "report.md";
+      runs.push_back(Json{{"name", name},
+                          {"recording", name == recording},
+                          {"files", list},
+                          {"bytes", total},
+                          {"report", fs::exists(report, error) ? report.string() : ""}});
+    }
+  }
+  return JsonResponse(Json{{"logger", logger},
+                           {"recording", recording},
+                           {"results_dir", options_.results_dir},
+                           {"runs", runs}});
+}
+
+Response PanelApi::RunReport(const Json& body) {
+  const std::string run = Text(body, "run");
+  if (options_.results_dir.empty()) {
+    return ErrorResponse(409, "no results folder: start sirupp-panel with --results DIR");
+  }
+  const Json record = Json::parse(RecordJson().body);
+  for (const Json& entry : record["runs"]) {
+    if (entry["name"] != run) continue;
+    if (entry["recording"].get<bool>()) {
+      return ErrorResponse(
+          409, "run '" + core::Printable(run, 100) + "' is being recorded: stop it first");
+    }
+    std::vector<std::string> files;
+    for (const Json& file : entry["files"]) files.push_back(file["path"].get<std::string>());
+    logger::ReportOptions options;
+    options.out_dir = (fs::path(options_.results_dir) / (run + "-report")).string();
+    options.plots = false;
+    try {
+      const logger::ReportOutput output =
+          logger::WriteReport(logger::ReadInputs(files, options.import), options);
+      return JsonResponse(Json{{"ok", true},
+                               {"markdown", output.markdown},
+                               {"report", options.out_dir + "/report.md"},
+                               {"moves", output.moves}});
+    } catch (const core::ConfigError& error) {
+      return ErrorResponse(422, error.what());
+    }
+  }
+  return ErrorResponse(404,
+                       "no run '" + core::Printable(run, 100) + "' in " + options_.results_dir);
+}
+
+Response PanelApi::ModelFields(const std::string& path) {
+  std::string given = path;
+  if (given.empty()) {
+    const std::optional<core::RobotModel> model = hub_.Model();
+    if (!model) return ErrorResponse(503, "no robot model yet: is sirupp-sim running?");
+    given = model->source_file;
+  }
+  const Response file = ReadFile(given);
+  if (file.status != 200) return file;
+  const std::string text = Json::parse(file.body)["text"].get<std::string>();
+  try {
+    Json fields = Json::array();
+    for (const ModelField& field : EditableFields(text, given)) {
+      fields.push_back(Json{
+          {"key", field.key}, {"group", field.group}, {"value", field.text}, {"line", field.line}});
+    }
+    std::string units;
+    const size_t at = text.find("\nunits:");
+    if (at != std::string::npos) units = text.substr(at + 8, text.find('\n', at + 1) - at - 8);
+    return JsonResponse(Json{{"path", given}, {"units", units}, {"fields", fields}});
+  } catch (const core::ConfigError& error) {
+    return ErrorResponse(422, error.what());
+  }
+}
+
+Response PanelApi::ModelEdit(const Json& body, bool save) {
+  const std::string path = Text(body, "path");
+  const Response file = ReadFile(path);
+  if (file.status != 200) return file;
+  if (!body.contains("edits") || !body["edits"].is_object()) {
+    throw std::invalid_argument("edits: expected an object such as {\"dh[1].a\": \"8.5\"}");
+  }
+  std::map<std::string, std::string> edits;
+  for (const auto& [key, value] : body["edits"].items()) {
+    if (value.is_string()) {
+      edits[key] = value.get<std::string>();
+    } else if (value.is_number()) {
+      edits[key] = value.dump();
+    } else {
+      throw std::invalid_argument("edits." + core::Printable(key, 80) +
+                                  ": must be a number or a text");
+    }
+  }
+  const std::string text = Json::parse(file.body)["text"].get<std::string>();
+  std::vector<ModelField> fields;
+  try {
+    fields = EditableFields(text, path);
+  } catch (const core::ConfigError& error) {
+    return ErrorResponse(422, error.what());
+  }
+  const std::string edited = ApplyModelEdits(text, fields, edits);
+  std::string target = path;
+  std::string name;
+  if (save) {
+    name = Text(body, "name");
+    CheckModelFileName(name);
+    target = "config/robots/" + name + ".yaml";
+  }
+  ModelCheck check = CheckModelText(edited, target, EditableFields(edited, target));
+  if (!check.ok && check.field.empty()) {
+    // An error about a whole value ("joints[0].limits") names the edited part of it.
+    for (const auto& [key, value] : edits) {
+      if (!check.key_path.empty() && key.rfind(check.key_path, 0) == 0) check.field = key;
+    }
+  }
+  if (!check.ok) {
+    return JsonResponse(Json{{"ok", false},
+                             {"error", check.error},
+                             {"line", check.line},
+                             {"key_path", check.key_path},
+                             {"field", check.field}},
+                        422);
+  }
+  if (!save) {
+    return JsonResponse(Json{
+        {"ok", true},
+        {"message", "the edited model '" + check.model_name + "' passes the model loader's checks"},
+        {"changed", edits.size()}});
+  }
+  const fs::path out = fs::path(options_.root) / target;
+  std::error_code error;
+  if (fs::exists(out, error)) {
+    return ErrorResponse(409, target +
+                                  " exists already: choose another name (the panel never "
+                                  "replaces a model file)");
+  }
+  {
+    std::ofstream file_out(out, std::ios::binary);
+    file_out << "# Edited in the lab panel from " << path << " (" << edits.size()
+             << " values changed).\n"
+             << edited;
+    if (!file_out) return ErrorResponse(500, "cannot write " + target);
+  }
+  return JsonResponse(
+      Json{{"ok", true},
+           {"path", target},
+           {"message", "saved " + target + "; to run it, start the sim with --model " + target +
+                           " (the panel does not restart sirupp-sim)"}});
 }
 
 }  // namespace sirupp::panel

@@ -14,7 +14,9 @@
 //    e-stop is allowed from any client.
 
 #include <chrono>
+#include <filesystem>
 #include <map>
+#include <optional>
 #include <string>
 
 #include "panel/panel_hub.hpp"
@@ -72,6 +74,16 @@ class PanelApi {
   Response ListFiles(const std::string& which);
   Response SolveIk(const Json& body);
   Response CheckEnvironment(const Json& body);
+  // Record panel: the logger's state and the runs in the results folder; a run's report.
+  Response RecordJson();
+  Response RunReport(const Json& body);
+  Response Download(const std::string& path);
+  // Model panel: a model file's editable values; an edit checked, or saved as a new file.
+  Response ModelFields(const std::string& path);
+  Response ModelEdit(const Json& body, bool save);
+  // The canonical path of `path` when it lies under config/ (or, with results, the results
+  // folder); nullopt otherwise.
+  std::optional<std::filesystem::path> Allowed(const std::string& path, bool results) const;
   bool Holds(const std::string& client);
   void Seen(const std::string& client);
 

@@ -4,10 +4,12 @@
 
 #include "control/plan.hpp"
 #include "control/pose_goal.hpp"
+#include "core/environment.hpp"
 #include "core/errors.hpp"
 #include "core/geometry.hpp"
 #include "core/inverse_kinematics.hpp"
 #include "core/printable.hpp"
+#include "logger/recorder.hpp"
 #include "servo/chip_gains.hpp"
 
 namespace sirupp::panel {
@@ -249,6 +251,39 @@ CommandResult RigCommands::Hardware(const std::string& verb) {
   }
   return FromAnswer(hub_.WithClient([&](client::Client& rig) { return rig.Hardware(*command); }),
                     "hardware " + verb);
+}
+
+}  // namespace sirupp::panel
+
+namespace sirupp::panel {
+
+CommandResult RigCommands::LoadEnvironment(const std::string& name, const std::string& text) {
+  try {
+    core::ParseEnvironment(text, name);
+  } catch (const core::ConfigError& error) {
+    return CommandResult::Fail(
+        422, error.what(), Json{{"line", error.where().line}, {"column", error.where().column}});
+  }
+  return FromAnswer(
+      hub_.WithClient([&](client::Client& rig) { return rig.LoadEnvironment(name, text); }),
+      "environment " + name);
+}
+
+CommandResult RigCommands::StartRecording(const std::string& name) {
+  if (!name.empty()) {
+    try {
+      logger::Recorder::CheckRunName(name);
+    } catch (const std::invalid_argument& error) {
+      return CommandResult::Fail(400, error.what());
+    }
+  }
+  return FromAnswer(hub_.WithClient([&](client::Client& rig) { return rig.StartRecording(name); }),
+                    "start recording " + (name.empty() ? std::string("(default name)") : name));
+}
+
+CommandResult RigCommands::StopRecording() {
+  return FromAnswer(hub_.WithClient([&](client::Client& rig) { return rig.StopRecording(); }),
+                    "stop recording");
 }
 
 }  // namespace sirupp::panel

@@ -1,11 +1,12 @@
 #pragma once
 // Every command the panel sends to the rig, in one place: joint and tool targets, plans,
-// gains, the e-stop and the hardware bridge's verbs. Each turns the page's input (display units,
-// joints left alone, one joint's gains) into the client library's request (client/client.hpp),
-// checks what the page needs shown at a field before sending (limits in the page's units, the
-// plan's line and column, the IK's configuration, gain ranges: with the libraries the controller
-// itself uses, control::ParsePlan, control::SolvePoseGoal, servo::ChipGainsFromMessage), sends it
-// through the hub's client and answers with the reply that names the request:
+// gains, the e-stop, the hardware bridge's verbs, environment loads and recording. Each turns the
+// page's input (display units, joints left alone, one joint's gains) into the client library's
+// request (client/client.hpp), checks what the page needs shown at a field before sending (limits
+// in the page's units, the plan's line and column, the IK's configuration, gain ranges: with the
+// libraries the controller itself uses, control::ParsePlan, control::SolvePoseGoal,
+// servo::ChipGainsFromMessage), sends it through the hub's client and answers with the reply that
+// names the request:
 //   accepted -> 200 with "CHANNEL: accepted ..." (and move_id, status_seq),
 //   refused  -> 409 with the replier's reason,
 //   no reply -> 504 saying which process was not heard.
@@ -51,6 +52,13 @@ class RigCommands {
   CommandResult Estop(bool engaged, const std::string& who, const std::string& reason);
   // "connect", "calibrate", "arm", "disarm", "link", "unlink", "home", "clear-faults".
   CommandResult Hardware(const std::string& verb);
+  // An environment file's text into the running sim (SIM_COMMAND): checked here first with the
+  // sim's parser (422 with the line), then the sim's reply.
+  CommandResult LoadEnvironment(const std::string& name, const std::string& text);
+  // Recording through sirupp-logger (LOGGER_COMMAND): start run `name` ("" = the logger's
+  // default name, checked here with the logger's rule), stop the present one.
+  CommandResult StartRecording(const std::string& name);
+  CommandResult StopRecording();
 
  private:
   PanelHub& hub_;

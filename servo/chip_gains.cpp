@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "core/errors.hpp"
+#include "core/translate.hpp"
 
 namespace sirupp::servo {
 namespace {
@@ -82,20 +83,15 @@ std::vector<ChipGains> ChipGainsFromMessage(const sirupp::servo_gains_t& m,
 }
 
 sirupp::servo_gains_t GainsMessage(const std::vector<ChipGains>& gains) {
-  sirupp::servo_gains_t m{};
-  m.num_joints = static_cast<int32_t>(gains.size());
+  core::ServoGainsSet set;
   for (const ChipGains& g : gains) {
-    m.kp.push_back(g.kp);
-    m.kd.push_back(g.kd);
-    m.ki.push_back(g.ki);
-    m.integration_limit.push_back(g.integration_limit);
-    m.output_limit.push_back(g.output_limit);
-    m.current_limit.push_back(g.current_limit);
-    m.error_limit.push_back(g.error_limit);
-    m.servo_rate_divisor.push_back(g.servo_rate_divisor);
-    m.deadband.push_back(g.deadband);
+    set.joints.push_back(
+        {static_cast<double>(g.kp), static_cast<double>(g.kd), static_cast<double>(g.ki),
+         static_cast<double>(g.integration_limit), static_cast<double>(g.output_limit),
+         static_cast<double>(g.current_limit), static_cast<double>(g.error_limit),
+         static_cast<double>(g.servo_rate_divisor), static_cast<double>(g.deadband)});
   }
-  return m;
+  return core::ToMessage(set);  // utime and seq 0: the caller stamps them
 }
 
 ServoGains ToServoGains(const ChipGains& g) {

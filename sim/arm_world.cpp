@@ -27,6 +27,8 @@ constexpr double kRezeroAngle = kPi / 2;
 // The brake of kHold holds up to this multiple of the joint's effort limit.
 constexpr double kBrakeEffortFactor = 10.0;
 constexpr int kMaxContactsPerPair = 8;
+// Steps every joint must stay held, under one command, before the arm is at rest.
+constexpr int kRestSteps = 32;
 
 void OdeMessage(int errnum, const char* msg, va_list ap) {
   std::fprintf(stderr, "sirupp-sim: ODE message %d: ", errnum);
@@ -144,6 +146,7 @@ struct ArmWorld::Impl {
     core::Pose start;
   };
   std::vector<Object> objects;
+  core::Environment built_environment;  // what the objects were built from
   std::vector<std::unique_ptr<Material>> materials;
   int last_rows = 0;
   int contact_rows = 0;
@@ -156,6 +159,17 @@ struct ArmWorld::Impl {
   };
   std::vector<BodyState> saved_bodies;
   int64_t redone_steps = 0;
+  // Rest (WorldOptions::rest). After a teleport to zero speeds the arm is at rest for any hold
+  // command (the brake keeps it where it is); after settling, for the command it settled under.
+  bool at_rest = false;
+  bool rest_any_hold = false;
+  core::CommandMode rest_mode = core::CommandMode::kHold;
+  std::vector<double> rest_effort;
+  int quiet_steps = 0;
+  core::CommandMode previous_mode = core::CommandMode::kHold;
+  std::vector<double> previous_effort;
+  bool have_previous = false;
+  int64_t rest_ticks = 0;
 
   Impl(const core::RobotModel& robot, const core::Environment& environment,
        const WorldOptions& opts)
@@ -175,6 +189,48 @@ struct ArmWorld::Impl {
     contact_group = dJointGroupCreate(0);
     BuildArm();
     BuildEnvironment(environment);
+    built_environment = environment;
+    StartRest(true);
+  }
+
+  bool RestAllowed() const { return options.rest && free_count == 0; }
+
+  // At rest from now on: for any hold command (after a teleport to zero speeds) or for the
+  // previous command (after settling). The state stays the last step's, speeds (below
+  // stick_speed) included, so that a law answering it keeps answering the same.
+  void StartRest(bool any_hold) {
+    quiet_steps = 0;
+    at_rest = RestAllowed();
+    if (!at_rest) return;
+    rest_any_hold = any_hold;
+    rest_mode = previous_mode;
+    rest_effort = previous_effort;
+  }
+
+  static bool SameCommand(core::CommandMode mode_a, const std::vector<double>& effort_a,
+                          const core::ArmCommand& b) {
+    return mode_a == b.mode && (b.mode != core::CommandMode::kEffort || effort_a == b.effort);
+  }
+
+  bool KeepsRest(const core::ArmCommand& command) const {
+    return at_rest && ((rest_any_hold && command.mode == core::CommandMode::kHold) ||
+                       SameCommand(rest_mode, rest_effort, command));
+  }
+
+  // After a step: counts the steps every joint stayed held under the same command.
+  void NoteRest(const core::ArmCommand& command) {
+    bool held =
+        RestAllowed() && have_previous && SameCommand(previous_mode, previous_effort, command);
+    for (const JointSim& sim : joints) {
+      held = held && std::abs(sim.qd) <= options.stick_speed &&
+             (sim.braked || (sim.has_friction && sim.friction_row && sim.stuck));
+    }
+    quiet_steps = held ? quiet_steps + 1 : 0;
+    previous_mode = command.mode;
+    previous_effort =
+        command.mode == core::CommandMode::kEffort ? command.effort : std::vector<double>{};
+    have_previous = true;
+    if (quiet_steps >= kRestSteps) StartRest(false);
   }
 
   ~Impl() {
@@ -363,6 +419,64 @@ struct ArmWorld::Impl {
     }
   }
 
+  // Removes every environment object (geoms, bodies, their materials and spaces).
+  void ClearEnvironment() {
+    dJointGroupEmpty(contact_group);
+    for (const Object& object : objects) {
+      if (object.body != nullptr) dBodyDestroy(object.body);
+    }
+    if (static_space != nullptr) dSpaceDestroy(static_space);  // destroys its geoms
+    static_space = nullptr;
+    dSpaceDestroy(free_space);
+    free_space = dSimpleSpaceCreate(nullptr);
+    objects.clear();
+    saved_bodies.clear();
+    static_count = 0;
+    free_count = 0;
+    materials.erase(std::remove_if(materials.begin(), materials.end(),
+                                   [](const std::unique_ptr<Material>& m) { return !m->arm; }),
+                    materials.end());
+  }
+
+  // The first object overlapping one of the arm's moving links by more than 1 mm, as
+  // "object 'NAME' overlaps link I" (empty when none does).
+  std::string FindOverlap() {
+    struct Probe {
+      Impl* self;
+      std::string found;
+    } probe{this, {}};
+    const auto callback = [](void* data, dGeomID a, dGeomID b) {
+      auto* p = static_cast<Probe*>(data);
+      if (!p->found.empty()) return;
+      if (dGeomGetBody(a) == nullptr && dGeomGetBody(b) == nullptr) return;
+      dContactGeom contacts[kMaxContactsPerPair];
+      const int count = dCollide(a, b, kMaxContactsPerPair, contacts, sizeof(dContactGeom));
+      for (int k = 0; k < count; ++k) {
+        if (contacts[k].depth <= 0.001) continue;
+        for (const Object& object : p->self->objects) {
+          if (object.geom != a && object.geom != b) continue;
+          const dGeomID arm_geom = object.geom == a ? b : a;
+          const dBodyID body = dGeomGetBody(arm_geom);
+          const auto& links = p->self->bodies;
+          const auto it = std::find(links.begin(), links.end(), body);
+          p->found = "object '" + object.name + "' overlaps " +
+                     (it == links.end() ? std::string("the base")
+                                        : "link " + std::to_string(it - links.begin() + 1)) +
+                     " by " + FormatNumber(std::round(contacts[k].depth * 1e4) / 10) + " mm";
+          return;
+        }
+      }
+    };
+    const auto arm = reinterpret_cast<dGeomID>(arm_space);
+    if (static_space != nullptr) {
+      dSpaceCollide2(arm, reinterpret_cast<dGeomID>(static_space), &probe, callback);
+    }
+    if (probe.found.empty() && free_count > 0) {
+      dSpaceCollide2(arm, reinterpret_cast<dGeomID>(free_space), &probe, callback);
+    }
+    return probe.found;
+  }
+
   void BuildEnvironment(const core::Environment& environment) {
     std::vector<dGeomID> static_geoms;
     for (const core::EnvironmentObject& object : environment.objects) {
@@ -532,6 +646,15 @@ struct ArmWorld::Impl {
       for (Object& object : objects) {
         if (object.body != nullptr) PlaceObject(object);  // static objects never moved
       }
+    }
+    have_previous = false;
+    const bool still =
+        std::all_of(joints.begin(), joints.end(), [](const JointSim& sim) { return sim.qd == 0; });
+    if (still) {
+      StartRest(true);
+    } else {
+      at_rest = false;
+      quiet_steps = 0;
     }
   }
 
@@ -738,6 +861,15 @@ struct ArmWorld::Impl {
         }
       }
     }
+    if (KeepsRest(command)) {
+      // Held still under the same command: nothing moves, so nothing is integrated.
+      for (JointSim& sim : joints) sim.braked = command.mode == core::CommandMode::kHold;
+      last_rows = 0;
+      ++rest_ticks;
+      ++tick;
+      return;
+    }
+    at_rest = false;
     // Sliding joints take their kinetic friction as a plain torque, which saves the constraint
     // row; that is exact as long as the joint keeps sliding the same way through the step. If one
     // reached or crossed zero speed, the step is undone and redone with that joint's row, so the
@@ -790,6 +922,7 @@ struct ArmWorld::Impl {
     }
     last_rows = rows + contact_rows;
     ++tick;
+    NoteRest(command);
   }
 
   core::ArmState State() const {
@@ -809,6 +942,7 @@ struct ArmWorld::Impl {
       } else if (sim.stuck && sim.has_friction) {
         flags |= sirupp::arm_state_t::FLAG_STICKING;
       }
+      if (at_rest) flags |= sirupp::arm_state_t::FLAG_AT_REST;
       state.flags.push_back(static_cast<int8_t>(flags));
     }
     return state;
@@ -829,6 +963,24 @@ double ArmWorld::time_s() const { return static_cast<double>(impl_->tick) * impl
 void ArmWorld::SetJointState(const std::vector<double>& position,
                              const std::vector<double>& velocity, bool reset_objects) {
   impl_->Teleport(position, velocity, reset_objects);
+}
+
+void ArmWorld::ReplaceEnvironment(const core::Environment& environment) {
+  const core::Environment previous = impl_->built_environment;
+  impl_->ClearEnvironment();
+  impl_->BuildEnvironment(environment);
+  const std::string overlap = impl_->FindOverlap();
+  if (overlap.empty()) {
+    impl_->built_environment = environment;
+    if (!impl_->RestAllowed()) {  // free objects now: they may move and push the arm
+      impl_->at_rest = false;
+      impl_->quiet_steps = 0;
+    }
+    return;
+  }
+  impl_->ClearEnvironment();
+  impl_->BuildEnvironment(previous);
+  throw std::invalid_argument(overlap + " where the arm stands now");
 }
 
 void ArmWorld::Step(const core::ArmCommand& command) { impl_->Step(command); }
@@ -872,5 +1024,9 @@ std::vector<ObjectPose> ArmWorld::ObjectPoses() const {
 const std::vector<std::string>& ArmWorld::Omissions() const { return impl_->omissions; }
 
 int ArmWorld::LastStepRows() const { return impl_->last_rows; }
+
+bool ArmWorld::AtRest() const { return impl_->at_rest; }
+
+int64_t ArmWorld::RestTicks() const { return impl_->rest_ticks; }
 
 }  // namespace sirupp::sim

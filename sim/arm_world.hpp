@@ -36,6 +36,12 @@ struct WorldOptions {
   // Keep every joint's friction row even while it slides (slower; the default gives the same
   // motion with fewer constraint rows, see docs/physics.md). For tests and comparisons.
   bool always_friction_rows = false;
+  // Rest: once every joint has been held (stuck in static friction, or braked) below stick_speed
+  // for kRestSteps steps under one unchanged command, the arm is kept exactly still, without
+  // stepping, until the command changes or the arm is teleported. Without it a held arm trembles
+  // in the last bits of its state, so a move's result would depend on the tick it started at
+  // (docs/physics.md, "Rest"). Never with free environment objects.
+  bool rest = true;
 };
 
 // The world pose of one environment object (free objects move; static ones never do).
@@ -67,6 +73,12 @@ class ArmWorld {
   void SetJointState(const std::vector<double>& position, const std::vector<double>& velocity = {},
                      bool reset_objects = false);
 
+  // Replaces the environment's objects with `environment`'s, between two steps: the arm, its
+  // joints, time and friction state are untouched. Throws std::invalid_argument naming the object
+  // and the link when a new object would overlap the arm where it stands (deeper than 1 mm); the
+  // old objects are then put back as they were built (free objects at their start poses).
+  void ReplaceEnvironment(const core::Environment& environment);
+
   // Advances one step under `command`: efforts (clamped to each joint's effort_max) in
   // kEffort mode, every joint braked still in kHold, no actuator effort in kLimp. Throws
   // std::invalid_argument if the command's joint count is wrong or an effort is not finite; the
@@ -88,6 +100,10 @@ class ArmWorld {
   // Names of model features this engine cannot represent and leaves out (e.g. armature on a
   // prismatic joint); empty when everything is simulated.
   const std::vector<std::string>& Omissions() const;
+  // True while the arm is at rest (see WorldOptions::rest); State() then flags every joint
+  // FLAG_AT_REST. Ticks spent at rest so far.
+  bool AtRest() const;
+  int64_t RestTicks() const;
   // Constraint rows ODE solved in the last step (hinge rows + friction, limit and contact rows);
   // the step's cost grows with the cube of this count.
   int LastStepRows() const;

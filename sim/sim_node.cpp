@@ -136,6 +136,7 @@ SimNode::SimNode(core::Bus& bus, ArmWorld& world, core::Environment environment,
       environment_(std::move(environment)),
       options_(std::move(options)),
       heartbeat_(bus, options_.process_name, options_.channels.heartbeat),
+      replier_(bus, options_.channels.sim_reply, options_.process_name),
       run_id_(NewRunId()) {
   CheckNodeOptions(options_);
   if (Gated()) {
@@ -159,6 +160,12 @@ SimNode::SimNode(core::Bus& bus, ArmWorld& world, core::Environment environment,
   bus_.Subscribe<sirupp::estop_t>(
       options_.channels.estop, [this](const sirupp::estop_t& message,
                                       const core::ReceiveInfo& info) { OnEstop(message, info); });
+  bus_.Subscribe<sirupp::sim_command_t>(
+      options_.channels.sim_command,
+      [this](const sirupp::sim_command_t& message, const core::ReceiveInfo& info) {
+        replier_.Answer(
+            message, info, [&] { OnSimCommand(message, info); }, [] { return core::ReplyFacts{}; });
+      });
   heartbeat_.Publish(core::ProcessState::kStarting, "");
   PublishLatched(true);
 }
@@ -298,6 +305,28 @@ void SimNode::OnCommand(const sirupp::arm_command_t& message, const core::Receiv
   participant->latency_sum_ms += latency_ms;
   participant->latency_max_ms = std::max(participant->latency_max_ms, latency_ms);
   ++participant->latency_count;
+}
+
+void SimNode::OnSimCommand(const sirupp::sim_command_t& message, const core::ReceiveInfo& info) {
+  const core::SimCommand command = core::SimCommandFromMessage(message, info.channel);
+  const std::string name = command.name.empty() ? "(environment text)" : command.name;
+  // The file's own error names name:line and the field.
+  const core::Environment environment = core::ParseEnvironment(command.text, name);
+  // A moving arm would meet objects it was not planned around: load while it stands still.
+  const core::ArmState state = world_.State();
+  for (size_t j = 0; j < state.velocity.size(); ++j) {
+    if (std::abs(state.velocity[j]) > kStillSpeed) {
+      throw std::runtime_error("the arm moves (joint " + std::to_string(j + 1) + " at " +
+                               core::FormatNumber(state.velocity[j]) +
+                               " rad/s or m/s): load an environment while it stands still");
+    }
+  }
+  world_.ReplaceEnvironment(environment);  // throws when an object would overlap the arm
+  environment_ = environment;
+  std::cerr << options_.process_name << ": environment '" << environment_.name << "' from " << name
+            << " (" << environment_.objects.size() << " objects) loaded by '" << message.sender
+            << "' at tick " << world_.tick() << "\n";
+  PublishLatched(true);
 }
 
 void SimNode::OnReset(const sirupp::sim_reset_t& message, const core::ReceiveInfo& info) {

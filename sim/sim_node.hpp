@@ -23,6 +23,8 @@
 // the first time per sender and kind, and listed with the reason on SIM_STATUS; a registered
 // participant's refused answer counts as "hold", so the arm brakes instead of moving on it.
 // ESTOP brakes every joint and makes the node ignore every effort until it is released.
+// SIM_COMMAND loads another environment between two ticks (the arm untouched), answered on
+// SIM_REPLY; refused while the arm moves or when an object would overlap it.
 //
 // Single-threaded: call Service() in a loop (sirupp-sim's main does), or interleave it with other
 // work on the same Bus in tests. Time comes from NodeOptions::clock, so tests can drive the
@@ -34,6 +36,7 @@
 #include <map>
 #include <sirupp/arm_command_t.hpp>
 #include <sirupp/estop_t.hpp>
+#include <sirupp/sim_command_t.hpp>
 #include <sirupp/sim_reset_t.hpp>
 #include <string>
 #include <vector>
@@ -41,6 +44,7 @@
 #include "core/arm_state.hpp"
 #include "core/bus.hpp"
 #include "core/channels.hpp"
+#include "core/command_reply.hpp"
 #include "core/environment.hpp"
 #include "core/heartbeat.hpp"
 #include "sim/arm_world.hpp"
@@ -167,6 +171,8 @@ class SimNode {
   void OnCommand(const sirupp::arm_command_t& message, const core::ReceiveInfo& info);
   void OnReset(const sirupp::sim_reset_t& message, const core::ReceiveInfo& info);
   void OnEstop(const sirupp::estop_t& message, const core::ReceiveInfo& info);
+  // SIM_COMMAND: loads an environment between two ticks (answered on SIM_REPLY).
+  void OnSimCommand(const sirupp::sim_command_t& message, const core::ReceiveInfo& info);
   // Counts a refusal of `sender`'s command, prints it the first time per sender and kind.
   void NoteRefusal(const std::string& sender, const std::string& kind, const std::string& reason);
   void NoteProblem(const std::string& what, bool print);
@@ -194,11 +200,14 @@ class SimNode {
   void ForgetOldSenders(NodeClock::TimePoint now);
   bool Finished() const;
 
+  // Faster than this (rad/s or m/s) a joint counts as moving: no environment is loaded then.
+  static constexpr double kStillSpeed = 0.01;
   core::Bus& bus_;
   ArmWorld& world_;
   core::Environment environment_;
   NodeOptions options_;
   core::Heartbeat heartbeat_;
+  core::Replier replier_;  // SIM_REPLY
   NodeCounters counters_;
   std::string detail_;
   NodeClock::TimePoint last_problem_;

@@ -611,6 +611,115 @@ TEST(ArmWorld, AFreeBoxRestsOnAnotherFreeBox) {
   EXPECT_NEAR(poses[2].pose.translation().z(), 0.1 + 0.03, 3e-3);  // on the lower box
 }
 
+// --- Rest (WorldOptions::rest, docs/physics.md)
+
+core::ArmCommand Hold(int n) {
+  core::ArmCommand command = Limp(n);
+  command.mode = core::CommandMode::kHold;
+  return command;
+}
+
+// A PD law on encoder counts, as a PIC-SERVO computes it: the same counts give the same
+// command, so a held arm gets one unchanged command and can come to rest.
+struct CountsPd {
+  std::vector<double> goal;
+  std::vector<long> previous;
+  core::ArmCommand operator()(const core::ArmState& state) {
+    const double quantum = 1e-4;  // rad per count
+    std::vector<double> effort;
+    previous.resize(goal.size(), 0);
+    for (size_t j = 0; j < goal.size(); ++j) {
+      const long error = std::lround((goal[j] - state.position[j]) / quantum);
+      effort.push_back(0.004 * static_cast<double>(error) +
+                       0.05 * static_cast<double>(error - previous[j]));
+      previous[j] = error;
+    }
+    return Effort(effort);
+  }
+};
+
+// Runs the law until the arm is at rest again (at most 20 000 steps).
+void SettleAt(ArmWorld& world, CountsPd& law) {
+  int k = 0;
+  do {
+    world.Step(law(world.State()));
+  } while (!world.AtRest() && ++k < 20000);
+}
+
+TEST(ArmWorld, AHeldArmComesToRestAndStaysBitForBitStill) {
+  ArmWorld world(Puma(), core::Environment{});
+  world.SetJointState({0.2, -0.5, 0.8, 0, 0.3, 0}, {0.3, 0, 0, 0, 0, 0});
+  EXPECT_FALSE(world.AtRest());  // moving
+  int steps = 0;
+  while (!world.AtRest() && steps < 2000) {
+    world.Step(Hold(6));
+    ++steps;
+  }
+  ASSERT_TRUE(world.AtRest()) << "not at rest after " << steps << " steps";
+  const core::ArmState rest = world.State();
+  for (int8_t flags : rest.flags) EXPECT_TRUE(flags & sirupp::arm_state_t::FLAG_AT_REST);
+  for (double v : rest.velocity) EXPECT_LE(std::abs(v), 1e-6);
+  for (int k = 0; k < 5000; ++k) world.Step(Hold(6));
+  EXPECT_EQ(world.State().position, rest.position);
+  EXPECT_EQ(world.RestTicks(), 5000);
+}
+
+TEST(ArmWorld, AMoveFromRestDoesNotDependOnHowLongTheArmRested) {
+  // The servo loop's tick of start is up to the scheduler (the plan arrives when it arrives);
+  // the arm's motion must not be.
+  const std::vector<double> first = {0.1, -0.6, 0.7, 0.1, 0.2, 0.1};
+  const std::vector<double> second = {0.6, -0.2, 0.3, -0.2, 0.5, 0.4};
+  auto run = [&](int rest_ticks, bool rest) {
+    WorldOptions options;
+    options.rest = rest;
+    ArmWorld world(Puma(), core::Environment{}, options);
+    CountsPd law{first, {}};
+    if (rest) {
+      SettleAt(world, law);
+      EXPECT_TRUE(world.AtRest());
+    } else {
+      for (int k = 0; k < 6000; ++k) world.Step(law(world.State()));
+    }
+    for (int k = 0; k < rest_ticks; ++k) world.Step(law(world.State()));
+    EXPECT_EQ(world.AtRest(), rest);
+    law.goal = second;
+    for (int k = 0; k < 3000; ++k) world.Step(law(world.State()));
+    return world.State().position;
+  };
+  const std::vector<double> early = run(100, true);
+  const std::vector<double> late = run(1001, true);  // odd: the other phase of any trembling
+  EXPECT_EQ(early, late);                            // bit for bit
+  EXPECT_GT(std::abs(early[0] - first[0]), 0.1);     // it did move
+  // Without rest the held arm trembles in its last bits, and where the move ends depends on the
+  // tick it started at: what the rest is for.
+  EXPECT_NE(run(100, false), run(1001, false));
+}
+
+TEST(ArmWorld, AnotherCommandWakesTheArm) {
+  ArmWorld world(Puma(), core::Environment{});
+  EXPECT_TRUE(world.AtRest());  // built at home, still
+  world.Step(Hold(6));
+  EXPECT_TRUE(world.AtRest());  // a hold keeps a still arm still
+  std::vector<double> effort(6, 0.0);
+  effort[0] = 5.0;  // N*m on the waist, above its static friction
+  world.Step(Effort(effort));
+  EXPECT_FALSE(world.AtRest());
+  for (int k = 0; k < 200; ++k) world.Step(Effort(effort));
+  EXPECT_GT(world.State().position[0], 1e-4);
+  EXPECT_FALSE(world.AtRest());
+}
+
+TEST(ArmWorld, FreeObjectsKeepTheArmAwake) {
+  core::Environment environment;
+  environment.objects.push_back(
+      Object("box", core::ShapeType::kBox, {0.1, 0.1, 0.1}, {0.8, 0, 0.5}, false, 0.2));
+  ArmWorld world(Puma(), environment);
+  EXPECT_FALSE(world.AtRest());
+  for (int k = 0; k < 1000; ++k) world.Step(Hold(6));
+  EXPECT_FALSE(world.AtRest());
+  EXPECT_LT(world.ObjectPoses()[0].pose.translation().z(), 0.5 - 0.01);  // the box fell
+}
+
 // The limit's number of static objects (2 cm cubes on the floor, rows of 100) with a table top
 // under the forearm in the middle of them.
 core::Environment ManyStaticBoxesAndATable() {

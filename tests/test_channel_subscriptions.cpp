@@ -20,6 +20,7 @@
 #include "hardware/emulator.hpp"
 #include "hardware/serial_port.hpp"
 #include "logger/logger_node.hpp"
+#include "logger/recorder.hpp"
 #include "sim/arm_world.hpp"
 #include "sim/sim_node.hpp"
 #include "viewer/viewer_node.hpp"
@@ -91,7 +92,7 @@ TEST(ChannelSubscriptions, SirupLoggerSubscribesWhatTheTableSays) {
     logger::LoggerOptions options;
     options.out_dir = dir.string();
     options.name = "t";
-    logger::LoggerNode node(bus, Puma(), options);
+    logger::Recorder node(bus, Puma(), options);  // what sirupp-logger runs
     EXPECT_EQ(Subscribed(bus), FromTable("sirupp-logger"));
   }
   std::filesystem::remove_all(dir);

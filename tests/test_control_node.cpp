@@ -378,8 +378,8 @@ TEST(ControlNode, GainsChangeLiveAndBadGainsAreRefused) {
   rig.RunFor(0.01);
   rig.bus.Publish("ARM_GAINS", Gains(6, 250));
   rig.RunFor(0.01);
-  EXPECT_EQ(rig.control.servos().servo(0).gains().kp, 250);
-  EXPECT_EQ(rig.control.servos().servo(5).gains().kp, 250);
+  EXPECT_EQ(rig.control.servos().Gains(0).kp, 250);
+  EXPECT_EQ(rig.control.servos().Gains(5).kp, 250);
   rig.bus.Publish("ARM_GAINS", Gains(6, -1));
   rig.bus.Publish("ARM_GAINS", Gains(6, 10.5));
   rig.bus.Publish("ARM_GAINS", Gains(3, 100));
@@ -389,7 +389,7 @@ TEST(ControlNode, GainsChangeLiveAndBadGainsAreRefused) {
   rig.RunFor(0.01);
   EXPECT_EQ(rig.Rejected("ARM_GAINS"), 4);
   EXPECT_NE(rig.control.last_error().find("servo_rate_divisor[2]"), std::string::npos);
-  EXPECT_EQ(rig.control.servos().servo(0).gains().kp, 250);
+  EXPECT_EQ(rig.control.servos().Gains(0).kp, 250);
   // Higher stiffness is felt at once: the gravity sag of the shoulder shrinks.
   Rig soft;
   soft.RunFor(1.0);

@@ -6,8 +6,10 @@
 #include <chrono>
 #include <filesystem>
 #include <fstream>
+#include <regex>
 #include <sstream>
 #include <thread>
+#include <vector>
 
 #include "core/errors.hpp"
 #include "launch/layout.hpp"
@@ -181,10 +183,42 @@ TEST_F(SupervisorTest, StartsInOrderWaitsForReadinessAndStopsCleanly) {
   s->Stop();
   EXPECT_EQ(::kill(second, 0), -1);  // gone
   EXPECT_EQ(s->ExitCode(), 0) << events_.str();
+  // The log: the launcher's timestamped line, the process's own output, how it ended.
   std::ifstream log(run_dir_ / "logs" / "second.log");
-  std::string line;
-  std::getline(log, line);
-  EXPECT_EQ(line, "saw it");
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(log, line);) lines.push_back(line);
+  ASSERT_EQ(lines.size(), 3u);
+  const std::regex stamp(R"(^\d{4}-\d\d-\d\dT\d\d:\d\d:\d\d\.\d{3} sirupp-launch info: )");
+  EXPECT_TRUE(std::regex_search(lines[0], stamp)) << lines[0];
+  EXPECT_NE(lines[0].find(" -c test -e "), std::string::npos) << lines[0];
+  EXPECT_EQ(lines[1], "saw it");
+  EXPECT_TRUE(std::regex_search(lines[2], stamp)) << lines[2];
+  EXPECT_NE(lines[2].find("second (pid " + std::to_string(second) + ") ended: "), std::string::npos)
+      << lines[2];
+  // Every event line carries the same prefix as the processes' log lines.
+  std::istringstream events(events_.str());
+  int count = 0;
+  for (std::string line; std::getline(events, line); ++count) {
+    EXPECT_TRUE(std::regex_search(line, stamp)) << line;
+    EXPECT_NE(line.find(" info: [local] "), std::string::npos) << line;
+  }
+  EXPECT_GE(count, 4);
+}
+
+TEST_F(SupervisorTest, LayoutsSeeTheBusAsVariables) {
+  const Layout layout = ParseLayout(
+      "lab: test\nlcm_url: udpm://239.255.76.67:7999?ttl=0\nprefix: RIG2_\nprocesses:\n"
+      "  - name: rec\n"
+      "    run: [sh, -c, 'echo ${LCM_URL} ${PREFIX} ${LAB}']\n"
+      "    lcm: false\n",
+      "test.yaml");
+  SupervisorOptions o;
+  o.host = "local";
+  o.run_dir = run_dir_.string();
+  const Supervisor s(layout, o);
+  const std::vector<std::string> command = s.CommandOf(layout.processes[0]);
+  ASSERT_EQ(command.size(), 3u);
+  EXPECT_EQ(command[2], "echo udpm://239.255.76.67:7999?ttl=0 RIG2_ test");
 }
 
 TEST_F(SupervisorTest, RestartsOnFailureUpToTheLimitAndReportsIt) {

@@ -519,11 +519,12 @@ TEST(LoggerNode, RefusesNonFiniteValuesAndImpossibleStatuses) {
   for (const char* channel : {"SIM_ARM_STATE", "ARM_SETPOINT", "REAL_ARM_STATE"}) {
     const core::ChannelStats stats = rig.bus.StatsFor(channel);
     EXPECT_EQ(stats.rejected, 1) << channel;
-    EXPECT_NE(stats.last_error.find("allowed finite values"), std::string::npos)
+    EXPECT_NE(stats.last_error.find("is not allowed; expected a finite number"), std::string::npos)
         << stats.last_error;
   }
   EXPECT_EQ(rig.bus.StatsFor("CONTROLLER_STATUS").rejected, 1);
-  EXPECT_NE(rig.bus.StatsFor("CONTROLLER_STATUS").last_error.find("state: 99: allowed 0..5"),
+  EXPECT_NE(rig.bus.StatsFor("CONTROLLER_STATUS")
+                .last_error.find("state: 99 is not allowed; expected 0..5"),
             std::string::npos)
       << rig.bus.StatsFor("CONTROLLER_STATUS").last_error;
   const LoggerStats stats = node.stats();

@@ -5,24 +5,33 @@
 // stand-in controller and bridge here answer as sirupp-control and sirupp-hardware do.
 
 #include <gtest/gtest.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <cmath>
+#include <filesystem>
+#include <fstream>
 #include <sirupp/estop_t.hpp>
 #include <sirupp/hardware_command_t.hpp>
 #include <sirupp/joint_target_t.hpp>
+#include <sirupp/logger_command_t.hpp>
 #include <sirupp/plan_command_t.hpp>
 #include <sirupp/pose_target_t.hpp>
 #include <sirupp/servo_gains_t.hpp>
+#include <sirupp/sim_command_t.hpp>
+#include <sstream>
 
 #include "core/bus.hpp"
 #include "core/command_reply.hpp"
 #include "core/kinematics.hpp"
 #include "core/model_loader.hpp"
 #include "core/translate.hpp"
+#include "logger/recorder.hpp"
 #include "panel/panel_api.hpp"
 #include "panel/panel_hub.hpp"
 #include "servo/chip_gains.hpp"
+#include "sim/arm_world.hpp"
+#include "sim/sim_node.hpp"
 
 namespace sirupp::panel {
 namespace {
@@ -327,6 +336,256 @@ TEST_F(PanelApiTest, TheReplyToTheRequestIsTheHttpAnswer) {
   ASSERT_EQ(estops_.size(), 1U);
   EXPECT_EQ(estops_[0].reason, "panel e-stop (ann)");
   EXPECT_EQ(estops_[0].sender, "sirupp-panel");
+}
+
+// A fresh directory, removed at the end of the test.
+struct TempDir {
+  std::filesystem::path path;
+  TempDir() {
+    char pattern[] = "/tmp/sirupp_panel_test_XXXXXX";
+    path = mkdtemp(pattern);
+  }
+  ~TempDir() { std::filesystem::remove_all(path); }
+};
+
+std::string ReadText(const std::string& path) {
+  std::ifstream in(path);
+  std::ostringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+
+// The record panel drives a real sirupp-logger recorder on the bus: start a named run, refuse a
+// second start, a bad name (nothing sent) and a name already used, stop it; the run's files are
+// listed with their sizes and downloadable, and a stop with nothing recorded is refused.
+TEST_F(PanelApiTest, RecordStartsAndStopsTheLoggerAndListsTheRun) {
+  PublishRig();
+  TempDir results;
+  logger::LoggerOptions options;
+  options.out_dir = results.path.string();
+  options.split_per_plan = false;
+  logger::Recorder recorder(bus_, model_, options, /*record_now=*/false);
+  int commands = 0;
+  bus_.Subscribe<sirupp::logger_command_t>(
+      "LOGGER_COMMAND",
+      [&](const sirupp::logger_command_t&, const core::ReceiveInfo&) { ++commands; });
+  PanelApi api(hub_, ApiOptions{".", results.path.string(), false, "", std::chrono::seconds(30)});
+  auto post = [&](const std::string& path, const std::string& body) {
+    Response out = api.Handle(Request{"POST", path, {}, body, "127.0.0.1", "a", ""});
+    Pump();
+    return out;
+  };
+  EXPECT_EQ(post("/api/record/start", R"({"name": "lab1"})").status, 409);  // no control yet
+  ASSERT_EQ(post("/api/lock", R"({"name": "ann"})").status, 200);
+  Response bad = post("/api/record/start", R"({"name": "../etc"})");
+  EXPECT_EQ(bad.status, 400);
+  EXPECT_NE(Body(bad)["error"].get<std::string>().find("run name '../etc'"), std::string::npos);
+  EXPECT_EQ(commands, 0);
+  Response started = post("/api/record/start", R"({"name": "lab1"})");
+  ASSERT_EQ(started.status, 200) << started.body;
+  EXPECT_TRUE(recorder.recording());
+  EXPECT_EQ(recorder.name(), "lab1");
+  Response again = post("/api/record/start", R"({"name": "lab2"})");
+  EXPECT_EQ(again.status, 409);
+  EXPECT_NE(Body(again)["error"].get<std::string>().find("'lab1' is being recorded"),
+            std::string::npos)
+      << again.body;
+  // A few hundred ticks of both streams, then stop: the run's file is closed with its rows.
+  for (int64_t tick = 0; tick < 400; ++tick) {
+    sirupp::arm_state_t state{};
+    state.utime = tick * 512;
+    state.seq = tick;
+    state.tick = tick;
+    state.num_joints = 6;
+    state.position.assign(6, 0.01);
+    state.velocity.assign(6, 0.0);
+    state.effort.assign(6, 0.0);
+    state.flags.assign(6, 0);
+    bus_.Publish("SIM_ARM_STATE", state);
+    if (tick % 50 == 0) recorder.Service(0);
+  }
+  recorder.Service(0);
+  Response stopped = post("/api/record/stop", "{}");
+  ASSERT_EQ(stopped.status, 200) << stopped.body;
+  recorder.Service(0);
+  EXPECT_FALSE(recorder.recording());
+  EXPECT_GT(recorder.stats().rows, 100);
+  const Json record = Body(api.Handle(Request{"GET", "/api/record", {}, "", "127.0.0.1", "a", ""}));
+  ASSERT_FALSE(record["logger"].is_null()) << record.dump();  // its heartbeat
+  EXPECT_EQ(record["logger"]["state"], "running");
+  ASSERT_EQ(record["runs"].size(), 1U) << record.dump();
+  EXPECT_EQ(record["runs"][0]["name"], "lab1");
+  EXPECT_FALSE(record["runs"][0]["recording"].get<bool>());
+  ASSERT_EQ(record["runs"][0]["files"].size(), 1U);
+  const std::string file = record["runs"][0]["files"][0]["path"];
+  EXPECT_GT(record["runs"][0]["files"][0]["size"].get<int64_t>(), 1000);
+  const Response download =
+      api.Handle(Request{"GET", "/api/download", {{"path", file}}, "", "127.0.0.1", "a", ""});
+  ASSERT_EQ(download.status, 200);
+  EXPECT_EQ(download.content_type, "text/csv");
+  EXPECT_EQ(download.body, ReadText(file));
+  EXPECT_NE(download.body.find("# end"), std::string::npos);
+  // Outside config/ and the results folder: refused.
+  EXPECT_EQ(api.Handle(Request{"GET", "/api/download", {{"path", "/etc/passwd"}}, "", "", "a", ""})
+                .status,
+            403);
+  Response used = post("/api/record/start", R"({"name": "lab1"})");
+  EXPECT_EQ(used.status, 409);
+  EXPECT_NE(Body(used)["error"].get<std::string>().find("has files"), std::string::npos);
+  Response idle = post("/api/record/stop", "{}");
+  EXPECT_EQ(idle.status, 409);
+  EXPECT_NE(Body(idle)["error"].get<std::string>().find("nothing is being recorded"),
+            std::string::npos);
+  // No logger at all: the answer says which reply was not heard.
+  recorder.Close();
+}
+
+TEST_F(PanelApiTest, RecordWithoutALoggerSaysNoReply) {
+  PublishRig();
+  ASSERT_EQ(Post("/api/lock", R"({"name": "ann"})").status, 200);
+  Response none = Post("/api/record/start", R"({"name": "lab1"})");
+  EXPECT_EQ(none.status, 504);
+  EXPECT_NE(Body(none)["error"].get<std::string>().find("no reply on LOGGER_REPLY"),
+            std::string::npos)
+      << none.body;
+}
+
+// The environment panel loads a file into a real SimNode on the bus: the new objects come back on
+// ENVIRONMENT with the arm untouched; a bad file is refused at its line before anything is sent;
+// an object overlapping the arm and a load while the arm moves are refused by the sim, which
+// keeps its objects.
+TEST_F(PanelApiTest, EnvironmentLoadsIntoTheRunningSimOrIsRefusedWithTheReason) {
+  core::Environment none;
+  sim::ArmWorld world(model_, none);
+  sim::NodeOptions options;
+  options.mode = sim::TimingMode::kFast;
+  sim::SimNode sim_node(bus_, world, none, options);
+  int commands = 0;
+  bus_.Subscribe<sirupp::sim_command_t>(
+      "SIM_COMMAND", [&](const sirupp::sim_command_t&, const core::ReceiveInfo&) { ++commands; });
+  Pump();
+  ASSERT_EQ(Post("/api/lock", R"({"name": "ann"})").status, 200);
+  const std::string table = ReadText("config/environments/table.xml");
+  Response loaded = Post("/api/environment/load",
+                         Json{{"name", "config/environments/table.xml"}, {"text", table}}.dump());
+  ASSERT_EQ(loaded.status, 200) << loaded.body;
+  EXPECT_EQ(Body(loaded)["message"],
+            "SIM_COMMAND: environment config/environments/table.xml accepted");
+  Pump();
+  const Json env = Body(Get("/api/environment"));
+  EXPECT_EQ(env["name"], "table");
+  EXPECT_EQ(env["source_file"], "config/environments/table.xml");
+  EXPECT_EQ(env["objects"].size(), core::ParseEnvironment(table, "t").objects.size());
+  EXPECT_EQ(world.ObjectPoses().size(), env["objects"].size());
+  EXPECT_EQ(world.tick(), 0);  // the arm was not stepped or rebuilt
+  // A bad file: 422 with the line; the sim is never asked.
+  const int sent = commands;
+  Response bad = Post("/api/environment/load",
+                      Json{{"name", "bad.xml"},
+                           {"text",
+                            "<environment name=\"x\">\n<box name=\"b\" size=\"1 -1 1\"/>\n"
+                            "</environment>\n"}}
+                          .dump());
+  EXPECT_EQ(bad.status, 422);
+  EXPECT_EQ(Body(bad)["line"], 2);
+  EXPECT_NE(Body(bad)["error"].get<std::string>().find("bad.xml:2"), std::string::npos);
+  EXPECT_EQ(commands, sent);
+  // An object through the upper arm (shoulder at 0.33 m, the upper arm along +x): refused.
+  const std::string through_arm =
+      "<environment name=\"wall\" length_unit=\"m\">\n"
+      "  <box name=\"slab\" size=\"0.1 0.3 0.1\" position=\"0.1 0 0.33\"/>\n"
+      "</environment>\n";
+  Response overlap =
+      Post("/api/environment/load", Json{{"name", "wall.xml"}, {"text", through_arm}}.dump());
+  EXPECT_EQ(overlap.status, 409);
+  EXPECT_NE(Body(overlap)["error"].get<std::string>().find("object 'slab' overlaps link"),
+            std::string::npos)
+      << overlap.body;
+  Pump();
+  EXPECT_EQ(Body(Get("/api/environment"))["name"], "table");  // kept
+  EXPECT_EQ(world.ObjectPoses().size(), env["objects"].size());
+  // The arm moving: refused.
+  world.SetJointState(std::vector<double>(6, 0.0), {0, 0.5, 0, 0, 0, 0});
+  Response moving =
+      Post("/api/environment/load", Json{{"name", "config/environments/empty.xml"},
+                                         {"text", ReadText("config/environments/empty.xml")}}
+                                        .dump());
+  EXPECT_EQ(moving.status, 409);
+  EXPECT_NE(Body(moving)["error"].get<std::string>().find("the arm moves (joint 2"),
+            std::string::npos)
+      << moving.body;
+}
+
+// The model panel: the file's editable values with their text; an edit checked by the model
+// loader with the error at the field; a valid edit saved as a new file under config/robots (never
+// over one), which the loader reads back with the new value.
+TEST_F(PanelApiTest, ModelEditsAreCheckedByTheLoaderAndSavedAsANewFile) {
+  TempDir root;
+  std::filesystem::create_directories(root.path / "config/robots");
+  std::filesystem::copy_file("config/robots/puma260.yaml",
+                             root.path / "config/robots/puma260.yaml");
+  PanelApi api(hub_, ApiOptions{root.path.string(), "", false, "", std::chrono::seconds(30)});
+  auto get = [&](const std::string& path, std::map<std::string, std::string> query) {
+    return api.Handle(Request{"GET", path, std::move(query), "", "127.0.0.1", "a", ""});
+  };
+  auto post = [&](const std::string& path, const Json& body) {
+    return api.Handle(Request{"POST", path, {}, body.dump(), "127.0.0.1", "a", ""});
+  };
+  const std::string file = "config/robots/puma260.yaml";
+  const Json fields = Body(get("/api/model/fields", {{"path", file}}));
+  std::map<std::string, std::string> values;
+  for (const Json& field : fields["fields"]) values[field["key"]] = field["value"];
+  EXPECT_EQ(values["dh[1].a"], "8");
+  EXPECT_EQ(values["dh[0].alpha"], "-90");
+  EXPECT_EQ(values["joints[0].limits[1]"], "145");
+  EXPECT_EQ(values["joints[0].friction.coulomb"], "[0.7, 0.75]");
+  EXPECT_EQ(values["links[1].mass_kg"], "3.0");
+  EXPECT_EQ(fields["units"], "{length: inch, angle: deg}");
+  EXPECT_EQ(get("/api/model/fields", {{"path", "/etc/passwd"}}).status, 403);
+
+  // A negative mass: the loader's error, at the field.
+  Response mass =
+      post("/api/model/check", Json{{"path", file}, {"edits", {{"links[1].mass_kg", "-2"}}}});
+  ASSERT_EQ(mass.status, 422) << mass.body;
+  EXPECT_EQ(Body(mass)["field"], "links[1].mass_kg");
+  EXPECT_NE(Body(mass)["error"].get<std::string>().find("links[1].mass_kg"), std::string::npos);
+  // A lower limit above the upper one.
+  Response limits =
+      post("/api/model/check", Json{{"path", file}, {"edits", {{"joints[0].limits[0]", "150"}}}});
+  ASSERT_EQ(limits.status, 422) << limits.body;
+  EXPECT_EQ(Body(limits)["field"], "joints[0].limits[0]") << limits.body;
+  EXPECT_NE(Body(limits)["error"].get<std::string>().find("puma260.yaml:42:"), std::string::npos);
+  // Not a number, or not an editable value: 400 naming it.
+  EXPECT_EQ(
+      post("/api/model/check", Json{{"path", file}, {"edits", {{"dh[1].a", "eight"}}}}).status,
+      400);
+  EXPECT_EQ(post("/api/model/check", Json{{"path", file}, {"edits", {{"name", "x"}}}}).status, 400);
+  // A good edit passes; saving needs control, a new name, and never replaces a file.
+  const Json edits{
+      {"links[1].mass_kg", "3.5"}, {"joints[0].friction.coulomb", "[0.8, 0.7]"}, {"dh[1].a", 8.5}};
+  EXPECT_EQ(post("/api/model/check", Json{{"path", file}, {"edits", edits}}).status, 200);
+  EXPECT_EQ(
+      post("/api/model/save", Json{{"path", file}, {"edits", edits}, {"name", "heavy"}}).status,
+      409);  // no control
+  ASSERT_EQ(post("/api/lock", Json{{"name", "ann"}}).status, 200);
+  EXPECT_EQ(
+      post("/api/model/save", Json{{"path", file}, {"edits", edits}, {"name", "../x"}}).status,
+      400);
+  Response saved =
+      post("/api/model/save", Json{{"path", file}, {"edits", edits}, {"name", "heavy"}});
+  ASSERT_EQ(saved.status, 200) << saved.body;
+  EXPECT_EQ(Body(saved)["path"], "config/robots/heavy.yaml");
+  const core::RobotModel heavy =
+      core::LoadRobotModel((root.path / "config/robots/heavy.yaml").string());
+  EXPECT_DOUBLE_EQ(heavy.links[1].mass_kg, 3.5);
+  EXPECT_DOUBLE_EQ(heavy.joints[0].friction.coulomb_positive, 0.8);
+  EXPECT_NEAR(heavy.joints[1].dh.a_m, 8.5 * 0.0254, 1e-12);
+  EXPECT_DOUBLE_EQ(heavy.links[2].mass_kg, model_.links[2].mass_kg);  // the rest as it was
+  EXPECT_EQ(
+      post("/api/model/save", Json{{"path", file}, {"edits", edits}, {"name", "heavy"}}).status,
+      409);
+  // The source file is untouched.
+  EXPECT_EQ(ReadText((root.path / file).string()), ReadText(file));
 }
 
 }  // namespace

@@ -93,12 +93,13 @@ TEST(ReportNumbers, APureDelay) {
   EXPECT_DOUBLE_EQ(move.to, 90.0);
   const PairMetrics& m = move.pairs[static_cast<size_t>(Pair::kSetVirt)];
   // |error| = 9 deg while both ramp, 0 -> 9 -> 0 over 0.1 s at either end: 9 deg*s in the
-  // transient of 1.25 s (until done + 0.25 s): mean 7.2; steady state 0; RMS over the move
-  // (2.5 s): sqrt((81 * 0.9 + 2 * 8100 * 0.1^3 / 3) / 2.5) = 5.5964.
+  // transient of 1.25 s (until done + 0.25 s): mean 7.2; steady state 0; RMS over the move's
+  // window (until done + 0.25 s + the 1 s steady window, 2.25 s; the file goes on to 3 s):
+  // sqrt((81 * 0.9 + 2 * 8100 * 0.1^3 / 3) / 2.25) = 5.8992.
   EXPECT_NEAR(m.mean_transient, 7.2, 0.01);
   EXPECT_NEAR(m.mean_steady, 0.0, 1e-12);
   EXPECT_NEAR(m.max, 9.0, 1e-9);
-  EXPECT_NEAR(m.rms, 5.5964, 0.005);
+  EXPECT_NEAR(m.rms, 5.8992, 0.005);
   EXPECT_EQ(m.transient_samples, 1251);
   EXPECT_FALSE(move.pairs[static_cast<size_t>(Pair::kSetReal)].has());
   const StreamResponse& set = move.streams[kSet];
@@ -238,7 +239,7 @@ TEST(ReportOutput, MarkdownCsvAndPlots) {
   const ReportOutput output = WriteReport(tables, options);
   EXPECT_EQ(output.moves, 1u);
   EXPECT_NE(output.markdown.find("| synthetic | 2 | 1 (waist) | from 0.0 to 90.0 deg | set-point "
-                                 "vs virtual | 7.19 | 0.00 | 5.60 | 9.00 |"),
+                                 "vs virtual | 7.19 | 0.00 | 5.90 | 9.00 |"),
             std::string::npos)
       << output.markdown;
   EXPECT_NE(output.markdown.find("|  |  |  |  | set-point vs real | - | - | - | - |"),

@@ -14,7 +14,6 @@
 #include <sirupp/heartbeat_t.hpp>
 #include <sirupp/robot_model_t.hpp>
 #include <sirupp/sim_status_t.hpp>
-#include <thread>
 
 #include "core/bus.hpp"
 #include "core/model_loader.hpp"
@@ -63,11 +62,35 @@ class Participant {
   int64_t seq_ = 0;
 };
 
+// A clock the test moves: the node's pacing, gate and watchdog read it instead of the wall clock.
+// sleep_until moves it only when `sleeping_moves_time` (a node that sleeps then finds the time
+// has come, as on a real clock).
+struct TestClock {
+  NodeClock::TimePoint now{};
+  bool sleeping_moves_time = true;
+  NodeClock Clock() {
+    NodeClock clock;
+    clock.now = [this] { return now; };
+    clock.sleep_until = [this](NodeClock::TimePoint until) {
+      if (sleeping_moves_time && until > now) now = until;
+    };
+    return clock;
+  }
+  void Advance(double seconds) {
+    now += std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+        std::chrono::duration<double>(seconds));
+  }
+};
+
+// Lockstep on a clock that stands still unless the test gives its own: no report of a late
+// participant can come from a loaded machine.
 NodeOptions Lockstep(std::vector<std::string> participants) {
   NodeOptions options;
   options.mode = TimingMode::kLockstep;
   options.participants = std::move(participants);
   options.lockstep_timeout_s = 0.05;
+  options.clock.now = [] { return NodeClock::TimePoint{}; };
+  options.clock.sleep_until = [](NodeClock::TimePoint) {};
   return options;
 }
 
@@ -93,23 +116,35 @@ TEST(SimNode, LockstepStepsOnlyWhenEveryParticipantHasAnswered) {
 TEST(SimNode, ALateParticipantIsNamedAndNeverSkipped) {
   core::Bus bus("memq://");
   ArmWorld world(Puma(), core::Environment{});
-  SimNode node(bus, world, core::Environment{}, Lockstep({"a", "slowpoke"}));
+  TestClock clock;
+  NodeOptions options = Lockstep({"a", "slowpoke"});  // reported after 0.05 s
+  options.clock = clock.Clock();
+  SimNode node(bus, world, core::Environment{}, options);
   Participant a(bus, "a", {0, 0, 0, 0, 0, 0});
   Participant slow(bus, "slowpoke", {0, 0, 0, 0, 0, 0});
   slow.silent = true;
-  const auto until = std::chrono::steady_clock::now() + std::chrono::milliseconds(200);
-  while (std::chrono::steady_clock::now() < until) node.Service(5);
+  // 20 services 12 ms apart (0 to 0.228 s): reported at 0.06, 0.12 and 0.18 s, each time the
+  // state sent again.
+  for (int k = 0; k < 20; ++k) {
+    node.Service(0);
+    clock.Advance(0.012);
+  }
   EXPECT_EQ(world.tick(), 0) << "stepped without slowpoke's answer";
-  EXPECT_GE(node.counters().lockstep_timeouts, 1);
+  EXPECT_EQ(node.counters().lockstep_timeouts, 3);
   EXPECT_NE(node.detail().find("no answer from slowpoke"), std::string::npos) << node.detail();
   EXPECT_EQ(node.detail().find("no answer from a"), std::string::npos);
   // The state was sent again, so a participant that starts late still gets it.
-  EXPECT_GE(a.states.size(), 2U);
+  EXPECT_EQ(a.states.size(), 4U);
+  for (const auto& state : a.states) EXPECT_EQ(state.tick, 0);
   slow.silent = false;
-  // It answers the re-sent state: the run goes on.
-  const auto later = std::chrono::steady_clock::now() + std::chrono::milliseconds(500);
-  while (world.tick() < 10 && std::chrono::steady_clock::now() < later) node.Service(5);
+  // It answers the next state sent again (at 0.24 s, the next service): the run goes on, one tick
+  // per service, with no further report.
+  for (int k = 0; k < 11; ++k) {
+    node.Service(0);
+    clock.Advance(0.012);
+  }
   EXPECT_EQ(world.tick(), 10);
+  EXPECT_EQ(node.counters().lockstep_timeouts, 4);
 }
 
 TEST(SimNode, BadCommandsAreRefusedCountedAndBrakeTheArm) {
@@ -210,26 +245,6 @@ TEST(SimNode, ResetTeleportsTheArmAndBadResetsAreRefused) {
   EXPECT_EQ(node.counters().resets, 1);
 }
 
-// A clock the test moves: the node's pacing, gate and watchdog read it instead of the wall clock.
-// sleep_until moves it only when `sleeping_moves_time` (a node that sleeps then finds the time
-// has come, as on a real clock).
-struct TestClock {
-  NodeClock::TimePoint now{};
-  bool sleeping_moves_time = true;
-  NodeClock Clock() {
-    NodeClock clock;
-    clock.now = [this] { return now; };
-    clock.sleep_until = [this](NodeClock::TimePoint until) {
-      if (sleeping_moves_time && until > now) now = until;
-    };
-    return clock;
-  }
-  void Advance(double seconds) {
-    now += std::chrono::duration_cast<std::chrono::steady_clock::duration>(
-        std::chrono::duration<double>(seconds));
-  }
-};
-
 NodeOptions Realtime(TestClock& clock, std::vector<std::string> participants) {
   NodeOptions options;
   options.mode = TimingMode::kRealtime;
@@ -279,8 +294,10 @@ TEST(SimNode, RealtimeBehindTheClockCatchesUpThenSlipsWhenTooFarBehind) {
   // One second behind: more than the 0.1 s the node catches up; the sim time slips.
   clock.Advance(1.0);
   for (int k = 0; k < 2000; ++k) node.Service(0);
-  EXPECT_GT(node.counters().slipped_s, 0.9);
-  EXPECT_LT(node.RealtimeFactor(), 0.1);
+  // It steps the one tick due at once and gives up the rest: 1.05 s on the clock, 98 ticks.
+  EXPECT_EQ(world.tick(), 98);
+  EXPECT_NEAR(node.counters().slipped_s, 1.05 - 98 * world.step_s(), 1e-9);
+  EXPECT_NEAR(node.RealtimeFactor(), 98 * world.step_s() / 1.05, 1e-9);
   EXPECT_NE(node.detail().find("the sim time slips"), std::string::npos) << node.detail();
   EXPECT_EQ(node.counters().commands_late, 0) << "no tick ever stepped without its answer";
 }
@@ -293,15 +310,16 @@ TEST(SimNode, RealtimeBrakesForASilentParticipantAndTakesItBack) {
   Participant a(bus, "a", {0, 0, 0, 0, 0, 0});
   for (int k = 0; k < 100; ++k) node.Service(0);
   const int64_t answered_until = world.tick();
-  ASSERT_GT(answered_until, 50);
+  EXPECT_EQ(answered_until, 100) << "one tick per service: sleeping moves the clock to it";
   a.silent = true;
   // Waits up to the watchdog (50 ms) for the answer, then brakes, paced by the clock.
   for (int k = 0; k < 400; ++k) {
     node.Service(0);
     clock.Advance(0.0005);
   }
-  EXPECT_GT(world.tick(), answered_until);
-  EXPECT_GT(node.counters().watchdog_holds, 0);
+  // 100 services (50 ms) waiting for the answer to tick 100, then one braked tick per service.
+  EXPECT_EQ(world.tick(), answered_until + 300);
+  EXPECT_EQ(node.counters().watchdog_holds, 300);
   EXPECT_TRUE(world.State().flags[1] & sirupp::arm_state_t::FLAG_BRAKED);
   EXPECT_NE(node.detail().find("no answer from 'a'"), std::string::npos) << node.detail();
   // It answers again: from then on every tick waits for it.
@@ -417,8 +435,10 @@ TEST(SimNode, FreerunHoldsTheNewestCommandAndBrakesWhenCommandsStop) {
     node.Service(0);
     clock.Advance(0.0005);
   }
-  EXPECT_NEAR(static_cast<double>(world.tick()), 0.15 / world.step_s(), 2);
-  EXPECT_GT(node.counters().watchdog_holds, 0);
+  // The last service is at 299 * 0.5 ms = 149.5 ms: floor(149.5 / 0.512) = 291 ticks due. The
+  // services up to 20 ms held the command (floor(20 / 0.512) = 39 ticks); the rest braked.
+  EXPECT_EQ(world.tick(), 291);
+  EXPECT_EQ(node.counters().watchdog_holds, 291 - 39);
   EXPECT_TRUE(world.State().flags[1] & sirupp::arm_state_t::FLAG_BRAKED);
   EXPECT_NE(node.detail().find("watchdog"), std::string::npos);
 }
@@ -454,6 +474,25 @@ TEST(SimNode, FastModeRunsFreeAndPublishesModelEnvironmentAndHeartbeat) {
   EXPECT_GE(models, 1);
   EXPECT_GE(environments, 1);
   EXPECT_GE(heartbeats, 1);
+}
+
+// The one test on the steady clock (a smoke test): realtime steps, and never ahead of the wall
+// clock.
+TEST(SimNode, RealtimeOnTheSteadyClockStepsAndNeverRunsAhead) {
+  core::Bus bus("memq://");
+  ArmWorld world(Puma(), core::Environment{});
+  NodeOptions options;
+  options.mode = TimingMode::kRealtime;
+  options.participants = {"a"};
+  SimNode node(bus, world, core::Environment{}, options);
+  Participant a(bus, "a", {0, 0, 0, 0, 0, 0});
+  const auto start = std::chrono::steady_clock::now();
+  for (int k = 0; k < 100000 && world.tick() < 20; ++k) node.Service(1);
+  const double elapsed_s =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  EXPECT_GE(world.tick(), 20);
+  EXPECT_LE(static_cast<double>(world.tick()), elapsed_s / world.step_s() + 1);
+  EXPECT_EQ(node.counters().commands_late, 0);
 }
 
 TEST(SimNode, LockstepRunsAreBitIdentical) {

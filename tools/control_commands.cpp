@@ -4,6 +4,7 @@
 #include <chrono>
 #include <cmath>
 #include <functional>
+#include <iostream>
 #include <map>
 #include <optional>
 #include <ostream>
@@ -302,6 +303,9 @@ const char* const kStatusAbout =
     "  sim's timing mode, real-time factor, participants and refused senders (SIM_STATUS).\n"
     "  Exit 1 if no controller status was heard.\n";
 
+// How long `plan run` waits for the virtual arm to come to rest before it sends the plan.
+constexpr double kPlanRestWaitS = 3.0;
+
 int RunPlanFile(client::Client& rig, const core::RobotModel& model, const std::string& file,
                 double wait_s, std::ostream& out) {
   const std::string text = control::ReadPlanText(file);
@@ -310,8 +314,15 @@ int RunPlanFile(client::Client& rig, const core::RobotModel& model, const std::s
   const control::Plan plan = control::ParsePlan(text, file, model, start);  // exit 2 if bad
   out << "checked from " << start_source << ": ";
   PrintPlan(out, model, plan);
-  rig.WatchJoints(false);  // a long wait must not take CPU from the loop it watches
   if (!FirstStatus(rig, out)) return kExitFailed;
+  // A plan starts from rest, so that its motion does not depend on the tick it lands on.
+  if (rig.WaitVirtualAtRest(kPlanRestWaitS) == client::Client::Rest::kNotAtRest) {
+    std::cerr << "sirupp plan run: the virtual arm is not at rest after "
+              << core::FormatNumber(kPlanRestWaitS)
+              << " s; the plan starts anyway (its virtual motion then depends on the tick it "
+                 "starts at: docs/physics.md, Rest)\n";
+  }
+  rig.WatchJoints(false);  // a long wait must not take CPU from the loop it watches
   const client::Answer answer = rig.RunPlan(file, text);
   if (const int code = Report(answer, out); code != 0) return code;
   out << "running " << file << "\n";

@@ -110,14 +110,21 @@ int RunSpy(const std::vector<std::string>& args, std::ostream& out, std::ostream
     int status = 0;
     ::waitpid(pid, &status, 0);
     int found = 0;
+    std::vector<std::string> plugins;  // sirupp.spy.*: lcm-spy plugins, not message types
     size_t at = 0;
     while ((at = text.find(" class sirupp.", at)) != std::string::npos) {
       at += 14;
       const size_t end = text.find('\n', at);
-      out << "  sirupp." << text.substr(at, end - at) << "\n";
+      const std::string name = text.substr(at, end - at);
+      if (name.rfind("spy.", 0) == 0) {
+        if (name.find('$') == std::string::npos) plugins.push_back("sirupp." + name);
+        continue;
+      }
+      out << "  sirupp." << name << "\n";
       ++found;
     }
     out << "lcm-spy finds " << found << " sirupp types in " << jar << "\n";
+    for (const std::string& plugin : plugins) out << "  plugin " << plugin << "\n";
     if (!WIFEXITED(status) || WEXITSTATUS(status) != 0 || found == 0) {
       err << "sirupp spy --check: Java's class discovery failed or found none of our types\n";
       return 1;

@@ -154,10 +154,11 @@ void ViewerNode::Refuse(const core::MessageError& error) {
   throw error;
 }
 
-void ViewerNode::CheckSource(const std::string& channel, int8_t source) {
-  if (source < sirupp::arm_state_t::SOURCE_SIM || source > sirupp::arm_state_t::SOURCE_EMULATED) {
-    Refuse(core::MessageError(
-        channel, "source", std::to_string(source) + ": allowed 0 (sim), 1 (real), 2 (emulated)"));
+void ViewerNode::CheckArmState(const sirupp::arm_state_t& message, const std::string& channel) {
+  try {
+    core::ArmStateFromMessage(message, channel, -1);
+  } catch (const core::MessageError& error) {
+    Refuse(error);
   }
 }
 
@@ -232,7 +233,7 @@ void ViewerNode::Subscribe() {
   bus_.Subscribe<sirupp::arm_state_t>(
       channels.sim_arm_state,
       [this](const sirupp::arm_state_t& message, const core::ReceiveInfo& info) {
-        CheckSource(info.channel, message.source);
+        CheckArmState(message, info.channel);
         CheckPositions(info.channel, message.num_joints, message.position);
         if (!state_.virtual_position) state_.virtual_position.emplace();
         state_.virtual_position->assign(message.position.begin(), message.position.end());
@@ -244,6 +245,11 @@ void ViewerNode::Subscribe() {
   bus_.Subscribe<sirupp::servo_setpoint_t>(
       channels.arm_setpoint,
       [this](const sirupp::servo_setpoint_t& message, const core::ReceiveInfo& info) {
+        try {
+          core::ServoSetpointFromMessage(message, info.channel);
+        } catch (const core::MessageError& error) {
+          Refuse(error);
+        }
         CheckPositions(info.channel, message.num_joints, message.position);
         if (!state_.setpoint_position) state_.setpoint_position.emplace();
         state_.setpoint_position->assign(message.position.begin(), message.position.end());
@@ -253,7 +259,7 @@ void ViewerNode::Subscribe() {
   bus_.Subscribe<sirupp::arm_state_t>(
       channels.real_arm_state,
       [this](const sirupp::arm_state_t& message, const core::ReceiveInfo& info) {
-        CheckSource(info.channel, message.source);
+        CheckArmState(message, info.channel);
         CheckPositions(info.channel, message.num_joints, message.position);
         if (!state_.real_position) state_.real_position.emplace();
         state_.real_position->assign(message.position.begin(), message.position.end());
@@ -264,16 +270,10 @@ void ViewerNode::Subscribe() {
   bus_.Subscribe<sirupp::controller_status_t>(
       channels.controller_status,
       [this](const sirupp::controller_status_t& message, const core::ReceiveInfo& info) {
-        if (message.mode != sirupp::controller_status_t::MODE_MANUAL &&
-            message.mode != sirupp::controller_status_t::MODE_AUTOMATIC) {
-          Refuse(core::MessageError(
-              info.channel, "mode",
-              std::to_string(message.mode) + ": allowed 0 (manual) or 1 (automatic)"));
-        }
-        if (message.state < sirupp::controller_status_t::STATE_IDLE ||
-            message.state > sirupp::controller_status_t::STATE_OFF) {
-          Refuse(core::MessageError(info.channel, "state",
-                                    std::to_string(message.state) + ": allowed 0..5 (STATE_*)"));
+        try {
+          core::ControllerStatusFromMessage(message, info.channel);
+        } catch (const core::MessageError& error) {
+          Refuse(error);
         }
         if (message.mode == controller_mode_ && message.state == controller_state_) return;
         controller_mode_ = message.mode;

@@ -30,6 +30,7 @@
 #include <memory>
 #include <opencv2/core.hpp>
 #include <optional>
+#include <sirupp/arm_state_t.hpp>
 #include <sirupp/image_t.hpp>
 #include <string>
 #include <vector>
@@ -119,7 +120,7 @@ class ViewerNode {
   void Render(Clock::time_point now);
   void Publish();
   [[noreturn]] void Refuse(const core::MessageError& error);
-  void CheckSource(const std::string& channel, int8_t source);
+  void CheckArmState(const sirupp::arm_state_t& message, const std::string& channel);
   void CheckPositions(const std::string& channel, int32_t count,
                       const std::vector<double>& position);
   std::string HeartbeatDetail() const;

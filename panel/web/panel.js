@@ -46,7 +46,7 @@ async function post(path, body, quiet) {
 let model = null;
 let latest = null;         // newest state frame
 let drawnGeneration = -1;
-const stats = {frames: 0, fps: 0, latencies: [], received: 0};
+const stats = {frames: 0, fps: 0, latencies: [], received: 0, drawn: 0};
 window.panelStats = stats;  // read by the benchmark and the browser tests
 
 // --- tabs ---------------------------------------------------------------------------------------
@@ -135,7 +135,7 @@ $('targets-from-arm').onclick = () => {
   });
 };
 function updateJoints(s) {
-  if (!model) return;
+  if (!model || !$('tab-joints').classList.contains('active')) return;
   model.joints.forEach((j, i) => {
     const tr = $('joint-' + (i + 1));
     if (!tr) return;
@@ -351,7 +351,7 @@ for (const verb of ['connect', 'calibrate', 'arm', 'disarm', 'link', 'unlink', '
 }
 function updateHardware(s) {
   const h = s.hardware;
-  if (!h) return;
+  if (!h || !$('tab-real').classList.contains('active')) return;
   $('hw-status').textContent = `bridge ${h.state}, ${h.calibrated ? 'calibrated' : 'not calibrated'}, port ${h.port} ${h.baud} baud, ` +
     `${h.checksum_errors} checksum errors, ${h.timeouts} timeouts` + (h.last_error ? `; last error: ${h.last_error}` : '');
   $('hw-modules').tBodies[0].innerHTML = h.modules.map((m, i) =>
@@ -398,6 +398,124 @@ $('env-open').onclick = async () => {
   View3d.setPreview(r.body.ok ? r.body.objects : null);
 };
 $('env-clear').onclick = () => { View3d.setPreview(null); $('env-result').textContent = ''; };
+$('env-load').onclick = async () => {
+  const path = $('env-files').value;
+  const f = await getJson('/api/file?path=' + encodeURIComponent(path));
+  if (f.error) return say(f.error, true);
+  const r = await post('/api/environment/load', {name: path, text: f.text});
+  $('env-result').className = r.status === 200 ? '' : 'error';
+  $('env-result').textContent = r.status === 200 ? r.body.message : r.body.error;
+  if (r.status === 200) { View3d.setPreview(null); setTimeout(loadEnvironment, 300); }
+};
+
+// --- model editing ------------------------------------------------------------------------------
+let modelFields = null;  // {path, units, fields: [{key, group, value, line}]}
+async function loadModelFields() {
+  if (!model) return;
+  const r = await getJson('/api/model/fields?path=' + encodeURIComponent(model.source_file));
+  const box = $('model-edit');
+  if (r.error) { box.textContent = 'not editable here: ' + r.error; modelFields = null; return; }
+  modelFields = r;
+  $('model-edit-file').textContent = r.path;
+  $('model-edit-units').textContent = r.units;
+  const groups = {dh: 'DH rows', joints: 'Joints: limits, speed, effort, friction', links: 'Links: mass'};
+  box.innerHTML = '';
+  for (const [group, title] of Object.entries(groups)) {
+    const fields = r.fields.filter((f) => f.group === group);
+    if (!fields.length) continue;
+    const div = document.createElement('div');
+    div.className = 'edit-group';
+    div.innerHTML = `<h5>${title}</h5>`;
+    for (const f of fields) {
+      const label = document.createElement('label');
+      label.className = 'edit-field';
+      label.title = `${r.path}:${f.line}`;
+      label.innerHTML = `<span>${f.key}</span> <input data-key="${f.key}" size="9">`;
+      const input = label.querySelector('input');
+      input.value = f.value;
+      input.dataset.original = f.value;
+      input.addEventListener('input', () => input.classList.toggle('changed', input.value !== input.dataset.original));
+      div.appendChild(label);
+    }
+    box.appendChild(div);
+  }
+}
+function modelEdits() {
+  const edits = {};
+  for (const input of document.querySelectorAll('#model-edit input')) {
+    input.classList.remove('bad');
+    if (input.value !== input.dataset.original) edits[input.dataset.key] = input.value;
+  }
+  return edits;
+}
+function showModelAnswer(r) {
+  const b = r.body;
+  $('model-result').className = r.status === 200 ? '' : 'error';
+  $('model-result').textContent = r.status === 200 ? b.message : b.error;
+  if (b.field) {
+    const input = document.querySelector(`#model-edit input[data-key="${b.field}"]`);
+    if (input) { input.classList.add('bad'); input.focus(); }
+  }
+}
+$('model-check').onclick = async () => {
+  if (!modelFields) return;
+  showModelAnswer(await post('/api/model/check', {path: modelFields.path, edits: modelEdits()}, true));
+};
+$('model-save').onclick = async () => {
+  if (!modelFields) return;
+  showModelAnswer(await post('/api/model/save', {path: modelFields.path, edits: modelEdits(), name: $('model-save-name').value}, true));
+};
+$('model-reset').onclick = () => loadModelFields();
+
+// --- record -------------------------------------------------------------------------------------
+function sizeText(bytes) {
+  return bytes >= 1048576 ? fmt(bytes / 1048576, 1) + ' MiB' : bytes >= 1024 ? fmt(bytes / 1024, 1) + ' KiB' : bytes + ' B';
+}
+async function loadRecord() {
+  const r = await getJson('/api/record');
+  $('record-logger').textContent = r.logger ? `sirupp-logger ${r.logger.state} on ${r.logger.host}: ${r.logger.detail}` : 'no sirupp-logger heard (start it, e.g. from the lab layout)';
+  $('record-logger').className = r.logger ? '' : 'error';
+  const body = $('record-runs').tBodies[0];
+  if (!r.results_dir) { body.innerHTML = '<tr><td colspan="4">no results folder (sirupp-panel --results DIR)</td></tr>'; return r; }
+  body.innerHTML = '';
+  for (const run of r.runs) {
+    const tr = document.createElement('tr');
+    tr.className = run.recording ? 'recording' : '';
+    tr.dataset.run = run.name;
+    const links = run.files.map((f) => {
+      const name = f.path.split('/').pop();
+      return `<a href="/api/download?path=${encodeURIComponent(f.path)}" download="${name}">${name}</a> (${sizeText(f.size)})`;
+    }).join('<br>');
+    tr.innerHTML = `<td>${run.name}${run.recording ? ' <b>recording</b>' : ''}</td><td style="text-align:left">${links}</td><td>${sizeText(run.bytes)}</td><td></td>`;
+    if (!run.recording) {
+      const b = document.createElement('button');
+      b.textContent = 'Report';
+      b.className = 'report';
+      b.onclick = async () => {
+        const a = await post('/api/record/report', {run: run.name});
+        $('record-report').textContent = a.status === 200 ? a.body.markdown : a.body.error;
+      };
+      tr.lastChild.appendChild(b);
+    }
+    body.appendChild(tr);
+  }
+  return r;
+}
+window.loadRecord = loadRecord;
+$('record-start').onclick = async () => {
+  const r = await post('/api/record/start', {name: $('record-name').value});
+  $('record-result').className = r.status === 200 ? '' : 'error';
+  $('record-result').textContent = r.status === 200 ? r.body.message : r.body.error;
+  loadRecord();
+};
+$('record-stop').onclick = async () => {
+  const r = await post('/api/record/stop', {});
+  $('record-result').className = r.status === 200 ? '' : 'error';
+  $('record-result').textContent = r.status === 200 ? r.body.message : r.body.error;
+  loadRecord();
+};
+document.querySelector('[data-tab=record]').addEventListener('click', loadRecord);
+setInterval(() => { if ($('tab-record').classList.contains('active')) loadRecord(); }, 1000);
 async function loadFileLists() {
   for (const [dir, select] of [['plans', 'plan-files'], ['environments', 'env-files']]) {
     const r = await getJson('/api/files?dir=' + dir);
@@ -415,6 +533,7 @@ async function loadModel() {
   buildJoints();
   buildPlots();
   showModel();
+  loadModelFields();
   return true;
 }
 
@@ -441,16 +560,23 @@ function frame() {
     View3d.pose('virtual', s.virtual);
     View3d.pose('setpoint', s.setpoint);
     View3d.pose('real', s.real);
-    updateJoints(s);
-    updatePlan(s);
-    updateHardware(s);
+    // The tables change text at most 10 times a second (reading them faster helps nobody, and
+    // each change costs the page a layout).
+    const now = performance.now();
+    if (now - lastTables >= 100) {
+      lastTables = now;
+      updateJoints(s);
+      updatePlan(s);
+      updateHardware(s);
+    }
     if (s.recv_ms) {
       stats.latencies.push(performance.timeOrigin + performance.now() - s.recv_ms);
       if (stats.latencies.length > 5000) stats.latencies.shift();
     }
   }
-  View3d.render();
+  if (View3d.render()) stats.drawn++;
 }
+let lastTables = 0;
 
 let fpsCount = 0;
 setInterval(() => {

@@ -6,7 +6,10 @@
 const View3d = (function () {
   let renderer, scene, camera, controls;
   const arms = {};       // virtual, setpoint, real: arrays of THREE.Group, one per frame
-  let envGroup = null, previewGroup = null;
+  let envGroup = null, previewGroup = null, envKey = '';
+  // Drawn only when something changed (a pose, the camera, the scene): a still arm costs nothing,
+  // and software rendering (SwiftShader in headless Chromium) keeps up with a moving one.
+  let dirty = true;
 
   function geometryOf(shape) {
     const s = shape.size;
@@ -14,13 +17,13 @@ const View3d = (function () {
     if (shape.type === 'box') {
       g = new THREE.BoxGeometry(s[0], s[1], s[2]);
     } else if (shape.type === 'sphere') {
-      g = new THREE.SphereGeometry(s[0], 20, 14);
+      g = new THREE.SphereGeometry(s[0], 14, 10);
     } else if (shape.type === 'cylinder') {
-      g = new THREE.CylinderGeometry(s[0], s[0], s[1], 24);
+      g = new THREE.CylinderGeometry(s[0], s[0], s[1], 16);
       g.rotateX(Math.PI / 2);  // three.js cylinders lie along y; ours along z
     } else {  // capsule: a cylinder and two spheres
       const group = new THREE.Geometry();
-      const body = new THREE.CylinderGeometry(s[0], s[0], s[1], 24);
+      const body = new THREE.CylinderGeometry(s[0], s[0], s[1], 16);
       body.rotateX(Math.PI / 2);
       group.merge(body);
       for (const end of [-0.5, 0.5]) {
@@ -43,17 +46,18 @@ const View3d = (function () {
 
   function materialFor(kind, color) {
     if (kind === 'virtual') {
-      return new THREE.MeshStandardMaterial({color: new THREE.Color(color[0], color[1], color[2]),
-        transparent: color[3] < 1, opacity: color[3], metalness: 0.1, roughness: 0.6});
+      return new THREE.MeshLambertMaterial({color: new THREE.Color(color[0], color[1], color[2]),
+        transparent: color[3] < 1, opacity: color[3]});
     }
     const c = kind === 'setpoint' ? 0x43a047 : 0xff9800;
-    return new THREE.MeshStandardMaterial({color: c, transparent: true,
+    return new THREE.MeshLambertMaterial({color: c, transparent: true,
       opacity: kind === 'setpoint' ? 0.35 : 0.55, depthWrite: false});
   }
 
   function init(container) {
-    renderer = new THREE.WebGLRenderer({antialias: true});
-    renderer.setPixelRatio(window.devicePixelRatio || 1);
+    // No multisampling and one pixel per CSS pixel: the cost of a frame is its pixels.
+    renderer = new THREE.WebGLRenderer({antialias: false, powerPreference: 'high-performance'});
+    renderer.setPixelRatio(Math.min(window.devicePixelRatio || 1, 1.5));
     container.appendChild(renderer.domElement);
     scene = new THREE.Scene();
     scene.background = new THREE.Color(0xdfe6ea);
@@ -63,6 +67,7 @@ const View3d = (function () {
     controls = new THREE.OrbitControls(camera, renderer.domElement);
     controls.target.set(0, 0, 0.25);
     controls.update();
+    controls.addEventListener('change', () => { dirty = true; });
     scene.add(new THREE.HemisphereLight(0xffffff, 0x444444, 0.8));
     const sun = new THREE.DirectionalLight(0xffffff, 0.7);
     sun.position.set(1, -1, 2);
@@ -80,11 +85,21 @@ const View3d = (function () {
     renderer.setSize(w, h);
     camera.aspect = w / h;
     camera.updateProjectionMatrix();
+    dirty = true;
+  }
+
+  // Frees the GPU buffers of a group that leaves the scene.
+  function dispose(group) {
+    group.traverse((o) => {
+      if (o.geometry) o.geometry.dispose();
+      if (o.material) o.material.dispose();
+    });
   }
 
   function clearArm(kind) {
-    for (const g of arms[kind] || []) scene.remove(g);
+    for (const g of arms[kind] || []) { scene.remove(g); dispose(g); }
     arms[kind] = [];
+    dirty = true;
   }
 
   // model: /api/model; builds the three arms, hidden until a state poses them.
@@ -113,13 +128,18 @@ const View3d = (function () {
   }
 
   function setEnvironment(env) {
-    if (envGroup) scene.remove(envGroup);
+    const key = JSON.stringify(env.objects || []);
+    if (envGroup && key === envKey) return;  // the same objects: nothing to rebuild
+    envKey = key;
+    if (envGroup) { scene.remove(envGroup); dispose(envGroup); }
     envGroup = buildObjects(env.objects || [], false);
     scene.add(envGroup);
+    dirty = true;
   }
 
   function setPreview(objects) {
-    if (previewGroup) scene.remove(previewGroup);
+    dirty = true;
+    if (previewGroup) { scene.remove(previewGroup); dispose(previewGroup); }
     previewGroup = objects ? buildObjects(objects, true) : null;
     if (previewGroup) scene.add(previewGroup);
   }
@@ -127,6 +147,7 @@ const View3d = (function () {
   // part: {frames: [[x y z qw qx qy qz] ...]} or undefined (hidden)
   function pose(kind, part) {
     const groups = arms[kind] || [];
+    dirty = true;
     groups.forEach((g, i) => {
       const f = part && part.frames[i];
       g.visible = !!f;
@@ -137,9 +158,13 @@ const View3d = (function () {
     });
   }
 
+  // Draws the scene if something changed since the last drawing; returns whether it drew.
   function render() {
     controls.update();
+    if (!dirty) return false;
+    dirty = false;
     renderer.render(scene, camera);
+    return true;
   }
 
   return {init, setModel, setEnvironment, setPreview, pose, render};

@@ -1,7 +1,8 @@
 #!/bin/bash
 # sirupp grade end to end, with real processes (each task on its own udpm port with ttl=0).
 #   grade.sh bad       bad controllers each end their tasks with the right reason and the grade
-#                      goes on; two runs give identical results.json; -j 2 gives what -j 1 gives
+#                      goes on; two runs give identical results.json; -j 2 gives what -j 1 gives;
+#                      two graders at once give what one gives
 #   grade.sh examples  examples 02, 03 and 04 (Java; skipped with a note only without a JDK)
 #                      graded against config/grading/basic.yaml beside the baseline (long)
 #   grade.sh batch     a class folder: the examples, bad controllers, one that does not build and
@@ -63,6 +64,16 @@ bad)
   cmp "$work/one/results.json" "$work/two/results.json" || fail "-j 1 and -j 2 differ"
   cmp "$work/two/results.json" "$work/three/results.json" || fail "two runs differ"
   grep -q "missing_rows\": 0" "$work/one/results.json" || fail "rows missing"
+  # Two graders at once (two teachers, or CI jobs): each task's port is leased (an flock per
+  # port), so no task hears another's and both give what one grader alone gives.
+  "$bin/sirupp" grade "$LIB_DIR/pd_gravity.so" --suite $small -j 2 --out "$work/par1" >"$work/par1.txt" 2>&1 &
+  p1=$!
+  "$bin/sirupp" grade "$LIB_DIR/pd_gravity.so" --suite $small -j 2 --out "$work/par2" >"$work/par2.txt" 2>&1 &
+  p2=$!
+  wait $p1 || fail "the first of two graders at once exited $?: $(cat "$work/par1.txt")"
+  wait $p2 || fail "the second of two graders at once exited $?: $(cat "$work/par2.txt")"
+  cmp "$work/one/results.json" "$work/par1/results.json" || fail "two graders at once: the first differs"
+  cmp "$work/one/results.json" "$work/par2/results.json" || fail "two graders at once: the second differs"
   h1=$(sed -n 's/.*results fnv1a //p' "$work/one.txt"); h2=$(sed -n 's/.*results fnv1a //p' "$work/three.txt")
   [ -n "$h1" ] && [ "$h1" = "$h2" ] || fail "hashes differ: $h1 $h2"
   grep -q "$h1" "$work/one/report.md" || fail "the report does not give the hash"

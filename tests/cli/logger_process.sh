@@ -75,9 +75,11 @@ wait "$plan" || { echo "FAIL set2: $(cat "$work/set2.out")"; fail=1; }
 kill -INT "$logger_b2"
 wait "$logger_b2" || { echo "FAIL restarted logger b: $(cat "$work/b2.err")"; fail=1; }
 has restarted_b "$work/b2.err" "b-03-set2.csv exists: continuing that run in new files"
-# Freeze the rig, give the logger 0.1 s, then kill it: nothing it received may be missing.
+# Freeze the rig, give the logger 0.7 s, then kill it: nothing it received may be missing. (Its
+# rows follow the receive times, and on a bus gone quiet the last ones are taken after 0.5 s:
+# LoggerNode::kQuietUs, docs/logging.md.)
 kill -STOP "$sim" "$control"
-sleep 0.1
+sleep 0.7
 kill -9 "$logger_a"
 wait "$logger_a" 2>/dev/null
 sleep 0.3  # lcm-logger 1.3.1 flushes every 100 ms and not on exit

@@ -10,6 +10,7 @@ types=$(ls lcmtypes/*.lcm | wc -l)
 run "check" 0 spy --check
 has "check count" "$out" "lcm-spy finds $types sirupp types"
 has "check lists" "$out" "sirupp.arm_state_t"
+has "check plugin" "$out" "plugin sirupp.spy.ImagePlugin"
 
 DISPLAY= run "no display" 1 spy --lcm-url "$URL"
 has "no display" "$err" "lcm-spy needs a display and DISPLAY is not set"
@@ -35,6 +36,8 @@ if command -v xvfb-run >/dev/null; then
   kill -TERM -- "-$spy_pid" 2>/dev/null
   wait "$spy_pid" 2>/dev/null
   has "spy types" "$spy_out" "Found $types LCM types"
+  # Our image_t plugin (lcmtypes/java/sirupp/spy/ImagePlugin.java) is in the types jar.
+  has "spy image plugin" "$spy_out" "Found 1 plugins"
   if grep -q "Exception\|Unrecognized option" "$spy_out"; then
     echo "FAIL spy: Java reported a problem"; cat "$spy_out"; fail=1
   fi

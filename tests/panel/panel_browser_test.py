@@ -47,7 +47,7 @@ def virtual_q(d, joint):
 
 # The emulated real arm only for the screenshots: on a loaded machine its serial timing is the
 # first thing to fail, and the checks below are about the panel.
-rig = Rig(BIN, SRC, hardware=SHOTS is not None).start()
+rig = Rig(BIN, SRC, hardware=SHOTS is not None, logger=True).start()
 try:
     a = rig.browser()
 
@@ -60,8 +60,64 @@ try:
             wait_for("the real arm drawn", lambda: js(a, "return !!(latest && latest.real)"), 20)
     check("page loads with no SEVERE console messages; the arm and its ghost live", page_loads)
     shot(a, "processes", "processes")
-    shot(a, "model", "model")
-    shot(a, "environment", "environment")
+
+    def take_control_early():
+        js(a, "document.getElementById('lock-name').value = 'alice'")
+        a.find_element(By.ID, "take-control").click()
+        wait_for("alice holds control",
+                 lambda: "you hold control" in a.find_element(By.ID, "lock-state").text, 10)
+
+    def environment_loads():
+        # The arm stands at its zero pose, clear of the table (config/environments/table.xml).
+        take_control_early()
+        a.execute_script("showTab('environment')")
+        wait_for("the environment files listed", lambda: js(
+            a, "return [...document.querySelectorAll('#env-files option')].some(o => o.value.endsWith('table.xml'))"), 10)
+        js(a, "const s = document.getElementById('env-files'); "
+              "s.value = [...s.options].find(o => o.value.endsWith('table.xml')).value")
+        a.find_element(By.ID, "env-load").click()
+        wait_for("the sim's new environment shown", lambda: "table from" in a.find_element(By.ID, "env-summary").text, 15)
+        assert "SIM_COMMAND: environment" in a.find_element(By.ID, "env-result").text, a.find_element(By.ID, "env-result").text
+        rows = js(a, "return document.querySelectorAll('#env-table tbody tr').length")
+        assert rows >= 5, rows
+        shot(a, "environment", "environment")
+        # Back to the empty scene for the moves below.
+        js(a, "const s = document.getElementById('env-files'); "
+              "s.value = [...s.options].find(o => o.value.endsWith('empty.xml')).value")
+        a.find_element(By.ID, "env-load").click()
+        wait_for("the empty scene back", lambda: "table from" not in a.find_element(By.ID, "env-summary").text, 15)
+    check("an environment file loads into the running sim", environment_loads)
+
+    def model_edit():
+        a.execute_script("showTab('model')")
+        wait_for("the model's editable values", lambda: js(
+            a, "return !!document.querySelector('#model-edit input[data-key=\"links[1].mass_kg\"]')"), 10)
+        js(a, "const i = document.querySelector('#model-edit input[data-key=\"links[1].mass_kg\"]'); "
+              "i.value = '-1'; i.dispatchEvent(new Event('input'))")
+        a.find_element(By.ID, "model-check").click()
+        wait_for("the error at the field", lambda: js(
+            a, "return document.querySelector('#model-edit input[data-key=\"links[1].mass_kg\"]').classList.contains('bad')"), 10)
+        text = a.find_element(By.ID, "model-result").text
+        assert "links[1].mass_kg" in text and "puma260.yaml:" in text, text
+        js(a, "document.querySelector('#model-edit input[data-key=\"links[1].mass_kg\"]').scrollIntoView()")
+        if SHOTS:
+            time.sleep(0.5)
+            a.save_screenshot(os.path.join(SHOTS, "panel-model.png"))
+        js(a, "const i = document.querySelector('#model-edit input[data-key=\"links[1].mass_kg\"]'); "
+              "i.value = '3.4'; i.dispatchEvent(new Event('input'))")
+        js(a, "document.getElementById('model-save-name').value = 'browser_heavy'")
+        a.find_element(By.ID, "model-save").click()
+        wait_for("saved", lambda: "saved config/robots/browser_heavy.yaml" in a.find_element(By.ID, "model-result").text, 10)
+        saved = os.path.join(rig.root, "config/robots/browser_heavy.yaml")
+        with open(saved) as f:
+            assert "mass_kg: 3.4" in f.read()
+    check("a model edit is checked at its field and saved as a new file", model_edit)
+
+    def release_early():
+        if "you hold control" in a.find_element(By.ID, "lock-state").text:
+            a.find_element(By.ID, "release-control").click()
+        wait_for("released", lambda: "nobody holds control" in a.find_element(By.ID, "lock-state").text, 10)
+    release_early()
 
     def take_control():
         js(a, "document.getElementById('lock-name').value = 'alice'")
@@ -212,6 +268,34 @@ try:
         assert a.find_elements(By.CSS_SELECTOR, "#plot canvas")
     check("live plots draw", plots)
     shot(a, "plots", "plots")
+
+    def record():
+        a.execute_script("showTab('record')")
+        wait_for("the logger shown", lambda: "sirupp-logger" in a.find_element(By.ID, "record-logger").text, 10)
+        # The logger records from its start; stop that run, then record a named one.
+        a.find_element(By.ID, "record-stop").click()
+        wait_for("the first run stopped", lambda: "LOGGER_COMMAND: stop recording accepted" in a.find_element(By.ID, "record-result").text, 10)
+        js(a, "document.getElementById('record-name').value = 'browser_run'")
+        a.find_element(By.ID, "record-start").click()
+        wait_for("recording", lambda: js(
+            a, "const r = document.querySelector('#record-runs tr[data-run=browser_run]'); return !!r && r.classList.contains('recording')"), 15)
+        a.find_element(By.ID, "record-start").click()  # a second start is refused with the reason
+        wait_for("refused", lambda: "being recorded" in a.find_element(By.ID, "record-result").text, 10)
+        time.sleep(1.5)
+        if SHOTS:
+            a.save_screenshot(os.path.join(SHOTS, "panel-record.png"))
+        a.find_element(By.ID, "record-stop").click()
+        wait_for("stopped", lambda: js(
+            a, "const r = document.querySelector('#record-runs tr[data-run=browser_run]'); return !!r && !r.classList.contains('recording')"), 15)
+        link = js(a, "return document.querySelector('#record-runs tr[data-run=browser_run] a').getAttribute('href')")
+        status, _ = 0, None
+        import urllib.request
+        with urllib.request.urlopen(rig.address.split("?")[0].rstrip("/") + link, timeout=5) as r:
+            body = r.read().decode()
+            status = r.status
+        assert status == 200 and body.startswith("#") and "# end" in body, body[:200]
+        assert len(body.splitlines()) > 50, len(body.splitlines())
+    check("the record panel stops, starts and stops the logger; the run's file downloads", record)
 
     def token_from_another_address():
         # The machine's own non-loopback address (the request comes from it), when it has one.

@@ -7,6 +7,7 @@ import json
 import os
 import re
 import signal
+import shutil
 import subprocess
 import tempfile
 import time
@@ -34,9 +35,9 @@ def wait_for(what, predicate, timeout=20.0, period=0.05):
 
 
 class Rig:
-    def __init__(self, bin_dir, source_dir, hardware=False, port=None, panel_args=()):
-        self.bin = bin_dir
-        self.src = source_dir
+    def __init__(self, bin_dir, source_dir, hardware=False, port=None, panel_args=(), logger=False):
+        self.bin = os.path.abspath(bin_dir)  # the panel may run in another folder (logger=True)
+        self.src = os.path.abspath(source_dir)
         self.port = port or 7800 + os.getpid() % 150
         self.url = f"udpm://239.255.76.67:{self.port}?ttl=0"
         self.work = tempfile.mkdtemp(prefix="sirupp-panel-test-")
@@ -44,12 +45,18 @@ class Rig:
         self.drivers = []
         self.hardware = hardware
         self.panel_args = list(panel_args)
+        # With the logger: sirupp-logger writes into work/results, which the panel lists
+        # (--results), and the panel runs in work/root holding a copy of config/, so a model the
+        # page saves goes there, never into the source tree.
+        self.logger = logger
+        self.results = os.path.join(self.work, "results")
+        self.root = os.path.join(self.work, "root")
         self.panel = None
         self.address = None
 
-    def _start(self, name, args):
+    def _start(self, name, args, cwd=None):
         log = open(os.path.join(self.work, name + ".log"), "w")
-        p = subprocess.Popen([os.path.join(self.bin, args[0])] + args[1:], cwd=self.src,
+        p = subprocess.Popen([os.path.join(self.bin, args[0])] + args[1:], cwd=cwd or self.src,
                              stdout=subprocess.PIPE if name == "panel" else log, stderr=log,
                              text=True)
         self.procs.append((name, p))
@@ -66,11 +73,18 @@ class Rig:
         if self.hardware:
             self._start("hardware", ["sirupp-hardware", "--lcm-url", self.url, "--port", link,
                                      "--emulated", "--calibrate", "--arm", "--link"])
+        if self.logger:
+            os.makedirs(self.results)
+            shutil.copytree(os.path.join(self.src, "config"), os.path.join(self.root, "config"))
+            self._start("logger", ["sirupp-logger", "--lcm-url", self.url, "--out", self.results,
+                                   "--split", "none"])
+            self.panel_args += ["--results", self.results]
         self.panel, self.address = self.start_panel(self.panel_args)
         return self
 
     def start_panel(self, extra):
-        p = self._start("panel", ["sirupp-panel", "--lcm-url", self.url, "--port", "0"] + list(extra))
+        p = self._start("panel", ["sirupp-panel", "--lcm-url", self.url, "--port", "0"] + list(extra),
+                        cwd=self.root if self.logger else None)
         line = p.stdout.readline()
         m = re.search(r"(http://\S+)", line)
         if not m:

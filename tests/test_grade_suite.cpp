@@ -1,0 +1,320 @@
+// Grading suites (grade/suite.hpp): every validation rule gives one error naming the suite's
+// file:line:column, the key and what is allowed; good suites become the tasks they say, and a
+// tracking task's minimum-jerk path is followed by the PIC-SERVO profile its generated plan drives
+// (grade/trajectory.hpp), run here on the chip model itself.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <string>
+#include <vector>
+
+#include "control/plan.hpp"
+#include "control/servo_bank.hpp"
+#include "core/errors.hpp"
+#include "core/model_loader.hpp"
+#include "grade/suite.hpp"
+#include "grade/trajectory.hpp"
+#include "tests/helpers.hpp"
+
+namespace sirupp::grade {
+namespace {
+
+constexpr double kDeg = 3.14159265358979323846 / 180;
+
+std::string Same(const std::string& path) { return path; }
+
+const core::RobotModel& Puma() {
+  static const core::RobotModel model = core::LoadRobotModel("config/robots/puma260.yaml");
+  return model;
+}
+
+// A suite with this header: the tasks text starts on line 4.
+std::string WithTasks(const std::string& tasks) {
+  return "format: sirupp-grade-suite-1\nname: t\ntasks:\n" + tasks;
+}
+
+Suite Parse(const std::string& text) { return ParseSuite(text, "s.yaml", &Same); }
+
+std::string Error(const std::string& text) {
+  return testing::ErrorText<core::ConfigError>([&] { Parse(text); });
+}
+
+struct Case {
+  const char* rule;
+  std::string text;
+  const char* where;  // "s.yaml:LINE:COLUMN: " the message starts with
+  const char* says;   // and contains
+};
+
+TEST(GradeSuite, EveryRuleNamesTheLineTheColumnAndWhatIsAllowed) {
+  const std::string step = "  - {name: a, step: {joint: 2, to_deg: 30}, duration_s: 2}\n";
+  const std::vector<Case> cases = {
+      {"yaml syntax", "format: [\n", "s.yaml:", "s.yaml:"},
+      {"unknown top-level key",
+       "format: sirupp-grade-suite-1\nname: t\ncolour: red\ntasks:\n" + step,
+       "s.yaml:3:1: ", "unknown key 'colour'"},
+      {"format missing", "name: t\ntasks:\n" + step,
+       "s.yaml:1:1: ", "missing required key 'format'"},
+      {"another format", "format: sirupp-grade-suite-9\nname: t\ntasks:\n" + step,
+       "s.yaml:1:9: ", "allowed sirupp-grade-suite-1"},
+      {"name missing", "format: sirupp-grade-suite-1\ntasks:\n" + step,
+       "s.yaml:1:1: ", "missing required key 'name'"},
+      {"model file missing",
+       "format: sirupp-grade-suite-1\nname: t\nmodel: nope.yaml\ntasks:\n" + step, "nope.yaml",
+       "nope.yaml"},
+      {"limit out of range",
+       "format: sirupp-grade-suite-1\nname: t\nlimits: {tick_s: 0}\ntasks:\n" + step,
+       "s.yaml:3:18: ", "limits.tick_s: 0 is not allowed; expected a finite number in [0.01, 60]"},
+      {"unknown limit",
+       "format: sirupp-grade-suite-1\nname: t\nlimits: {hours: 1}\ntasks:\n" + step,
+       "s.yaml:3:", "unknown key 'hours'"},
+      {"negative threshold",
+       "format: sirupp-grade-suite-1\nname: t\npass: {settling_s: -1}\ntasks:\n" + step,
+       "s.yaml:3:20: ", "pass.settling_s: -1 is not allowed; expected a finite number >= 0"},
+      {"unknown threshold",
+       "format: sirupp-grade-suite-1\nname: t\npass: {fast: 1}\ntasks:\n" + step,
+       "s.yaml:3:", "unknown key 'fast'"},
+      {"no tasks", "format: sirupp-grade-suite-1\nname: t\n",
+       "s.yaml:1:1: ", "missing required key 'tasks'"},
+      {"empty task list", "format: sirupp-grade-suite-1\nname: t\ntasks: []\n",
+       "s.yaml:3:8: ", "a list of 0 entries is not allowed"},
+      {"unknown task key",
+       WithTasks("  - {name: a, step: {joint: 2, to_deg: 3}, duration_s: 2, colour: red}\n"),
+       "s.yaml:4:", "unknown key 'colour'"},
+      {"bad task name", WithTasks("  - {name: a b, hold: true, duration_s: 1}\n"),
+       "s.yaml:4:", "task name 'a b': allowed letters, digits"},
+      {"start_deg count",
+       WithTasks("  - {name: a, hold: true, start_deg: [1, 2], duration_s: 1}\n"),
+       "s.yaml:4:", "expected a list of 6 numbers"},
+      {"start outside limits",
+       WithTasks("  - {name: a, hold: true, start_deg: [0, 170, 0, 0, 0, 0], duration_s: 1}\n"),
+       "s.yaml:4:", "joint 2 start 170 is outside the joint's limits"},
+      {"duration out of range", WithTasks("  - {name: a, hold: true, duration_s: 700}\n"),
+       "s.yaml:4:", "700 is not allowed"},
+      {"no command", WithTasks("  - {name: a, duration_s: 1}\n"),
+       "s.yaml:4:5: ", "needs exactly one of plan, step, hold, track (has 0)"},
+      {"two commands",
+       WithTasks("  - {name: a, hold: true, step: {joint: 1, to_deg: 3}, duration_s: 1}\n"),
+       "s.yaml:4:5: ", "(has 2)"},
+      {"plan file missing", WithTasks("  - {name: a, plan: nope.plan, duration_s: 1}\n"),
+       "nope.plan", "nope.plan"},
+      {"step joint out of range",
+       WithTasks("  - {name: a, step: {joint: 9, to_deg: 3}, duration_s: 1}\n"),
+       "s.yaml:4:29: ", "tasks[0].step.joint: 9 is not allowed; expected an integer in [1, 6]"},
+      {"step goal outside the limits",
+       WithTasks("  - {name: a, step: {joint: 2, to_deg: 300}, duration_s: 1}\n"),
+       "s.yaml:4 task a (generated plan):", "outside"},
+      {"step speed out of range",
+       WithTasks("  - {name: a, step: {joint: 2, to_deg: 3, speed_percent: 0}, duration_s: 1}\n"),
+       "s.yaml:4:", "0 is not allowed"},
+      {"hold false", WithTasks("  - {name: a, hold: false, duration_s: 1}\n"),
+       "s.yaml:4:", "hold: only true is allowed"},
+      {"track amplitude out of range",
+       WithTasks("  - {name: a, track: {joint: 2, amplitude_deg: 0.1, period_s: 4, cycles: 1}, "
+                 "duration_s: 5}\n"),
+       "s.yaml:4:", "0.1 is not allowed"},
+      {"track period out of range",
+       WithTasks("  - {name: a, track: {joint: 2, amplitude_deg: 10, period_s: 0, cycles: 1}, "
+                 "duration_s: 5}\n"),
+       "s.yaml:4:", "0 is not allowed"},
+      {"track cycles out of range",
+       WithTasks("  - {name: a, track: {joint: 2, amplitude_deg: 10, period_s: 1, cycles: 21}, "
+                 "duration_s: 5}\n"),
+       "s.yaml:4:", "tasks[0].track.cycles: 21 is not allowed; expected an integer in [1, 20]"},
+      {"track leaves the soft limits",
+       WithTasks("  - {name: a, track: {joint: 2, amplitude_deg: 160, period_s: 20, cycles: 1}, "
+                 "duration_s: 25}\n"),
+       "s.yaml:4:", "leaves the soft limits [-155.5, 155.5]"},
+      {"track too fast",
+       WithTasks("  - {name: a, track: {joint: 2, amplitude_deg: 30, period_s: 1, cycles: 1}, "
+                 "duration_s: 2}\n"),
+       "s.yaml:4:", "period 1 s is too short: the path's peak speed 225 is above joint 2's cap 90"},
+      {"track accelerates too hard",
+       WithTasks("  - {name: a, track: {joint: 2, amplitude_deg: 1, period_s: 0.4, cycles: 1}, "
+                 "duration_s: 2}\n"),
+       "s.yaml:4:61: ", "the path's peak acceleration 577.35 is above joint 2's cap 360"},
+      {"track too long",
+       WithTasks("  - {name: a, track: {joint: 2, amplitude_deg: 10, period_s: 20, cycles: 2}, "
+                 "duration_s: 50}\n"),
+       "s.yaml:4:", "cycles x period_s = 40 s; allowed at most 30 s"},
+      {"track longer than the task",
+       WithTasks("  - {name: a, track: {joint: 2, amplitude_deg: 10, period_s: 4, cycles: 2}, "
+                 "duration_s: 5}\n"),
+       "s.yaml:4:", "cycles x period_s = 8 s is longer than the task's duration_s 5"},
+      {"payload out of range",
+       WithTasks("  - {name: a, hold: true, arm: {payload_kg: 60}, duration_s: 1}\n"),
+       "s.yaml:4:", "60 is not allowed"},
+      {"friction scale out of range",
+       WithTasks("  - {name: a, hold: true, arm: {friction_scale: -1}, duration_s: 1}\n"),
+       "s.yaml:4:", "-1 is not allowed"},
+      {"gravity neither on nor off",
+       WithTasks("  - {name: a, hold: true, arm: {gravity: sideways}, duration_s: 1}\n"),
+       "s.yaml:4:", "'sideways' is not allowed; expected one of: on, off"},
+      {"disturbance above the effort limit",
+       WithTasks(
+           "  - {name: a, hold: true, disturbance: {joint: 2, effort: 99, from_s: 0, to_s: 1}, "
+           "duration_s: 1}\n"),
+       "s.yaml:4:", "99 is not allowed"},
+      {"disturbance after the task",
+       WithTasks(
+           "  - {name: a, hold: true, disturbance: {joint: 2, effort: 1, from_s: 3, to_s: 4}, "
+           "duration_s: 1}\n"),
+       "s.yaml:4:", "3 is not allowed"},
+      {"disturbance ends before it starts",
+       WithTasks("  - {name: a, hold: true, disturbance: {joint: 2, effort: 1, from_s: 0.5, to_s: "
+                 "0.2}, duration_s: 1}\n"),
+       "s.yaml:4:", "to_s 0.2 must be after from_s 0.5"},
+      {"task name used twice",
+       WithTasks(
+           "  - {name: a, hold: true, duration_s: 1}\n  - {name: a, hold: true, duration_s: 1}\n"),
+       "s.yaml:5:5: ", "task name 'a' is used already at line 4"},
+  };
+  for (const Case& c : cases) {
+    const std::string error = Error(c.text);
+    EXPECT_EQ(error.rfind(c.where, 0), 0u) << c.rule << ": " << error;
+    EXPECT_NE(error.find(c.says), std::string::npos) << c.rule << ": " << error;
+  }
+}
+
+TEST(GradeSuite, TheShippedSuitesLoad) {
+  const Suite basic = LoadSuite("config/grading/basic.yaml", &Same);
+  ASSERT_EQ(basic.tasks.size(), 13u);
+  EXPECT_EQ(basic.tasks[0].kind, "plan");
+  EXPECT_EQ(basic.tasks[8].kind, "step");
+  EXPECT_NEAR(basic.tasks[8].goal[1], 30 * kDeg, 1e-12);
+  const Suite advanced = LoadSuite("config/grading/advanced.yaml", &Same);
+  ASSERT_GE(advanced.tasks.size(), 2u);
+  const Task& track = advanced.tasks[0];
+  EXPECT_EQ(track.kind, "track");
+  ASSERT_TRUE(track.track.has_value());
+  EXPECT_EQ(track.track->joint, 1);
+  EXPECT_DOUBLE_EQ(track.track->path.end_s(), 8);
+  // The plan runs the joint back to where it started.
+  EXPECT_NEAR(track.goal[1], track.start[1], 1e-12);
+  EXPECT_LT(track.plan_text.size(), control::kMaxPlanBytes);
+}
+
+TEST(GradeSuite, AMinimumJerkPathHasItsKnownShape) {
+  const MinJerkPath path = MinJerkPath::BackAndForth(0.1, 0.5, 4, 2);
+  EXPECT_DOUBLE_EQ(path.end_s(), 8);
+  // At rest on the centre, then at the turning points, at the quarter and three quarter periods.
+  for (double t : {0.0, 1.0, 3.0, 4.0, 5.0, 7.0, 8.0, 9.0}) {
+    EXPECT_NEAR(path.At(t).velocity, 0, 1e-12) << t;
+    EXPECT_NEAR(path.At(t).acceleration, 0, 1e-9) << t;
+  }
+  EXPECT_NEAR(path.At(1).position, 0.6, 1e-12);
+  EXPECT_NEAR(path.At(3).position, -0.4, 1e-12);
+  EXPECT_NEAR(path.At(4).position, 0.1, 1e-12);
+  // Half way along a leg: half the distance, the peak speed 1.875 d / T.
+  EXPECT_NEAR(path.At(0.5).position, 0.35, 1e-12);
+  EXPECT_NEAR(path.At(2).velocity, -1.875 * 1.0 / 2, 1e-12);
+  EXPECT_NEAR(path.peak_velocity(), 1.875 * 1.0 / 2, 1e-12);
+  EXPECT_NEAR(path.peak_acceleration(), 5.773502691896258 * 0.5 / 1, 1e-12);
+  // Velocity and acceleration are the derivatives of the position (central differences).
+  const double h = 1e-5;
+  for (double t = 0.05; t < 8; t += 0.37) {
+    EXPECT_NEAR((path.At(t + h).position - path.At(t - h).position) / (2 * h), path.At(t).velocity,
+                1e-6)
+        << t;
+    EXPECT_NEAR((path.At(t + h).velocity - path.At(t - h).velocity) / (2 * h),
+                path.At(t).acceleration, 1e-5)
+        << t;
+  }
+  EXPECT_DOUBLE_EQ(path.NextWaypoint(0.5), 0.6);
+  EXPECT_DOUBLE_EQ(path.NextWaypoint(2.5), -0.4);
+  EXPECT_DOUBLE_EQ(path.NextWaypoint(100), 0.1);
+}
+
+// The chip's profile generators run the generated plan as sirupp-control's sequencer does (a move
+// loads and the profile steps in the same tick, `wait T` counts the state's utime, the plan's first
+// step at tick 1): the set-point stays on the path.
+struct Followed {
+  double max_deviation = 0;    // rad
+  double max_speed_error = 0;  // rad/s
+  double end_deviation = 0;    // rad, after the plan ended
+  int64_t plan_end_tick = -1;
+};
+
+Followed RunOnTheChip(const Task& task) {
+  const core::RobotModel& model = Puma();
+  const control::Plan plan = control::ParsePlan(task.plan_text, task.name, model, task.start);
+  control::ServoBank bank(model);
+  bank.ServoOn(task.start);
+  std::vector<double> held;  // the start as the servos hold it (whole encoder counts)
+  for (int k = 0; k < model.num_joints(); ++k) held.push_back(bank.SetpointPosition(k));
+  const auto j = task.track->joint;
+  const double tick_s = model.servo_tick_s;
+  const auto utime = [&](int64_t tick) { return tick * 512; };
+  size_t step = 0;
+  int64_t wait_until = -1;
+  Followed result;
+  std::vector<double> positions = task.start;
+  const auto ticks = static_cast<int64_t>(std::ceil(task.duration_s / tick_s));
+  for (int64_t tick = 1; tick <= ticks; ++tick) {
+    while (step < plan.steps.size()) {
+      const control::PlanStep& s = plan.steps[step];
+      if (s.kind == control::PlanStep::Kind::kWaitDone) {
+        if (!bank.AllDone()) break;
+      } else if (s.kind == control::PlanStep::Kind::kWaitTime) {
+        if (wait_until < 0) wait_until = utime(tick) + std::llround(s.wait_s * 1e6);
+        if (utime(tick) < wait_until) break;
+        wait_until = -1;
+      } else {
+        bank.Load(s.moves);
+      }
+      ++step;
+    }
+    if (step == plan.steps.size() && bank.AllDone() && result.plan_end_tick < 0) {
+      result.plan_end_tick = tick;
+    }
+    for (int k = 0; k < model.num_joints(); ++k)
+      positions[static_cast<size_t>(k)] = bank.SetpointPosition(k);
+    bank.Tick(positions);
+    const double t = static_cast<double>(tick) * tick_s;
+    const MinJerkPath::Sample want = task.track->path.At(t);
+    const double deviation = std::abs(bank.SetpointPosition(j) - want.position);
+    result.max_deviation = std::max(result.max_deviation, deviation);
+    result.max_speed_error =
+        std::max(result.max_speed_error, std::abs(bank.SetpointVelocity(j) - want.velocity));
+    if (t > task.track->path.end_s()) result.end_deviation = deviation;
+    for (int k = 0; k < model.num_joints(); ++k) {
+      if (k != j) {
+        EXPECT_DOUBLE_EQ(bank.SetpointPosition(k), held[static_cast<size_t>(k)]);
+      }
+    }
+  }
+  return result;
+}
+
+TEST(GradeSuite, TheChipFollowsATrackingTasksPathWithinAFewThousandthsOfADegree) {
+  const Suite advanced = LoadSuite("config/grading/advanced.yaml", &Same);
+  int tracks = 0;
+  for (const Task& task : advanced.tasks) {
+    if (!task.track) continue;
+    ++tracks;
+    const Followed followed = RunOnTheChip(task);
+    EXPECT_LT(followed.max_deviation, 0.005 * kDeg) << task.name;
+    // Speed: within 1 % of the path's peak.
+    EXPECT_LT(followed.max_speed_error, 0.01 * task.track->path.peak_velocity()) << task.name;
+    EXPECT_LT(followed.end_deviation, 1e-4 * kDeg) << task.name;
+    EXPECT_GT(followed.plan_end_tick, 0) << task.name << ": the plan did not end";
+    RecordProperty(task.name + "_max_deviation_deg", std::to_string(followed.max_deviation / kDeg));
+  }
+  EXPECT_EQ(tracks, 2);
+  // A fast one near the caps, and one from a start away from zero.
+  const Suite fast = Parse(WithTasks(
+      "  - {name: f, track: {joint: 3, amplitude_deg: 30, period_s: 3, cycles: 2}, duration_s: "
+      "6.5}\n"
+      "  - {name: g, start_deg: [0, 20, -30, 0, 0, 0], track: {joint: 5, amplitude_deg: 40, "
+      "period_s: 4, cycles: 1}, duration_s: 4.5}\n"));
+  for (const Task& task : fast.tasks) {
+    const Followed followed = RunOnTheChip(task);
+    EXPECT_LT(followed.max_deviation, 0.005 * kDeg) << task.name;
+    EXPECT_LT(followed.max_speed_error, 0.01 * task.track->path.peak_velocity()) << task.name;
+    EXPECT_LT(followed.end_deviation, 1e-4 * kDeg) << task.name;
+  }
+}
+
+}  // namespace
+}  // namespace sirupp::grade
