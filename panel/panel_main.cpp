@@ -56,14 +56,19 @@ std::string MakeToken() {
 }
 
 int Run(const std::vector<std::string>& argv) {
-  const Args args(argv, "sirupp-panel",
-                  {Flag("port", "0: any free port").Takes("N").Integer(0, 65535),
-                   Flag("listen", "").Takes("ADDR"), Flag("require-token", "").Switch(),
-                   Flag("rate", "").Takes("HZ"), Flag("results", "").Takes("DIR"),
-                   sirupp::runtime::ModelFlag(), Flag("open", "").Switch(),
-                   Flag("duration", "").Takes("S"), Flag("lcm-url", "LCM URL").Takes("URL"),
-                   Flag("prefix", "channel prefix of the rig").Takes("PREFIX")},
-                  kAbout);
+  const Args args(
+      argv, "sirupp-panel",
+      {Flag("port", "0: any free port").Takes("N").Integer(0, 65535),
+       Flag("listen", "address to bind (default 127.0.0.1; others need the token)").Takes("ADDR"),
+       Flag("require-token", "ask for the printed token even on 127.0.0.1").Switch(),
+       Flag("rate", "at most this many live updates per second to each page (0 < HZ <= 240)")
+           .Takes("HZ"),
+       Flag("results", "folder of recorded runs and reports").Takes("DIR"),
+       sirupp::runtime::ModelFlag(),
+       Flag("open", "open the page in a browser when there is a display").Switch(),
+       Flag("duration", "exit after S seconds").Takes("S"), Flag("lcm-url", "LCM URL").Takes("URL"),
+       Flag("prefix", "channel prefix of the rig").Takes("PREFIX")},
+      kAbout);
   panel::ServerOptions server_options;
   server_options.port = static_cast<int>(args.Integer("port", server_options.port));
   if (args.Has("listen")) server_options.listen = args.String("listen");

@@ -10,6 +10,16 @@ namespace {
 constexpr size_t kWidth = 80;
 constexpr size_t kColumn = 26;  // flag names; descriptions start here
 
+// Where the text of a table row starts: after its first gap of two or more spaces past the
+// indentation ("  --rate HZ     text"), else after the indentation.
+size_t TextColumn(const std::string& line) {
+  const size_t indent = std::min(line.find_first_not_of(' '), line.size());
+  const size_t gap = line.find("  ", indent);
+  const size_t text =
+      gap == std::string::npos ? std::string::npos : line.find_first_not_of(' ', gap);
+  return text == std::string::npos ? indent : text;
+}
+
 class Formatter : public CLI::Formatter {
  public:
   Formatter() {
@@ -60,7 +70,9 @@ std::string Wrap(const std::string& text, size_t width) { return Fill(Reflow(tex
 
 std::string Reflow(const std::string& text) {
   // A line break stays where the indentation changes, before a flag ("--x") or an item
-  // ("pose: ..."), and after a sentence or a colon; elsewhere the hand-made break is a space.
+  // ("pose: ..."), after a sentence or a colon, and around the rows of a hand-made table (indented
+  // lines); elsewhere the hand-made break is a space. A row's continuation (a line indented to
+  // the row's text column) joins its row.
   std::string flowed;
   std::istringstream lines(text);
   std::string line;
@@ -72,13 +84,15 @@ std::string Reflow(const std::string& text) {
     const std::string body = line.substr(indent);
     const size_t colon = body.find(": ");
     const bool item = colon != std::string::npos && colon < 14 && body.find(' ') > colon;
-    const bool keep = first || previous.empty() || body.empty() || indent != previous_indent ||
-                      body.rfind("--", 0) == 0 || item || previous.back() == '.' ||
-                      previous.back() == ':';
+    const bool continuation = !first && previous_indent > 0 && indent > previous_indent &&
+                              indent == TextColumn(previous) && !body.empty();
+    const bool keep = !continuation && (first || previous.empty() || body.empty() || indent > 0 ||
+                                        indent != previous_indent || body.rfind("--", 0) == 0 ||
+                                        item || previous.back() == '.' || previous.back() == ':');
     if (!first) flowed += keep ? "\n" : " ";
     flowed += keep ? line : body;
-    previous = line;
-    previous_indent = indent;
+    previous = keep ? line : previous + " " + body;
+    if (keep) previous_indent = indent;
     first = false;
   }
   return flowed;
@@ -92,18 +106,32 @@ std::string Fill(const std::string& text, size_t width) {
   while (std::getline(lines, line)) {
     if (!first_line) wrapped += "\n";
     first_line = false;
-    // Leading spaces (an indented line) are kept; the rest is filled word by word.
     const size_t indent_end = line.find_first_not_of(' ');
     const std::string indent = line.substr(0, indent_end == std::string::npos ? 0 : indent_end);
-    std::istringstream words(line.substr(indent.size()));
-    std::string word;
-    std::string current = indent;
-    while (words >> word) {
-      if (current.size() > indent.size() && current.size() + 1 + word.size() > width) {
-        wrapped += current + "\n";
-        current = indent;
+    if (!indent.empty()) {
+      // A row of a hand-made table keeps its spacing; a long one is broken at spaces, the rest
+      // under the row's text column.
+      const size_t column = TextColumn(line) + 16 < width ? TextColumn(line) : indent.size();
+      std::string rest = line;
+      while (rest.size() > width) {
+        const size_t cut = rest.rfind(' ', width);
+        if (cut == std::string::npos || cut <= column) break;
+        wrapped += rest.substr(0, rest.find_last_not_of(' ', cut) + 1) + "\n";
+        rest = std::string(column, ' ') + rest.substr(rest.find_first_not_of(' ', cut));
       }
-      current += (current.size() > indent.size() ? " " : "") + word;
+      wrapped += rest;
+      continue;
+    }
+    // Prose is filled word by word.
+    std::istringstream words(line);
+    std::string word;
+    std::string current;
+    while (words >> word) {
+      if (!current.empty() && current.size() + 1 + word.size() > width) {
+        wrapped += current + "\n";
+        current.clear();
+      }
+      current += (current.empty() ? "" : " ") + word;
     }
     wrapped += current;
   }

@@ -15,9 +15,10 @@ void ConfigureApp(CLI::App& app, const std::string& version_text);
 // stays whole).
 std::string Wrap(const std::string& text, size_t width);
 // Hand-wrapped prose joined into paragraphs: a line break stays after a sentence or a colon and
-// before an indented line or a flag.
+// before and after an indented line, and before a flag.
 std::string Reflow(const std::string& text);
-// Each line filled at spaces to at most `width` characters; leading indentation kept.
+// Each line filled at spaces to at most `width` characters; leading indentation kept, and an
+// indented line that fits is kept as written (a row of a hand-made table).
 std::string Fill(const std::string& text, size_t width);
 
 }  // namespace sirupp::runtime

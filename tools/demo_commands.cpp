@@ -148,8 +148,10 @@ void WaitSimSeconds(client::Client& rig, double seconds) {
 int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   const runtime::Args parsed(
       args, "demo",
-      {runtime::Flag("out", "").Takes("DIR"), runtime::Flag("sets", "").Takes("N..."),
-       runtime::Flag("layout", "").Takes("FILE"), runtime::Flag("lcm-url", "LCM URL").Takes("URL")},
+      {runtime::Flag("out", "folder for data, report, images and logs").Takes("DIR"),
+       runtime::Flag("sets", "movement sets, 1 to 7 or I to VII (default all)").Takes("N", -1),
+       runtime::Flag("layout", "lab layout to start (default config/labs/demo.yaml)").Takes("FILE"),
+       runtime::Flag("lcm-url", "LCM URL").Takes("URL")},
       kDemoAbout);
   std::vector<int> sets = {1, 2, 3, 4, 5, 6, 7};
   if (parsed.Has("sets")) {

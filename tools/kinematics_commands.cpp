@@ -9,6 +9,7 @@
 #include "core/inverse_kinematics.hpp"
 #include "core/model_loader.hpp"
 #include "runtime/args.hpp"
+#include "runtime/data_path.hpp"
 #include "tools/json_output.hpp"
 
 namespace sirupp::tools {
@@ -98,13 +99,10 @@ std::string SolutionText(const core::RobotModel& model, const core::IkSolution& 
 }  // namespace
 
 int RunFk(const std::vector<std::string>& raw, std::ostream& out) {
-  const runtime::Args args(raw, "fk",
-                           {runtime::Flag("model", "").Takes("FILE"),
-                            {"deg", "Q1 .. QN"},
-                            {"rad", "Q1 .. QN"},
-                            {"json", ""}},
-                           kFkAbout);
-  const core::RobotModel model = core::LoadRobotModel(args.String("model"));
+  const runtime::Args args(
+      raw, "fk", {runtime::ModelFlag(), {"deg", "Q1 .. QN"}, {"rad", "Q1 .. QN"}, {"json", ""}},
+      kFkAbout);
+  const core::RobotModel model = core::LoadRobotModel(runtime::ModelFileArg(args));
   const int n = model.num_joints();
   if (args.Has("deg") == args.Has("rad")) {
     throw core::UsageError("fk: give the joints with exactly one of --deg or --rad (" +
@@ -160,16 +158,18 @@ int RunFk(const std::vector<std::string>& raw, std::ostream& out) {
 }
 
 int RunIk(const std::vector<std::string>& raw, std::ostream& out) {
-  const runtime::Args args(raw, "ik",
-                           {runtime::Flag("model", "").Takes("FILE"),
-                            runtime::Flag("pose", "").Takes("X Y Z ROLL PITCH YAW", 6),
-                            {"config", "NAME|all|nearest"},
-                            {"from", "Q1 .. QN"},
-                            {"numeric", ""},
-                            {"position-only", ""},
-                            {"json", ""}},
-                           kIkAbout);
-  const core::RobotModel model = core::LoadRobotModel(args.String("model"));
+  const runtime::Args args(
+      raw, "ik",
+      {runtime::ModelFlag(),
+       runtime::Flag("pose", "tool pose in the world frame: metres and degrees")
+           .Takes("X Y Z ROLL PITCH YAW", 6),
+       {"config", "NAME|all|nearest"},
+       {"from", "Q1 .. QN"},
+       {"numeric", ""},
+       {"position-only", ""},
+       {"json", ""}},
+      kIkAbout);
+  const core::RobotModel model = core::LoadRobotModel(runtime::ModelFileArg(args));
   const int n = model.num_joints();
   const std::vector<double> pose = args.Numbers("pose", 6);
   const std::string config_text = args.Has("config") ? args.String("config") : "all";

@@ -29,17 +29,6 @@ const char* const kFitEmulatorAbout =
     "(emulated PIC-SERVO modules and the arm with its effects, emulated time, no serial line).\n"
     "Prints our Table II (virtual vs real) beside the paper's, row by row, with joint 1's start\n"
     "delay and the multi-joint coupling.\n"
-    "  --real-arm FILE       the effects to start from (default "
-    "config/hardware/puma260-real.yaml)\n"
-    "  --model FILE          the robot model of the real arm (default config/robots/puma260.yaml)\n"
-    "  --virtual-model FILE  the virtual arm's model (default: --model); e.g. one `sirupp\n"
-    "                        identify` wrote, to see how much closer it comes\n"
-    "  --evaluate            only run and print the table; no fit\n"
-    "  --evaluations N       the fit's budget of experiment runs (default 150)\n"
-    "  --data DIR            with --evaluate: also write each set's data file there (the\n"
-    "                        logger's format; input for sirupp report and sirupp identify)\n"
-    "  --out FILE            write the fitted effects there (refuses to replace a file unless it\n"
-    "                        is --real-arm itself)\n"
     "docs/emulator-fit.md. Exit 0, 2 for bad arguments or files.\n";
 
 const char* const kIdentifyAbout =
@@ -52,8 +41,6 @@ const char* const kIdentifyAbout =
     "joint. Then `sirupp fit-emulator --evaluate --virtual-model M2` (or a demo with M2) shows "
     "how\n"
     "much closer the virtual arm comes.\n"
-    "  --joints N...      the joints to fit (default: every joint the set-point moves)\n"
-    "  --evaluations N    simulations of the data the fit may run (default 150)\n"
     "docs/emulator-fit.md. Exit 0, 2 for bad arguments or files.\n";
 
 namespace {
@@ -84,10 +71,23 @@ double Since(std::chrono::steady_clock::time_point t) {
 int RunFitEmulator(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
   const runtime::Args args(
       argv, "fit-emulator",
-      {runtime::Flag("real-arm", "").Takes("FILE"), runtime::Flag("model", "").Takes("FILE"),
-       runtime::Flag("virtual-model", "").Takes("FILE"), runtime::Flag("sets", "").Takes("N..."),
-       runtime::Flag("evaluate", "").Switch(), runtime::Flag("evaluations", "").Takes("N"),
-       runtime::Flag("out", "").Takes("FILE"), runtime::Flag("data", "").Takes("DIR")},
+      {runtime::Flag("real-arm",
+                     "the effects to start from (default config/hardware/puma260-real.yaml)")
+           .Takes("FILE"),
+       runtime::Flag("model", "robot model file (default config/robots/puma260.yaml)")
+           .Takes("FILE"),
+       runtime::Flag("virtual-model",
+                     "the virtual arm's model (default: --model), e.g. one sirupp identify wrote")
+           .Takes("FILE"),
+       runtime::Flag("sets", "movement sets, 1 to 7 or I to VII (default all)").Takes("N", -1),
+       runtime::Flag("evaluate", "only run and print the table; no fit").Switch(),
+       runtime::Flag("evaluations", "the fit's budget of experiment runs (150)").Takes("N"),
+       runtime::Flag("out",
+                     "write the fitted effects there (refuses to replace a file unless it is "
+                     "--real-arm itself)")
+           .Takes("FILE"),
+       runtime::Flag("data", "with --evaluate: also write each set's data file there")
+           .Takes("DIR")},
       kFitEmulatorAbout);
   const std::string model_file = runtime::ModelFileArg(args);
   const core::RobotModel model = core::LoadRobotModel(model_file);
@@ -167,8 +167,12 @@ int RunIdentify(const std::vector<std::string>& argv, std::ostream& out, std::os
   const runtime::Args args(
       std::vector<std::string>(argv.begin() + static_cast<std::ptrdiff_t>(i), argv.end()),
       "identify",
-      {runtime::Flag("model", "").Takes("FILE"), runtime::Flag("out", "").Takes("FILE"),
-       runtime::Flag("joints", "").Takes("N..."), runtime::Flag("evaluations", "").Takes("N")},
+      {runtime::Flag("model", "the model M whose friction and armature are fitted (required)")
+           .Takes("FILE"),
+       runtime::Flag("out", "the identified model file M2, new (required)").Takes("FILE"),
+       runtime::Flag("joints", "the joints to fit (default: every joint the set-point moves)")
+           .Takes("N", -1),
+       runtime::Flag("evaluations", "simulations of the data the fit may run (150)").Takes("N")},
       kIdentifyAbout);
   if (files.empty())
     throw core::UsageError("identify: give at least one DATA file (before the options)");

@@ -28,16 +28,6 @@ const char* const kLaunchAbout =
     "previous is ready, with the layout's LCM URL and channel prefix; restarts those the layout\n"
     "says; shows a status table of every process heard on the bus (its own and other hosts');\n"
     "Ctrl-C stops them all (SIGINT, then SIGKILL after each one's stop_timeout_s).\n"
-    "  --host NAME       which host of the layout this is (default: the only host, or the one\n"
-    "                    named like this machine)\n"
-    "  --run-dir DIR     ${RUN_DIR}: the processes' output (DIR/logs/NAME.log) and whatever the\n"
-    "                    layout writes there (default runs/LAB-HOST-YYYYmmdd-HHMMSS)\n"
-    "  --duration S      stop everything after S seconds\n"
-    "  --lcm-url URL, --prefix PREFIX   instead of the layout's (e.g. one port or prefix per\n"
-    "                    team with the same layout)\n"
-    "  --status-every S  print the table every S s when the output is not a terminal (default\n"
-    "                    10; on a terminal it is redrawn every second)\n"
-    "  --dry-run         check the layout and print the command lines, start nothing\n"
     "Exit: 0 every process ran and stopped cleanly, 1 one failed, 2 bad layout or arguments.\n"
     "Layouts: config/labs/single-pc.yaml, config/labs/multi-pc.yaml; format in docs/launch.md.\n";
 
@@ -84,13 +74,24 @@ int RunLaunch(const std::vector<std::string>& args, std::ostream& out, std::ostr
   const runtime::Args parsed(
       args, "launch",
       {runtime::Flag("layout", "a file in config/labs/").Positional("LAYOUT"),
-       runtime::Flag("host", "").Takes("NAME"),
-       runtime::Flag("run-dir", "").Takes("DIR"),
-       runtime::Flag("duration", "").Takes("S"),
-       runtime::Flag("status-every", "").Takes("S"),
-       runtime::Flag("lcm-url", "LCM URL").Takes("URL"),
-       runtime::Flag("prefix", "").Takes("PREFIX"),
-       {"dry-run", ""}},
+       runtime::Flag("host",
+                     "which host of the layout this is (default: the only host, or the one "
+                     "named like this machine)")
+           .Takes("NAME"),
+       runtime::Flag("run-dir",
+                     "${RUN_DIR}: the processes' output (DIR/logs/NAME.log) and whatever the "
+                     "layout writes there (default runs/LAB-HOST-YYYYmmdd-HHMMSS)")
+           .Takes("DIR"),
+       runtime::Flag("duration", "stop everything after S seconds").Takes("S"),
+       runtime::Flag("status-every",
+                     "print the table every S s when the output is not a terminal (default 10; "
+                     "on a terminal it is redrawn every second)")
+           .Takes("S"),
+       runtime::Flag("lcm-url", "instead of the layout's (e.g. one port per team)").Takes("URL"),
+       runtime::Flag("prefix", "instead of the layout's (e.g. one prefix per team)")
+           .Takes("PREFIX"),
+       runtime::Flag("dry-run", "check the layout and print the command lines, start nothing")
+           .Switch()},
       kLaunchAbout);
   const std::string file = runtime::ResolveDataPath(parsed.String("layout"));
   double duration = 0;

@@ -20,17 +20,6 @@ const char* const kReportAbout =
     "right after the file they continue).\n"
     "Prints Markdown and writes DIR/report.md, report_errors.csv, report_response.csv and PNG\n"
     "plots (angle and error against time per move and joint); DIR default report.\n"
-    "  --settle-window S     the transient ends S after move-done (0.25)\n"
-    "  --start-threshold DEG a stream has started once it moved this far (0.5)\n"
-    "  --band-percent P      settling band, percent of the travel (2)\n"
-    "  --min-travel DEG      joints whose set-point travels less are not reported (0.5)\n"
-    "  --joints N..          only these joints (1-based)\n"
-    "  --last-move           only the last move of each movement set (the paper's sets return to\n"
-    "                        zero first, then make the move Table II measures)\n"
-    "  LCM logs: --prefix (rig prefix of the channels), --rate HZ (sample clock, default the\n"
-    "  0.512 ms servo tick), --max-age S (0.025), --whole-log (one set, not one per plan run)\n"
-    "  --reference paper     the SIRUPP paper's own Table II (virtual vs real, real PUMA 260) as\n"
-    "                        two more columns beside our virtual-vs-real rows, per set and joint\n"
     "Definitions: docs/logging.md. Exit 0, or 2 naming FILE:LINE for bad input.\n";
 
 logger::ReferenceColumn PaperReference() {
@@ -66,19 +55,29 @@ int RunReport(const std::vector<std::string>& argv, std::ostream& out, std::ostr
   const runtime::Args args(
       argv, "report",
       {runtime::Flag("files", "data files, folders or LCM logs").Positional("FILE|DIR", -1),
-       runtime::Flag("out", "").Takes("DIR"),
-       runtime::Flag("no-plots", "").Switch(),
-       runtime::Flag("joints", "").Takes("N", -1),
-       runtime::Flag("last-move", "").Switch(),
-       runtime::Flag("settle-window", "").Takes("S"),
-       runtime::Flag("start-threshold", "").Takes("DEG"),
-       runtime::Flag("band-percent", "").Takes("P"),
-       runtime::Flag("min-travel", "").Takes("DEG"),
-       runtime::Flag("prefix", "").Takes("PREFIX"),
-       runtime::Flag("rate", "").Takes("HZ"),
-       runtime::Flag("max-age", "").Takes("S"),
-       runtime::Flag("whole-log", "").Switch(),
-       {"reference", "paper"}},
+       runtime::Flag("out", "folder for report.md, CSVs and plots (report)").Takes("DIR"),
+       runtime::Flag("no-plots", "no PNG plots").Switch(),
+       runtime::Flag("joints", "only these joints (1-based)").Takes("N", -1),
+       runtime::Flag("last-move",
+                     "only the last move of each movement set (the one Table II measures)")
+           .Switch(),
+       runtime::Flag("settle-window", "the transient ends S after move-done (0.25)").Takes("S"),
+       runtime::Flag("start-threshold", "a stream has started once it moved this far (0.5)")
+           .Takes("DEG"),
+       runtime::Flag("band-percent", "settling band, percent of the travel (2)").Takes("P"),
+       runtime::Flag("min-travel", "joints whose set-point travels less are not reported (0.5)")
+           .Takes("DEG"),
+       runtime::Flag("prefix", "LCM logs: channel prefix of the rig").Takes("PREFIX"),
+       runtime::Flag("rate", "LCM logs: sample clock (default the 0.512 ms servo tick)")
+           .Takes("HZ"),
+       runtime::Flag("max-age", "LCM logs: a stream older than S leaves its cell empty (0.025)")
+           .Takes("S"),
+       runtime::Flag("whole-log", "LCM logs: one set, not one per plan run").Switch(),
+       runtime::Flag("reference",
+                     "the SIRUPP paper's own Table II (virtual vs real, real PUMA 260) as two "
+                     "more columns beside our virtual-vs-real rows, per set and joint")
+           .Takes("WHICH")
+           .OneOf({"paper"})},
       kReportAbout);
   const std::vector<std::string>& files = args.Values("files", -1);
 

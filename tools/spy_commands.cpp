@@ -35,12 +35,14 @@ constexpr const char* kChartJar = "/usr/share/java/jchart2d.jar";
 }  // namespace
 
 int RunSpy(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  const runtime::Args parsed(args, "spy",
-                             {runtime::Flag("lcm-url", "LCM URL").Takes("URL"),
-                              runtime::Flag("jar", "").Takes("FILE"),
-                              {"check", ""},
-                              {"print-command", ""}},
-                             kSpyAbout);
+  const runtime::Args parsed(
+      args, "spy",
+      {runtime::Flag("lcm-url", "LCM URL").Takes("URL"),
+       runtime::Flag("jar", "the lcmtypes jar (default: the build's sirupp_lcmtypes.jar)")
+           .Takes("FILE"),
+       {"check", ""},
+       {"print-command", ""}},
+      kSpyAbout);
   std::string jar = (fs::path(ProgramDir()) / ".." / "java" / "sirupp_lcmtypes.jar").string();
   if (parsed.Has("jar")) jar = parsed.String("jar");
   const bool check = parsed.Switch("check");

@@ -62,11 +62,12 @@ std::optional<sirupp::viewer_camera_t> CameraOf(const sirupp::image_t& image) {
 }  // namespace
 
 int RunView(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  const runtime::Args parsed(args, "view",
-                             WithRigFlags({runtime::Flag("channel", "").Takes("NAME"),
-                                           runtime::Flag("save", "").Takes("DIR"),
-                                           runtime::Flag("duration", "").Takes("S")}),
-                             kViewAbout);
+  const runtime::Args parsed(
+      args, "view",
+      WithRigFlags({runtime::Flag("channel", "image channel (VIEWER_IMAGE)").Takes("NAME"),
+                    runtime::Flag("save", "folder to save the frames as PNG").Takes("DIR"),
+                    runtime::Flag("duration", "exit after S seconds").Takes("S")}),
+      kViewAbout);
   const std::string channel =
       parsed.Has("channel") ? parsed.String("channel") : core::Channels{}.viewer_image;
   const std::string save_dir = parsed.Has("save") ? parsed.String("save") : ".";

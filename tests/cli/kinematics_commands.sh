@@ -9,6 +9,8 @@ run "fk zero" 0 fk --model $puma --deg 0 0 0 0 0 0
 has "fk zero position" "$out" "tool position     [0.203200 -0.142240 0.589280] m = [8.0000 -5.6000 23.2000] inch"
 has "fk zero rotation" "$out" "rotation matrix   [1.000000 0.000000 0.000000]"
 has "fk zero singular" "$out" "singularities     wrist"
+run "fk default model" 0 fk --deg 0 0 0 0 0 0
+has "fk default model is the PUMA 260" "$out" "tool position     [0.203200 -0.142240 0.589280] m"
 run "fk json" 0 fk --model $puma --rad 0 0 0 0 0 0 --json
 has "fk json" "$out" '"position_m":[0.2032,-0.14224,0.58928]'
 run "fk help" 0 fk --help
