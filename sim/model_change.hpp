@@ -25,4 +25,15 @@ struct ModelChange {
 // negative or non-finite payload or scale.
 void ApplyModelChange(core::RobotModel& model, const ModelChange& change);
 
+// True when ApplyModelChange changed `model` (its description says so).
+bool HasModelChange(const core::RobotModel& model);
+
+// SIM_COMMAND LOAD_MODEL: the model in `text` (file `name`) replaces the running arm of `world` in
+// place (ArmWorld::ReplaceModel). Throws core::ConfigError (name:line, the field) for a bad file, and
+// std::invalid_argument for a model the running arm cannot take: another joint count or servo tick,
+// a joint outside its new limits, an overlap, or a running arm changed by ApplyModelChange (the
+// change would be lost). The world is unchanged then. Returns the model now running.
+const core::RobotModel& LoadModelText(class ArmWorld& world, const std::string& text,
+                                      const std::string& name);
+
 }  // namespace sirupp::sim
