@@ -6,8 +6,7 @@
 namespace sirupp::control {
 
 void ModelSwitch::Request(const std::string& source, const std::string& name,
-                          const std::string& text, const core::RobotModel& running,
-                          TimePoint now) {
+                          const std::string& text, const core::RobotModel& running, TimePoint now) {
   if (text.empty()) {
     waiting_.reset();
     return;
@@ -46,8 +45,7 @@ void ModelSwitch::RequireNone(const std::string& source, TimePoint now) {
                                waiting_->source_file + " is being loaded into the sim");
 }
 
-std::optional<core::RobotModel> ModelSwitch::Take(const sirupp::robot_model_t& sim,
-                                                  TimePoint now) {
+std::optional<core::RobotModel> ModelSwitch::Take(const sirupp::robot_model_t& sim, TimePoint now) {
   if (!waiting(now) || sim.source_hash != waiting_->source_hash) return std::nullopt;
   std::optional<core::RobotModel> taken = std::move(waiting_);
   waiting_.reset();

@@ -608,7 +608,8 @@ void Sequencer::RequireModelChangeAllowed(const std::string& source) const {
   const auto refuse = [&](const std::string& why) {
     throw core::MessageError(source, "command", "load model: " + why);
   };
-  if (options_.effort_law) refuse("a student's controller runs, built for the model it started with");
+  if (options_.effort_law)
+    refuse("a student's controller runs, built for the model it started with");
   if (!estop_.empty()) refuse("the emergency stop is engaged (" + estop_ + "); release it first");
   if (plan_running_) refuse("plan '" + plan_->name + "' runs; abort it or let it end first");
   const ControlState now = state();

@@ -372,8 +372,9 @@ sirupp::sim_command_t ToMessage(const SimCommand& command) {
   m.utime = command.utime;
   m.seq = command.seq;
   m.sender = command.sender;
-  m.command = command.action == SimAction::kLoadModel ? sirupp::sim_command_t::COMMAND_LOAD_MODEL
-                                                      : sirupp::sim_command_t::COMMAND_LOAD_ENVIRONMENT;
+  m.command = command.action == SimAction::kLoadModel
+                  ? sirupp::sim_command_t::COMMAND_LOAD_MODEL
+                  : sirupp::sim_command_t::COMMAND_LOAD_ENVIRONMENT;
   m.name = command.name;
   m.text = command.text;
   return m;

@@ -663,10 +663,10 @@ Response PanelApi::ModelEdit(const Json& body, bool save) {
              << edited;
     if (!file_out) return ErrorResponse(500, "cannot write " + target);
   }
-  return JsonResponse(
-      Json{{"ok", true},
-           {"path", target},
-           {"message", "saved " + target + "; Apply loads it into the running sim and controller"}});
+  return JsonResponse(Json{
+      {"ok", true},
+      {"path", target},
+      {"message", "saved " + target + "; Apply loads it into the running sim and controller"}});
 }
 
 }  // namespace sirupp::panel

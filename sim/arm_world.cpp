@@ -987,8 +987,7 @@ void ArmWorld::ReplaceModel(const core::RobotModel& model) {
   const core::RobotModel& old = impl_->model;
   if (model.num_joints() != old.num_joints()) {
     throw std::invalid_argument("the new model has " + std::to_string(model.num_joints()) +
-                                " joints; the running arm has " +
-                                std::to_string(old.num_joints()));
+                                " joints; the running arm has " + std::to_string(old.num_joints()));
   }
   if (model.servo_tick_s != old.servo_tick_s) {
     throw std::invalid_argument("the new model's servo tick is " +

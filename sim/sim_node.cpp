@@ -324,8 +324,7 @@ void SimNode::OnSimCommand(const sirupp::sim_command_t& message, const core::Rec
     if (std::abs(state.velocity[j]) > kStillSpeed) {
       throw std::runtime_error("the arm moves (joint " + std::to_string(j + 1) + " at " +
                                core::FormatNumber(state.velocity[j]) + " rad/s or m/s): load " +
-                               (model ? "a model" : "an environment") +
-                               " while it stands still");
+                               (model ? "a model" : "an environment") + " while it stands still");
     }
   }
   if (model) {

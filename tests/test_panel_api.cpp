@@ -624,9 +624,9 @@ TEST(PanelModelApply, TheSimTheControllerAndThePanelTakeTheSavedModel) {
   spin(200);
   ASSERT_EQ(post("/api/lock", Json{{"name", "ann"}}).status, 200);
   const std::string file = "config/robots/puma260.yaml";
-  Response saved = post("/api/model/save", Json{{"path", file},
-                                                {"edits", {{"joints[0].limits[1]", "150"}}},
-                                                {"name", "wide"}});
+  Response saved =
+      post("/api/model/save",
+           Json{{"path", file}, {"edits", {{"joints[0].limits[1]", "150"}}}, {"name", "wide"}});
   ASSERT_EQ(saved.status, 200) << saved.body;
   // Outside config/robots, or a bad file: refused before anything is sent.
   EXPECT_EQ(post("/api/model/apply", Json{{"path", "config/plans/x.plan"}}).status, 400);
@@ -645,12 +645,12 @@ TEST(PanelModelApply, TheSimTheControllerAndThePanelTakeTheSavedModel) {
   ASSERT_EQ(post("/api/plan/run", Json{{"name", "slow.plan"}, {"text", plan}}).status, 200);
   Response busy = post("/api/model/apply", Json{{"path", "config/robots/wide.yaml"}});
   EXPECT_EQ(busy.status, 409) << busy.body;
-  EXPECT_NE(Body(busy)["error"].get<std::string>().find("plan 'slow.plan' runs"),
-            std::string::npos)
+  EXPECT_NE(Body(busy)["error"].get<std::string>().find("plan 'slow.plan' runs"), std::string::npos)
       << busy.body;
   EXPECT_EQ(world.model().source_hash, model.source_hash);
   ASSERT_EQ(post("/api/plan/abort", Json::object()).status, 200);
-  for (int i = 0; i < 200 && control_node.sequencer().state() != control::ControlState::kIdle; ++i) {
+  for (int i = 0; i < 200 && control_node.sequencer().state() != control::ControlState::kIdle;
+       ++i) {
     spin(50);
   }
   // Still: applied. Every part now runs wide.yaml.
@@ -663,18 +663,18 @@ TEST(PanelModelApply, TheSimTheControllerAndThePanelTakeTheSavedModel) {
   EXPECT_EQ(world.model().source_file, "config/robots/wide.yaml");
   EXPECT_NEAR(world.model().joints[0].position_max, 150 * kPi / 180, 1e-12);
   EXPECT_EQ(hub.Model()->source_hash, world.model().source_hash);
-  EXPECT_NEAR(Body(api.Handle(Request{"GET", "/api/model", {}, "", "127.0.0.1", "a", ""}))
-                  ["joints"][0]["max"]
-                      .get<double>(),
+  EXPECT_NEAR(Body(api.Handle(
+                  Request{"GET", "/api/model", {}, "", "127.0.0.1", "a", ""}))["joints"][0]["max"]
+                  .get<double>(),
               150, 1e-9);
   for (size_t j = 0; j < before.size(); ++j) {
     EXPECT_NEAR(world.State().position[j], before[j], 1e-3) << "joint " << j + 1;
   }
   EXPECT_TRUE(control_node.fault().empty()) << control_node.fault();
   // 148 deg: beyond the old limit, inside the new one; the controller takes it.
-  Response far = post("/api/move/joints", Json{{"targets", {148, nullptr, nullptr, nullptr,
-                                                            nullptr, nullptr}},
-                                               {"speed", 1.0}});
+  Response far =
+      post("/api/move/joints",
+           Json{{"targets", {148, nullptr, nullptr, nullptr, nullptr, nullptr}}, {"speed", 1.0}});
   EXPECT_EQ(far.status, 200) << far.body;
   EXPECT_NEAR(control_node.servos().Goal(0), 148 * kPi / 180, 1e-3);
 }
