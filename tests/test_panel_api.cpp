@@ -595,6 +595,7 @@ TEST_F(PanelApiTest, ModelEditsAreCheckedByTheLoaderAndSavedAsANewFile) {
 // taken by the controller). A bad file is refused at its line and a load while a plan runs is
 // refused by the controller; the sim keeps its model then.
 TEST(PanelModelApply, TheSimTheControllerAndThePanelTakeTheSavedModel) {
+  const auto JsonOf = [](const Response& r) { return Json::parse(r.body); };
   TempDir root;
   std::filesystem::create_directories(root.path / "config/robots");
   std::filesystem::copy_file("config/robots/puma260.yaml",
@@ -603,12 +604,11 @@ TEST(PanelModelApply, TheSimTheControllerAndThePanelTakeTheSavedModel) {
   core::Bus bus("memq://");
   core::Environment none;
   sim::ArmWorld world(model, none);
-  sim::NodeOptions sim_options;
-  sim_options.mode = sim::TimingMode::kFast;
-  sim::SimNode sim_node(bus, world, none, sim_options);
   control::ControlNode control_node(bus, model, control::ControlOptions{});
   PanelHub hub(bus, HubOptions{0.5, std::nullopt, 2.0});
   PanelApi api(hub, ApiOptions{root.path.string(), "", false, "", std::chrono::seconds(30)});
+  // Last: its ROBOT_MODEL at start reaches the controller and the panel.
+  sim::SimNode sim_node(bus, world, none, sim::NodeOptions{});  // lockstep with sirupp-control
   const auto spin = [&](int rounds) {
     for (int i = 0; i < rounds; ++i) {
       sim_node.Service(0);
@@ -636,16 +636,18 @@ TEST(PanelModelApply, TheSimTheControllerAndThePanelTakeTheSavedModel) {
   }
   Response bad = post("/api/model/apply", Json{{"path", "config/robots/bad.yaml"}});
   EXPECT_EQ(bad.status, 422) << bad.body;
-  EXPECT_NE(Body(bad)["error"].get<std::string>().find("config/robots/bad.yaml:"),
+  EXPECT_NE(JsonOf(bad)["error"].get<std::string>().find("config/robots/bad.yaml:"),
             std::string::npos)
       << bad.body;
   // A plan running (waiting, the arm still: only the controller knows): refused; the sim keeps
   // its model.
   const std::string plan = "units deg\nwait 30\n";
-  ASSERT_EQ(post("/api/plan/run", Json{{"name", "slow.plan"}, {"text", plan}}).status, 200);
+  Response run = post("/api/plan/run", Json{{"name", "slow.plan"}, {"text", plan}});
+  ASSERT_EQ(run.status, 200) << run.body;
   Response busy = post("/api/model/apply", Json{{"path", "config/robots/wide.yaml"}});
   EXPECT_EQ(busy.status, 409) << busy.body;
-  EXPECT_NE(Body(busy)["error"].get<std::string>().find("plan 'slow.plan' runs"), std::string::npos)
+  EXPECT_NE(JsonOf(busy)["error"].get<std::string>().find("plan 'slow.plan' runs"),
+            std::string::npos)
       << busy.body;
   EXPECT_EQ(world.model().source_hash, model.source_hash);
   ASSERT_EQ(post("/api/plan/abort", Json::object()).status, 200);
@@ -657,13 +659,13 @@ TEST(PanelModelApply, TheSimTheControllerAndThePanelTakeTheSavedModel) {
   const std::vector<double> before = world.State().position;
   Response applied = post("/api/model/apply", Json{{"path", "config/robots/wide.yaml"}});
   ASSERT_EQ(applied.status, 200) << applied.body;
-  EXPECT_EQ(Body(applied)["message"], "SIM_COMMAND: model config/robots/wide.yaml accepted");
+  EXPECT_EQ(JsonOf(applied)["message"], "SIM_COMMAND: model config/robots/wide.yaml accepted");
   spin(20);
   const std::string wide = ReadText((root.path / "config/robots/wide.yaml").string());
   EXPECT_EQ(world.model().source_file, "config/robots/wide.yaml");
   EXPECT_NEAR(world.model().joints[0].position_max, 150 * kPi / 180, 1e-12);
   EXPECT_EQ(hub.Model()->source_hash, world.model().source_hash);
-  EXPECT_NEAR(Body(api.Handle(
+  EXPECT_NEAR(JsonOf(api.Handle(
                   Request{"GET", "/api/model", {}, "", "127.0.0.1", "a", ""}))["joints"][0]["max"]
                   .get<double>(),
               150, 1e-9);
