@@ -641,7 +641,7 @@ TEST(PanelModelApply, TheSimTheControllerAndThePanelTakeTheSavedModel) {
       << bad.body;
   // A plan running (waiting, the arm still: only the controller knows): refused; the sim keeps
   // its model.
-  const std::string plan = "units deg\nwait 30\n";
+  const std::string plan = "units deg\nmove j1=0\nwait done\nwait 30\n";
   Response run = post("/api/plan/run", Json{{"name", "slow.plan"}, {"text", plan}});
   ASSERT_EQ(run.status, 200) << run.body;
   Response busy = post("/api/model/apply", Json{{"path", "config/robots/wide.yaml"}});
@@ -651,10 +651,15 @@ TEST(PanelModelApply, TheSimTheControllerAndThePanelTakeTheSavedModel) {
       << busy.body;
   EXPECT_EQ(world.model().source_hash, model.source_hash);
   ASSERT_EQ(post("/api/plan/abort", Json::object()).status, 200);
-  for (int i = 0; i < 200 && control_node.sequencer().state() != control::ControlState::kIdle;
-       ++i) {
-    spin(50);
-  }
+  // Until the controller is idle and the arm stands still (it settles under its servos).
+  const auto still = [&] {
+    for (double v : world.State().velocity) {
+      if (std::abs(v) > 0.002) return false;
+    }
+    return control_node.sequencer().state() == control::ControlState::kIdle;
+  };
+  for (int i = 0; i < 400 && !still(); ++i) spin(50);
+  ASSERT_TRUE(still());
   // Still: applied. Every part now runs wide.yaml.
   const std::vector<double> before = world.State().position;
   Response applied = post("/api/model/apply", Json{{"path", "config/robots/wide.yaml"}});
