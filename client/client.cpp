@@ -433,6 +433,30 @@ Answer Client::LoadEnvironment(const std::string& name, const std::string& xml) 
   return AwaitSimAnswer(Send(channels_.sim_command, message), options_.answer_timeout_s);
 }
 
+Answer Client::LoadModel(const std::string& name, const std::string& yaml) {
+  sirupp::plan_command_t announce{};
+  announce.command = sirupp::plan_command_t::COMMAND_LOAD_MODEL;
+  announce.name = name;
+  announce.text = yaml;
+  const Answer controller =
+      AwaitControllerAnswer(Send(channels_.arm_plan, announce), options_.answer_timeout_s);
+  if (!controller.accepted()) return controller;
+  sirupp::sim_command_t load{};
+  load.sender = options_.sender;
+  load.command = sirupp::sim_command_t::COMMAND_LOAD_MODEL;
+  load.name = name;
+  load.text = yaml;
+  const Answer sim = AwaitSimAnswer(Send(channels_.sim_command, load), options_.answer_timeout_s);
+  if (!sim.accepted()) {
+    // The controller stops waiting for a model that will not come (an empty text cancels).
+    sirupp::plan_command_t cancel{};
+    cancel.command = sirupp::plan_command_t::COMMAND_LOAD_MODEL;
+    cancel.name = name;
+    AwaitControllerAnswer(Send(channels_.arm_plan, cancel), options_.answer_timeout_s);
+  }
+  return sim;
+}
+
 Answer Client::StartRecording(const std::string& name) {
   sirupp::logger_command_t message{};
   message.sender = options_.sender;

@@ -205,6 +205,13 @@ class Client {
   // `name` is the file it came from, for messages), the arm untouched. Refused with the parser's
   // name:line error, while the arm moves, or when an object would overlap the arm.
   Answer LoadEnvironment(const std::string& name, const std::string& xml);
+  // Loads another robot model (`yaml`, the text of file `name`) into the running rig, the arm
+  // untouched: sirupp-control is told first (ARM_PLAN COMMAND_LOAD_MODEL; it refuses while the arm
+  // moves, a plan runs, a fault or e-stop holds, or for a bad file with its name:line), then
+  // sirupp-sim loads it (SIM_COMMAND LOAD_MODEL) and publishes it on ROBOT_MODEL, which the
+  // controller, viewer, logger and panel follow. When the sim refuses, the controller is told to
+  // drop it. The answer is the refusing process's, or the sim's acceptance.
+  Answer LoadModel(const std::string& name, const std::string& yaml);
 
   // --- sirupp-logger (answers on LOGGER_REPLY)
   // Starts recording run `name` ("" = the logger's default name) / stops the present run.

@@ -1,6 +1,7 @@
 #include "control/control_node.hpp"
 
 #include <iostream>
+#include <optional>
 #include <sirupp/arm_command_t.hpp>
 #include <sirupp/controller_status_t.hpp>
 #include <sirupp/servo_move_t.hpp>
@@ -85,18 +86,34 @@ ControlNode::ControlNode(core::Bus& bus, const core::RobotModel& model, ControlO
       [this](const sirupp::arm_state_t& message, const Info& info) { OnState(message, info); },
       1000);
   // Each command gets one answer on CONTROLLER_REPLY naming it (core/command_reply.hpp).
+  // While a model is being loaded (model_switch.hpp) nothing may start a move.
   bus_.Subscribe<sirupp::joint_target_t>(
       channels.arm_target, [this](const sirupp::joint_target_t& message, const Info& info) {
-        Answer(message, info, true, [&] { sequencer_.Target(Decode(message, info.channel)); });
+        Answer(message, info, true, [&] {
+          model_switch_.RequireNone(info.channel, Clock::now());
+          sequencer_.Target(Decode(message, info.channel));
+        });
       });
   bus_.Subscribe<sirupp::pose_target_t>(
       channels.arm_pose_target, [this](const sirupp::pose_target_t& message, const Info& info) {
-        Answer(message, info, true, [&] { sequencer_.PoseTarget(Decode(message, info.channel)); });
+        Answer(message, info, true, [&] {
+          model_switch_.RequireNone(info.channel, Clock::now());
+          sequencer_.PoseTarget(Decode(message, info.channel));
+        });
       });
   bus_.Subscribe<sirupp::plan_command_t>(
       channels.arm_plan, [this](const sirupp::plan_command_t& message, const Info& info) {
-        Answer(message, info, message.command == PlanMessage::COMMAND_RUN,
-               [&] { sequencer_.Plan(Decode(message, info.channel)); });
+        Answer(message, info, message.command == PlanMessage::COMMAND_RUN, [&] {
+          if (message.command == PlanMessage::COMMAND_LOAD_MODEL) {
+            if (!message.text.empty()) sequencer_.RequireModelChangeAllowed(info.channel);
+            model_switch_.Request(info.channel, message.name, message.text, model_, Clock::now());
+            return;
+          }
+          if (message.command == PlanMessage::COMMAND_RUN) {
+            model_switch_.RequireNone(info.channel, Clock::now());
+          }
+          sequencer_.Plan(Decode(message, info.channel));
+        });
       });
   bus_.Subscribe<sirupp::servo_gains_t>(
       channels.arm_gains, [this](const sirupp::servo_gains_t& message, const Info& info) {
@@ -136,6 +153,15 @@ void ControlNode::Answer(const Msg& message, const core::ReceiveInfo& info, bool
 
 void ControlNode::OnModel(const sirupp::robot_model_t& message, const core::ReceiveInfo& info) {
   if (!model_checked_.empty() && message.source_hash == model_checked_) return;
+  if (std::optional<core::RobotModel> announced = model_switch_.Take(message, Clock::now())) {
+    // The model this controller agreed to take (ARM_PLAN COMMAND_LOAD_MODEL), now the sim's.
+    core::RobotModelFromMessage(message, info.channel);
+    model_ = std::move(*announced);
+    sequencer_.ReplaceModel(model_);
+    model_checked_ = message.source_hash;
+    Flush();
+    return;
+  }
   // Only a model that is one (it builds and passes the loader's checks) can refuse ours: a
   // malformed message is refused and counted, it never stops this controller.
   core::RobotModelFromMessage(message, info.channel);

@@ -7,7 +7,8 @@
 // In:  SIM_ARM_STATE (answered on SIM_ARM_COMMAND with the same tick, so sirupp-sim can run in
 //      lockstep), ARM_TARGET (joint targets), ARM_POSE_TARGET (tool targets through IK), ARM_PLAN
 //      (movement plans: run, pause, resume, abort; manual/automatic mode), ARM_GAINS (live gains),
-//      ESTOP, HARDWARE_REPLY (a refusal of our latest ARM_MOVE), ROBOT_MODEL (the sim's robot).
+//      ESTOP, HARDWARE_REPLY (a refusal of our latest ARM_MOVE), ROBOT_MODEL (the sim's robot;
+//      another model announced on ARM_PLAN COMMAND_LOAD_MODEL is taken in place, model_switch.hpp).
 // Out: ARM_MOVE (every move and stop, as LOAD_TRAJ), ARM_SETPOINT (every tick), CONTROLLER_STATUS
 //      (10 Hz and on every change), CONTROLLER_GAINS (1 Hz and on change), CONTROLLER_REPLY (one
 //      answer per ARM_TARGET, ARM_POSE_TARGET, ARM_PLAN and ARM_GAINS, naming the request),
@@ -34,6 +35,7 @@
 #include <vector>
 
 #include "control/effort_law.hpp"
+#include "control/model_switch.hpp"
 #include "control/plan.hpp"
 #include "control/sequencer.hpp"
 #include "control/servo_bank.hpp"
@@ -116,6 +118,7 @@ class ControlNode {
   std::chrono::steady_clock::time_point last_state_wall_;
   std::string start_refusal_;
   std::string model_checked_;  // source hash of the sim's model once it matched ours
+  ModelSwitch model_switch_;   // a model announced on ARM_PLAN, until the sim publishes it
   std::chrono::steady_clock::time_point last_gains_;
   bool gains_changed_ = true;
   std::vector<servo::ChipGains> chip_gains_;  // the gains in force, as ARM_GAINS set them

@@ -604,6 +604,28 @@ ControlMode Sequencer::mode() const {
   return plan_running_ || locked_automatic_ ? ControlMode::kAutomatic : ControlMode::kManual;
 }
 
+void Sequencer::RequireModelChangeAllowed(const std::string& source) const {
+  const auto refuse = [&](const std::string& why) {
+    throw core::MessageError(source, "command", "load model: " + why);
+  };
+  if (options_.effort_law)
+    refuse("a student's controller runs, built for the model it started with");
+  if (!estop_.empty()) refuse("the emergency stop is engaged (" + estop_ + "); release it first");
+  if (plan_running_) refuse("plan '" + plan_->name + "' runs; abort it or let it end first");
+  const ControlState now = state();
+  if (now == ControlState::kFault) refuse("a fault holds the arm; clear it first");
+  if (now == ControlState::kMoving) refuse("a move is in progress; wait for it to end");
+}
+
+void Sequencer::ReplaceModel(const core::RobotModel& model) {
+  bank_.ReplaceModel(model, positions_, servos_on_);
+  model_ = model;
+  motion_limits_ = core::DefaultMotionLimits(model);
+  have_last_effort_ = false;
+  Note("now driving model '" + model.name + "' from " + model.source_file);
+  SendStatus();
+}
+
 ControlState Sequencer::state() const {
   if (!servos_on_) return ControlState::kOff;
   if (!fault_.empty() || law_failed_ || bank_.TrippedJoint() >= 0 || sim_lost_) {

@@ -162,6 +162,12 @@ class Sequencer {
   // A command the caller refused before it got here (it could not be decoded): made the last
   // error, with a status.
   void Refused(const std::string& error);
+  // Throws MessageError on `source` unless another model may be taken now: servos on or off but
+  // idle (no move, no plan loaded and not ended, no fault, no e-stop, no student's law).
+  void RequireModelChangeAllowed(const std::string& source) const;
+  // Takes `model` (same arm, checked by the caller) in place: servos, limits and IK follow it, the
+  // servos keep holding where they are (ServoBank::ReplaceModel); a status and a log line.
+  void ReplaceModel(const core::RobotModel& model);
 
   // --- Out.
   // What happened since the last call, in order.

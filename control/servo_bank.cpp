@@ -63,6 +63,25 @@ void ServoBank::SetGains(int joint, const ServoGains& gains) {
   servos_.at(static_cast<size_t>(joint)).SetGains(gains);
 }
 
+void ServoBank::ReplaceModel(const core::RobotModel& model, const std::vector<double>& positions,
+                             bool on) {
+  if (model.num_joints() != num_joints() ||
+      (on && positions.size() != static_cast<size_t>(num_joints()))) {
+    throw std::invalid_argument("the new model has " + std::to_string(model.num_joints()) +
+                                " joints; the servos drive " + std::to_string(num_joints()));
+  }
+  for (size_t j = 0; j < servos_.size(); ++j) {
+    JointDrive drive(model.joints[j], model.servo_tick_s);
+    if (drive.counts_per_unit() != drives_[j].counts_per_unit()) {
+      servos_[j] = PicServo();
+      servos_[j].SetGains(GainsFromModel(model.joints[j].servo));
+      if (on) servos_[j].ServoOn(drive.ToCounts(positions[j]));
+      previous_velocity_[j] = 0;
+    }
+    drives_[j] = drive;
+  }
+}
+
 const std::vector<double>& ServoBank::Tick(const std::vector<double>& positions) {
   for (size_t j = 0; j < servos_.size(); ++j) {
     previous_velocity_[j] = servos_[j].profile().velocity();

@@ -39,6 +39,11 @@ class ServoBank {
   void StopSmooth();
   void MotorOff();
   void SetGains(int joint, const ServoGains& gains);
+  // Another model of the same arm (same joint count): each joint's drive is rebuilt from it. A
+  // joint whose encoder scale is unchanged keeps its servo as it is (set-point, integral, gains),
+  // so the arm is held without a jolt; another one gets a new servo with the model's gains, on at
+  // `positions` when `on`. Throws std::invalid_argument for another joint count.
+  void ReplaceModel(const core::RobotModel& model, const std::vector<double>& positions, bool on);
 
   // One servo tick against the measured positions; returns the joint efforts (N*m or N).
   const std::vector<double>& Tick(const std::vector<double>& positions);

@@ -92,7 +92,7 @@ std::vector<ChannelInfo> BuildTable() {
   // Keep in step with docs/channels.md (tests/test_channels.cpp compares them row by row).
   const std::vector<ChannelProse> prose = {
       {"ROBOT_MODEL", "sirupp-sim", "sirupp-control, sirupp-hardware, sirupp-logger, sirupp-viewer",
-       "1 Hz and at start-up",
+       "1 Hz, at start-up and at once after a model load (`SIM_COMMAND`)",
        "the robot model as the physics loaded it: DH rows, links, mass properties, limits, "
        "friction, servo parameters"},
       {"ENVIRONMENT", "sirupp-sim", "sirupp-viewer", "1 Hz",
@@ -109,7 +109,8 @@ std::vector<ChannelInfo> BuildTable() {
        "run id, timing mode, real-time factor, slipped time, e-stop, each participant's answer "
        "time and state, refused commands per sender with the reason"},
       {"SIM_COMMAND", "sirupp-panel (client library)", "sirupp-sim", "on demand",
-       "load an environment (the XML text) into the running sim between two ticks, the arm "
+       "load an environment (the XML text) or a robot model (the YAML text, after `ARM_PLAN` "
+       "`COMMAND_LOAD_MODEL` to sirupp-control) into the running sim between two ticks, the arm "
        "untouched"},
       {"SIM_REPLY", "sirupp-sim", "sirupp-panel (client library)", "one per SIM_COMMAND",
        "the answer to one command: its channel, utime and seq, accepted or refused and why"},
@@ -127,7 +128,8 @@ std::vector<ChannelInfo> BuildTable() {
       {"ARM_POSE_TARGET", "sirupp CLI", "sirupp-control", "on demand",
        "an end-effector pose and the wanted IK configuration (shoulder, elbow, wrist)"},
       {"ARM_PLAN", "sirupp CLI", "sirupp-control", "on demand",
-       "plan text and run / pause / resume / abort, manual or automatic mode"},
+       "plan text and run / pause / resume / abort, manual or automatic mode, clear fault; load "
+       "model: the model text the sim is about to load (docs/panel.md)"},
       {"CONTROLLER_STATUS", "sirupp-control",
        "sirupp CLI, sirupp-logger, sirupp-viewer, sirupp-hardware", "10 Hz and on change",
        "mode, state, present move and plan step, last error"},

@@ -225,7 +225,7 @@ struct EStop {
 
 // ---- sim_command_t (SIM_COMMAND)
 
-enum class SimAction { kLoadEnvironment };
+enum class SimAction { kLoadEnvironment = 0, kLoadModel = 1 };
 
 struct SimCommand {
   int64_t utime = 0;
@@ -233,7 +233,7 @@ struct SimCommand {
   std::string sender;
   SimAction action = SimAction::kLoadEnvironment;
   std::string name;  // where the text came from (a file name), for its errors
-  std::string text;  // the environment's XML, at most kMaxSimCommandText bytes
+  std::string text;  // the environment's XML or the model's YAML, at most kMaxSimCommandText bytes
 };
 constexpr size_t kMaxSimCommandText = size_t{1} << 20;
 

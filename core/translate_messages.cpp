@@ -372,7 +372,9 @@ sirupp::sim_command_t ToMessage(const SimCommand& command) {
   m.utime = command.utime;
   m.seq = command.seq;
   m.sender = command.sender;
-  m.command = sirupp::sim_command_t::COMMAND_LOAD_ENVIRONMENT;
+  m.command = command.action == SimAction::kLoadModel
+                  ? sirupp::sim_command_t::COMMAND_LOAD_MODEL
+                  : sirupp::sim_command_t::COMMAND_LOAD_ENVIRONMENT;
   m.name = command.name;
   m.text = command.text;
   return m;
@@ -383,8 +385,10 @@ SimCommand SimCommandFromMessage(const sirupp::sim_command_t& m, const std::stri
   command.utime = m.utime;
   command.seq = m.seq;
   command.sender = m.sender;
-  if (m.command != sirupp::sim_command_t::COMMAND_LOAD_ENVIRONMENT) {
-    Refuse(channel, "command", std::to_string(m.command), "0 (load environment)");
+  if (m.command == sirupp::sim_command_t::COMMAND_LOAD_MODEL) {
+    command.action = SimAction::kLoadModel;
+  } else if (m.command != sirupp::sim_command_t::COMMAND_LOAD_ENVIRONMENT) {
+    Refuse(channel, "command", std::to_string(m.command), "0 (load environment) or 1 (load model)");
   }
   if (m.text.size() > kMaxSimCommandText) {
     Refuse(channel, "text", std::to_string(m.text.size()) + " bytes",

@@ -212,6 +212,17 @@ Response PanelApi::Post(const Request& request, const Json& body) {
   if (path == "/api/record/report") return RunReport(body);
   if (path == "/api/model/check") return ModelEdit(body, false);
   if (path == "/api/model/save") return ModelEdit(body, true);
+  if (path == "/api/model/apply") {
+    // A model file under config/robots, loaded into the running sim and controller.
+    const std::string file = Text(body, "path");
+    if (file.rfind("config/robots/", 0) != 0) {
+      throw std::invalid_argument("path '" + core::Printable(file, 200) +
+                                  "': allowed a model file under config/robots/");
+    }
+    const Response read = ReadFile(file);
+    if (read.status != 200) return read;
+    return FromResult(commands_.LoadModel(file, Json::parse(read.body)["text"].get<std::string>()));
+  }
   if (path == "/api/plan/check") {
     return FromResult(commands_.CheckPlan(Text(body, "name", "page.plan"), Text(body, "text")));
   }
@@ -652,11 +663,10 @@ Response PanelApi::ModelEdit(const Json& body, bool save) {
              << edited;
     if (!file_out) return ErrorResponse(500, "cannot write " + target);
   }
-  return JsonResponse(
-      Json{{"ok", true},
-           {"path", target},
-           {"message", "saved " + target + "; to run it, start the sim with --model " + target +
-                           " (the panel does not restart sirupp-sim)"}});
+  return JsonResponse(Json{
+      {"ok", true},
+      {"path", target},
+      {"message", "saved " + target + "; Apply loads it into the running sim and controller"}});
 }
 
 }  // namespace sirupp::panel

@@ -8,6 +8,7 @@
 #include "core/errors.hpp"
 #include "core/geometry.hpp"
 #include "core/inverse_kinematics.hpp"
+#include "core/model_loader.hpp"
 #include "core/printable.hpp"
 #include "logger/recorder.hpp"
 #include "servo/chip_gains.hpp"
@@ -267,6 +268,17 @@ CommandResult RigCommands::LoadEnvironment(const std::string& name, const std::s
   return FromAnswer(
       hub_.WithClient([&](client::Client& rig) { return rig.LoadEnvironment(name, text); }),
       "environment " + name);
+}
+
+CommandResult RigCommands::LoadModel(const std::string& name, const std::string& text) {
+  try {
+    core::ParseRobotModel(text, name);
+  } catch (const core::ConfigError& error) {
+    return CommandResult::Fail(
+        422, error.what(), Json{{"line", error.where().line}, {"column", error.where().column}});
+  }
+  return FromAnswer(hub_.WithClient([&](client::Client& rig) { return rig.LoadModel(name, text); }),
+                    "model " + name);
 }
 
 CommandResult RigCommands::StartRecording(const std::string& name) {

@@ -55,6 +55,9 @@ class RigCommands {
   // An environment file's text into the running sim (SIM_COMMAND): checked here first with the
   // sim's parser (422 with the line), then the sim's reply.
   CommandResult LoadEnvironment(const std::string& name, const std::string& text);
+  // Another robot model into the running sim and controller (client::Client::LoadModel); a bad
+  // file is refused here with its line before anything is sent.
+  CommandResult LoadModel(const std::string& name, const std::string& text);
   // Recording through sirupp-logger (LOGGER_COMMAND): start run `name` ("" = the logger's
   // default name, checked here with the logger's rule), stop the present one.
   CommandResult StartRecording(const std::string& name);

@@ -983,6 +983,26 @@ void ArmWorld::ReplaceEnvironment(const core::Environment& environment) {
   throw std::invalid_argument(overlap + " where the arm stands now");
 }
 
+void ArmWorld::ReplaceModel(const core::RobotModel& model) {
+  const core::RobotModel& old = impl_->model;
+  if (model.num_joints() != old.num_joints()) {
+    throw std::invalid_argument("the new model has " + std::to_string(model.num_joints()) +
+                                " joints; the running arm has " + std::to_string(old.num_joints()));
+  }
+  if (model.servo_tick_s != old.servo_tick_s) {
+    throw std::invalid_argument("the new model's servo tick is " +
+                                FormatNumber(model.servo_tick_s) + " s; the running arm's is " +
+                                FormatNumber(old.servo_tick_s) + " s");
+  }
+  const core::ArmState state = impl_->State();
+  auto rebuilt = std::make_unique<Impl>(model, impl_->built_environment, impl_->options);
+  rebuilt->tick = impl_->tick;
+  rebuilt->Teleport(state.position, state.velocity, false);  // throws outside the new limits
+  const std::string overlap = rebuilt->FindOverlap();
+  if (!overlap.empty()) throw std::invalid_argument(overlap + " where the arm stands now");
+  impl_ = std::move(rebuilt);
+}
+
 void ArmWorld::Step(const core::ArmCommand& command) { impl_->Step(command); }
 
 core::ArmState ArmWorld::State() const { return impl_->State(); }

@@ -4,8 +4,13 @@
 #include <stdexcept>
 
 #include "core/errors.hpp"
+#include "core/model_loader.hpp"
+#include "sim/arm_world.hpp"
 
 namespace sirupp::sim {
+namespace {
+constexpr const char* kChangedMark = " (changed: ";
+}  // namespace
 
 std::string ModelChange::Describe() const {
   std::string text;
@@ -47,7 +52,27 @@ void ApplyModelChange(core::RobotModel& model, const ModelChange& change) {
     joint.friction.viscous *= change.friction_scale;
   }
   if (change.gravity_off) model.gravity_m_s2 = Eigen::Vector3d::Zero();
-  model.description += " (changed: " + change.Describe() + ")";
+  model.description += kChangedMark + change.Describe() + ")";
+}
+
+bool HasModelChange(const core::RobotModel& model) {
+  return model.description.find(kChangedMark) != std::string::npos;
+}
+
+const core::RobotModel& LoadModelText(ArmWorld& world, const std::string& text,
+                                      const std::string& name) {
+  const core::RobotModel model = core::ParseRobotModel(text, name);  // name:line on a bad file
+  if (HasModelChange(world.model())) {
+    throw std::invalid_argument("the running arm was changed at start (" +
+                                world.model().description +
+                                "): a loaded model would drop that; restart sirupp-sim instead");
+  }
+  try {
+    world.ReplaceModel(model);
+  } catch (const std::invalid_argument& error) {
+    throw std::invalid_argument(name + ": " + error.what());
+  }
+  return world.model();
 }
 
 }  // namespace sirupp::sim

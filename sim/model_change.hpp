@@ -11,6 +11,8 @@
 
 namespace sirupp::sim {
 
+class ArmWorld;
+
 struct ModelChange {
   double payload_kg = 0;      // >= 0
   double friction_scale = 1;  // >= 0; 0 = no friction
@@ -24,5 +26,16 @@ struct ModelChange {
 // sim's ROBOT_MODEL; the description says what changed). Throws std::invalid_argument for a
 // negative or non-finite payload or scale.
 void ApplyModelChange(core::RobotModel& model, const ModelChange& change);
+
+// True when ApplyModelChange changed `model` (its description says so).
+bool HasModelChange(const core::RobotModel& model);
+
+// SIM_COMMAND LOAD_MODEL: the model in `text` (file `name`) replaces the running arm of `world` in
+// place (ArmWorld::ReplaceModel). Throws core::ConfigError (name:line, the field) for a bad file,
+// and std::invalid_argument for a model the running arm cannot take: another joint count or servo
+// tick, a joint outside its new limits, an overlap, or a running arm changed by ApplyModelChange
+// (the change would be lost). The world is unchanged then. Returns the model now running.
+const core::RobotModel& LoadModelText(ArmWorld& world, const std::string& text,
+                                      const std::string& name);
 
 }  // namespace sirupp::sim

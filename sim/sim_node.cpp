@@ -12,6 +12,7 @@
 
 #include "core/errors.hpp"
 #include "core/translate.hpp"
+#include "sim/model_change.hpp"
 
 namespace sirupp::sim {
 namespace {
@@ -309,17 +310,29 @@ void SimNode::OnCommand(const sirupp::arm_command_t& message, const core::Receiv
 
 void SimNode::OnSimCommand(const sirupp::sim_command_t& message, const core::ReceiveInfo& info) {
   const core::SimCommand command = core::SimCommandFromMessage(message, info.channel);
-  const std::string name = command.name.empty() ? "(environment text)" : command.name;
+  const bool model = command.action == core::SimAction::kLoadModel;
+  const std::string name = !command.name.empty() ? command.name
+                           : model               ? "(model text)"
+                                                 : "(environment text)";
   // The file's own error names name:line and the field.
-  const core::Environment environment = core::ParseEnvironment(command.text, name);
-  // A moving arm would meet objects it was not planned around: load while it stands still.
+  const core::Environment environment =
+      model ? environment_ : core::ParseEnvironment(command.text, name);
+  // A moving arm would meet objects it was not planned around, or change under its controller:
+  // load while it stands still.
   const core::ArmState state = world_.State();
   for (size_t j = 0; j < state.velocity.size(); ++j) {
     if (std::abs(state.velocity[j]) > kStillSpeed) {
       throw std::runtime_error("the arm moves (joint " + std::to_string(j + 1) + " at " +
-                               core::FormatNumber(state.velocity[j]) +
-                               " rad/s or m/s): load an environment while it stands still");
+                               core::FormatNumber(state.velocity[j]) + " rad/s or m/s): load " +
+                               (model ? "a model" : "an environment") + " while it stands still");
     }
+  }
+  if (model) {
+    LoadModelText(world_, command.text, name);  // throws, the arm unchanged, when refused
+    std::cerr << options_.process_name << ": model '" << world_.model().name << "' from " << name
+              << " loaded by '" << message.sender << "' at tick " << world_.tick() << "\n";
+    PublishLatched(true);
+    return;
   }
   world_.ReplaceEnvironment(environment);  // throws when an object would overlap the arm
   environment_ = environment;

@@ -13,9 +13,11 @@
 #include <sirupp/arm_state_t.hpp>
 
 #include "core/environment.hpp"
+#include "core/errors.hpp"
 #include "core/kinematics.hpp"
 #include "core/model_loader.hpp"
 #include "sim/arm_world.hpp"
+#include "sim/model_change.hpp"
 
 namespace sirupp::sim {
 namespace {
@@ -756,6 +758,56 @@ TEST(ArmWorld, TenThousandStaticObjectsStepFasterThanRealTime) {
   double lowest = 1e9;
   for (int l = 2; l <= 6; ++l) lowest = std::min(lowest, world.LinkBodyPose(l).translation().z());
   EXPECT_GT(lowest, 0.25 - 0.01);
+}
+
+// SIM_COMMAND LOAD_MODEL's physics part: another model of the same arm replaces the running one
+// at the joints' present positions, time going on; one the arm cannot take (another joint count,
+// a joint outside the new limits, a bad file) is refused naming why, the old arm kept.
+TEST(ArmWorldReplaceModel, TakesTheNewModelWhereTheArmStandsOrRefusesAndKeepsTheOld) {
+  const core::RobotModel puma = Puma();
+  core::Environment none;
+  ArmWorld world(puma, none);
+  world.SetJointState({0.3, -0.2, 0.1, 0, 0.4, 0});
+  core::ArmCommand hold = Limp(6);
+  hold.mode = core::CommandMode::kHold;
+  for (int i = 0; i < 10; ++i) world.Step(hold);
+  const int64_t tick = world.tick();
+  const std::vector<double> q = world.State().position;
+
+  core::RobotModel heavier = puma;
+  heavier.links[2].mass_kg *= 1.5;
+  heavier.source_hash = "0123456789abcdef";
+  world.ReplaceModel(heavier);
+  EXPECT_EQ(world.model().source_hash, "0123456789abcdef");
+  EXPECT_DOUBLE_EQ(world.model().links[2].mass_kg, heavier.links[2].mass_kg);
+  EXPECT_EQ(world.tick(), tick);
+  for (size_t j = 0; j < q.size(); ++j) EXPECT_DOUBLE_EQ(world.State().position[j], q[j]);
+  world.Step(hold);
+  EXPECT_EQ(world.tick(), tick + 1);
+
+  core::RobotModel narrow = puma;
+  narrow.joints[0].position_max = 0.2;  // joint 1 stands at 0.3
+  try {
+    world.ReplaceModel(narrow);
+    ADD_FAILURE() << "a joint outside the new limits was taken";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_NE(std::string(error.what()).find("joints[0]"), std::string::npos) << error.what();
+    EXPECT_NE(std::string(error.what()).find("outside the limits"), std::string::npos)
+        << error.what();
+  }
+  core::RobotModel two = core::LoadRobotModel("tests/data/good_two_link.yaml");
+  EXPECT_THROW(world.ReplaceModel(two), std::invalid_argument);
+  EXPECT_EQ(world.model().source_hash, "0123456789abcdef");  // kept
+  EXPECT_NEAR(world.State().position[0], q[0], 1e-6);
+
+  // Through the text, as sirupp-sim gets it: a bad file names its line.
+  try {
+    LoadModelText(world, "name: x\nunits: {length: m, angle: rad}\njoints: 3\n", "bad.yaml");
+    ADD_FAILURE() << "a bad model file was taken";
+  } catch (const core::ConfigError& error) {
+    EXPECT_NE(std::string(error.what()).find("bad.yaml:"), std::string::npos) << error.what();
+  }
+  EXPECT_EQ(world.model().source_hash, "0123456789abcdef");
 }
 
 }  // namespace

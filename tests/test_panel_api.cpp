@@ -21,6 +21,7 @@
 #include <sirupp/sim_command_t.hpp>
 #include <sstream>
 
+#include "control/control_node.hpp"
 #include "core/bus.hpp"
 #include "core/command_reply.hpp"
 #include "core/kinematics.hpp"
@@ -586,6 +587,103 @@ TEST_F(PanelApiTest, ModelEditsAreCheckedByTheLoaderAndSavedAsANewFile) {
       409);
   // The source file is untouched.
   EXPECT_EQ(ReadText((root.path / file).string()), ReadText(file));
+}
+
+// Apply (the model panel): a saved model file goes into a real SimNode and a real ControlNode on
+// the bus, the arm standing still. Afterwards the sim's arm, the controller and the panel all run
+// the new file (a wider joint 1 limit: the panel shows it, and a target beyond the old limit is
+// taken by the controller). A bad file is refused at its line and a load while a plan runs is
+// refused by the controller; the sim keeps its model then.
+TEST(PanelModelApply, TheSimTheControllerAndThePanelTakeTheSavedModel) {
+  const auto JsonOf = [](const Response& r) { return Json::parse(r.body); };
+  TempDir root;
+  std::filesystem::create_directories(root.path / "config/robots");
+  std::filesystem::copy_file("config/robots/puma260.yaml",
+                             root.path / "config/robots/puma260.yaml");
+  const core::RobotModel model = core::LoadRobotModel("config/robots/puma260.yaml");
+  core::Bus bus("memq://");
+  core::Environment none;
+  sim::ArmWorld world(model, none);
+  control::ControlNode control_node(bus, model, control::ControlOptions{});
+  PanelHub hub(bus, HubOptions{0.5, std::nullopt, 2.0});
+  PanelApi api(hub, ApiOptions{root.path.string(), "", false, "", std::chrono::seconds(30)});
+  // Last: its ROBOT_MODEL at start reaches the controller and the panel.
+  sim::SimNode sim_node(bus, world, none, sim::NodeOptions{});  // lockstep with sirupp-control
+  const auto spin = [&](int rounds) {
+    for (int i = 0; i < rounds; ++i) {
+      sim_node.Service(0);
+      control_node.Service(0);
+      hub.ServiceOnce(0);
+    }
+  };
+  const auto post = [&](const std::string& path, const Json& body) {
+    Response out = api.Handle(Request{"POST", path, {}, body.dump(), "127.0.0.1", "a", ""});
+    spin(5);
+    return out;
+  };
+  spin(200);
+  ASSERT_EQ(post("/api/lock", Json{{"name", "ann"}}).status, 200);
+  const std::string file = "config/robots/puma260.yaml";
+  Response saved =
+      post("/api/model/save",
+           Json{{"path", file}, {"edits", {{"joints[0].limits[1]", "150"}}}, {"name", "wide"}});
+  ASSERT_EQ(saved.status, 200) << saved.body;
+  // Outside config/robots, or a bad file: refused before anything is sent.
+  EXPECT_EQ(post("/api/model/apply", Json{{"path", "config/plans/x.plan"}}).status, 400);
+  {
+    std::ofstream bad(root.path / "config/robots/bad.yaml");
+    bad << ReadText("config/robots/puma260.yaml").substr(0, 200) << "\n  : [\n";
+  }
+  Response bad = post("/api/model/apply", Json{{"path", "config/robots/bad.yaml"}});
+  EXPECT_EQ(bad.status, 422) << bad.body;
+  EXPECT_NE(JsonOf(bad)["error"].get<std::string>().find("config/robots/bad.yaml:"),
+            std::string::npos)
+      << bad.body;
+  // A plan running (waiting, the arm still: only the controller knows): refused; the sim keeps
+  // its model.
+  const std::string plan = "units deg\nmove j1=0\nwait done\nwait 30\n";
+  Response run = post("/api/plan/run", Json{{"name", "slow.plan"}, {"text", plan}});
+  ASSERT_EQ(run.status, 200) << run.body;
+  Response busy = post("/api/model/apply", Json{{"path", "config/robots/wide.yaml"}});
+  EXPECT_EQ(busy.status, 409) << busy.body;
+  EXPECT_NE(JsonOf(busy)["error"].get<std::string>().find("plan 'slow.plan' runs"),
+            std::string::npos)
+      << busy.body;
+  EXPECT_EQ(world.model().source_hash, model.source_hash);
+  ASSERT_EQ(post("/api/plan/abort", Json::object()).status, 200);
+  // Until the controller is idle and the arm stands still (it settles under its servos).
+  const auto still = [&] {
+    for (double v : world.State().velocity) {
+      if (std::abs(v) > 0.002) return false;
+    }
+    return control_node.sequencer().state() == control::ControlState::kIdle;
+  };
+  for (int i = 0; i < 400 && !still(); ++i) spin(50);
+  ASSERT_TRUE(still());
+  // Still: applied. Every part now runs wide.yaml.
+  const std::vector<double> before = world.State().position;
+  Response applied = post("/api/model/apply", Json{{"path", "config/robots/wide.yaml"}});
+  ASSERT_EQ(applied.status, 200) << applied.body;
+  EXPECT_EQ(JsonOf(applied)["message"], "SIM_COMMAND: model config/robots/wide.yaml accepted");
+  spin(20);
+  const std::string wide = ReadText((root.path / "config/robots/wide.yaml").string());
+  EXPECT_EQ(world.model().source_file, "config/robots/wide.yaml");
+  EXPECT_NEAR(world.model().joints[0].position_max, 150 * kPi / 180, 1e-12);
+  EXPECT_EQ(hub.Model()->source_hash, world.model().source_hash);
+  EXPECT_NEAR(JsonOf(api.Handle(
+                  Request{"GET", "/api/model", {}, "", "127.0.0.1", "a", ""}))["joints"][0]["max"]
+                  .get<double>(),
+              150, 1e-9);
+  for (size_t j = 0; j < before.size(); ++j) {
+    EXPECT_NEAR(world.State().position[j], before[j], 1e-3) << "joint " << j + 1;
+  }
+  EXPECT_TRUE(control_node.fault().empty()) << control_node.fault();
+  // 148 deg: beyond the old limit, inside the new one; the controller takes it.
+  Response far =
+      post("/api/move/joints",
+           Json{{"targets", {148, nullptr, nullptr, nullptr, nullptr, nullptr}}, {"speed", 1.0}});
+  EXPECT_EQ(far.status, 200) << far.body;
+  EXPECT_NEAR(control_node.servos().Goal(0), 148 * kPi / 180, 1e-3);
 }
 
 }  // namespace

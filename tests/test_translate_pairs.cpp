@@ -284,6 +284,8 @@ RoundTrips AllRoundTrips() {
   Add<sirupp::sim_command_t>(trips, [ch] {
     ExpectRoundTrip(SimCommand{1, 2, "panel", SimAction::kLoadEnvironment, "cell.xml", "<x/>"},
                     [&](const auto& m) { return SimCommandFromMessage(m, ch); });
+    ExpectRoundTrip(SimCommand{3, 4, "panel", SimAction::kLoadModel, "arm.yaml", "name: x"},
+                    [&](const auto& m) { return SimCommandFromMessage(m, ch); });
   });
   Add<sirupp::logger_command_t>(trips, [ch] {
     ExpectRoundTrip(LoggerCommand{1, 2, "panel", LoggerAction::kStart, "run1"},

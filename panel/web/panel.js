@@ -461,9 +461,23 @@ $('model-check').onclick = async () => {
   if (!modelFields) return;
   showModelAnswer(await post('/api/model/check', {path: modelFields.path, edits: modelEdits()}, true));
 };
+let savedModel = null;  // the file the last Save wrote: what Apply loads
 $('model-save').onclick = async () => {
   if (!modelFields) return;
-  showModelAnswer(await post('/api/model/save', {path: modelFields.path, edits: modelEdits(), name: $('model-save-name').value}, true));
+  const r = await post('/api/model/save', {path: modelFields.path, edits: modelEdits(), name: $('model-save-name').value}, true);
+  showModelAnswer(r);
+  if (r.status === 200) {
+    savedModel = r.body.path;
+    $('model-apply').disabled = false;
+    $('model-apply').textContent = 'Apply ' + savedModel + ' to the running sim';
+  }
+};
+$('model-apply').onclick = async () => {
+  if (!savedModel) return;
+  const r = await post('/api/model/apply', {path: savedModel});
+  $('model-result').className = r.status === 200 ? '' : 'error';
+  $('model-result').textContent = r.status === 200 ? r.body.message : r.body.error;
+  // The new ROBOT_MODEL raises model_version: onState reloads the model, sliders and 3D view.
 };
 $('model-reset').onclick = () => loadModelFields();
 
