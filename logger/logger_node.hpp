@@ -5,7 +5,8 @@
 // In:  ARM_SETPOINT (set-point), SIM_ARM_STATE (virtual arm), REAL_ARM_STATE (real arm, when a
 //      bridge runs), CONTROLLER_STATUS (plan runs: one file per movement set), ARM_GAINS,
 //      CONTROLLER_GAINS and REAL_ARM_GAINS (every change written into the file with its time).
-// Out: the data files; HEARTBEAT.
+// Out: the data files; HEARTBEAT; with --raw, the raw log (every message, and LOGGER_PASS: each
+//      pass of the writer, so that ReplayRawLog writes the same files).
 //
 // Threads: the caller's thread runs the bus (Service); its handlers only copy each message into a
 // queue (never waiting on the disk). A writer thread aligns the streams (logger/aligner.hpp) and
