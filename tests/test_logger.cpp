@@ -232,6 +232,43 @@ TEST(Aligner, ASimSampleDeliveredLateDoesNotMoveTheRealArmsSamples) {
   EXPECT_DOUBLE_EQ(q1[10][2], 7.0);
   EXPECT_EQ(rows[10].age_us[2], 0);
 }
+
+// A run played back onto the bus later (`sirupp replay` with a live logger): the sim samples get
+// new receive times, the real arm's samples keep the old run's wall clock, a minute behind. They
+// are put on the receive clock by their smallest delay (1 ms here) and land where they were live,
+// one tick apart from the sim samples received with them; within a second of the receive clock
+// (clocks in sync) they are placed as before, by their own stamp.
+TEST(Aligner, ARealArmClockFarOffTheReceiveClockIsPutOnItByItsSmallestDelay) {
+  for (const int64_t behind : {int64_t{60'000'000}, int64_t{0}}) {
+    SCOPED_TRACE(behind);
+    Aligner aligner(AlignerOptions{});
+    for (int64_t tick = 0; tick <= 2000; ++tick) {
+      aligner.Add(SimSample(Stream::kVirtual, tick, 1.0));
+      if (tick % 20 == 0) {
+        Sample real;
+        real.stream = Stream::kReal;
+        real.clock = SampleClock::kWall;
+        real.source = sirupp::arm_state_t::SOURCE_EMULATED;
+        // Read a tick before it reached the logger with this sim tick; some arrive 3 ms late.
+        real.recv_utime = 1'000'000'000 + tick * 512 + (tick % 100 == 0 ? 3000 : 0);
+        real.utime = 1'000'000'000 + (tick - 2) * 512 - behind;
+        real.position.assign(kJoints, static_cast<double>(tick) * kDeg);
+        aligner.Add(real);
+      }
+    }
+    std::vector<std::vector<double>> q1;
+    const std::vector<Row> rows = Collect(aligner, 0, true, &q1);
+    ASSERT_EQ(rows.size(), 2001u);
+    const int64_t shift = behind > 0 ? 2 : 0;  // live: by its stamp; a minute off: by 1 ms delay
+    for (int64_t tick = 40; tick <= 1980; tick += 20) {
+      SCOPED_TRACE(tick);
+      const auto at = static_cast<size_t>(tick - 2 + shift);
+      EXPECT_DOUBLE_EQ(q1[at][2], static_cast<double>(tick));
+      EXPECT_DOUBLE_EQ(q1[at - 1][2], static_cast<double>(tick - 20));
+    }
+  }
+}
+
 TEST(Aligner, APlanStartBeginsANewMovementSet) {
   Aligner aligner(AlignerOptions{});
   for (int64_t tick = 0; tick < 10; ++tick) aligner.Add(SimSample(Stream::kVirtual, tick, 0));
