@@ -31,21 +31,16 @@ Channels Channels::WithPrefix(const std::string& prefix) {
 }
 
 std::vector<ChannelName*> Channels::Each() {
-  return {&robot_model,       &environment,
-          &sim_arm_state,     &sim_arm_command,
-          &sim_reset,         &sim_status,
-          &sim_command,       &sim_reply,
-          &arm_move,          &arm_setpoint,
-          &arm_gains,         &controller_gains,
-          &arm_target,        &arm_pose_target,
-          &arm_plan,          &controller_status,
-          &controller_reply,  &real_arm_state,
-          &real_arm_setpoint, &real_arm_gains,
-          &hardware_status,   &hardware_command,
-          &hardware_reply,    &logger_command,
-          &logger_reply,      &estop,
-          &heartbeat,         &viewer_image,
-          &viewer_camera};
+  return {&robot_model,       &environment,      &sim_arm_state,
+          &sim_arm_command,   &sim_reset,        &sim_status,
+          &sim_command,       &sim_reply,        &arm_move,
+          &arm_setpoint,      &arm_gains,        &controller_gains,
+          &arm_target,        &arm_pose_target,  &arm_plan,
+          &controller_status, &controller_reply, &real_arm_state,
+          &real_arm_setpoint, &real_arm_gains,   &hardware_status,
+          &hardware_command,  &hardware_reply,   &logger_command,
+          &logger_reply,      &logger_pass,      &estop,
+          &heartbeat,         &viewer_image,     &viewer_camera};
 }
 
 std::vector<const ChannelName*> Channels::Each() const {
@@ -155,6 +150,10 @@ std::vector<ChannelInfo> BuildTable() {
        "start recording a named run, or stop the present one"},
       {"LOGGER_REPLY", "sirupp-logger", "sirupp-panel (client library)", "one per LOGGER_COMMAND",
        "the answer to one command: its channel, utime and seq, accepted or refused and why"},
+      {"LOGGER_PASS", "sirupp-logger (into its raw log only, never on the bus)",
+       "none on the bus (sirupp-logger --from-log reads the raw log)",
+       "one per writer pass (every 25 ms while messages come)",
+       "when the writer took its messages and how many so far: --from-log replays the live rows"},
       {"ESTOP", "any process", "sirupp-sim, sirupp-control, sirupp-hardware", "on demand",
        "emergency stop engaged or released, by whom and why"},
       {"HEARTBEAT", "every process", "sirupp launch, sirupp CLI", "1 Hz",

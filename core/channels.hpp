@@ -19,6 +19,7 @@
 #include <sirupp/image_t.hpp>
 #include <sirupp/joint_target_t.hpp>
 #include <sirupp/logger_command_t.hpp>
+#include <sirupp/logger_pass_t.hpp>
 #include <sirupp/plan_command_t.hpp>
 #include <sirupp/pose_target_t.hpp>
 #include <sirupp/robot_model_t.hpp>
@@ -64,6 +65,7 @@ struct Channels {
   Channel<sirupp::command_reply_t> hardware_reply{"HARDWARE_REPLY"};
   Channel<sirupp::logger_command_t> logger_command{"LOGGER_COMMAND"};
   Channel<sirupp::command_reply_t> logger_reply{"LOGGER_REPLY"};
+  Channel<sirupp::logger_pass_t> logger_pass{"LOGGER_PASS"};
   Channel<sirupp::estop_t> estop{"ESTOP"};
   Channel<sirupp::heartbeat_t> heartbeat{"HEARTBEAT"};
   Channel<sirupp::image_t> viewer_image{"VIEWER_IMAGE"};

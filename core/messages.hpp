@@ -249,6 +249,18 @@ struct LoggerCommand {
   std::string name;  // the run to start (kStart)
 };
 
+// ---- logger_pass_t (LOGGER_PASS: in sirupp-logger's raw log only)
+
+struct LoggerPass {
+  int64_t utime = 0;          // the writer's wall clock at the pass
+  int64_t seq = 0;            // pass counter
+  int64_t taken = 0;          // messages taken by the writer so far, this pass's included
+  bool last = false;          // the last pass: the files were closed after it
+  int64_t started_utime = 0;  // the logger's start, wall clock
+  std::string name;           // its run name
+  std::string lcm_url;        // its bus
+};
+
 // ---- sim_reset_t (SIM_RESET)
 
 struct SimReset {

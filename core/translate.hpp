@@ -27,6 +27,7 @@
 #include <sirupp/joint_target_t.hpp>
 #include <sirupp/link_model_t.hpp>
 #include <sirupp/logger_command_t.hpp>
+#include <sirupp/logger_pass_t.hpp>
 #include <sirupp/named_pose_t.hpp>
 #include <sirupp/plan_command_t.hpp>
 #include <sirupp/pose_target_t.hpp>
@@ -110,6 +111,9 @@ SimCommand SimCommandFromMessage(const sirupp::sim_command_t& message, const std
 sirupp::logger_command_t ToMessage(const LoggerCommand& command);
 LoggerCommand LoggerCommandFromMessage(const sirupp::logger_command_t& message,
                                        const std::string& channel);
+sirupp::logger_pass_t ToMessage(const LoggerPass& pass);
+// taken >= 0, last 0 or 1.
+LoggerPass LoggerPassFromMessage(const sirupp::logger_pass_t& message, const std::string& channel);
 sirupp::sim_reset_t ToMessage(const SimReset& reset);
 // velocity: empty or as many as position.
 SimReset SimResetFromMessage(const sirupp::sim_reset_t& message, const std::string& channel);

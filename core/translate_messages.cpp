@@ -429,6 +429,36 @@ LoggerCommand LoggerCommandFromMessage(const sirupp::logger_command_t& m,
   return command;
 }
 
+// ---- logger_pass_t
+
+sirupp::logger_pass_t ToMessage(const LoggerPass& pass) {
+  sirupp::logger_pass_t m{};
+  m.utime = pass.utime;
+  m.seq = pass.seq;
+  m.taken = pass.taken;
+  m.last = I8(pass.last);
+  m.started_utime = pass.started_utime;
+  m.name = pass.name;
+  m.lcm_url = pass.lcm_url;
+  return m;
+}
+
+LoggerPass LoggerPassFromMessage(const sirupp::logger_pass_t& m, const std::string& channel) {
+  LoggerPass pass;
+  pass.utime = m.utime;
+  pass.seq = m.seq;
+  if (m.taken < 0) Refuse(channel, "taken", std::to_string(m.taken), "0 or more messages");
+  pass.taken = m.taken;
+  if (m.last != 0 && m.last != 1) {
+    Refuse(channel, "last", std::to_string(m.last), "0 (more passes) or 1 (the last)");
+  }
+  pass.last = m.last == 1;
+  pass.started_utime = m.started_utime;
+  pass.name = m.name;
+  pass.lcm_url = m.lcm_url;
+  return pass;
+}
+
 // ---- sim_reset_t
 
 sirupp::sim_reset_t ToMessage(const SimReset& reset) {

@@ -13,6 +13,7 @@ constexpr int64_t kRestartJumpUs = 1000000;  // sim time going back this far: th
 constexpr int64_t kOffsetWindowUs = 200000;  // the sim clock's offset: the best of this long
 constexpr int64_t kRateWindowUs = 2000000;   // the sim clock's pace: over this long
 constexpr int64_t kMinRateSpanUs = 500000;   // with less than this, the pace counts as 1
+constexpr int64_t kClockApartUs = 1000000;   // a real-arm clock this far off the receive clock
 
 // Smallest multiple of period at or after t (t may be negative).
 int64_t CeilToPeriod(int64_t t, int64_t period) {
@@ -36,6 +37,10 @@ void Aligner::Add(Sample sample) {
   ++samples_[s];
   lost_total_[s] += sample.lost_before;
   if (sample.stream == Stream::kReal) real_sources_ |= 1 << (sample.source & 7);
+  if (sample.stream == Stream::kReal && sample.clock == SampleClock::kWall &&
+      sample.recv_utime > 0) {
+    NoteRealDelay(sample);
+  }
   if (!pending_restart_.empty()) {
     pending_restart_.push_back(std::move(sample));
     return;
@@ -75,6 +80,21 @@ void Aligner::NoteOffset(const Sample& sim_sample) {
   clock_dirty_ = true;
 }
 
+void Aligner::NoteRealDelay(const Sample& real_sample) {
+  const int64_t recv = real_sample.recv_utime;
+  const int64_t delay = recv - real_sample.utime;
+  // The smallest delay of the window at the front: drop those that can no longer be it.
+  while (!real_delay_.empty() && real_delay_.back().second >= delay) real_delay_.pop_back();
+  real_delay_.emplace_back(recv, delay);
+  while (real_delay_.front().first < recv - kRateWindowUs) real_delay_.pop_front();
+}
+
+int64_t Aligner::RealClockShift() const {
+  if (real_delay_.empty()) return 0;
+  const int64_t delay = real_delay_.front().second;
+  return delay > kClockApartUs || delay < -kClockApartUs ? delay : 0;
+}
+
 int64_t Aligner::WallToAxis(int64_t wall_utime) const {
   if (axis_ == Axis::kRealOnly || clock_.empty()) return wall_utime + wall_offset_;
   if (clock_dirty_) {
@@ -109,7 +129,7 @@ int64_t Aligner::AxisTime(const Sample& sample) const {
   if (sample.clock == SampleClock::kSim) {
     return axis_ == Axis::kRealOnly ? sample.recv_utime + wall_offset_ : sample.utime;
   }
-  return WallToAxis(sample.utime);
+  return WallToAxis(sample.utime + (axis_ == Axis::kSim ? RealClockShift() : 0));
 }
 
 void Aligner::Place(Sample sample) {

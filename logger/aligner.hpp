@@ -6,8 +6,11 @@
 // The time axis is sim time (microseconds) when a set-point or virtual stream is present: their
 // utime is on it already. A real arm's samples (wall clock, source REAL or EMULATED) are moved onto
 // it by the offset sim utime - receive time of the sim samples (the largest over the last 0.2 s
-// of them, so that one sample delivered late does not move the real arm's samples). Without any sim
-// stream the axis is the real arm's wall clock, zero at its first sample.
+// of them, so that one sample delivered late does not move the real arm's samples). A real arm
+// whose clock is more than a second off the receive clock (a log played back onto the bus later,
+// or a bridge PC whose clock is not in sync) is first put on the receive clock by its smallest
+// delay over the last 2 s. Without any sim stream the axis is the real arm's wall clock, zero at
+// its first sample.
 //
 // Row k is at time k * period. A stream's cell in a row is its newest sample at or before the row
 // time, if that sample is younger than max_age; otherwise the cell is empty (never interpolated).
@@ -119,6 +122,11 @@ class Aligner {
   mutable double clock_intercept_ = 0;
   mutable int64_t clock_reference_ = 0;
   void NoteOffset(const Sample& sim_sample);
+  // The real arm's clock against the receive clock: receive time - utime of its samples over the
+  // last 2 s (front: the smallest), used when it is more than a second off.
+  std::deque<std::pair<int64_t, int64_t>> real_delay_;
+  void NoteRealDelay(const Sample& real_sample);
+  int64_t RealClockShift() const;
   // The axis time of a wall-clock time (sim axis: from the sim clock; real-only: the offset).
   int64_t WallToAxis(int64_t wall_utime) const;
   bool have_offset_ = false;

@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "core/errors.hpp"
+#include "core/messages.hpp"
 #include "core/translate.hpp"
 #include "logger/lcm_log.hpp"
 
@@ -34,11 +35,12 @@ int64_t WallMicros() {
       .count();
 }
 
-// The present local time, for file names (compact) or headers (ISO 8601 with the UTC offset).
-std::string LocalTimeText(bool compact) {
-  const std::time_t now = std::time(nullptr);
+// A wall-clock time in local time, for file names (compact) or headers (ISO 8601 with the UTC
+// offset).
+std::string LocalTimeText(int64_t utime, bool compact) {
+  const auto seconds = static_cast<std::time_t>(utime / 1000000);
   std::tm local{};
-  localtime_r(&now, &local);
+  localtime_r(&seconds, &local);
   char text[64];
   if (compact) {
     std::strftime(text, sizeof text, "%Y%m%d-%H%M%S", &local);
@@ -86,7 +88,7 @@ std::string HeaderWord(const std::string& name) {
 
 }  // namespace
 
-std::string DefaultRunName() { return "sirupp-" + LocalTimeText(true); }
+std::string DefaultRunName() { return "sirupp-" + LocalTimeText(WallMicros(), true); }
 
 LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOptions options)
     : bus_(bus),
@@ -105,7 +107,10 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
   }
   layout_.velocities = options_.velocities;
   layout_.efforts = options_.efforts;
-  started_text_ = LocalTimeText(false);
+  started_utime_ = WallMicros();
+  started_text_ = LocalTimeText(started_utime_, false);
+  url_text_ = bus_.url().empty() ? "(LCM default)" : bus_.url();
+  pass_channel_ = bus_.prefix() + options_.channels.logger_pass.name();
 
   namespace fs = std::filesystem;
   std::error_code error;
@@ -259,6 +264,7 @@ LoggerNode::~LoggerNode() {
 
 void LoggerNode::Push(Input input, Stream stream) {
   std::lock_guard<std::mutex> lock(mutex_);
+  ++handed_;
   if (queue_.size() >= options_.queue_limit) {
     if (std::holds_alternative<Sample>(input)) ++overflow_[static_cast<size_t>(stream)];
     ++stats_.queue_overflow;
@@ -271,9 +277,10 @@ void LoggerNode::Service(int max_wait_ms) {
   bus_.HandleAvailable();
   bus_.Handle(max_wait_ms);
   // The raw log reaches the disk at least every 0.1 s (a killed logger loses no more).
-  if (raw_file_ &&
+  if (!raw_path_.empty() &&
       std::chrono::steady_clock::now() - raw_flushed_ > std::chrono::milliseconds(100)) {
-    std::fflush(raw_file_->getFilePtr());
+    std::lock_guard<std::mutex> lock(raw_mutex_);
+    if (raw_file_) std::fflush(raw_file_->getFilePtr());
     raw_flushed_ = std::chrono::steady_clock::now();
   }
   const LoggerStats now = stats();
@@ -294,15 +301,8 @@ void LoggerNode::Close() {
     lcm_unsubscribe(bus_.raw_lcm().getUnderlyingLCM(), raw_subscription_);
     raw_subscription_ = nullptr;
   }
-  raw_file_.reset();  // flushes and closes
   if (options_.replay) {
-    std::vector<Input> batch;
-    {
-      std::lock_guard<std::mutex> lock(mutex_);
-      batch.swap(queue_);
-    }
-    ProcessBatch(batch, 0, true);
-    closed_ = true;
+    Finish(0);
     return;
   }
   {
@@ -310,8 +310,35 @@ void LoggerNode::Close() {
     stop_ = true;
   }
   wake_.notify_all();
-  if (writer_.joinable()) writer_.join();
+  if (writer_.joinable()) writer_.join();  // its last pass goes into the raw log
   closed_ = true;
+  std::lock_guard<std::mutex> lock(raw_mutex_);
+  raw_file_.reset();  // flushes and closes
+}
+
+void LoggerNode::Finish(int64_t now_utime) {
+  if (!options_.replay) throw std::logic_error("LoggerNode::Finish: not a replay");
+  if (closed_) return;
+  std::vector<Input> batch;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    batch.swap(queue_);
+    taken_ = handed_;
+  }
+  ProcessBatch(batch, now_utime, true);
+  closed_ = true;
+}
+
+void LoggerNode::UseRecordedStart(int64_t started_utime, const std::string& lcm_url) {
+  if (!options_.replay) throw std::logic_error("LoggerNode::UseRecordedStart: not a replay");
+  started_utime_ = started_utime;
+  started_text_ = LocalTimeText(started_utime, false);
+  url_text_ = lcm_url.empty() ? "(LCM default)" : lcm_url;
+}
+
+int64_t LoggerNode::handed() const {
+  std::lock_guard<std::mutex> lock(mutex_);
+  return handed_;
 }
 
 LoggerStats LoggerNode::stats() const {
@@ -333,24 +360,65 @@ void LoggerNode::WriterLoop() {
       wake_.wait_for(lock, std::chrono::milliseconds(options_.flush_period_ms),
                      [this] { return stop_; });
       batch.swap(queue_);
+      taken_ = handed_;  // every message handed over is in the batch or was dropped (overflow)
       stopping = stop_;
     }
-    ProcessBatch(batch, WallMicros(), stopping);
+    // The pass's clock and how many messages it took go into the raw log (after the pass: a
+    // replay runs it once that many messages have been delivered, wherever the event lies).
+    const int64_t now = WallMicros();
+    if (ProcessBatch(batch, now, stopping)) RecordPass(now, stopping);
     if (stopping) break;
   }
 }
 
-void LoggerNode::AdvanceTo(int64_t now_utime) {
+void LoggerNode::RecordPass(int64_t now_utime, bool last) {
+  std::lock_guard<std::mutex> lock(raw_mutex_);
+  if (!raw_file_) return;
+  core::LoggerPass pass;
+  pass.utime = now_utime;
+  pass.seq = pass_seq_++;
+  pass.taken = taken_;
+  pass.last = last;
+  pass.started_utime = started_utime_;
+  pass.name = options_.name;
+  pass.lcm_url = bus_.url();
+  const sirupp::logger_pass_t message = core::ToMessage(pass);
+  std::vector<uint8_t> data(static_cast<size_t>(message.getEncodedSize()));
+  message.encode(data.data(), 0, static_cast<int>(data.size()));
+  lcm::LogEvent event{};
+  event.eventnum = 0;  // numbered by LCM
+  // In receive-time order with the messages around it (its own clock is in the message).
+  event.timestamp = raw_last_utime_ > 0 ? raw_last_utime_ : now_utime;
+  event.channel = pass_channel_;
+  event.datalen = static_cast<int32_t>(data.size());
+  event.data = data.data();
+  if (raw_file_->writeEvent(&event) != 0) {
+    std::lock_guard<std::mutex> stats_lock(mutex_);
+    if (stats_.error.empty()) stats_.error = "--raw " + raw_path_ + ": write failed (disk full?)";
+  }
+}
+
+void LoggerNode::AdvanceTo(int64_t now_utime, int64_t taken) {
   if (!options_.replay) throw std::logic_error("LoggerNode::AdvanceTo: not a replay");
   std::vector<Input> batch;
   {
     std::lock_guard<std::mutex> lock(mutex_);
-    batch.swap(queue_);
+    // The queue holds the messages handed over since the last pass, in order (a replay drops
+    // none: its passes come at least as often as the live ones did).
+    const int64_t want = taken < 0 ? handed_ : std::min(taken, handed_);
+    const auto count = static_cast<size_t>(
+        std::clamp<int64_t>(want - taken_, 0, static_cast<int64_t>(queue_.size())));
+    batch.assign(std::make_move_iterator(queue_.begin()),
+                 std::make_move_iterator(queue_.begin() + static_cast<std::ptrdiff_t>(count)));
+    queue_.erase(queue_.begin(), queue_.begin() + static_cast<std::ptrdiff_t>(count));
+    taken_ = std::max(taken_, want);
   }
   ProcessBatch(batch, now_utime, false);
 }
 
-void LoggerNode::ProcessBatch(std::vector<Input>& batch, int64_t now_utime, bool stopping) {
+bool LoggerNode::ProcessBatch(std::vector<Input>& batch, int64_t now_utime, bool stopping) {
+  const bool had_input = !batch.empty();
+  const int64_t quiet_before = quiet_taken_;
   {
     std::lock_guard<std::mutex> lock(mutex_);
     for (size_t s = 0; s < kNumStreams; ++s) {
@@ -419,6 +487,8 @@ void LoggerNode::ProcessBatch(std::vector<Input>& batch, int64_t now_utime, bool
   stats_.lost = aligner_.lost_total();
   for (size_t s = 0; s < kNumStreams; ++s) stats_.lost[s] += carry_[s];
   if (!error.empty()) stats_.error = error;
+  // A pass with no message and no quiet step takes the rows a pass at the same bus clock took.
+  return had_input || quiet_taken_ != quiet_before || stopping;
 }
 
 void LoggerNode::OpenRawLog() {
@@ -452,7 +522,11 @@ void LoggerNode::OpenRawLog() {
 // the log holds the messages in the order, and with the receive times, the logger aligned them.
 void LoggerNode::RecordRaw(const lcm_recv_buf_t* rbuf, const char* channel, void* node) {
   auto* self = static_cast<LoggerNode*>(node);
+  // Passes are this logger's own; another logger's (a log played back onto the bus) are not.
+  if (self->pass_channel_ == channel) return;
+  std::lock_guard<std::mutex> lock(self->raw_mutex_);
   if (!self->raw_file_) return;
+  self->raw_last_utime_ = rbuf->recv_utime;
   lcm::LogEvent event{};
   event.eventnum = 0;  // numbered by LCM
   event.timestamp = rbuf->recv_utime;
@@ -460,7 +534,7 @@ void LoggerNode::RecordRaw(const lcm_recv_buf_t* rbuf, const char* channel, void
   event.datalen = static_cast<int32_t>(rbuf->data_size);
   event.data = rbuf->data;
   if (self->raw_file_->writeEvent(&event) != 0) {
-    std::lock_guard<std::mutex> lock(self->mutex_);
+    std::lock_guard<std::mutex> stats_lock(self->mutex_);
     if (self->stats_.error.empty()) {
       self->stats_.error = "--raw " + self->raw_path_ + ": write failed (disk full?)";
     }
@@ -652,7 +726,7 @@ std::vector<std::string> LoggerNode::HeaderLines(const Row& row) const {
   lines.push_back("channels: set " + prefix + c.arm_setpoint + ", virt " + prefix +
                   c.sim_arm_state + ", real " + prefix + c.real_arm_state + ", plans " + prefix +
                   c.controller_status + ", gains " + prefix + c.arm_gains + "; LCM URL " +
-                  (bus_.url().empty() ? "(LCM default)" : bus_.url()));
+                  url_text_);
   const AlignerOptions& a = aligner_.options();
   lines.push_back("sample clock: a row every " + std::to_string(a.period_us) +
                   " us of time_s; a cell holds its stream's newest sample at or before the row "
@@ -691,33 +765,98 @@ std::string LoggerNode::EndLine() const {
   return text + " (sequence gaps and logger overflow)";
 }
 
+namespace {
+
+// The writer's passes recorded in a raw log (LOGGER_PASS), in order; empty for a log without them.
+std::vector<core::LoggerPass> RecordedPasses(const std::string& log_path,
+                                             const std::string& pass_channel) {
+  std::vector<core::LoggerPass> passes;
+  LcmLogReader reader(log_path);
+  LcmLogEvent event;
+  while (reader.Next(event)) {
+    if (event.channel != pass_channel) continue;
+    auto fail = [&](const std::string& problem) {
+      throw core::ConfigError(core::SourceLocation{log_path, 0, 0},
+                              "byte " + std::to_string(event.offset) + " (event " +
+                                  std::to_string(event.index) + ") on " + pass_channel,
+                              problem);
+    };
+    sirupp::logger_pass_t message;
+    const int size = static_cast<int>(event.data.size());
+    if (message.decode(event.data.data(), 0, size) != size) {
+      fail("the data does not decode as sirupp.logger_pass_t");
+    }
+    try {
+      passes.push_back(core::LoggerPassFromMessage(message, pass_channel));
+    } catch (const std::exception& e) {
+      fail(e.what());
+    }
+    if (passes.size() >= 2 && passes.back().taken < passes[passes.size() - 2].taken) {
+      fail("taken " + std::to_string(passes.back().taken) + " is below the pass before it (" +
+           std::to_string(passes[passes.size() - 2].taken) + "): passes of two loggers?");
+    }
+  }
+  return passes;
+}
+
+}  // namespace
+
 LoggerStats ReplayRawLog(const std::string& log_path, const core::RobotModel& model,
                          LoggerOptions options, const std::string& prefix) {
   options.replay = true;
   options.raw_log.clear();
   core::Bus bus("memq://", prefix);
+  const std::string pass_channel = bus.prefix() + options.channels.logger_pass.name();
+  const std::vector<core::LoggerPass> passes = RecordedPasses(log_path, pass_channel);
+  if (options.name.empty() && !passes.empty()) options.name = passes.front().name;
   LoggerNode node(bus, model, options);
+  if (!passes.empty()) node.UseRecordedStart(passes.front().started_utime, passes.front().lcm_url);
   const auto period = static_cast<int64_t>(options.flush_period_ms) * 1000;
   LcmLogReader reader(log_path);
   LcmLogEvent event;
   bool started = false;
   int64_t next_pass = 0;
-  while (reader.Next(event)) {
-    if (!started) {
-      started = true;
-      next_pass = event.timestamp_us + period;
+  size_t pass = 0;
+  std::optional<int64_t> last_pass_utime;  // the live logger's last pass, before it closed
+  // The recorded passes whose messages have all been delivered, each as it ran live.
+  auto run_passes = [&] {
+    while (pass < passes.size() && !last_pass_utime && passes[pass].taken <= node.handed()) {
+      if (passes[pass].last) {
+        last_pass_utime = passes[pass].utime;
+      } else {
+        node.AdvanceTo(passes[pass].utime, passes[pass].taken);
+      }
+      ++pass;
     }
-    // The writer's passes due before this message arrived (the quiet stretches included).
-    while (event.timestamp_us >= next_pass) {
-      node.AdvanceTo(next_pass);
-      next_pass += period;
+  };
+  while (reader.Next(event)) {
+    if (event.channel == pass_channel) continue;  // read above
+    if (passes.empty()) {
+      // No recorded passes: one every flush period of the log's clock (the quiet stretches
+      // included), as a live writer would run.
+      if (!started) {
+        started = true;
+        next_pass = event.timestamp_us + period;
+      }
+      while (event.timestamp_us >= next_pass) {
+        node.AdvanceTo(next_pass);
+        next_pass += period;
+      }
+    } else {
+      run_passes();
     }
     bus.DeliverRecorded(event.channel, event.data.data(), static_cast<int>(event.data.size()),
                         event.timestamp_us);
   }
-  node.Close();
+  run_passes();
+  node.Finish(last_pass_utime.value_or(0));
   for (const std::string& note : reader.notes()) {
     std::cerr << options.process_name << ": " << log_path << ": " << note << "\n";
+  }
+  if (pass < passes.size()) {
+    std::cerr << options.process_name << ": " << log_path << ": " << passes.size() - pass
+              << " recorded writer passes took more messages than the log holds (" << node.handed()
+              << "): the last rows may differ from the live ones\n";
   }
   return node.stats();
 }

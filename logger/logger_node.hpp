@@ -5,7 +5,8 @@
 // In:  ARM_SETPOINT (set-point), SIM_ARM_STATE (virtual arm), REAL_ARM_STATE (real arm, when a
 //      bridge runs), CONTROLLER_STATUS (plan runs: one file per movement set), ARM_GAINS,
 //      CONTROLLER_GAINS and REAL_ARM_GAINS (every change written into the file with its time).
-// Out: the data files; HEARTBEAT.
+// Out: the data files; HEARTBEAT; with --raw, the raw log (every message, and LOGGER_PASS: each
+//      pass of the writer, so that ReplayRawLog writes the same files).
 //
 // Threads: the caller's thread runs the bus (Service); its handlers only copy each message into a
 // queue (never waiting on the disk). A writer thread aligns the streams (logger/aligner.hpp) and
@@ -55,8 +56,10 @@ struct LoggerOptions {
   // has its own.
   core::Heartbeat* heartbeat = nullptr;
   // Raw log: every message on the bus (all channels, with or without the prefix) in lcm-logger's
-  // format, each event stamped with the receive time this logger aligned it with. "" = none. An
-  // existing file is never replaced: NAME.lcmlog becomes NAME.1.lcmlog, NAME.2.lcmlog, ...
+  // format, each event stamped with the receive time this logger aligned it with, and each pass of
+  // the writer (LOGGER_PASS: when, and how many messages it had taken), so that ReplayRawLog
+  // writes the same rows. "" = none. An existing file is never replaced: NAME.lcmlog becomes
+  // NAME.1.lcmlog, NAME.2.lcmlog, ...
   std::string raw_log;
   // Replay: no writer thread and no wall clock; the caller feeds recorded messages
   // (core::Bus::DeliverRecorded) and moves the clock on with AdvanceTo(), as the writer thread
@@ -88,9 +91,17 @@ class LoggerNode {
   // Stops the writer after writing every row received, and closes the files with their "# end"
   // line. Idempotent.
   void Close();
-  // Replay only: what the writer thread does once per flush period, at time now_utime (the log's
-  // clock): takes the messages delivered so far and writes the rows that are final.
-  void AdvanceTo(int64_t now_utime);
+  // Replay only: what the writer thread does once per flush period, at time now_utime (a recorded
+  // pass's, or the log's clock): takes the messages delivered so far, up to the `taken`-th since
+  // the start (all of them when taken < 0), and writes the rows that are final.
+  void AdvanceTo(int64_t now_utime, int64_t taken = -1);
+  // Replay only: the writer's last pass at now_utime, then the files are closed (as Close()).
+  void Finish(int64_t now_utime);
+  // Replay only: the start time and LCM URL the headers name (a recorded pass's).
+  void UseRecordedStart(int64_t started_utime, const std::string& lcm_url);
+  // Messages the handlers have handed to the writer so far (those dropped for a full queue
+  // included): the count LOGGER_PASS's `taken` refers to.
+  int64_t handed() const;
   // The raw log being written ("" when none).
   const std::string& raw_log() const { return raw_path_; }
 
@@ -106,9 +117,13 @@ class LoggerNode {
 
   void Push(Input input, Stream stream);
   void WriterLoop();
-  // One pass of the writer over `batch`; now_utime: the wall clock live, the log's clock in a
-  // replay (only for a quiet bus); stopping: close the files after it.
-  void ProcessBatch(std::vector<Input>& batch, int64_t now_utime, bool stopping);
+  // One pass of the writer over `batch`; now_utime: the wall clock live, the recorded pass's (or
+  // the log's clock) in a replay (only for a quiet bus); stopping: close the files after it.
+  // False when the pass could not have changed anything (no message, the quiet rule not due): the
+  // raw log leaves such passes out.
+  bool ProcessBatch(std::vector<Input>& batch, int64_t now_utime, bool stopping);
+  // Writer side: LOGGER_PASS into the raw log.
+  void RecordPass(int64_t now_utime, bool last);
   void OpenRawLog();
   // Through LCM's C interface: LCM 1.3.1's C++ untyped subscription trips UBSan's vptr check.
   static void RecordRaw(const lcm_recv_buf_t* rbuf, const char* channel, void* node);
@@ -128,7 +143,9 @@ class LoggerNode {
   // One robot: the sim's ROBOT_MODEL against the model the columns are labelled from; a mismatch
   // is a fault on the heartbeat (the data would carry the wrong robot's names and units).
   core::ModelWatch model_watch_;
+  int64_t started_utime_ = 0;  // wall clock at the start (live), or as recorded (replay)
   std::string started_text_;
+  std::string url_text_;  // the bus, for the headers
 
   // What an earlier logger of the same NAME left in out_dir (found at start).
   struct RestartState {
@@ -150,6 +167,7 @@ class LoggerNode {
   mutable std::mutex mutex_;
   std::condition_variable wake_;
   std::vector<Input> queue_;
+  int64_t handed_ = 0;                           // Push() calls so far
   std::array<int64_t, kNumStreams> overflow_{};  // dropped since the writer last looked
   bool stop_ = false;
   LoggerStats stats_;
@@ -186,20 +204,28 @@ class LoggerNode {
   std::array<int64_t, kNumStreams> carry_{};  // overflow not yet put into a sample's lost_before
   bool write_failed_ = false;
   int64_t bus_now_ = 0;  // receive time of the newest message taken: the aligner's clock
+  int64_t taken_ = 0;    // handed_ as of the last pass
   int64_t quiet_taken_ = 0;
   static constexpr int64_t kQuietUs = 500000;  // the whole bus quiet this long: rows move on
 
-  // Raw log (bus thread only).
+  // Raw log: messages from the bus thread, passes from the writer.
   std::string raw_path_;
+  std::string pass_channel_;  // LOGGER_PASS with the prefix
+  std::mutex raw_mutex_;      // raw_file_ and the two below
   std::unique_ptr<lcm::LogFile> raw_file_;
-  lcm_subscription_t* raw_subscription_ = nullptr;
+  int64_t raw_last_utime_ = 0;  // timestamp of the last event written
+  int64_t pass_seq_ = 0;
+  lcm_subscription_t* raw_subscription_ = nullptr;  // bus thread only
   std::chrono::steady_clock::time_point raw_flushed_;
 };
 
 // Runs a logger over a raw log (LoggerOptions::raw_log of an earlier run): every message goes to
-// the node with its recorded receive time, and the writer runs every flush period of the log's
-// clock, as it did live; the data files are then the ones the live logger wrote (docs/logging.md,
-// "Raw logs"). `options.replay` is set here. Throws core::ConfigError for a damaged log.
+// the node with its recorded receive time, and the writer's passes recorded on LOGGER_PASS run
+// where they ran live (after the same messages, with the same clock), so the data files are the
+// ones the live logger wrote, header lines included (docs/logging.md, "Raw logs"). An empty
+// options.name takes the recorded one. A log without passes (lcm-logger's) gets a pass every flush
+// period of its clock instead. `options.replay` is set here. Throws core::ConfigError for a
+// damaged log or pass.
 LoggerStats ReplayRawLog(const std::string& log_path, const core::RobotModel& model,
                          LoggerOptions options, const std::string& prefix);
 

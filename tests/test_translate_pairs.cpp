@@ -293,6 +293,12 @@ RoundTrips AllRoundTrips() {
     ExpectRoundTrip(LoggerCommand{1, 2, "panel", LoggerAction::kStop, ""},
                     [&](const auto& m) { return LoggerCommandFromMessage(m, ch); });
   });
+  Add<sirupp::logger_pass_t>(trips, [ch] {
+    ExpectRoundTrip(LoggerPass{1, 2, 3, true, 4, "demo", "udpm://239.255.76.67:7667?ttl=0"},
+                    [&](const auto& m) { return LoggerPassFromMessage(m, ch); });
+    ExpectRoundTrip(LoggerPass{1, 2, 0, false, 4, "", ""},
+                    [&](const auto& m) { return LoggerPassFromMessage(m, ch); });
+  });
   Add<sirupp::sim_reset_t>(trips, [ch] {
     ExpectRoundTrip(SimReset{1, 2, "cli", {0.1, 0.2}, {0, -1}, true},
                     [&](const auto& m) { return SimResetFromMessage(m, ch); });
@@ -544,6 +550,15 @@ TEST(TranslatePairs, EnumsFlagsAndBitsMustBeKnown) {
   lc.command = 2;
   EXPECT_EQ(Error([&] { LoggerCommandFromMessage(lc, "LOGGER_COMMAND"); }),
             "channel LOGGER_COMMAND: command: 2 is not allowed; expected 0 (start) or 1 (stop)");
+  sirupp::logger_pass_t lp = ToMessage(LoggerPass{});
+  lp.taken = -1;
+  EXPECT_EQ(Error([&] { LoggerPassFromMessage(lp, "LOGGER_PASS"); }),
+            "channel LOGGER_PASS: taken: -1 is not allowed; expected 0 or more messages");
+  lp.taken = 0;
+  lp.last = 2;
+  EXPECT_EQ(
+      Error([&] { LoggerPassFromMessage(lp, "LOGGER_PASS"); }),
+      "channel LOGGER_PASS: last: 2 is not allowed; expected 0 (more passes) or 1 (the last)");
   sirupp::estop_t e = ToMessage(EStop{});
   e.engaged = 3;
   EXPECT_EQ(Error([&] { EStopFromMessage(e, "ESTOP"); }),

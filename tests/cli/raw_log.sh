@@ -3,7 +3,8 @@
 # processes but no viewer (tests/data/labs/demo-raw.yaml), on the demo's private udpm port (ttl=0).
 #  - the logger records the whole bus beside its data files (raw/demo.lcmlog, lcm-logger's format);
 #  - the layout sees the run's bus as ${LCM_URL};
-#  - `sirupp-logger --from-log` writes the data files again from the raw log: the same rows, and
+#  - `sirupp-logger --from-log` writes the data files again from the raw log (the run's name taken
+#    from it): the same files byte for byte (the writer's passes are recorded on LOGGER_PASS), and
 #    `sirupp report` on them prints exactly the live run's Table II;
 #  - every line of launch.log and of each process's log carries the ISO-time-with-milliseconds,
 #    name and level prefix.
@@ -42,18 +43,21 @@ has "private port" "$dir/demo.out" "bus udpm://239.255.76.67:"
 url=$(sed -n 's/.*, bus \(udpm:[^ ]*\)$/\1/p' "$dir/demo.out")
 has "the same URL" "$live/bus-url.txt" "bus $url prefix"
 
-# The data files again, from the raw log alone.
-"$SIRUPP_LOGGER" --from-log "$raw" --out "$dir/again" --name demo >"$out" 2>"$err"
+grep -qa "LOGGER_PASS" "$raw" || { echo "FAIL: no LOGGER_PASS (the writer's passes) in the raw log"; fail=1; }
+
+# The data files again, from the raw log alone (the name too), run where the live logger ran (the
+# header names the model file as found from there).
+(cd "$dir" && "$SIRUPP_LOGGER" --from-log "$raw" --out "$dir/again" >"$out" 2>"$err")
 rc=$?
 [[ $rc -eq 0 ]] || { echo "FAIL --from-log: exit $rc"; cat "$err"; fail=1; }
 live_files=$(cd "$live/data" && ls)
 again_files=$(cd "$dir/again" && ls)
 [[ "$live_files" == "$again_files" ]] || { echo "FAIL: files differ: live [$live_files], from the log [$again_files]"; fail=1; }
 rows=0
-for f in $(cd "$live/data" && ls *-set*.csv); do
-  if ! cmp -s <(grep -v '^#' "$live/data/$f") <(grep -v '^#' "$dir/again/$f"); then
-    echo "FAIL: the rows of $f differ (live < > from the log):"
-    diff <(grep -v '^#' "$live/data/$f") <(grep -v '^#' "$dir/again/$f") | head -6
+for f in $(cd "$live/data" && ls *.csv); do
+  if ! cmp -s "$live/data/$f" "$dir/again/$f"; then
+    echo "FAIL: $f differs (live < > from the log):"
+    diff "$live/data/$f" "$dir/again/$f" | head -6
     fail=1
   fi
   rows=$((rows + $(grep -vc '^#' "$live/data/$f")))
@@ -83,4 +87,4 @@ done
 has "launcher line in a process log" "$live/logs/sim.log" "sirupp-launch info: starting sim:"
 has "end noted" "$live/logs/sim.log" "sirupp-launch info: sim (pid "
 has "launch.log prefix" "$live/logs/launch.log" "sirupp-launch info: [local] started emulator"
-finish raw_log "$rows rows in $(wc -w <<<"$live_files") data files the same; Table II the same ($(grep -c '^| set' "$dir/live-table.md") rows)"
+finish raw_log "$rows rows in $(wc -w <<<"$live_files") data files the same byte for byte; Table II the same ($(grep -c '^| set' "$dir/live-table.md") rows)"
