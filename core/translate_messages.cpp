@@ -21,7 +21,7 @@ std::string At(const std::string& field, size_t i) { return field + "[" + std::t
 
 [[noreturn]] void Refuse(const std::string& channel, const std::string& field,
                          const std::string& value, const std::string& allowed) {
-  throw MessageError(channel, field, value + " is not allowed; expected " + allowed);
+  RefuseValue(channel, field, value, allowed);
 }
 
 // A count field and one of the arrays it counts.
