@@ -20,7 +20,6 @@ namespace {
 
 using Clock = std::chrono::steady_clock;
 using Move = sirupp::servo_move_t;
-using Pose = sirupp::pose_target_t;
 using PlanMessage = sirupp::plan_command_t;
 
 constexpr double kStatusPeriodS = 0.1;  // CONTROLLER_STATUS at 10 Hz (and on every change)
@@ -35,39 +34,13 @@ static_assert(static_cast<int8_t>(MoveKind::kStopSmooth) == Move::COMMAND_STOP_S
 static_assert(static_cast<int8_t>(MoveKind::kStopAbrupt) == Move::COMMAND_STOP_ABRUPT);
 static_assert(static_cast<int8_t>(PlanAction::kAbort) == PlanMessage::COMMAND_ABORT);
 static_assert(static_cast<int8_t>(PlanAction::kClearFault) == PlanMessage::COMMAND_CLEAR_FAULT);
+static_assert(static_cast<int>(MoveKind::kStopAbrupt) ==
+              static_cast<int>(core::MoveCommand::kStopAbrupt));
 static_assert(kFlagBraked == sirupp::arm_state_t::FLAG_BRAKED);
 static_assert(static_cast<int>(ControlState::kOff) ==
               static_cast<int>(core::ControllerState::kOff));
 static_assert(static_cast<int>(ControlMode::kAutomatic) ==
               static_cast<int>(core::ControllerMode::kAutomatic));
-static_assert(Pose::SHOULDER_LEFT == 1 && Pose::ELBOW_UP == 1 && Pose::WRIST_FLIP == 2);
-
-// Messages into the sequencer's commands (the values are checked there).
-JointTargetCommand Decode(const sirupp::joint_target_t& message, const std::string& channel) {
-  return {channel,
-          message.num_joints,
-          message.position,
-          message.max_velocity,
-          message.acceleration,
-          message.active};
-}
-
-PoseTargetCommand Decode(const sirupp::pose_target_t& message, const std::string& channel) {
-  PoseTargetCommand command;
-  command.source = channel;
-  for (size_t i = 0; i < 3; ++i) command.position[i] = message.position[i];
-  for (size_t i = 0; i < 4; ++i) command.orientation[i] = message.orientation[i];
-  command.position_only = message.position_only;
-  command.shoulder = message.shoulder;
-  command.elbow = message.elbow;
-  command.wrist = message.wrist;
-  command.speed_scale = message.speed_scale;
-  return command;
-}
-
-PlanCommand Decode(const sirupp::plan_command_t& message, const std::string& channel) {
-  return {channel, message.command, message.name, message.text};
-}
 
 }  // namespace
 
@@ -85,34 +58,41 @@ ControlNode::ControlNode(core::Bus& bus, const core::RobotModel& model, ControlO
       channels.sim_arm_state,
       [this](const sirupp::arm_state_t& message, const Info& info) { OnState(message, info); },
       1000);
-  // Each command gets one answer on CONTROLLER_REPLY naming it (core/command_reply.hpp).
+  // Each command gets one answer on CONTROLLER_REPLY naming it (core/command_reply.hpp). Each is
+  // decoded by its core/translate.hpp pair; a message it refuses is the sequencer's last error too.
   // While a model is being loaded (model_switch.hpp) nothing may start a move.
   bus_.Subscribe<sirupp::joint_target_t>(
       channels.arm_target, [this](const sirupp::joint_target_t& message, const Info& info) {
         Answer(message, info, true, [&] {
+          const std::vector<core::JointGoal> joints =
+              Decoded(core::JointTargetFromMessage, message, info.channel).joints;
           model_switch_.RequireNone(info.channel, Clock::now());
-          sequencer_.Target(Decode(message, info.channel));
+          sequencer_.Target({info.channel, joints});
         });
       });
   bus_.Subscribe<sirupp::pose_target_t>(
       channels.arm_pose_target, [this](const sirupp::pose_target_t& message, const Info& info) {
         Answer(message, info, true, [&] {
+          const core::PoseTarget target =
+              Decoded(core::PoseTargetFromMessage, message, info.channel);
           model_switch_.RequireNone(info.channel, Clock::now());
-          sequencer_.PoseTarget(Decode(message, info.channel));
+          sequencer_.PoseTarget({info.channel, target});
         });
       });
   bus_.Subscribe<sirupp::plan_command_t>(
       channels.arm_plan, [this](const sirupp::plan_command_t& message, const Info& info) {
         Answer(message, info, message.command == PlanMessage::COMMAND_RUN, [&] {
-          if (message.command == PlanMessage::COMMAND_LOAD_MODEL) {
-            if (!message.text.empty()) sequencer_.RequireModelChangeAllowed(info.channel);
-            model_switch_.Request(info.channel, message.name, message.text, model_, Clock::now());
+          const core::PlanCommand plan =
+              Decoded(core::PlanCommandFromMessage, message, info.channel);
+          if (plan.command == core::PlanAction::kLoadModel) {
+            if (!plan.text.empty()) sequencer_.RequireModelChangeAllowed(info.channel);
+            model_switch_.Request(info.channel, plan.name, plan.text, model_, Clock::now());
             return;
           }
-          if (message.command == PlanMessage::COMMAND_RUN) {
+          if (plan.command == core::PlanAction::kRun) {
             model_switch_.RequireNone(info.channel, Clock::now());
           }
-          sequencer_.Plan(Decode(message, info.channel));
+          sequencer_.Plan({info.channel, plan.command, plan.name, plan.text});
         });
       });
   bus_.Subscribe<sirupp::servo_gains_t>(
@@ -120,17 +100,30 @@ ControlNode::ControlNode(core::Bus& bus, const core::RobotModel& model, ControlO
         Answer(message, info, false, [&] { OnGains(message, info); });
       });
   bus_.Subscribe<sirupp::estop_t>(
-      channels.estop, [this](const sirupp::estop_t& message, const Info&) {
-        sequencer_.Estop({message.engaged != 0, message.sender, message.reason});
+      channels.estop, [this](const sirupp::estop_t& message, const Info& info) {
+        const core::EStop estop = core::EStopFromMessage(message, info.channel);
+        sequencer_.Estop({estop.engaged, estop.sender, estop.reason});
         Flush();
       });
   bus_.Subscribe<sirupp::command_reply_t>(
-      channels.hardware_reply,
-      [this](const sirupp::command_reply_t& message, const Info&) { OnBridgeReply(message); });
+      channels.hardware_reply, [this](const sirupp::command_reply_t& message, const Info& info) {
+        OnBridgeReply(message, info);
+      });
   bus_.Subscribe<sirupp::robot_model_t>(
       channels.robot_model,
       [this](const sirupp::robot_model_t& message, const Info& info) { OnModel(message, info); });
   heartbeat_.Publish(core::ProcessState::kStarting, "");
+}
+
+template <class Value, class Msg>
+Value ControlNode::Decoded(Value (*from_message)(const Msg&, const std::string&),
+                           const Msg& message, const std::string& channel) {
+  try {
+    return from_message(message, channel);
+  } catch (const core::MessageError& error) {
+    sequencer_.Refused(error.what());  // the last error, with a status; nothing moves
+    throw;
+  }
 }
 
 template <class Msg, class Handle>
@@ -192,11 +185,13 @@ void ControlNode::OnGains(const sirupp::servo_gains_t& message, const core::Rece
   PublishGains(true);
 }
 
-void ControlNode::OnBridgeReply(const sirupp::command_reply_t& reply) {
+void ControlNode::OnBridgeReply(const sirupp::command_reply_t& message,
+                                const core::ReceiveInfo& info) {
+  const core::CommandReply reply = core::CommandReplyFromMessage(message, info.channel);
   // The bridge's answer to our latest ARM_MOVE, matched by its channel, utime and seq: the
   // virtual arm must not make a move the real one refused.
-  if (reply.result != sirupp::command_reply_t::RESULT_REFUSED || move_seq_ == 0 ||
-      !core::RepliesTo(reply, bus_.FullName(options_.channels.arm_move), last_move_utime_,
+  if (reply.accepted || move_seq_ == 0 ||
+      !core::RepliesTo(message, bus_.FullName(options_.channels.arm_move), last_move_utime_,
                        move_seq_ - 1)) {
     return;
   }
@@ -274,20 +269,17 @@ void ControlNode::PublishSetpoint(const core::ArmState& state, const std::vector
 }
 
 void ControlNode::PublishMove(const MoveOrder& order) {
-  sirupp::servo_move_t move{};
+  core::ServoMove move;
   move.utime = order.utime;
   move.seq = move_seq_++;
   last_move_utime_ = move.utime;
   move.move_id = order.move_id;
-  move.command = static_cast<int8_t>(order.kind);
-  move.num_joints = model_.num_joints();
+  move.command = static_cast<core::MoveCommand>(order.kind);
   for (const JointMove& joint_move : order.moves) {
-    move.goal.push_back(joint_move.goal);
-    move.max_velocity.push_back(joint_move.velocity);
-    move.acceleration.push_back(joint_move.acceleration);
-    move.flags.push_back(joint_move.active ? Move::FLAG_ACTIVE : 0);
+    move.joints.push_back({joint_move.goal, joint_move.velocity, joint_move.acceleration,
+                           static_cast<int8_t>(joint_move.active ? Move::FLAG_ACTIVE : 0)});
   }
-  bus_.Publish(options_.channels.arm_move, move);
+  bus_.Publish(options_.channels.arm_move, core::ToMessage(move));
 }
 
 int8_t ControlNode::mode() const { return static_cast<int8_t>(sequencer_.mode()); }

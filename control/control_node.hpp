@@ -89,11 +89,15 @@ class ControlNode {
   void OnModel(const sirupp::robot_model_t& message, const core::ReceiveInfo& info);
   void OnGains(const sirupp::servo_gains_t& message, const core::ReceiveInfo& info);
   // A refusal of our latest ARM_MOVE on HARDWARE_REPLY stops the virtual arm too.
-  void OnBridgeReply(const sirupp::command_reply_t& reply);
+  void OnBridgeReply(const sirupp::command_reply_t& message, const core::ReceiveInfo& info);
   // Runs handle() (which hands a command to the sequencer), publishes what the sequencer asked
   // for, and answers the command on CONTROLLER_REPLY; `moves`: the command may start a move.
   template <class Msg, class Handle>
   void Answer(const Msg& message, const core::ReceiveInfo& info, bool moves, Handle&& handle);
+  // `from_message`'s value of `message`; a refusal is also made the sequencer's last error.
+  template <class Value, class Msg>
+  Value Decoded(Value (*from_message)(const Msg&, const std::string&), const Msg& message,
+                const std::string& channel);
   void CheckSimAlive();
   // Publishes what the sequencer asked for since the last call, in order.
   void Flush();

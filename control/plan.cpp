@@ -224,40 +224,66 @@ class Parser {
     return list.empty() ? names : names + " or " + list;
   }
 
+  // One `move` line as read: the goals (SI) of the joints that move, where each was written, the
+  // options, and the words of a `joints`, `pose` or `tool` form.
+  struct MoveRequest {
+    std::vector<std::optional<double>> goal;
+    std::vector<int> goal_column;
+    Rate speed;
+    Rate accel;
+    std::optional<core::IkConfiguration> config;
+    bool config_given = false;
+    std::vector<Token> words;
+  };
+
   void MoveLine(Plan& plan) {
     if (tokens_.size() < 2) {
       Fail(tokens_.front(),
            "expected what to move: `move J=VALUE ...`, `move joints V1 .. VN`, "
            "`move pose NAME` or `move tool X Y Z [ROLL PITCH YAW]`");
     }
+    MoveRequest request = MoveKeys();
+    if (request.words.empty()) {
+      bool any = false;
+      for (const auto& g : request.goal) any = any || g.has_value();
+      if (!any) Fail(tokens_.front(), "no joint to move; e.g. `move j1=90`");
+    } else {
+      MoveForm(request);
+    }
+    if (request.config_given && (request.words.empty() || request.words.front().text != "tool")) {
+      Fail(tokens_.front(), "config= applies only to `move tool`");
+    }
+    plan.steps.push_back(MoveStep(request));
+  }
+
+  // The KEY=VALUE tokens of a `move` line (joints, and the options speed, accel, config, which may
+  // follow any form); the other tokens are the request's words.
+  MoveRequest MoveKeys() {
     const size_t n = static_cast<size_t>(model_.num_joints());
-    std::vector<std::optional<double>> goal(n);  // SI, for the joints that move
-    std::vector<int> goal_column(n, 0);
-    Rate speed = speed_;
-    Rate accel = accel_;
-    std::optional<core::IkConfiguration> config;
-    bool config_given = false;
-    // Options (KEY=VALUE with KEY speed, accel, config) may follow any form.
-    std::vector<Token> words;
+    MoveRequest request;
+    request.goal.resize(n);
+    request.goal_column.assign(n, 0);
+    request.speed = speed_;
+    request.accel = accel_;
     for (size_t i = 1; i < tokens_.size(); ++i) {
       const Token& token = tokens_[i];
       const size_t equals = token.text.find('=');
       if (equals == std::string::npos) {
-        words.push_back(token);
+        request.words.push_back(token);
         continue;
       }
       const std::string key = token.text.substr(0, equals);
       Token value{token.text.substr(equals + 1), token.column + static_cast<int>(equals) + 1};
       if (value.text.empty()) Fail(token, "'" + Show(key) + "=' has no value");
       if (key == "speed") {
-        speed = ParseRate(value, "speed");
+        request.speed = ParseRate(value, "speed");
       } else if (key == "accel") {
-        accel = ParseRate(value, "accel");
+        request.accel = ParseRate(value, "accel");
       } else if (key == "config") {
-        config_given = true;
+        request.config_given = true;
         if (value.text != "nearest") {
-          config = core::IkConfiguration::Parse(value.text);
-          if (!config) {
+          request.config = core::IkConfiguration::Parse(value.text);
+          if (!request.config) {
             Fail(value, "configuration '" + Show(value.text) +
                             "' is not allowed; expected nearest or SHOULDER-ELBOW-WRIST with "
                             "left|right, up|down, noflip|flip (e.g. right-up-noflip)");
@@ -270,78 +296,82 @@ class Parser {
                           ") nor an option (speed, accel, config)");
         }
         const auto j = static_cast<size_t>(joint);
-        if (goal[j]) Fail(token, "joint " + Show(key) + " is given twice on this line");
-        goal[j] = Number(value, "joint " + Show(key) + " value") * JointUnit(model_.joints[j]);
-        goal_column[j] = value.column;
+        if (request.goal[j]) Fail(token, "joint " + Show(key) + " is given twice on this line");
+        request.goal[j] =
+            Number(value, "joint " + Show(key) + " value") * JointUnit(model_.joints[j]);
+        request.goal_column[j] = value.column;
       }
     }
+    return request;
+  }
 
-    const bool by_joint = words.empty();
-    if (by_joint) {
-      bool any = false;
-      for (const auto& g : goal) any = any || g.has_value();
-      if (!any) Fail(tokens_.front(), "no joint to move; e.g. `move j1=90`");
+  // The goals of `move joints V1 .. VN`, `move pose NAME` or `move tool ...`.
+  void MoveForm(MoveRequest& request) {
+    const size_t n = static_cast<size_t>(model_.num_joints());
+    const std::vector<Token>& words = request.words;
+    std::vector<std::optional<double>>& goal = request.goal;
+    for (const auto& g : goal) {
+      if (g) Fail(words.front(), "mixes J=VALUE with `" + Show(words.front().text) + " ...`");
+    }
+    const std::string& form = words.front().text;
+    if (form == "joints") {
+      if (words.size() != n + 1) {
+        Fail(words.front(), "expected " + std::to_string(n) + " values (one per joint), got " +
+                                std::to_string(words.size() - 1));
+      }
+      for (size_t j = 0; j < n; ++j) {
+        goal[j] = Number(words[j + 1], "joint j" + std::to_string(j + 1) + " value") *
+                  JointUnit(model_.joints[j]);
+        request.goal_column[j] = words[j + 1].column;
+      }
+    } else if (form == "pose") {
+      if (words.size() != 2) Fail(words.front(), "expected one pose name, e.g. `move pose ready`");
+      const core::NamedPose* pose = model_.FindNamedPose(words[1].text);
+      if (pose == nullptr && words[1].text != "home") {
+        std::string names = "home";
+        for (const core::NamedPose& p : model_.named_poses) names += ", " + p.name;
+        Fail(words[1], "no pose named '" + Show(words[1].text) + "' in model " + model_.name +
+                           "; allowed: " + names);
+      }
+      for (size_t j = 0; j < n; ++j) {
+        goal[j] = pose != nullptr ? pose->position[j] : model_.joints[j].home;
+        request.goal_column[j] = words[1].column;
+      }
+    } else if (form == "tool") {
+      ToolGoal(words, request.config, goal, request.goal_column);
     } else {
-      for (const auto& g : goal) {
-        if (g) Fail(words.front(), "mixes J=VALUE with `" + Show(words.front().text) + " ...`");
-      }
-      const std::string& form = words.front().text;
-      if (form == "joints") {
-        if (words.size() != n + 1) {
-          Fail(words.front(), "expected " + std::to_string(n) + " values (one per joint), got " +
-                                  std::to_string(words.size() - 1));
-        }
-        for (size_t j = 0; j < n; ++j) {
-          goal[j] = Number(words[j + 1], "joint j" + std::to_string(j + 1) + " value") *
-                    JointUnit(model_.joints[j]);
-          goal_column[j] = words[j + 1].column;
-        }
-      } else if (form == "pose") {
-        if (words.size() != 2)
-          Fail(words.front(), "expected one pose name, e.g. `move pose ready`");
-        const core::NamedPose* pose = model_.FindNamedPose(words[1].text);
-        if (pose == nullptr && words[1].text != "home") {
-          std::string names = "home";
-          for (const core::NamedPose& p : model_.named_poses) names += ", " + p.name;
-          Fail(words[1], "no pose named '" + Show(words[1].text) + "' in model " + model_.name +
-                             "; allowed: " + names);
-        }
-        for (size_t j = 0; j < n; ++j) {
-          goal[j] = pose != nullptr ? pose->position[j] : model_.joints[j].home;
-          goal_column[j] = words[1].column;
-        }
-      } else if (form == "tool") {
-        ToolGoal(words, config, goal, goal_column);
-      } else {
-        Fail(words.front(),
-             "unknown move form '" + Show(form) + "'; allowed: J=VALUE ..., joints, pose, tool");
-      }
+      Fail(words.front(),
+           "unknown move form '" + Show(form) + "'; allowed: J=VALUE ..., joints, pose, tool");
     }
-    if (config_given && (words.empty() || words.front().text != "tool")) {
-      Fail(tokens_.front(), "config= applies only to `move tool`");
-    }
+  }
 
+  // The step of a read `move` line: each goal within its joint's limits, speeds within its maximum.
+  PlanStep MoveStep(const MoveRequest& request) {
+    const size_t n = static_cast<size_t>(model_.num_joints());
+    const Rate& speed = request.speed;
+    const Rate& accel = request.accel;
     PlanStep step;
     step.kind = PlanStep::Kind::kMove;
     step.line = line_;
     step.text = text_;
     step.moves.resize(n);
     for (size_t j = 0; j < n; ++j) {
-      if (!goal[j]) continue;
+      if (!request.goal[j]) continue;
+      const double goal = *request.goal[j];
       const core::Joint& joint = model_.joints[j];
       const double unit = JointUnit(joint);
       const std::string label =
           "joint j" + std::to_string(j + 1) + (joint.name.empty() ? "" : " (" + joint.name + ")");
-      if (*goal[j] < joint.position_min || *goal[j] > joint.position_max) {
+      if (goal < joint.position_min || goal > joint.position_max) {
         throw core::ConfigError(
-            {name_, line_, goal_column[j]}, Show(tokens_.front().text),
-            label + " goal " + core::FormatApprox(*goal[j] / unit) + " " + JointUnitName(joint) +
+            {name_, line_, request.goal_column[j]}, Show(tokens_.front().text),
+            label + " goal " + core::FormatApprox(goal / unit) + " " + JointUnitName(joint) +
                 " is outside its limits [" + core::FormatApprox(joint.position_min / unit) + ", " +
                 core::FormatApprox(joint.position_max / unit) + "] " + JointUnitName(joint));
       }
       JointMove& move = step.moves[j];
       move.active = true;
-      move.goal = *goal[j];
+      move.goal = goal;
       move.velocity =
           speed.percent ? joint.servo.default_velocity * speed.value / 100.0 : speed.value * unit;
       move.acceleration = accel.percent ? joint.servo.default_acceleration * accel.value / 100.0
@@ -354,7 +384,7 @@ class Parser {
       }
       reached_[j] = move.goal;
     }
-    plan.steps.push_back(step);
+    return step;
   }
 
   // `move tool X Y Z [ROLL PITCH YAW]`: the IK solution (by configuration, or nearest the joints

@@ -9,61 +9,28 @@
 #include "control/pose_goal.hpp"
 #include "core/errors.hpp"
 #include "core/geometry.hpp"
+#include "core/translate.hpp"
 
 namespace sirupp::control {
 namespace {
 
 std::string Index(int j) { return "[" + std::to_string(j) + "]"; }
 
-// The pose_target_t configuration values: 0 any, 1 and 2 the two choices.
-constexpr int8_t kShoulderLeft = 1;
-constexpr int8_t kElbowUp = 1;
-constexpr int8_t kWristFlip = 2;
-
-// A pose target's request for SolvePoseGoal, and its speed scale; throws MessageError on a bad
-// field.
-PoseRequest CheckedPoseRequest(const PoseTargetCommand& command, double& scale) {
-  const std::string& source = command.source;
-  for (int i = 0; i < 3; ++i) {
-    const double value = command.position[static_cast<size_t>(i)];
-    if (!std::isfinite(value)) {
-      throw core::MessageError(source, "position" + Index(i),
-                               core::FormatNumber(value) + ": allowed finite metres");
-    }
-  }
-  const Eigen::Quaterniond q(command.orientation[0], command.orientation[1], command.orientation[2],
-                             command.orientation[3]);
-  const double norm = q.norm();
-  if (command.position_only == 0 && (!std::isfinite(norm) || std::abs(norm - 1) > 1e-3)) {
-    throw core::MessageError(source, "orientation",
-                             "quaternion norm " + core::FormatNumber(norm) +
-                                 ": allowed a unit quaternion (w, x, y, z), norm 1 +- 0.001");
-  }
-  if (command.position_only != 0 && command.position_only != 1) {
-    throw core::MessageError(source, "position_only",
-                             std::to_string(command.position_only) + ": allowed 0 or 1");
-  }
-  const auto check_enum = [&](const char* field, int8_t value) {
-    if (value < 0 || value > 2) {
-      throw core::MessageError(source, field, std::to_string(value) + ": allowed 0 (any), 1 or 2");
-    }
-  };
-  check_enum("shoulder", command.shoulder);
-  check_enum("elbow", command.elbow);
-  check_enum("wrist", command.wrist);
-  scale = command.speed_scale == 0 ? 1.0 : command.speed_scale;
-  if (!std::isfinite(scale) || scale <= 0 || scale > 1) {
-    throw core::MessageError(
-        source, "speed_scale",
-        core::FormatNumber(command.speed_scale) + ": allowed (0, 1], or 0 for 1");
-  }
+// A pose target (checked field by field by core::PoseTargetFromMessage) as SolvePoseGoal's request.
+PoseRequest ToPoseRequest(const core::PoseTarget& target) {
   PoseRequest request;
-  request.target.translation() << command.position[0], command.position[1], command.position[2];
-  if (command.position_only == 0) request.target.linear() = q.normalized().toRotationMatrix();
-  request.position_only = command.position_only == 1;
-  if (command.shoulder != 0) request.shoulder_left = command.shoulder == kShoulderLeft;
-  if (command.elbow != 0) request.elbow_up = command.elbow == kElbowUp;
-  if (command.wrist != 0) request.wrist_flip = command.wrist == kWristFlip;
+  request.target.translation() = target.position;
+  if (!target.position_only)
+    request.target.linear() = target.orientation.normalized().toRotationMatrix();
+  request.position_only = target.position_only;
+  if (target.shoulder != core::ArmChoice::kAny) {
+    request.shoulder_left = target.shoulder == core::ArmChoice::kFirst;
+  }
+  if (target.elbow != core::ArmChoice::kAny)
+    request.elbow_up = target.elbow == core::ArmChoice::kFirst;
+  if (target.wrist != core::ArmChoice::kAny) {
+    request.wrist_flip = target.wrist == core::ArmChoice::kSecond;
+  }
   return request;
 }
 
@@ -335,38 +302,28 @@ void Sequencer::CheckMotionLimits(const std::string& source,
 std::vector<JointMove> Sequencer::JointTargetMoves(const JointTargetCommand& command) const {
   const std::string& source = command.source;
   const int n = model_.num_joints();
-  if (command.num_joints != n) {
-    throw core::MessageError(
-        source, "num_joints",
-        std::to_string(command.num_joints) + " joints; the model has " + std::to_string(n));
-  }
+  core::CheckJointCount(source, "num_joints", command.joints.size(), n);
   std::vector<JointMove> moves(static_cast<size_t>(n));
   bool any = false;
   for (int j = 0; j < n; ++j) {
     const auto i = static_cast<size_t>(j);
-    if (command.active[i] == 0) continue;
+    const core::JointGoal& target = command.joints[i];
+    if (!target.active) continue;
     any = true;
     const core::Joint& joint = model_.joints[i];
-    const double goal = command.position[i];
-    if (!std::isfinite(goal) || goal < joint.position_min || goal > joint.position_max) {
-      throw core::MessageError(source, "position" + Index(j),
-                               core::FormatNumber(goal) + " is outside joint " +
-                                   std::to_string(j + 1) + "'s limits [" +
-                                   core::FormatNumber(joint.position_min) + ", " +
-                                   core::FormatNumber(joint.position_max) + "]");
+    if (target.position < joint.position_min || target.position > joint.position_max) {
+      core::RefuseValue(source, "position" + Index(j), core::FormatNumber(target.position),
+                        "within joint " + std::to_string(j + 1) + "'s limits [" +
+                            core::FormatNumber(joint.position_min) + ", " +
+                            core::FormatNumber(joint.position_max) + "]");
     }
-    const double speed = command.max_velocity[i];
-    const double acceleration = command.acceleration[i];
-    if (!std::isfinite(speed) || speed < 0 || !std::isfinite(acceleration) || acceleration < 0) {
-      throw core::MessageError(source, "max_velocity/acceleration" + Index(j),
-                               core::FormatNumber(speed) + ", " + core::FormatNumber(acceleration) +
-                                   ": allowed finite values >= 0 (0 = the joint's default)");
-    }
-    moves[i] = {true, goal,
+    const double speed = target.max_velocity;
+    const double acceleration = target.acceleration;
+    moves[i] = {true, target.position,
                 speed > 0 ? std::min(speed, joint.velocity_max) : joint.servo.default_velocity,
                 acceleration > 0 ? acceleration : joint.servo.default_acceleration};
   }
-  if (!any) throw core::MessageError(source, "active", "no joint is active");
+  if (!any) core::RefuseValue(source, "active", "no active joint", "at least one joint active");
   return moves;
 }
 
@@ -391,8 +348,8 @@ void Sequencer::TakeTarget(const std::string& source,
 }
 
 std::vector<JointMove> Sequencer::PoseTargetMoves(const PoseTargetCommand& command) const {
-  double scale = 1;
-  const PoseRequest request = CheckedPoseRequest(command, scale);
+  const double scale = command.target.speed_scale == 0 ? 1.0 : command.target.speed_scale;
+  const PoseRequest request = ToPoseRequest(command.target);
   if (!servos_on_) {
     throw core::MessageError(command.source, "",
                              "no arm state yet on " + options_.state_source +
@@ -436,7 +393,7 @@ void Sequencer::SetGains(const std::vector<ServoGains>& gains) {
 
 void Sequencer::Plan(const PlanCommand& command) {
   try {
-    switch (static_cast<PlanAction>(command.action)) {
+    switch (command.action) {
       case PlanAction::kRun:
         RunPlan(command);
         break;
@@ -464,11 +421,9 @@ void Sequencer::Plan(const PlanCommand& command) {
       case PlanAction::kClearFault:
         ClearFault();
         break;
-      default:
+      case PlanAction::kLoadModel:  // the transport's (ControlNode and model_switch.hpp)
         throw core::MessageError(command.source, "command",
-                                 std::to_string(command.action) +
-                                     ": allowed 0..6 (run, pause, resume, abort, manual, "
-                                     "automatic, clear-fault)");
+                                 "load model: not a sequencer command (sirupp-control takes it)");
     }
   } catch (const core::MessageError& error) {
     Refuse(error.what());

@@ -29,6 +29,7 @@
 #include "control/plan.hpp"
 #include "control/servo_bank.hpp"
 #include "core/arm_state.hpp"
+#include "core/messages.hpp"
 #include "core/motion_limits.hpp"
 #include "core/robot_model.hpp"
 
@@ -45,47 +46,32 @@ enum class ControlState : int8_t {
   kFault = 4,  // see last_error
   kOff = 5,    // no arm state yet: servos off
 };
-enum class PlanAction : int8_t {
-  kRun = 0,
-  kPause = 1,
-  kResume = 2,
-  kAbort = 3,  // also the stop button: a smooth stop whether a plan runs or not
-  kManual = 4,
-  kAutomatic = 5,
-  kClearFault = 6,
-};
+// plan_command_t::COMMAND_*: kRun, kPause, kResume, kAbort (also the stop button: a smooth stop
+// whether a plan runs or not), kManual, kAutomatic, kClearFault.
+using PlanAction = core::PlanAction;
 enum class MoveKind : int8_t { kMove = 0, kStopSmooth = 1, kStopAbrupt = 2 };
 
 // arm_state_t::FLAG_BRAKED: the sim holds the joint with its brake.
 inline constexpr int8_t kFlagBraked = 8;
 
-// Commands, as decoded from their messages. `source` names where the command came from (the
-// channel) in refusals.
+// Commands, as core/translate.hpp decoded them from their messages (counts, finiteness, ranges and
+// enum values are checked there); what needs the model or the controller's state is checked here.
+// `source` names where the command came from (the channel) in refusals.
 struct JointTargetCommand {
   std::string source;
-  int32_t num_joints = 0;
-  std::vector<double> position;      // SI, per joint
-  std::vector<double> max_velocity;  // 0 = the joint's default
-  std::vector<double> acceleration;  // 0 = the joint's default
-  std::vector<int8_t> active;        // 0 = the joint keeps its present move
+  std::vector<core::JointGoal> joints;  // SI; an inactive joint keeps its present move
 };
 
 struct PoseTargetCommand {
   std::string source;
-  std::array<double, 3> position{};     // m, base frame
-  std::array<double, 4> orientation{};  // unit quaternion w, x, y, z
-  int8_t position_only = 0;             // 0 or 1
-  int8_t shoulder = 0;                  // pose_target_t::SHOULDER_*: 0 any, 1 / 2
-  int8_t elbow = 0;                     // pose_target_t::ELBOW_*
-  int8_t wrist = 0;                     // pose_target_t::WRIST_*
-  double speed_scale = 0;               // (0, 1], 0 = 1
+  core::PoseTarget target;  // speed_scale 0 means 1
 };
 
 struct PlanCommand {
   std::string source;
-  int8_t action = 0;  // a PlanAction value; others are refused naming the allowed ones
-  std::string name;   // kRun: the plan's name in messages ("plan" when empty)
-  std::string text;   // kRun: the plan (docs/plan-format.md)
+  PlanAction action = PlanAction::kRun;
+  std::string name;  // kRun: the plan's name in messages ("plan" when empty)
+  std::string text;  // kRun: the plan (docs/plan-format.md)
 };
 
 struct EstopCommand {

@@ -126,7 +126,8 @@ enum class PlanAction : int8_t {
   kAbort = 3,
   kManual = 4,
   kAutomatic = 5,
-  kClearFault = 6
+  kClearFault = 6,
+  kLoadModel = 7  // sirupp-control takes the model the sim is about to publish (model_switch.hpp)
 };
 
 struct PlanCommand {
@@ -316,8 +317,8 @@ struct ViewerCamera {
   int64_t utime = 0;
   int64_t seq = 0;
   bool set_camera = false;
-  double azimuth = 0;    // degrees
-  double elevation = 0;  // degrees
+  double azimuth = 0;    // rad, about world z from +x
+  double elevation = 0;  // rad, above the x-y plane
   double distance = 0;   // m, > 0 when set_camera
   Eigen::Vector3d target = Eigen::Vector3d::Zero();
   Switch show_frames = Switch::kKeep;

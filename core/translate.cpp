@@ -15,13 +15,11 @@ using detail::GetVector;
 using detail::PutQuaternion;
 using detail::PutVector;
 
-void CheckJointCount(const std::string& channel, int32_t num_joints, int expected_joints) {
-  if (num_joints < 0 || (expected_joints >= 0 && num_joints != expected_joints)) {
-    throw MessageError(
-        channel, "num_joints",
-        std::to_string(num_joints) + " is not allowed; expected " +
-            (expected_joints >= 0 ? std::to_string(expected_joints) + " (the model's joints)"
-                                  : std::string("a count >= 0")));
+void CheckJoints(const std::string& channel, int32_t num_joints, int expected_joints) {
+  if (num_joints < 0)
+    RefuseValue(channel, "num_joints", std::to_string(num_joints), "a count >= 0");
+  if (expected_joints >= 0) {
+    CheckJointCount(channel, "num_joints", static_cast<size_t>(num_joints), expected_joints);
   }
 }
 
@@ -36,6 +34,19 @@ void CheckFinite(const std::string& channel, const std::string& field,
 }
 
 }  // namespace
+
+void RefuseValue(const std::string& channel, const std::string& field, const std::string& value,
+                 const std::string& allowed) {
+  throw MessageError(channel, field, value + " is not allowed; expected " + allowed);
+}
+
+void CheckJointCount(const std::string& channel, const std::string& field, size_t count,
+                     int expected_joints) {
+  if (expected_joints < 0 || count != static_cast<size_t>(expected_joints)) {
+    RefuseValue(channel, field, std::to_string(count),
+                std::to_string(expected_joints) + " (the model's joints)");
+  }
+}
 
 sirupp::robot_model_t ToMessage(const RobotModel& model, int64_t utime, int64_t seq) {
   sirupp::robot_model_t message{};
@@ -269,7 +280,7 @@ sirupp::arm_state_t ToMessage(const ArmState& state, int64_t seq) {
 
 ArmState ArmStateFromMessage(const sirupp::arm_state_t& message, const std::string& channel,
                              int expected_joints) {
-  CheckJointCount(channel, message.num_joints, expected_joints);
+  CheckJoints(channel, message.num_joints, expected_joints);
   if (message.source < sirupp::arm_state_t::SOURCE_SIM ||
       message.source > sirupp::arm_state_t::SOURCE_EMULATED) {
     throw MessageError(
@@ -304,7 +315,7 @@ sirupp::arm_command_t ToMessage(const ArmCommand& command, int64_t seq) {
 
 ArmCommand ArmCommandFromMessage(const sirupp::arm_command_t& message, const std::string& channel,
                                  int expected_joints) {
-  CheckJointCount(channel, message.num_joints, expected_joints);
+  CheckJoints(channel, message.num_joints, expected_joints);
   if (message.mode < sirupp::arm_command_t::MODE_EFFORT ||
       message.mode > sirupp::arm_command_t::MODE_LIMP) {
     throw MessageError(channel, "mode",

@@ -49,6 +49,16 @@
 
 namespace sirupp::core {
 
+// A receiver's own checks, the ones that need its model or state, in the From functions' words so
+// that every refusal reads the same: "channel CHANNEL: FIELD: VALUE is not allowed; expected
+// ALLOWED". RefuseValue throws that MessageError.
+[[noreturn]] void RefuseValue(const std::string& channel, const std::string& field,
+                              const std::string& value, const std::string& allowed);
+// A message's joint count (`field`, e.g. "num_joints") against the receiver's model: refused unless
+// count == expected_joints (the text says "expected N (the model's joints)").
+void CheckJointCount(const std::string& channel, const std::string& field, size_t count,
+                     int expected_joints);
+
 sirupp::robot_model_t ToMessage(const RobotModel& model, int64_t utime, int64_t seq);
 // Rebuilds the model as the sender loaded it; throws MessageError on anything FindModelProblem or
 // the message's own consistency (array counts, enum values) rejects.

@@ -21,7 +21,7 @@ std::string At(const std::string& field, size_t i) { return field + "[" + std::t
 
 [[noreturn]] void Refuse(const std::string& channel, const std::string& field,
                          const std::string& value, const std::string& allowed) {
-  throw MessageError(channel, field, value + " is not allowed; expected " + allowed);
+  RefuseValue(channel, field, value, allowed);
 }
 
 // A count field and one of the arrays it counts.
@@ -313,7 +313,7 @@ PlanCommand PlanCommandFromMessage(const sirupp::plan_command_t& m, const std::s
   PlanCommand command;
   command.utime = m.utime;
   command.seq = m.seq;
-  command.command = EnumValue<PlanAction>(channel, "command", m.command, 6, "COMMAND_*");
+  command.command = EnumValue<PlanAction>(channel, "command", m.command, 7, "COMMAND_*");
   command.name = m.name;
   command.text = m.text;
   return command;

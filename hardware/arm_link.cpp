@@ -348,37 +348,33 @@ void ArmLink::Disarm() {
   armed_ = false;
 }
 
-std::string ArmLink::CheckMove(const servo_move_t& move) const {
+std::string ArmLink::CheckMove(const core::ServoMove& move) const {
   const int n = num_joints();
-  if (move.num_joints != n || static_cast<int>(move.goal.size()) != n ||
-      static_cast<int>(move.max_velocity.size()) != n ||
-      static_cast<int>(move.acceleration.size()) != n || static_cast<int>(move.flags.size()) != n) {
-    return "num_joints: " + std::to_string(move.num_joints) + " joints; the arm has " +
-           std::to_string(n);
-  }
-  if (move.command < servo_move_t::COMMAND_MOVE || move.command > servo_move_t::COMMAND_SERVO_ON) {
-    return "command: " + std::to_string(move.command) +
-           " is not one of COMMAND_MOVE..SERVO_ON (0..4)";
+  if (move.joints.size() != static_cast<size_t>(n)) {
+    return "num_joints: " + std::to_string(move.joints.size()) + " is not allowed; expected " +
+           std::to_string(n) + " (the arm's joints)";
   }
   if (!connected_ || !calibrated_ || !armed_) {
     return std::string("the arm is not ") + (!connected_    ? "connected"
                                              : !calibrated_ ? "calibrated"
                                                             : "armed");
   }
-  if (move.command != servo_move_t::COMMAND_MOVE) return "";
+  if (move.command != core::MoveCommand::kMove) return "";
   // One rule with the controller: core::CheckJointMove (soft limits, speed and acceleration caps).
   for (int j = 0; j < n; ++j) {
-    const auto i = static_cast<size_t>(j);
-    if (!(move.flags[i] & servo_move_t::FLAG_ACTIVE)) continue;
-    const bool velocity_mode = move.flags[i] & servo_move_t::FLAG_VELOCITY_MODE;
-    const double goal =
-        (move.flags[i] & servo_move_t::FLAG_RELATIVE) ? goals_[i] + move.goal[i] : move.goal[i];
+    const core::JointMove& joint = move.joints[static_cast<size_t>(j)];
+    if (!(joint.flags & servo_move_t::FLAG_ACTIVE)) continue;
     const std::optional<std::string> refusal =
-        core::CheckJointMove(model_, settings_.motion_limits, j, goal, move.max_velocity[i],
-                             move.acceleration[i], velocity_mode);
+        core::CheckJointMove(model_, settings_.motion_limits, j, Goal(j, joint), joint.max_velocity,
+                             joint.acceleration, joint.flags & servo_move_t::FLAG_VELOCITY_MODE);
     if (refusal) return *refusal;
   }
   return "";
+}
+
+double ArmLink::Goal(int j, const core::JointMove& move) const {
+  return (move.flags & servo_move_t::FLAG_RELATIVE) ? goals_[static_cast<size_t>(j)] + move.goal
+                                                    : move.goal;
 }
 
 nmc::Trajectory ArmLink::TrajectoryFor(int j, double goal, double velocity, double acceleration,
@@ -401,20 +397,20 @@ nmc::Trajectory ArmLink::TrajectoryFor(int j, double goal, double velocity, doub
   return t;
 }
 
-void ArmLink::Execute(const servo_move_t& move) {
+void ArmLink::Execute(const core::ServoMove& move) {
   const int n = num_joints();
   uint8_t stop = 0;
   switch (move.command) {
-    case servo_move_t::COMMAND_MOVE: {
+    case core::MoveCommand::kMove: {
       bool any = false;
       for (int j = 0; j < n; ++j) {
         const auto i = static_cast<size_t>(j);
-        if (!(move.flags[i] & servo_move_t::FLAG_ACTIVE)) continue;
-        const bool vel = move.flags[i] & servo_move_t::FLAG_VELOCITY_MODE;
-        const double goal =
-            (move.flags[i] & servo_move_t::FLAG_RELATIVE) ? goals_[i] + move.goal[i] : move.goal[i];
+        const core::JointMove& joint = move.joints[i];
+        if (!(joint.flags & servo_move_t::FLAG_ACTIVE)) continue;
+        const bool vel = joint.flags & servo_move_t::FLAG_VELOCITY_MODE;
+        const double goal = Goal(j, joint);
         bus_.Command(nmc::LoadTrajectory(
-            Address(j), TrajectoryFor(j, goal, move.max_velocity[i], move.acceleration[i], vel)));
+            Address(j), TrajectoryFor(j, goal, joint.max_velocity, joint.acceleration, vel)));
         if (!vel) goals_[i] = goal;
         velocity_mode_[i] = vel;
         any = true;
@@ -422,19 +418,20 @@ void ArmLink::Execute(const servo_move_t& move) {
       if (any) bus_.GroupCommand(nmc::StartMove(0));  // every loaded joint starts on this packet
       return;
     }
-    case servo_move_t::COMMAND_STOP_SMOOTH:
+    case core::MoveCommand::kStopSmooth:
       stop = nmc::kAmpEnable | nmc::kStopSmooth;
       break;
-    case servo_move_t::COMMAND_MOTOR_OFF:
+    case core::MoveCommand::kMotorOff:
       stop = nmc::kAmpEnable | (settings_.pass_motor_off ? nmc::kMotorOff : nmc::kStopAbrupt);
       break;
-    default:  // STOP_ABRUPT, SERVO_ON: hold the present position
+    case core::MoveCommand::kStopAbrupt:
+    case core::MoveCommand::kServoOn:  // hold the present position
       stop = nmc::kAmpEnable | nmc::kStopAbrupt;
       break;
   }
   for (int j = 0; j < n; ++j) {
     const auto i = static_cast<size_t>(j);
-    if (!(move.flags[i] & servo_move_t::FLAG_ACTIVE)) continue;
+    if (!(move.joints[i].flags & servo_move_t::FLAG_ACTIVE)) continue;
     const nmc::Status s = bus_.Command(nmc::StopMotor(Address(j), stop));
     velocity_mode_[i] = false;
     if (stop & nmc::kStopAbrupt) goals_[i] = drives_[i].FromCounts(s.position);
@@ -442,16 +439,12 @@ void ArmLink::Execute(const servo_move_t& move) {
 }
 
 std::string ArmLink::MoveAllTo(const std::vector<double>& goal) {
-  servo_move_t move{};
-  const int n = num_joints();
-  move.command = servo_move_t::COMMAND_MOVE;
-  move.num_joints = n;
-  for (int j = 0; j < n; ++j) {
-    const core::ServoParams& p = model_.joints[static_cast<size_t>(j)].servo;
-    move.goal.push_back(goal[static_cast<size_t>(j)]);
-    move.max_velocity.push_back(p.default_velocity);
-    move.acceleration.push_back(p.default_acceleration);
-    move.flags.push_back(servo_move_t::FLAG_ACTIVE);
+  core::ServoMove move;
+  move.command = core::MoveCommand::kMove;
+  for (size_t j = 0; j < static_cast<size_t>(num_joints()); ++j) {
+    const core::ServoParams& p = model_.joints[j].servo;
+    move.joints.push_back(
+        {goal[j], p.default_velocity, p.default_acceleration, servo_move_t::FLAG_ACTIVE});
   }
   std::string refusal = CheckMove(move);
   if (refusal.empty()) Execute(move);

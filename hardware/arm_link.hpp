@@ -12,6 +12,7 @@
 #include <string>
 #include <vector>
 
+#include "core/messages.hpp"
 #include "core/robot_model.hpp"
 #include "hardware/bridge_settings.hpp"
 #include "hardware/nmc_bus.hpp"
@@ -84,10 +85,11 @@ class ArmLink {
   // Smooth stop, then servos and amplifiers off.
   void Disarm();
 
-  // "" if the move may be sent, else why not (limits, speeds, joint count, state).
-  std::string CheckMove(const sirupp::servo_move_t& move) const;
+  // "" if the move (as core::ServoMoveFromMessage decoded it) may be sent, else why not (limits,
+  // speeds, joint count, state).
+  std::string CheckMove(const core::ServoMove& move) const;
   // Sends a move checked by CheckMove.
-  void Execute(const sirupp::servo_move_t& move);
+  void Execute(const core::ServoMove& move);
   // A trapezoidal move of every joint to `goal` at default speeds (HOME). Checked first;
   // returns the refusal or "".
   std::string MoveAllTo(const std::vector<double>& goal);
@@ -148,6 +150,8 @@ class ArmLink {
   // The refusal's "what is needed" sentence.
   std::string CalibrationNeeds() const;
   void SendGains(int joint);
+  // Joint j's goal in `move`: relative to its present goal with FLAG_RELATIVE.
+  double Goal(int j, const core::JointMove& move) const;
   nmc::Trajectory TrajectoryFor(int j, double goal, double velocity, double acceleration,
                                 bool velocity_mode) const;
 

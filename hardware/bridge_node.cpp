@@ -21,27 +21,26 @@ constexpr double kStatusPeriodS = 0.1;  // HARDWARE_STATUS at 10 Hz (and on ever
 constexpr double kGainsPeriodS = 1.0;   // REAL_ARM_GAINS at 1 Hz (and on every change)
 constexpr double kServoTickS = 0.000512;
 
-const char* CommandName(int8_t c) {
+const char* CommandName(core::HardwareAction c) {
   switch (c) {
-    case hardware_command_t::COMMAND_CONNECT:
+    case core::HardwareAction::kConnect:
       return "connect";
-    case hardware_command_t::COMMAND_CALIBRATE:
+    case core::HardwareAction::kCalibrate:
       return "calibrate";
-    case hardware_command_t::COMMAND_ARM:
+    case core::HardwareAction::kArm:
       return "arm";
-    case hardware_command_t::COMMAND_DISARM:
+    case core::HardwareAction::kDisarm:
       return "disarm";
-    case hardware_command_t::COMMAND_LINK:
+    case core::HardwareAction::kLink:
       return "link";
-    case hardware_command_t::COMMAND_UNLINK:
+    case core::HardwareAction::kUnlink:
       return "unlink";
-    case hardware_command_t::COMMAND_HOME:
+    case core::HardwareAction::kHome:
       return "home";
-    case hardware_command_t::COMMAND_CLEAR_FAULTS:
+    case core::HardwareAction::kClearFaults:
       return "clear-faults";
-    default:
-      return nullptr;
   }
+  return "?";
 }
 
 std::string JointLabel(const core::RobotModel& model, size_t j) {
@@ -169,55 +168,26 @@ void BridgeNode::CheckStartGuard(const std::string& channel) {
   }
 }
 
-void BridgeNode::OnCommand(const hardware_command_t& m, const core::ReceiveInfo& info) {
-  const char* name = CommandName(m.command);
-  if (!name) {
-    Refuse(info.channel, "command " + std::to_string(m.command) +
-                             " is not one of 0..7 (connect, "
-                             "calibrate, arm, disarm, link, unlink, home, clear-faults)");
+template <class Value, class Msg>
+Value BridgeNode::Decoded(Value (*from_message)(const Msg&, const std::string&), const Msg& message,
+                          const std::string& channel) {
+  try {
+    return from_message(message, channel);
+  } catch (const core::MessageError& error) {
+    last_error_ = error.what();  // shown on HARDWARE_STATUS too; nothing moves
+    PublishStatus();
+    throw;
   }
+}
+
+void BridgeNode::OnCommand(const hardware_command_t& m, const core::ReceiveInfo& info) {
+  const core::HardwareCommand command = Decoded(core::HardwareCommandFromMessage, m, info.channel);
   CheckStartGuard(info.channel);
   ++state_commands_;
-  const std::string what = std::string(name) + " from '" + m.sender + "'";
+  const std::string what =
+      std::string(CommandName(command.command)) + " from '" + command.sender + "'";
   try {
-    switch (m.command) {
-      case hardware_command_t::COMMAND_CONNECT:
-        if (link_.armed()) Refuse(info.channel, what + ": disarm first");
-        Connect();
-        break;
-      case hardware_command_t::COMMAND_CALIBRATE:
-        if (link_.armed()) Refuse(info.channel, what + ": disarm first (servos must be off)");
-        Calibrate();
-        break;
-      case hardware_command_t::COMMAND_ARM:
-        Arm();
-        break;
-      case hardware_command_t::COMMAND_DISARM:
-        linked_ = false;
-        link_.Disarm();
-        break;
-      case hardware_command_t::COMMAND_LINK:
-        Link();
-        break;
-      case hardware_command_t::COMMAND_UNLINK:
-        linked_ = false;
-        break;
-      case hardware_command_t::COMMAND_HOME: {
-        if (estopped_ || faulted_ || !link_.armed()) {
-          Refuse(info.channel, what + ": the arm is not armed");
-        }
-        std::vector<double> home;
-        for (const core::Joint& j : model_.joints) home.push_back(j.home);
-        const std::string refusal = link_.MoveAllTo(home);
-        if (!refusal.empty()) Refuse(info.channel, what + ": " + refusal);
-        break;
-      }
-      case hardware_command_t::COMMAND_CLEAR_FAULTS:
-        link_.ClearFaults();
-        faulted_ = false;
-        if (link_.armed()) link_.Disarm();  // re-arm explicitly after a fault
-        break;
-    }
+    Do(command.command, what, info.channel);
   } catch (const core::MessageError&) {
     throw;
   } catch (const BusError& e) {
@@ -230,33 +200,75 @@ void BridgeNode::OnCommand(const hardware_command_t& m, const core::ReceiveInfo&
   PublishStatus();
 }
 
+void BridgeNode::Do(core::HardwareAction action, const std::string& what,
+                    const std::string& channel) {
+  switch (action) {
+    case core::HardwareAction::kConnect:
+      if (link_.armed()) Refuse(channel, what + ": disarm first");
+      Connect();
+      break;
+    case core::HardwareAction::kCalibrate:
+      if (link_.armed()) Refuse(channel, what + ": disarm first (servos must be off)");
+      Calibrate();
+      break;
+    case core::HardwareAction::kArm:
+      Arm();
+      break;
+    case core::HardwareAction::kDisarm:
+      linked_ = false;
+      link_.Disarm();
+      break;
+    case core::HardwareAction::kLink:
+      Link();
+      break;
+    case core::HardwareAction::kUnlink:
+      linked_ = false;
+      break;
+    case core::HardwareAction::kHome: {
+      if (estopped_ || faulted_ || !link_.armed()) Refuse(channel, what + ": the arm is not armed");
+      std::vector<double> home;
+      for (const core::Joint& j : model_.joints) home.push_back(j.home);
+      const std::string refusal = link_.MoveAllTo(home);
+      if (!refusal.empty()) Refuse(channel, what + ": " + refusal);
+      break;
+    }
+    case core::HardwareAction::kClearFaults:
+      link_.ClearFaults();
+      faulted_ = false;
+      if (link_.armed()) link_.Disarm();  // re-arm explicitly after a fault
+      break;
+  }
+}
+
 void BridgeNode::OnMove(const sirupp::servo_move_t& m, const core::ReceiveInfo& info) {
   NoteController();
   if (!linked_) return;  // the virtual arm's moves; mirrored only while linked
+  const core::ServoMove move = Decoded(core::ServoMoveFromMessage, m, info.channel);
   CheckStartGuard(info.channel);
-  if (estopped_)
-    Refuse(info.channel, "move " + std::to_string(m.move_id) + ": emergency stop engaged");
-  if (faulted_) Refuse(info.channel, "move " + std::to_string(m.move_id) + ": fault: " + fault_);
-  const std::string refusal = link_.CheckMove(m);
-  if (!refusal.empty()) Refuse(info.channel, "move " + std::to_string(m.move_id) + ": " + refusal);
+  const std::string what = "move " + std::to_string(move.move_id);
+  if (estopped_) Refuse(info.channel, what + ": emergency stop engaged");
+  if (faulted_) Refuse(info.channel, what + ": fault: " + fault_);
+  const std::string refusal = link_.CheckMove(move);
+  if (!refusal.empty()) Refuse(info.channel, what + ": " + refusal);
   try {
-    link_.Execute(m);
+    link_.Execute(move);
   } catch (const BusError& e) {
-    Fault("move " + std::to_string(m.move_id) + ": " + e.what());
+    Fault(what + ": " + e.what());
     throw;
   }
-  move_id_ = m.move_id;
+  move_id_ = move.move_id;
   expired_ = false;
   ++moves_mirrored_;
 }
 
-void BridgeNode::OnEstop(const sirupp::estop_t& m, const core::ReceiveInfo&) {
+void BridgeNode::OnEstop(const sirupp::estop_t& m, const core::ReceiveInfo& info) {
+  const core::EStop estop = Decoded(core::EStopFromMessage, m, info.channel);
   ++state_commands_;
-  if (m.engaged) {
+  if (estop.engaged) {
     linked_ = false;
     estopped_ = true;
     if (link_.connected()) link_.EmergencyStop();
-    last_error_ = "emergency stop from '" + m.sender + "': " + m.reason;
+    last_error_ = "emergency stop from '" + estop.sender + "': " + estop.reason;
     std::cerr << options_.name << ": " << last_error_ << ": motors stopped and off\n";
   } else if (estopped_) {
     estopped_ = false;  // the arm stays disarmed: nothing moves until ARM (and LINK)
@@ -478,32 +490,28 @@ void BridgeNode::PublishState() {
 }
 
 void BridgeNode::PublishStatus() {
-  hardware_status_t m{};
-  m.utime = std::chrono::duration_cast<std::chrono::microseconds>(
-                std::chrono::system_clock::now().time_since_epoch())
-                .count();
-  m.seq = status_seq_++;
-  m.state = state();
-  m.calibrated = link_.calibrated() ? 1 : 0;
-  m.port = link_.bus().port().name();
-  m.baud = link_.bus().port().baud();
-  const int n = link_.num_joints();
-  m.num_joints = n;
-  for (size_t j = 0; j < static_cast<size_t>(n); ++j) {
-    const bool have = j < reading_.answered.size();
-    m.module_status.push_back(have ? reading_.status[j] : 0);
-    m.module_aux_status.push_back(have ? reading_.aux[j] : 0);
-    m.position_counts.push_back(have ? reading_.counts[j] : 0);
-    m.position_error_counts.push_back(have ? reading_.position_error[j] : 0);
+  core::HardwareStatus status;
+  status.utime = std::chrono::duration_cast<std::chrono::microseconds>(
+                     std::chrono::system_clock::now().time_since_epoch())
+                     .count();
+  status.seq = status_seq_++;
+  status.state = static_cast<core::BridgeState>(state());
+  status.calibrated = link_.calibrated();
+  status.port = link_.bus().port().name();
+  status.baud = link_.bus().port().baud();
+  status.modules.resize(static_cast<size_t>(link_.num_joints()));
+  for (size_t j = 0; j < status.modules.size() && j < reading_.answered.size(); ++j) {
+    status.modules[j] = {reading_.status[j], reading_.aux[j], reading_.counts[j],
+                         reading_.position_error[j]};
   }
   const BusCounters& c = link_.bus().counters();
-  m.checksum_errors = c.checksum_errors + c.module_checksum_errors;
-  m.timeouts = c.timeouts;
-  m.resyncs = c.resyncs;
-  m.last_error = last_error_;
-  bus_.Publish(options_.channels.hardware_status, m);
+  status.checksum_errors = c.checksum_errors + c.module_checksum_errors;
+  status.timeouts = c.timeouts;
+  status.resyncs = c.resyncs;
+  status.last_error = last_error_;
+  bus_.Publish(options_.channels.hardware_status, core::ToMessage(status));
   last_status_ = Clock::now();
-  last_published_state_ = m.state;
+  last_published_state_ = static_cast<int8_t>(status.state);
 }
 
 void BridgeNode::Shutdown() {

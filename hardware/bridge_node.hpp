@@ -82,6 +82,13 @@ class BridgeNode {
   // The status a reply on HARDWARE_REPLY names.
   core::ReplyFacts Facts() const;
   void OnCommand(const sirupp::hardware_command_t& message, const core::ReceiveInfo& info);
+  // One HARDWARE_COMMAND action (`what` names it and its sender in refusals).
+  void Do(core::HardwareAction action, const std::string& what, const std::string& channel);
+  // `from_message`'s value of `message` (core/translate.hpp); a refusal is also the status's
+  // last_error.
+  template <class Value, class Msg>
+  Value Decoded(Value (*from_message)(const Msg&, const std::string&), const Msg& message,
+                const std::string& channel);
   void OnMove(const sirupp::servo_move_t& message, const core::ReceiveInfo& info);
   void OnEstop(const sirupp::estop_t& message, const core::ReceiveInfo& info);
   void OnGains(const sirupp::servo_gains_t& message, const core::ReceiveInfo& info);
@@ -89,7 +96,7 @@ class BridgeNode {
 
   // Refuses (counts on `channel`, last_error, throws MessageError) while the start guard runs.
   void CheckStartGuard(const std::string& channel);
-  void Refuse(const std::string& channel, const std::string& problem);
+  [[noreturn]] void Refuse(const std::string& channel, const std::string& problem);
   void Fault(const std::string& problem);
   void Cycle();
   void CheckSafety();

@@ -2,6 +2,7 @@
 
 #include <Eigen/Cholesky>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <stdexcept>
 #include <string>
@@ -28,6 +29,61 @@ core::RobotModel DynamicsModel(const core::RobotModel& model, const ArmOptions& 
     m.joints[j].armature = e.stiffness_nm_per_rad > 0 ? 0.0 : e.armature_kg_m2;
   }
   return m;
+}
+
+// The accelerations of one step with static friction as an active set: `held` joints (sticking,
+// or braked) have qdd = 0 while the friction they need stays within their break-away level
+// (`static_level[0]` pushed up, `[1]` down; a brake holds whatever it takes); the worst offender is
+// released (sliding, static friction against the push, taken off `rhs`) and the rest re-solved,
+// until the set is consistent. On return `held` is the joints that stay held.
+Eigen::VectorXd SolveActiveSet(const Eigen::MatrixXd& mass, Eigen::VectorXd rhs,
+                               const std::array<std::vector<double>, 2>& static_level,
+                               const std::vector<bool>& braked, std::vector<bool>& held) {
+  const auto n = static_cast<int>(rhs.size());
+  Eigen::VectorXd qdd = Eigen::VectorXd::Zero(n);
+  for (int round = 0; round <= n; ++round) {
+    std::vector<int> free;
+    for (int j = 0; j < n; ++j) {
+      if (!held[static_cast<size_t>(j)]) free.push_back(j);
+    }
+    qdd.setZero();
+    if (!free.empty()) {
+      const auto m = static_cast<Eigen::Index>(free.size());
+      Eigen::MatrixXd mff(m, m);
+      Eigen::VectorXd rf(m);
+      for (Eigen::Index a = 0; a < m; ++a) {
+        rf[a] = rhs[free[static_cast<size_t>(a)]];
+        for (Eigen::Index b = 0; b < m; ++b) {
+          mff(a, b) = mass(free[static_cast<size_t>(a)], free[static_cast<size_t>(b)]);
+        }
+      }
+      const Eigen::VectorXd af = mff.ldlt().solve(rf);
+      for (Eigen::Index a = 0; a < m; ++a) qdd[free[static_cast<size_t>(a)]] = af[a];
+    }
+    // The friction each held joint needs: M_j qdd - rhs_j.
+    int worst = -1;
+    double worst_excess = 1.0;
+    double worst_push = 0;
+    double worst_limit = 0;
+    for (int j = 0; j < n; ++j) {
+      const auto u = static_cast<size_t>(j);
+      if (!held[u] || braked[u]) continue;  // a brake holds whatever it takes
+      const double needed = mass.row(j).dot(qdd) - rhs[j];
+      // The break-away level of the way the joint would go without friction (-needed).
+      const double limit = -needed > 0 ? static_level[0][u] : static_level[1][u];
+      const double excess = limit > 0 ? std::abs(needed) / limit : (needed != 0 ? 2.0 : 0.0);
+      if (excess > worst_excess) {
+        worst = j;
+        worst_excess = excess;
+        worst_push = -needed;
+        worst_limit = limit;
+      }
+    }
+    if (worst < 0) break;
+    held[static_cast<size_t>(worst)] = false;
+    rhs[worst] -= Sign(worst_push) * worst_limit;
+  }
+  return qdd;
 }
 
 }  // namespace
@@ -211,56 +267,12 @@ void EmulatedArm::Substep(double h) {
     rotor_position_[u] += h * rotor_velocity_[u];
   }
 
-  // Active set: sticking joints have qdd = 0 while the friction they need stays within the
-  // break-away level; the worst offender is released (sliding, static friction against the push)
-  // and the rest re-solved, until the set is consistent.
+  // Active set: sticking and braked joints have qdd = 0 (see SolveActiveSet).
   std::vector<bool> held(stuck_);
   for (int j = 0; j < n; ++j) {
     if (braked_[static_cast<size_t>(j)]) held[static_cast<size_t>(j)] = true;
   }
-  Eigen::VectorXd qdd = Eigen::VectorXd::Zero(n);
-  for (int round = 0; round <= n; ++round) {
-    std::vector<int> free;
-    for (int j = 0; j < n; ++j) {
-      if (!held[static_cast<size_t>(j)]) free.push_back(j);
-    }
-    qdd.setZero();
-    if (!free.empty()) {
-      const auto m = static_cast<Eigen::Index>(free.size());
-      Eigen::MatrixXd mff(m, m);
-      Eigen::VectorXd rf(m);
-      for (Eigen::Index a = 0; a < m; ++a) {
-        rf[a] = rhs[free[static_cast<size_t>(a)]];
-        for (Eigen::Index b = 0; b < m; ++b) {
-          mff(a, b) = mass(free[static_cast<size_t>(a)], free[static_cast<size_t>(b)]);
-        }
-      }
-      const Eigen::VectorXd af = mff.ldlt().solve(rf);
-      for (Eigen::Index a = 0; a < m; ++a) qdd[free[static_cast<size_t>(a)]] = af[a];
-    }
-    // The friction each held joint needs: M_j qdd - rhs_j.
-    int worst = -1;
-    double worst_excess = 1.0;
-    double worst_push = 0;
-    double worst_limit = 0;
-    for (int j = 0; j < n; ++j) {
-      const auto u = static_cast<size_t>(j);
-      if (!held[u] || braked_[u]) continue;  // a brake holds whatever it takes
-      const double needed = mass.row(j).dot(qdd) - rhs[j];
-      // The break-away level of the way the joint would go without friction (-needed).
-      const double limit = -needed > 0 ? static_up[u] : static_down[u];
-      const double excess = limit > 0 ? std::abs(needed) / limit : (needed != 0 ? 2.0 : 0.0);
-      if (excess > worst_excess) {
-        worst = j;
-        worst_excess = excess;
-        worst_push = -needed;
-        worst_limit = limit;
-      }
-    }
-    if (worst < 0) break;
-    held[static_cast<size_t>(worst)] = false;
-    rhs[worst] -= Sign(worst_push) * worst_limit;
-  }
+  const Eigen::VectorXd qdd = SolveActiveSet(mass, rhs, {static_up, static_down}, braked_, held);
 
   for (int j = 0; j < n; ++j) {
     const auto u = static_cast<size_t>(j);

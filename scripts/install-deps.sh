@@ -19,6 +19,8 @@ done
 packages=(
   # build tools
   build-essential cmake ninja-build pkg-config git ccache
+  # scripts/long-functions.sh (function lengths)
+  universal-ctags
   # messaging: C/C++ library, lcm-gen, lcm.jar, lcm-logger/lcm-logplayer, jchart2d for lcm-spy;
   # glib's headers and .pc, which lcm.pc requires: without them `pkg-config --libs lcm` fails
   liblcm-dev liblcm-bin liblcm-java libjchart2d-java libglib2.0-dev

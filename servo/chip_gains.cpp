@@ -13,17 +13,16 @@ int Whole(double v) { return static_cast<int>(std::lround(v)); }
 // One value of the message: a whole number in [low, high], else MessageError on field[j].
 int Check(const std::string& channel, const core::RobotModel& model, const char* field, int j,
           double value, int low, int high, const char* why = nullptr) {
-  if (std::isfinite(value) && value == std::floor(value) && value >= low && value <= high) {
-    return static_cast<int>(value);
-  }
+  if (value == std::floor(value) && value >= low && value <= high) return static_cast<int>(value);
   const core::Joint& joint = model.joints[static_cast<size_t>(j)];
-  std::string allowed =
-      low == high ? "allowed " + std::to_string(low)
-                  : "allowed whole numbers " + std::to_string(low) + ".." + std::to_string(high);
-  if (why) allowed = std::string(why) + "; " + allowed;
-  throw core::MessageError(channel, std::string(field) + "[" + std::to_string(j) + "]",
-                           core::FormatNumber(value) + " (joint j" + std::to_string(j + 1) + " " +
-                               joint.name + "): " + allowed);
+  std::string allowed = low == high
+                            ? std::to_string(low)
+                            : "a whole number " + std::to_string(low) + ".." + std::to_string(high);
+  if (why) allowed += " (" + std::string(why) + ")";
+  core::RefuseValue(
+      channel, std::string(field) + "[" + std::to_string(j) + "]",
+      core::FormatNumber(value) + " (joint j" + std::to_string(j + 1) + " " + joint.name + ")",
+      allowed);
 }
 
 }  // namespace
@@ -51,33 +50,27 @@ std::vector<ChipGains> ChipGainsFromModel(const core::RobotModel& model) {
 std::vector<ChipGains> ChipGainsFromMessage(const sirupp::servo_gains_t& m,
                                             const core::RobotModel& model,
                                             const std::string& channel) {
+  // Counts and finiteness first (core's pair), then the model's joints and the chip's ranges.
+  const core::ServoGainsSet sent = core::ServoGainsFromMessage(m, channel);
   const int n = model.num_joints();
-  const auto size_ok = [n](const std::vector<double>& v) {
-    return static_cast<int>(v.size()) == n;
-  };
-  if (m.num_joints != n || !size_ok(m.kp) || !size_ok(m.kd) || !size_ok(m.ki) ||
-      !size_ok(m.integration_limit) || !size_ok(m.output_limit) || !size_ok(m.current_limit) ||
-      !size_ok(m.error_limit) || !size_ok(m.servo_rate_divisor) || !size_ok(m.deadband)) {
-    throw core::MessageError(channel, "num_joints",
-                             std::to_string(m.num_joints) + " joints; the model " + model.name +
-                                 " has " + std::to_string(n));
-  }
+  core::CheckJointCount(channel, "num_joints", sent.joints.size(), n);
   std::vector<ChipGains> gains(static_cast<size_t>(n));
   for (int j = 0; j < n; ++j) {
     const auto i = static_cast<size_t>(j);
     ChipGains& g = gains[i];
-    g.kp = Check(channel, model, "kp", j, m.kp[i], 0, 32767);
-    g.kd = Check(channel, model, "kd", j, m.kd[i], 0, 32767);
-    g.ki = Check(channel, model, "ki", j, m.ki[i], 0, 32767);
+    const core::JointGains& v = sent.joints[i];
+    g.kp = Check(channel, model, "kp", j, v.kp, 0, 32767);
+    g.kd = Check(channel, model, "kd", j, v.kd, 0, 32767);
+    g.ki = Check(channel, model, "ki", j, v.ki, 0, 32767);
     g.integration_limit =
-        Check(channel, model, "integration_limit", j, m.integration_limit[i], 0, 32767);
-    g.output_limit = Check(channel, model, "output_limit", j, m.output_limit[i], 0, 255);
-    g.current_limit = Check(channel, model, "current_limit", j, m.current_limit[i], 0, 255);
-    g.error_limit = Check(channel, model, "error_limit", j, m.error_limit[i], 0, 16383);
+        Check(channel, model, "integration_limit", j, v.integration_limit, 0, 32767);
+    g.output_limit = Check(channel, model, "output_limit", j, v.output_limit, 0, 255);
+    g.current_limit = Check(channel, model, "current_limit", j, v.current_limit, 0, 255);
+    g.error_limit = Check(channel, model, "error_limit", j, v.error_limit, 0, 16383);
     g.servo_rate_divisor =
-        Check(channel, model, "servo_rate_divisor", j, m.servo_rate_divisor[i], 1, 1,
+        Check(channel, model, "servo_rate_divisor", j, v.servo_rate_divisor, 1, 1,
               "the virtual servos run every tick, and the boards run the same law");
-    g.deadband = Check(channel, model, "deadband", j, m.deadband[i], 0, 255);
+    g.deadband = Check(channel, model, "deadband", j, v.deadband, 0, 255);
   }
   return gains;
 }

@@ -43,8 +43,9 @@ std::vector<ChipGains> ChipGainsFromModel(const core::RobotModel& model);
 // current_limit, deadband 0..255; error_limit 0..16383; servo_rate_divisor 1 (the virtual servos
 // run every tick, so the boards must too for one law). On the first bad value throws
 // core::MessageError naming the channel, the field with its index, the joint, the value and the
-// allowed range, e.g. "channel ARM_GAINS: kp[1]: 40000 (joint j2 shoulder): allowed whole numbers
-// 0..32767"; nothing is returned then, so a receiver changes nothing.
+// allowed range in core/translate.hpp's words, e.g. "channel ARM_GAINS: kp[1]: 40000 (joint j2
+// shoulder) is not allowed; expected a whole number 0..32767"; counts and finiteness are
+// core::ServoGainsFromMessage's. Nothing is returned then, so a receiver changes nothing.
 std::vector<ChipGains> ChipGainsFromMessage(const sirupp::servo_gains_t& message,
                                             const core::RobotModel& model,
                                             const std::string& channel);

@@ -5,7 +5,6 @@
 #include <cstdio>
 #include <iostream>
 #include <random>
-#include <sirupp/sim_status_t.hpp>
 #include <stdexcept>
 #include <thread>
 #include <utility>
@@ -343,24 +342,13 @@ void SimNode::OnSimCommand(const sirupp::sim_command_t& message, const core::Rec
 }
 
 void SimNode::OnReset(const sirupp::sim_reset_t& message, const core::ReceiveInfo& info) {
-  const int n = world_.model().num_joints();
+  core::SimReset reset;
   try {
-    if (message.num_joints != n || static_cast<int>(message.position.size()) != n) {
-      throw core::MessageError(
-          info.channel, "num_joints",
-          std::to_string(message.num_joints) + " joints; the model has " + std::to_string(n));
-    }
-    if (message.num_velocities != 0 && message.num_velocities != n) {
-      throw core::MessageError(
-          info.channel, "num_velocities",
-          std::to_string(message.num_velocities) + ": allowed 0 or " + std::to_string(n));
-    }
-    if (message.reset_objects != 0 && message.reset_objects != 1) {
-      throw core::MessageError(info.channel, "reset_objects",
-                               std::to_string(message.reset_objects) + ": allowed 0 or 1");
-    }
+    reset = core::SimResetFromMessage(message, info.channel);
+    core::CheckJointCount(info.channel, "num_joints", reset.position.size(),
+                          world_.model().num_joints());
     try {
-      world_.SetJointState(message.position, message.velocity, message.reset_objects == 1);
+      world_.SetJointState(reset.position, reset.velocity, reset.reset_objects);
     } catch (const std::invalid_argument& error) {
       throw core::MessageError(info.channel, "position", error.what());
     }
@@ -369,7 +357,7 @@ void SimNode::OnReset(const sirupp::sim_reset_t& message, const core::ReceiveInf
     throw;
   }
   ++counters_.resets;
-  std::cerr << options_.process_name << ": reset by '" << message.sender << "' at tick "
+  std::cerr << options_.process_name << ": reset by '" << reset.sender << "' at tick "
             << world_.tick() << "\n";
   if (Gated()) {
     // Answers to the state before the teleport no longer apply: ask again.
@@ -381,18 +369,15 @@ void SimNode::OnReset(const sirupp::sim_reset_t& message, const core::ReceiveInf
 }
 
 void SimNode::OnEstop(const sirupp::estop_t& message, const core::ReceiveInfo& info) {
-  if (message.engaged != 0 && message.engaged != 1) {
-    throw core::MessageError(info.channel, "engaged",
-                             std::to_string(message.engaged) + ": allowed 0 (release) or 1");
-  }
-  if (message.engaged == 0) {
+  const core::EStop estop = core::EStopFromMessage(message, info.channel);
+  if (!estop.engaged) {
     if (estop_.empty()) return;
     estop_.clear();
-    std::cerr << options_.process_name << ": emergency stop released by '" << message.sender
+    std::cerr << options_.process_name << ": emergency stop released by '" << estop.sender
               << "'; efforts are applied again\n";
   } else {
     const bool already = !estop_.empty();
-    estop_ = "emergency stop from '" + message.sender + "': " + message.reason;
+    estop_ = "emergency stop from '" + estop.sender + "': " + estop.reason;
     if (already) return;
     std::cerr << options_.process_name << ": " << estop_
               << ": every joint braked, efforts ignored until released\n";
@@ -502,38 +487,31 @@ void SimNode::PublishStatus(bool force) {
       p.latency_count = 0;
     }
   }
-  sirupp::sim_status_t status{};
+  core::SimStatus status;
   status.utime = WallMicros();
   status.seq = status_seq_++;
   status.run_id = run_id_;
-  status.mode = static_cast<int8_t>(options_.mode == TimingMode::kLockstep   ? 0
-                                    : options_.mode == TimingMode::kRealtime ? 1
-                                    : options_.mode == TimingMode::kFast     ? 2
-                                                                             : 3);
+  status.mode = options_.mode == TimingMode::kLockstep   ? core::TimingMode::kLockstep
+                : options_.mode == TimingMode::kRealtime ? core::TimingMode::kRealtime
+                : options_.mode == TimingMode::kFast     ? core::TimingMode::kFast
+                                                         : core::TimingMode::kFreerun;
   status.tick = world_.tick();
   status.sim_time_s = world_.time_s();
   status.realtime_factor = recent_factor_;
   status.realtime_factor_run = RealtimeFactor();
   status.slipped_s = counters_.slipped_s;
-  status.estop = estop_.empty() ? 0 : 1;
+  status.estop = !estop_.empty();
   status.estop_reason = estop_;
-  status.num_participants = static_cast<int32_t>(participants_.size());
   for (const Participant& p : participants_) {
-    status.participant.push_back(p.name);
-    status.participant_state.push_back(static_cast<int8_t>(p.presence));
-    status.answer_mean_ms.push_back(p.last_mean_ms);
-    status.answer_max_ms.push_back(p.last_max_ms);
+    status.participants.push_back({p.name, p.presence, p.last_mean_ms, p.last_max_ms});
   }
-  status.num_refused = static_cast<int32_t>(refusals_.size());
   for (const auto& [sender, refusals] : refusals_) {
-    status.refused_sender.push_back(sender);
-    status.refused_count.push_back(refusals.count);
-    status.refused_reason.push_back(refusals.reason);
+    status.refused.push_back({sender, refusals.count, refusals.reason});
   }
   status.refused_others = refused_others_;
   const bool troubled = !detail_.empty() && Seconds(now - last_problem_) < kProblemMemoryS;
   status.detail = troubled ? detail_ : "";
-  bus_.Publish(options_.channels.sim_status, status);
+  bus_.Publish(options_.channels.sim_status, core::ToMessage(status));
   last_status_ = now;
   status_due_ = false;
 }

@@ -47,6 +47,7 @@
 #include "core/command_reply.hpp"
 #include "core/environment.hpp"
 #include "core/heartbeat.hpp"
+#include "core/messages.hpp"
 #include "sim/arm_world.hpp"
 
 namespace sirupp::sim {
@@ -140,7 +141,7 @@ class SimNode {
   std::string Summary() const;
 
  private:
-  enum class Presence : int8_t { kAnswering = 0, kNeverSeen = 1, kSilent = 2 };
+  using Presence = core::ParticipantState;  // kAnswering, kNeverSeen, kSilent, as SIM_STATUS says
   struct Participant {
     std::string name;
     Presence presence = Presence::kNeverSeen;

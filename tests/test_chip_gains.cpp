@@ -44,16 +44,18 @@ TEST(ChipGains, TheFirstBadValueIsNamedAndNothingIsReturned) {
   sirupp::servo_gains_t m = good;
   m.kp[1] = 40000;
   EXPECT_EQ(Refusal(m),
-            "channel ARM_GAINS: kp[1]: 40000 (joint j2 shoulder): allowed whole numbers 0..32767");
+            "channel ARM_GAINS: kp[1]: 40000 (joint j2 shoulder) is not allowed; expected a whole "
+            "number 0..32767");
   m = good;
   m.output_limit[5] = 255.5;
-  EXPECT_EQ(Refusal(m),
-            "channel ARM_GAINS: output_limit[5]: 255.5 (joint j6 flange): allowed whole numbers "
-            "0..255");
+  EXPECT_EQ(
+      Refusal(m),
+      "channel ARM_GAINS: output_limit[5]: 255.5 (joint j6 flange) is not allowed; expected a "
+      "whole number 0..255");
   m = good;
   m.error_limit[0] = 20000;
-  EXPECT_NE(Refusal(m).find("error_limit[0]: 20000 (joint j1 waist): allowed whole numbers "
-                            "0..16383"),
+  EXPECT_NE(Refusal(m).find("error_limit[0]: 20000 (joint j1 waist) is not allowed; expected a "
+                            "whole number 0..16383"),
             std::string::npos)
       << Refusal(m);
   m = good;
@@ -61,15 +63,26 @@ TEST(ChipGains, TheFirstBadValueIsNamedAndNothingIsReturned) {
   EXPECT_NE(Refusal(m).find("ki[3]: nan"), std::string::npos) << Refusal(m);
   m = good;
   m.servo_rate_divisor[2] = 2;
-  EXPECT_EQ(Refusal(m),
-            "channel ARM_GAINS: servo_rate_divisor[2]: 2 (joint j3 elbow): the virtual servos run "
-            "every tick, and the boards run the same law; allowed 1");
+  EXPECT_EQ(
+      Refusal(m),
+      "channel ARM_GAINS: servo_rate_divisor[2]: 2 (joint j3 elbow) is not allowed; expected 1 "
+      "(the virtual servos run every tick, and the boards run the same law)");
   m = good;
   m.deadband[4] = -1;
   EXPECT_NE(Refusal(m).find("deadband[4]: -1"), std::string::npos) << Refusal(m);
   m = good;
   m.num_joints = 5;
-  EXPECT_EQ(Refusal(m), "channel ARM_GAINS: num_joints: 5 joints; the model puma260 has 6");
+  EXPECT_EQ(Refusal(m), "channel ARM_GAINS: kp: 6 entries sent; num_joints says 5");
+  // Consistent counts, but not the model's joints: the receiver's own check, in the same words.
+  m = GainsMessage(ChipGainsFromModel(Puma()));
+  m.num_joints = 5;
+  for (std::vector<double>* v :
+       {&m.kp, &m.kd, &m.ki, &m.integration_limit, &m.output_limit, &m.current_limit,
+        &m.error_limit, &m.servo_rate_divisor, &m.deadband}) {
+    v->pop_back();
+  }
+  EXPECT_EQ(Refusal(m),
+            "channel ARM_GAINS: num_joints: 5 is not allowed; expected 6 (the model's joints)");
   m = good;
   m.kd.pop_back();
   EXPECT_NE(Refusal(m).find("num_joints"), std::string::npos);

@@ -349,6 +349,51 @@ TEST(HardwareBridge, ARefusedMoveIsOnHardwareStatusAtOnceNamingTheMove) {
   EXPECT_NE(rig.status.last_error.find("move 42"), std::string::npos);
 }
 
+// ARM_MOVE, HARDWARE_COMMAND and ESTOP are decoded by their core/translate.hpp pairs: a malformed
+// one is refused whole with that one text, on HARDWARE_STATUS too, and the arm does not move.
+TEST(HardwareBridge, MalformedMessagesAreRefusedByTheirTranslationAndNothingMoves) {
+  Rig rig;
+  rig.Ready();
+  rig.RunUntil(0.5, nullptr);  // the servos take up the gravity load
+  const std::vector<double> held = rig.emulator->JointPositions();
+  const auto refused = [&](const std::string& channel, const std::string& expected) {
+    rig.node->Service(0);
+    rig.bus.HandleAvailable();
+    EXPECT_EQ(rig.bus.StatsFor(channel).last_error, expected);
+    EXPECT_EQ(rig.node->last_error(), expected);
+    EXPECT_EQ(rig.status.last_error, expected);
+  };
+  servo_move_t move = Move({{0, 10}}, 51);
+  move.goal[0] = std::nan("");
+  rig.bus.Publish("ARM_MOVE", move);
+  refused("ARM_MOVE", "channel ARM_MOVE: goal[0]: nan is not allowed; expected a finite number");
+  move = Move({{0, 10}}, 52);
+  move.command = 9;
+  rig.bus.Publish("ARM_MOVE", move);
+  refused("ARM_MOVE", "channel ARM_MOVE: command: 9 is not allowed; expected 0..4 (COMMAND_*)");
+  move = Move({{0, 10}}, 53);
+  move.flags[0] = 8;
+  rig.bus.Publish("ARM_MOVE", move);
+  refused("ARM_MOVE",
+          "channel ARM_MOVE: flags[0]: 8 is not allowed; expected a sum of FLAG_* bits, 0..7");
+  hardware_command_t command{};
+  command.command = 9;
+  command.sender = "test";
+  rig.bus.Publish("HARDWARE_COMMAND", command);
+  refused("HARDWARE_COMMAND",
+          "channel HARDWARE_COMMAND: command: 9 is not allowed; expected 0..7 (COMMAND_*)");
+  sirupp::estop_t stop{};
+  stop.engaged = 2;
+  rig.bus.Publish("ESTOP", stop);
+  refused("ESTOP", "channel ESTOP: engaged: 2 is not allowed; expected 0 (release) or 1 (engage)");
+  EXPECT_EQ(rig.node->state(), hardware_status_t::STATE_LINKED);
+  EXPECT_EQ(rig.Rejected("ARM_MOVE"), 3);
+  EXPECT_EQ(rig.node->moves_mirrored(), 0);
+  rig.RunUntil(0.3, nullptr);
+  const std::vector<double> now = rig.emulator->JointPositions();
+  for (size_t j = 0; j < now.size(); ++j) EXPECT_NEAR(now[j], held[j], 0.5 * kDeg) << j;
+}
+
 TEST(HardwareBridge, EstopStopsAbruptlyAndTurnsTheMotorsOff) {
   Rig rig;
   rig.Ready();
@@ -516,7 +561,8 @@ TEST(HardwareBridge, GainsOnArmGainsReachTheBoardsAndChangeTheLaw) {
   rig.RunUntil(0.1, nullptr);
   EXPECT_EQ(rig.Rejected("ARM_GAINS"), 1);
   EXPECT_EQ(rig.node->last_error(),
-            "channel ARM_GAINS: kd[2]: 40000 (joint j3 elbow): allowed whole numbers 0..32767");
+            "channel ARM_GAINS: kd[2]: 40000 (joint j3 elbow) is not allowed; expected a whole "
+            "number 0..32767");
   EXPECT_EQ(rig.status.last_error, rig.node->last_error());
   EXPECT_EQ(rig.emulator->ModuleGains(0).kp, 100);
   EXPECT_EQ(reported.back().kp[0], 100);

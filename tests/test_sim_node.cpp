@@ -239,9 +239,29 @@ TEST(SimNode, ResetTeleportsTheArmAndBadResetsAreRefused) {
   bus.Publish("SIM_RESET", Reset({0, 0, 0, 9, 0, 0}));  // wrist roll beyond +-310 degrees
   bus.Publish("SIM_RESET", Reset({0, 0, 0}));
   node.Service(0);
-  const core::ChannelStats stats = bus.StatsFor("SIM_RESET", core::ChannelSide::kReceiving);
+  core::ChannelStats stats = bus.StatsFor("SIM_RESET", core::ChannelSide::kReceiving);
   EXPECT_EQ(stats.rejected, 2);
-  EXPECT_NE(stats.last_error.find("num_joints"), std::string::npos) << stats.last_error;
+  EXPECT_EQ(stats.last_error,
+            "channel SIM_RESET: num_joints: 3 is not allowed; expected 6 (the model's joints)");
+  // Counts, finiteness and flags are core::SimResetFromMessage's, with its one text.
+  sirupp::sim_reset_t bad = Reset({0, std::nan(""), 0, 0, 0, 0});
+  bus.Publish("SIM_RESET", bad);
+  node.Service(0);
+  stats = bus.StatsFor("SIM_RESET", core::ChannelSide::kReceiving);
+  EXPECT_EQ(stats.last_error,
+            "channel SIM_RESET: position[1]: nan is not allowed; expected a finite number");
+  bad = Reset({0, 0, 0, 0, 0, 0});
+  bad.num_velocities = 3;
+  bad.velocity.assign(3, 0.0);
+  bus.Publish("SIM_RESET", bad);
+  bad = Reset({0, 0, 0, 0, 0, 0});
+  bad.reset_objects = 2;
+  bus.Publish("SIM_RESET", bad);
+  node.Service(0);
+  stats = bus.StatsFor("SIM_RESET", core::ChannelSide::kReceiving);
+  EXPECT_EQ(stats.rejected, 5);
+  EXPECT_EQ(stats.last_error,
+            "channel SIM_RESET: reset_objects: 2 is not allowed; expected 0 or 1");
   EXPECT_EQ(node.counters().resets, 1);
 }
 
@@ -349,6 +369,13 @@ TEST(SimNode, EstopBrakesEveryJointAndEffortsAreIgnoredUntilReleased) {
   EXPECT_NEAR(world.State().position[0], q1, 1e-9) << "braked under the e-stop";
   for (int8_t flags : world.State().flags) EXPECT_TRUE(flags & sirupp::arm_state_t::FLAG_BRAKED);
   EXPECT_GT(node.counters().estop_ticks, 0);
+  // A malformed e-stop (engaged neither 0 nor 1) is refused with core's text: the brake stays.
+  stop.engaged = 2;
+  bus.Publish("ESTOP", stop);
+  for (int k = 0; k < 400; ++k) node.Service(0);
+  EXPECT_EQ(bus.StatsFor("ESTOP", core::ChannelSide::kReceiving).last_error,
+            "channel ESTOP: engaged: 2 is not allowed; expected 0 (release) or 1 (engage)");
+  EXPECT_NEAR(world.State().position[0], q1, 1e-9) << "still braked";
   stop.engaged = 0;
   bus.Publish("ESTOP", stop);
   for (int k = 0; k < 400; ++k) node.Service(0);

@@ -154,178 +154,181 @@ void ViewerNode::Refuse(const core::MessageError& error) {
   throw error;
 }
 
-void ViewerNode::CheckArmState(const sirupp::arm_state_t& message, const std::string& channel) {
+template <class Decode>
+auto ViewerNode::Checked(Decode&& decode) -> decltype(decode()) {
   try {
-    core::ArmStateFromMessage(message, channel, -1);
+    return decode();
   } catch (const core::MessageError& error) {
     Refuse(error);
   }
 }
 
-void ViewerNode::CheckPositions(const std::string& channel, int32_t count,
-                                const std::vector<double>& position) {
-  if (model_ && count != model_->num_joints()) {
-    Refuse(core::MessageError(channel, "num_joints",
-                              std::to_string(count) + " joints; the model " + model_->name +
-                                  " has " + std::to_string(model_->num_joints())));
-  }
-  for (size_t i = 0; i < position.size(); ++i) {
-    if (!std::isfinite(position[i])) {
-      Refuse(core::MessageError(
-          channel, "position[" + std::to_string(i) + "]",
-          core::FormatNumber(position[i]) + " is not allowed; expected a finite number"));
-    }
-  }
+void ViewerNode::CheckJointCount(const std::string& channel, size_t count) {
+  if (model_)
+    Checked([&] { core::CheckJointCount(channel, "num_joints", count, model_->num_joints()); });
 }
 
 void ViewerNode::Subscribe() {
+  // Each message is decoded by its core/translate.hpp pair; what this viewer can draw (and the
+  // model's joint count) is checked here, in the same words.
   const core::Channels& channels = options_.channels;
+  using Info = core::ReceiveInfo;
   bus_.Subscribe<sirupp::robot_model_t>(
       channels.robot_model,
-      [this](const sirupp::robot_model_t& message, const core::ReceiveInfo& info) {
-        core::RobotModel model;
-        try {
-          model = core::RobotModelFromMessage(message, info.channel);
-        } catch (const core::MessageError& error) {
-          Refuse(error);
-        }
-        if (model.num_joints() < 1 || model.num_joints() > kMaxJoints) {
-          Refuse(core::MessageError(info.channel, "num_joints",
-                                    std::to_string(model.num_joints()) +
-                                        " joints cannot be drawn; allowed 1.." +
-                                        std::to_string(kMaxJoints)));
-        }
-        if (ShapeCount(model) > kMaxShapes) {
-          Refuse(core::MessageError(info.channel, "links[].shapes",
-                                    std::to_string(ShapeCount(model)) +
-                                        " shapes are too many to draw; allowed up to " +
-                                        std::to_string(kMaxShapes)));
-        }
-        if (model_ && SameModel(*model_, model)) return;
-        model_ = std::move(model);
-        stats_.model = model_->name;
-        // Held positions of another joint count belong to the previous model.
-        for (auto* held :
-             {&state_.virtual_position, &state_.setpoint_position, &state_.real_position}) {
-          if (*held && static_cast<int>((*held)->size()) != model_->num_joints()) held->reset();
-        }
-        dirty_ = true;
-      });
+      [this](const sirupp::robot_model_t& message, const Info& info) { OnModel(message, info); });
   bus_.Subscribe<sirupp::environment_t>(
-      channels.environment,
-      [this](const sirupp::environment_t& message, const core::ReceiveInfo& info) {
-        if (message.num_objects > static_cast<int32_t>(kMaxShapes)) {
-          Refuse(core::MessageError(info.channel, "num_objects",
-                                    std::to_string(message.num_objects) +
-                                        " objects are too many to draw; allowed up to " +
-                                        std::to_string(kMaxShapes)));
-        }
-        core::Environment environment;
-        try {
-          environment = core::EnvironmentFromMessage(message, info.channel);
-        } catch (const core::MessageError& error) {
-          Refuse(error);
-        }
-        if (environment_ && SameEnvironment(*environment_, environment)) return;
-        environment_ = std::move(environment);
-        dirty_ = true;
+      channels.environment, [this](const sirupp::environment_t& message, const Info& info) {
+        OnEnvironment(message, info);
       });
   bus_.Subscribe<sirupp::arm_state_t>(
       channels.sim_arm_state,
-      [this](const sirupp::arm_state_t& message, const core::ReceiveInfo& info) {
-        CheckArmState(message, info.channel);
-        CheckPositions(info.channel, message.num_joints, message.position);
-        if (!state_.virtual_position) state_.virtual_position.emplace();
-        state_.virtual_position->assign(message.position.begin(), message.position.end());
-        state_.utime = message.utime;
-        state_.tick = message.tick;
-        dirty_ = true;
+      [this](const sirupp::arm_state_t& message, const Info& info) {
+        const core::ArmState arm = OnArmState(message, info, state_.virtual_position);
+        state_.utime = arm.utime;
+        state_.tick = arm.tick;
       },
       kStateQueue);
   bus_.Subscribe<sirupp::servo_setpoint_t>(
       channels.arm_setpoint,
-      [this](const sirupp::servo_setpoint_t& message, const core::ReceiveInfo& info) {
-        try {
-          core::ServoSetpointFromMessage(message, info.channel);
-        } catch (const core::MessageError& error) {
-          Refuse(error);
-        }
-        CheckPositions(info.channel, message.num_joints, message.position);
-        if (!state_.setpoint_position) state_.setpoint_position.emplace();
-        state_.setpoint_position->assign(message.position.begin(), message.position.end());
-        if (options_.scene.show_ghost) dirty_ = true;
+      [this](const sirupp::servo_setpoint_t& message, const Info& info) {
+        OnSetpoint(message, info);
       },
       kStateQueue);
   bus_.Subscribe<sirupp::arm_state_t>(
       channels.real_arm_state,
-      [this](const sirupp::arm_state_t& message, const core::ReceiveInfo& info) {
-        CheckArmState(message, info.channel);
-        CheckPositions(info.channel, message.num_joints, message.position);
-        if (!state_.real_position) state_.real_position.emplace();
-        state_.real_position->assign(message.position.begin(), message.position.end());
+      [this](const sirupp::arm_state_t& message, const Info& info) {
+        OnArmState(message, info, state_.real_position);
         real_received_ = Clock::now();
-        dirty_ = true;
       },
       kStateQueue);
   bus_.Subscribe<sirupp::controller_status_t>(
-      channels.controller_status,
-      [this](const sirupp::controller_status_t& message, const core::ReceiveInfo& info) {
-        try {
-          core::ControllerStatusFromMessage(message, info.channel);
-        } catch (const core::MessageError& error) {
-          Refuse(error);
-        }
-        if (message.mode == controller_mode_ && message.state == controller_state_) return;
-        controller_mode_ = message.mode;
-        controller_state_ = message.state;
-        state_.status_text = ControllerStatusText(message.mode, message.state);
-        dirty_ = true;
-      });
+      channels.controller_status, [this](const sirupp::controller_status_t& message,
+                                         const Info& info) { OnControllerStatus(message, info); });
   bus_.Subscribe<sirupp::viewer_camera_t>(
-      channels.viewer_camera,
-      [this](const sirupp::viewer_camera_t& message, const core::ReceiveInfo& info) {
-        Camera camera = options_.camera;
-        if (message.set_camera != 0 && message.set_camera != 1) {
-          Refuse(core::MessageError(info.channel, "set_camera",
-                                    std::to_string(message.set_camera) + ": allowed 0 or 1"));
-        }
-        if (message.set_camera == 1) {
-          camera.azimuth_rad = message.azimuth;
-          camera.elevation_rad = message.elevation;
-          camera.distance_m = message.distance;
-          camera.target_m =
-              Eigen::Vector3d(message.target[0], message.target[1], message.target[2]);
-          const std::string problem = CameraProblem(camera);
-          if (!problem.empty()) Refuse(core::MessageError(info.channel, "camera", problem));
-        }
-        const std::pair<const char*, int8_t> switches[] = {{"show_frames", message.show_frames},
-                                                           {"show_ghost", message.show_ghost}};
-        for (const auto& [field, value] : switches) {
-          if (value < sirupp::viewer_camera_t::SWITCH_KEEP ||
-              value > sirupp::viewer_camera_t::SWITCH_OFF) {
-            Refuse(
-                core::MessageError(info.channel, field,
-                                   std::to_string(value) + ": allowed 0 (keep), 1 (on), 2 (off)"));
-          }
-        }
-        if (message.snapshot != 0 && message.snapshot != 1) {
-          Refuse(core::MessageError(info.channel, "snapshot",
-                                    std::to_string(message.snapshot) + ": allowed 0 or 1"));
-        }
-        if (message.snapshot == 1 && !png_) {
-          Refuse(core::MessageError(info.channel, "snapshot",
-                                    "this viewer writes no PNG files (start it with --png DIR)"));
-        }
-        options_.camera = camera;
-        auto apply = [](int8_t value, bool& flag) {
-          if (value == sirupp::viewer_camera_t::SWITCH_ON) flag = true;
-          if (value == sirupp::viewer_camera_t::SWITCH_OFF) flag = false;
-        };
-        apply(message.show_frames, options_.scene.show_frames);
-        apply(message.show_ghost, options_.scene.show_ghost);
-        if (message.snapshot == 1) snapshot_requested_ = true;
-        dirty_ = true;
+      channels.viewer_camera, [this](const sirupp::viewer_camera_t& message, const Info& info) {
+        OnCamera(message, info);
       });
+}
+
+void ViewerNode::OnModel(const sirupp::robot_model_t& message, const core::ReceiveInfo& info) {
+  core::RobotModel model =
+      Checked([&] { return core::RobotModelFromMessage(message, info.channel); });
+  if (model.num_joints() < 1 || model.num_joints() > kMaxJoints) {
+    Checked([&] {
+      core::RefuseValue(info.channel, "num_joints", std::to_string(model.num_joints()),
+                        "1.." + std::to_string(kMaxJoints) + " (joints this viewer can draw)");
+    });
+  }
+  if (ShapeCount(model) > kMaxShapes) {
+    Checked([&] {
+      core::RefuseValue(info.channel, "links[].shapes",
+                        std::to_string(ShapeCount(model)) + " shapes",
+                        "at most " + std::to_string(kMaxShapes) + " (shapes this viewer can draw)");
+    });
+  }
+  if (model_ && SameModel(*model_, model)) return;
+  model_ = std::move(model);
+  stats_.model = model_->name;
+  // Held positions of another joint count belong to the previous model.
+  for (auto* held : {&state_.virtual_position, &state_.setpoint_position, &state_.real_position}) {
+    if (*held && static_cast<int>((*held)->size()) != model_->num_joints()) held->reset();
+  }
+  dirty_ = true;
+}
+
+void ViewerNode::OnEnvironment(const sirupp::environment_t& message,
+                               const core::ReceiveInfo& info) {
+  // Before decoding: a huge message is refused without building its objects.
+  if (message.num_objects > static_cast<int32_t>(kMaxShapes)) {
+    Checked([&] {
+      core::RefuseValue(
+          info.channel, "num_objects", std::to_string(message.num_objects),
+          "at most " + std::to_string(kMaxShapes) + " (objects this viewer can draw)");
+    });
+  }
+  core::Environment environment =
+      Checked([&] { return core::EnvironmentFromMessage(message, info.channel); });
+  if (environment_ && SameEnvironment(*environment_, environment)) return;
+  environment_ = std::move(environment);
+  dirty_ = true;
+}
+
+core::ArmState ViewerNode::OnArmState(const sirupp::arm_state_t& message,
+                                      const core::ReceiveInfo& info,
+                                      std::optional<std::vector<double>>& held) {
+  core::ArmState arm =
+      Checked([&] { return core::ArmStateFromMessage(message, info.channel, -1); });
+  CheckJointCount(info.channel, arm.position.size());
+  held = arm.position;
+  dirty_ = true;
+  return arm;
+}
+
+void ViewerNode::OnSetpoint(const sirupp::servo_setpoint_t& message,
+                            const core::ReceiveInfo& info) {
+  const core::ServoSetpoint setpoint =
+      Checked([&] { return core::ServoSetpointFromMessage(message, info.channel); });
+  CheckJointCount(info.channel, setpoint.joints.size());
+  if (!state_.setpoint_position) state_.setpoint_position.emplace();
+  state_.setpoint_position->clear();
+  for (const core::JointSetpoint& joint : setpoint.joints) {
+    state_.setpoint_position->push_back(joint.position);
+  }
+  if (options_.scene.show_ghost) dirty_ = true;
+}
+
+void ViewerNode::OnControllerStatus(const sirupp::controller_status_t& message,
+                                    const core::ReceiveInfo& info) {
+  const core::ControllerStatus status =
+      Checked([&] { return core::ControllerStatusFromMessage(message, info.channel); });
+  const auto mode = static_cast<int8_t>(status.mode);
+  const auto state = static_cast<int8_t>(status.state);
+  if (mode == controller_mode_ && state == controller_state_) return;
+  controller_mode_ = mode;
+  controller_state_ = state;
+  state_.status_text = ControllerStatusText(mode, state);
+  dirty_ = true;
+}
+
+void ViewerNode::OnCamera(const sirupp::viewer_camera_t& message, const core::ReceiveInfo& info) {
+  const core::ViewerCamera command =
+      Checked([&] { return core::ViewerCameraFromMessage(message, info.channel); });
+  Camera camera = options_.camera;
+  if (command.set_camera) {
+    // Finite values are core's check; the ranges this camera can take are ours.
+    if (std::abs(command.elevation) > kMaxElevationRad) {
+      Checked([&] {
+        core::RefuseValue(info.channel, "elevation", core::FormatNumber(command.elevation),
+                          "[-" + core::FormatNumber(kMaxElevationRad) + ", " +
+                              core::FormatNumber(kMaxElevationRad) + "] rad (about +-89 degrees)");
+      });
+    }
+    if (command.distance > kMaxDistanceM) {
+      Checked([&] {
+        core::RefuseValue(info.channel, "distance", core::FormatNumber(command.distance),
+                          "(0, " + core::FormatNumber(kMaxDistanceM) + "] m");
+      });
+    }
+    camera.azimuth_rad = command.azimuth;
+    camera.elevation_rad = command.elevation;
+    camera.distance_m = command.distance;
+    camera.target_m = command.target;
+  }
+  if (command.snapshot && !png_) {
+    Checked([&] {
+      core::RefuseValue(info.channel, "snapshot", "1",
+                        "0: this viewer writes no PNG files (start it with --png DIR)");
+    });
+  }
+  options_.camera = camera;
+  auto apply = [](core::Switch value, bool& flag) {
+    if (value == core::Switch::kOn) flag = true;
+    if (value == core::Switch::kOff) flag = false;
+  };
+  apply(command.show_frames, options_.scene.show_frames);
+  apply(command.show_ghost, options_.scene.show_ghost);
+  if (command.snapshot) snapshot_requested_ = true;
+  dirty_ = true;
 }
 
 void ViewerNode::Service(int max_wait_ms) {

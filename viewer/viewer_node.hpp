@@ -31,10 +31,16 @@
 #include <opencv2/core.hpp>
 #include <optional>
 #include <sirupp/arm_state_t.hpp>
+#include <sirupp/controller_status_t.hpp>
+#include <sirupp/environment_t.hpp>
 #include <sirupp/image_t.hpp>
+#include <sirupp/robot_model_t.hpp>
+#include <sirupp/servo_setpoint_t.hpp>
+#include <sirupp/viewer_camera_t.hpp>
 #include <string>
 #include <vector>
 
+#include "core/arm_state.hpp"
 #include "core/bus.hpp"
 #include "core/channels.hpp"
 #include "core/environment.hpp"
@@ -120,9 +126,20 @@ class ViewerNode {
   void Render(Clock::time_point now);
   void Publish();
   [[noreturn]] void Refuse(const core::MessageError& error);
-  void CheckArmState(const sirupp::arm_state_t& message, const std::string& channel);
-  void CheckPositions(const std::string& channel, int32_t count,
-                      const std::vector<double>& position);
+  // decode()'s value; a MessageError it throws is counted as this viewer's refusal and rethrown.
+  template <class Decode>
+  auto Checked(Decode&& decode) -> decltype(decode());
+  // Refuses a joint count other than the model's (when one is known).
+  void CheckJointCount(const std::string& channel, size_t count);
+  void OnModel(const sirupp::robot_model_t& message, const core::ReceiveInfo& info);
+  void OnEnvironment(const sirupp::environment_t& message, const core::ReceiveInfo& info);
+  // Holds the state's positions in `held` (the virtual or the real arm's); returns the state.
+  core::ArmState OnArmState(const sirupp::arm_state_t& message, const core::ReceiveInfo& info,
+                            std::optional<std::vector<double>>& held);
+  void OnSetpoint(const sirupp::servo_setpoint_t& message, const core::ReceiveInfo& info);
+  void OnControllerStatus(const sirupp::controller_status_t& message,
+                          const core::ReceiveInfo& info);
+  void OnCamera(const sirupp::viewer_camera_t& message, const core::ReceiveInfo& info);
   std::string HeartbeatDetail() const;
 
   core::Bus& bus_;
