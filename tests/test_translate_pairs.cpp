@@ -531,9 +531,9 @@ TEST(TranslatePairs, EnumsFlagsAndBitsMustBeKnown) {
             "channel ARM_POSE_TARGET: elbow: 3 is not allowed; expected 0..2 (ELBOW_ANY, "
             "ELBOW_UP, ELBOW_DOWN)");
   sirupp::plan_command_t plan = ToMessage(PlanCommand{});
-  plan.command = 7;
+  plan.command = 8;
   EXPECT_EQ(Error([&] { PlanCommandFromMessage(plan, "ARM_PLAN"); }),
-            "channel ARM_PLAN: command: 7 is not allowed; expected 0..6 (COMMAND_*)");
+            "channel ARM_PLAN: command: 8 is not allowed; expected 0..7 (COMMAND_*)");
   sirupp::hardware_command_t hc = ToMessage(HardwareCommand{});
   hc.command = -1;
   EXPECT_EQ(Error([&] { HardwareCommandFromMessage(hc, "HARDWARE_COMMAND"); }),
