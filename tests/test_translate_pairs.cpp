@@ -545,7 +545,8 @@ TEST(TranslatePairs, EnumsFlagsAndBitsMustBeKnown) {
   sirupp::sim_command_t sc = ToMessage(SimCommand{});
   sc.command = 3;
   EXPECT_EQ(Error([&] { SimCommandFromMessage(sc, "SIM_COMMAND"); }),
-            "channel SIM_COMMAND: command: 3 is not allowed; expected 0 (load environment)");
+            "channel SIM_COMMAND: command: 3 is not allowed; expected 0 (load environment) or 1 "
+            "(load model)");
   sirupp::logger_command_t lc = ToMessage(LoggerCommand{});
   lc.command = 2;
   EXPECT_EQ(Error([&] { LoggerCommandFromMessage(lc, "LOGGER_COMMAND"); }),
