@@ -57,7 +57,10 @@ done
 has "up" "$dir/launch.out" "all 2 processes of host local are up"
 sleep 2.5
 has "table" "$dir/launch.out" "process             host"
-grep -qE "^sim +[^ ]+ +[0-9]+  running" "$dir/launch.out" || { echo "FAIL table: sim not running"; cat "$dir/launch.out"; fail=1; }
+# Running, or degraded when a loaded machine keeps the realtime sim behind the wall clock: both are
+# a live sim whose heartbeat the table shows.
+grep -qE "^sim +[^ ]+ +[0-9]+  (running|degraded)" "$dir/launch.out" ||
+  { echo "FAIL table: sim not running"; cat "$dir/launch.out"; fail=1; }
 control_pid=$(awk '/^control / {print $3}' "$dir/launch.out" | tail -1)
 kill -KILL "$control_pid"
 for _ in $(seq 1 50); do
