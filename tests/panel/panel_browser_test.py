@@ -113,6 +113,10 @@ try:
             assert "mass_kg: 3.4" in f.read()
     check("a model edit is checked at its field and saved as a new file", model_edit)
 
+    def slider_max():
+        # The slider's max in degrees, from the model's radians (145.00000000000003 is 145).
+        return float(js(a, "return document.querySelector('#joint-1 .slider').max"))
+
     def model_apply():
         # Joint 1's upper limit 145 -> 150 deg, saved, applied: the sim, the controller and the
         # page take it (the slider's limit), and the controller takes a target beyond 145 deg.
@@ -121,12 +125,14 @@ try:
         js(a, "document.getElementById('model-save-name').value = 'browser_wide'")
         a.find_element(By.ID, "model-save").click()
         wait_for("saved", lambda: "saved config/robots/browser_wide.yaml" in a.find_element(By.ID, "model-result").text, 10)
-        assert js(a, "return document.querySelector('#joint-1 .slider').max") == "145"
+        before = slider_max()
+        assert abs(before - 145) < 1e-6, f"joint 1's slider max before the apply: {before!r}, expected 145"
         a.find_element(By.ID, "model-apply").click()
         wait_for("applied", lambda: "SIM_COMMAND: model config/robots/browser_wide.yaml accepted"
                  in a.find_element(By.ID, "model-result").text, 15)
-        wait_for("the slider's new limit", lambda: js(a, "return document.querySelector('#joint-1 .slider').max") == "150", 10)
-        assert js(a, "return model.source_file") == "config/robots/browser_wide.yaml"
+        wait_for("the slider's new limit", lambda: abs(slider_max() - 150) < 1e-6, 10)
+        source = js(a, "return model.source_file")
+        assert source == "config/robots/browser_wide.yaml", f"the page's model file: {source!r}"
         status, body = http("POST", rig.address + "api/move/joints",
                             {"targets": [147, None, None, None, None, None], "speed": 1.0},
                             {"X-Sirupp-Client": js(a, "return clientId"), "Content-Type": "application/json"})
@@ -141,7 +147,7 @@ try:
                  and js(a, "return latest.controller && latest.controller.state") == "idle", 40)
         js(a, "savedModel = 'config/robots/puma260.yaml'")
         a.find_element(By.ID, "model-apply").click()
-        wait_for("puma260 back", lambda: js(a, "return document.querySelector('#joint-1 .slider').max") == "145", 15)
+        wait_for("puma260 back", lambda: abs(slider_max() - 145) < 1e-6, 15)
     if rig.hardware:
         print("note: model apply not run with the emulated real arm (its bridge keeps its own model file)")
     else:
