@@ -66,15 +66,13 @@ int Run(const std::vector<std::string>& argv) {
            .Takes("MODE")
            .OneOf({"plan", "none"}),
        Flag("rate", "row clock in Hz (default: the model's servo tick)").Takes("HZ"),
-       Flag("max-age", "a stream older than this leaves its cell empty (default 0.025)")
-           .Takes("S"),
+       Flag("max-age", "a stream older than this leaves its cell empty (default 0.025)").Takes("S"),
        Flag("idle", "rows stop after the bus is quiet this long (default 0.05)").Takes("S"),
        Flag("velocities", "also the joint velocities").Switch(),
        Flag("efforts", "also the joint efforts").Switch(),
        Flag("note", "a line for the files' header").Takes("TEXT", -1),
        Flag("duration", "stop after this many seconds").Takes("S"),
-       Flag("recv-buf", "udpm receive buffer (default 2097152; 0: LCM's default)")
-           .Takes("BYTES"),
+       Flag("recv-buf", "udpm receive buffer (default 2097152; 0: LCM's default)").Takes("BYTES"),
        sirupp::runtime::ModelFlag(), Flag("lcm-url", "LCM URL").Takes("URL"),
        Flag("prefix", "channel prefix of the rig").Takes("PREFIX"),
        Flag("raw",
