@@ -184,6 +184,7 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
   subscriptions_.push_back(&bus_.Subscribe<sirupp::servo_setpoint_t>(
       options_.channels.arm_setpoint,
       [this, check](const sirupp::servo_setpoint_t& message, const core::ReceiveInfo& info) {
+        if (!Live(info.recv_utime)) return;
         // A data file holds finite numbers only: the translation refuses a NaN or infinite
         // value whole (counted as rejected on its channel), whoever sent it.
         check(info.channel, message.num_joints);
@@ -196,6 +197,7 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
   subscriptions_.push_back(&bus_.Subscribe<sirupp::arm_state_t>(
       options_.channels.sim_arm_state,
       [this, check](const sirupp::arm_state_t& message, const core::ReceiveInfo& info) {
+        if (!Live(info.recv_utime)) return;
         check(info.channel, message.num_joints);
         core::ArmStateFromMessage(message, info.channel, -1);
         Sample sample = SampleFromArmState(message, Stream::kVirtual, info.recv_utime);
@@ -206,6 +208,7 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
   subscriptions_.push_back(&bus_.Subscribe<sirupp::arm_state_t>(
       options_.channels.real_arm_state,
       [this, check](const sirupp::arm_state_t& message, const core::ReceiveInfo& info) {
+        if (!Live(info.recv_utime)) return;
         check(info.channel, message.num_joints);
         core::ArmStateFromMessage(message, info.channel, -1);
         Sample sample = SampleFromArmState(message, Stream::kReal, info.recv_utime);
@@ -216,6 +219,7 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
   subscriptions_.push_back(&bus_.Subscribe<sirupp::controller_status_t>(
       options_.channels.controller_status,
       [this](const sirupp::controller_status_t& message, const core::ReceiveInfo& info) {
+        if (!Live(info.recv_utime)) return;
         // Plan runs split the files: a status no controller could send is refused.
         core::ControllerStatusFromMessage(message, info.channel);
         Push(StatusFromMessage(message, info.recv_utime), Stream::kSetpoint);
@@ -232,6 +236,7 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
         channel,
         [this, check, gains_source = source](const sirupp::servo_gains_t& message,
                                              const core::ReceiveInfo& info) {
+          if (!Live(info.recv_utime)) return;
           check(info.channel, message.num_joints);
           core::ServoGainsFromMessage(message, info.channel);
           GainsRecord gains = GainsFromMessage(message, gains_source, info.recv_utime);
@@ -247,6 +252,11 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
           heartbeat_.Publish(core::ProcessState::kFault, model_watch_.mismatch());
         }
       }));
+  // From now on every subscription is in place: raw log and handlers take the same messages.
+  live_from_utime_ = options_.replay ? INT64_MIN
+                                     : std::chrono::duration_cast<std::chrono::microseconds>(
+                                           std::chrono::system_clock::now().time_since_epoch())
+                                           .count();
   if (options_.replay) return;  // no heartbeat, no writer thread: the caller drives it
   if (own_heartbeat_) heartbeat_.Publish(core::ProcessState::kStarting, "");
   writer_ = std::thread([this] { WriterLoop(); });
@@ -523,7 +533,7 @@ void LoggerNode::OpenRawLog() {
 void LoggerNode::RecordRaw(const lcm_recv_buf_t* rbuf, const char* channel, void* node) {
   auto* self = static_cast<LoggerNode*>(node);
   // Passes are this logger's own; another logger's (a log played back onto the bus) are not.
-  if (self->pass_channel_ == channel) return;
+  if (self->pass_channel_ == channel || !self->Live(rbuf->recv_utime)) return;
   std::lock_guard<std::mutex> lock(self->raw_mutex_);
   if (!self->raw_file_) return;
   self->raw_last_utime_ = rbuf->recv_utime;

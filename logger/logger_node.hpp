@@ -211,7 +211,13 @@ class LoggerNode {
   // Raw log: messages from the bus thread, passes from the writer.
   std::string raw_path_;
   std::string pass_channel_;  // LOGGER_PASS with the prefix
-  std::mutex raw_mutex_;      // raw_file_ and the two below
+  // Messages received before every subscription of the logger was in place are neither recorded
+  // raw nor handled: the raw log and the data files start from the same message (the receive
+  // time is the same for every subscription of a message). INT64_MAX until then; a replay takes
+  // every message.
+  std::atomic<int64_t> live_from_utime_{INT64_MAX};
+  bool Live(int64_t recv_utime) const { return recv_utime >= live_from_utime_.load(); }
+  std::mutex raw_mutex_;  // raw_file_ and the two below
   std::unique_ptr<lcm::LogFile> raw_file_;
   int64_t raw_last_utime_ = 0;  // timestamp of the last event written
   int64_t pass_seq_ = 0;
