@@ -9,6 +9,7 @@
 #include "core/errors.hpp"
 #include "runtime/app_format.hpp"
 #include "runtime/args.hpp"
+#include "tests/helpers.hpp"
 
 namespace {
 
@@ -27,12 +28,7 @@ std::vector<Flag> DemoLikeFlags() {
 // The message of the UsageError `parse` throws ("" if none).
 template <typename F>
 std::string UsageMessage(F parse) {
-  try {
-    parse();
-  } catch (const sirupp::core::UsageError& error) {
-    return error.what();
-  }
-  return "";
+  return sirupp::testing::ErrorText<sirupp::core::UsageError>(parse);
 }
 
 TEST(Args, OneOrMoreValuesRunUntilTheNextFlag) {
