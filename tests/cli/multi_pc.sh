@@ -75,12 +75,23 @@ else
   real_rows=$(awk -F'|' '$2 ~ /set1/ && $3 ~ / 2 / && $4 ~ /1 \(waist\)/ { on = 1; next } $2 !~ /^ *$/ { on = 0 }
     on && $6 ~ /vs real/ && $9 ~ /^ *[0-9.]+ *$/ { n++ } END { print n + 0 }' "$work/report.out")
   [[ $real_rows -eq 2 ]] || { echo "FAIL: Table II has no real-arm errors for set1 move 2 joint 1"; cat "$work/report.out"; fail=1; }
+  # The emulator's own count of slips (its stop line): '... N slipped in M slips ...'.
+  slips=$(sed -n 's/.* slipped in \([0-9]*\) slips.*/\1/p' "$work/emu.log" | tail -1)
+  slips=${slips:-0}
+  grep -h "stopped:" "$work/emu.log" | tail -1
   # Final values per stream: report_response.csv, one row per set, move, joint and stream.
   response="$work/report/report_response.csv"
   for stream in virtual real; do
     final=$(awk -F, -v s="$stream" 'NR == 1 { for (i = 1; i <= NF; i++) col[$i] = i; next }
       $col["set"] == "set1" && $col["move_id"] == 2 && $col["joint"] == 1 && $col["stream"] == s { print $col["final_value"] }' "$response")
     echo "set1 move 2 joint 1: $stream final ${final:-?} deg (goal 90)"
+    if [[ $stream == real ]] && [[ $slips -gt 0 ]]; then
+      # The emulated arm paused while the emulator was starved (a sanitizer build on a loaded
+      # machine): its move ends later than the virtual one by the pause, past the window Table II
+      # takes the final value from. real_reaches above has checked that it got to 90 deg.
+      echo "note: the emulator slipped $slips times (the emulated arm paused); its final in Table II is not checked"
+      continue
+    fi
     within "final_$stream" "$final" 90 3
   done
 fi
