@@ -177,6 +177,7 @@ void RunTable::Reset(const std::vector<JointInfo>& joint_list) {
   done.assign(joints.size(), {});
   for (std::vector<double>& ages : age_s) ages.clear();
   lost = {};
+  lost_at_start = {};
   cells = {};
 }
 
@@ -196,6 +197,7 @@ void RunTable::Append(const Row& row) {
     if (row.cell[s] != nullptr) ++cells[s];
     age_s[s].push_back(row.cell[s] != nullptr ? static_cast<double>(row.age_us[s]) * 1e-6 : kNaN);
   }
+  if (time_s.size() == 1) lost_at_start = row.lost;
   lost = row.lost;
 }
 
@@ -606,6 +608,7 @@ class FileReader {
       table_.done[j].push_back(row_done[j]);
     }
     for (size_t s = 0; s < kNumStreams; ++s) table_.age_s[s].push_back(row_age[s]);
+    if (table_.time_s.size() == 1) table_.lost_at_start = row_lost;
     table_.lost = row_lost;
   }
 

@@ -55,7 +55,10 @@ struct RunTable {
   std::vector<std::array<std::vector<double>, kNumStreams>> position;  // [joint][stream][row]
   std::vector<int64_t> move_id;                                        // -1 = empty
   std::vector<std::vector<int8_t>> done;                               // [joint][row], -1 empty
-  std::array<int64_t, kNumStreams> lost{};   // missing messages per stream, at the last row
+  std::array<int64_t, kNumStreams> lost{};  // missing messages per stream, at the last row
+  // The same counts at the first row: the logger's counts run from its start, so a set's own
+  // losses are lost - lost_at_start (LostInSet).
+  std::array<int64_t, kNumStreams> lost_at_start{};
   std::array<int64_t, kNumStreams> cells{};  // filled cells per stream
   // Per stream and row: how old the cell's sample was at the row time, in s (the *_age_us columns;
   // a real arm polled at 100 Hz holds each sample for about 20 rows of 0.512 ms). NaN: empty cell,
@@ -74,6 +77,8 @@ struct RunTable {
   // inverse applies to its times (1 when the factor is unknown or the real arm is on the sim
   // clock). Virtual and real are compared per move on their own clocks (logger/analysis.hpp).
   double RealClockScale() const;
+  // Messages missing on stream s between the first and the last row of this table.
+  int64_t LostInSet(size_t s) const { return lost[s] - lost_at_start[s]; }
   std::vector<std::string> notes;  // warnings worth showing with the report
 
   size_t rows() const { return time_s.size(); }

@@ -186,15 +186,15 @@ ReportOutput WriteReport(const std::vector<RunTable>& tables, const ReportOption
   const AnalysisOptions& a = options.analysis;
   std::string md = "# SIRUPP report\n\n## Inputs\n\n";
   md +=
-      "| input | set | rows | time_s (s) | set-point / virtual / real samples | lost (set / virt "
-      "/ real) | closed | real-time factor |\n|---|---|---|---|---|---|---|---|\n";
+      "| input | set | rows | time_s (s) | set-point / virtual / real samples | lost in the set "
+      "(set / virt / real) | closed | real-time factor |\n|---|---|---|---|---|---|---|---|\n";
   for (size_t t = 0; t < tables.size(); ++t) {
     const RunTable& table = tables[t];
     md += "| `" + table.source + "` | " + keys[t] + " | " + std::to_string(table.rows()) + " | " +
           Fixed(table.time_s.front(), 3) + " to " + Fixed(table.time_s.back(), 3) + " | " +
           std::to_string(table.cells[0]) + " / " + std::to_string(table.cells[1]) + " / " +
-          std::to_string(table.cells[2]) + " | " + std::to_string(table.lost[0]) + " / " +
-          std::to_string(table.lost[1]) + " / " + std::to_string(table.lost[2]) + " | " +
+          std::to_string(table.cells[2]) + " | " + std::to_string(table.LostInSet(0)) + " / " +
+          std::to_string(table.LostInSet(1)) + " / " + std::to_string(table.LostInSet(2)) + " | " +
           (table.closed ? "yes" : "no") + " | " +
           (std::isfinite(table.realtime_factor) ? Fixed(table.realtime_factor, 3) : "-") + " |\n";
   }

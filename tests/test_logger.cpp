@@ -316,6 +316,7 @@ TEST(DataFile, RowsWrittenAreReadBackInTheFileUnits) {
     row.time_us += 512;
     row.cell = {nullptr, &virt, nullptr};
     row.age_us = {0, 512, 0};  // the virtual sample held over from the row before
+    row.lost = {0, 5, 0};      // the logger's counts run on: 2 more lost during this file
     writer.Append(row);
     writer.Close("2 rows");
   }
@@ -334,7 +335,9 @@ TEST(DataFile, RowsWrittenAreReadBackInTheFileUnits) {
   EXPECT_EQ(table.move_id[1], -1);
   EXPECT_EQ(table.done[0][0], 1);
   EXPECT_EQ(table.done[1][0], 0);
-  EXPECT_EQ(table.lost[1], 3);
+  EXPECT_EQ(table.lost[1], 5);
+  EXPECT_EQ(table.lost_at_start[1], 3);
+  EXPECT_EQ(table.LostInSet(1), 2);  // what the report's Inputs table shows
   EXPECT_DOUBLE_EQ(table.age_s[1][0], 0.0);
   EXPECT_NEAR(table.age_s[1][1], 512e-6, 1e-12);
   EXPECT_TRUE(std::isnan(table.age_s[0][1]));  // an empty cell has no age
