@@ -37,6 +37,38 @@ constexpr const char* kAbout =
     "--sim-timeout S: no SIM_ARM_STATE for S wall seconds (default 0.5) aborts a plan (sirupp\n"
     "grade gives more: another participant may hold the lockstep sim that long).\n";
 
+// --controller LIB.so with its arguments, in its host process (or in this one with
+// --controller-in-process). Loaded before joining the bus: a library that cannot be used stops
+// the process here (exit 2, one line), before it answers any state, so nothing moves.
+std::shared_ptr<sirupp::control::EffortLaw> LoadController(const sirupp::runtime::Args& args,
+                                                           const sirupp::core::RobotModel& model) {
+  std::string controller_args;
+  if (args.Has("controller-args")) {
+    for (const std::string& word : args.Values("controller-args", -1)) {
+      controller_args += (controller_args.empty() ? "" : " ") + word;
+    }
+  }
+  sirupp::control::IsolationOptions isolation;
+  isolation.tick_limit_s = args.Number("controller-tick-limit", isolation.tick_limit_s);
+  const bool in_process = args.Switch("controller-in-process");
+  std::shared_ptr<sirupp::control::EffortLaw> law;
+  if (in_process) {
+    law = std::make_shared<sirupp::control::PluginEffortLaw>(args.String("controller"),
+                                                             controller_args, model);
+  } else {
+    law = std::make_shared<sirupp::control::IsolatedEffortLaw>(args.String("controller"),
+                                                               controller_args, model, isolation);
+  }
+  std::cerr << "sirupp-control: controller " << law->name() << " ("
+            << (controller_args.empty() ? "no arguments" : "'" + controller_args + "'")
+            << ") in place of the PID, "
+            << (in_process ? std::string("in this process")
+                           : "in its host process (call limit " +
+                                 sirupp::core::FormatNumber(isolation.tick_limit_s) + " s)")
+            << "\n";
+  return law;
+}
+
 int Run(const std::vector<std::string>& argv) {
   const sirupp::runtime::Args args(
       argv, "sirupp-control",
@@ -76,33 +108,7 @@ int Run(const std::vector<std::string>& argv) {
                                      " needs --controller LIB.so");
     }
   }
-  if (args.Has("controller")) {
-    // Loaded before joining the bus: a library that cannot be used stops the process here (exit
-    // 2, one line), before it answers any state, so nothing moves.
-    std::string controller_args;
-    if (args.Has("controller-args")) {
-      for (const std::string& word : args.Values("controller-args", -1)) {
-        controller_args += (controller_args.empty() ? "" : " ") + word;
-      }
-    }
-    sirupp::control::IsolationOptions isolation;
-    isolation.tick_limit_s = args.Number("controller-tick-limit", isolation.tick_limit_s);
-    const bool in_process = args.Switch("controller-in-process");
-    if (in_process) {
-      options.effort_law = std::make_shared<sirupp::control::PluginEffortLaw>(
-          args.String("controller"), controller_args, model);
-    } else {
-      options.effort_law = std::make_shared<sirupp::control::IsolatedEffortLaw>(
-          args.String("controller"), controller_args, model, isolation);
-    }
-    std::cerr << "sirupp-control: controller " << options.effort_law->name() << " ("
-              << (controller_args.empty() ? "no arguments" : "'" + controller_args + "'")
-              << ") in place of the PID, "
-              << (in_process ? std::string("in this process")
-                             : "in its host process (call limit " +
-                                   sirupp::core::FormatNumber(isolation.tick_limit_s) + " s)")
-              << "\n";
-  }
+  if (args.Has("controller")) options.effort_law = LoadController(args, model);
   sirupp::core::Bus bus(args.Has("lcm-url") ? args.String("lcm-url") : "",
                         args.Has("prefix") ? args.String("prefix") : "");
   sirupp::control::ControlNode node(bus, model, options);

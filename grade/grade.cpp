@@ -33,6 +33,31 @@ std::vector<std::string> ControllerResult::FailedTasks() const {
   return names;
 }
 
+namespace {
+
+// A library that does not load fails every task the same way, however many ran before the first
+// failure was seen (the same results for any -j): every task of each controller marked in
+// `load_failed` gets the reason of its first such task.
+void MarkUnloadable(const Suite& suite, const std::vector<char>& load_failed,
+                    std::vector<ControllerResult>& results) {
+  for (size_t c = 0; c < load_failed.size(); ++c) {
+    if (load_failed[c] == 0) continue;
+    std::string reason;
+    for (const TaskResult& task : results[c].tasks) {
+      if (reason.empty() && task.ended.rfind("sirupp-control ended (exit code 2)", 0) == 0) {
+        reason = task.ended;
+      }
+    }
+    for (TaskResult& task : results[c].tasks) {
+      task = TaskResult{};
+      task.task = suite.tasks[static_cast<size_t>(&task - results[c].tasks.data())].name;
+      task.ended = "the controller could not be loaded: " + reason;
+    }
+  }
+}
+
+}  // namespace
+
 std::vector<ControllerResult> RunControllers(const Suite& suite, const core::RobotModel& model,
                                              const std::vector<ControllerSpec>& controllers,
                                              const GradeOptions& options) {
@@ -105,22 +130,7 @@ std::vector<ControllerResult> RunControllers(const Suite& suite, const core::Rob
   for (int k = 1; k < count; ++k) threads.emplace_back(worker);
   worker();
   for (std::thread& thread : threads) thread.join();
-  // A library that does not load fails every task the same way, however many ran before the
-  // first failure was seen (the same results for any -j).
-  for (size_t c = 0; c < controllers.size(); ++c) {
-    if (load_failed[c] == 0) continue;
-    std::string reason;
-    for (const TaskResult& task : results[c].tasks) {
-      if (reason.empty() && task.ended.rfind("sirupp-control ended (exit code 2)", 0) == 0) {
-        reason = task.ended;
-      }
-    }
-    for (TaskResult& task : results[c].tasks) {
-      task = TaskResult{};
-      task.task = suite.tasks[static_cast<size_t>(&task - results[c].tasks.data())].name;
-      task.ended = "the controller could not be loaded: " + reason;
-    }
-  }
+  MarkUnloadable(suite, load_failed, results);
   return results;
 }
 

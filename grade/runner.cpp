@@ -71,142 +71,70 @@ std::vector<std::string> ExpandCommand(const std::vector<std::string>& command,
   return out;
 }
 
-TaskRecord RunTask(const Suite& suite, const core::RobotModel& model, const Task& task,
-                   const ControllerSpec& controller, const RunOptions& options) {
+namespace {
+
+// The messages of a task by tick (row), filled as they come: n values a row.
+struct TickRows {
+  TickRows(size_t ticks, size_t n)
+      : position(ticks * n, 0.0),
+        reference(ticks * n, 0.0),
+        goal(ticks * n, 0.0),
+        effort(ticks * n, 0.0),
+        have_state(ticks, 0),
+        have_command(ticks, 0),
+        have_setpoint(ticks, 0) {}
+  std::vector<double> position, reference, goal, effort;
+  std::vector<char> have_state, have_command, have_setpoint;
+};
+
+// The grader's answer to the state of `tick`, as the sim's other participant: zero effort, but
+// the task's disturbance while it lasts.
+sirupp::arm_command_t GraderAnswer(const core::RobotModel& model, const Task& task, int64_t tick) {
   const auto n = static_cast<size_t>(model.num_joints());
-  const bool via_control = controller.kind != ControllerSpec::Kind::kProcess;
-  const std::string participant = via_control ? "sirupp-control" : "student";
-  TaskRecord record;
-  record.num_joints = model.num_joints();
-  record.tick_s = model.servo_tick_s;
-  record.has_reference = via_control || task.track.has_value();
+  sirupp::arm_command_t command{};
+  command.utime =
+      static_cast<int64_t>(std::llround(static_cast<double>(tick) * model.servo_tick_s * 1e6));
+  command.seq = tick;
+  command.tick = tick;
+  command.sender = kGraderName;
+  command.mode = sirupp::arm_command_t::MODE_EFFORT;
+  command.num_joints = model.num_joints();
+  command.effort.assign(n, 0.0);
+  const double t = static_cast<double>(tick) * model.servo_tick_s;
+  if (task.disturbance && t >= task.disturbance->from_s && t < task.disturbance->to_s) {
+    command.effort[static_cast<size_t>(task.disturbance->joint)] = task.disturbance->effort;
+  }
+  return command;
+}
 
-  // Rows by tick, filled as the messages come.
-  const auto expected = static_cast<size_t>(std::ceil(task.duration_s / model.servo_tick_s)) + 4;
-  std::vector<double> position(expected * n, 0.0), reference(expected * n, 0.0),
-      goal(expected * n, 0.0), effort(expected * n, 0.0);
-  std::vector<char> have_state(expected, 0), have_command(expected, 0), have_setpoint(expected, 0);
-  int64_t last_state = -1;       // newest tick whose state arrived
-  int64_t answered = -1;         // newest tick the grader answered
-  int64_t controller_tick = -1;  // newest tick the controller answered
-  std::string failure;
-  Clock::time_point progress = Clock::now();
-
-  core::Bus bus(options.lcm_url);
-  PlanDriver driver(bus, suite.limits.start_s);
-  const core::Channels channels;
-  const auto answer = [&](int64_t tick) {
-    sirupp::arm_command_t command{};
-    command.utime =
-        static_cast<int64_t>(std::llround(static_cast<double>(tick) * model.servo_tick_s * 1e6));
-    command.seq = tick;
-    command.tick = tick;
-    command.sender = kGraderName;
-    command.mode = sirupp::arm_command_t::MODE_EFFORT;
-    command.num_joints = model.num_joints();
-    command.effort.assign(n, 0.0);
-    const double t = static_cast<double>(tick) * model.servo_tick_s;
-    if (task.disturbance && t >= task.disturbance->from_s && t < task.disturbance->to_s) {
-      command.effort[static_cast<size_t>(task.disturbance->joint)] = task.disturbance->effort;
-    }
-    bus.Publish(channels.sim_arm_command, command);
-    answered = std::max(answered, tick);
-  };
-  const auto may_answer = [&](int64_t tick) {
-    return tick > 0 || !via_control || driver.PlanAccepted();
-  };
-  bus.Subscribe<sirupp::arm_state_t>(channels.sim_arm_state,
-                                     [&](const sirupp::arm_state_t& m, const core::ReceiveInfo&) {
-                                       if (m.tick < 0 || static_cast<size_t>(m.tick) >= expected ||
-                                           m.num_joints != model.num_joints()) {
-                                         return;
-                                       }
-                                       const auto row = static_cast<size_t>(m.tick);
-                                       if (m.tick > last_state) {
-                                         last_state = m.tick;
-                                         progress = Clock::now();
-                                         have_state[row] = 1;
-                                         std::copy(m.position.begin(), m.position.end(),
-                                                   position.begin() + static_cast<long>(row * n));
-                                       }
-                                       // A state sent again (the sim's lockstep timeout) is
-                                       // answered again.
-                                       if (m.tick == last_state && may_answer(m.tick))
-                                         answer(m.tick);
-                                     });
-  bus.Subscribe<sirupp::arm_command_t>(
-      channels.sim_arm_command, [&](const sirupp::arm_command_t& m, const core::ReceiveInfo&) {
-        if (m.sender != participant || m.tick < 0 || static_cast<size_t>(m.tick) >= expected)
-          return;
-        const auto row = static_cast<size_t>(m.tick);
-        controller_tick = std::max(controller_tick, m.tick);
-        if (have_command[row] != 0) return;
-        have_command[row] = 1;
-        if (m.mode != sirupp::arm_command_t::MODE_EFFORT || m.num_joints != model.num_joints())
-          return;
-        for (size_t j = 0; j < n; ++j) {
-          const double e = m.effort[j];
-          if (!std::isfinite(e) && failure.empty()) {
-            failure = "returned effort " + core::FormatNumber(e) + " for joint " +
-                      std::to_string(j + 1) + " at tick " + std::to_string(m.tick) +
-                      " (allowed: finite values)";
-          }
-          const double limit = model.joints[j].effort_max;
-          effort[row * n + j] = std::isfinite(e) ? std::clamp(e, -limit, limit) : 0.0;
-        }
-      });
-  bus.Subscribe<sirupp::servo_setpoint_t>(
-      channels.arm_setpoint, [&](const sirupp::servo_setpoint_t& m, const core::ReceiveInfo&) {
-        if (m.tick < 0 || static_cast<size_t>(m.tick) >= expected ||
-            m.num_joints != model.num_joints()) {
-          return;
-        }
-        const auto row = static_cast<size_t>(m.tick);
-        if (have_setpoint[row] != 0) return;
-        have_setpoint[row] = 1;
-        std::copy(m.position.begin(), m.position.end(),
-                  reference.begin() + static_cast<long>(row * n));
-        std::copy(m.goal.begin(), m.goal.end(), goal.begin() + static_cast<long>(row * n));
-      });
-
-  // The controller first (it must hear the first state), then the sim.
-  Child control, sim;
-  std::vector<std::string> control_argv;
-  const std::string url = options.lcm_url;
-  if (via_control) {
-    control_argv = {options.bin_dir + "/sirupp-control",
-                    "--model",
-                    suite.model_file,
-                    "--lcm-url",
-                    url,
-                    "--sim-timeout",
-                    "3600"};
-    if (controller.kind == ControllerSpec::Kind::kLibrary) {
-      control_argv.insert(control_argv.end(),
-                          {"--controller", controller.library, "--controller-tick-limit",
-                           core::FormatNumber(suite.limits.tick_s)});
-      if (!controller.args.empty()) {
-        control_argv.insert(control_argv.end(), {"--controller-args", controller.args});
-      }
-    }
-  } else {
-    const std::string reference_file = options.work_dir + "/reference.csv";
-    control_argv = ExpandCommand(controller.command, model, task, url, participant, reference_file);
-    const bool wants_reference = std::any_of(
-        controller.command.begin(), controller.command.end(),
-        [](const std::string& word) { return word.find("{reference_csv}") != std::string::npos; });
-    if (wants_reference) {
-      try {
-        WriteReferenceCsv(reference_file, model, expected, [&](size_t tick) {
-          return ReferenceAt(task, static_cast<double>(tick) * model.servo_tick_s);
-        });
-      } catch (const std::exception& error) {
-        record.failure = std::string("could not write the reference: ") + error.what();
-        return record;
-      }
+// sirupp-control's command line for a library controller or the baseline.
+std::vector<std::string> ControlArgv(const Suite& suite, const ControllerSpec& controller,
+                                     const std::string& bin_dir, const std::string& url) {
+  std::vector<std::string> control_argv = {bin_dir + "/sirupp-control",
+                                           "--model",
+                                           suite.model_file,
+                                           "--lcm-url",
+                                           url,
+                                           "--sim-timeout",
+                                           "3600"};
+  if (controller.kind == ControllerSpec::Kind::kLibrary) {
+    control_argv.insert(control_argv.end(),
+                        {"--controller", controller.library, "--controller-tick-limit",
+                         core::FormatNumber(suite.limits.tick_s)});
+    if (!controller.args.empty()) {
+      control_argv.insert(control_argv.end(), {"--controller-args", controller.args});
     }
   }
-  std::vector<std::string> sim_argv = {options.bin_dir + "/sirupp-sim",
+  return control_argv;
+}
+
+// sirupp-sim's command line: lockstep with the participant and the grader, the task's start
+// pose and arm.
+std::vector<std::string> SimArgv(const Suite& suite, const core::RobotModel& model,
+                                 const Task& task, const std::string& bin_dir,
+                                 const std::string& url, const std::string& participant) {
+  const auto n = static_cast<size_t>(model.num_joints());
+  std::vector<std::string> sim_argv = {bin_dir + "/sirupp-sim",
                                        "--model",
                                        suite.model_file,
                                        "--lcm-url",
@@ -230,6 +158,198 @@ TaskRecord RunTask(const Suite& suite, const core::RobotModel& model, const Task
                     {"--friction-scale", core::FormatNumber(task.arm.friction_scale)});
   }
   if (task.arm.gravity_off) sim_argv.push_back("--gravity-off");
+  return sim_argv;
+}
+
+// Why the task is given up while its processes run, or "" to go on: no answer to the first
+// state within the start limit, a tick not answered within the per-tick limit (`grace_s`), the
+// plan not taken, or the task over its wall-time limit.
+std::string StallFailure(const Limits& limits, int64_t controller_tick, int64_t last_state,
+                         int64_t answered, double stalled, double grace_s, double elapsed) {
+  if (controller_tick < 0 && stalled > limits.start_s) {
+    return "never answered: no answer to the first state within " +
+           core::FormatNumber(limits.start_s) + " s (the start limit)";
+  } else if (controller_tick >= 0 && controller_tick < last_state && stalled > grace_s) {
+    return "did not answer tick " + std::to_string(last_state) + " within " +
+           core::FormatNumber(limits.tick_s) + " s (the per-tick limit): a hang?";
+  } else if (answered < 0 && stalled > limits.start_s) {
+    return "the plan was not taken within " + core::FormatNumber(limits.start_s) + " s";
+  } else if (elapsed > limits.task_s) {
+    return "took longer than " + core::FormatNumber(limits.task_s) +
+           " s of wall time (the per-task limit) at tick " + std::to_string(last_state);
+  }
+  return "";
+}
+
+// The record of a run that ended cleanly: ticks 0..last_state, each with its state; a row without
+// the controller's command (or set-point) repeats the row before and counts as missing.
+void FillRecord(TickRows& tick_rows, int64_t last_state, bool via_control,
+                const core::RobotModel& model, const Task& task, TaskRecord& record) {
+  const auto n = static_cast<size_t>(model.num_joints());
+  std::vector<double>& position = tick_rows.position;
+  std::vector<double>& reference = tick_rows.reference;
+  std::vector<double>& goal = tick_rows.goal;
+  std::vector<double>& effort = tick_rows.effort;
+  const std::vector<char>& have_state = tick_rows.have_state;
+  const std::vector<char>& have_command = tick_rows.have_command;
+  const std::vector<char>& have_setpoint = tick_rows.have_setpoint;
+  // The run: ticks 0..last_state, each with its state.
+  const auto rows = static_cast<size_t>(last_state + 1);
+  record.completed = true;
+  for (size_t row = 0; row < rows; ++row) {
+    if (have_state[row] == 0) {
+      record.completed = false;
+      record.failure = "the grader missed the state of tick " + std::to_string(row);
+      return;
+    }
+    const bool command = have_command[row] != 0;
+    const bool setpoint = !via_control || have_setpoint[row] != 0;
+    if (!command || !setpoint) ++record.missing_rows;
+    record.time_s.push_back(static_cast<double>(row) * model.servo_tick_s);
+    for (size_t j = 0; j < n; ++j) {
+      const size_t at = row * n + j;
+      const size_t before = row > 0 ? at - n : at;
+      record.position.push_back(position[at]);
+      if (via_control && !setpoint && row > 0) {
+        reference[at] = reference[before];
+        goal[at] = goal[before];
+      }
+      if (task.track) {
+        // Every controller is measured against the path and the task's goal (the path ends where
+        // it starts, so no joint makes a step); the chip's set-point is kept apart.
+        const double path = ReferenceAt(task, record.time_s.back())[j].position;
+        record.reference.push_back(path);
+        record.goal.push_back(task.goal[j]);
+        if (via_control && setpoint && static_cast<int>(j) == task.track->joint) {
+          record.setpoint_deviation =
+              std::max(record.setpoint_deviation, std::abs(reference[at] - path));
+        }
+      } else if (via_control) {
+        record.reference.push_back(setpoint || row > 0 ? reference[at] : position[at]);
+        record.goal.push_back(setpoint || row > 0 ? goal[at] : position[at]);
+      } else {
+        record.reference.push_back(task.goal[j]);
+        record.goal.push_back(task.goal[j]);
+      }
+      if (!command && row > 0) effort[at] = effort[before];
+      record.effort.push_back(effort[at]);
+    }
+  }
+  if (rows * model.servo_tick_s + 2 * model.servo_tick_s < task.duration_s) {
+    record.completed = false;
+    record.failure = "the sim ended after " + std::to_string(rows) + " ticks, before the task's " +
+                     core::FormatNumber(task.duration_s) + " s";
+  }
+}
+
+}  // namespace
+
+TaskRecord RunTask(const Suite& suite, const core::RobotModel& model, const Task& task,
+                   const ControllerSpec& controller, const RunOptions& options) {
+  const auto n = static_cast<size_t>(model.num_joints());
+  const bool via_control = controller.kind != ControllerSpec::Kind::kProcess;
+  const std::string participant = via_control ? "sirupp-control" : "student";
+  TaskRecord record;
+  record.num_joints = model.num_joints();
+  record.tick_s = model.servo_tick_s;
+  record.has_reference = via_control || task.track.has_value();
+
+  // Rows by tick, filled as the messages come.
+  const auto expected = static_cast<size_t>(std::ceil(task.duration_s / model.servo_tick_s)) + 4;
+  TickRows rows(expected, n);
+  int64_t last_state = -1;       // newest tick whose state arrived
+  int64_t answered = -1;         // newest tick the grader answered
+  int64_t controller_tick = -1;  // newest tick the controller answered
+  std::string failure;
+  Clock::time_point progress = Clock::now();
+
+  core::Bus bus(options.lcm_url);
+  PlanDriver driver(bus, suite.limits.start_s);
+  const core::Channels channels;
+  const auto answer = [&](int64_t tick) {
+    bus.Publish(channels.sim_arm_command, GraderAnswer(model, task, tick));
+    answered = std::max(answered, tick);
+  };
+  const auto may_answer = [&](int64_t tick) {
+    return tick > 0 || !via_control || driver.PlanAccepted();
+  };
+  bus.Subscribe<sirupp::arm_state_t>(
+      channels.sim_arm_state, [&](const sirupp::arm_state_t& m, const core::ReceiveInfo&) {
+        if (m.tick < 0 || static_cast<size_t>(m.tick) >= expected ||
+            m.num_joints != model.num_joints()) {
+          return;
+        }
+        const auto row = static_cast<size_t>(m.tick);
+        if (m.tick > last_state) {
+          last_state = m.tick;
+          progress = Clock::now();
+          rows.have_state[row] = 1;
+          std::copy(m.position.begin(), m.position.end(),
+                    rows.position.begin() + static_cast<long>(row * n));
+        }
+        // A state sent again (the sim's lockstep timeout) is answered again.
+        if (m.tick == last_state && may_answer(m.tick)) answer(m.tick);
+      });
+  bus.Subscribe<sirupp::arm_command_t>(
+      channels.sim_arm_command, [&](const sirupp::arm_command_t& m, const core::ReceiveInfo&) {
+        if (m.sender != participant || m.tick < 0 || static_cast<size_t>(m.tick) >= expected)
+          return;
+        const auto row = static_cast<size_t>(m.tick);
+        controller_tick = std::max(controller_tick, m.tick);
+        if (rows.have_command[row] != 0) return;
+        rows.have_command[row] = 1;
+        if (m.mode != sirupp::arm_command_t::MODE_EFFORT || m.num_joints != model.num_joints())
+          return;
+        for (size_t j = 0; j < n; ++j) {
+          const double e = m.effort[j];
+          if (!std::isfinite(e) && failure.empty()) {
+            failure = "returned effort " + core::FormatNumber(e) + " for joint " +
+                      std::to_string(j + 1) + " at tick " + std::to_string(m.tick) +
+                      " (allowed: finite values)";
+          }
+          const double limit = model.joints[j].effort_max;
+          rows.effort[row * n + j] = std::isfinite(e) ? std::clamp(e, -limit, limit) : 0.0;
+        }
+      });
+  bus.Subscribe<sirupp::servo_setpoint_t>(
+      channels.arm_setpoint, [&](const sirupp::servo_setpoint_t& m, const core::ReceiveInfo&) {
+        if (m.tick < 0 || static_cast<size_t>(m.tick) >= expected ||
+            m.num_joints != model.num_joints()) {
+          return;
+        }
+        const auto row = static_cast<size_t>(m.tick);
+        if (rows.have_setpoint[row] != 0) return;
+        rows.have_setpoint[row] = 1;
+        std::copy(m.position.begin(), m.position.end(),
+                  rows.reference.begin() + static_cast<long>(row * n));
+        std::copy(m.goal.begin(), m.goal.end(), rows.goal.begin() + static_cast<long>(row * n));
+      });
+
+  // The controller first (it must hear the first state), then the sim.
+  Child control, sim;
+  std::vector<std::string> control_argv;
+  const std::string url = options.lcm_url;
+  if (via_control) {
+    control_argv = ControlArgv(suite, controller, options.bin_dir, url);
+  } else {
+    const std::string reference_file = options.work_dir + "/reference.csv";
+    control_argv = ExpandCommand(controller.command, model, task, url, participant, reference_file);
+    const bool wants_reference = std::any_of(
+        controller.command.begin(), controller.command.end(),
+        [](const std::string& word) { return word.find("{reference_csv}") != std::string::npos; });
+    if (wants_reference) {
+      try {
+        WriteReferenceCsv(reference_file, model, expected, [&](size_t tick) {
+          return ReferenceAt(task, static_cast<double>(tick) * model.servo_tick_s);
+        });
+      } catch (const std::exception& error) {
+        record.failure = std::string("could not write the reference: ") + error.what();
+        return record;
+      }
+    }
+  }
+  const std::vector<std::string> sim_argv =
+      SimArgv(suite, model, task, options.bin_dir, url, participant);
 
   const Clock::time_point start = Clock::now();
   try {
@@ -274,19 +394,8 @@ TaskRecord RunTask(const Suite& suite, const core::RobotModel& model, const Task
                 std::to_string(std::max<int64_t>(last_state, 0)) + ": " + control.LogTail(2);
       break;
     }
-    const double stalled = Since(progress);
-    if (controller_tick < 0 && stalled > suite.limits.start_s) {
-      failure = "never answered: no answer to the first state within " +
-                core::FormatNumber(suite.limits.start_s) + " s (the start limit)";
-    } else if (controller_tick >= 0 && controller_tick < last_state && stalled > grace_s) {
-      failure = "did not answer tick " + std::to_string(last_state) + " within " +
-                core::FormatNumber(suite.limits.tick_s) + " s (the per-tick limit): a hang?";
-    } else if (answered < 0 && stalled > suite.limits.start_s) {
-      failure = "the plan was not taken within " + core::FormatNumber(suite.limits.start_s) + " s";
-    } else if (Since(start) > suite.limits.task_s) {
-      failure = "took longer than " + core::FormatNumber(suite.limits.task_s) +
-                " s of wall time (the per-task limit) at tick " + std::to_string(last_state);
-    }
+    failure = StallFailure(suite.limits, controller_tick, last_state, answered, Since(progress),
+                           grace_s, Since(start));
   }
   sim.Stop(1.0);
   control.Stop(1.0);
@@ -295,53 +404,7 @@ TaskRecord RunTask(const Suite& suite, const core::RobotModel& model, const Task
     record.failure = failure;
     return record;
   }
-  // The run: ticks 0..last_state, each with its state.
-  const auto rows = static_cast<size_t>(last_state + 1);
-  record.completed = true;
-  for (size_t row = 0; row < rows; ++row) {
-    if (have_state[row] == 0) {
-      record.completed = false;
-      record.failure = "the grader missed the state of tick " + std::to_string(row);
-      return record;
-    }
-    const bool command = have_command[row] != 0;
-    const bool setpoint = !via_control || have_setpoint[row] != 0;
-    if (!command || !setpoint) ++record.missing_rows;
-    record.time_s.push_back(static_cast<double>(row) * model.servo_tick_s);
-    for (size_t j = 0; j < n; ++j) {
-      const size_t at = row * n + j;
-      const size_t before = row > 0 ? at - n : at;
-      record.position.push_back(position[at]);
-      if (via_control && !setpoint && row > 0) {
-        reference[at] = reference[before];
-        goal[at] = goal[before];
-      }
-      if (task.track) {
-        // Every controller is measured against the path and the task's goal (the path ends where
-        // it starts, so no joint makes a step); the chip's set-point is kept apart.
-        const double path = ReferenceAt(task, record.time_s.back())[j].position;
-        record.reference.push_back(path);
-        record.goal.push_back(task.goal[j]);
-        if (via_control && setpoint && static_cast<int>(j) == task.track->joint) {
-          record.setpoint_deviation =
-              std::max(record.setpoint_deviation, std::abs(reference[at] - path));
-        }
-      } else if (via_control) {
-        record.reference.push_back(setpoint || row > 0 ? reference[at] : position[at]);
-        record.goal.push_back(setpoint || row > 0 ? goal[at] : position[at]);
-      } else {
-        record.reference.push_back(task.goal[j]);
-        record.goal.push_back(task.goal[j]);
-      }
-      if (!command && row > 0) effort[at] = effort[before];
-      record.effort.push_back(effort[at]);
-    }
-  }
-  if (rows * model.servo_tick_s + 2 * model.servo_tick_s < task.duration_s) {
-    record.completed = false;
-    record.failure = "the sim ended after " + std::to_string(rows) + " ticks, before the task's " +
-                     core::FormatNumber(task.duration_s) + " s";
-  }
+  FillRecord(rows, last_state, via_control, model, task, record);
   return record;
 }
 

@@ -81,25 +81,119 @@ void ParseFaults(const sirupp::runtime::Args& args, const std::string& flag, Tim
   }
 }
 
+// --start-pose NAME: the model's named pose.
+std::vector<double> StartPose(const sirupp::runtime::Args& args,
+                              const sirupp::core::RobotModel& model) {
+  const sirupp::core::NamedPose* pose = model.FindNamedPose(args.String("start-pose"));
+  if (pose == nullptr) {
+    std::string names;
+    for (const auto& named : model.named_poses) {
+      names += (names.empty() ? "" : ", ") + named.name;
+    }
+    throw UsageError(std::string(kName) + ": --start-pose '" + args.String("start-pose") +
+                     "': allowed " + names);
+  }
+  return pose->position;
+}
+
+// --start-joints: one value per joint (revolute in degrees, prismatic in metres), as one quoted
+// value "a b c" or separate values; SI, each within its joint's limits.
+std::vector<double> StartJoints(const sirupp::runtime::Args& args,
+                                const sirupp::core::RobotModel& model) {
+  const int joints = model.num_joints();
+  std::vector<std::string> words;
+  for (const std::string& value : args.Values("start-joints", -1)) {
+    std::istringstream split(value);
+    for (std::string word; split >> word;) words.push_back(word);
+  }
+  if (static_cast<int>(words.size()) != joints) {
+    throw UsageError(std::string(kName) + ": --start-joints: " + std::to_string(words.size()) +
+                     " values given; allowed exactly " + std::to_string(joints) +
+                     " (one per joint: revolute in degrees, prismatic in metres)");
+  }
+  std::vector<double> values;
+  for (size_t j = 0; j < words.size(); ++j) {
+    values.push_back(sirupp::runtime::ParseNumberArg(
+        words[j], std::string(kName) + " --start-joints value " + std::to_string(j + 1)));
+  }
+  std::vector<double> positions = sirupp::runtime::FromDegrees(values, model);
+  for (size_t j = 0; j < words.size(); ++j) {
+    const sirupp::core::Joint& joint = model.joints[j];
+    const double q = positions[j];
+    if (!(q >= joint.position_min && q <= joint.position_max)) {
+      throw UsageError(std::string(kName) + ": --start-joints value " + std::to_string(j + 1) +
+                       " (" + joint.name + ") " + words[j] + ": allowed " +
+                       sirupp::core::FormatNumber(joint.position_min) + ".." +
+                       sirupp::core::FormatNumber(joint.position_max) + " rad or m");
+    }
+  }
+  return positions;
+}
+
+// Fires the timed faults that are due at `t` seconds after the start, each once.
+void FireDueFaults(sirupp::hardware::Emulator& emulator, std::vector<TimedFault>& faults,
+                   double t) {
+  for (TimedFault& fault : faults) {
+    if (fault.done || t < fault.at_s) continue;
+    fault.done = true;
+    if (fault.kind == TimedFault::kSilent) emulator.SetSilent(fault.module_index, true);
+    if (fault.kind == TimedFault::kOvercurrent) emulator.TriggerOvercurrent(fault.module_index);
+    if (fault.kind == TimedFault::kPositionError) {
+      emulator.TriggerPositionErrorTrip(fault.module_index);
+    }
+    std::cerr << kName << ": fault at " << sirupp::core::FormatNumber(t) << " s on module "
+              << fault.module_index + 1 << "\n";
+  }
+}
+
+void PrintCounters(const sirupp::hardware::Emulator& emulator) {
+  const sirupp::hardware::EmulatorCounters c = emulator.counters();
+  std::cout << kName << ": stopped: " << c.commands_received << " commands, " << c.checksum_errors
+            << " checksum errors, " << c.replies_sent << " replies, " << c.bytes_dropped
+            << " bytes dropped, " << c.servo_ticks << " servo ticks stepped (" << c.ticks_caught_up
+            << " caught up late, " << c.ticks_slipped << " slipped in " << c.slips
+            << " slips; at most " << Milliseconds(c.max_lateness_s) << " behind the wall clock), "
+            << c.packet_timeouts << " packet timeouts, " << c.bytes_skipped
+            << " bytes skipped, line at " << c.baud << " baud";
+  if (emulator.on_socket()) std::cout << ", " << c.connections << " client connections";
+  std::cout << std::endl;
+}
+
+std::vector<Flag> EmuFlags() {
+  return {
+      sirupp::runtime::ModelFlag(),
+      Flag("modules", "number of modules, 1..32").Takes("N").Integer(1, 32),
+      Flag("link", "symbolic link to the device").Takes("PATH"),
+      Flag("socket", "Unix socket path for the line, instead of a pty").Takes("PATH"),
+      Flag("friction-scale", "static and Coulomb friction factor").Takes("S").AtLeast(0),
+      Flag("real-arm", "real-arm effects file").Takes("FILE"),
+      Flag("start-pose", "named pose of the model to power up in").Takes("NAME"),
+      Flag("start-joints", "joint values to power up in: revolute in degrees, prismatic in metres")
+          .Takes("Q", -1),
+      Flag("seed", "random seed of the faults").Takes("S").Integer(0, 4294967295L),
+      Flag("checksum-errors", "probability 0..1").Takes("P").Range(0, 1),
+      Flag("drop-bytes", "probability 0..1").Takes("P").Range(0, 1),
+      Flag("silent-module", "K or K@SECONDS").Takes("K[@S]"),
+      Flag("overcurrent", "K or K@SECONDS").Takes("K[@S]"),
+      Flag("pos-error-trip", "K or K@SECONDS").Takes("K[@S]"),
+      sirupp::runtime::RtPriorityFlag()};
+}
+
+// Where the modules listen: the device to open (or the socket), and its link.
+void PrintLine(const sirupp::hardware::Emulator& emulator,
+               const sirupp::hardware::EmulatorOptions& options) {
+  std::cout << kName << ": " << emulator.num_modules() << " modules on ";
+  if (emulator.on_socket()) {
+    std::cout << "the socket " << options.socket;
+  } else {
+    std::cout << emulator.slave_path();
+  }
+  if (!options.link.empty()) std::cout << " (linked as " << options.link << ")";
+  std::cout << std::endl;
+}
+
 int Run(const std::vector<std::string>& argv) {
-  const sirupp::runtime::Args args(
-      argv, kName,
-      {sirupp::runtime::ModelFlag(),
-       Flag("modules", "number of modules, 1..32").Takes("N").Integer(1, 32),
-       Flag("link", "symbolic link to the device").Takes("PATH"),
-       Flag("socket", "Unix socket path for the line, instead of a pty").Takes("PATH"),
-       Flag("friction-scale", "static and Coulomb friction factor").Takes("S").AtLeast(0),
-       Flag("real-arm", "real-arm effects file").Takes("FILE"),
-       Flag("start-pose", "named pose of the model to power up in").Takes("NAME"),
-       Flag("start-joints", "joint values to power up in: revolute in degrees, prismatic in metres")
-           .Takes("Q", -1),
-       Flag("seed", "random seed of the faults").Takes("S").Integer(0, 4294967295L),
-       Flag("checksum-errors", "probability 0..1").Takes("P").Range(0, 1),
-       Flag("drop-bytes", "probability 0..1").Takes("P").Range(0, 1),
-       Flag("silent-module", "K or K@SECONDS").Takes("K[@S]"),
-       Flag("overcurrent", "K or K@SECONDS").Takes("K[@S]"),
-       Flag("pos-error-trip", "K or K@SECONDS").Takes("K[@S]"), sirupp::runtime::RtPriorityFlag()},
-      kAbout);
+  const sirupp::runtime::Args args(argv, kName, EmuFlags(), kAbout);
   const int rt_priority = static_cast<int>(args.Integer("rt-priority", 0));
   sirupp::hardware::EmulatorOptions options;
   options.model = sirupp::core::LoadRobotModel(sirupp::runtime::ModelFileArg(args));
@@ -124,47 +218,8 @@ int Run(const std::vector<std::string>& argv) {
   if (args.Has("start-pose") && args.Has("start-joints")) {
     throw UsageError(std::string(kName) + ": give --start-pose or --start-joints, not both");
   }
-  if (args.Has("start-pose")) {
-    const sirupp::core::NamedPose* pose = options.model.FindNamedPose(args.String("start-pose"));
-    if (pose == nullptr) {
-      std::string names;
-      for (const auto& named : options.model.named_poses) {
-        names += (names.empty() ? "" : ", ") + named.name;
-      }
-      throw UsageError(std::string(kName) + ": --start-pose '" + args.String("start-pose") +
-                       "': allowed " + names);
-    }
-    options.start_positions = pose->position;
-  }
-  if (args.Has("start-joints")) {
-    // One quoted value "a b c" or separate values.
-    std::vector<std::string> words;
-    for (const std::string& value : args.Values("start-joints", -1)) {
-      std::istringstream split(value);
-      for (std::string word; split >> word;) words.push_back(word);
-    }
-    if (static_cast<int>(words.size()) != joints) {
-      throw UsageError(std::string(kName) + ": --start-joints: " + std::to_string(words.size()) +
-                       " values given; allowed exactly " + std::to_string(joints) +
-                       " (one per joint: revolute in degrees, prismatic in metres)");
-    }
-    std::vector<double> values;
-    for (size_t j = 0; j < words.size(); ++j) {
-      values.push_back(sirupp::runtime::ParseNumberArg(
-          words[j], std::string(kName) + " --start-joints value " + std::to_string(j + 1)));
-    }
-    options.start_positions = sirupp::runtime::FromDegrees(values, options.model);
-    for (size_t j = 0; j < words.size(); ++j) {
-      const sirupp::core::Joint& joint = options.model.joints[j];
-      const double q = options.start_positions[j];
-      if (!(q >= joint.position_min && q <= joint.position_max)) {
-        throw UsageError(std::string(kName) + ": --start-joints value " + std::to_string(j + 1) +
-                         " (" + joint.name + ") " + words[j] + ": allowed " +
-                         sirupp::core::FormatNumber(joint.position_min) + ".." +
-                         sirupp::core::FormatNumber(joint.position_max) + " rad or m");
-      }
-    }
-  }
+  if (args.Has("start-pose")) options.start_positions = StartPose(args, options.model);
+  if (args.Has("start-joints")) options.start_positions = StartJoints(args, options.model);
   options.seed = static_cast<uint32_t>(args.Integer("seed", static_cast<long>(options.seed)));
   options.checksum_error_rate = args.Number("checksum-errors", options.checksum_error_rate);
   options.drop_rate = args.Number("drop-bytes", options.drop_rate);
@@ -187,44 +242,18 @@ int Run(const std::vector<std::string>& argv) {
   }
   sirupp::runtime::RequestRealtimePriority(rt_priority, kName);  // before the thread: it inherits
   emulator->Start();
-  std::cout << kName << ": " << emulator->num_modules() << " modules on ";
-  if (emulator->on_socket()) {
-    std::cout << "the socket " << options.socket;
-  } else {
-    std::cout << emulator->slave_path();
-  }
-  if (!options.link.empty()) std::cout << " (linked as " << options.link << ")";
-  std::cout << std::endl;
+  PrintLine(*emulator, options);
 
   const auto start = std::chrono::steady_clock::now();
   sirupp::runtime::ServiceUntilSignal([&] {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
     const double t =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    for (TimedFault& fault : faults) {
-      if (fault.done || t < fault.at_s) continue;
-      fault.done = true;
-      if (fault.kind == TimedFault::kSilent) emulator->SetSilent(fault.module_index, true);
-      if (fault.kind == TimedFault::kOvercurrent) emulator->TriggerOvercurrent(fault.module_index);
-      if (fault.kind == TimedFault::kPositionError) {
-        emulator->TriggerPositionErrorTrip(fault.module_index);
-      }
-      std::cerr << kName << ": fault at " << sirupp::core::FormatNumber(t) << " s on module "
-                << fault.module_index + 1 << "\n";
-    }
+    FireDueFaults(*emulator, faults, t);
     return true;
   });
   emulator->Stop();
-  const sirupp::hardware::EmulatorCounters c = emulator->counters();
-  std::cout << kName << ": stopped: " << c.commands_received << " commands, " << c.checksum_errors
-            << " checksum errors, " << c.replies_sent << " replies, " << c.bytes_dropped
-            << " bytes dropped, " << c.servo_ticks << " servo ticks stepped (" << c.ticks_caught_up
-            << " caught up late, " << c.ticks_slipped << " slipped in " << c.slips
-            << " slips; at most " << Milliseconds(c.max_lateness_s) << " behind the wall clock), "
-            << c.packet_timeouts << " packet timeouts, " << c.bytes_skipped
-            << " bytes skipped, line at " << c.baud << " baud";
-  if (emulator->on_socket()) std::cout << ", " << c.connections << " client connections";
-  std::cout << std::endl;
+  PrintCounters(*emulator);
   return 0;
 }
 

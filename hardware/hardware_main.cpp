@@ -40,26 +40,11 @@ constexpr const char* kAbout =
     "  a busy machine does not delay the replies past their timeout (docs/timing.md).\n"
     "On SIGINT or SIGTERM, and on a fatal error: motors stop, servos off, amplifiers disabled.\n";
 
-int Run(const std::vector<std::string>& argv) {
+// The settings file (--settings, default config/hardware/puma260.yaml) with --port, --baud,
+// --rate and --emulated over it.
+sirupp::hardware::BridgeSettings SettingsFromArgs(const sirupp::runtime::Args& args,
+                                                  const sirupp::core::RobotModel& model) {
   using sirupp::core::UsageError;
-  const sirupp::runtime::Args args(
-      argv, "sirupp-hardware",
-      {Flag("port", "serial device").Takes("DEVICE"),
-       Flag("settings", "bridge settings file").Takes("FILE"), sirupp::runtime::ModelFlag(),
-       Flag("baud", "baud rate").Takes("N"),
-       Flag("rate", "poll rate in Hz").Takes("HZ").Range(1, 1000),
-       Flag("emulated", "the arm is the emulator").Switch(),
-       Flag("calibrate", "calibrate at start-up").Switch(), Flag("arm", "arm at start-up").Switch(),
-       Flag("link", "link at start-up").Switch(),
-       Flag("no-connect", "do not connect at start-up").Switch(),
-       Flag("trace", "print every packet").Switch(), Flag("name", "process name").Takes("NAME"),
-       Flag("lcm-url", "LCM URL").Takes("URL"),
-       Flag("prefix", "channel prefix of the rig").Takes("PREFIX"),
-       sirupp::runtime::RtPriorityFlag()},
-      kAbout);
-  const int rt_priority = static_cast<int>(args.Integer("rt-priority", 0));
-  const sirupp::core::RobotModel model =
-      sirupp::core::LoadRobotModel(sirupp::runtime::ModelFileArg(args));
   sirupp::hardware::BridgeSettings settings = sirupp::hardware::LoadBridgeSettings(
       sirupp::runtime::ResolveDataPath(args.Has("settings") ? args.String("settings")
                                                             : "config/hardware/puma260.yaml"),
@@ -85,17 +70,84 @@ int Run(const std::vector<std::string>& argv) {
     // scheduler is not a broken line, so it gets longer to come (only failed exchanges wait it).
     settings.reply_margin_ms = std::max(settings.reply_margin_ms, 100);
   }
-  const bool connect = !args.Switch("no-connect");
-  const bool calibrate = args.Switch("calibrate");
-  const bool arm = args.Switch("arm");
-  const bool link_at_start = args.Switch("link");
-  if ((calibrate || arm || link_at_start) && !connect) {
+  return settings;
+}
+
+// What to do at start-up, in this order (--no-connect, --calibrate, --arm, --link).
+struct StartSteps {
+  bool connect = true;
+  bool calibrate = false;
+  bool arm = false;
+  bool link = false;
+};
+
+StartSteps StartStepsFromArgs(const sirupp::runtime::Args& args) {
+  using sirupp::core::UsageError;
+  StartSteps steps;
+  steps.connect = !args.Switch("no-connect");
+  steps.calibrate = args.Switch("calibrate");
+  steps.arm = args.Switch("arm");
+  steps.link = args.Switch("link");
+  if ((steps.calibrate || steps.arm || steps.link) && !steps.connect) {
     throw UsageError(
         "sirupp-hardware: --calibrate, --arm and --link need the connection (drop --no-connect)");
   }
-  if ((arm && !calibrate) || (link_at_start && !arm)) {
+  if ((steps.arm && !steps.calibrate) || (steps.link && !steps.arm)) {
     throw UsageError("sirupp-hardware: --link needs --arm, and --arm needs --calibrate");
   }
+  return steps;
+}
+
+// Connects, calibrates, arms and links as asked. A refused calibration is not an error of the
+// process: it stays up, connected and uncalibrated, saying why, and neither arms nor links.
+void DoStartSteps(sirupp::hardware::BridgeNode& node, sirupp::hardware::ArmLink& link,
+                  const sirupp::hardware::BridgeSettings& settings, const StartSteps& steps) {
+  if (steps.connect) {
+    node.Connect();  // prints how it found the boards when they had kept power
+    std::cerr << "sirupp-hardware: " << link.bus().modules().size() << " modules on "
+              << settings.port << " at " << settings.baud << " baud\n";
+  }
+  bool calibrated = link.calibrated();
+  if (steps.calibrate && link.resumed()) {
+    std::cerr << "sirupp-hardware: calibration kept from the boards' counters; not calibrating "
+                 "again\n";
+  } else if (steps.calibrate) {
+    try {
+      node.Calibrate();
+      calibrated = true;
+      std::cerr << "sirupp-hardware: calibrated (pose " << settings.calibration_pose << ")\n";
+    } catch (const sirupp::hardware::CalibrationRefused& refused) {
+      std::cerr << "sirupp-hardware: " << refused.what() << "\n";
+      if (steps.arm || steps.link) {
+        std::cerr << "sirupp-hardware: not arming or linking: not calibrated\n";
+      }
+    }
+  }
+  if (steps.arm && calibrated) node.Arm();
+  if (steps.link && calibrated) node.Link();
+}
+
+int Run(const std::vector<std::string>& argv) {
+  const sirupp::runtime::Args args(
+      argv, "sirupp-hardware",
+      {Flag("port", "serial device").Takes("DEVICE"),
+       Flag("settings", "bridge settings file").Takes("FILE"), sirupp::runtime::ModelFlag(),
+       Flag("baud", "baud rate").Takes("N"),
+       Flag("rate", "poll rate in Hz").Takes("HZ").Range(1, 1000),
+       Flag("emulated", "the arm is the emulator").Switch(),
+       Flag("calibrate", "calibrate at start-up").Switch(), Flag("arm", "arm at start-up").Switch(),
+       Flag("link", "link at start-up").Switch(),
+       Flag("no-connect", "do not connect at start-up").Switch(),
+       Flag("trace", "print every packet").Switch(), Flag("name", "process name").Takes("NAME"),
+       Flag("lcm-url", "LCM URL").Takes("URL"),
+       Flag("prefix", "channel prefix of the rig").Takes("PREFIX"),
+       sirupp::runtime::RtPriorityFlag()},
+      kAbout);
+  const int rt_priority = static_cast<int>(args.Integer("rt-priority", 0));
+  const sirupp::core::RobotModel model =
+      sirupp::core::LoadRobotModel(sirupp::runtime::ModelFileArg(args));
+  const sirupp::hardware::BridgeSettings settings = SettingsFromArgs(args, model);
+  const StartSteps steps = StartStepsFromArgs(args);
 
   sirupp::runtime::RequestRealtimePriority(rt_priority, "sirupp-hardware");
   sirupp::hardware::SerialPort port(settings.port, sirupp::hardware::nmc::kPowerUpBaud);
@@ -109,30 +161,7 @@ int Run(const std::vector<std::string>& argv) {
   if (args.Has("name")) options.name = args.String("name");
   sirupp::hardware::BridgeNode node(bus, model, link, settings, options);
   try {
-    if (connect) {
-      node.Connect();  // prints how it found the boards when they had kept power
-      std::cerr << "sirupp-hardware: " << link.bus().modules().size() << " modules on "
-                << settings.port << " at " << settings.baud << " baud\n";
-    }
-    bool calibrated = link.calibrated();
-    if (calibrate && link.resumed()) {
-      std::cerr << "sirupp-hardware: calibration kept from the boards' counters; not calibrating "
-                   "again\n";
-    } else if (calibrate) {
-      try {
-        node.Calibrate();
-        calibrated = true;
-        std::cerr << "sirupp-hardware: calibrated (pose " << settings.calibration_pose << ")\n";
-      } catch (const sirupp::hardware::CalibrationRefused& refused) {
-        // Not an error of the process: it stays up, connected and uncalibrated, saying why.
-        std::cerr << "sirupp-hardware: " << refused.what() << "\n";
-        if (arm || link_at_start) {
-          std::cerr << "sirupp-hardware: not arming or linking: not calibrated\n";
-        }
-      }
-    }
-    if (arm && calibrated) node.Arm();
-    if (link_at_start && calibrated) node.Link();
+    DoStartSteps(node, link, settings, steps);
     std::cerr << "sirupp-hardware: " << model.name << ", "
               << (node.linked()               ? "linked"
                   : link.armed()              ? "armed"

@@ -57,34 +57,10 @@ std::string WithReceiveBuffer(std::string url, int64_t bytes) {
          "recv_buf_size=" + std::to_string(bytes);
 }
 
-int Run(const std::vector<std::string>& argv) {
-  const sirupp::runtime::Args args(
-      argv, "sirupp-logger",
-      {Flag("out", "folder of the data files (default logs)").Takes("DIR"),
-       Flag("name", "file name stem (default sirupp-YYYYmmdd-HHMMSS)").Takes("NAME"),
-       Flag("split", "one file per movement set (plan) or one for the run (none)")
-           .Takes("MODE")
-           .OneOf({"plan", "none"}),
-       Flag("rate", "row clock in Hz (default: the model's servo tick)").Takes("HZ"),
-       Flag("max-age", "a stream older than this leaves its cell empty (default 0.025)").Takes("S"),
-       Flag("idle", "rows stop after the bus is quiet this long (default 0.05)").Takes("S"),
-       Flag("velocities", "also the joint velocities").Switch(),
-       Flag("efforts", "also the joint efforts").Switch(),
-       Flag("note", "a line for the files' header").Takes("TEXT", -1),
-       Flag("duration", "stop after this many seconds").Takes("S"),
-       Flag("recv-buf", "udpm receive buffer (default 2097152; 0: LCM's default)").Takes("BYTES"),
-       sirupp::runtime::ModelFlag(), Flag("lcm-url", "LCM URL").Takes("URL"),
-       Flag("prefix", "channel prefix of the rig").Takes("PREFIX"),
-       Flag("raw",
-            "also record every message on the bus in lcm-logger's format, stamped with the "
-            "receive times the rows were aligned with (each recorded run: a new file)")
-           .Takes("FILE"),
-       Flag("from-log",
-            "no bus: write the data files again from such a raw log; --prefix as recorded")
-           .Takes("LOG")},
-      kAbout);
-  const sirupp::core::RobotModel model =
-      sirupp::core::LoadRobotModel(sirupp::runtime::ModelFileArg(args));
+// The data files' options: --out, --name, --split, --rate, --max-age, --idle, --velocities,
+// --efforts, --note.
+sirupp::logger::LoggerOptions LoggerOptionsFromArgs(const sirupp::runtime::Args& args,
+                                                    const sirupp::core::RobotModel& model) {
   sirupp::logger::LoggerOptions options;
   if (args.Has("out")) options.out_dir = args.String("out");
   if (args.Has("name")) {
@@ -115,7 +91,11 @@ int Run(const std::vector<std::string>& argv) {
       options.note += (options.note.empty() ? "" : " ") + word;
     }
   }
-  const double duration_s = PositiveSeconds(args, "duration", 0);
+  return options;
+}
+
+// --recv-buf in bytes (default 2 MiB; 0: LCM's default).
+int64_t ReceiveBufferArg(const sirupp::runtime::Args& args) {
   double recv_buf = 2097152;
   if (args.Has("recv-buf")) {
     recv_buf = args.Numbers("recv-buf", 1)[0];
@@ -125,6 +105,60 @@ int Run(const std::vector<std::string>& argv) {
                                      ": allowed whole bytes from 0 to 1073741824");
     }
   }
+  return static_cast<int64_t>(recv_buf);
+}
+
+// The files written, then the error that ended the logging if there was one: exit 1 then.
+int ListFiles(const sirupp::logger::LoggerStats& stats) {
+  for (const std::string& file : stats.files) std::cerr << "  " << file << "\n";
+  if (!stats.error.empty()) {
+    std::cerr << "sirupp-logger: " << stats.error << "\n";
+    return 1;
+  }
+  return 0;
+}
+
+// --from-log LOG: the data files written again from a raw log, without a bus.
+int ReplayFromLog(const std::string& log, const sirupp::core::RobotModel& model,
+                  const sirupp::logger::LoggerOptions& options, const std::string& prefix) {
+  const sirupp::logger::LoggerStats stats =
+      sirupp::logger::ReplayRawLog(log, model, options, prefix);
+  std::cerr << "sirupp-logger: from " << log << ": " << stats.rows << " rows in "
+            << stats.files.size() << " file(s)\n";
+  return ListFiles(stats);
+}
+
+int Run(const std::vector<std::string>& argv) {
+  const sirupp::runtime::Args args(
+      argv, "sirupp-logger",
+      {Flag("out", "folder of the data files (default logs)").Takes("DIR"),
+       Flag("name", "file name stem (default sirupp-YYYYmmdd-HHMMSS)").Takes("NAME"),
+       Flag("split", "one file per movement set (plan) or one for the run (none)")
+           .Takes("MODE")
+           .OneOf({"plan", "none"}),
+       Flag("rate", "row clock in Hz (default: the model's servo tick)").Takes("HZ"),
+       Flag("max-age", "a stream older than this leaves its cell empty (default 0.025)").Takes("S"),
+       Flag("idle", "rows stop after the bus is quiet this long (default 0.05)").Takes("S"),
+       Flag("velocities", "also the joint velocities").Switch(),
+       Flag("efforts", "also the joint efforts").Switch(),
+       Flag("note", "a line for the files' header").Takes("TEXT", -1),
+       Flag("duration", "stop after this many seconds").Takes("S"),
+       Flag("recv-buf", "udpm receive buffer (default 2097152; 0: LCM's default)").Takes("BYTES"),
+       sirupp::runtime::ModelFlag(), Flag("lcm-url", "LCM URL").Takes("URL"),
+       Flag("prefix", "channel prefix of the rig").Takes("PREFIX"),
+       Flag("raw",
+            "also record every message on the bus in lcm-logger's format, stamped with the "
+            "receive times the rows were aligned with (each recorded run: a new file)")
+           .Takes("FILE"),
+       Flag("from-log",
+            "no bus: write the data files again from such a raw log; --prefix as recorded")
+           .Takes("LOG")},
+      kAbout);
+  const sirupp::core::RobotModel model =
+      sirupp::core::LoadRobotModel(sirupp::runtime::ModelFileArg(args));
+  sirupp::logger::LoggerOptions options = LoggerOptionsFromArgs(args, model);
+  const double duration_s = PositiveSeconds(args, "duration", 0);
+  const int64_t recv_buf = ReceiveBufferArg(args);
   const std::string prefix = args.Has("prefix") ? args.String("prefix") : "";
   if (args.Has("from-log")) {
     if (args.Has("raw") || args.Has("lcm-url") || args.Has("duration")) {
@@ -132,22 +166,11 @@ int Run(const std::vector<std::string>& argv) {
           "sirupp-logger: --from-log reads a recorded log: --raw, --lcm-url and --duration do not "
           "apply");
     }
-    const std::string log = args.String("from-log");
-    const sirupp::logger::LoggerStats stats =
-        sirupp::logger::ReplayRawLog(log, model, options, prefix);
-    std::cerr << "sirupp-logger: from " << log << ": " << stats.rows << " rows in "
-              << stats.files.size() << " file(s)\n";
-    for (const std::string& file : stats.files) std::cerr << "  " << file << "\n";
-    if (!stats.error.empty()) {
-      std::cerr << "sirupp-logger: " << stats.error << "\n";
-      return 1;
-    }
-    return 0;
+    return ReplayFromLog(args.String("from-log"), model, options, prefix);
   }
   if (args.Has("raw")) options.raw_log = args.String("raw");
-  sirupp::core::Bus bus(WithReceiveBuffer(args.Has("lcm-url") ? args.String("lcm-url") : "",
-                                          static_cast<int64_t>(recv_buf)),
-                        prefix);
+  sirupp::core::Bus bus(
+      WithReceiveBuffer(args.Has("lcm-url") ? args.String("lcm-url") : "", recv_buf), prefix);
   sirupp::logger::Recorder node(bus, model, options);
   std::cerr << "sirupp-logger: " << model.name << ", files " << options.out_dir << "/"
             << node.name() << (options.split_per_plan ? "-NN-SET.csv" : ".csv") << ", a row every "
@@ -172,12 +195,7 @@ int Run(const std::vector<std::string>& argv) {
             << " messages set " << stats.samples[0] << ", virt " << stats.samples[1] << ", real "
             << stats.samples[2] << "; lost set " << stats.lost[0] << ", virt " << stats.lost[1]
             << ", real " << stats.lost[2] << "\n";
-  for (const std::string& file : stats.files) std::cerr << "  " << file << "\n";
-  if (!stats.error.empty()) {
-    std::cerr << "sirupp-logger: " << stats.error << "\n";
-    return 1;
-  }
-  return 0;
+  return ListFiles(stats);
 }
 
 }  // namespace

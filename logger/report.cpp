@@ -142,49 +142,54 @@ std::vector<RunTable> ReadInputs(const std::vector<std::string>& given,
   return tables;
 }
 
-ReportOutput WriteReport(const std::vector<RunTable>& tables, const ReportOptions& options) {
-  std::vector<Analysis> analyses;
+namespace {
+
+// Every table analysed, with the notes of the inputs and of the analyses in input order.
+struct Analyses {
+  std::vector<Analysis> per_table;
   std::vector<std::string> notes;
   size_t moves = 0;
+};
+
+// Throws core::ConfigError (with the notes, which tell why) if no table holds a move to report.
+Analyses AnalyzeTables(const std::vector<RunTable>& tables, const AnalysisOptions& options) {
+  Analyses all;
   for (const RunTable& table : tables) {
-    analyses.push_back(Analyze(table, options.analysis));
-    moves += analyses.back().moves.size();
-    for (const std::string& note : table.notes) notes.push_back(note);
+    all.per_table.push_back(Analyze(table, options));
+    all.moves += all.per_table.back().moves.size();
+    for (const std::string& note : table.notes) all.notes.push_back(note);
     if (!table.continues.empty()) {
-      notes.push_back(table.source + " continues " + table.continues +
-                      " after a restart of the logger; the rows between the two were not logged");
+      all.notes.push_back(table.source + " continues " + table.continues +
+                          " after a restart of the logger; the rows between the two were not "
+                          "logged");
     }
-    for (const std::string& note : analyses.back().notes) notes.push_back(note);
+    for (const std::string& note : all.per_table.back().notes) all.notes.push_back(note);
   }
-  if (moves == 0) {
+  if (all.moves == 0) {
     std::string why;
-    for (const std::string& note : notes) why += "\n  " + note;
+    for (const std::string& note : all.notes) why += "\n  " + note;
     throw core::ConfigError(core::SourceLocation{tables.empty() ? "" : tables[0].source, 0, 0}, "",
                             "no move with a joint travelling at least " +
-                                core::FormatApprox(options.analysis.min_travel) +
-                                " deg (mm) to report" + why);
+                                core::FormatApprox(options.min_travel) + " deg (mm) to report" +
+                                why);
   }
+  return all;
+}
 
-  namespace fs = std::filesystem;
-  std::error_code error;
-  fs::create_directories(options.out_dir, error);
-  if (!fs::is_directory(options.out_dir)) {
-    throw std::runtime_error("--out " + options.out_dir + ": cannot create the directory");
-  }
-  ReportOutput output;
-  output.moves = moves;
-  const fs::path out(options.out_dir);
-
-  // Labels must give distinct plot names even when two inputs hold the same set.
+// One label per table, distinct even when two inputs hold the same set (it names the plots).
+std::vector<std::string> DistinctLabels(const std::vector<RunTable>& tables) {
   std::map<std::string, int> label_uses;
   std::vector<std::string> keys;
   for (const RunTable& table : tables) {
     const int use = ++label_uses[table.label];
     keys.push_back(use == 1 ? table.label : table.label + "-" + std::to_string(use));
   }
+  return keys;
+}
 
-  const AnalysisOptions& a = options.analysis;
-  std::string md = "# SIRUPP report\n\n## Inputs\n\n";
+std::string InputsSection(const std::vector<RunTable>& tables,
+                          const std::vector<std::string>& keys) {
+  std::string md = "## Inputs\n\n";
   md +=
       "| input | set | rows | time_s (s) | set-point / virtual / real samples | lost in the set "
       "(set / virt / real) | closed | real-time factor |\n|---|---|---|---|---|---|---|---|\n";
@@ -203,8 +208,12 @@ ReportOutput WriteReport(const std::vector<RunTable>& tables, const ReportOption
       "pace with the wall clock; below 1: it slipped). The real arm runs on the wall clock, so "
       "it is compared with the set-point and the virtual arm per move, from each move's own "
       "start, on its own clock: slipped sim time does not show as error.\n";
+  return md;
+}
 
-  md += "\n## Table II: error per movement set and joint\n\n";
+// Table II's heading, definitions and column header; its rows follow.
+std::string TableIIHead(const AnalysisOptions& a, const std::optional<ReferenceColumn>& reference) {
+  std::string md = "\n## Table II: error per movement set and joint\n\n";
   md +=
       "Error = second stream minus first, at the same sample time (rows that only repeat an older "
       "reading, as between two polls of a real arm, are left out); mean, RMS and maximum of its "
@@ -213,7 +222,6 @@ ReportOutput WriteReport(const std::vector<RunTable>& tables, const ReportOption
       core::FormatApprox(a.settle_window_s) +
       " s; steady state: from there until the next move or the end of the data. Degrees (mm for "
       "prismatic joints). \"-\": no common samples. Definitions: docs/logging.md.\n\n";
-  const std::optional<ReferenceColumn>& reference = options.reference;
   md +=
       "| Set | Move | Joint | Movement | Pair | Mean error, transient | Mean error, steady state "
       "| ";
@@ -222,6 +230,223 @@ ReportOutput WriteReport(const std::vector<RunTable>& tables, const ReportOption
   }
   md += std::string("RMS | Max |\n|---|---|---|---|---|---|---|") + (reference ? "---|---|" : "") +
         "---|---|\n";
+  return md;
+}
+
+// The response table's heading and definitions, then its rows.
+std::string ResponseSection(const AnalysisOptions& a, const std::string& rows) {
+  return "\n## Response per stream\n\nStart delay: from the move command until the stream has "
+         "moved " +
+         core::FormatApprox(a.start_threshold) +
+         " deg (mm) from where it was. Settling time: from the move command until the stream "
+         "stays within " +
+         core::FormatApprox(a.settle_band_fraction * 100) +
+         " % of the travel of its final value (its mean over the move's last " +
+         core::FormatApprox(a.final_window_s) +
+         " s). Overshoot: the farthest it went past that final value. Final error: final value "
+         "minus the set-point's end.\n\n" +
+         rows;
+}
+
+// Empty where no input holds a gain change.
+std::string GainsSection(const std::vector<RunTable>& tables,
+                         const std::vector<std::string>& keys) {
+  std::string gains_md;
+  for (size_t t = 0; t < tables.size(); ++t) {
+    for (const std::string& line : tables[t].gains) {
+      gains_md += "- " + keys[t] + " (`" + tables[t].source + "`): " + line.substr(7) + "\n";
+    }
+  }
+  if (gains_md.empty()) return "";
+  return "\n## Gain changes\n\nAs the logger heard them (chip units): requests on ARM_GAINS, the "
+         "virtual servos' gains on CONTROLLER_GAINS, the real boards' on REAL_ARM_GAINS; sim "
+         "time and wall clock.\n\n" +
+         gains_md;
+}
+
+// One move of one table, with the texts its rows and plots share.
+struct MoveRows {
+  const RunTable& table;
+  const std::string& key;  // the table's distinct label
+  const MoveResult& move;
+  std::string joint_text;  // "2 (shoulder)"
+  std::string movement;    // "from 0.0 to 90.0 deg"
+};
+
+MoveRows RowsOf(const RunTable& table, const std::string& key, const MoveResult& move) {
+  return {
+      table, key, move,
+      std::to_string(move.joint) + (JointName(move).empty() ? "" : " (" + JointName(move) + ")"),
+      "from " + Fixed(move.from, 1) + " to " + Fixed(move.to, 1) + " " + Unit(move)};
+}
+
+// The reference's cells beside a Table II row: only virtual vs real rows have them.
+std::string ReferenceCells(const ReferenceColumn& reference, const MoveRows& row, Pair pair) {
+  const ReferenceRow* match = nullptr;
+  for (const ReferenceRow& r : reference.rows) {
+    if (pair == Pair::kVirtReal && r.set == row.table.label && r.joint == row.move.joint) {
+      match = &r;
+    }
+  }
+  return match ? Fixed(match->mean_transient, 2) + " | " + Fixed(match->mean_steady, 2) + " | "
+               : std::string(" |  | ");
+}
+
+// Appends the move's Table II rows (one per pair) to `md` and `csv`.
+void AddErrorRows(const MoveRows& row, const std::optional<ReferenceColumn>& reference,
+                  std::string& md, std::string& csv) {
+  const MoveResult& move = row.move;
+  for (Pair pair : kAllPairs) {
+    const PairMetrics& m = move.pairs[static_cast<size_t>(pair)];
+    const bool first = pair == Pair::kSetVirt;
+    md += "| " + (first ? row.key : "") + " | " + (first ? std::to_string(move.move_id) : "") +
+          " | " + (first ? row.joint_text : "") + " | " + (first ? row.movement : "") + " | " +
+          PairTitle(pair) + " | " + Cell(m.mean_transient, 2) + " | " + Cell(m.mean_steady, 2) +
+          " | ";
+    if (reference) md += ReferenceCells(*reference, row, pair);
+    md += Cell(m.rms, 2) + " | " + Cell(m.max, 2) + " |\n";
+    csv += CsvText(row.table.source) + "," + CsvText(row.key) + "," + std::to_string(move.move_id) +
+           "," + std::to_string(move.joint) + "," + CsvText(JointName(move)) + "," + Unit(move) +
+           "," + Fixed(move.from, 5) + "," + Fixed(move.to, 5) + "," + PairKey(pair) + "," +
+           Fixed(m.mean_transient, 5) + "," + Fixed(m.mean_steady, 5) + "," + Fixed(m.rms, 5) +
+           "," + Fixed(m.max, 5) + "," + std::to_string(m.transient_samples) + "," +
+           std::to_string(m.steady_samples) + "," + Fixed(move.start_s, 6) + "," +
+           Fixed(move.done_s, 6) + "," + Fixed(move.transient_end_s, 6) + "," +
+           Fixed(move.end_s, 6) + "\n";
+  }
+}
+
+// Appends the move's response rows (one per stream) to `md` and `csv`.
+void AddResponseRows(const MoveRows& row, std::string& md, std::string& csv) {
+  const MoveResult& move = row.move;
+  for (Stream stream : kAllStreams) {
+    const StreamResponse& r = move.streams[static_cast<size_t>(stream)];
+    const bool first = stream == Stream::kSetpoint;
+    md += "| " + (first ? row.key : "") + " | " + (first ? std::to_string(move.move_id) : "") +
+          " | " + (first ? row.joint_text : "") + " | " + StreamTitle(stream) + " | ";
+    if (!r.has()) {
+      md += "no data | | | | |\n";
+    } else {
+      md += (std::isfinite(r.start_delay_s) ? Fixed(r.start_delay_s, 3) : "did not move") + " | " +
+            (std::isfinite(r.settling_s) ? Fixed(r.settling_s, 3) : "not settled") + " | " +
+            Cell(r.overshoot, 2) + " | " + Cell(r.overshoot_percent, 1) + " | " +
+            Cell(r.final_error, 2) + " |\n";
+    }
+    csv += CsvText(row.table.source) + "," + CsvText(row.key) + "," + std::to_string(move.move_id) +
+           "," + std::to_string(move.joint) + "," + CsvText(JointName(move)) + "," + Unit(move) +
+           "," + StreamTitle(stream) + "," + std::to_string(r.samples) + "," +
+           (r.has() ? Fixed(r.start_delay_s, 6) : "") + "," +
+           (r.has() ? Fixed(r.settling_s, 6) : "") + "," + (r.has() ? Fixed(r.overshoot, 5) : "") +
+           "," + (r.has() ? Fixed(r.overshoot_percent, 3) : "") + "," +
+           (r.has() ? Fixed(r.final_value, 5) : "") + "," +
+           (r.has() ? Fixed(r.final_error, 5) : "") + "\n";
+  }
+}
+
+// The move's two plots: each stream's position, and each pair's error, against the time since the
+// move command, from 0.1 s before it to the move's end (the paper's Fig. 6). Time is relative to
+// the command.
+struct MovePlots {
+  PlotSpec angle;
+  PlotSpec error;
+};
+
+MovePlots PlotsOf(const MoveRows& row) {
+  const RunTable& table = row.table;
+  const MoveResult& move = row.move;
+  const double period = table.period_s();
+  size_t first_row = move.begin;
+  while (first_row > 0 && table.time_s[first_row - 1] >= move.start_s - 0.1) --first_row;
+  const auto j = static_cast<size_t>(move.joint - 1);
+  MovePlots plots;
+  PlotSpec& angle = plots.angle;
+  angle.title = row.key + ", move " + std::to_string(move.move_id) + ": joint " + row.joint_text +
+                " " + row.movement;
+  angle.x_label = "time since the move command (s)";
+  angle.y_label =
+      std::string("joint ") + std::to_string(move.joint) + " position (" + Unit(move) + ")";
+  PlotSpec& error_plot = plots.error;
+  error_plot.title =
+      row.key + ", move " + std::to_string(move.move_id) + ": joint " + row.joint_text + " error";
+  error_plot.x_label = angle.x_label;
+  error_plot.y_label = std::string("error, second minus first (") + Unit(move) + ")";
+  // Each sample is drawn once, at the time it was taken: rows that hold a sample over from an
+  // earlier row (a real arm polled at 100 Hz) are skipped, so the line joins the samples; a
+  // stretch without samples longer than kPlotGapS breaks it.
+  for (Stream stream : kAllStreams) {
+    const auto s = static_cast<size_t>(stream);
+    if (!move.streams[s].has()) continue;
+    PlotSeries series{StreamTitle(stream), {}, {}, kStreamColors[s]};
+    // The real arm on its own clock from the move's start (see PairErrors).
+    const double scale = stream == Stream::kReal ? table.RealClockScale() : 1.0;
+    for (size_t i = first_row; i < move.end; ++i) {
+      if (!std::isfinite(table.position[j][s][i]) || !table.Fresh(stream, i, period)) continue;
+      AddPoint(series, (table.time_s[i] - table.Age(stream, i) - move.start_s) / scale,
+               table.position[j][s][i]);
+    }
+    angle.series.push_back(std::move(series));
+  }
+  for (Pair pair : kAllPairs) {
+    const auto p = static_cast<size_t>(pair);
+    if (!move.pairs[p].has()) continue;
+    PlotSeries series{PairTitle(pair), {}, {}, kPairColors[p]};
+    for (const PairPoint& point :
+         PairErrors(table, pair, j, first_row, move.end, period)) {  // as in Table II
+      AddPoint(series, point.time_s - move.start_s, point.error);
+    }
+    error_plot.series.push_back(std::move(series));
+  }
+  const std::vector<PlotMarker> markers = {{0.0, "move"},
+                                           {move.done_s - move.start_s, "move-done"},
+                                           {move.transient_end_s - move.start_s, "steady state"}};
+  angle.markers = markers;
+  error_plot.markers = markers;
+  return plots;
+}
+
+// Writes the move's plots into `out` (the error plot only if it has a line), adds their paths to
+// `files` and returns their line of the report's plot list.
+std::string WriteMovePlots(const MoveRows& row, const std::filesystem::path& out,
+                           std::vector<std::string>& files) {
+  const MovePlots plots = PlotsOf(row);
+  const MoveResult& move = row.move;
+  const std::string stem =
+      row.key + "-m" + std::to_string(move.move_id) + "-j" + std::to_string(move.joint);
+  const std::string angle_path = (out / (stem + "-angle.png")).string();
+  const std::string error_path = (out / (stem + "-error.png")).string();
+  WritePlot(plots.angle, angle_path);
+  files.push_back(angle_path);
+  std::string line = "- " + row.key + ", move " + std::to_string(move.move_id) + ", joint " +
+                     std::to_string(move.joint) + ": `" + angle_path + "`";
+  if (!plots.error.series.empty()) {
+    WritePlot(plots.error, error_path);
+    files.push_back(error_path);
+    line += ", `" + error_path + "`";
+  }
+  return line + "\n";
+}
+
+std::filesystem::path MakeOutDir(const std::string& dir) {
+  std::error_code error;
+  std::filesystem::create_directories(dir, error);
+  if (!std::filesystem::is_directory(dir)) {
+    throw std::runtime_error("--out " + dir + ": cannot create the directory");
+  }
+  return dir;
+}
+
+}  // namespace
+
+ReportOutput WriteReport(const std::vector<RunTable>& tables, const ReportOptions& options) {
+  const Analyses analyses = AnalyzeTables(tables, options.analysis);
+  const std::filesystem::path out = MakeOutDir(options.out_dir);
+  ReportOutput output;
+  output.moves = analyses.moves;
+  const std::vector<std::string> keys = DistinctLabels(tables);
+  const std::optional<ReferenceColumn>& reference = options.reference;
+
+  std::string md = "# SIRUPP report\n\n" + InputsSection(tables, keys);
+  md += TableIIHead(options.analysis, reference);
   std::string errors_csv =
       "input,set,move_id,joint,joint_name,unit,from,to,pair,mean_transient,mean_steady,rms,max,"
       "transient_samples,steady_samples,move_start_s,move_done_s,transient_end_s,move_end_s\n";
@@ -232,168 +457,21 @@ ReportOutput WriteReport(const std::vector<RunTable>& tables, const ReportOption
       "input,set,move_id,joint,joint_name,unit,stream,samples,start_delay_s,settling_s,overshoot,"
       "overshoot_percent,final_value,final_error\n";
   std::string plots_md;
-
   for (size_t t = 0; t < tables.size(); ++t) {
-    const RunTable& table = tables[t];
-    const double period = table.period_s();
-    for (const MoveResult& move : analyses[t].moves) {
-      const std::string joint_text = std::to_string(move.joint) +
-                                     (JointName(move).empty() ? "" : " (" + JointName(move) + ")");
-      const std::string movement =
-          "from " + Fixed(move.from, 1) + " to " + Fixed(move.to, 1) + " " + Unit(move);
-      for (Pair pair : kAllPairs) {
-        const PairMetrics& m = move.pairs[static_cast<size_t>(pair)];
-        const bool first = pair == Pair::kSetVirt;
-        md += "| " + (first ? keys[t] : "") + " | " + (first ? std::to_string(move.move_id) : "") +
-              " | " + (first ? joint_text : "") + " | " + (first ? movement : "") + " | " +
-              PairTitle(pair) + " | " + Cell(m.mean_transient, 2) + " | " + Cell(m.mean_steady, 2) +
-              " | ";
-        if (reference) {
-          const ReferenceRow* match = nullptr;
-          for (const ReferenceRow& r : reference->rows) {
-            if (pair == Pair::kVirtReal && r.set == table.label && r.joint == move.joint) {
-              match = &r;
-            }
-          }
-          md += match
-                    ? Fixed(match->mean_transient, 2) + " | " + Fixed(match->mean_steady, 2) + " | "
-                    : std::string(" |  | ");
-        }
-        md += Cell(m.rms, 2) + " | " + Cell(m.max, 2) + " |\n";
-        errors_csv += CsvText(table.source) + "," + CsvText(keys[t]) + "," +
-                      std::to_string(move.move_id) + "," + std::to_string(move.joint) + "," +
-                      CsvText(JointName(move)) + "," + Unit(move) + "," + Fixed(move.from, 5) +
-                      "," + Fixed(move.to, 5) + "," + PairKey(pair) + "," +
-                      Fixed(m.mean_transient, 5) + "," + Fixed(m.mean_steady, 5) + "," +
-                      Fixed(m.rms, 5) + "," + Fixed(m.max, 5) + "," +
-                      std::to_string(m.transient_samples) + "," + std::to_string(m.steady_samples) +
-                      "," + Fixed(move.start_s, 6) + "," + Fixed(move.done_s, 6) + "," +
-                      Fixed(move.transient_end_s, 6) + "," + Fixed(move.end_s, 6) + "\n";
-      }
-      for (Stream stream : kAllStreams) {
-        const StreamResponse& r = move.streams[static_cast<size_t>(stream)];
-        const bool first = stream == Stream::kSetpoint;
-        if (!r.has()) {
-          response_md += "| " + (first ? keys[t] : "") + " | " +
-                         (first ? std::to_string(move.move_id) : "") + " | " +
-                         (first ? joint_text : "") + " | " + StreamTitle(stream) +
-                         " | no data | | | | |\n";
-        } else {
-          response_md +=
-              "| " + (first ? keys[t] : "") + " | " + (first ? std::to_string(move.move_id) : "") +
-              " | " + (first ? joint_text : "") + " | " + StreamTitle(stream) + " | " +
-              (std::isfinite(r.start_delay_s) ? Fixed(r.start_delay_s, 3) : "did not move") +
-              " | " + (std::isfinite(r.settling_s) ? Fixed(r.settling_s, 3) : "not settled") +
-              " | " + Cell(r.overshoot, 2) + " | " + Cell(r.overshoot_percent, 1) + " | " +
-              Cell(r.final_error, 2) + " |\n";
-        }
-        response_csv +=
-            CsvText(table.source) + "," + CsvText(keys[t]) + "," + std::to_string(move.move_id) +
-            "," + std::to_string(move.joint) + "," + CsvText(JointName(move)) + "," + Unit(move) +
-            "," + StreamTitle(stream) + "," + std::to_string(r.samples) + "," +
-            (r.has() ? Fixed(r.start_delay_s, 6) : "") + "," +
-            (r.has() ? Fixed(r.settling_s, 6) : "") + "," + (r.has() ? Fixed(r.overshoot, 5) : "") +
-            "," + (r.has() ? Fixed(r.overshoot_percent, 3) : "") + "," +
-            (r.has() ? Fixed(r.final_value, 5) : "") + "," +
-            (r.has() ? Fixed(r.final_error, 5) : "") + "\n";
-      }
-
-      if (options.plots) {
-        // From 0.1 s before the move command to its end, time relative to the command (Fig. 6).
-        size_t first_row = move.begin;
-        while (first_row > 0 && table.time_s[first_row - 1] >= move.start_s - 0.1) --first_row;
-        const auto j = static_cast<size_t>(move.joint - 1);
-        PlotSpec angle;
-        angle.title = keys[t] + ", move " + std::to_string(move.move_id) + ": joint " + joint_text +
-                      " " + movement;
-        angle.x_label = "time since the move command (s)";
-        angle.y_label =
-            std::string("joint ") + std::to_string(move.joint) + " position (" + Unit(move) + ")";
-        PlotSpec error_plot;
-        error_plot.title =
-            keys[t] + ", move " + std::to_string(move.move_id) + ": joint " + joint_text + " error";
-        error_plot.x_label = angle.x_label;
-        error_plot.y_label = std::string("error, second minus first (") + Unit(move) + ")";
-        // Each sample is drawn once, at the time it was taken: rows that hold a sample over from
-        // an earlier row (a real arm polled at 100 Hz) are skipped, so the line joins the
-        // samples; a stretch without samples longer than kPlotGapS breaks it.
-        for (Stream stream : kAllStreams) {
-          const auto s = static_cast<size_t>(stream);
-          if (!move.streams[s].has()) continue;
-          PlotSeries series{StreamTitle(stream), {}, {}, kStreamColors[s]};
-          // The real arm on its own clock from the move's start (see PairErrors).
-          const double scale = stream == Stream::kReal ? table.RealClockScale() : 1.0;
-          for (size_t i = first_row; i < move.end; ++i) {
-            if (!std::isfinite(table.position[j][s][i]) || !table.Fresh(stream, i, period))
-              continue;
-            AddPoint(series, (table.time_s[i] - table.Age(stream, i) - move.start_s) / scale,
-                     table.position[j][s][i]);
-          }
-          angle.series.push_back(std::move(series));
-        }
-        for (Pair pair : kAllPairs) {
-          const auto p = static_cast<size_t>(pair);
-          if (!move.pairs[p].has()) continue;
-          PlotSeries series{PairTitle(pair), {}, {}, kPairColors[p]};
-          for (const PairPoint& point :
-               PairErrors(table, pair, j, first_row, move.end, period)) {  // as in Table II
-            AddPoint(series, point.time_s - move.start_s, point.error);
-          }
-          error_plot.series.push_back(std::move(series));
-        }
-        const std::vector<PlotMarker> markers = {
-            {0.0, "move"},
-            {move.done_s - move.start_s, "move-done"},
-            {move.transient_end_s - move.start_s, "steady state"}};
-        angle.markers = markers;
-        error_plot.markers = markers;
-        const std::string stem =
-            keys[t] + "-m" + std::to_string(move.move_id) + "-j" + std::to_string(move.joint);
-        const std::string angle_path = (out / (stem + "-angle.png")).string();
-        const std::string error_path = (out / (stem + "-error.png")).string();
-        WritePlot(angle, angle_path);
-        output.files.push_back(angle_path);
-        plots_md += "- " + keys[t] + ", move " + std::to_string(move.move_id) + ", joint " +
-                    std::to_string(move.joint) + ": `" + angle_path + "`";
-        if (!error_plot.series.empty()) {
-          WritePlot(error_plot, error_path);
-          output.files.push_back(error_path);
-          plots_md += ", `" + error_path + "`";
-        }
-        plots_md += "\n";
-      }
+    for (const MoveResult& move : analyses.per_table[t].moves) {
+      const MoveRows row = RowsOf(tables[t], keys[t], move);
+      AddErrorRows(row, reference, md, errors_csv);
+      AddResponseRows(row, response_md, response_csv);
+      if (options.plots) plots_md += WriteMovePlots(row, out, output.files);
     }
   }
   if (reference && !reference->note.empty()) md += "\n" + reference->note + "\n";
-  md +=
-      "\n## Response per stream\n\nStart delay: from the move command until the stream has "
-      "moved " +
-      core::FormatApprox(a.start_threshold) +
-      " deg (mm) from where it was. Settling time: from the move command until the stream stays "
-      "within " +
-      core::FormatApprox(a.settle_band_fraction * 100) +
-      " % of the travel of its final value (its mean over the move's last " +
-      core::FormatApprox(a.final_window_s) +
-      " s). Overshoot: the farthest it went past that final value. Final error: final value "
-      "minus the set-point's end.\n\n" +
-      response_md;
-  std::string gains_md;
-  for (size_t t = 0; t < tables.size(); ++t) {
-    for (const std::string& line : tables[t].gains) {
-      gains_md += "- " + keys[t] + " (`" + tables[t].source + "`): " + line.substr(7) + "\n";
-    }
-  }
-  if (!gains_md.empty()) {
-    md +=
-        "\n## Gain changes\n\nAs the logger heard them (chip units): requests on ARM_GAINS, the "
-        "virtual servos' gains on CONTROLLER_GAINS, the real boards' on REAL_ARM_GAINS; sim "
-        "time and wall clock.\n\n" +
-        gains_md;
-  }
+  md += ResponseSection(options.analysis, response_md);
+  md += GainsSection(tables, keys);
   if (!plots_md.empty()) md += "\n## Plots\n\n" + plots_md;
-  if (!notes.empty()) {
+  if (!analyses.notes.empty()) {
     md += "\n## Notes\n\n";
-    for (const std::string& note : notes) md += "- " + note + "\n";
+    for (const std::string& note : analyses.notes) md += "- " + note + "\n";
   }
 
   const std::string md_path = (out / "report.md").string();

@@ -32,9 +32,7 @@ constexpr const char* kAbout =
     "command of any sender held (opt-in; stale efforts under load). docs/timing.md.\n"
     "Joint values: docs/command-line.md (--deg: revolute in degrees, prismatic in metres).";
 
-int Run(const std::vector<std::string>& argv) {
-  using sirupp::runtime::Args;
-
+std::vector<Flag> SimFlags() {
   std::vector<Flag> flags = {
       sirupp::runtime::ModelFlag(),
       Flag("environment", "environment XML file").Takes("FILE"),
@@ -63,10 +61,12 @@ int Run(const std::vector<std::string>& argv) {
       sirupp::runtime::RtPriorityFlag()};
   const std::vector<Flag> joint_flags = sirupp::runtime::JointFlags();  // the start position
   flags.insert(flags.end(), joint_flags.begin(), joint_flags.end());
-  const Args args(argv, "sirupp-sim", flags, kAbout);
-  const int rt_priority = static_cast<int>(args.Integer("rt-priority", 0));
-  const std::string model_file = sirupp::runtime::ModelFileArg(args);
-  sirupp::core::RobotModel model = sirupp::core::LoadRobotModel(model_file);
+  return flags;
+}
+
+// --payload-kg, --friction-scale, --gravity-off: the simulated arm differs from the model the
+// controllers have.
+void ApplyArmChanges(const sirupp::runtime::Args& args, sirupp::core::RobotModel& model) {
   sirupp::sim::ModelChange change;
   if (args.Has("payload-kg")) change.payload_kg = args.Numbers("payload-kg", 1)[0];
   if (args.Has("friction-scale")) change.friction_scale = args.Numbers("friction-scale", 1)[0];
@@ -78,16 +78,9 @@ int Run(const std::vector<std::string>& argv) {
   }
   if (!change.empty())
     std::cerr << "sirupp-sim: simulated arm changed: " << change.Describe() << "\n";
-  sirupp::core::Environment environment;
-  if (args.Has("environment")) {
-    environment =
-        sirupp::core::LoadEnvironment(sirupp::runtime::ResolveDataPath(args.String("environment")));
-  }
+}
 
-  sirupp::sim::WorldOptions world_options;
-  if (args.Has("step")) world_options.step_s = args.Numbers("step", 1)[0];
-  world_options.friction = !args.Switch("no-friction");
-
+sirupp::sim::NodeOptions NodeOptionsFromArgs(const sirupp::runtime::Args& args) {
   sirupp::sim::NodeOptions options;
   try {
     if (args.Has("mode")) options.mode = sirupp::sim::ParseTimingMode(args.String("mode"));
@@ -109,30 +102,11 @@ int Run(const std::vector<std::string>& argv) {
     options.watchdog_s = 0.05;  // a held command goes stale fast
   }
   if (args.Has("duration")) options.duration_s = args.Numbers("duration", 1)[0];
+  return options;
+}
 
-  const std::vector<double> start = sirupp::runtime::PositionsArg(args, model, "sirupp-sim", false)
-                                        .value_or(std::vector<double>{});
-
-  std::optional<sirupp::sim::ArmWorld> world_storage;
-  try {
-    world_storage.emplace(model, environment, world_options);
-  } catch (const std::invalid_argument& error) {
-    throw sirupp::core::UsageError(std::string("sirupp-sim: --step: ") + error.what());
-  }
-  sirupp::sim::ArmWorld& world = *world_storage;
-  for (const std::string& omission : world.Omissions()) {
-    std::cerr << "sirupp-sim: note: " << omission << "\n";
-  }
-  if (!start.empty()) {
-    try {
-      world.SetJointState(start);
-    } catch (const std::invalid_argument& error) {
-      throw sirupp::core::UsageError(std::string("sirupp-sim: start pose: ") + error.what());
-    }
-  }
-  sirupp::core::Bus bus(args.Has("lcm-url") ? args.String("lcm-url") : "",
-                        args.Has("prefix") ? args.String("prefix") : "");
-  // Each flag on its own against the node's rules, so the message names the flag and its value.
+// Each flag on its own against the node's rules, so the message names the flag and its value.
+void CheckNodeFlags(const sirupp::runtime::Args& args, const sirupp::sim::NodeOptions& options) {
   const auto check_flag = [&](const std::string& flag,
                               const std::function<void(sirupp::sim::NodeOptions&)>& apply) {
     if (!args.Has(flag)) return;
@@ -155,6 +129,47 @@ int Run(const std::vector<std::string>& argv) {
              [&](auto& p) { p.lockstep_timeout_s = options.lockstep_timeout_s; });
   check_flag("watchdog", [&](auto& p) { p.watchdog_s = options.watchdog_s; });
   check_flag("duration", [&](auto& p) { p.duration_s = options.duration_s; });
+}
+
+int Run(const std::vector<std::string>& argv) {
+  const sirupp::runtime::Args args(argv, "sirupp-sim", SimFlags(), kAbout);
+  const int rt_priority = static_cast<int>(args.Integer("rt-priority", 0));
+  const std::string model_file = sirupp::runtime::ModelFileArg(args);
+  sirupp::core::RobotModel model = sirupp::core::LoadRobotModel(model_file);
+  ApplyArmChanges(args, model);
+  sirupp::core::Environment environment;
+  if (args.Has("environment")) {
+    environment =
+        sirupp::core::LoadEnvironment(sirupp::runtime::ResolveDataPath(args.String("environment")));
+  }
+
+  sirupp::sim::WorldOptions world_options;
+  if (args.Has("step")) world_options.step_s = args.Numbers("step", 1)[0];
+  world_options.friction = !args.Switch("no-friction");
+  const sirupp::sim::NodeOptions options = NodeOptionsFromArgs(args);
+  const std::vector<double> start = sirupp::runtime::PositionsArg(args, model, "sirupp-sim", false)
+                                        .value_or(std::vector<double>{});
+
+  std::optional<sirupp::sim::ArmWorld> world_storage;
+  try {
+    world_storage.emplace(model, environment, world_options);
+  } catch (const std::invalid_argument& error) {
+    throw sirupp::core::UsageError(std::string("sirupp-sim: --step: ") + error.what());
+  }
+  sirupp::sim::ArmWorld& world = *world_storage;
+  for (const std::string& omission : world.Omissions()) {
+    std::cerr << "sirupp-sim: note: " << omission << "\n";
+  }
+  if (!start.empty()) {
+    try {
+      world.SetJointState(start);
+    } catch (const std::invalid_argument& error) {
+      throw sirupp::core::UsageError(std::string("sirupp-sim: start pose: ") + error.what());
+    }
+  }
+  sirupp::core::Bus bus(args.Has("lcm-url") ? args.String("lcm-url") : "",
+                        args.Has("prefix") ? args.String("prefix") : "");
+  CheckNodeFlags(args, options);
   std::optional<sirupp::sim::SimNode> node_storage;
   try {
     node_storage.emplace(bus, world, environment, options);

@@ -167,21 +167,23 @@ std::string HelpOf(const CLI::App& level) {
 
 }  // namespace
 
-int RunCli(const Args& args, std::ostream& out, std::ostream& err) {
-  CLI::App app(kAbout, "sirupp");
-  runtime::ConfigureApp(app, std::string("sirupp ") + runtime::Version());
-  app.footer(kFooter);
-  app.require_subcommand(1);
-  const std::vector<Command> commands = Commands(out, err);
+namespace {
+
+// The command levels under `sirupp`: the groups (move, plan, ...), `help`, and the command the
+// parse chose with its level (set by the leaves' callbacks).
+struct CommandTree {
   std::map<std::string, CLI::App*> groups;
+  CLI::App* help = nullptr;
   const Run* chosen = nullptr;
   CLI::App* chosen_app = nullptr;
-  CLI::App* help = app.add_subcommand("help", "this text");
-  help->group("Commands");
+};
+
+// One leaf per command, under its group (made on its first command) or under `app`.
+void AddCommands(CLI::App& app, const std::vector<Command>& commands, CommandTree& tree) {
   for (const Command& command : commands) {
     CLI::App* parent = &app;
     if (!command.group.empty()) {
-      CLI::App*& group = groups[command.group];
+      CLI::App*& group = tree.groups[command.group];
       if (group == nullptr) {
         group = app.add_subcommand(command.group, kGroups.at(command.group));
         group->require_subcommand(1);
@@ -199,11 +201,44 @@ int RunCli(const Args& args, std::ostream& out, std::ostream& err) {
     leaf->prefix_command();
     leaf->set_help_flag();
     leaf->set_version_flag();
-    leaf->callback([&chosen, &chosen_app, &command, leaf] {
-      chosen = &command.run;
-      chosen_app = leaf;
+    leaf->callback([&tree, &command, leaf] {
+      tree.chosen = &command.run;
+      tree.chosen_app = leaf;
     });
   }
+}
+
+// A group given without a known subcommand: core::UsageError naming the group, what was given
+// and what is allowed.
+void ThrowIfGroupIncomplete(const std::map<std::string, CLI::App*>& groups) {
+  for (const auto& [name, group] : groups) {
+    if (!group->parsed()) continue;
+    std::string allowed;
+    for (const CLI::App* sub : group->get_subcommands({})) {
+      allowed += (allowed.empty() ? "" : ", ") + sub->get_name();
+    }
+    const std::vector<std::string> extra = group->remaining();
+    throw core::UsageError(
+        name + ": " +
+        (extra.empty() ? "expected a subcommand" : "unknown subcommand '" + extra.front() + "'") +
+        "; allowed: " + allowed);
+  }
+}
+
+}  // namespace
+
+int RunCli(const Args& args, std::ostream& out, std::ostream& err) {
+  CLI::App app(kAbout, "sirupp");
+  runtime::ConfigureApp(app, std::string("sirupp ") + runtime::Version());
+  app.footer(kFooter);
+  app.require_subcommand(1);
+  const std::vector<Command> commands = Commands(out, err);
+  CommandTree tree;
+  tree.help = app.add_subcommand("help", "this text");
+  tree.help->group("Commands");
+  AddCommands(app, commands, tree);
+  const std::map<std::string, CLI::App*>& groups = tree.groups;
+  CLI::App* help = tree.help;
   try {
     if (args.empty()) {
       err << HelpOf(app);
@@ -231,25 +266,14 @@ int RunCli(const Args& args, std::ostream& out, std::ostream& err) {
       return kExitOk;
     } catch (const CLI::RequiredError& error) {
       if (help->parsed()) return out << HelpOf(app), kExitOk;
-      for (const auto& [name, group] : groups) {
-        if (!group->parsed()) continue;
-        std::string allowed;
-        for (const CLI::App* sub : group->get_subcommands({})) {
-          allowed += (allowed.empty() ? "" : ", ") + sub->get_name();
-        }
-        const std::vector<std::string> extra = group->remaining();
-        throw core::UsageError(name + ": " +
-                               (extra.empty() ? "expected a subcommand"
-                                              : "unknown subcommand '" + extra.front() + "'") +
-                               "; allowed: " + allowed);
-      }
+      ThrowIfGroupIncomplete(groups);
       throw core::UsageError(error.what());
     } catch (const CLI::ParseError& error) {
       throw core::UsageError(error.what());
     }
     if (help->parsed()) return out << HelpOf(app), kExitOk;
-    if (chosen == nullptr) throw core::UsageError("expected a command; run 'sirupp help'");
-    return (*chosen)(chosen_app->remaining());
+    if (tree.chosen == nullptr) throw core::UsageError("expected a command; run 'sirupp help'");
+    return (*tree.chosen)(tree.chosen_app->remaining());
   } catch (const runtime::HelpRequested& help_text) {
     out << help_text.text;
     return kExitOk;

@@ -132,6 +132,73 @@ int MoveJoints(const std::vector<std::string>& args, std::ostream& out) {
   return wait ? WaitForMove(rig, answer, timeout, out) : 0;
 }
 
+// What `move pose` asks for: --pose (or --position, orientation free) and --config.
+struct PoseArgs {
+  std::vector<double> v;  // X Y Z (m) ROLL PITCH YAW (deg; 0 with --position)
+  bool position_only = false;
+  Eigen::Quaterniond orientation;
+  control::PoseRequest request;  // the same, as sirupp-control checks it
+};
+
+PoseArgs PoseFromArgs(const runtime::Args& parsed) {
+  if (parsed.Has("pose") == parsed.Has("position")) {
+    throw core::UsageError(
+        "move pose: give exactly one of --pose X Y Z ROLL PITCH YAW or "
+        "--position X Y Z");
+  }
+  PoseArgs pose;
+  pose.position_only = parsed.Has("position");
+  pose.v = parsed.Numbers(pose.position_only ? "position" : "pose", pose.position_only ? 3 : 6);
+  const std::vector<double>& v = pose.v;
+  pose.v.resize(6, 0.0);
+  pose.request.target.translation() << v[0], v[1], v[2];
+  pose.orientation = core::QuaternionFromRpy(v[3] * kDeg, v[4] * kDeg, v[5] * kDeg);
+  pose.request.target.linear() = pose.orientation.toRotationMatrix();
+  pose.request.position_only = pose.position_only;
+  const std::string config_text = parsed.Has("config") ? parsed.String("config") : "nearest";
+  if (config_text != "nearest") {
+    const std::optional<core::IkConfiguration> config = core::IkConfiguration::Parse(config_text);
+    if (!config) {
+      throw core::UsageError("move pose: --config '" + config_text +
+                             "' is not allowed; expected nearest or SHOULDER-ELBOW-WRIST with "
+                             "left|right, up|down, noflip|flip (e.g. right-up-noflip)");
+    }
+    pose.request.SetConfig(*config);
+  }
+  return pose;
+}
+
+client::PoseTarget PoseTargetOf(const PoseArgs& pose, double scale) {
+  client::PoseTarget target;
+  for (int i = 0; i < 3; ++i) target.position[i] = pose.v[static_cast<size_t>(i)];
+  target.orientation[0] = pose.orientation.w();
+  target.orientation[1] = pose.orientation.x();
+  target.orientation[2] = pose.orientation.y();
+  target.orientation[3] = pose.orientation.z();
+  target.position_only = pose.position_only;
+  target.shoulder_left = pose.request.shoulder_left;
+  target.elbow_up = pose.request.elbow_up;
+  target.wrist_flip = pose.request.wrist_flip;
+  target.speed_scale = scale;
+  return target;
+}
+
+// The joints the pose asks for, solved from the arm's present joints as sirupp-control will (from
+// home if no arm state comes within 0.5 s). Throws core::UsageError if there is no solution.
+control::PoseGoal PoseGoalFromPresent(client::Client& rig, const core::RobotModel& model,
+                                      const control::PoseRequest& request) {
+  rig.WatchJoints(true);
+  rig.Until([&] { return rig.snapshot().sim_arm.has_value(); }, 0.5);
+  const auto& state = rig.snapshot().sim_arm;
+  const std::vector<double> reference = state && state->num_joints == model.num_joints()
+                                            ? state->position
+                                            : control::HomePositions(model);
+  control::PoseGoal goal = control::SolvePoseGoal(model, request, core::ToJointVector(reference));
+  if (!goal.ok) throw core::UsageError("move pose: no joint solution: " + goal.reason);
+  rig.WatchJoints(false);
+  return goal;
+}
+
 int MovePose(const std::vector<std::string>& args, std::ostream& out) {
   const runtime::Args parsed(
       args, "move pose",
@@ -145,70 +212,27 @@ int MovePose(const std::vector<std::string>& args, std::ostream& out) {
            TimeoutFlag("seconds to wait")}),
       kMoveAbout);
   const core::RobotModel model = ModelFromArgs(parsed);
-  if (parsed.Has("pose") == parsed.Has("position")) {
-    throw core::UsageError(
-        "move pose: give exactly one of --pose X Y Z ROLL PITCH YAW or "
-        "--position X Y Z");
-  }
-  const bool position_only = parsed.Has("position");
-  std::vector<double> v =
-      parsed.Numbers(position_only ? "position" : "pose", position_only ? 3 : 6);
-  v.resize(6, 0.0);
-  control::PoseRequest request;
-  request.target.translation() << v[0], v[1], v[2];
-  const Eigen::Quaterniond orientation =
-      core::QuaternionFromRpy(v[3] * kDeg, v[4] * kDeg, v[5] * kDeg);
-  request.target.linear() = orientation.toRotationMatrix();
-  request.position_only = position_only;
-  const std::string config_text = parsed.Has("config") ? parsed.String("config") : "nearest";
-  if (config_text != "nearest") {
-    const std::optional<core::IkConfiguration> config = core::IkConfiguration::Parse(config_text);
-    if (!config) {
-      throw core::UsageError("move pose: --config '" + config_text +
-                             "' is not allowed; expected nearest or SHOULDER-ELBOW-WRIST with "
-                             "left|right, up|down, noflip|flip (e.g. right-up-noflip)");
-    }
-    request.SetConfig(*config);
-  }
+  const PoseArgs pose = PoseFromArgs(parsed);
   const double scale = ScaleFrom(parsed, "move pose");
   const bool wait = parsed.Switch("wait");
   const double timeout = TimeoutFrom(parsed, 60);
 
   core::Bus bus = BusFromArgs(parsed);
   client::Client rig(bus, {});
-  rig.WatchJoints(true);
-  // Checked here from the arm's present joints, as sirupp-control will.
-  rig.Until([&] { return rig.snapshot().sim_arm.has_value(); }, 0.5);
-  const auto& state = rig.snapshot().sim_arm;
-  const std::vector<double> reference = state && state->num_joints == model.num_joints()
-                                            ? state->position
-                                            : control::HomePositions(model);
-  const control::PoseGoal goal =
-      control::SolvePoseGoal(model, request, core::ToJointVector(reference));
-  if (!goal.ok) throw core::UsageError("move pose: no joint solution: " + goal.reason);
-  rig.WatchJoints(false);
+  const control::PoseGoal goal = PoseGoalFromPresent(rig, model, pose.request);
   if (!FirstStatus(rig, out)) return kExitFailed;
 
-  client::PoseTarget target;
-  for (int i = 0; i < 3; ++i) target.position[i] = v[static_cast<size_t>(i)];
-  target.orientation[0] = orientation.w();
-  target.orientation[1] = orientation.x();
-  target.orientation[2] = orientation.y();
-  target.orientation[3] = orientation.z();
-  target.position_only = position_only;
-  target.shoulder_left = request.shoulder_left;
-  target.elbow_up = request.elbow_up;
-  target.wrist_flip = request.wrist_flip;
-  target.speed_scale = scale;
+  const std::vector<double>& v = pose.v;
   out << "sent " << bus.FullName(rig.channels().arm_pose_target) << ": tool to [" << v[0] << " "
       << v[1] << " " << v[2] << "] m"
-      << (position_only ? ""
-                        : ", rpy [" + core::FormatApprox(v[3]) + " " + core::FormatApprox(v[4]) +
-                              " " + core::FormatApprox(v[5]) + "] deg")
+      << (pose.position_only
+              ? ""
+              : ", rpy [" + core::FormatApprox(v[3]) + " " + core::FormatApprox(v[4]) + " " +
+                    core::FormatApprox(v[5]) + "] deg")
       << "; expected joints ["
       << Degrees(model, std::vector<double>(goal.q.data(), goal.q.data() + goal.q.size()))
       << "] deg" << (goal.config_name.empty() ? "" : " (" + goal.config_name + ")") << "\n";
-  const client::Answer answer = rig.MovePose(target);
+  const client::Answer answer = rig.MovePose(PoseTargetOf(pose, scale));
   if (const int code = Report(answer, out); code != 0) return code;
   out << "accepted as move " << answer.move_id << "\n";
   return wait ? WaitForMove(rig, answer, timeout, out) : 0;
@@ -390,42 +414,34 @@ void PrintGains(std::ostream& out, const std::string& title, const sirupp::servo
 
 }  // namespace
 
-int RunGains(const std::vector<std::string>& args, std::ostream& out) {
-  const runtime::Args parsed(args, "gains",
-                             WithRigFlags({runtime::ModelFlag(),
-                                           {"joint", "joint number, 1-based"},
-                                           {"kp", "position gain 0..32767"},
-                                           {"kd", "derivative gain 0..32767"},
-                                           {"ki", "integral gain 0..32767"},
-                                           {"il", "integration limit 0..32767"},
-                                           {"ol", "output limit 0..255"},
-                                           {"el", "position-error limit 0..16383 counts"},
-                                           {"db", "deadband 0..255"}}),
-                             kGainsAbout);
-  const core::RobotModel model = ModelFromArgs(parsed);
-  const int n = model.num_joints();
-  int only = -1;
-  if (parsed.Has("joint")) {
-    const double joint = parsed.Numbers("joint", 1)[0];
-    if (joint != std::floor(joint) || joint < 1 || joint > n) {
-      throw core::UsageError("gains: --joint " + core::FormatNumber(joint) + ": allowed 1.." +
-                             std::to_string(n));
-    }
-    only = static_cast<int>(joint) - 1;
+namespace {
+
+// The gain flags and the servo_gains_t field each sets.
+struct GainFlag {
+  const char* name;
+  std::vector<double> sirupp::servo_gains_t::*field;
+};
+const GainFlag kGainFlags[] = {
+    {"kp", &sirupp::servo_gains_t::kp},           {"kd", &sirupp::servo_gains_t::kd},
+    {"ki", &sirupp::servo_gains_t::ki},           {"il", &sirupp::servo_gains_t::integration_limit},
+    {"ol", &sirupp::servo_gains_t::output_limit}, {"el", &sirupp::servo_gains_t::error_limit},
+    {"db", &sirupp::servo_gains_t::deadband}};
+
+// --joint as a 0-based index; -1 (every joint) without it.
+int OnlyJointFrom(const runtime::Args& parsed, int n) {
+  if (!parsed.Has("joint")) return -1;
+  const double joint = parsed.Numbers("joint", 1)[0];
+  if (joint != std::floor(joint) || joint < 1 || joint > n) {
+    throw core::UsageError("gains: --joint " + core::FormatNumber(joint) + ": allowed 1.." +
+                           std::to_string(n));
   }
-  struct Flag {
-    const char* name;
-    std::vector<double> sirupp::servo_gains_t::*field;
-  };
-  const Flag flags[] = {{"kp", &sirupp::servo_gains_t::kp},
-                        {"kd", &sirupp::servo_gains_t::kd},
-                        {"ki", &sirupp::servo_gains_t::ki},
-                        {"il", &sirupp::servo_gains_t::integration_limit},
-                        {"ol", &sirupp::servo_gains_t::output_limit},
-                        {"el", &sirupp::servo_gains_t::error_limit},
-                        {"db", &sirupp::servo_gains_t::deadband}};
+  return static_cast<int>(joint) - 1;
+}
+
+// Whether any gain is named; each named one must be a whole number.
+bool GainsNamed(const runtime::Args& parsed) {
   bool change = false;
-  for (const Flag& flag : flags) {
+  for (const GainFlag& flag : kGainFlags) {
     if (!parsed.Has(flag.name)) continue;
     change = true;
     const double v = parsed.Numbers(flag.name, 1)[0];
@@ -434,68 +450,50 @@ int RunGains(const std::vector<std::string>& args, std::ostream& out) {
                              ": allowed whole numbers");
     }
   }
-  const sirupp::servo_gains_t from_model = servo::GainsMessage(servo::ChipGainsFromModel(model));
-  const auto apply_flags = [&](sirupp::servo_gains_t& message) {
-    for (const Flag& flag : flags) {
-      if (!parsed.Has(flag.name)) continue;
-      const double v = parsed.Numbers(flag.name, 1)[0];
-      for (int j = 0; j < n; ++j) {
-        if (only < 0 || only == j) (message.*flag.field)[static_cast<size_t>(j)] = v;
-      }
+  return change;
+}
+
+// Sets the named gains of joint `only` (every joint if -1) in `message`, then checks the result
+// against the chip's ranges: core::UsageError (exit 2) if out of range.
+void ApplyGainFlags(const runtime::Args& parsed, const core::RobotModel& model, int only,
+                    sirupp::servo_gains_t& message) {
+  for (const GainFlag& flag : kGainFlags) {
+    if (!parsed.Has(flag.name)) continue;
+    const double v = parsed.Numbers(flag.name, 1)[0];
+    for (int j = 0; j < model.num_joints(); ++j) {
+      if (only < 0 || only == j) (message.*flag.field)[static_cast<size_t>(j)] = v;
     }
-    try {
-      servo::ChipGainsFromMessage(message, model, "gains");
-    } catch (const core::MessageError& error) {
-      throw core::UsageError(std::string("gains: ") + error.what());
-    }
-  };
-  if (change) {  // out-of-range values exit 2 before anything is sent
-    sirupp::servo_gains_t check = from_model;
-    apply_flags(check);
   }
-  core::Bus bus = BusFromArgs(parsed);
-  client::Client rig(bus, {});
-  if (!FirstStatus(rig, out)) return kExitFailed;
+  try {
+    servo::ChipGainsFromMessage(message, model, "gains");
+  } catch (const core::MessageError& error) {
+    throw core::UsageError(std::string("gains: ") + error.what());
+  }
+}
+
+// `sirupp gains` without a value: the live gains of the virtual servos and of the real boards.
+int PrintLiveGains(const client::Client& rig, const core::Bus& bus, std::ostream& out) {
   const client::Snapshot& seen = rig.snapshot();
-  // The live gains: the controller sends them at 1 Hz; the bridge too when it runs.
-  rig.Until([&] { return seen.virtual_gains.has_value() && seen.real_gains.has_value(); }, 1.5);
   const core::Channels& channels = rig.channels();
-  if (!change) {
-    if (!seen.virtual_gains) {
-      out << "no " << bus.FullName(channels.controller_gains) << " within 1.5 s\n";
-      return kExitFailed;
-    }
-    PrintGains(out, "virtual servos (sirupp-control):", *seen.virtual_gains);
-    if (seen.real_gains) {
-      PrintGains(out, "real boards (sirupp-hardware):", *seen.real_gains);
-    } else {
-      out << "real boards: no " << bus.FullName(channels.real_arm_gains)
-          << " heard (no bridge running)\n";
-    }
-    return 0;
+  if (!seen.virtual_gains) {
+    out << "no " << bus.FullName(channels.controller_gains) << " within 1.5 s\n";
+    return kExitFailed;
   }
-  // Only what is named changes; the rest stays as the controller has it now.
-  sirupp::servo_gains_t message{};
-  if (seen.virtual_gains && seen.virtual_gains->num_joints == n) {
-    message = *seen.virtual_gains;
+  PrintGains(out, "virtual servos (sirupp-control):", *seen.virtual_gains);
+  if (seen.real_gains) {
+    PrintGains(out, "real boards (sirupp-hardware):", *seen.real_gains);
   } else {
-    out << "no live gains heard on " << bus.FullName(channels.controller_gains)
-        << ": starting from the model's\n";
-    message = from_model;
+    out << "real boards: no " << bus.FullName(channels.real_arm_gains)
+        << " heard (no bridge running)\n";
   }
-  apply_flags(message);
-  PrintGains(out, "sending:", message);
-  const bool had_real = seen.real_gains.has_value();
-  const client::Answer answer = rig.SetGains(message);
-  out << "sent " << bus.FullName(channels.arm_gains) << "\n";
-  if (const int code = Report(answer, out); code != 0) return code;
-  if (had_real) {  // the bridge answers too, on its own reply channel
-    const client::Answer bridge = rig.AwaitHardwareAnswer(answer.request, 2.0);
-    if (bridge.result == client::Result::kRefused) {
-      out << "refused by sirupp-hardware: " << bridge.error << "\n";
-      return kExitFailed;
-    }
-  }
+  return 0;
+}
+
+// After `message` was accepted: waits until the virtual servos (and the real boards, if a bridge
+// was heard) run it, and says which do.
+int ConfirmGains(client::Client& rig, const sirupp::servo_gains_t& message, bool had_real,
+                 std::ostream& out) {
+  const client::Snapshot& seen = rig.snapshot();
   const bool taken = rig.Until(
       [&] {
         return seen.virtual_gains &&
@@ -518,6 +516,129 @@ int RunGains(const std::vector<std::string>& args, std::ostream& out) {
   return taken ? 0 : kExitFailed;
 }
 
+}  // namespace
+
+int RunGains(const std::vector<std::string>& args, std::ostream& out) {
+  const runtime::Args parsed(args, "gains",
+                             WithRigFlags({runtime::ModelFlag(),
+                                           {"joint", "joint number, 1-based"},
+                                           {"kp", "position gain 0..32767"},
+                                           {"kd", "derivative gain 0..32767"},
+                                           {"ki", "integral gain 0..32767"},
+                                           {"il", "integration limit 0..32767"},
+                                           {"ol", "output limit 0..255"},
+                                           {"el", "position-error limit 0..16383 counts"},
+                                           {"db", "deadband 0..255"}}),
+                             kGainsAbout);
+  const core::RobotModel model = ModelFromArgs(parsed);
+  const int n = model.num_joints();
+  const int only = OnlyJointFrom(parsed, n);
+  const bool change = GainsNamed(parsed);
+  const sirupp::servo_gains_t from_model = servo::GainsMessage(servo::ChipGainsFromModel(model));
+  if (change) {  // out-of-range values exit 2 before anything is sent
+    sirupp::servo_gains_t check = from_model;
+    ApplyGainFlags(parsed, model, only, check);
+  }
+  core::Bus bus = BusFromArgs(parsed);
+  client::Client rig(bus, {});
+  if (!FirstStatus(rig, out)) return kExitFailed;
+  const client::Snapshot& seen = rig.snapshot();
+  // The live gains: the controller sends them at 1 Hz; the bridge too when it runs.
+  rig.Until([&] { return seen.virtual_gains.has_value() && seen.real_gains.has_value(); }, 1.5);
+  if (!change) return PrintLiveGains(rig, bus, out);
+  // Only what is named changes; the rest stays as the controller has it now.
+  const core::Channels& channels = rig.channels();
+  sirupp::servo_gains_t message{};
+  if (seen.virtual_gains && seen.virtual_gains->num_joints == n) {
+    message = *seen.virtual_gains;
+  } else {
+    out << "no live gains heard on " << bus.FullName(channels.controller_gains)
+        << ": starting from the model's\n";
+    message = from_model;
+  }
+  ApplyGainFlags(parsed, model, only, message);
+  PrintGains(out, "sending:", message);
+  const bool had_real = seen.real_gains.has_value();
+  const client::Answer answer = rig.SetGains(message);
+  out << "sent " << bus.FullName(channels.arm_gains) << "\n";
+  if (const int code = Report(answer, out); code != 0) return code;
+  if (had_real) {  // the bridge answers too, on its own reply channel
+    const client::Answer bridge = rig.AwaitHardwareAnswer(answer.request, 2.0);
+    if (bridge.result == client::Result::kRefused) {
+      out << "refused by sirupp-hardware: " << bridge.error << "\n";
+      return kExitFailed;
+    }
+  }
+  return ConfirmGains(rig, message, had_real, out);
+}
+
+namespace {
+
+void PrintController(const client::Snapshot& watch, const core::Bus& bus, std::ostream& out) {
+  if (!watch.controller) {
+    out << "controller: no " << bus.FullName(core::Channels{}.controller_status) << " heard\n";
+    return;
+  }
+  const Status& s = *watch.controller;
+  out << "controller: " << ControllerModeName(s.mode) << ", " << ControllerStateName(s.state)
+      << ", move " << s.move_id;
+  if (!s.plan_name.empty()) {
+    const bool running = s.state == Status::STATE_MOVING || s.state == Status::STATE_WAITING ||
+                         s.state == Status::STATE_PAUSED;
+    out << ", plan " << s.plan_name;
+    if (s.plan_step >= s.plan_steps) {
+      out << " finished";
+    } else {
+      out << (running && s.mode == Status::MODE_AUTOMATIC ? " at" : " ended at") << " step "
+          << s.plan_step + 1 << "/" << s.plan_steps << " (line " << s.plan_line << ")";
+    }
+  }
+  out << "\n  last error: " << (s.last_error.empty() ? "none" : s.last_error) << "\n";
+}
+
+void PrintSim(const sirupp::sim_status_t& sim, std::ostream& out) {
+  static const char* const kModes[] = {"lockstep", "realtime", "fast", "freerun"};
+  out << "sim: " << (sim.mode >= 0 && sim.mode <= 3 ? kModes[sim.mode] : "?") << ", tick "
+      << sim.tick << ", realtime factor " << core::FormatApprox(sim.realtime_factor)
+      << " (since start " << core::FormatApprox(sim.realtime_factor_run) << "), slipped "
+      << core::FormatApprox(sim.slipped_s) << " s"
+      << (sim.estop ? ", E-STOP: " + sim.estop_reason : std::string()) << "\n";
+  static const char* const kPresence[] = {"answering", "not seen yet", "silent: arm braked"};
+  for (int32_t i = 0; i < sim.num_participants; ++i) {
+    const auto k = static_cast<size_t>(i);
+    const int8_t p = sim.participant_state[k];
+    out << "  participant " << sim.participant[k] << ": "
+        << (p >= 0 && p <= 2 ? kPresence[p] : "?");
+    if (sim.answer_mean_ms[k] >= 0) {
+      out << ", answers in " << core::FormatApprox(sim.answer_mean_ms[k]) << " ms (max "
+          << core::FormatApprox(sim.answer_max_ms[k]) << ")";
+    }
+    out << "\n";
+  }
+  for (int32_t i = 0; i < sim.num_refused; ++i) {
+    const auto k = static_cast<size_t>(i);
+    out << "  refused from '" << sim.refused_sender[k] << "': " << sim.refused_count[k] << " ("
+        << sim.refused_reason[k] << ")\n";
+  }
+  if (sim.refused_others > 0) out << "  refused from other senders: " << sim.refused_others << "\n";
+}
+
+void PrintHeartbeats(const client::Snapshot& watch, std::ostream& out) {
+  for (const auto& [who, beat] : watch.heartbeats) {
+    out << "process " << who << " pid " << beat.pid << ": "
+        << core::ProcessStateName(static_cast<core::ProcessState>(beat.state))
+        << (beat.detail.empty() ? "" : " (" + beat.detail + ")") << ", up "
+        << core::FormatApprox(beat.uptime_s) << " s\n";
+    for (const sirupp::channel_stats_t& c : beat.channels) {
+      if (c.rejected == 0 && c.decode_errors == 0) continue;
+      out << "  " << c.channel << ": " << c.rejected << " rejected, " << c.decode_errors
+          << " decode errors\n";
+    }
+  }
+}
+
+}  // namespace
+
 int RunStatus(const std::vector<std::string>& args, std::ostream& out) {
   const runtime::Args parsed(args, "status",
                              WithRigFlags({TimeoutFlag("seconds to listen"), runtime::ModelFlag()}),
@@ -531,25 +652,7 @@ int RunStatus(const std::vector<std::string>& args, std::ostream& out) {
   const client::Snapshot& watch = rig.snapshot();
   out << "rig on " << bus.url() << (bus.prefix().empty() ? "" : ", prefix " + bus.prefix())
       << ", listened " << listen << " s\n";
-  if (watch.controller) {
-    const Status& s = *watch.controller;
-    out << "controller: " << ControllerModeName(s.mode) << ", " << ControllerStateName(s.state)
-        << ", move " << s.move_id;
-    if (!s.plan_name.empty()) {
-      const bool running = s.state == Status::STATE_MOVING || s.state == Status::STATE_WAITING ||
-                           s.state == Status::STATE_PAUSED;
-      out << ", plan " << s.plan_name;
-      if (s.plan_step >= s.plan_steps) {
-        out << " finished";
-      } else {
-        out << (running && s.mode == Status::MODE_AUTOMATIC ? " at" : " ended at") << " step "
-            << s.plan_step + 1 << "/" << s.plan_steps << " (line " << s.plan_line << ")";
-      }
-    }
-    out << "\n  last error: " << (s.last_error.empty() ? "none" : s.last_error) << "\n";
-  } else {
-    out << "controller: no " << bus.FullName(core::Channels{}.controller_status) << " heard\n";
-  }
+  PrintController(watch, bus, out);
   if (watch.sim_arm && watch.sim_arm->num_joints == model.num_joints()) {
     out << "joints (deg): [" << Degrees(model, watch.sim_arm->position) << "] at tick "
         << watch.sim_arm->tick << ", sim time " << static_cast<double>(watch.sim_arm->utime) * 1e-6
@@ -559,45 +662,8 @@ int RunStatus(const std::vector<std::string>& args, std::ostream& out) {
     out << "set-points (deg): [" << Degrees(model, watch.setpoint->position) << "], goals ["
         << Degrees(model, watch.setpoint->goal) << "]\n";
   }
-  if (watch.sim) {
-    const sirupp::sim_status_t& sim = *watch.sim;
-    static const char* const kModes[] = {"lockstep", "realtime", "fast", "freerun"};
-    out << "sim: " << (sim.mode >= 0 && sim.mode <= 3 ? kModes[sim.mode] : "?") << ", tick "
-        << sim.tick << ", realtime factor " << core::FormatApprox(sim.realtime_factor)
-        << " (since start " << core::FormatApprox(sim.realtime_factor_run) << "), slipped "
-        << core::FormatApprox(sim.slipped_s) << " s"
-        << (sim.estop ? ", E-STOP: " + sim.estop_reason : std::string()) << "\n";
-    static const char* const kPresence[] = {"answering", "not seen yet", "silent: arm braked"};
-    for (int32_t i = 0; i < sim.num_participants; ++i) {
-      const auto k = static_cast<size_t>(i);
-      const int8_t p = sim.participant_state[k];
-      out << "  participant " << sim.participant[k] << ": "
-          << (p >= 0 && p <= 2 ? kPresence[p] : "?");
-      if (sim.answer_mean_ms[k] >= 0) {
-        out << ", answers in " << core::FormatApprox(sim.answer_mean_ms[k]) << " ms (max "
-            << core::FormatApprox(sim.answer_max_ms[k]) << ")";
-      }
-      out << "\n";
-    }
-    for (int32_t i = 0; i < sim.num_refused; ++i) {
-      const auto k = static_cast<size_t>(i);
-      out << "  refused from '" << sim.refused_sender[k] << "': " << sim.refused_count[k] << " ("
-          << sim.refused_reason[k] << ")\n";
-    }
-    if (sim.refused_others > 0)
-      out << "  refused from other senders: " << sim.refused_others << "\n";
-  }
-  for (const auto& [who, beat] : watch.heartbeats) {
-    out << "process " << who << " pid " << beat.pid << ": "
-        << core::ProcessStateName(static_cast<core::ProcessState>(beat.state))
-        << (beat.detail.empty() ? "" : " (" + beat.detail + ")") << ", up "
-        << core::FormatApprox(beat.uptime_s) << " s\n";
-    for (const sirupp::channel_stats_t& c : beat.channels) {
-      if (c.rejected == 0 && c.decode_errors == 0) continue;
-      out << "  " << c.channel << ": " << c.rejected << " rejected, " << c.decode_errors
-          << " decode errors\n";
-    }
-  }
+  if (watch.sim) PrintSim(*watch.sim, out);
+  PrintHeartbeats(watch, out);
   return watch.controller ? 0 : kExitFailed;
 }
 

@@ -145,6 +145,150 @@ void WaitSimSeconds(client::Client& rig, double seconds) {
 
 }  // namespace
 
+namespace {
+
+// --sets as set numbers (1 to 7 or I to VII); all seven without it.
+std::vector<int> SetsFromArgs(const runtime::Args& parsed) {
+  if (!parsed.Has("sets")) return {1, 2, 3, 4, 5, 6, 7};
+  std::vector<int> sets;
+  for (const std::string& text : parsed.Values("sets", -1)) {
+    int n = 0;  // the paper numbers its sets I to VII; 1 to 7 works as well
+    for (int k = 1; k <= 7; ++k) {
+      if (strcasecmp(text.c_str(), Roman(k)) == 0 || text == std::to_string(k)) n = k;
+    }
+    if (n == 0) {
+      throw core::UsageError("--sets: '" + text +
+                             "' is not a movement set; allowed: 1 to 7 or I to VII");
+    }
+    sets.push_back(n);
+  }
+  return sets;
+}
+
+// --out, or results/demo-TIMESTAMP: created; core::UsageError if it holds anything already.
+fs::path NewResultsDir(const runtime::Args& parsed) {
+  const fs::path dir =
+      parsed.Has("out") ? parsed.String("out") : "results/demo-" + LocalTimestamp();
+  if (fs::exists(dir) && !fs::is_empty(dir)) {
+    throw core::UsageError("--out " + dir.string() +
+                           ": exists and is not empty; choose a new folder");
+  }
+  fs::create_directories(dir);
+  return dir;
+}
+
+// Starts the processes and waits until the bridge has linked the emulated arm and its start guard
+// has passed; false (with why on `err`) if that does not happen.
+bool StartRig(launch::Supervisor& supervisor, const launch::Layout& layout, std::ostream& err) {
+  if (!supervisor.Start([] { return !runtime::StopRequested(); })) return false;
+  std::string last;
+  if (!WaitLinked(layout.lcm_url, layout.prefix, 20, &last)) {
+    err << "\nsirupp demo: the hardware bridge did not link the emulated arm: " << last;
+    return false;
+  }
+  // The bridge refuses moves during its start guard (2 s after its start).
+  for (const auto t = Clock::now(); Since(t) < 2.2;) supervisor.Service(100);
+  return true;
+}
+
+// Runs each set's plan on the virtual and the emulated real arm, one line per set; returns the
+// sets that failed (their plan failed, or the real arm's bridge stopped following during it).
+std::vector<std::string> RunSets(const launch::Layout& layout, const core::RobotModel& model,
+                                 const std::vector<int>& sets,
+                                 const std::vector<std::string>& plans,
+                                 launch::Supervisor& supervisor, std::ostream& out) {
+  std::vector<std::string> failed_sets;
+  // The bridge's state during each set: a fault or an e-stop leaves the real arm behind, and
+  // that set's real columns say nothing about the arm.
+  core::Bus watch(layout.lcm_url, layout.prefix);
+  std::string real_arm_problem;
+  watch.Subscribe<sirupp::hardware_status_t>(
+      core::Channels{}.hardware_status,
+      [&](const sirupp::hardware_status_t& s, const core::ReceiveInfo&) {
+        const bool bad = s.state == sirupp::hardware_status_t::STATE_FAULT ||
+                         s.state == sirupp::hardware_status_t::STATE_ESTOPPED;
+        if (bad && real_arm_problem.empty()) real_arm_problem = s.last_error;
+      },
+      1000);  // 10 Hz for the length of a set, handled after it
+  client::Options rig_options;
+  rig_options.lcm_url = layout.lcm_url;
+  rig_options.prefix = layout.prefix;
+  rig_options.sender = "sirupp demo";
+  client::Client rig(rig_options);
+  for (size_t i = 0; i < sets.size() && !runtime::StopRequested(); ++i) {
+    const auto t0 = Clock::now();
+    out << "  set " << std::left << std::setw(4) << Roman(sets[i]) << std::right << " (" << i + 1
+        << "/" << sets.size() << ") " << PlanTitle(plans[i]) << " ..." << std::flush;
+    std::ostringstream plan_out;
+    int code = 1;
+    try {
+      code = RunPlanFile(rig, model, plans[i], /*wait_s=*/3600, plan_out);
+      // The report measures each move until 1.25 s of sim time after it is done (the plan
+      // ends 0.5 s after): record that much before the next set or the end, whatever the
+      // wall clock did, so the set's figures do not depend on the machine's timing.
+      if (code == 0) WaitSimSeconds(rig, kAfterSetS);
+    } catch (const std::exception& e) {
+      plan_out << e.what() << "\n";
+    }
+    supervisor.Service(0);
+    while (watch.HandleAvailable() > 0) {
+    }
+    if (code == 0 && !real_arm_problem.empty()) {
+      out << " FAILED: the real arm's bridge stopped following: " << real_arm_problem
+          << " (see logs/hardware.log)\n";
+      failed_sets.push_back(Roman(sets[i]));
+    } else if (code == 0) {
+      out << " done in " << Fixed(Since(t0), 1) << " s\n";
+    } else {
+      out << " FAILED\n" << plan_out.str();
+      failed_sets.push_back(Roman(sets[i]));
+    }
+  }
+  return failed_sets;
+}
+
+// The logger's data files of the sets in DIR/data, by name: one per movement set
+// (NAME-NN-setK.csv); the file of the start-up, before the first set, holds no move and stays out.
+std::vector<std::string> SetDataFiles(const fs::path& dir) {
+  std::vector<std::string> data;
+  if (fs::exists(dir / "data")) {
+    for (const auto& e : fs::directory_iterator(dir / "data")) {
+      const std::string name = e.path().filename().string();
+      if (e.path().extension() == ".csv" && name.find("-set") != std::string::npos) {
+        data.push_back(e.path().string());
+      }
+    }
+  }
+  std::sort(data.begin(), data.end());
+  return data;
+}
+
+// Writes DIR/report from the data files, with the paper's numbers beside ours, and prints its
+// Table II; false (and why) if that fails.
+bool ReportSets(const std::vector<std::string>& data, const fs::path& dir, std::ostream& out) {
+  try {
+    logger::ReportOptions report;
+    report.out_dir = (dir / "report").string();
+    report.analysis.last_move_only = true;  // each set's return to zero is not in Table II
+    report.reference = PaperReference();    // the paper's numbers beside ours
+    const logger::ReportOutput written =
+        logger::WriteReport(logger::ReadInputs(data, report.import), report);
+    // The paper's table here; the response table, the plots and the inputs are in report.md.
+    const std::string& md = written.markdown;
+    const size_t table = md.find("## Table II");
+    const size_t next = md.find("\n## ", table == std::string::npos ? 0 : table + 1);
+    out << (table == std::string::npos ? md : md.substr(table, next - table)) << "\n"
+        << "(response table, plots and inputs: " << (dir / "report" / "report.md").string()
+        << ")\n\n";
+    return true;
+  } catch (const std::exception& e) {
+    out << "report failed: " << e.what() << "\n";
+    return false;
+  }
+}
+
+}  // namespace
+
 int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   const runtime::Args parsed(
       args, "demo",
@@ -153,21 +297,7 @@ int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostrea
        runtime::Flag("layout", "lab layout to start (default config/labs/demo.yaml)").Takes("FILE"),
        runtime::Flag("lcm-url", "LCM URL").Takes("URL")},
       kDemoAbout);
-  std::vector<int> sets = {1, 2, 3, 4, 5, 6, 7};
-  if (parsed.Has("sets")) {
-    sets.clear();
-    for (const std::string& text : parsed.Values("sets", -1)) {
-      int n = 0;  // the paper numbers its sets I to VII; 1 to 7 works as well
-      for (int k = 1; k <= 7; ++k) {
-        if (strcasecmp(text.c_str(), Roman(k)) == 0 || text == std::to_string(k)) n = k;
-      }
-      if (n == 0) {
-        throw core::UsageError("--sets: '" + text +
-                               "' is not a movement set; allowed: 1 to 7 or I to VII");
-      }
-      sets.push_back(n);
-    }
-  }
+  const std::vector<int> sets = SetsFromArgs(parsed);
   const std::string layout_file = runtime::ResolveDataPath(
       parsed.Has("layout") ? parsed.String("layout") : "config/labs/demo.yaml");
   launch::Layout layout = launch::LoadLayout(layout_file);
@@ -175,13 +305,7 @@ int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostrea
       parsed.Has("lcm-url")
           ? parsed.String("lcm-url")
           : "udpm://239.255.76.67:" + std::to_string(20000 + ::getpid() % 20000) + "?ttl=0";
-  const fs::path dir =
-      parsed.Has("out") ? parsed.String("out") : "results/demo-" + LocalTimestamp();
-  if (fs::exists(dir) && !fs::is_empty(dir)) {
-    throw core::UsageError("--out " + dir.string() +
-                           ": exists and is not empty; choose a new folder");
-  }
-  fs::create_directories(dir);
+  const fs::path dir = NewResultsDir(parsed);
   std::vector<std::string> plans;
   for (int n : sets) {
     plans.push_back(runtime::ResolveDataPath("config/plans/set" + std::to_string(n) + ".plan"));
@@ -206,67 +330,13 @@ int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   options.events = &events;
   launch::Supervisor supervisor(layout, options);
   out << "[1/4] starting the processes ..." << std::flush;
-  bool ok = supervisor.Start([] { return !runtime::StopRequested(); });
-  if (ok) {
-    std::string last;
-    ok = WaitLinked(layout.lcm_url, layout.prefix, 20, &last);
-    if (!ok) err << "\nsirupp demo: the hardware bridge did not link the emulated arm: " << last;
-  }
-  if (ok) {
-    // The bridge refuses moves during its start guard (2 s after its start).
-    for (const auto t = Clock::now(); Since(t) < 2.2;) supervisor.Service(100);
-  }
+  const bool ok = StartRig(supervisor, layout, err);
   out << (ok ? " up" : " FAILED") << " after " << Fixed(Since(started), 1) << " s\n";
   std::vector<std::string> failed_sets;
   if (ok) {
     out << "[2/4] running " << sets.size() << " movement sets on the virtual and the emulated real "
         << "arm\n";
-    // The bridge's state during each set: a fault or an e-stop leaves the real arm behind, and
-    // that set's real columns say nothing about the arm.
-    core::Bus watch(layout.lcm_url, layout.prefix);
-    std::string real_arm_problem;
-    watch.Subscribe<sirupp::hardware_status_t>(
-        core::Channels{}.hardware_status,
-        [&](const sirupp::hardware_status_t& s, const core::ReceiveInfo&) {
-          const bool bad = s.state == sirupp::hardware_status_t::STATE_FAULT ||
-                           s.state == sirupp::hardware_status_t::STATE_ESTOPPED;
-          if (bad && real_arm_problem.empty()) real_arm_problem = s.last_error;
-        },
-        1000);  // 10 Hz for the length of a set, handled after it
-    client::Options rig_options;
-    rig_options.lcm_url = layout.lcm_url;
-    rig_options.prefix = layout.prefix;
-    rig_options.sender = "sirupp demo";
-    client::Client rig(rig_options);
-    for (size_t i = 0; i < sets.size() && !runtime::StopRequested(); ++i) {
-      const auto t0 = Clock::now();
-      out << "  set " << std::left << std::setw(4) << Roman(sets[i]) << std::right << " (" << i + 1
-          << "/" << sets.size() << ") " << PlanTitle(plans[i]) << " ..." << std::flush;
-      std::ostringstream plan_out;
-      int code = 1;
-      try {
-        code = RunPlanFile(rig, model, plans[i], /*wait_s=*/3600, plan_out);
-        // The report measures each move until 1.25 s of sim time after it is done (the plan
-        // ends 0.5 s after): record that much before the next set or the end, whatever the
-        // wall clock did, so the set's figures do not depend on the machine's timing.
-        if (code == 0) WaitSimSeconds(rig, kAfterSetS);
-      } catch (const std::exception& e) {
-        plan_out << e.what() << "\n";
-      }
-      supervisor.Service(0);
-      while (watch.HandleAvailable() > 0) {
-      }
-      if (code == 0 && !real_arm_problem.empty()) {
-        out << " FAILED: the real arm's bridge stopped following: " << real_arm_problem
-            << " (see logs/hardware.log)\n";
-        failed_sets.push_back(Roman(sets[i]));
-      } else if (code == 0) {
-        out << " done in " << Fixed(Since(t0), 1) << " s\n";
-      } else {
-        out << " FAILED\n" << plan_out.str();
-        failed_sets.push_back(Roman(sets[i]));
-      }
-    }
+    failed_sets = RunSets(layout, model, sets, plans, supervisor, out);
   }
   out << "[3/4] stopping the processes ..." << std::flush;
   supervisor.Stop();
@@ -277,40 +347,9 @@ int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   }
   { std::ofstream(dir / "logs" / "launch.log") << events.str(); }
 
-  std::vector<std::string> data;
-  if (fs::exists(dir / "data")) {
-    for (const auto& e : fs::directory_iterator(dir / "data")) {
-      // One file per movement set (NAME-NN-setK.csv); the file of the start-up, before the first
-      // set, holds no move and stays out of the report.
-      const std::string name = e.path().filename().string();
-      if (e.path().extension() == ".csv" && name.find("-set") != std::string::npos) {
-        data.push_back(e.path().string());
-      }
-    }
-  }
-  std::sort(data.begin(), data.end());
-  bool reported = false;
+  const std::vector<std::string> data = SetDataFiles(dir);
   out << "[4/4] Table II report from " << data.size() << " data files\n\n";
-  if (!data.empty()) {
-    try {
-      logger::ReportOptions report;
-      report.out_dir = (dir / "report").string();
-      report.analysis.last_move_only = true;  // each set's return to zero is not in Table II
-      report.reference = PaperReference();    // the paper's numbers beside ours
-      const logger::ReportOutput written =
-          logger::WriteReport(logger::ReadInputs(data, report.import), report);
-      // The paper's table here; the response table, the plots and the inputs are in report.md.
-      const std::string& md = written.markdown;
-      const size_t table = md.find("## Table II");
-      const size_t next = md.find("\n## ", table == std::string::npos ? 0 : table + 1);
-      out << (table == std::string::npos ? md : md.substr(table, next - table)) << "\n"
-          << "(response table, plots and inputs: " << (dir / "report" / "report.md").string()
-          << ")\n\n";
-      reported = true;
-    } catch (const std::exception& e) {
-      out << "report failed: " << e.what() << "\n";
-    }
-  }
+  const bool reported = !data.empty() && ReportSets(data, dir, out);
   out << "Results in " << dir.string() << " (" << Fixed(Since(started), 0) << " s in all):\n";
   ListResults(dir, out);
   const bool all = ok && failed_sets.empty() && supervisor.failures().empty() && reported &&

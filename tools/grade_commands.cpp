@@ -48,6 +48,74 @@ std::string LoadProblem(const grade::ControllerResult& result) {
   return "does not load: " + result.tasks.front().ended.substr(prefix.size());
 }
 
+// The one controller graded: LIB.so with its constructor's arguments, or -- COMMAND ...
+grade::ControllerSpec SingleController(const std::string& library, const std::string& library_args,
+                                       const std::vector<std::string>& command) {
+  grade::ControllerSpec spec;
+  if (!library.empty()) {
+    spec.kind = grade::ControllerSpec::Kind::kLibrary;
+    spec.library = fs::absolute(library).string();
+    spec.args = library_args;
+    spec.label = fs::path(library).filename().string();
+  } else {
+    spec.kind = grade::ControllerSpec::Kind::kProcess;
+    spec.command = command;
+    spec.label = fs::path(command.front()).filename().string();
+  }
+  return spec;
+}
+
+// --batch DIR: one submission per sub-folder, by name; those whose controller is found (built
+// under OUT/build) are added to `controllers`, graded[i] naming submission i's (-1: none).
+void AddBatch(const std::string& batch, const std::string& out_dir,
+              std::vector<grade::ControllerSpec>& controllers,
+              std::vector<grade::Submission>& submissions, std::vector<size_t>& graded) {
+  std::vector<fs::path> folders;
+  for (const fs::directory_entry& entry : fs::directory_iterator(batch)) {
+    if (entry.is_directory()) folders.push_back(entry.path());
+  }
+  std::sort(folders.begin(), folders.end());
+  for (const fs::path& folder : folders) {
+    grade::Submission submission;
+    submission.name = folder.filename().string();
+    const grade::FoundController found =
+        grade::FindSubmission(folder.string(), std::string(SIRUPP_SOURCE_DIR) + "/include",
+                              (fs::absolute(out_dir) / "build").string());
+    submission.problem = found.problem;
+    if (found.problem.empty()) {
+      graded.push_back(controllers.size());
+      controllers.push_back(found.spec);
+    } else {
+      graded.push_back(static_cast<size_t>(-1));
+    }
+    submissions.push_back(submission);
+  }
+}
+
+// The batch's reports: one per graded submission (OUT/NAME), then the class table.
+void ReportBatch(const std::string& out_dir, const grade::Suite& suite,
+                 const core::RobotModel& model, const std::vector<grade::ControllerResult>& results,
+                 const grade::ControllerResult* base, const std::vector<size_t>& graded,
+                 std::vector<grade::Submission>& submissions, std::ostream& out,
+                 std::ostream& err) {
+  for (size_t i = 0; i < submissions.size(); ++i) {
+    if (graded[i] == static_cast<size_t>(-1)) continue;
+    grade::Submission& submission = submissions[i];
+    submission.result = results[graded[i]];
+    submission.problem = LoadProblem(submission.result);
+    const std::string hash =
+        grade::WriteReport(out_dir + "/" + submission.name, suite, model, submission.result, base);
+    out << grade::SummaryLine(suite, submission.result, base, hash) << "\n";
+  }
+  grade::WriteClassTable(out_dir, suite, submissions, base);
+  for (const grade::Submission& submission : submissions) {
+    if (!submission.problem.empty())
+      err << "grade: " << submission.name << ": " << submission.problem << "\n";
+  }
+  out << "grade: class table " << out_dir << "/class.csv and class.md (" << submissions.size()
+      << " submissions)\n";
+}
+
 }  // namespace
 
 int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
@@ -100,39 +168,9 @@ int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostre
   std::vector<grade::Submission> submissions;
   std::vector<size_t> graded;  // submissions[i] -> controllers index
   if (batch.empty()) {
-    grade::ControllerSpec spec;
-    if (!library.empty()) {
-      spec.kind = grade::ControllerSpec::Kind::kLibrary;
-      spec.library = fs::absolute(library).string();
-      spec.args = library_args;
-      spec.label = fs::path(library).filename().string();
-    } else {
-      spec.kind = grade::ControllerSpec::Kind::kProcess;
-      spec.command = command;
-      spec.label = fs::path(command.front()).filename().string();
-    }
-    controllers.push_back(spec);
+    controllers.push_back(SingleController(library, library_args, command));
   } else {
-    std::vector<fs::path> folders;
-    for (const fs::directory_entry& entry : fs::directory_iterator(batch)) {
-      if (entry.is_directory()) folders.push_back(entry.path());
-    }
-    std::sort(folders.begin(), folders.end());
-    for (const fs::path& folder : folders) {
-      grade::Submission submission;
-      submission.name = folder.filename().string();
-      const grade::FoundController found =
-          grade::FindSubmission(folder.string(), std::string(SIRUPP_SOURCE_DIR) + "/include",
-                                (fs::absolute(out_dir) / "build").string());
-      submission.problem = found.problem;
-      if (found.problem.empty()) {
-        graded.push_back(controllers.size());
-        controllers.push_back(found.spec);
-      } else {
-        graded.push_back(static_cast<size_t>(-1));
-      }
-      submissions.push_back(submission);
-    }
+    AddBatch(batch, out_dir, controllers, submissions, graded);
   }
   if (baseline) {
     grade::ControllerSpec spec;
@@ -148,22 +186,7 @@ int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostre
     out << grade::SummaryLine(suite, results.front(), base, hash) << "\n";
     return 0;
   }
-  for (size_t i = 0; i < submissions.size(); ++i) {
-    if (graded[i] == static_cast<size_t>(-1)) continue;
-    grade::Submission& submission = submissions[i];
-    submission.result = results[graded[i]];
-    submission.problem = LoadProblem(submission.result);
-    const std::string hash =
-        grade::WriteReport(out_dir + "/" + submission.name, suite, model, submission.result, base);
-    out << grade::SummaryLine(suite, submission.result, base, hash) << "\n";
-  }
-  grade::WriteClassTable(out_dir, suite, submissions, base);
-  for (const grade::Submission& submission : submissions) {
-    if (!submission.problem.empty())
-      err << "grade: " << submission.name << ": " << submission.problem << "\n";
-  }
-  out << "grade: class table " << out_dir << "/class.csv and class.md (" << submissions.size()
-      << " submissions)\n";
+  ReportBatch(out_dir, suite, model, results, base, graded, submissions, out, err);
   return 0;
 }
 

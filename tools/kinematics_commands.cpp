@@ -157,63 +157,35 @@ int RunFk(const std::vector<std::string>& raw, std::ostream& out) {
   return 0;
 }
 
-int RunIk(const std::vector<std::string>& raw, std::ostream& out) {
-  const runtime::Args args(
-      raw, "ik",
-      {runtime::ModelFlag(),
-       runtime::Flag("pose", "tool pose in the world frame: metres and degrees")
-           .Takes("X Y Z ROLL PITCH YAW", 6),
-       {"config", "NAME|all|nearest"},
-       {"from", "Q1 .. QN"},
-       {"numeric", ""},
-       {"position-only", ""},
-       {"json", ""}},
-      kIkAbout);
-  const core::RobotModel model = core::LoadRobotModel(runtime::ModelFileArg(args));
-  const int n = model.num_joints();
-  const std::vector<double> pose = args.Numbers("pose", 6);
-  const std::string config_text = args.Has("config") ? args.String("config") : "all";
-  std::optional<core::IkConfiguration> wanted;
-  if (config_text != "all" && config_text != "nearest") {
-    wanted = core::IkConfiguration::Parse(config_text);
-    if (!wanted) {
-      throw core::UsageError(
-          "ik: --config '" + config_text +
-          "' is not allowed; expected all, nearest, or SHOULDER-ELBOW-WRIST with "
-          "left|right, up|down, noflip|flip (e.g. right-up-noflip)");
-    }
-  }
-  core::JointVector reference(n);
-  for (int i = 0; i < n; ++i) reference[i] = model.joints[static_cast<size_t>(i)].home;
-  if (args.Has("from")) reference = FromPeople(model, args.Numbers("from", n), true);
-  const bool numeric = args.Switch("numeric");
-  const bool position_only = args.Switch("position-only");
-  const bool json = args.Switch("json");
+namespace {
 
+// --config NAME as a configuration; nothing for all and nearest.
+std::optional<core::IkConfiguration> WantedConfig(const std::string& config_text) {
+  if (config_text == "all" || config_text == "nearest") return std::nullopt;
+  std::optional<core::IkConfiguration> wanted = core::IkConfiguration::Parse(config_text);
+  if (!wanted) {
+    throw core::UsageError("ik: --config '" + config_text +
+                           "' is not allowed; expected all, nearest, or SHOULDER-ELBOW-WRIST with "
+                           "left|right, up|down, noflip|flip (e.g. right-up-noflip)");
+  }
+  return wanted;
+}
+
+// X Y Z (m) ROLL PITCH YAW (deg) as a pose.
+Eigen::Isometry3d PoseTarget(const std::vector<double>& pose) {
   Eigen::Isometry3d target = Eigen::Isometry3d::Identity();
   target.translation() << pose[0], pose[1], pose[2];
   target.linear() =
       core::QuaternionFromRpy(pose[3] * M_PI / 180, pose[4] * M_PI / 180, pose[5] * M_PI / 180)
           .toRotationMatrix();
+  return target;
+}
 
-  const bool closed_form = !numeric && !position_only && !core::PumaIkNotApplicable(model);
-  if (wanted && !closed_form) {
-    throw core::UsageError("ik: --config " + config_text +
-                           " needs the closed-form solver, which does not apply here (" +
-                           (numeric || position_only
-                                ? std::string("--numeric/--position-only given")
-                                : *core::PumaIkNotApplicable(model)) +
-                           "); use all or nearest");
-  }
-  core::IkResult result;
-  if (closed_form) {
-    result = core::SolvePumaIk(model, target, reference);
-  } else {
-    core::NumericIkOptions options;
-    options.position_only = position_only;
-    result = core::SolveNumericIk(model, target, reference, options);
-  }
-
+// The solutions to show: within the limits, of the wanted configuration if one is asked, only
+// the nearest for --config nearest.
+std::vector<const core::IkSolution*> ShownSolutions(
+    const core::IkResult& result, const std::optional<core::IkConfiguration>& wanted,
+    const std::string& config_text) {
   std::vector<const core::IkSolution*> shown;
   for (const core::IkSolution& s : result.solutions) {
     if (!s.within_limits) continue;
@@ -221,42 +193,55 @@ int RunIk(const std::vector<std::string>& raw, std::ostream& out) {
     shown.push_back(&s);
   }
   if (config_text == "nearest" && !shown.empty()) shown.resize(1);  // sorted nearest first
-  std::string failure = result.ok() ? "" : result.reason;
-  if (result.ok() && shown.empty() && wanted) {
-    failure = "configuration " + config_text + " has no solution inside the joint limits";
-  }
+  return shown;
+}
 
-  if (json) {
-    Json solutions = Json::array();
-    for (const core::IkSolution* s : shown) {
-      solutions.push_back({{"config", s->config ? Json(s->config->Name()) : Json(nullptr)},
-                           {"joints", ForPeople(model, s->q)},
-                           {"position_error_m", s->error.position_m},
-                           {"rotation_error_rad", s->error.rotation_rad},
-                           {"singularities", s->singularities}});
-    }
-    WriteJsonLine(out, Json{{"model", model.name},
-                            {"solver", closed_form ? "closed-form" : "numeric"},
-                            {"ok", failure.empty()},
-                            {"reason", failure.empty()
-                                           ? Json(nullptr)
-                                           : Json(std::string(core::IkFailureName(result.failure)) +
-                                                  ": " + failure)},
-                            {"joint_units", kJointUnits},
-                            {"solutions", std::move(solutions)}});
-    return failure.empty() ? 0 : 1;
+// What `ik` found, as the pieces its two outputs show.
+struct IkAnswer {
+  bool closed_form = false;
+  core::IkResult result;
+  std::vector<const core::IkSolution*> shown;
+  std::string failure;  // empty: solved
+};
+
+int PrintIkJson(const core::RobotModel& model, const IkAnswer& answer, std::ostream& out) {
+  Json solutions = Json::array();
+  for (const core::IkSolution* s : answer.shown) {
+    solutions.push_back({{"config", s->config ? Json(s->config->Name()) : Json(nullptr)},
+                         {"joints", ForPeople(model, s->q)},
+                         {"position_error_m", s->error.position_m},
+                         {"rotation_error_rad", s->error.rotation_rad},
+                         {"singularities", s->singularities}});
   }
+  const std::string& failure = answer.failure;
+  WriteJsonLine(out,
+                Json{{"model", model.name},
+                     {"solver", answer.closed_form ? "closed-form" : "numeric"},
+                     {"ok", failure.empty()},
+                     {"reason", failure.empty()
+                                    ? Json(nullptr)
+                                    : Json(std::string(core::IkFailureName(answer.result.failure)) +
+                                           ": " + failure)},
+                     {"joint_units", kJointUnits},
+                     {"solutions", std::move(solutions)}});
+  return failure.empty() ? 0 : 1;
+}
+
+int PrintIkText(const core::RobotModel& model, const std::vector<double>& pose,
+                const std::string& config_text, const IkAnswer& answer, std::ostream& out) {
+  const core::IkResult& result = answer.result;
   out << model.name << ": target [" << Fixed(pose[0], 4) << " " << Fixed(pose[1], 4) << " "
       << Fixed(pose[2], 4) << "] m, rpy [" << Fixed(pose[3], 2) << " " << Fixed(pose[4], 2) << " "
-      << Fixed(pose[5], 2) << "] deg; " << (closed_form ? "closed-form" : "numeric") << " solver\n";
-  if (!failure.empty()) {
-    out << "no solution: " << core::IkFailureName(result.failure) << ": " << failure << "\n";
+      << Fixed(pose[5], 2) << "] deg; " << (answer.closed_form ? "closed-form" : "numeric")
+      << " solver\n";
+  if (!answer.failure.empty()) {
+    out << "no solution: " << core::IkFailureName(result.failure) << ": " << answer.failure << "\n";
     for (const core::IkSolution& s : result.solutions) {
       out << SolutionText(model, s) << "  (outside: " << OutsideLimits(model, s.q) << ")\n";
     }
     return 1;
   }
-  for (const core::IkSolution* s : shown) {
+  for (const core::IkSolution* s : answer.shown) {
     char error[96];
     std::snprintf(error, sizeof error, "  |error| %.1e m %.1e rad", s->error.position_m,
                   s->error.rotation_rad);
@@ -274,6 +259,59 @@ int RunIk(const std::vector<std::string>& raw, std::ostream& out) {
     }
   }
   return 0;
+}
+
+}  // namespace
+
+int RunIk(const std::vector<std::string>& raw, std::ostream& out) {
+  const runtime::Args args(
+      raw, "ik",
+      {runtime::ModelFlag(),
+       runtime::Flag("pose", "tool pose in the world frame: metres and degrees")
+           .Takes("X Y Z ROLL PITCH YAW", 6),
+       {"config", "NAME|all|nearest"},
+       {"from", "Q1 .. QN"},
+       {"numeric", ""},
+       {"position-only", ""},
+       {"json", ""}},
+      kIkAbout);
+  const core::RobotModel model = core::LoadRobotModel(runtime::ModelFileArg(args));
+  const int n = model.num_joints();
+  const std::vector<double> pose = args.Numbers("pose", 6);
+  const std::string config_text = args.Has("config") ? args.String("config") : "all";
+  const std::optional<core::IkConfiguration> wanted = WantedConfig(config_text);
+  core::JointVector reference(n);
+  for (int i = 0; i < n; ++i) reference[i] = model.joints[static_cast<size_t>(i)].home;
+  if (args.Has("from")) reference = FromPeople(model, args.Numbers("from", n), true);
+  const bool numeric = args.Switch("numeric");
+  const bool position_only = args.Switch("position-only");
+  const bool json = args.Switch("json");
+  const Eigen::Isometry3d target = PoseTarget(pose);
+
+  IkAnswer answer;
+  answer.closed_form = !numeric && !position_only && !core::PumaIkNotApplicable(model);
+  if (wanted && !answer.closed_form) {
+    throw core::UsageError("ik: --config " + config_text +
+                           " needs the closed-form solver, which does not apply here (" +
+                           (numeric || position_only
+                                ? std::string("--numeric/--position-only given")
+                                : *core::PumaIkNotApplicable(model)) +
+                           "); use all or nearest");
+  }
+  if (answer.closed_form) {
+    answer.result = core::SolvePumaIk(model, target, reference);
+  } else {
+    core::NumericIkOptions options;
+    options.position_only = position_only;
+    answer.result = core::SolveNumericIk(model, target, reference, options);
+  }
+  answer.shown = ShownSolutions(answer.result, wanted, config_text);
+  answer.failure = answer.result.ok() ? "" : answer.result.reason;
+  if (answer.result.ok() && answer.shown.empty() && wanted) {
+    answer.failure = "configuration " + config_text + " has no solution inside the joint limits";
+  }
+  return json ? PrintIkJson(model, answer, out)
+              : PrintIkText(model, pose, config_text, answer, out);
 }
 
 }  // namespace sirupp::tools

@@ -68,6 +68,67 @@ double Since(std::chrono::steady_clock::time_point t) {
 
 }  // namespace
 
+namespace {
+
+// --evaluations: the fit's budget of experiment runs, 1..10000.
+int EvaluationsArg(const runtime::Args& args, int fallback) {
+  if (!args.Has("evaluations")) return fallback;
+  const double n = args.Numbers("evaluations", 1)[0];
+  if (!(n >= 1 && n <= 10000) || n != std::floor(n)) {
+    throw core::UsageError("fit-emulator: --evaluations " + core::FormatNumber(n) +
+                           ": allowed a whole number 1..10000");
+  }
+  return static_cast<int>(n);
+}
+
+// --out: a new file, or --real-arm itself; empty without it.
+std::string FitOutFile(const runtime::Args& args) {
+  if (!args.Has("out")) return "";
+  const std::string out_file = args.String("out");
+  if (std::ifstream(out_file).good() && out_file != args.String("real-arm")) {
+    throw core::UsageError("fit-emulator: --out " + out_file +
+                           ": exists; choose a new file (or give it as --real-arm too)");
+  }
+  return out_file;
+}
+
+// --evaluate: runs the sets once with the effects as they are and prints the table (with
+// --data DIR, each set's data file there too).
+int Evaluate(const runtime::Args& args, const core::RobotModel& virtual_model,
+             const core::RobotModel& model, const hardware::RealArmParams& start,
+             const lab::ExperimentOptions& experiment,
+             std::chrono::steady_clock::time_point started, std::ostream& out) {
+  std::string data_dir;
+  if (args.Has("data")) {
+    data_dir = args.String("data");
+    std::filesystem::create_directories(data_dir);
+  }
+  const std::vector<lab::TableRow> table =
+      lab::RunExperiment(virtual_model, model, start, experiment, data_dir);
+  if (!data_dir.empty()) out << "data files: " << data_dir << "/lab-setN.csv\n";
+  out << "\n" << lab::FormatComparison(table, true);
+  out << "fit cost " << core::FormatNumber(lab::FitCost(table)) << "; " << std::setprecision(3)
+      << Since(started) << " s\n";
+  return 0;
+}
+
+// Writes the fitted effects to `out_file`, with where they come from in its head comment.
+void WriteFitted(const lab::FitResult& fit, const std::string& out_file) {
+  hardware::RealArmParams fitted = fit.params;
+  fitted.description = "PUMA 260 real-arm effects fitted to the SIRUPP paper's Table II";
+  std::ofstream file(out_file);
+  file << hardware::FormatRealArmParams(
+      fitted,
+      "The emulated real PUMA 260 (sirupp-picservo-emu's default): the physical effects a 1980s\n"
+      "geared arm has and the SIRUPP model lacks. Reasoning and sources per value:\n"
+      "docs/hardware-emulator.md, \"Real-arm effects\". Written by `sirupp fit-emulator` (fit\n"
+      "cost " +
+          core::FormatNumber(fit.cost_after) + "): docs/emulator-fit.md.");
+  if (!file) throw std::runtime_error("fit-emulator: cannot write " + out_file);
+}
+
+}  // namespace
+
 int RunFitEmulator(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
   const runtime::Args args(
       argv, "fit-emulator",
@@ -98,39 +159,14 @@ int RunFitEmulator(const std::vector<std::string>& argv, std::ostream& out, std:
   const hardware::RealArmParams start = hardware::LoadRealArmParams(arm_file, model);
   lab::FitOptions options;
   options.experiment.sets = ParseSets(args);
-  if (args.Has("evaluations")) {
-    const double n = args.Numbers("evaluations", 1)[0];
-    if (!(n >= 1 && n <= 10000) || n != std::floor(n)) {
-      throw core::UsageError("fit-emulator: --evaluations " + core::FormatNumber(n) +
-                             ": allowed a whole number 1..10000");
-    }
-    options.max_evaluations = static_cast<int>(n);
-  }
-  std::string out_file;
-  if (args.Has("out")) {
-    out_file = args.String("out");
-    if (std::ifstream(out_file).good() && out_file != args.String("real-arm")) {
-      throw core::UsageError("fit-emulator: --out " + out_file +
-                             ": exists; choose a new file (or give it as --real-arm too)");
-    }
-  }
+  options.max_evaluations = EvaluationsArg(args, options.max_evaluations);
+  const std::string out_file = FitOutFile(args);
   const auto started = std::chrono::steady_clock::now();
   out << "virtual arm: " << virtual_model.name
       << (args.Has("virtual-model") ? " (" + args.String("virtual-model") + ")" : "")
       << "; emulated real arm: " << arm_file << "\n";
   if (args.Switch("evaluate")) {
-    std::string data_dir;
-    if (args.Has("data")) {
-      data_dir = args.String("data");
-      std::filesystem::create_directories(data_dir);
-    }
-    const std::vector<lab::TableRow> table =
-        lab::RunExperiment(virtual_model, model, start, options.experiment, data_dir);
-    if (!data_dir.empty()) out << "data files: " << data_dir << "/lab-setN.csv\n";
-    out << "\n" << lab::FormatComparison(table, true);
-    out << "fit cost " << core::FormatNumber(lab::FitCost(table)) << "; " << std::setprecision(3)
-        << Since(started) << " s\n";
-    return 0;
+    return Evaluate(args, virtual_model, model, start, options.experiment, started, out);
   }
   options.progress = [&](int evaluation, double cost, const std::string& what) {
     err << "  [" << evaluation << "] cost " << core::FormatNumber(std::round(cost * 1000) / 1000)
@@ -144,17 +180,7 @@ int RunFitEmulator(const std::vector<std::string>& argv, std::ostream& out, std:
   for (const std::string& line : fit.fitted) out << "  " << line << "\n";
   out << "\n" << lab::FormatComparison(fit.table, true);
   if (!out_file.empty()) {
-    hardware::RealArmParams fitted = fit.params;
-    fitted.description = "PUMA 260 real-arm effects fitted to the SIRUPP paper's Table II";
-    std::ofstream file(out_file);
-    file << hardware::FormatRealArmParams(
-        fitted,
-        "The emulated real PUMA 260 (sirupp-picservo-emu's default): the physical effects a 1980s\n"
-        "geared arm has and the SIRUPP model lacks. Reasoning and sources per value:\n"
-        "docs/hardware-emulator.md, \"Real-arm effects\". Written by `sirupp fit-emulator` (fit\n"
-        "cost " +
-            core::FormatNumber(fit.cost_after) + "): docs/emulator-fit.md.");
-    if (!file) throw std::runtime_error("fit-emulator: cannot write " + out_file);
+    WriteFitted(fit, out_file);
     out << "wrote " << out_file << "\n";
   }
   return 0;

@@ -70,6 +70,63 @@ std::string LastLines(const std::string& text, size_t count) {
 
 }  // namespace
 
+namespace {
+
+// A --FLAG of seconds > 0, or `fallback` without it.
+double PositiveSecondsArg(const runtime::Args& parsed, const std::string& flag, double fallback) {
+  if (!parsed.Has(flag)) return fallback;
+  const double seconds = runtime::ParseNumberArg(parsed.String(flag), "--" + flag);
+  if (seconds <= 0) throw core::UsageError("--" + flag + ": expected seconds > 0");
+  return seconds;
+}
+
+// --dry-run: the layout checked, and the command line of each process this host runs.
+void PrintDryRun(const std::string& file, const launch::Layout& layout, const std::string& host,
+                 const launch::Supervisor& supervisor, std::ostream& out) {
+  out << file << ": ok: lab " << layout.lab << ", " << layout.processes.size() << " processes on "
+      << layout.hosts.size() << " host(s); host " << host << " runs:\n";
+  for (const launch::ProcessSpec& spec : layout.ProcessesOn(host)) {
+    std::string line;
+    for (const std::string& w : supervisor.CommandOf(spec)) line += " " + w;
+    out << "  " << spec.name << " (restart " << launch::RestartName(spec.restart)
+        << (spec.critical ? ", critical" : "") << "):" << line << "\n";
+  }
+}
+
+// How the process table is shown while the processes run.
+struct TableDisplay {
+  bool tty = false;                    // redrawn in place every second, recent events under it
+  double every_s = 10;                 // otherwise printed this often
+  const std::ostringstream* recent{};  // the events, when on a terminal
+};
+
+// Services the processes until a stop is asked, one of them ends the run, or `duration` s
+// (0: no limit) since `started` have passed, showing the table; then the final table.
+void Supervise(launch::Supervisor& supervisor, const launch::Layout& layout,
+               const std::string& host, std::chrono::steady_clock::time_point started,
+               double duration, const TableDisplay& display, std::ostream& out) {
+  auto elapsed = [&] {
+    return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
+  };
+  double next_table = 0;
+  while (!runtime::StopRequested() && (duration <= 0 || elapsed() < duration)) {
+    if (!supervisor.Service(200)) break;
+    if (elapsed() >= next_table) {
+      if (display.tty) out << "\033[H\033[J";  // redraw in place, like top
+      out << "-- " << layout.lab << " @ " << host << ", " << static_cast<int>(elapsed())
+          << " s --\n"
+          << launch::FormatTable(supervisor.Table());
+      if (display.tty) out << "recent events:\n" << LastLines(display.recent->str(), 8);
+      out << std::flush;
+      next_table = elapsed() + (display.tty ? 1.0 : display.every_s);
+    }
+  }
+  supervisor.Service(0);
+  out << "-- final --\n" << launch::FormatTable(supervisor.Table());
+}
+
+}  // namespace
+
 int RunLaunch(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   const runtime::Args parsed(
       args, "launch",
@@ -94,16 +151,8 @@ int RunLaunch(const std::vector<std::string>& args, std::ostream& out, std::ostr
            .Switch()},
       kLaunchAbout);
   const std::string file = runtime::ResolveDataPath(parsed.String("layout"));
-  double duration = 0;
-  if (parsed.Has("duration")) {
-    duration = runtime::ParseNumberArg(parsed.String("duration"), "--duration");
-    if (duration <= 0) throw core::UsageError("--duration: expected seconds > 0");
-  }
-  double status_every = 10;
-  if (parsed.Has("status-every")) {
-    status_every = runtime::ParseNumberArg(parsed.String("status-every"), "--status-every");
-    if (status_every <= 0) throw core::UsageError("--status-every: expected seconds > 0");
-  }
+  const double duration = PositiveSecondsArg(parsed, "duration", 0);
+  const double status_every = PositiveSecondsArg(parsed, "status-every", 10);
   launch::Layout layout = launch::LoadLayout(file);
   if (parsed.Has("lcm-url")) layout.lcm_url = parsed.String("lcm-url");
   if (parsed.Has("prefix")) layout.prefix = parsed.String("prefix");
@@ -131,44 +180,20 @@ int RunLaunch(const std::vector<std::string>& args, std::ostream& out, std::ostr
   };
   if (parsed.Switch("dry-run")) {
     const std::unique_ptr<launch::Supervisor> checked = make();
-    const launch::Supervisor& supervisor = *checked;
-    out << file << ": ok: lab " << layout.lab << ", " << layout.processes.size() << " processes on "
-        << layout.hosts.size() << " host(s); host " << options.host << " runs:\n";
-    for (const launch::ProcessSpec& spec : layout.ProcessesOn(options.host)) {
-      std::string line;
-      for (const std::string& w : supervisor.CommandOf(spec)) line += " " + w;
-      out << "  " << spec.name << " (restart " << launch::RestartName(spec.restart)
-          << (spec.critical ? ", critical" : "") << "):" << line << "\n";
-    }
+    PrintDryRun(file, layout, options.host, *checked, out);
     return 0;
   }
   runtime::InstallStopHandlers();
   const std::unique_ptr<launch::Supervisor> owned = make();
   launch::Supervisor& supervisor = *owned;
   const auto started = std::chrono::steady_clock::now();
-  auto elapsed = [&] {
-    return std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count();
-  };
   const bool up = supervisor.Start([] { return !runtime::StopRequested(); });
   if (tty) out << recent.str();
   if (up) {
     out << "all " << layout.ProcessesOn(options.host).size() << " processes of host "
         << options.host << " are up; Ctrl-C stops them\n";
-    double next_table = 0;
-    while (!runtime::StopRequested() && (duration <= 0 || elapsed() < duration)) {
-      if (!supervisor.Service(200)) break;
-      if (elapsed() >= next_table) {
-        if (tty) out << "\033[H\033[J";  // redraw in place, like top
-        out << "-- " << layout.lab << " @ " << options.host << ", " << static_cast<int>(elapsed())
-            << " s --\n"
-            << launch::FormatTable(supervisor.Table());
-        if (tty) out << "recent events:\n" << LastLines(recent.str(), 8);
-        out << std::flush;
-        next_table = elapsed() + (tty ? 1.0 : status_every);
-      }
-    }
-    supervisor.Service(0);
-    out << "-- final --\n" << launch::FormatTable(supervisor.Table());
+    Supervise(supervisor, layout, options.host, started, duration, {tty, status_every, &recent},
+              out);
   }
   const size_t before_stop = recent.str().size();
   supervisor.Stop();

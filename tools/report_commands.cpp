@@ -51,6 +51,53 @@ double NonNegative(const runtime::Args& args, const std::string& flag, double fa
 
 }  // namespace
 
+namespace {
+
+// --settle-window, --start-threshold, --band-percent, --min-travel, --last-move, --joints.
+logger::AnalysisOptions AnalysisOptionsFrom(const runtime::Args& args) {
+  logger::AnalysisOptions a;
+  a.settle_window_s = NonNegative(args, "settle-window", a.settle_window_s);
+  a.start_threshold = NonNegative(args, "start-threshold", a.start_threshold);
+  a.settle_band_fraction = NonNegative(args, "band-percent", a.settle_band_fraction * 100) / 100;
+  a.min_travel = NonNegative(args, "min-travel", a.min_travel);
+  a.last_move_only = args.Switch("last-move");
+  if (args.Has("joints")) {
+    for (double joint : args.Numbers("joints", -1)) {
+      if (joint != std::floor(joint) || joint < 1) {
+        throw core::UsageError("report: --joints " + core::FormatNumber(joint) +
+                               ": joints are numbered 1, 2, ...");
+      }
+      a.joints.push_back(static_cast<int>(joint));
+    }
+  }
+  return a;
+}
+
+// How LCM logs are read: --prefix, --rate, --max-age, --whole-log.
+logger::ImportOptions ImportOptionsFrom(const runtime::Args& args) {
+  logger::ImportOptions import;
+  try {
+    import.channels = core::Channels::WithPrefix(args.Has("prefix") ? args.String("prefix") : "");
+  } catch (const std::invalid_argument& error) {
+    throw core::UsageError(std::string("report: --prefix: ") + error.what());
+  }
+  if (args.Has("rate")) {
+    const double rate = args.Numbers("rate", 1)[0];
+    if (!(rate > 0 && rate <= 1e6)) {
+      throw core::UsageError("report: --rate " + core::FormatNumber(rate) +
+                             ": allowed 0 < HZ <= 1000000");
+    }
+    import.aligner.period_us = std::max<int64_t>(1, std::llround(1e6 / rate));
+  }
+  if (args.Has("max-age")) {
+    import.aligner.max_age_us = std::llround(NonNegative(args, "max-age", 0.0) * 1e6);
+  }
+  import.split_per_plan = !args.Switch("whole-log");
+  return import;
+}
+
+}  // namespace
+
 int RunReport(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
   const runtime::Args args(
       argv, "report",
@@ -91,41 +138,10 @@ int RunReport(const std::vector<std::string>& argv, std::ostream& out, std::ostr
     }
     options.reference = PaperReference();
   }
-  logger::AnalysisOptions& a = options.analysis;
-  a.settle_window_s = NonNegative(args, "settle-window", a.settle_window_s);
-  a.start_threshold = NonNegative(args, "start-threshold", a.start_threshold);
-  a.settle_band_fraction = NonNegative(args, "band-percent", a.settle_band_fraction * 100) / 100;
-  a.min_travel = NonNegative(args, "min-travel", a.min_travel);
-  a.last_move_only = args.Switch("last-move");
-  if (args.Has("joints")) {
-    for (double joint : args.Numbers("joints", -1)) {
-      if (joint != std::floor(joint) || joint < 1) {
-        throw core::UsageError("report: --joints " + core::FormatNumber(joint) +
-                               ": joints are numbered 1, 2, ...");
-      }
-      a.joints.push_back(static_cast<int>(joint));
-    }
-  }
-  logger::ImportOptions& import = options.import;
-  try {
-    import.channels = core::Channels::WithPrefix(args.Has("prefix") ? args.String("prefix") : "");
-  } catch (const std::invalid_argument& error) {
-    throw core::UsageError(std::string("report: --prefix: ") + error.what());
-  }
-  if (args.Has("rate")) {
-    const double rate = args.Numbers("rate", 1)[0];
-    if (!(rate > 0 && rate <= 1e6)) {
-      throw core::UsageError("report: --rate " + core::FormatNumber(rate) +
-                             ": allowed 0 < HZ <= 1000000");
-    }
-    import.aligner.period_us = std::max<int64_t>(1, std::llround(1e6 / rate));
-  }
-  if (args.Has("max-age")) {
-    import.aligner.max_age_us = std::llround(NonNegative(args, "max-age", 0.0) * 1e6);
-  }
-  import.split_per_plan = !args.Switch("whole-log");
+  options.analysis = AnalysisOptionsFrom(args);
+  options.import = ImportOptionsFrom(args);
 
-  const std::vector<logger::RunTable> tables = logger::ReadInputs(files, import);
+  const std::vector<logger::RunTable> tables = logger::ReadInputs(files, options.import);
   for (const logger::RunTable& table : tables) {
     for (const std::string& note : table.notes) err << "sirupp report: note: " << note << "\n";
   }

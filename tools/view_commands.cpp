@@ -61,6 +61,83 @@ std::optional<sirupp::viewer_camera_t> CameraOf(const sirupp::image_t& image) {
 
 }  // namespace
 
+namespace {
+
+// The camera or switch request for a key, from the newest image's camera and switch state;
+// nothing for a key that asks for none or while no image has told the camera.
+std::optional<sirupp::viewer_camera_t> RequestForKey(int key, const sirupp::image_t& newest) {
+  std::optional<sirupp::viewer_camera_t> camera = CameraOf(newest);
+  if (!camera) return std::nullopt;
+  sirupp::viewer_camera_t& c = *camera;
+  const bool frames_on = viewer::FindMetadata(newest, "frames").value_or("0") == "1";
+  const bool ghost_on = viewer::FindMetadata(newest, "ghost").value_or("1") == "1";
+  switch (key) {
+    case 'j':
+      c.azimuth -= 10 * kDegToRad;
+      break;
+    case 'l':
+      c.azimuth += 10 * kDegToRad;
+      break;
+    case 'i':
+      c.elevation = std::min(c.elevation + 5 * kDegToRad, 85 * kDegToRad);
+      break;
+    case 'k':
+      c.elevation = std::max(c.elevation - 5 * kDegToRad, -85 * kDegToRad);
+      break;
+    case '+':
+    case '=':
+      c.distance *= 0.9;
+      break;
+    case '-':
+      c.distance /= 0.9;
+      break;
+    case 'f':
+      c.set_camera = 0;
+      c.show_frames =
+          frames_on ? sirupp::viewer_camera_t::SWITCH_OFF : sirupp::viewer_camera_t::SWITCH_ON;
+      break;
+    case 'g':
+      c.set_camera = 0;
+      c.show_ghost =
+          ghost_on ? sirupp::viewer_camera_t::SWITCH_OFF : sirupp::viewer_camera_t::SWITCH_ON;
+      break;
+    case 'p':
+      c.set_camera = 0;
+      c.snapshot = 1;
+      break;
+    default:
+      return std::nullopt;
+  }
+  return camera;
+}
+
+// Saves the shown image as DIR/view-NNN.png (NNN = number) and says where, or that it could not.
+void SaveShown(const cv::Mat& shown, const std::string& save_dir, int number, std::ostream& out,
+               std::ostream& err) {
+  std::filesystem::create_directories(save_dir);
+  char name[32];
+  std::snprintf(name, sizeof name, "view-%03d.png", number);
+  const std::string path = (std::filesystem::path(save_dir) / name).string();
+  if (cv::imwrite(path, shown)) {
+    out << "saved " << path << std::endl;
+  } else {
+    err << "sirupp view: cannot write " << path << "\n";
+  }
+}
+
+// --duration in seconds; 0 (no limit) without it.
+double DurationOf(const runtime::Args& parsed) {
+  if (!parsed.Has("duration")) return 0;
+  const double duration_s = parsed.Numbers("duration", 1)[0];
+  if (!(duration_s > 0)) {
+    throw core::UsageError("view: --duration " + core::FormatNumber(duration_s) +
+                           ": must be > 0 s");
+  }
+  return duration_s;
+}
+
+}  // namespace
+
 int RunView(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   const runtime::Args parsed(
       args, "view",
@@ -71,14 +148,7 @@ int RunView(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   const std::string channel =
       parsed.Has("channel") ? parsed.String("channel") : core::Channels{}.viewer_image;
   const std::string save_dir = parsed.Has("save") ? parsed.String("save") : ".";
-  double duration_s = 0;
-  if (parsed.Has("duration")) {
-    duration_s = parsed.Numbers("duration", 1)[0];
-    if (!(duration_s > 0)) {
-      throw core::UsageError("view: --duration " + core::FormatNumber(duration_s) +
-                             ": must be > 0 s");
-    }
-  }
+  const double duration_s = DurationOf(parsed);
   if (!HasDisplay()) {
     err << "sirupp view: no display ($DISPLAY is not set): run it on a PC with a screen, or "
            "let sirupp-viewer write files (--png DIR, --video FILE.avi)\n";
@@ -104,11 +174,6 @@ int RunView(const std::vector<std::string>& args, std::ostream& out, std::ostrea
       });
   int64_t camera_seq = 0;
   int saved = 0;
-  auto send = [&](sirupp::viewer_camera_t message) {
-    message.utime = WallMicros();
-    message.seq = camera_seq++;
-    bus.Publish(core::Channels{}.viewer_camera, message);
-  };
   out << "sirupp view: waiting for " << bus.FullName(channel) << " on " << bus.url() << " (q quits)"
       << std::endl;
   const auto start = std::chrono::steady_clock::now();
@@ -127,61 +192,15 @@ int RunView(const std::vector<std::string>& args, std::ostream& out, std::ostrea
       break;
     }
     if (key == 's' && !shown.empty()) {
-      std::filesystem::create_directories(save_dir);
-      char name[32];
-      std::snprintf(name, sizeof name, "view-%03d.png", ++saved);
-      const std::string path = (std::filesystem::path(save_dir) / name).string();
-      if (cv::imwrite(path, shown)) {
-        out << "saved " << path << std::endl;
-      } else {
-        err << "sirupp view: cannot write " << path << "\n";
-      }
+      SaveShown(shown, save_dir, ++saved, out, err);
       continue;
     }
     if (!newest) continue;
-    std::optional<sirupp::viewer_camera_t> camera = CameraOf(*newest);
-    if (!camera) continue;
-    sirupp::viewer_camera_t& c = *camera;
-    const bool frames_on = viewer::FindMetadata(*newest, "frames").value_or("0") == "1";
-    const bool ghost_on = viewer::FindMetadata(*newest, "ghost").value_or("1") == "1";
-    switch (key) {
-      case 'j':
-        c.azimuth -= 10 * kDegToRad;
-        break;
-      case 'l':
-        c.azimuth += 10 * kDegToRad;
-        break;
-      case 'i':
-        c.elevation = std::min(c.elevation + 5 * kDegToRad, 85 * kDegToRad);
-        break;
-      case 'k':
-        c.elevation = std::max(c.elevation - 5 * kDegToRad, -85 * kDegToRad);
-        break;
-      case '+':
-      case '=':
-        c.distance *= 0.9;
-        break;
-      case '-':
-        c.distance /= 0.9;
-        break;
-      case 'f':
-        c.set_camera = 0;
-        c.show_frames =
-            frames_on ? sirupp::viewer_camera_t::SWITCH_OFF : sirupp::viewer_camera_t::SWITCH_ON;
-        break;
-      case 'g':
-        c.set_camera = 0;
-        c.show_ghost =
-            ghost_on ? sirupp::viewer_camera_t::SWITCH_OFF : sirupp::viewer_camera_t::SWITCH_ON;
-        break;
-      case 'p':
-        c.set_camera = 0;
-        c.snapshot = 1;
-        break;
-      default:
-        continue;
-    }
-    send(c);
+    std::optional<sirupp::viewer_camera_t> request = RequestForKey(key, *newest);
+    if (!request) continue;
+    request->utime = WallMicros();
+    request->seq = camera_seq++;
+    bus.Publish(core::Channels{}.viewer_camera, *request);
   }
   cv::destroyAllWindows();
   const core::ChannelStats stats = bus.StatsFor(channel);
