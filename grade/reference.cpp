@@ -39,8 +39,8 @@ ReferenceTable ChipProfile(const core::RobotModel& model, const Task& task, size
   for (size_t tick = 0; tick < ticks; ++tick) {
     state.tick = static_cast<int64_t>(tick);
     // As sirupp-sim stamps its states (sim/arm_world.cpp).
-    state.utime = static_cast<int64_t>(
-        std::llround(static_cast<double>(tick) * model.servo_tick_s * 1e6));
+    state.utime =
+        static_cast<int64_t>(std::llround(static_cast<double>(tick) * model.servo_tick_s * 1e6));
     sequencer.OnState(state);
     sequencer.TakeOutputs();  // statuses and log lines: not needed here
     if (!sequencer.fault().empty()) {
@@ -108,8 +108,8 @@ void WriteReferenceCsv(const std::string& file, const core::RobotModel& model,
   for (size_t j = 0; j < n; ++j) {
     const std::string unit = model.joints[j].type == core::JointType::kRevolute ? "deg" : "mm";
     const std::string number = std::to_string(j + 1);
-    out << ",q" << number << "_" << unit << ",v" << number << "_" << unit << "_s,a" << number
-        << "_" << unit << "_s2";
+    out << ",q" << number << "_" << unit << ",v" << number << "_" << unit << "_s,a" << number << "_"
+        << unit << "_s2";
   }
   out << "\n";
   for (size_t tick = 0; tick < table.ticks(); ++tick) {

@@ -24,9 +24,9 @@
 #include <filesystem>
 #include <fstream>
 #include <set>
-#include <sstream>
 #include <sirupp/controller_status_t.hpp>
 #include <sirupp/plan_command_t.hpp>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>

@@ -11,10 +11,11 @@
 // a limited speed, so the PID never sees a large step. Or, with --reference FILE, the reference is
 // read from a file, one row per tick (what `sirupp grade` hands a process controller as
 // {reference_csv}: the set-points a controller library gets, or the path of a tracking task;
-// docs/grading.md): the row of each state's tick gives the position and velocity to follow. The gains are for the PUMA 260 (each joint's
-// inertia at home times 60^2, 60 rad/s of bandwidth); another robot is refused. Efforts are clamped
-// to the model's effort limits, and a target outside a joint's limits is refused.
-// When the states stop (the sim ended), it prints the final joint positions and exits.
+// docs/grading.md): the row of each state's tick gives the position and velocity to follow. The
+// gains are for the PUMA 260 (each joint's inertia at home times 60^2, 60 rad/s of bandwidth);
+// another robot is refused. Efforts are clamped to the model's effort limits, and a target outside
+// a joint's limits is refused. When the states stop (the sim ended), it prints the final joint
+// positions and exits.
 //
 // Build it without the project's build tree (docs/student-controllers.md, "B. A controller
 // process"):
@@ -200,8 +201,8 @@ class JointPid {
     if (num_joints_ > 0 || !failure_.empty()) return;
     const int n = model->num_joints;
     if (n != static_cast<int>(options_.target.size())) {
-      failure_ = "the arm (" + model->name + ") has " + std::to_string(n) + " joints, the target has " +
-                 std::to_string(options_.target.size());
+      failure_ = "the arm (" + model->name + ") has " + std::to_string(n) +
+                 " joints, the target has " + std::to_string(options_.target.size());
       return;
     }
     if (model->name != "puma260") {
@@ -258,9 +259,10 @@ class JointPid {
     command.mode = sirupp::arm_command_t::MODE_EFFORT;
     const Reference& given = options_.reference;
     // After the last row, the last row.
-    const size_t row = given.empty() ? 0
-                                     : std::min(static_cast<size_t>(std::max<int64_t>(state->tick, 0)),
-                                                given.position.size() - 1);
+    const size_t row = given.empty()
+                           ? 0
+                           : std::min(static_cast<size_t>(std::max<int64_t>(state->tick, 0)),
+                                      given.position.size() - 1);
     for (size_t j = 0; j < n; ++j) {
       double reference_speed = 0;
       if (!given.empty()) {  // the row of this tick
