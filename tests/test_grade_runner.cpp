@@ -245,16 +245,22 @@ TEST(GradeRunner, AControllerThatNeverRepliesToThePlanEndsTheTask) {
   EXPECT_NE(record.failure.find("CONTROLLER_REPLY"), std::string::npos) << record.failure;
 }
 
-TEST(GradeRunner, ATrackingTaskIsGradedAgainstThePathForAProcessAndForTheBaseline) {
-  const Suite suite = SmallSuite(
-      "  - {name: tr, track: {joint: 2, amplitude_deg: 20, period_s: 3, cycles: 1}, duration_s: "
-      "3.3, pass: {rms_tracking_deg: 0.5}}\n");
-  const Task& task = suite.tasks[0];
+// controllers/track_process: computed torque on the rows of {reference_csv}.
+ControllerSpec TrackProcess() {
   ControllerSpec process;
   process.kind = ControllerSpec::Kind::kProcess;
   process.command = {
       SIRUPP_TRACK_PROCESS,         "--lcm-url",   "{url}",          "--name", "{name}", "--model",
       "config/robots/puma260.yaml", "--reference", "{reference_csv}"};
+  return process;
+}
+
+TEST(GradeRunner, ATrackingTaskIsGradedAgainstThePathForAProcessAndForTheBaseline) {
+  const Suite suite = SmallSuite(
+      "  - {name: tr, track: {joint: 2, amplitude_deg: 20, period_s: 3, cycles: 1}, duration_s: "
+      "3.3, pass: {rms_tracking_deg: 0.5}}\n");
+  const Task& task = suite.tasks[0];
+  const ControllerSpec process = TrackProcess();
   TaskRun run;
   const TaskRecord mine = RunTask(suite, Puma(), task, process, run.options);
   ASSERT_TRUE(mine.completed) << mine.failure;
@@ -320,11 +326,7 @@ TEST(GradeRunner, AProcessControllerGetsTheSetPointsALibraryGetsOnStepAndPlanTas
   }
   // A process controller reading {reference_csv} gets that profile, and is measured against it.
   const Task& step = suite.tasks[0];
-  ControllerSpec process;
-  process.kind = ControllerSpec::Kind::kProcess;
-  process.command = {
-      SIRUPP_TRACK_PROCESS,         "--lcm-url",   "{url}",          "--name", "{name}", "--model",
-      "config/robots/puma260.yaml", "--reference", "{reference_csv}"};
+  const ControllerSpec process = TrackProcess();
   TaskRun run;
   const TaskRecord mine = RunTask(suite, Puma(), step, process, run.options);
   ASSERT_TRUE(mine.completed) << mine.failure;
