@@ -12,6 +12,7 @@
 #include "core/errors.hpp"
 #include "grade/child.hpp"
 #include "grade/driver.hpp"
+#include "grade/reference.hpp"
 
 namespace sirupp::grade {
 namespace {
@@ -31,18 +32,6 @@ std::string Degrees(const core::RobotModel& model, size_t j, double si) {
 }
 
 }  // namespace
-
-std::vector<MinJerkPath::Sample> ReferenceAt(const Task& task, double t_s) {
-  std::vector<MinJerkPath::Sample> row(task.goal.size());
-  for (size_t j = 0; j < row.size(); ++j) {
-    if (task.track && static_cast<size_t>(task.track->joint) == j) {
-      row[j] = task.track->path.At(t_s);
-    } else {
-      row[j].position = task.goal[j];
-    }
-  }
-  return row;
-}
 
 std::vector<std::string> ExpandCommand(const std::vector<std::string>& command,
                                        const core::RobotModel& model, const Task& task,
@@ -184,7 +173,8 @@ std::string StallFailure(const Limits& limits, int64_t controller_tick, int64_t 
 // The record of a run that ended cleanly: ticks 0..last_state, each with its state; a row without
 // the controller's command (or set-point) repeats the row before and counts as missing.
 void FillRecord(TickRows& tick_rows, int64_t last_state, bool via_control,
-                const core::RobotModel& model, const Task& task, TaskRecord& record) {
+                const core::RobotModel& model, const Task& task, const ReferenceTable& offered,
+                TaskRecord& record) {
   const auto n = static_cast<size_t>(model.num_joints());
   std::vector<double>& position = tick_rows.position;
   std::vector<double>& reference = tick_rows.reference;
@@ -214,22 +204,20 @@ void FillRecord(TickRows& tick_rows, int64_t last_state, bool via_control,
         reference[at] = reference[before];
         goal[at] = goal[before];
       }
-      if (task.track) {
-        // Every controller is measured against the path and the task's goal (the path ends where
-        // it starts, so no joint makes a step); the chip's set-point is kept apart.
-        const double path = ReferenceAt(task, record.time_s.back())[j].position;
-        record.reference.push_back(path);
-        record.goal.push_back(task.goal[j]);
-        if (via_control && setpoint && static_cast<int>(j) == task.track->joint) {
+      if (task.track || !via_control) {
+        // A track task: every controller is measured against the path and the task's goal (the
+        // path ends where it starts, so no joint makes a step); the chip's set-point is kept
+        // apart. A process controller: against the set-points it was given.
+        const ReferencePoint& given = offered.At(row, j);
+        record.reference.push_back(given.position);
+        record.goal.push_back(given.goal);
+        if (task.track && via_control && setpoint && static_cast<int>(j) == task.track->joint) {
           record.setpoint_deviation =
-              std::max(record.setpoint_deviation, std::abs(reference[at] - path));
+              std::max(record.setpoint_deviation, std::abs(reference[at] - given.position));
         }
-      } else if (via_control) {
+      } else {
         record.reference.push_back(setpoint || row > 0 ? reference[at] : position[at]);
         record.goal.push_back(setpoint || row > 0 ? goal[at] : position[at]);
-      } else {
-        record.reference.push_back(task.goal[j]);
-        record.goal.push_back(task.goal[j]);
       }
       if (!command && row > 0) effort[at] = effort[before];
       record.effort.push_back(effort[at]);
@@ -252,7 +240,7 @@ TaskRecord RunTask(const Suite& suite, const core::RobotModel& model, const Task
   TaskRecord record;
   record.num_joints = model.num_joints();
   record.tick_s = model.servo_tick_s;
-  record.has_reference = via_control || task.track.has_value();
+  record.has_reference = true;  // every controller is given one (grade/reference.hpp)
 
   // Rows by tick, filled as the messages come.
   const auto expected = static_cast<size_t>(std::ceil(task.duration_s / model.servo_tick_s)) + 4;
@@ -325,6 +313,17 @@ TaskRecord RunTask(const Suite& suite, const core::RobotModel& model, const Task
         std::copy(m.goal.begin(), m.goal.end(), rows.goal.begin() + static_cast<long>(row * n));
       });
 
+  // What a process controller is given ({reference_csv}) and a track task is measured against.
+  ReferenceTable offered(0, n);
+  if (!via_control || task.track) {
+    try {
+      offered = TaskReference(model, task, expected);
+    } catch (const std::exception& error) {
+      record.failure = std::string("could not make the reference: ") + error.what();
+      return record;
+    }
+  }
+
   // The controller first (it must hear the first state), then the sim.
   Child control, sim;
   std::vector<std::string> control_argv;
@@ -339,9 +338,7 @@ TaskRecord RunTask(const Suite& suite, const core::RobotModel& model, const Task
         [](const std::string& word) { return word.find("{reference_csv}") != std::string::npos; });
     if (wants_reference) {
       try {
-        WriteReferenceCsv(reference_file, model, expected, [&](size_t tick) {
-          return ReferenceAt(task, static_cast<double>(tick) * model.servo_tick_s);
-        });
+        WriteReferenceCsv(reference_file, model, offered);
       } catch (const std::exception& error) {
         record.failure = std::string("could not write the reference: ") + error.what();
         return record;
@@ -404,7 +401,7 @@ TaskRecord RunTask(const Suite& suite, const core::RobotModel& model, const Task
     record.failure = failure;
     return record;
   }
-  FillRecord(rows, last_state, via_control, model, task, record);
+  FillRecord(rows, last_state, via_control, model, task, offered, record);
   return record;
 }
 

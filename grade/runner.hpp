@@ -33,16 +33,12 @@ struct ControllerSpec {
 
 // The process command with its placeholders filled: {url}, {name} (the participant name),
 // {goal_deg} and {start_deg} (one word per joint), {duration_s}, {reference_csv} (the file
-// `reference_file`, written by RunTask when the command uses it).
+// `reference_file`, written by RunTask when the command uses it: the task's reference, the
+// set-points a library gets, grade/reference.hpp).
 std::vector<std::string> ExpandCommand(const std::vector<std::string>& command,
                                        const core::RobotModel& model, const Task& task,
                                        const std::string& url, const std::string& name,
                                        const std::string& reference_file = "");
-
-// What every controller is measured against at time t, per joint, SI: a tracking task's path on
-// its joint (the others hold their start); for other tasks the task's goal, at rest (a process
-// controller is given no profile for them).
-std::vector<MinJerkPath::Sample> ReferenceAt(const Task& task, double t_s);
 
 struct RunOptions {
   std::string bin_dir;   // sirupp-sim, sirupp-control
@@ -56,12 +52,13 @@ struct TaskRecord {
   std::string failure;     // why it ended early ("" when completed)
   int num_joints = 0;
   double tick_s = 0;
-  // The reference is a profile the controller was given: sirupp-control's set-points, or a
-  // tracking task's path (for every controller); else the goal.
+  // The reference is a profile the controller was given: sirupp-control's set-points (the same
+  // set-points computed before the task for a process controller, grade/reference.hpp), or a
+  // tracking task's path (for every controller). RunTask always gives one.
   bool has_reference = false;
   std::vector<double> time_s;     // per tick
   std::vector<double> position;   // tick-major, num_joints per tick
-  std::vector<double> reference;  // set-point position (or the goal)
+  std::vector<double> reference;  // set-point position (or the path)
   std::vector<double> goal;       // the goal of the present move (or the task's goal)
   std::vector<double> effort;     // the controller's effort, after the limits
   int64_t missing_rows = 0;       // ticks without the controller's answer or set-point heard

@@ -4,7 +4,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
-#include <fstream>
 #include <sstream>
 
 #include "control/servo_bank.hpp"
@@ -25,11 +24,11 @@ double Shown(const core::RobotModel& model, int joint) {
                                                                                      : 1000;
 }
 
-// `digits` significant digits. The plan's speeds and accelerations take 6 (the plan stays short;
-// the profile's fixed point resolves far less), the reference file 9.
-std::string Short(double value, int digits = 6) {
+// 6 significant digits for the plan's speeds and accelerations (the plan stays short; the
+// profile's fixed point resolves far less).
+std::string Short(double value) {
   char buffer[40];
-  std::snprintf(buffer, sizeof buffer, "%.*g", digits, value);
+  std::snprintf(buffer, sizeof buffer, "%.6g", value);
   return buffer;
 }
 
@@ -175,34 +174,6 @@ std::string FollowPlanLines(const MinJerkPath& path, const core::RobotModel& mod
        << " speed=" << Short(std::min(path.peak_velocity(), v_cap) * scale)
        << " accel=" << Short(std::min(path.peak_acceleration(), a_cap) * scale) << "\nwait done\n";
   return plan.str();
-}
-
-void WriteReferenceCsv(const std::string& file, const core::RobotModel& model, size_t ticks,
-                       const std::function<std::vector<MinJerkPath::Sample>(size_t)>& at) {
-  std::ofstream out(file);
-  if (!out) throw core::ConfigError({file, 0, 0}, "", "cannot write the reference file");
-  const int n = model.num_joints();
-  out << "tick,time_s";
-  for (int j = 1; j <= n; ++j) {
-    const bool revolute =
-        model.joints[static_cast<size_t>(j - 1)].type == core::JointType::kRevolute;
-    const std::string unit = revolute ? "deg" : "mm";
-    out << ",q" << j << "_" << unit << ",v" << j << "_" << unit << "_s,a" << j << "_" << unit
-        << "_s2";
-  }
-  out << "\n";
-  for (size_t tick = 0; tick < ticks; ++tick) {
-    const std::vector<MinJerkPath::Sample> row = at(tick);
-    out << tick << "," << core::FormatNumber(static_cast<double>(tick) * model.servo_tick_s);
-    for (int j = 0; j < n; ++j) {
-      const double scale = Shown(model, j);
-      const MinJerkPath::Sample& s = row[static_cast<size_t>(j)];
-      out << "," << Short(s.position * scale, 9) << "," << Short(s.velocity * scale, 9) << ","
-          << Short(s.acceleration * scale, 9);
-    }
-    out << "\n";
-  }
-  if (!out.flush()) throw core::ConfigError({file, 0, 0}, "", "cannot write the reference file");
 }
 
 }  // namespace sirupp::grade

@@ -16,9 +16,8 @@
 // would leave, so no drift builds up (test_grade_suite: within 0.005 deg, speed within 1 % of its
 // peak).
 // Every controller is measured against the path itself; a controller library and the baseline get
-// the chip's set-points, a process controller the path as a file (WriteReferenceCsv).
+// the chip's set-points, a process controller the path as a file (grade/reference.hpp).
 
-#include <functional>
 #include <string>
 #include <vector>
 
@@ -61,12 +60,5 @@ class MinJerkPath {
 std::string FollowPlanLines(const MinJerkPath& path, const core::RobotModel& model, int joint,
                             const std::vector<double>& start, int knot_ticks);
 inline constexpr int kKnotTicks = 16;
-
-// The reference a process controller gets ({reference_csv}, docs/grading.md): a header line, then
-// one row per tick 0..ticks-1: tick, time_s, then per joint position (deg or mm), velocity (deg/s
-// or mm/s) and acceleration (deg/s^2 or mm/s^2). `at(tick)` gives the SI values, one Sample per
-// joint. Throws core::ConfigError naming the file if it cannot be written.
-void WriteReferenceCsv(const std::string& file, const core::RobotModel& model, size_t ticks,
-                       const std::function<std::vector<MinJerkPath::Sample>(size_t)>& at);
 
 }  // namespace sirupp::grade

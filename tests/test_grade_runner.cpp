@@ -6,7 +6,10 @@
 //  - with real processes on a leased udpm port (ttl=0): a plan sirupp-control refuses, and a
 //    controller that answers the sim but never replies to the plan, each end the task with that
 //    reason; a tracking task is graded for a process controller against the path it was handed
-//    in {reference_csv}, and for the baseline, whose set-point follows the same path;
+//    in {reference_csv}, and for the baseline, whose set-point follows the same path; on a step
+//    and a plan task the set-points computed for a process controller (grade/reference.hpp) are
+//    the baseline's ARM_SETPOINT tick by tick, and a process controller following them is graded
+//    against them;
 //  - port leases: two at once never share a port, within a process or across processes, and a
 //    port comes free when its holder ends.
 
@@ -14,6 +17,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdlib>
@@ -22,6 +26,7 @@
 #include <set>
 #include <sirupp/controller_status_t.hpp>
 #include <sirupp/plan_command_t.hpp>
+#include <sstream>
 #include <string>
 #include <thread>
 #include <vector>
@@ -35,6 +40,7 @@
 #include "grade/grade.hpp"
 #include "grade/metrics.hpp"
 #include "grade/port_lease.hpp"
+#include "grade/reference.hpp"
 #include "grade/runner.hpp"
 #include "grade/suite.hpp"
 
@@ -239,16 +245,22 @@ TEST(GradeRunner, AControllerThatNeverRepliesToThePlanEndsTheTask) {
   EXPECT_NE(record.failure.find("CONTROLLER_REPLY"), std::string::npos) << record.failure;
 }
 
-TEST(GradeRunner, ATrackingTaskIsGradedAgainstThePathForAProcessAndForTheBaseline) {
-  const Suite suite = SmallSuite(
-      "  - {name: tr, track: {joint: 2, amplitude_deg: 20, period_s: 3, cycles: 1}, duration_s: "
-      "3.3, pass: {rms_tracking_deg: 0.5}}\n");
-  const Task& task = suite.tasks[0];
+// controllers/track_process: computed torque on the rows of {reference_csv}.
+ControllerSpec TrackProcess() {
   ControllerSpec process;
   process.kind = ControllerSpec::Kind::kProcess;
   process.command = {
       SIRUPP_TRACK_PROCESS,         "--lcm-url",   "{url}",          "--name", "{name}", "--model",
       "config/robots/puma260.yaml", "--reference", "{reference_csv}"};
+  return process;
+}
+
+TEST(GradeRunner, ATrackingTaskIsGradedAgainstThePathForAProcessAndForTheBaseline) {
+  const Suite suite = SmallSuite(
+      "  - {name: tr, track: {joint: 2, amplitude_deg: 20, period_s: 3, cycles: 1}, duration_s: "
+      "3.3, pass: {rms_tracking_deg: 0.5}}\n");
+  const Task& task = suite.tasks[0];
+  const ControllerSpec process = TrackProcess();
   TaskRun run;
   const TaskRecord mine = RunTask(suite, Puma(), task, process, run.options);
   ASSERT_TRUE(mine.completed) << mine.failure;
@@ -282,6 +294,60 @@ TEST(GradeRunner, ATrackingTaskIsGradedAgainstThePathForAProcessAndForTheBaselin
   RecordProperty("process_rms_tracking_deg", std::to_string(m.joints[1].rms_tracking));
   RecordProperty("baseline_rms_tracking_deg", std::to_string(b.joints[1].rms_tracking));
   RecordProperty("baseline_setpoint_deviation_deg", std::to_string(base.setpoint_deviation / kDeg));
+}
+
+TEST(GradeRunner, AProcessControllerGetsTheSetPointsALibraryGetsOnStepAndPlanTasks) {
+  const Suite suite = SmallSuite(
+      "  - {name: st, step: {joint: 2, to_deg: 20}, duration_s: 1.2, pass: {rms_tracking_deg: "
+      "0.5}}\n"
+      "  - {name: s1, plan: config/plans/set1.plan, duration_s: 3.0}\n");
+  const size_t n = 6;
+  for (const Task& task : suite.tasks) {
+    SCOPED_TRACE(task.name);
+    // The baseline's set-points, as sirupp-control published them (ARM_SETPOINT), against those
+    // computed before the task on an arm that follows them.
+    TaskRun run;
+    const TaskRecord base = RunTask(suite, Puma(), task, ControllerSpec{}, run.options);
+    ASSERT_TRUE(base.completed) << base.failure;
+    ASSERT_EQ(base.missing_rows, 0);
+    const ReferenceTable given = ChipProfile(Puma(), task, base.ticks());
+    double worst = 0, worst_goal = 0, moved = 0;
+    for (size_t row = 0; row < base.ticks(); ++row) {
+      for (size_t j = 0; j < n; ++j) {
+        worst = std::max(worst, std::abs(given.At(row, j).position - base.reference[row * n + j]));
+        worst_goal = std::max(worst_goal, std::abs(given.At(row, j).goal - base.goal[row * n + j]));
+        moved = std::max(moved, std::abs(given.At(row, j).position - task.start[j]));
+      }
+    }
+    EXPECT_EQ(worst, 0.0) << "rad";
+    EXPECT_EQ(worst_goal, 0.0) << "rad";
+    EXPECT_GT(moved, 19 * kDeg);  // the profile moves (not the goal from tick 0)
+    RecordProperty(task.name + "_profile_vs_setpoint_rad", std::to_string(worst));
+  }
+  // A process controller reading {reference_csv} gets that profile, and is measured against it.
+  const Task& step = suite.tasks[0];
+  const ControllerSpec process = TrackProcess();
+  TaskRun run;
+  const TaskRecord mine = RunTask(suite, Puma(), step, process, run.options);
+  ASSERT_TRUE(mine.completed) << mine.failure;
+  const ReferenceTable given = ChipProfile(Puma(), step, mine.ticks());
+  // Mid-move (0.3 s, tick 586) the file has the profile's position and speed on joint 2.
+  std::ifstream csv(run.work + "/reference.csv");
+  std::string row;
+  for (int k = 0; k <= 586 + 1; ++k) std::getline(csv, row);
+  std::vector<double> values;
+  std::istringstream fields(row);
+  for (std::string cell; std::getline(fields, cell, ',');) values.push_back(std::stod(cell));
+  ASSERT_EQ(values.size(), 2 + 3 * n) << row;
+  EXPECT_EQ(values[0], 586);
+  EXPECT_NEAR(values[2 + 3], given.At(586, 1).position / kDeg, 1e-6);
+  EXPECT_NEAR(values[3 + 3], given.At(586, 1).velocity / kDeg, 1e-6);
+  EXPECT_GT(std::abs(values[3 + 3]), 1.0) << "deg/s: moving";
+  EXPECT_NEAR(mine.reference[586 * n + 1], given.At(586, 1).position, 1e-15);
+  const TaskMetrics m = ComputeMetrics(Puma(), mine, step.pass);
+  EXPECT_LT(m.joints[1].rms_tracking, 0.5) << "deg";
+  EXPECT_TRUE(m.passed()) << (m.failed_checks.empty() ? "" : m.failed_checks.front());
+  RecordProperty("process_step_rms_tracking_deg", std::to_string(m.joints[1].rms_tracking));
 }
 
 }  // namespace

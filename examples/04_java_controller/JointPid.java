@@ -9,14 +9,22 @@
 //
 // The law is a joint-space PID per joint, with no model of the arm: the integral term learns the
 // gravity and friction efforts. The reference moves from where the arm starts towards the target
-// at a limited speed, so the PID never sees a large step. Gains are for the PUMA 260.
+// at a limited speed, so the PID never sees a large step. Or, with --reference FILE, the reference
+// is read from a file, one row per tick (what `sirupp grade` hands a process controller as
+// {reference_csv}: the set-points a controller library gets, or the path of a tracking task;
+// docs/grading.md): the row of each state's tick gives the position and velocity to follow.
+// Gains are for the PUMA 260.
 // When the states stop (the sim ended), it prints the final joint positions and exits.
 //
-// Options: --deg Q1 .. QN (target, degrees, required) --name NAME (participant, default java-pid)
-//          --lcm-url URL --prefix PREFIX (channel prefix of the rig) --speed DEG_PER_S (default 30)
+// Options: --deg Q1 .. QN (target, degrees) or --reference FILE (one of them required)
+//          --name NAME (participant, default java-pid) --lcm-url URL --prefix PREFIX (channel
+//          prefix of the rig) --speed DEG_PER_S (default 30)
 // Any language with LCM bindings can do the same: docs/student-controllers.md.
 
+import java.io.BufferedReader;
 import java.io.IOException;
+import java.nio.file.Files;
+import java.nio.file.Paths;
 import java.util.ArrayList;
 import java.util.List;
 import lcm.lcm.LCM;
@@ -38,6 +46,9 @@ public class JointPid implements LCMSubscriber {
   private final String commandChannel;
   private final double[] target; // rad
   private final double speed; // rad/s, the reference's top speed
+  // --reference: row k is tick k, per joint position (rad or m) and velocity; null: the ramp.
+  private final double[][] givenPosition;
+  private final double[][] givenVelocity;
 
   // Controller state, touched only by LCM's receive thread (messageReceived is synchronized).
   private double[] reference; // where the joints should be now, rad
@@ -50,12 +61,15 @@ public class JointPid implements LCMSubscriber {
   private long lastStateNanos = 0;
   private String failure;
 
-  JointPid(LCM lcm, String name, String prefix, double[] target, double speed) {
+  JointPid(LCM lcm, String name, String prefix, double[] target, double speed,
+      double[][] givenPosition, double[][] givenVelocity) {
     this.lcm = lcm;
     this.name = name;
     this.commandChannel = prefix + "SIM_ARM_COMMAND";
     this.target = target;
     this.speed = speed;
+    this.givenPosition = givenPosition;
+    this.givenVelocity = givenVelocity;
   }
 
   @Override
@@ -69,7 +83,7 @@ public class JointPid implements LCMSubscriber {
     }
     lastStateNanos = System.nanoTime();
     if (state.num_joints != target.length) {
-      failure = "the arm has " + state.num_joints + " joints, --deg gave " + target.length;
+      failure = "the arm has " + state.num_joints + " joints, the target has " + target.length;
       notifyAll();
       return;
     }
@@ -94,10 +108,19 @@ public class JointPid implements LCMSubscriber {
     command.mode = arm_command_t.MODE_EFFORT;
     command.num_joints = n;
     command.effort = new double[n];
+    // The row of this tick (after the last row, the last row).
+    final int row =
+        givenPosition == null ? 0 : (int) Math.min(Math.max(state.tick, 0), givenPosition.length - 1);
     for (int j = 0; j < n; ++j) {
-      final double step = Math.max(-speed * dt, Math.min(speed * dt, target[j] - reference[j]));
-      reference[j] += step;
-      final double referenceSpeed = dt > 0 ? step / dt : 0;
+      double referenceSpeed;
+      if (givenPosition != null) {
+        reference[j] = givenPosition[row][j];
+        referenceSpeed = givenVelocity[row][j];
+      } else { // a ramp towards the target
+        final double step = Math.max(-speed * dt, Math.min(speed * dt, target[j] - reference[j]));
+        reference[j] += step;
+        referenceSpeed = dt > 0 ? step / dt : 0;
+      }
       final double error = reference[j] - state.position[j];
       integral[j] += error * dt;
       command.effort[j] =
@@ -141,8 +164,8 @@ public class JointPid implements LCMSubscriber {
   private static IllegalArgumentException usage(String problem) {
     System.err.println("JointPid: " + problem);
     System.err.println(
-        "usage: JointPid --deg Q1 .. QN [--name NAME] [--lcm-url URL] [--prefix PREFIX]"
-            + " [--speed DEG_PER_S]");
+        "usage: JointPid (--deg Q1 .. QN | --reference FILE) [--name NAME] [--lcm-url URL]"
+            + " [--prefix PREFIX] [--speed DEG_PER_S]");
     System.exit(2);
     return new IllegalArgumentException(problem);
   }
@@ -160,12 +183,75 @@ public class JointPid implements LCMSubscriber {
     return args[i];
   }
 
+  // Reads a reference file ({reference_csv}): the header tick,time_s,q1_deg,v1_deg_s,a1_deg_s2,...
+  // (mm for a prismatic joint), then one row per tick from 0. Returns {positions, velocities}, SI,
+  // [tick][joint]; any problem exits 2 naming FILE:LINE.
+  private static double[][][] readReference(String file) {
+    List<String> lines;
+    try {
+      lines = Files.readAllLines(Paths.get(file));
+    } catch (IOException error) {
+      throw usage("--reference: cannot read '" + file + "': " + error.getMessage());
+    }
+    final String where = "--reference: " + file + ":";
+    if (lines.isEmpty()) throw usage(where + "1: empty; expected the header tick,time_s,q1_deg,...");
+    final String[] header = lines.get(0).split(",", -1);
+    if (header.length < 5 || (header.length - 2) % 3 != 0 || !header[0].equals("tick")
+        || !header[1].equals("time_s")) {
+      throw usage(where + "1: header '" + lines.get(0)
+          + "'; expected tick,time_s and then q,v,a per joint");
+    }
+    final int n = (header.length - 2) / 3;
+    double[] scale = new double[n]; // SI per unit of the file
+    for (int j = 0; j < n; ++j) {
+      final String column = header[2 + 3 * j];
+      final String q = "q" + (j + 1) + "_";
+      if (column.equals(q + "deg")) {
+        scale[j] = Math.PI / 180;
+      } else if (column.equals(q + "mm")) {
+        scale[j] = 0.001;
+      } else {
+        throw usage(where + "1: column " + (3 + 3 * j) + " is '" + column + "'; expected " + q
+            + "deg or " + q + "mm");
+      }
+    }
+    final int rows = lines.size() - 1;
+    if (rows == 0) throw usage(where + "2: no rows after the header");
+    double[][] position = new double[rows][n];
+    double[][] velocity = new double[rows][n];
+    for (int k = 0; k < rows; ++k) {
+      final String at = where + (k + 2) + ": ";
+      final String[] cells = lines.get(k + 1).split(",", -1);
+      if (cells.length != header.length) {
+        throw usage(at + cells.length + " values; the header has " + header.length);
+      }
+      double[] values = new double[cells.length];
+      for (int c = 0; c < cells.length; ++c) {
+        try {
+          values[c] = Double.parseDouble(cells[c]);
+        } catch (NumberFormatException error) {
+          values[c] = Double.NaN;
+        }
+        if (!Double.isFinite(values[c])) {
+          throw usage(at + "'" + cells[c] + "' is not a finite number");
+        }
+      }
+      if (values[0] != k) throw usage(at + "tick " + cells[0] + "; expected " + k);
+      for (int j = 0; j < n; ++j) {
+        position[k][j] = values[2 + 3 * j] * scale[j];
+        velocity[k][j] = values[3 + 3 * j] * scale[j];
+      }
+    }
+    return new double[][][] {position, velocity};
+  }
+
   public static void main(String[] args) throws Exception {
     List<Double> degrees = new ArrayList<>();
     String name = "java-pid";
     String url = null;
     String prefix = "";
     double speedDeg = 30;
+    double[][][] given = null; // --reference: {positions, velocities}
     for (int i = 0; i < args.length; ++i) {
       final String flag = args[i];
       switch (flag) {
@@ -186,18 +272,31 @@ public class JointPid implements LCMSubscriber {
         case "--speed":
           speedDeg = number(value(args, ++i, flag), flag);
           break;
+        case "--reference":
+          given = readReference(value(args, ++i, flag));
+          break;
         default:
           throw usage("unknown argument '" + flag + "'");
       }
     }
-    if (degrees.isEmpty()) throw usage("give the target with --deg");
+    double[] target;
+    if (given != null) {
+      // The target (for the final error) is where the reference ends.
+      target = given[0][given[0].length - 1].clone();
+      if (!degrees.isEmpty() && degrees.size() != target.length) {
+        throw usage("--deg gave " + degrees.size() + " joints, --reference " + target.length);
+      }
+    } else {
+      if (degrees.isEmpty()) throw usage("give the target with --deg, or --reference FILE");
+      target = new double[degrees.size()];
+      for (int j = 0; j < target.length; ++j) target[j] = Math.toRadians(degrees.get(j));
+    }
     if (!(speedDeg > 0)) throw usage("--speed must be > 0");
-    if (degrees.size() > KP.length) throw usage("gains for at most " + KP.length + " joints");
-    double[] target = new double[degrees.size()];
-    for (int j = 0; j < target.length; ++j) target[j] = Math.toRadians(degrees.get(j));
+    if (target.length > KP.length) throw usage("gains for at most " + KP.length + " joints");
 
     LCM lcm = url == null ? new LCM() : new LCM(url);
-    JointPid controller = new JointPid(lcm, name, prefix, target, Math.toRadians(speedDeg));
+    JointPid controller = new JointPid(lcm, name, prefix, target, Math.toRadians(speedDeg),
+        given == null ? null : given[0], given == null ? null : given[1]);
     lcm.subscribe(prefix + "SIM_ARM_STATE", controller);
     System.err.println("JointPid: participant '" + name + "', waiting for " + prefix
         + "SIM_ARM_STATE");

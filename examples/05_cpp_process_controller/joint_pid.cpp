@@ -8,10 +8,14 @@
 //
 // The law is a PID per joint with no model of the arm's dynamics: the integral term learns the
 // gravity and friction efforts. The reference moves from where the arm starts towards the target at
-// a limited speed, so the PID never sees a large step. The gains are for the PUMA 260 (each joint's
-// inertia at home times 60^2, 60 rad/s of bandwidth); another robot is refused. Efforts are clamped
-// to the model's effort limits, and a target outside a joint's limits is refused.
-// When the states stop (the sim ended), it prints the final joint positions and exits.
+// a limited speed, so the PID never sees a large step. Or, with --reference FILE, the reference is
+// read from a file, one row per tick (what `sirupp grade` hands a process controller as
+// {reference_csv}: the set-points a controller library gets, or the path of a tracking task;
+// docs/grading.md): the row of each state's tick gives the position and velocity to follow. The
+// gains are for the PUMA 260 (each joint's inertia at home times 60^2, 60 rad/s of bandwidth);
+// another robot is refused. Efforts are clamped to the model's effort limits, and a target outside
+// a joint's limits is refused. When the states stop (the sim ended), it prints the final joint
+// positions and exits.
 //
 // Build it without the project's build tree (docs/student-controllers.md, "B. A controller
 // process"):
@@ -21,8 +25,9 @@
 //   build/bin/sirupp-sim --participants cpp-pid --duration 4 &
 //   ./joint_pid --deg 30 -20 40 25 -30 45
 //
-// Options: --deg Q1 .. QN (target, degrees, required) --name NAME (participant, default cpp-pid)
-//          --lcm-url URL --prefix PREFIX (channel prefix of the rig) --speed DEG_PER_S (default 30)
+// Options: --deg Q1 .. QN (target, degrees) or --reference FILE (one of them required)
+//          --name NAME (participant, default cpp-pid) --lcm-url URL --prefix PREFIX (channel
+//          prefix of the rig) --speed DEG_PER_S (default 30)
 
 #include <algorithm>
 #include <chrono>
@@ -30,10 +35,12 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <fstream>
 #include <lcm/lcm-cpp.hpp>
 #include <sirupp/arm_command_t.hpp>
 #include <sirupp/arm_state_t.hpp>
 #include <sirupp/robot_model_t.hpp>
+#include <sstream>
 #include <string>
 #include <vector>
 
@@ -49,8 +56,16 @@ constexpr double kStaleSeconds = 1.0;  // no state for this long after the first
 
 using Clock = std::chrono::steady_clock;
 
+// A reference file: row k is tick k; per joint position (rad or m) and velocity (per s).
+struct Reference {
+  std::vector<std::vector<double>> position, velocity;
+  size_t joints = 0;
+  bool empty() const { return position.empty(); }
+};
+
 struct Options {
   std::vector<double> target;  // rad
+  Reference reference;         // --reference: followed in place of the ramp to the target
   std::string name = "cpp-pid";
   std::string url;
   std::string prefix;
@@ -59,8 +74,8 @@ struct Options {
 
 [[noreturn]] void Usage(const std::string& problem) {
   std::fprintf(stderr,
-               "JointPid: %s\nusage: joint_pid --deg Q1 .. QN [--name NAME] [--lcm-url URL] "
-               "[--prefix PREFIX] [--speed DEG_PER_S]\n",
+               "JointPid: %s\nusage: joint_pid (--deg Q1 .. QN | --reference FILE) [--name NAME] "
+               "[--lcm-url URL] [--prefix PREFIX] [--speed DEG_PER_S]\n",
                problem.c_str());
   std::exit(2);
 }
@@ -72,6 +87,69 @@ double Number(const std::string& text, const std::string& flag) {
     Usage(flag + ": '" + text + "' is not a number");
   }
   return value;
+}
+
+// Reads a reference file ({reference_csv}): the header `tick,time_s,q1_deg,v1_deg_s,a1_deg_s2,...`
+// (mm for a prismatic joint), then one row per tick from 0. Any problem exits 2 naming FILE:LINE.
+Reference ReadReference(const std::string& file) {
+  std::ifstream in(file);
+  if (!in) Usage("--reference: cannot read '" + file + "'");
+  const auto fail = [&file](int line, const std::string& problem) {
+    Usage("--reference: " + file + ":" + std::to_string(line) + ": " + problem);
+  };
+  const auto split = [](const std::string& line) {
+    std::vector<std::string> cells;
+    std::istringstream fields(line);
+    for (std::string cell; std::getline(fields, cell, ',');) cells.push_back(cell);
+    return cells;
+  };
+  std::string line;
+  if (!std::getline(in, line)) fail(1, "empty; expected the header tick,time_s,q1_deg,...");
+  const std::vector<std::string> header = split(line);
+  if (header.size() < 5 || (header.size() - 2) % 3 != 0 || header[0] != "tick" ||
+      header[1] != "time_s") {
+    fail(1, "header '" + line + "'; expected tick,time_s and then q,v,a per joint");
+  }
+  Reference reference;
+  reference.joints = (header.size() - 2) / 3;
+  std::vector<double> scale;  // SI per unit of the file, per joint
+  for (size_t j = 0; j < reference.joints; ++j) {
+    const std::string& name = header[2 + 3 * j];
+    const std::string unit = name.substr(name.find('_') + 1);
+    if (name.rfind("q" + std::to_string(j + 1) + "_", 0) != 0 || (unit != "deg" && unit != "mm")) {
+      fail(1, "column " + std::to_string(3 + 3 * j) + " is '" + name + "'; expected q" +
+                  std::to_string(j + 1) + "_deg or q" + std::to_string(j + 1) + "_mm");
+    }
+    scale.push_back(unit == "deg" ? kDeg : 0.001);
+  }
+  for (int number = 2; std::getline(in, line); ++number) {
+    const std::vector<std::string> cells = split(line);
+    if (cells.size() != header.size()) {
+      fail(number, std::to_string(cells.size()) + " values; the header has " +
+                       std::to_string(header.size()));
+    }
+    std::vector<double> values;
+    for (const std::string& cell : cells) {
+      char* end = nullptr;
+      const double value = std::strtod(cell.c_str(), &end);
+      if (cell.empty() || *end != '\0' || !std::isfinite(value)) {
+        fail(number, "'" + cell + "' is not a finite number");
+      }
+      values.push_back(value);
+    }
+    if (values[0] != static_cast<double>(number - 2)) {
+      fail(number, "tick " + cells[0] + "; expected " + std::to_string(number - 2));
+    }
+    std::vector<double> q, v;
+    for (size_t j = 0; j < reference.joints; ++j) {
+      q.push_back(values[2 + 3 * j] * scale[j]);
+      v.push_back(values[3 + 3 * j] * scale[j]);
+    }
+    reference.position.push_back(q);
+    reference.velocity.push_back(v);
+  }
+  if (reference.empty()) fail(2, "no rows after the header");
+  return reference;
 }
 
 Options Parse(int argc, char** argv) {
@@ -94,11 +172,22 @@ Options Parse(int argc, char** argv) {
       options.prefix = value();
     } else if (flag == "--speed") {
       options.speed = Number(value(), flag) * kDeg;
+    } else if (flag == "--reference") {
+      options.reference = ReadReference(value());
     } else {
       Usage("unknown argument '" + flag + "'");
     }
   }
-  if (options.target.empty()) Usage("give the target with --deg");
+  if (!options.reference.empty()) {
+    // The target (for the limits check and the final error) is where the reference ends.
+    const std::vector<double>& last = options.reference.position.back();
+    if (!options.target.empty() && options.target.size() != last.size()) {
+      Usage("--deg gave " + std::to_string(options.target.size()) + " joints, --reference " +
+            std::to_string(last.size()));
+    }
+    options.target = last;
+  }
+  if (options.target.empty()) Usage("give the target with --deg, or --reference FILE");
   if (!(options.speed > 0)) Usage("--speed must be > 0");
   return options;
 }
@@ -112,8 +201,8 @@ class JointPid {
     if (num_joints_ > 0 || !failure_.empty()) return;
     const int n = model->num_joints;
     if (n != static_cast<int>(options_.target.size())) {
-      failure_ = "the arm (" + model->name + ") has " + std::to_string(n) + " joints, --deg gave " +
-                 std::to_string(options_.target.size());
+      failure_ = "the arm (" + model->name + ") has " + std::to_string(n) +
+                 " joints, the target has " + std::to_string(options_.target.size());
       return;
     }
     if (model->name != "puma260") {
@@ -168,11 +257,23 @@ class JointPid {
                           ? 0
                           : static_cast<double>(state->utime - last_utime_) * 1e-6;
     command.mode = sirupp::arm_command_t::MODE_EFFORT;
+    const Reference& given = options_.reference;
+    // After the last row, the last row.
+    const size_t row = given.empty()
+                           ? 0
+                           : std::min(static_cast<size_t>(std::max<int64_t>(state->tick, 0)),
+                                      given.position.size() - 1);
     for (size_t j = 0; j < n; ++j) {
-      const double step =
-          std::clamp(options_.target[j] - reference_[j], -options_.speed * dt, options_.speed * dt);
-      reference_[j] += step;
-      const double reference_speed = dt > 0 ? step / dt : 0;
+      double reference_speed = 0;
+      if (!given.empty()) {  // the row of this tick
+        reference_[j] = given.position[row][j];
+        reference_speed = given.velocity[row][j];
+      } else {  // a ramp towards the target
+        const double step = std::clamp(options_.target[j] - reference_[j], -options_.speed * dt,
+                                       options_.speed * dt);
+        reference_[j] += step;
+        reference_speed = dt > 0 ? step / dt : 0;
+      }
       const double error = reference_[j] - state->position[j];
       integral_[j] += error * dt;
       const double effort =

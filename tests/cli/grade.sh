@@ -3,8 +3,11 @@
 #   grade.sh bad       bad controllers each end their tasks with the right reason and the grade
 #                      goes on; two runs give identical results.json; -j 2 gives what -j 1 gives;
 #                      two graders at once give what one gives
-#   grade.sh examples  examples 02, 03 and 04 (Java; skipped with a note only without a JDK)
-#                      graded against config/grading/basic.yaml beside the baseline (long)
+#   grade.sh examples  examples 02, 03 and 04 (Java, following {reference_csv}; skipped with a
+#                      note only without a JDK) graded against config/grading/basic.yaml beside
+#                      the baseline; example 05 (C++) against config/grading/advanced.yaml twice,
+#                      ramping to {goal_deg} on its own and following {reference_csv}: the
+#                      reference lowers its tracking error on every task that moves (long)
 #   grade.sh batch     a class folder: the examples, bad controllers, one that does not build and
 #                      one that does not load give class.csv and class.md
 # Needs SIRUPP_BIN_DIR, LIB_DIR (build/lib), TEST_CONTROLLERS, JAVA_CP (may be empty).
@@ -97,11 +100,38 @@ examples)
   done
   if [ -n "${JAVA_CP:-}" ] && command -v java >/dev/null; then
     grade java --suite config/grading/basic.yaml -j 2 --no-baseline -- java -Djava.net.preferIPv4Stack=true \
-      -cp "$JAVA_CP" JointPid --deg '{goal_deg}' --lcm-url '{url}' --name '{name}'
+      -cp "$JAVA_CP" JointPid --reference '{reference_csv}' --lcm-url '{url}' --name '{name}'
     grep -q "tasks passed, score" "$work/java.txt" || fail "no summary line for Java"
     grep -q '"status": "ended"' "$work/java/results.json" && fail "a Java task ended early"
   else
     echo "note: no JDK or no joint_pid.jar: example 04 (Java) not graded"
+  fi
+  # Example 05 (C++; not built in sanitizer builds) without and with the reference file.
+  if [ -x "$bin/joint_pid" ]; then
+    grade ramp --suite config/grading/advanced.yaml -j 2 --no-baseline -- \
+      "$bin/joint_pid" --deg '{goal_deg}' --lcm-url '{url}' --name '{name}'
+    grade given --suite config/grading/advanced.yaml -j 2 --no-baseline -- \
+      "$bin/joint_pid" --reference '{reference_csv}' --lcm-url '{url}' --name '{name}'
+    python3 - "$work/ramp/results.json" "$work/given/results.json" <<'PY' || fail "example 05: the reference did not lower the tracking error"
+import json, sys
+ramp, given = (json.load(open(f)) for f in sys.argv[1:3])
+ok = True
+print("example 05, worst joint's RMS tracking error (deg): own ramp to {goal_deg} -> {reference_csv}")
+for a, b in zip(ramp["tasks"], given["tasks"]):
+    if a["controller"]["status"] == "ended" or b["controller"]["status"] == "ended":
+        print("  %s ended: %s / %s" % (a["name"], a["controller"].get("reason"), b["controller"].get("reason")))
+        ok = False
+        continue
+    worst = [max(j["rms_tracking"] for j in t["controller"]["joints"]) for t in (a, b)]
+    moves = not a["what"].startswith("hold")  # a hold's reference stays at the start
+    print("  %-22s %8.4f -> %8.4f %s" % (a["name"], worst[0], worst[1], b["controller"]["status"]))
+    if moves and not worst[1] < worst[0] / 5:
+        ok = False
+print("  passed: %d -> %d of %d" % (ramp["passed"], given["passed"], len(given["tasks"])))
+sys.exit(0 if ok and given["passed"] >= ramp["passed"] else 1)
+PY
+  else
+    echo "note: no $bin/joint_pid (sanitizer build): example 05 not graded"
   fi
   ;;
 batch)
