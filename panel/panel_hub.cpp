@@ -3,6 +3,7 @@
 #include <poll.h>
 
 #include <cmath>
+#include <iostream>
 #include <sirupp/robot_model_t.hpp>
 
 #include "core/environment.hpp"
@@ -114,7 +115,34 @@ PanelHub::PanelHub(core::Bus& bus, HubOptions options)
     mutex_.lock();
   });
   heartbeat_.Publish(core::ProcessState::kStarting, "");
+  if (options_.batch_ticks) StartTickReader();
 }
+
+void PanelHub::StartTickReader() {
+  const std::optional<UdpmAddress> address = ParseUdpmUrl(bus_.url());
+  if (!address) return;  // memq:// (tests): LCM's queue of one message is the decimation
+  bus_.Fileno();         // LCM has opened its receive socket (the subscriptions above)
+  try {
+    std::vector<std::string> read{bus_.FullName(channels_.sim_arm_state),
+                                  bus_.FullName(channels_.arm_setpoint),
+                                  bus_.FullName(channels_.real_arm_state)};
+    // Every per-tick channel of the rig: the panel subscribes none of the other two.
+    std::vector<std::string> muted = read;
+    muted.push_back(bus_.FullName(channels_.sim_arm_command));
+    muted.push_back(bus_.FullName(channels_.real_arm_setpoint));
+    auto reader = std::make_unique<TickReader>(*address, std::move(read), std::move(muted));
+    if (reader->MuteOnLcmSockets() > 0) {
+      ticks_ = std::move(reader);
+    } else {
+      std::cerr << "sirupp-panel: LCM's receive socket not found; the per-tick channels go "
+                   "through LCM\n";
+    }
+  } catch (const std::exception& e) {
+    std::cerr << e.what() << "; the per-tick channels go through LCM\n";
+  }
+}
+
+bool PanelHub::batching_ticks() const { return ticks_ != nullptr; }
 
 PanelHub::~PanelHub() { Stop(); }
 
@@ -149,15 +177,25 @@ void PanelHub::Run() {
 }
 
 void PanelHub::ServiceOnce(int timeout_ms) {
-  pollfd fd{};
+  pollfd fds[2]{};
   {
     const std::lock_guard<std::mutex> lock(mutex_);
-    fd.fd = bus_.Fileno();
+    fds[0].fd = bus_.Fileno();
   }
-  fd.events = POLLIN;
-  ::poll(&fd, 1, timeout_ms);  // waits without the lock, so HTTP threads can publish meanwhile
+  fds[0].events = POLLIN;
+  fds[1].fd = ticks_ ? ticks_->fd() : -1;  // poll() skips a negative fd
+  fds[1].events = POLLIN;
+  ::poll(fds, 2, timeout_ms);  // waits without the lock, so HTTP threads can publish meanwhile
   const std::lock_guard<std::mutex> lock(mutex_);
   bus_.HandleAvailable(2000);
+  if (ticks_) {
+    // Only each channel's newest message of the round is decoded and handled.
+    ticks_->Drain();
+    ticks_->TakeNewest(
+        [this](const std::string& channel, const uint8_t* data, int size, int64_t recv_utime) {
+          bus_.DeliverRecorded(channel, data, size, recv_utime);
+        });
+  }
   heartbeat_.PublishIfDue(core::ProcessState::kRunning, model_ ? "model " + model_->name : "");
 }
 
