@@ -5,6 +5,7 @@
 #include <cmath>
 #include <iostream>
 #include <sirupp/robot_model_t.hpp>
+#include <sstream>
 
 #include "core/environment.hpp"
 #include "core/errors.hpp"
@@ -321,6 +322,33 @@ int64_t PanelHub::WaitForState(int64_t generation, std::chrono::milliseconds tim
   std::unique_lock<std::mutex> lock(mutex_);
   changed_.wait_for(lock, timeout, [&] { return stop_ || generation_ != generation; });
   return generation_;
+}
+
+std::string PanelHub::BridgeRefusal(const core::RobotModel& model) const {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  if (!hardware_ || hardware_->state != sirupp::hardware_status_t::STATE_LINKED) return "";
+  const int64_t now_us = std::chrono::duration_cast<std::chrono::microseconds>(
+                             std::chrono::system_clock::now().time_since_epoch())
+                             .count();
+  for (const auto& [key, entry] : heartbeats_) {
+    const sirupp::heartbeat_t& beat = entry.first;
+    if (beat.process != "sirupp-hardware" || now_us - entry.second > 3000000) continue;
+    std::istringstream words(beat.detail);
+    std::string model_word;
+    std::string name;
+    std::string hash_word;
+    std::string hash;
+    words >> model_word >> name >> hash_word >> hash;
+    if (!hash.empty() && hash.back() == ';') hash.pop_back();  // "...; the bridge's last error"
+    const bool reported = model_word == "model" && hash_word == "hash" && !hash.empty();
+    if (reported && name == model.name && hash == model.source_hash) continue;
+    return "sirupp-hardware on " + beat.host + " (pid " + std::to_string(beat.pid) +
+           ") has the real arm linked and keeps its own model file (" +
+           (reported ? name + ", hash " + hash : std::string("not reported")) + "); loading " +
+           model.source_file + " (" + model.name + ", hash " + model.source_hash +
+           ") would make it fault and stop the arm: unlink the real arm first";
+  }
+  return "";
 }
 
 Json PanelHub::ModelJson() const {

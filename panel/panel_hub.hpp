@@ -90,6 +90,12 @@ class PanelHub {
   std::optional<sirupp::controller_status_t> ControllerStatus() const;
   std::optional<sirupp::servo_gains_t> VirtualGains() const;
 
+  // "" when `model` may be loaded into the running rig; else why not, in one line: a
+  // sirupp-hardware heard in the last 3 s (HEARTBEAT) while the real arm is linked
+  // (HARDWARE_STATUS) keeps its own model file and faults on another model, which stops the real
+  // arm. A model it reports as its own (heartbeat detail "model NAME hash HASH") is allowed.
+  std::string BridgeRefusal(const core::RobotModel& model) const;
+
   // Page data. model_version goes up each time a different model arrives.
   Json ModelJson() const;
   Json EnvironmentJson() const;
