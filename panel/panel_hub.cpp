@@ -16,9 +16,10 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 using Clock = std::chrono::steady_clock;
-// The hub thread's pause between two rounds of handling, and the LCM queue of the per-tick
-// channels: one message per round (LCM drops the others before they are decoded), so what the page
-// gets is at most one round (5 ms) old.
+// The hub thread's pause between two rounds of handling. On udpm the per-tick channels wait in the
+// tick reader's socket meanwhile and only each one's newest is decoded; otherwise (memq://, or
+// --lcm-ticks) LCM's queue of one message per channel does the same. What the page gets is at
+// most one round (5 ms) old.
 constexpr std::chrono::milliseconds kBatchPeriod{5};
 constexpr int kNewestOnly = 1;
 
@@ -167,8 +168,8 @@ bool PanelHub::stopping() const {
 
 void PanelHub::Run() {
   // Batches: the per-tick channels come at 1953 Hz each; waking and decoding for every message
-  // cost most of the panel's CPU. Between two rounds LCM keeps one message of each of those
-  // channels and drops the rest undecoded; the page samples at most 60 Hz.
+  // cost most of the panel's CPU (LCM's receive thread wakes per datagram: tick_reader.hpp). The
+  // page samples at most 60 Hz.
   while (!stopping()) {
     ServiceOnce(50);
     std::this_thread::sleep_for(kBatchPeriod);
