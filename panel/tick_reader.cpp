@@ -22,7 +22,7 @@ constexpr size_t kShortHeader = 8;            // magic, sequence number, then th
 // A socket filter sees the datagram from its UDP header on.
 constexpr uint32_t kUdpHeader = 8;
 constexpr size_t kBatch = 64;
-constexpr size_t kDatagramMax = 65536;
+constexpr size_t kDatagramMax = 8192;  // a per-tick message of up to ~300 joints; longer: refused
 constexpr size_t kMaxChannels = 8;
 
 std::string Describe(const UdpmAddress& a) {
