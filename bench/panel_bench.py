@@ -8,7 +8,8 @@ receiving a SIM_ARM_STATE to the page drawing it (same machine, same clock); the
 the panel process's CPU share of one core and its resident memory; the sim's real-time factor.
 Goals (issue 18): latency median < 50 ms, >= 30 fps, panel < 10 % of a core.
 
-Usage: bench/panel_bench.py BIN_DIR [SECONDS]   (run from the source tree)"""
+Usage: bench/panel_bench.py BIN_DIR [SECONDS [PANEL_ARGS...]]   (run from the source tree)
+e.g. PANEL_ARGS --lcm-ticks: the per-tick channels through LCM, as before the batched reader."""
 
 import os
 import statistics
@@ -20,6 +21,7 @@ from panel_rig import Rig, http, open_panel, wait_for  # noqa: E402
 
 BIN = sys.argv[1]
 SECONDS = float(sys.argv[2]) if len(sys.argv) > 2 else 10.0
+PANEL_ARGS = sys.argv[3:]
 TICK = os.sysconf("SC_CLK_TCK")
 
 
@@ -51,7 +53,7 @@ def rss_mib(pid):
     return float("nan")
 
 
-rig = Rig(BIN, os.getcwd(), port=7950 + os.getpid() % 40).start()
+rig = Rig(BIN, os.getcwd(), port=7950 + os.getpid() % 40, panel_args=PANEL_ARGS).start()
 try:
     page = rig.browser(1280, 800)
     open_panel(page, rig.address, hz=60)
@@ -82,7 +84,8 @@ try:
     print(f"panel_bench: {wall:.1f} s with the sim publishing SIM_ARM_STATE at "
           f"{sim_rate[0] if sim_rate else float('nan'):.0f} Hz "
           f"(real-time factor {processes.get('realtime_factor', float('nan')):.3f}); "
-          f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f}")
+          f"{os.cpu_count()} cores, load average {os.getloadavg()[0]:.1f}"
+          f"{'; panel ' + ' '.join(PANEL_ARGS) if PANEL_ARGS else ''}")
     if latencies:
         p95 = latencies[min(len(latencies) - 1, int(0.95 * len(latencies)))]
         print(f"state-to-browser latency: median {statistics.median(latencies):.1f} ms, p95 {p95:.1f} ms "

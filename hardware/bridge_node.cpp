@@ -97,7 +97,13 @@ BridgeNode::BridgeNode(core::Bus& bus, const core::RobotModel& model, ArmLink& l
           Fault(model_watch_.mismatch());
         }
       });
-  heartbeat_.Publish(core::ProcessState::kStarting, "");
+  heartbeat_.Publish(core::ProcessState::kStarting, ModelDetail());
+}
+
+// The model file this bridge keeps, in its heartbeat's detail while all is well, so that a panel
+// can tell a model load it would fault on (panel/panel_hub.hpp, BridgeRefusal).
+std::string BridgeNode::ModelDetail() const {
+  return "model " + model_.name + " hash " + model_.source_hash;
 }
 
 core::ReplyFacts BridgeNode::Facts() const {
@@ -424,7 +430,9 @@ void BridgeNode::Cycle() {
   }
   const bool bad = faulted_ || estopped_;
   heartbeat_.PublishIfDue(bad ? core::ProcessState::kFault : core::ProcessState::kRunning,
-                          last_error_);
+                          bad                   ? last_error_
+                          : last_error_.empty() ? ModelDetail()
+                                                : ModelDetail() + "; " + last_error_);
 }
 
 void BridgeNode::Service(int max_wait_ms) {

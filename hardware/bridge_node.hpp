@@ -81,6 +81,8 @@ class BridgeNode {
  private:
   // The status a reply on HARDWARE_REPLY names.
   core::ReplyFacts Facts() const;
+  // "model NAME hash HASH": the start of the heartbeat's detail when all is well.
+  std::string ModelDetail() const;
   void OnCommand(const sirupp::hardware_command_t& message, const core::ReceiveInfo& info);
   // One HARDWARE_COMMAND action (`what` names it and its sender in refusals).
   void Do(core::HardwareAction action, const std::string& what, const std::string& channel);

@@ -3,7 +3,9 @@
 #include <poll.h>
 
 #include <cmath>
+#include <iostream>
 #include <sirupp/robot_model_t.hpp>
+#include <sstream>
 
 #include "core/environment.hpp"
 #include "core/errors.hpp"
@@ -14,9 +16,10 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 using Clock = std::chrono::steady_clock;
-// The hub thread's pause between two rounds of handling, and the LCM queue of the per-tick
-// channels: one message per round (LCM drops the others before they are decoded), so what the page
-// gets is at most one round (5 ms) old.
+// The hub thread's pause between two rounds of handling. On udpm the per-tick channels wait in the
+// tick reader's socket meanwhile and only each one's newest is decoded; otherwise (memq://, or
+// --lcm-ticks) LCM's queue of one message per channel does the same. What the page gets is at
+// most one round (5 ms) old.
 constexpr std::chrono::milliseconds kBatchPeriod{5};
 constexpr int kNewestOnly = 1;
 
@@ -114,7 +117,34 @@ PanelHub::PanelHub(core::Bus& bus, HubOptions options)
     mutex_.lock();
   });
   heartbeat_.Publish(core::ProcessState::kStarting, "");
+  if (options_.batch_ticks) StartTickReader();
 }
+
+void PanelHub::StartTickReader() {
+  const std::optional<UdpmAddress> address = ParseUdpmUrl(bus_.url());
+  if (!address) return;  // memq:// (tests): LCM's queue of one message is the decimation
+  bus_.Fileno();         // LCM has opened its receive socket (the subscriptions above)
+  try {
+    std::vector<std::string> read{bus_.FullName(channels_.sim_arm_state),
+                                  bus_.FullName(channels_.arm_setpoint),
+                                  bus_.FullName(channels_.real_arm_state)};
+    // Every per-tick channel of the rig: the panel subscribes none of the other two.
+    std::vector<std::string> muted = read;
+    muted.push_back(bus_.FullName(channels_.sim_arm_command));
+    muted.push_back(bus_.FullName(channels_.real_arm_setpoint));
+    auto reader = std::make_unique<TickReader>(*address, std::move(read), std::move(muted));
+    if (reader->MuteOnLcmSockets() > 0) {
+      ticks_ = std::move(reader);
+    } else {
+      std::cerr << "sirupp-panel: LCM's receive socket not found; the per-tick channels go "
+                   "through LCM\n";
+    }
+  } catch (const std::exception& e) {
+    std::cerr << e.what() << "; the per-tick channels go through LCM\n";
+  }
+}
+
+bool PanelHub::batching_ticks() const { return ticks_ != nullptr; }
 
 PanelHub::~PanelHub() { Stop(); }
 
@@ -138,8 +168,8 @@ bool PanelHub::stopping() const {
 
 void PanelHub::Run() {
   // Batches: the per-tick channels come at 1953 Hz each; waking and decoding for every message
-  // cost most of the panel's CPU. Between two rounds LCM keeps one message of each of those
-  // channels and drops the rest undecoded; the page samples at most 60 Hz.
+  // cost most of the panel's CPU (LCM's receive thread wakes per datagram: tick_reader.hpp). The
+  // page samples at most 60 Hz.
   while (!stopping()) {
     ServiceOnce(50);
     std::this_thread::sleep_for(kBatchPeriod);
@@ -149,15 +179,25 @@ void PanelHub::Run() {
 }
 
 void PanelHub::ServiceOnce(int timeout_ms) {
-  pollfd fd{};
+  pollfd fds[2]{};
   {
     const std::lock_guard<std::mutex> lock(mutex_);
-    fd.fd = bus_.Fileno();
+    fds[0].fd = bus_.Fileno();
   }
-  fd.events = POLLIN;
-  ::poll(&fd, 1, timeout_ms);  // waits without the lock, so HTTP threads can publish meanwhile
+  fds[0].events = POLLIN;
+  fds[1].fd = ticks_ ? ticks_->fd() : -1;  // poll() skips a negative fd
+  fds[1].events = POLLIN;
+  ::poll(fds, 2, timeout_ms);  // waits without the lock, so HTTP threads can publish meanwhile
   const std::lock_guard<std::mutex> lock(mutex_);
   bus_.HandleAvailable(2000);
+  if (ticks_) {
+    // Only each channel's newest message of the round is decoded and handled.
+    ticks_->Drain();
+    ticks_->TakeNewest(
+        [this](const std::string& channel, const uint8_t* data, int size, int64_t recv_utime) {
+          bus_.DeliverRecorded(channel, data, size, recv_utime);
+        });
+  }
   heartbeat_.PublishIfDue(core::ProcessState::kRunning, model_ ? "model " + model_->name : "");
 }
 
@@ -283,6 +323,33 @@ int64_t PanelHub::WaitForState(int64_t generation, std::chrono::milliseconds tim
   std::unique_lock<std::mutex> lock(mutex_);
   changed_.wait_for(lock, timeout, [&] { return stop_ || generation_ != generation; });
   return generation_;
+}
+
+std::string PanelHub::BridgeRefusal(const core::RobotModel& model) const {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  if (!hardware_ || hardware_->state != sirupp::hardware_status_t::STATE_LINKED) return "";
+  const int64_t now_us = std::chrono::duration_cast<std::chrono::microseconds>(
+                             std::chrono::system_clock::now().time_since_epoch())
+                             .count();
+  for (const auto& [key, entry] : heartbeats_) {
+    const sirupp::heartbeat_t& beat = entry.first;
+    if (beat.process != "sirupp-hardware" || now_us - entry.second > 3000000) continue;
+    std::istringstream words(beat.detail);
+    std::string model_word;
+    std::string name;
+    std::string hash_word;
+    std::string hash;
+    words >> model_word >> name >> hash_word >> hash;
+    if (!hash.empty() && hash.back() == ';') hash.pop_back();  // "...; the bridge's last error"
+    const bool reported = model_word == "model" && hash_word == "hash" && !hash.empty();
+    if (reported && name == model.name && hash == model.source_hash) continue;
+    return "sirupp-hardware on " + beat.host + " (pid " + std::to_string(beat.pid) +
+           ") has the real arm linked and keeps its own model file (" +
+           (reported ? name + ", hash " + hash : std::string("not reported")) + "); loading " +
+           model.source_file + " (" + model.name + ", hash " + model.source_hash +
+           ") would make it fault and stop the arm: unlink the real arm first";
+  }
+  return "";
 }
 
 Json PanelHub::ModelJson() const {

@@ -36,6 +36,7 @@
 #include "core/heartbeat.hpp"
 #include "core/kinematics.hpp"
 #include "core/robot_model.hpp"
+#include "panel/tick_reader.hpp"
 
 namespace sirupp::panel {
 
@@ -47,6 +48,9 @@ struct HubOptions {
   std::optional<core::RobotModel> fallback_model;
   // How long a command waits for sirupp-control's (or sirupp-hardware's) reply.
   double answer_timeout_s = 2.0;
+  // On udpm: the per-tick channels read in batches by the hub's own socket (tick_reader.hpp)
+  // instead of LCM's one wake-up per datagram. false: everything through LCM.
+  bool batch_ticks = true;
 };
 
 class PanelHub {
@@ -86,6 +90,12 @@ class PanelHub {
   std::optional<sirupp::controller_status_t> ControllerStatus() const;
   std::optional<sirupp::servo_gains_t> VirtualGains() const;
 
+  // "" when `model` may be loaded into the running rig; else why not, in one line: a
+  // sirupp-hardware heard in the last 3 s (HEARTBEAT) while the real arm is linked
+  // (HARDWARE_STATUS) keeps its own model file and faults on another model, which stops the real
+  // arm. A model it reports as its own (heartbeat detail "model NAME hash HASH") is allowed.
+  std::string BridgeRefusal(const core::RobotModel& model) const;
+
   // Page data. model_version goes up each time a different model arrives.
   Json ModelJson() const;
   Json EnvironmentJson() const;
@@ -101,9 +111,12 @@ class PanelHub {
 
   // Counters for the benchmark and tests.
   int64_t states_received() const;
+  // True when the per-tick channels come through the batched reader (udpm and batch_ticks).
+  bool batching_ticks() const;
 
  private:
   void Subscribe();
+  void StartTickReader();
   void Run();
   void SetModel(const core::RobotModel& model);
   void Touch();  // new live data: bump the generation and wake the streams
@@ -138,6 +151,8 @@ class PanelHub {
   std::map<std::string, std::pair<sirupp::heartbeat_t, int64_t>> heartbeats_;  // key process@host
   // Last: subscribes on bus_ after the hub's own handlers; its idle function lets go of mutex_.
   std::unique_ptr<client::Client> client_;
+  // The per-tick channels on udpm (set up after every subscription, so LCM's socket exists).
+  std::unique_ptr<TickReader> ticks_;
 };
 
 // Shared with the API: degrees (revolute) or millimetres (prismatic) <-> rad / m.

@@ -66,7 +66,12 @@ int Run(const std::vector<std::string>& argv) {
        Flag("results", "folder of recorded runs and reports").Takes("DIR"),
        sirupp::runtime::ModelFlag(),
        Flag("open", "open the page in a browser when there is a display").Switch(),
-       Flag("duration", "exit after S seconds").Takes("S"), Flag("lcm-url", "LCM URL").Takes("URL"),
+       Flag("duration", "exit after S seconds").Takes("S"),
+       Flag("lcm-ticks",
+            "the per-tick channels through LCM (one wake-up per datagram) instead of the panel's "
+            "batched reader: for comparison")
+           .Switch(),
+       Flag("lcm-url", "LCM URL").Takes("URL"),
        Flag("prefix", "channel prefix of the rig").Takes("PREFIX")},
       kAbout);
   panel::ServerOptions server_options;
@@ -88,6 +93,7 @@ int Run(const std::vector<std::string>& argv) {
   server_options.web_dir = sirupp::runtime::ResolveDataPath("panel/web");
 
   panel::HubOptions hub_options;
+  hub_options.batch_ticks = !args.Switch("lcm-ticks");
   if (args.Has("model")) {
     hub_options.fallback_model =
         sirupp::core::LoadRobotModel(sirupp::runtime::ResolveDataPath(args.String("model")));
@@ -113,7 +119,9 @@ int Run(const std::vector<std::string>& argv) {
   std::string address = "http://" + host + ":" + std::to_string(port) + "/";
   if (api_options.require_token) address += "?token=" + api_options.token;
   std::cout << "sirupp-panel: " << address << std::endl;
-  std::cerr << "sirupp-panel: on " << hub.url() << ", page files " << server_options.web_dir
+  std::cerr << "sirupp-panel: on " << hub.url()
+            << (hub.batching_ticks() ? " (per-tick channels read in 5 ms batches)" : "")
+            << ", page files " << server_options.web_dir
             << (api_options.require_token ? "; changes need the token in the address" : "")
             << std::endl;
   hub.Start();

@@ -271,12 +271,15 @@ CommandResult RigCommands::LoadEnvironment(const std::string& name, const std::s
 }
 
 CommandResult RigCommands::LoadModel(const std::string& name, const std::string& text) {
+  std::string bridge;
   try {
-    core::ParseRobotModel(text, name);
+    bridge = hub_.BridgeRefusal(core::ParseRobotModel(text, name));
   } catch (const core::ConfigError& error) {
     return CommandResult::Fail(
         422, error.what(), Json{{"line", error.where().line}, {"column", error.where().column}});
   }
+  // Refused before anything is sent: the controller and the sim would take it, the bridge not.
+  if (!bridge.empty()) return CommandResult::Fail(409, bridge);
   return FromAnswer(hub_.WithClient([&](client::Client& rig) { return rig.LoadModel(name, text); }),
                     "model " + name);
 }

@@ -998,6 +998,20 @@ void ArmWorld::ReplaceModel(const core::RobotModel& model) {
   auto rebuilt = std::make_unique<Impl>(model, impl_->built_environment, impl_->options);
   rebuilt->tick = impl_->tick;
   rebuilt->Teleport(state.position, state.velocity, false);  // throws outside the new limits
+  // The free objects stay where they are, moving as they were (the environment is the same, so
+  // the objects come in the same order).
+  for (size_t i = 0; i < rebuilt->objects.size() && i < impl_->objects.size(); ++i) {
+    const dBodyID from = impl_->objects[i].body;
+    const dBodyID to = rebuilt->objects[i].body;
+    if (from == nullptr || to == nullptr) continue;
+    const dReal* position = dBodyGetPosition(from);
+    dBodySetPosition(to, position[0], position[1], position[2]);
+    dBodySetQuaternion(to, dBodyGetQuaternion(from));
+    const dReal* linear = dBodyGetLinearVel(from);
+    dBodySetLinearVel(to, linear[0], linear[1], linear[2]);
+    const dReal* angular = dBodyGetAngularVel(from);
+    dBodySetAngularVel(to, angular[0], angular[1], angular[2]);
+  }
   const std::string overlap = rebuilt->FindOverlap();
   if (!overlap.empty()) throw std::invalid_argument(overlap + " where the arm stands now");
   impl_ = std::move(rebuilt);

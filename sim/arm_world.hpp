@@ -80,10 +80,10 @@ class ArmWorld {
   void ReplaceEnvironment(const core::Environment& environment);
 
   // Rebuilds the arm from `model` between two steps, with the same options and environment, at
-  // the joints' present positions and speeds; time goes on (free objects start again at their
-  // start poses). Throws std::invalid_argument, the world unchanged, when `model` has another
-  // number of joints or servo tick, cannot be simulated, a joint stands outside its new limits
-  // (naming the joint, its position and the limits) or an object would overlap the new arm.
+  // the joints' present positions and speeds; time goes on, and the free objects keep their
+  // present poses and velocities. Throws std::invalid_argument, the world unchanged, when `model`
+  // has another number of joints or servo tick, cannot be simulated, a joint stands outside its new
+  // limits (naming the joint, its position and the limits) or an object would overlap the new arm.
   void ReplaceModel(const core::RobotModel& model);
 
   // Advances one step under `command`: efforts (clamped to each joint's effort_max) in

@@ -810,5 +810,32 @@ TEST(ArmWorldReplaceModel, TakesTheNewModelWhereTheArmStandsOrRefusesAndKeepsThe
   EXPECT_EQ(world.model().source_hash, "0123456789abcdef");
 }
 
+// A free object keeps its pose and speed through a model load: a falling box goes on falling
+// from where it was, exactly as in a twin world that kept its model.
+TEST(ArmWorldReplaceModel, FreeObjectsStayWhereTheyAreMovingAsTheyWere) {
+  core::Environment environment;
+  environment.objects.push_back(
+      Object("box", core::ShapeType::kBox, {0.1, 0.1, 0.1}, {0.8, 0, 0.5}, false, 0.2));
+  ArmWorld world(Puma(), environment);
+  ArmWorld twin(Puma(), environment);
+  for (int k = 0; k < 300; ++k) {
+    world.Step(Hold(6));
+    twin.Step(Hold(6));
+  }
+  const double z = world.ObjectPoses()[0].pose.translation().z();
+  ASSERT_LT(z, 0.5 - 0.01);  // falling
+  core::RobotModel heavier = Puma();
+  heavier.links[2].mass_kg *= 1.5;
+  world.ReplaceModel(heavier);
+  EXPECT_DOUBLE_EQ(world.ObjectPoses()[0].pose.translation().z(), z);  // not back at 0.5
+  for (int k = 0; k < 20; ++k) {
+    world.Step(Hold(6));
+    twin.Step(Hold(6));
+  }
+  EXPECT_LT(world.ObjectPoses()[0].pose.translation().z(), z);
+  EXPECT_NEAR(world.ObjectPoses()[0].pose.translation().z(),
+              twin.ObjectPoses()[0].pose.translation().z(), 1e-9);  // the same speed
+}
+
 }  // namespace
 }  // namespace sirupp::sim

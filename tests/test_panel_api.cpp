@@ -13,6 +13,8 @@
 #include <fstream>
 #include <sirupp/estop_t.hpp>
 #include <sirupp/hardware_command_t.hpp>
+#include <sirupp/hardware_status_t.hpp>
+#include <sirupp/heartbeat_t.hpp>
 #include <sirupp/joint_target_t.hpp>
 #include <sirupp/logger_command_t.hpp>
 #include <sirupp/plan_command_t.hpp>
@@ -660,7 +662,45 @@ TEST(PanelModelApply, TheSimTheControllerAndThePanelTakeTheSavedModel) {
   };
   for (int i = 0; i < 400 && !still(); ++i) spin(50);
   ASSERT_TRUE(still());
-  // Still: applied. Every part now runs wide.yaml.
+  // A sirupp-hardware on the bus with the real arm linked keeps its own model file (puma260):
+  // refused before anything is sent, naming the bridge; the sim keeps its model.
+  const core::RobotModel wide_model =
+      core::LoadRobotModel((root.path / "config/robots/wide.yaml").string());
+  const auto bridge_says = [&](const std::string& detail) {
+    sirupp::heartbeat_t beat{};
+    beat.process = "sirupp-hardware";
+    beat.host = "lab-pc";
+    beat.pid = 4321;
+    beat.state = sirupp::heartbeat_t::STATE_RUNNING;
+    beat.detail = detail;
+    bus.Publish("HEARTBEAT", beat);
+    sirupp::hardware_status_t status{};
+    status.state = sirupp::hardware_status_t::STATE_LINKED;
+    bus.Publish("HARDWARE_STATUS", status);
+    spin(5);
+  };
+  int sent = 0;  // ARM_PLAN and SIM_COMMAND messages
+  bus.Subscribe<sirupp::plan_command_t>(
+      "ARM_PLAN", [&](const sirupp::plan_command_t&, const core::ReceiveInfo&) { ++sent; });
+  bus.Subscribe<sirupp::sim_command_t>(
+      "SIM_COMMAND", [&](const sirupp::sim_command_t&, const core::ReceiveInfo&) { ++sent; });
+  bridge_says("model " + model.name + " hash " + model.source_hash);
+  Response linked = post("/api/model/apply", Json{{"path", "config/robots/wide.yaml"}});
+  EXPECT_EQ(linked.status, 409) << linked.body;
+  const std::string why = JsonOf(linked)["error"].get<std::string>();
+  EXPECT_NE(why.find("sirupp-hardware on lab-pc (pid 4321) has the real arm linked"),
+            std::string::npos)
+      << why;
+  EXPECT_NE(why.find("hash " + model.source_hash), std::string::npos) << why;
+  EXPECT_EQ(world.model().source_hash, model.source_hash);
+  // A bridge that does not say which model it keeps: refused as well.
+  bridge_says("");
+  EXPECT_EQ(post("/api/model/apply", Json{{"path", "config/robots/wide.yaml"}}).status, 409);
+  EXPECT_EQ(sent, 0);
+  // The bridge's own model (it reports wide.yaml's name and hash, with a last error after it):
+  // allowed. Every part now runs wide.yaml.
+  bridge_says("model " + wide_model.name + " hash " + wide_model.source_hash +
+              "; a refused command");
   const std::vector<double> before = world.State().position;
   Response applied = post("/api/model/apply", Json{{"path", "config/robots/wide.yaml"}});
   ASSERT_EQ(applied.status, 200) << applied.body;
