@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <limits>
 #include <map>
+#include <thread>
 #include <utility>
 
 #include "core/channels.hpp"
@@ -257,6 +258,12 @@ int Bus::HandleAvailable(int max_messages) {
   int handled = 0;
   while (handled < max_messages && Handle(0) > 0) ++handled;
   return handled;
+}
+
+int Bus::HandleBatched(int wait_ms) {
+  if (dispatching_) throw BusError("Bus::HandleBatched called from inside a message handler");
+  if (wait_ms > 0) std::this_thread::sleep_for(std::chrono::milliseconds(wait_ms));
+  return HandleAvailable();
 }
 
 int Bus::DeliverRecorded(const std::string& full_channel, const void* data, int size_bytes,

@@ -236,6 +236,13 @@ class Bus {
   // Handles the messages already queued without blocking, at most max_messages of them. Returns the
   // number handled.
   int HandleAvailable(int max_messages = kDefaultHandleLimit);
+  // For observers that need no message the moment it arrives (logger, viewer): sleeps wait_ms
+  // without watching the bus, then handles everything queued meanwhile; returns the number handled.
+  // LCM's receive thread still takes each datagram as it comes (receive times are unchanged), but
+  // this thread wakes once per call instead of once per message, which leaves the CPUs to the
+  // lockstep loop (docs/timing.md, "What a tick costs"). Keep wait_ms well under a subscription's
+  // queue capacity divided by its message rate: a full queue drops the newest messages.
+  int HandleBatched(int wait_ms);
   // Hands one recorded message (an LCM log event: full channel name, encoded bytes, the time it was
   // received when recorded) to this bus's subscriptions of that channel, as if it had just arrived
   // with that receive time. Used to run a node over a raw log exactly as it ran live

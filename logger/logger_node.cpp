@@ -284,8 +284,11 @@ void LoggerNode::Push(Input input, Stream stream) {
 }
 
 void LoggerNode::Service(int max_wait_ms) {
-  bus_.HandleAvailable();
-  bus_.Handle(max_wait_ms);
+  // Messages in batches, one wake-up per kBatchMs rather than one per message: the receive times
+  // are LCM's receive thread's, so the rows do not change, and the lockstep loop keeps the CPUs.
+  // At 30 000 messages a second per channel a batch is 150 of the kQueue (10 000) LCM holds.
+  constexpr int kBatchMs = 5;
+  bus_.HandleBatched(std::min(max_wait_ms, kBatchMs));
   // The raw log reaches the disk at least every 0.1 s (a killed logger loses no more).
   if (!raw_path_.empty() &&
       std::chrono::steady_clock::now() - raw_flushed_ > std::chrono::milliseconds(100)) {

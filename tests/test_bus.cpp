@@ -136,6 +136,23 @@ TEST(BusTest, LatestHoldsTheNewestMessage) {
   EXPECT_EQ(latest.channel(), "SIM_ARM_STATE");
 }
 
+TEST(BusTest, HandleBatchedTakesEverythingQueuedInOrderAndIsNotReentrant) {
+  Bus bus(kMemq);
+  std::vector<int64_t> seen;
+  bus.Subscribe<sirupp::arm_state_t>(
+      "SIM_ARM_STATE", [&](const sirupp::arm_state_t& state, const ReceiveInfo& info) {
+        seen.push_back(state.seq);
+        EXPECT_GT(info.recv_utime, 0);
+        EXPECT_THROW(bus.HandleBatched(0), BusError);
+      });
+  EXPECT_EQ(bus.HandleBatched(1), 0);  // nothing queued: waits, handles none
+  for (int64_t seq = 0; seq < 5; ++seq) bus.Publish("SIM_ARM_STATE", MakeState(seq));
+  EXPECT_EQ(bus.HandleBatched(2), 5);
+  EXPECT_EQ(seen, (std::vector<int64_t>{0, 1, 2, 3, 4}));
+  EXPECT_EQ(bus.StatsFor("SIM_ARM_STATE").messages, 5);
+  EXPECT_EQ(bus.StatsFor("SIM_ARM_STATE").gaps, 0);
+}
+
 TEST(BusTest, LatestUnsubscribesWhenDestroyed) {
   Bus bus(kMemq);
   int witness_calls = 0;  // keeps the channel subscribed, so LCM still dispatches after the Latest
