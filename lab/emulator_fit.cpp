@@ -39,12 +39,14 @@ struct Param {
 // The fitted numbers. The fit's ranges are the file's, narrowed to what a PUMA 260's small DC
 // servo motors and their supply plausibly are (docs/emulator-fit.md): torque constant 0.02..0.08
 // N*m/A, winding resistance 1..8 ohm, supply 18..48 V with at most 2 ohm source resistance.
-std::vector<Param> Params() {
+std::vector<Param> Params(bool fit_latency) {
   std::vector<Param> p;
-  p.push_back({"board.command_latency_s",
-               [](const hardware::RealArmParams& a) { return a.command_latency_s; },
-               [](hardware::RealArmParams& a, double v) { a.command_latency_s = v; },
-               range::kCommandLatency.min, 0.2, false});
+  if (fit_latency) {
+    p.push_back({"board.command_latency_s",
+                 [](const hardware::RealArmParams& a) { return a.command_latency_s; },
+                 [](hardware::RealArmParams& a, double v) { a.command_latency_s = v; },
+                 range::kCommandLatency.min, 0.2, false});
+  }
   p.push_back({"supply.voltage_v",
                [](const hardware::RealArmParams& a) { return a.supply_voltage_v; },
                [](hardware::RealArmParams& a, double v) { a.supply_voltage_v = v; }, 18, 48, true});
@@ -92,6 +94,12 @@ std::vector<Param> Params() {
                    }
                  },
                  0.3, 1.0, false});
+    // Viscous friction (gear and bearing losses growing with speed).
+    p.push_back(
+        {at + "friction.viscous_nm_s_rad",
+         [j](const hardware::RealArmParams& a) { return a.joints[j].viscous_nm_s_per_rad; },
+         [j](hardware::RealArmParams& a, double v) { a.joints[j].viscous_nm_s_per_rad = v; }, 0, 3,
+         false});
   }
   return p;
 }
@@ -141,13 +149,16 @@ FitResult FitEmulator(const core::RobotModel& virtual_model, const core::RobotMo
     ++result.evaluations;
     return FitCost(*table);
   };
-  const std::vector<Param> params = Params();
+  const std::vector<Param> params = Params(!options.latency_s);
   const size_t n = params.size();
   hardware::CheckRealArmParams(start, real_model);
-  // The parameters at u (those of `start` for the rest); the cost of an arm outside a range the
-  // file allows is infinite.
+  hardware::RealArmParams base = start;  // the start, with the latency held if asked
+  if (options.latency_s) base.command_latency_s = *options.latency_s;
+  hardware::CheckRealArmParams(base, real_model);
+  // The parameters at u (those of `start`, latency held if asked, for the rest); the cost of an arm
+  // outside a range the file allows is infinite.
   auto at = [&](const std::vector<double>& u) {
-    hardware::RealArmParams a = start;
+    hardware::RealArmParams a = base;
     for (size_t i = 0; i < n; ++i) params[i].set(a, params[i].FromUnit(u[i]));
     return a;
   };
@@ -156,7 +167,7 @@ FitResult FitEmulator(const core::RobotModel& virtual_model, const core::RobotMo
   std::vector<TableRow> best_table;
   result.cost_before = evaluate(start, &best_table);
   std::vector<double> centre(n);
-  for (size_t i = 0; i < n; ++i) centre[i] = params[i].ToUnit(params[i].get(start));
+  for (size_t i = 0; i < n; ++i) centre[i] = params[i].ToUnit(params[i].get(base));
   hardware::RealArmParams best = at(centre);
   double best_cost = evaluate(best, &best_table);
   auto cost_of = [&](const std::vector<double>& u) {

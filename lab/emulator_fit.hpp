@@ -1,8 +1,9 @@
 #pragma once
 // Fits the emulated real arm's effects (hardware/real_arm.hpp) to the SIRUPP paper's Table II and
 // joint 1's start delay: Nelder-Mead on the unit box of the parameters that shape the paper's
-// numbers (board latency, supply voltage and resistance, and per arm joint the motor's torque
-// constant and resistance, the friction level and the Coulomb-to-static ratio), restarted around
+// numbers (board latency unless held, supply voltage and resistance, and per arm joint the motor's
+// torque constant and resistance, the friction level, the Coulomb-to-static ratio and the viscous
+// friction), restarted around
 // the best point until the budget is spent. The ranges are the file's narrowed to a plausible
 // PUMA 260 motor (torque constant 0.02-0.08 N*m/A). Each evaluation runs the seven sets on the
 // emulated arm against the virtual arm's runs (made once). Reads the models and a starting file;
@@ -21,6 +22,9 @@ namespace sirupp::lab {
 struct FitOptions {
   ExperimentOptions experiment;
   int max_evaluations = 150;
+  // Set: the board latency is held at this value (s) instead of fitted (docs/emulator-fit.md:
+  // a short latency leaves the lag to the motors, the supply and the friction).
+  std::optional<double> latency_s;
   // Told after each accepted step: evaluation count, cost, the parameter changed.
   std::function<void(int, double, const std::string&)> progress;
 };

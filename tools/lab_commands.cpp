@@ -143,6 +143,10 @@ int RunFitEmulator(const std::vector<std::string>& argv, std::ostream& out, std:
        runtime::Flag("sets", "movement sets, 1 to 7 or I to VII (default all)").Takes("N", -1),
        runtime::Flag("evaluate", "only run and print the table; no fit").Switch(),
        runtime::Flag("evaluations", "the fit's budget of experiment runs (150)").Takes("N"),
+       runtime::Flag("latency-ms",
+                     "hold the board's command latency at this value (0..300 ms) instead of "
+                     "fitting it")
+           .Takes("MS"),
        runtime::Flag("out",
                      "write the fitted effects there (refuses to replace a file unless it is "
                      "--real-arm itself)")
@@ -160,6 +164,15 @@ int RunFitEmulator(const std::vector<std::string>& argv, std::ostream& out, std:
   lab::FitOptions options;
   options.experiment.sets = ParseSets(args);
   options.max_evaluations = EvaluationsArg(args, options.max_evaluations);
+  if (args.Has("latency-ms")) {
+    const double ms = args.Numbers("latency-ms", 1)[0];
+    const hardware::ParamRange r = hardware::real_arm_range::kCommandLatency;
+    if (!(ms >= r.min * 1e3 && ms <= r.max * 1e3)) {
+      throw core::UsageError("fit-emulator: --latency-ms " + core::FormatNumber(ms) +
+                             ": allowed 0..300");
+    }
+    options.latency_s = ms / 1e3;
+  }
   const std::string out_file = FitOutFile(args);
   const auto started = std::chrono::steady_clock::now();
   out << "virtual arm: " << virtual_model.name
