@@ -133,6 +133,8 @@ double FitCost(const std::vector<TableRow>& table) {
   return cost;
 }
 
+double HoldCost(double hold_stray_deg) { return Robust(hold_stray_deg / 0.5); }
+
 FitResult FitEmulator(const core::RobotModel& virtual_model, const core::RobotModel& real_model,
                       const hardware::RealArmParams& start, const FitOptions& options) {
   std::vector<VirtualRun> virtual_runs;
@@ -140,14 +142,21 @@ FitResult FitEmulator(const core::RobotModel& virtual_model, const core::RobotMo
     virtual_runs.push_back(RunVirtual(virtual_model, set, options.experiment));
   }
   FitResult result;
+  double stray = 0;  // of the last evaluation
   auto evaluate = [&](const hardware::RealArmParams& params, std::vector<TableRow>* table) {
     std::vector<logger::RunTable> tables;
+    double hold = 0;
+    stray = 0;
     for (const VirtualRun& v : virtual_runs) {
-      tables.push_back(MakeTable(real_model, v, RunReal(real_model, params, v)));
+      const std::vector<std::vector<double>> real = RunReal(real_model, params, v);
+      const double s = HoldStrayDeg(v, real);
+      hold += HoldCost(s);
+      stray = std::max(stray, s);
+      tables.push_back(MakeTable(real_model, v, real));
     }
     *table = TableII(tables);
     ++result.evaluations;
-    return FitCost(*table);
+    return FitCost(*table) + hold;
   };
   const std::vector<Param> params = Params(!options.latency_s);
   const size_t n = params.size();
@@ -170,6 +179,7 @@ FitResult FitEmulator(const core::RobotModel& virtual_model, const core::RobotMo
   for (size_t i = 0; i < n; ++i) centre[i] = params[i].ToUnit(params[i].get(base));
   hardware::RealArmParams best = at(centre);
   double best_cost = evaluate(best, &best_table);
+  double best_stray = stray;
   auto cost_of = [&](const std::vector<double>& u) {
     const hardware::RealArmParams a = at(u);
     try {
@@ -183,6 +193,7 @@ FitResult FitEmulator(const core::RobotModel& virtual_model, const core::RobotMo
       best = a;
       best_cost = cost;
       best_table = table;
+      best_stray = stray;
       if (options.progress) options.progress(result.evaluations, cost, "new best");
     }
     return cost;
@@ -258,6 +269,7 @@ FitResult FitEmulator(const core::RobotModel& virtual_model, const core::RobotMo
   result.params = best;
   result.table = best_table;
   result.cost_after = best_cost;
+  result.hold_stray_deg = best_stray;
   for (const Param& p : params) result.fitted.push_back(Describe(p, p.get(best)));
   return result;
 }

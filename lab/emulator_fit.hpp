@@ -33,6 +33,7 @@ struct FitResult {
   hardware::RealArmParams params;
   std::vector<TableRow> table;  // with the fitted parameters
   double cost_before = 0, cost_after = 0;
+  double hold_stray_deg = 0;  // with the fitted parameters: the largest HoldStrayDeg of the sets
   int evaluations = 0;
   // The fitted parameters, each as "name value (range min..max)".
   std::vector<std::string> fitted;
@@ -43,6 +44,9 @@ struct FitResult {
 // (30 % or 0.5 deg), plus joint 1's start delay against 0.375 +- 0.05 s, plus the coupling (sets
 // IV and VII against the joints alone) against the paper's in units of 0.25 deg.
 double FitCost(const std::vector<TableRow>& table);
+// The fit's penalty for an arm that does not hold the joints a set leaves still (HoldStrayDeg of
+// each run, in units of 0.5 deg, robust like the rest): added to FitCost for each run.
+double HoldCost(double hold_stray_deg);
 
 FitResult FitEmulator(const core::RobotModel& virtual_model, const core::RobotModel& real_model,
                       const hardware::RealArmParams& start, const FitOptions& options);

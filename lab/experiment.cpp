@@ -272,14 +272,29 @@ void WriteDataFile(const std::string& path, const core::RobotModel& model,
   writer.Close(std::to_string(virtual_run.position.size()) + " rows");
 }
 
+double HoldStrayDeg(const VirtualRun& virtual_run, const std::vector<std::vector<double>>& real) {
+  const std::vector<int> moved = SetJoints(virtual_run.set);
+  double stray = 0;
+  for (size_t k = 0; k < real.size() && k < virtual_run.position.size(); ++k) {
+    for (size_t j = 0; j < real[k].size(); ++j) {
+      if (std::find(moved.begin(), moved.end(), static_cast<int>(j) + 1) != moved.end()) continue;
+      stray = std::max(stray, std::abs(real[k][j] - virtual_run.position[k][j]) / kDeg);
+    }
+  }
+  return stray;
+}
+
 std::vector<TableRow> RunExperiment(const core::RobotModel& virtual_model,
                                     const core::RobotModel& real_model,
                                     const std::optional<hardware::RealArmParams>& effects,
-                                    const ExperimentOptions& options, const std::string& data_dir) {
+                                    const ExperimentOptions& options, const std::string& data_dir,
+                                    double* hold_stray_deg) {
   std::vector<logger::RunTable> tables;
+  if (hold_stray_deg) *hold_stray_deg = 0;
   for (int set : options.sets) {
     const VirtualRun v = RunVirtual(virtual_model, set, options);
     const std::vector<std::vector<double>> real = RunReal(real_model, effects, v);
+    if (hold_stray_deg) *hold_stray_deg = std::max(*hold_stray_deg, HoldStrayDeg(v, real));
     if (!data_dir.empty()) {
       WriteDataFile(data_dir + "/lab-set" + std::to_string(set) + ".csv", real_model, v, real);
     }

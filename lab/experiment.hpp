@@ -78,13 +78,20 @@ struct TableRow {
 };
 std::vector<TableRow> TableII(const std::vector<logger::RunTable>& tables);
 
+// How far the real arm's joints that the set does not move stray from the virtual arm's (deg, the
+// largest over the run's ticks): a real arm that cannot hold its pose (a shoulder whose motor is
+// too weak for gravity) strays by degrees, a sound one by hundredths.
+double HoldStrayDeg(const VirtualRun& virtual_run, const std::vector<std::vector<double>>& real);
+
 // Runs every set of `options` on both arms and returns the table; with data_dir, also writes each
-// set's data file there (DATA_DIR/lab-setN.csv).
+// set's data file there (DATA_DIR/lab-setN.csv); with hold_stray_deg, the largest HoldStrayDeg of
+// the sets there.
 std::vector<TableRow> RunExperiment(const core::RobotModel& virtual_model,
                                     const core::RobotModel& real_model,
                                     const std::optional<hardware::RealArmParams>& effects,
                                     const ExperimentOptions& options,
-                                    const std::string& data_dir = "");
+                                    const std::string& data_dir = "",
+                                    double* hold_stray_deg = nullptr);
 
 // How our table compares with the paper's.
 struct Comparison {

@@ -103,12 +103,16 @@ int Evaluate(const runtime::Args& args, const core::RobotModel& virtual_model,
     data_dir = args.String("data");
     std::filesystem::create_directories(data_dir);
   }
+  double stray = 0;
   const std::vector<lab::TableRow> table =
-      lab::RunExperiment(virtual_model, model, start, experiment, data_dir);
+      lab::RunExperiment(virtual_model, model, start, experiment, data_dir, &stray);
   if (!data_dir.empty()) out << "data files: " << data_dir << "/lab-setN.csv\n";
   out << "\n" << lab::FormatComparison(table, true);
-  out << "fit cost " << core::FormatNumber(lab::FitCost(table)) << "; " << std::setprecision(3)
-      << Since(started) << " s\n";
+  out << "joints a set does not move stray at most " << std::fixed << std::setprecision(2) << stray
+      << " deg from the virtual arm's\n"
+      << std::defaultfloat;
+  out << "fit cost (table) " << core::FormatNumber(lab::FitCost(table)) << "; "
+      << std::setprecision(3) << Since(started) << " s\n";
   return 0;
 }
 
@@ -192,6 +196,9 @@ int RunFitEmulator(const std::vector<std::string>& argv, std::ostream& out, std:
       << " s\n";
   for (const std::string& line : fit.fitted) out << "  " << line << "\n";
   out << "\n" << lab::FormatComparison(fit.table, true);
+  out << "joints a set does not move stray at most " << std::fixed << std::setprecision(2)
+      << fit.hold_stray_deg << " deg from the virtual arm's\n"
+      << std::defaultfloat;
   if (!out_file.empty()) {
     WriteFitted(fit, out_file);
     out << "wrote " << out_file << "\n";
