@@ -1,8 +1,8 @@
 // The fit of the emulated real arm to the paper (lab/emulator_fit.hpp): the cost is zero for the
 // paper's own table and grows with a misfit; a fit with the board latency held keeps it there and
-// ends inside the file's ranges, no worse than where it started; and the shipped file
-// (config/hardware/puma260-real.yaml) shows the paper's coupling: joints moving together lag more
-// than alone (issue 20, docs/emulator-fit.md).
+// ends inside the file's ranges, no worse than where it started; an arm that cannot hold its
+// shoulder costs; and the shipped file (config/hardware/puma260-real.yaml) is plausible, starts
+// joint 1 as late as the paper's robot and holds its pose (issue 20, docs/emulator-fit.md).
 
 #include <gtest/gtest.h>
 
@@ -87,15 +87,33 @@ TEST(EmulatorFit, AnArmWhoseShoulderCannotHoldGravityStraysAndCosts) {
   EXPECT_GT(HoldCost(weak_stray), 3.0);
 }
 
-TEST(EmulatorFit, TheShippedArmLagsMoreWithOtherJointsMoving) {
+// The shipped file is a fit's result: every fitted number inside the fit's plausible ranges
+// (docs/emulator-fit.md), joint 1 starting late as on the paper's robot, and the arm holding the
+// joints a set leaves still.
+TEST(EmulatorFit, TheShippedArmIsPlausibleAndStartsLikeThePapers) {
   const core::RobotModel model = Puma();
   const hardware::RealArmParams arm =
       hardware::LoadRealArmParams("config/hardware/puma260-real.yaml", model);
+  EXPECT_GE(arm.supply_voltage_v, 18);
+  EXPECT_LE(arm.supply_voltage_v, 48);
+  EXPECT_LE(arm.supply_resistance_ohm, 2);
+  for (size_t j = 0; j < 3; ++j) {
+    const hardware::JointEffects& e = arm.joints[j];
+    EXPECT_GE(e.motor.torque_constant_nm_per_a, 0.02) << "joint " << j + 1;
+    EXPECT_LE(e.motor.torque_constant_nm_per_a, 0.08) << "joint " << j + 1;
+    EXPECT_GE(e.motor.resistance_ohm, 1) << "joint " << j + 1;
+    EXPECT_LE(e.motor.resistance_ohm, 8) << "joint " << j + 1;
+  }
   ExperimentOptions options;
-  options.sets = {1, 2, 3, 4, 7};
-  const Comparison c = Compare(RunExperiment(model, model, arm, options));
-  std::printf("coupling %.3f deg (paper %.3f deg)\n", c.coupling_ours_deg, c.coupling_paper_deg);
-  EXPECT_GT(c.coupling_ours_deg, 0.1) << "the shared supply sags when several joints move";
+  options.sets = {1, 3};
+  double stray = 0;
+  const std::vector<TableRow> table = RunExperiment(model, model, arm, options, "", &stray);
+  const Comparison c = Compare(table);
+  std::printf("joint 1 starts %.3f s late; unmoved joints stray %.3f deg\n", c.start_delay_min_s,
+              stray);
+  EXPECT_GE(c.start_delay_min_s, 0.30);
+  EXPECT_LE(c.start_delay_max_s, 0.45);
+  EXPECT_LT(stray, 2.0);
 }
 
 }  // namespace
