@@ -133,7 +133,8 @@ int ReplayFromLog(const sirupp::runtime::Args& args) {
       log, args.Has("prefix") ? std::optional<std::string>(args.String("prefix")) : std::nullopt);
   const bool recorded_model = recorded && !recorded->model_file.empty() && !args.Has("model");
   const sirupp::core::RobotModel model = sirupp::core::LoadRobotModel(
-      recorded_model ? recorded->model_file : sirupp::runtime::ModelFileArg(args));
+      recorded_model ? sirupp::runtime::ResolveDataPath(recorded->model_file)
+                     : sirupp::runtime::ModelFileArg(args));
   sirupp::logger::LoggerOptions options = LoggerOptionsFromArgs(args, model);
   std::string prefix = args.Has("prefix") ? args.String("prefix") : "";
   if (recorded) {
