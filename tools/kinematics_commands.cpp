@@ -10,7 +10,6 @@
 #include "core/model_loader.hpp"
 #include "runtime/args.hpp"
 #include "runtime/data_path.hpp"
-#include "runtime/joint_args.hpp"
 #include "tools/json_output.hpp"
 
 namespace sirupp::tools {
@@ -102,7 +101,9 @@ std::string SolutionText(const core::RobotModel& model, const core::IkSolution& 
 int RunFk(const std::vector<std::string>& raw, std::ostream& out) {
   const runtime::Args args(
       raw, "fk",
-      {runtime::ModelFlag(), runtime::JointFlags()[1], runtime::JointFlags()[2],
+      // One or more values, named "Q1 .. QN" in messages; the model gives N (checked where read).
+      {runtime::ModelFlag(), runtime::Flag("deg", "Q1 .. QN").Takes("", -1),
+       runtime::Flag("rad", "Q1 .. QN").Takes("", -1),
        runtime::Flag("json", "one JSON object").Switch()},
       kFkAbout);
   const core::RobotModel model = core::LoadRobotModel(runtime::ModelFileArg(args));
@@ -273,7 +274,7 @@ int RunIk(const std::vector<std::string>& raw, std::ostream& out) {
        runtime::Flag("pose", "tool pose in the world frame: metres and degrees")
            .Takes("X Y Z ROLL PITCH YAW", 6),
        runtime::Flag("config", "SHOULDER-ELBOW-WRIST, all or nearest").Takes("NAME"),
-       runtime::DegreesFlag("from", "the reference for nearest"),
+       runtime::Flag("from", "Q1 .. QN").Takes("", -1),
        runtime::Flag("numeric", "the numeric solver").Switch(),
        runtime::Flag("position-only", "position only, orientation free (numeric)").Switch(),
        runtime::Flag("json", "one JSON object").Switch()},
