@@ -260,6 +260,17 @@ struct LoggerPass {
   int64_t started_utime = 0;  // the logger's start, wall clock
   std::string name;           // its run name
   std::string lcm_url;        // its bus
+  // Its settings that shape the data files (--rate, --max-age, --idle, --split, --velocities,
+  // --efforts, --note, --model, --prefix), for --from-log.
+  int64_t period_us = 1;
+  int64_t max_age_us = 0;
+  int64_t idle_us = 1;
+  bool split_per_plan = true;
+  bool velocities = false;
+  bool efforts = false;
+  std::string note;
+  std::string model_file;
+  std::string prefix;
 };
 
 // ---- sim_reset_t (SIM_RESET)

@@ -440,6 +440,15 @@ sirupp::logger_pass_t ToMessage(const LoggerPass& pass) {
   m.started_utime = pass.started_utime;
   m.name = pass.name;
   m.lcm_url = pass.lcm_url;
+  m.period_us = pass.period_us;
+  m.max_age_us = pass.max_age_us;
+  m.idle_us = pass.idle_us;
+  m.split_per_plan = I8(pass.split_per_plan);
+  m.velocities = I8(pass.velocities);
+  m.efforts = I8(pass.efforts);
+  m.note = pass.note;
+  m.model_file = pass.model_file;
+  m.prefix = pass.prefix;
   return m;
 }
 
@@ -456,6 +465,24 @@ LoggerPass LoggerPassFromMessage(const sirupp::logger_pass_t& m, const std::stri
   pass.started_utime = m.started_utime;
   pass.name = m.name;
   pass.lcm_url = m.lcm_url;
+  if (m.period_us < 1) Refuse(channel, "period_us", std::to_string(m.period_us), "1 us or more");
+  pass.period_us = m.period_us;
+  if (m.max_age_us < 0) {
+    Refuse(channel, "max_age_us", std::to_string(m.max_age_us), "0 us or more");
+  }
+  pass.max_age_us = m.max_age_us;
+  if (m.idle_us < 1) Refuse(channel, "idle_us", std::to_string(m.idle_us), "1 us or more");
+  pass.idle_us = m.idle_us;
+  const auto flag = [&](int8_t value, const char* field) {
+    if (value != 0 && value != 1) Refuse(channel, field, std::to_string(value), "0 or 1");
+    return value == 1;
+  };
+  pass.split_per_plan = flag(m.split_per_plan, "split_per_plan");
+  pass.velocities = flag(m.velocities, "velocities");
+  pass.efforts = flag(m.efforts, "efforts");
+  pass.note = m.note;
+  pass.model_file = m.model_file;
+  pass.prefix = m.prefix;
   return pass;
 }
 

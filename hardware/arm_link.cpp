@@ -206,8 +206,40 @@ void ArmLink::SetGains(const std::vector<servo::ChipGains>& gains) {
                                 " joints; the arm has " + std::to_string(gains_.size()));
   }
   gains_ = gains;
+  gains_set_ = true;
   if (!connected_) return;
   for (int j = 0; j < num_joints(); ++j) SendGains(j);
+}
+
+void ArmLink::ReplaceModel(const core::RobotModel& model, const BridgeSettings& settings) {
+  const int n = num_joints();
+  if (model.num_joints() != n) {
+    throw std::runtime_error("the bridge drives " + std::to_string(n) + " modules; " + model.name +
+                             " has " + std::to_string(model.num_joints()) + " joints");
+  }
+  std::vector<servo::JointDrive> drives;
+  for (int j = 0; j < n; ++j) {
+    const auto i = static_cast<size_t>(j);
+    if (model.joints[i].type != model_.joints[i].type) {
+      throw std::runtime_error(JointName(model, j) + " is of another type than " +
+                               JointName(model_, j));
+    }
+    drives.emplace_back(model.joints[i], model.servo_tick_s);
+    if (calibrated_ && drives[i].counts_per_unit() != drives_[i].counts_per_unit()) {
+      throw std::runtime_error(JointName(model, j) + " has another encoder scale (" +
+                               core::FormatNumber(drives[i].counts_per_unit()) + " counts/unit, " +
+                               core::FormatNumber(drives_[i].counts_per_unit()) +
+                               " now): the calibration would not hold; restart the bridge with it");
+    }
+  }
+  model_ = model;
+  settings_ = settings;
+  drives_ = std::move(drives);
+  if (gains_set_) return;
+  gains_ = servo::ChipGainsFromModel(model_);
+  if (connected_) {
+    for (int j = 0; j < n; ++j) SendGains(j);
+  }
 }
 
 std::string ArmLink::CalibrationNeeds() const {

@@ -100,6 +100,14 @@ class ArmLink {
   // take them (its entry in board_gains() is then unknown). The values must have passed
   // servo::ChipGainsFromMessage's rule.
   void SetGains(const std::vector<servo::ChipGains>& gains);
+  // Takes `model`, with `settings` (SettingsForModel's for it), in place of the present model: the
+  // sim changed its model while the arm is not linked (BridgeNode). Refused, changing nothing
+  // (std::runtime_error saying why), when the joint count or a joint's type differs, or while
+  // calibrated when a joint's encoder scale (counts per rad or m) differs: the counters'
+  // calibration would not hold. Gains never set by SetGains become the new model's, sent to the
+  // modules at once when connected (BusError when a module does not take them).
+  void ReplaceModel(const core::RobotModel& model, const BridgeSettings& settings);
+  const core::RobotModel& model() const { return model_; }
   // The gains sent to the modules (from the model until SetGains).
   const std::vector<servo::ChipGains>& gains() const { return gains_; }
   // Per module, the gains it acknowledged (its SET_GAIN reply came without CKSUM_ERROR) since the
@@ -155,11 +163,12 @@ class ArmLink {
   nmc::Trajectory TrajectoryFor(int j, double goal, double velocity, double acceleration,
                                 bool velocity_mode) const;
 
-  const core::RobotModel& model_;
+  core::RobotModel model_;  // the sim's (ReplaceModel), at first the one given
   BridgeSettings settings_;
   NmcBus bus_;
   std::vector<servo::JointDrive> drives_;
   std::vector<servo::ChipGains> gains_;
+  bool gains_set_ = false;  // by SetGains (ARM_GAINS); else the model's
   std::vector<std::optional<servo::ChipGains>> board_gains_;
   std::vector<double> goals_;
   std::vector<bool> velocity_mode_;

@@ -57,7 +57,7 @@ BridgeNode::BridgeNode(core::Bus& bus, const core::RobotModel& model, ArmLink& l
       link_(link),
       settings_(std::move(settings)),
       options_(std::move(options)),
-      model_watch_(model_, options_.name),
+      model_watch_(std::in_place, model_, options_.name),
       heartbeat_(bus, options_.name, options_.channels.heartbeat),
       replier_(bus, options_.channels.hardware_reply, options_.name),
       started_(Clock::now()),
@@ -92,11 +92,8 @@ BridgeNode::BridgeNode(core::Bus& bus, const core::RobotModel& model, ArmLink& l
       });
   // One robot: the real arm is not driven for a model other than the one the sim runs.
   bus_.Subscribe<sirupp::robot_model_t>(
-      c.robot_model, [this](const sirupp::robot_model_t& m, const core::ReceiveInfo& info) {
-        if (model_watch_.Check(m, info.channel) && !model_watch_.mismatch().empty()) {
-          Fault(model_watch_.mismatch());
-        }
-      });
+      c.robot_model,
+      [this](const sirupp::robot_model_t& m, const core::ReceiveInfo& info) { OnModel(m, info); });
   heartbeat_.Publish(core::ProcessState::kStarting, ModelDetail());
 }
 
@@ -104,6 +101,40 @@ BridgeNode::BridgeNode(core::Bus& bus, const core::RobotModel& model, ArmLink& l
 // can tell a model load it would fault on (panel/panel_hub.hpp, BridgeRefusal).
 std::string BridgeNode::ModelDetail() const {
   return "model " + model_.name + " hash " + model_.source_hash;
+}
+
+void BridgeNode::OnModel(const sirupp::robot_model_t& message, const core::ReceiveInfo& info) {
+  if (!model_watch_->Check(message, info.channel) || model_watch_->mismatch().empty()) return;
+  if (linked_) {
+    Fault(model_watch_->mismatch());  // the arm was driven for the old one: it stops
+    return;
+  }
+  // Not driving the arm: take the sim's model, so that a later link drives the robot it runs.
+  core::RobotModel sims = core::RobotModelFromMessage(message, info.channel);
+  const auto take = [&] {
+    model_ = std::move(sims);
+    model_watch_.emplace(model_, options_.name);
+    model_watch_->Check(message, info.channel);  // now a match
+  };
+  try {
+    const BridgeSettings settings = SettingsForModel(settings_, sims);
+    link_.ReplaceModel(sims, settings);
+    settings_ = settings;
+  } catch (const BusError& e) {
+    take();  // taken, but a module did not take the new model's gains
+    Fault(std::string("the new model's gains: ") + e.what());
+    return;
+  } catch (const std::exception& e) {
+    last_error_ = model_watch_->mismatch() + " (not taken: " + e.what() + ")";
+    std::cerr << options_.name << ": " << last_error_ << "\n";
+    PublishStatus();
+    return;
+  }
+  take();
+  last_error_.clear();
+  std::cerr << options_.name << ": not linked: took the sim's " << ModelDetail() << " from "
+            << model_.source_file << "\n";
+  PublishStatus();
 }
 
 core::ReplyFacts BridgeNode::Facts() const {
@@ -144,15 +175,16 @@ void BridgeNode::Calibrate() {
 void BridgeNode::Arm() {
   if (estopped_) throw std::runtime_error("arm: the emergency stop is engaged; release it first");
   if (faulted_) throw std::runtime_error("arm: clear the fault first (" + fault_ + ")");
-  if (!model_watch_.mismatch().empty()) throw std::runtime_error("arm: " + model_watch_.mismatch());
+  if (!model_watch_->mismatch().empty())
+    throw std::runtime_error("arm: " + model_watch_->mismatch());
   link_.Arm();
   last_error_.clear();
 }
 void BridgeNode::Link() {
   if (estopped_) throw std::runtime_error("link: the emergency stop is engaged");
   if (faulted_) throw std::runtime_error("link: clear the fault first (" + fault_ + ")");
-  if (!model_watch_.mismatch().empty())
-    throw std::runtime_error("link: " + model_watch_.mismatch());
+  if (!model_watch_->mismatch().empty())
+    throw std::runtime_error("link: " + model_watch_->mismatch());
   if (!link_.armed()) throw std::runtime_error("link: arm first");
   linked_ = true;
   expired_ = false;

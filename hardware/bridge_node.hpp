@@ -26,10 +26,12 @@
 
 #include <chrono>
 #include <cstdint>
+#include <optional>
 #include <sirupp/controller_status_t.hpp>
 #include <sirupp/estop_t.hpp>
 #include <sirupp/hardware_command_t.hpp>
 #include <sirupp/hardware_status_t.hpp>
+#include <sirupp/robot_model_t.hpp>
 #include <sirupp/servo_gains_t.hpp>
 #include <sirupp/servo_move_t.hpp>
 #include <sirupp/servo_setpoint_t.hpp>
@@ -94,6 +96,9 @@ class BridgeNode {
   void OnMove(const sirupp::servo_move_t& message, const core::ReceiveInfo& info);
   void OnEstop(const sirupp::estop_t& message, const core::ReceiveInfo& info);
   void OnGains(const sirupp::servo_gains_t& message, const core::ReceiveInfo& info);
+  // ROBOT_MODEL: linked, another model is a fault; not linked, the bridge takes the sim's model
+  // (ArmLink::ReplaceModel) or, when it cannot, keeps its own and refuses to arm or link.
+  void OnModel(const sirupp::robot_model_t& message, const core::ReceiveInfo& info);
   void NoteController() { last_controller_ = Clock::now(); }
 
   // Refuses (counts on `channel`, last_error, throws MessageError) while the start guard runs.
@@ -108,11 +113,11 @@ class BridgeNode {
   void PublishGains();
 
   core::Bus& bus_;
-  const core::RobotModel& model_;
+  core::RobotModel model_;  // the sim's once taken (OnModel), at first the one given
   ArmLink& link_;
   BridgeSettings settings_;
   BridgeOptions options_;
-  core::ModelWatch model_watch_;  // the sim's ROBOT_MODEL against ours: one robot
+  std::optional<core::ModelWatch> model_watch_;  // the sim's ROBOT_MODEL against ours: one robot
   core::Heartbeat heartbeat_;
   core::Replier replier_;  // HARDWARE_REPLY: one answer per HARDWARE_COMMAND, ARM_MOVE, ARM_GAINS
 

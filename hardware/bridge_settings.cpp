@@ -1,6 +1,7 @@
 #include "hardware/bridge_settings.hpp"
 
 #include <cmath>
+#include <stdexcept>
 
 #include "core/yaml_reader.hpp"
 #include "hardware/nmc_protocol.hpp"
@@ -107,6 +108,7 @@ BridgeSettings ParseBridgeSettings(const std::string& text, const std::string& n
   if (auto v = map.Find("acceleration_max_deg_s2")) {
     const std::vector<double> a = v->Numbers(model.joints.size(), core::PositiveNumber("deg/s^2"));
     for (size_t j = 0; j < a.size(); ++j) limits.acceleration_max[j] = a[j] * kDeg;
+    s.acceleration_from_file = true;
   }
   if (auto v = map.Find("pass_motor_off")) s.pass_motor_off = v->Bool();
   if (auto v = map.Find("calibration")) {
@@ -136,6 +138,23 @@ BridgeSettings ParseBridgeSettings(const std::string& text, const std::string& n
 BridgeSettings LoadBridgeSettings(const std::string& file, const core::RobotModel& model) {
   const core::YamlDocument doc = core::YamlDocument::Load(file);
   return ParseBridgeSettings(doc.text(), file, model);
+}
+
+BridgeSettings SettingsForModel(const BridgeSettings& settings, const core::RobotModel& model) {
+  if (settings.homing.size() != model.joints.size()) {
+    throw std::runtime_error("the settings are for " + std::to_string(settings.homing.size()) +
+                             " joints; " + model.name + " has " +
+                             std::to_string(model.joints.size()));
+  }
+  if (!model.FindNamedPose(settings.calibration_pose)) {
+    throw std::runtime_error("the calibration pose '" + settings.calibration_pose +
+                             "' is not a named pose of " + model.name);
+  }
+  BridgeSettings s = settings;
+  if (!s.acceleration_from_file) {
+    s.motion_limits.acceleration_max = core::DefaultMotionLimits(model).acceleration_max;
+  }
+  return s;
 }
 
 double SoftMin(const core::RobotModel& model, const BridgeSettings& s, int j) {

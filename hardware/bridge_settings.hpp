@@ -43,7 +43,8 @@ struct BridgeSettings {
   // core::DefaultMotionLimits(model); the file's soft_limit_margin_deg, velocity_cap_fraction and
   // acceleration_max_deg_s2 override it.
   core::MotionLimits motion_limits;
-  bool pass_motor_off = false;  // mirror MOTOR_OFF (arm goes limp) instead of holding
+  bool acceleration_from_file = false;  // else the model's default (follows a model change)
+  bool pass_motor_off = false;          // mirror MOTOR_OFF (arm goes limp) instead of holding
 
   // Calibration.
   std::string calibration_pose = "zero";  // named pose of the model the arm sits in
@@ -57,6 +58,11 @@ BridgeSettings DefaultBridgeSettings(const core::RobotModel& model);
 BridgeSettings LoadBridgeSettings(const std::string& file, const core::RobotModel& model);
 BridgeSettings ParseBridgeSettings(const std::string& text, const std::string& name,
                                    const core::RobotModel& model);
+
+// `settings` for another model of the same joint count (the sim's, taken while not linked): the
+// acceleration caps the model's defaults unless the file gave them. Throws std::runtime_error when
+// the joint count differs or the calibration pose is not a named pose of `model`.
+BridgeSettings SettingsForModel(const BridgeSettings& settings, const core::RobotModel& model);
 
 // Soft limits of joint j: the model's limits moved inward by the margin (core::SoftMin/SoftMax).
 double SoftMin(const core::RobotModel& model, const BridgeSettings& s, int j);

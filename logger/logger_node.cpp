@@ -24,6 +24,7 @@
 #include "core/messages.hpp"
 #include "core/translate.hpp"
 #include "logger/lcm_log.hpp"
+#include "logger/raw_settings.hpp"
 
 namespace sirupp::logger {
 
@@ -395,6 +396,7 @@ void LoggerNode::RecordPass(int64_t now_utime, bool last) {
   pass.started_utime = started_utime_;
   pass.name = options_.name;
   pass.lcm_url = bus_.url();
+  PutSettings(options_, model_, bus_.prefix(), pass);
   const sirupp::logger_pass_t message = core::ToMessage(pass);
   std::vector<uint8_t> data(static_cast<size_t>(message.getEncodedSize()));
   message.encode(data.data(), 0, static_cast<int>(data.size()));

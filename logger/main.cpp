@@ -4,11 +4,13 @@
 #include <cmath>
 #include <cstdlib>
 #include <iostream>
+#include <optional>
 #include <string>
 
 #include "core/bus.hpp"
 #include "core/errors.hpp"
 #include "core/model_loader.hpp"
+#include "logger/raw_settings.hpp"
 #include "logger/recorder.hpp"
 #include "runtime/args.hpp"
 #include "runtime/data_path.hpp"
@@ -118,9 +120,28 @@ int ListFiles(const sirupp::logger::LoggerStats& stats) {
   return 0;
 }
 
-// --from-log LOG: the data files written again from a raw log, without a bus.
-int ReplayFromLog(const std::string& log, const sirupp::core::RobotModel& model,
-                  const sirupp::logger::LoggerOptions& options, const std::string& prefix) {
+// --from-log LOG: the data files written again from a raw log, without a bus. The live logger's
+// settings come from the log (its LOGGER_PASS), except those given here.
+int ReplayFromLog(const sirupp::runtime::Args& args) {
+  const std::string log = args.String("from-log");
+  if (args.Has("raw") || args.Has("lcm-url") || args.Has("duration")) {
+    throw sirupp::core::UsageError(
+        "sirupp-logger: --from-log reads a recorded log: --raw, --lcm-url and --duration do not "
+        "apply");
+  }
+  const std::optional<sirupp::core::LoggerPass> recorded = sirupp::logger::RecordedSettings(
+      log, args.Has("prefix") ? std::optional<std::string>(args.String("prefix")) : std::nullopt);
+  const bool recorded_model = recorded && !recorded->model_file.empty() && !args.Has("model");
+  const sirupp::core::RobotModel model = sirupp::core::LoadRobotModel(
+      recorded_model ? sirupp::runtime::ResolveDataPath(recorded->model_file)
+                     : sirupp::runtime::ModelFileArg(args));
+  sirupp::logger::LoggerOptions options = LoggerOptionsFromArgs(args, model);
+  std::string prefix = args.Has("prefix") ? args.String("prefix") : "";
+  if (recorded) {
+    sirupp::logger::TakeRecordedSettings(
+        *recorded, [&args](const std::string& flag) { return args.Has(flag); }, options);
+    if (!args.Has("prefix")) prefix = recorded->prefix;
+  }
   const sirupp::logger::LoggerStats stats =
       sirupp::logger::ReplayRawLog(log, model, options, prefix);
   std::cerr << "sirupp-logger: from " << log << ": " << stats.rows << " rows in "
@@ -151,23 +172,17 @@ int Run(const std::vector<std::string>& argv) {
             "receive times the rows were aligned with (each recorded run: a new file)")
            .Takes("FILE"),
        Flag("from-log",
-            "no bus: write the data files again from such a raw log; --prefix as recorded")
+            "no bus: write the data files again from such a raw log, with the live logger's "
+            "settings as recorded in it (options given here win)")
            .Takes("LOG")},
       kAbout);
+  if (args.Has("from-log")) return ReplayFromLog(args);
   const sirupp::core::RobotModel model =
       sirupp::core::LoadRobotModel(sirupp::runtime::ModelFileArg(args));
   sirupp::logger::LoggerOptions options = LoggerOptionsFromArgs(args, model);
   const double duration_s = PositiveSeconds(args, "duration", 0);
   const int64_t recv_buf = ReceiveBufferArg(args);
   const std::string prefix = args.Has("prefix") ? args.String("prefix") : "";
-  if (args.Has("from-log")) {
-    if (args.Has("raw") || args.Has("lcm-url") || args.Has("duration")) {
-      throw sirupp::core::UsageError(
-          "sirupp-logger: --from-log reads a recorded log: --raw, --lcm-url and --duration do not "
-          "apply");
-    }
-    return ReplayFromLog(args.String("from-log"), model, options, prefix);
-  }
   if (args.Has("raw")) options.raw_log = args.String("raw");
   sirupp::core::Bus bus(
       WithReceiveBuffer(args.Has("lcm-url") ? args.String("lcm-url") : "", recv_buf), prefix);

@@ -23,6 +23,7 @@
 #include <sirupp/estop_t.hpp>
 #include <sirupp/hardware_command_t.hpp>
 #include <sirupp/hardware_status_t.hpp>
+#include <sirupp/heartbeat_t.hpp>
 #include <sirupp/servo_gains_t.hpp>
 #include <sirupp/servo_move_t.hpp>
 #include <sirupp/servo_setpoint_t.hpp>
@@ -230,6 +231,93 @@ TEST(HardwareBridge, ASimRunningAnotherRobotFaultsTheBridgeNamingBothFiles) {
   }
 }
 
+// The shipped PUMA file with `from` replaced by `to` (same robot, another version of the file).
+core::RobotModel PumaVariant(const std::string& from, const std::string& to) {
+  std::ifstream in("config/robots/puma260.yaml");
+  std::stringstream text;
+  text << in.rdbuf();
+  std::string yaml = text.str();
+  const size_t at = yaml.find(from);
+  if (at == std::string::npos) throw std::runtime_error("no '" + from + "' in puma260.yaml");
+  yaml.replace(at, from.size(), to);
+  return core::ParseRobotModel(yaml, "puma260-variant.yaml");
+}
+
+// Issue 18: a bridge that is not linked drives nothing, so a model change of the sim (the panel's
+// model apply) is no fault: it takes the sim's model, says so in its heartbeat, and a later link
+// drives the arm within the new model's limits.
+TEST(HardwareBridge, AnUnlinkedBridgeTakesTheSimsModelAndLinksWithIt) {
+  Rig rig;
+  std::string detail;
+  rig.bus.Subscribe<sirupp::heartbeat_t>(
+      "HEARTBEAT", [&](const sirupp::heartbeat_t& m, const core::ReceiveInfo&) {
+        if (m.process == "sirupp-hardware") detail = m.detail;
+      });
+  rig.node->Connect();
+  rig.node->Calibrate();
+  rig.node->Arm();
+  rig.RunUntil(0.1, nullptr);
+  const core::RobotModel narrow = PumaVariant("limits: [-145, 145]", "limits: [-100, 100]");
+  ASSERT_NE(narrow.source_hash, Puma().source_hash);
+  rig.bus.Publish("ROBOT_MODEL", core::ToMessage(narrow, 0, 1));
+  const std::string expected = "model puma260 hash " + narrow.source_hash;
+  EXPECT_TRUE(rig.RunUntil(5, [&] { return detail.rfind(expected, 0) == 0; })) << detail;
+  EXPECT_EQ(rig.node->state(), hardware_status_t::STATE_ARMED) << rig.status.last_error;
+  EXPECT_EQ(rig.status.last_error, "");
+  rig.node->Link();
+  ASSERT_EQ(rig.node->state(), hardware_status_t::STATE_LINKED);
+  // 120 deg on joint 1 was inside the old limits (145) and is outside the new ones (100 - 2).
+  const int64_t before = rig.Rejected("ARM_MOVE");
+  rig.bus.Publish("ARM_MOVE", Move({{0, 120}}, 1));
+  rig.RunUntil(0.1, nullptr);
+  EXPECT_EQ(rig.Rejected("ARM_MOVE"), before + 1);
+  EXPECT_NE(rig.status.last_error.find("limit"), std::string::npos) << rig.status.last_error;
+  EXPECT_EQ(rig.node->moves_mirrored(), 0);
+  rig.bus.Publish("ARM_MOVE", Move({{0, 10}}, 2));
+  EXPECT_TRUE(rig.RunUntil(10, [&] {
+    return rig.node->moves_mirrored() == 1 && AllDone(rig) &&
+           std::abs(rig.node->reading().position[0] - 10 * kDeg) < 0.5 * kDeg;
+  })) << rig.status.last_error;
+  // Linked now, the same rule as before: another model is a fault.
+  rig.bus.Publish("ROBOT_MODEL", core::ToMessage(Puma(), 0, 2));
+  rig.RunUntil(0.1, nullptr);
+  EXPECT_EQ(rig.node->state(), hardware_status_t::STATE_FAULT);
+}
+
+// A model the bridge cannot take while not linked (another robot; or, calibrated, another encoder
+// scale) is still no fault: the bridge keeps its own, says why, and refuses to arm or link.
+TEST(HardwareBridge, AnUnlinkedBridgeKeepsItsModelWhenItCannotTakeTheSims) {
+  Rig rig;
+  rig.node->Connect();
+  rig.node->Calibrate();
+  rig.RunUntil(0.1, nullptr);
+  const core::RobotModel scaled =
+      PumaVariant("encoder_counts_per_rev: 1000", "encoder_counts_per_rev: 2000");
+  rig.bus.Publish("ROBOT_MODEL", core::ToMessage(scaled, 0, 1));
+  rig.RunUntil(0.1, nullptr);
+  EXPECT_EQ(rig.node->state(), hardware_status_t::STATE_CONNECTED);
+  EXPECT_NE(rig.status.last_error.find("encoder scale"), std::string::npos)
+      << rig.status.last_error;
+  EXPECT_NE(rig.status.last_error.find("not taken"), std::string::npos) << rig.status.last_error;
+  try {
+    rig.node->Arm();
+    ADD_FAILURE() << "armed for another version of the model";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("one robot"), std::string::npos) << e.what();
+  }
+  const core::RobotModel stanford = core::LoadRobotModel("config/robots/stanford.yaml");
+  rig.bus.Publish("ROBOT_MODEL", core::ToMessage(stanford, 0, 2));
+  rig.RunUntil(0.1, nullptr);
+  EXPECT_EQ(rig.node->state(), hardware_status_t::STATE_CONNECTED);
+  EXPECT_NE(rig.status.last_error.find("(not taken: the calibration pose"), std::string::npos)
+      << rig.status.last_error;
+  // The sim back on the bridge's own model: arming is allowed again.
+  rig.bus.Publish("ROBOT_MODEL", core::ToMessage(Puma(), 0, 3));
+  rig.RunUntil(0.1, nullptr);
+  rig.node->Arm();
+  EXPECT_EQ(rig.node->state(), hardware_status_t::STATE_ARMED);
+}
+
 TEST(HardwareBridge, SetSevenMirroredReachesItsGoals) {
   Rig rig;
   rig.Ready();
@@ -397,7 +485,7 @@ TEST(HardwareBridge, MalformedMessagesAreRefusedByTheirTranslationAndNothingMove
 TEST(HardwareBridge, EstopStopsAbruptlyAndTurnsTheMotorsOff) {
   Rig rig;
   rig.Ready();
-  rig.bus.Publish("ARM_MOVE", Move({{0, 90}}, 1));
+  rig.bus.Publish("ARM_MOVE", Move({{0, 120}}, 1));
   rig.RunUntil(0.6, nullptr);  // j1 is at speed
   const double moving_at = rig.emulator->JointPositions()[0];
   ASSERT_GT(std::abs(moving_at), 5 * kDeg);
@@ -435,7 +523,7 @@ TEST(HardwareBridge, EstopStopsAbruptlyAndTurnsTheMotorsOff) {
 TEST(HardwareBridge, ExpiredCommandsStopTheArmSmoothly) {
   Rig rig([](BridgeSettings& s, EmulatorOptions&) { s.command_timeout_s = 0.5; });
   rig.Ready();
-  rig.bus.Publish("ARM_MOVE", Move({{0, 90}}, 1));
+  rig.bus.Publish("ARM_MOVE", Move({{0, 120}}, 1));
   // The controller falls silent: no status, no set-points.
   ASSERT_TRUE(rig.RunUntil(
       3, [&] { return rig.node->last_error().find("commands expired") != std::string::npos; },

@@ -30,6 +30,7 @@
 #include "logger/aligner.hpp"
 #include "logger/data_file.hpp"
 #include "logger/logger_node.hpp"
+#include "logger/raw_settings.hpp"
 #include "logger/report.hpp"
 #include "tests/helpers.hpp"
 
@@ -802,12 +803,19 @@ std::string DataLines(const std::string& text) {
 // 10 ms but delivered in bursts every 80 ms (a late bridge): between bursts the real stream goes
 // idle, so which rows are written before a burst arrives depends on where the writer's passes fall.
 // sirupp-logger --from-log (ReplayRawLog) on the raw log must write the same files, byte for byte
-// (the headers' start time and bus as recorded), with the name taken from the log. A pass of
-// another logger arriving on the bus (a log played back) is not recorded as this logger's.
+// (the headers' start time and bus as recorded), with the name and the live settings taken from the
+// log: the live logger runs with settings other than the defaults, the replay is given none of
+// them. A pass of another logger arriving on the bus (a log played back) is not recorded as this
+// logger's.
 TEST(LoggerNode, ARawLogReplaysIntoTheLiveFilesByteForByteWithLateRealSamples) {
   LoggerRig rig;
   LoggerOptions options = rig.Options();
   options.raw_log = rig.dir / "raw/run.lcmlog";
+  options.aligner.max_age_us = 30000;
+  options.aligner.idle_us = 60000;
+  options.velocities = true;
+  options.efforts = true;
+  options.note = "not a default";
   const core::Channels channels;
   std::vector<std::string> live;
   {
@@ -859,10 +867,32 @@ TEST(LoggerNode, ARawLogReplaysIntoTheLiveFilesByteForByteWithLateRealSamples) {
   }
   ASSERT_EQ(live.size(), 2u);
 
-  LoggerOptions again = options;
+  // As sirupp-logger --from-log LOG --out DIR does it (logger/main.cpp): nothing but the folder
+  // given, every setting from the log.
+  const std::optional<core::LoggerPass> recorded = RecordedSettings(options.raw_log, std::nullopt);
+  ASSERT_TRUE(recorded.has_value());
+  EXPECT_EQ(recorded->model_file, rig.model.source_file);
+  EXPECT_EQ(recorded->prefix, "");
+  LoggerOptions again;
   again.out_dir = rig.dir / "again";
-  again.name.clear();  // from the log
-  again.raw_log.clear();
+  TakeRecordedSettings(
+      *recorded, [](const std::string&) { return false; }, again);
+  EXPECT_EQ(again.aligner.max_age_us, 30000);
+  EXPECT_EQ(again.note, "not a default");
+  // An option given on the command line wins over the recorded one.
+  LoggerOptions given;
+  given.note = "mine";
+  TakeRecordedSettings(
+      *recorded, [](const std::string& flag) { return flag == "note"; }, given);
+  EXPECT_EQ(given.note, "mine");
+  EXPECT_TRUE(given.velocities);
+  // Without the recorded settings the files differ (so the check below can fail).
+  LoggerOptions plain;
+  plain.out_dir = rig.dir / "plain";
+  const LoggerStats plain_replay = ReplayRawLog(options.raw_log, rig.model, plain, "");
+  ASSERT_EQ(plain_replay.files.size(), live.size());
+  EXPECT_NE(FileText(plain_replay.files[0]), FileText(live[0]));
+
   const LoggerStats replay = ReplayRawLog(options.raw_log, rig.model, again, "");
   EXPECT_TRUE(replay.error.empty()) << replay.error;
   ASSERT_EQ(replay.files.size(), live.size());

@@ -294,9 +294,11 @@ RoundTrips AllRoundTrips() {
                     [&](const auto& m) { return LoggerCommandFromMessage(m, ch); });
   });
   Add<sirupp::logger_pass_t>(trips, [ch] {
-    ExpectRoundTrip(LoggerPass{1, 2, 3, true, 4, "demo", "udpm://239.255.76.67:7667?ttl=0"},
-                    [&](const auto& m) { return LoggerPassFromMessage(m, ch); });
-    ExpectRoundTrip(LoggerPass{1, 2, 0, false, 4, "", ""},
+    ExpectRoundTrip(
+        LoggerPass{1, 2, 3, true, 4, "demo", "udpm://239.255.76.67:7667?ttl=0", 1024, 30000, 60000,
+                   false, true, true, "a note", "config/robots/puma260.yaml", "RIG1_"},
+        [&](const auto& m) { return LoggerPassFromMessage(m, ch); });
+    ExpectRoundTrip(LoggerPass{1, 2, 0, false, 4, "", "", 1, 0, 1, true, false, false, "", "", ""},
                     [&](const auto& m) { return LoggerPassFromMessage(m, ch); });
   });
   Add<sirupp::sim_reset_t>(trips, [ch] {
@@ -560,6 +562,14 @@ TEST(TranslatePairs, EnumsFlagsAndBitsMustBeKnown) {
   EXPECT_EQ(
       Error([&] { LoggerPassFromMessage(lp, "LOGGER_PASS"); }),
       "channel LOGGER_PASS: last: 2 is not allowed; expected 0 (more passes) or 1 (the last)");
+  lp.last = 0;
+  lp.period_us = 0;
+  EXPECT_EQ(Error([&] { LoggerPassFromMessage(lp, "LOGGER_PASS"); }),
+            "channel LOGGER_PASS: period_us: 0 is not allowed; expected 1 us or more");
+  lp.period_us = 512;
+  lp.velocities = 3;
+  EXPECT_EQ(Error([&] { LoggerPassFromMessage(lp, "LOGGER_PASS"); }),
+            "channel LOGGER_PASS: velocities: 3 is not allowed; expected 0 or 1");
   sirupp::estop_t e = ToMessage(EStop{});
   e.engaged = 3;
   EXPECT_EQ(Error([&] { EStopFromMessage(e, "ESTOP"); }),

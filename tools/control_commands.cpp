@@ -204,9 +204,9 @@ int MovePose(const std::vector<std::string>& args, std::ostream& out) {
       args, "move pose",
       WithRigFlags(
           {runtime::ModelFlag(),
-           {"pose", "X Y Z ROLL PITCH YAW (m, deg)"},
-           {"position", "X Y Z (m), orientation free"},
-           {"config", "SHOULDER-ELBOW-WRIST or nearest"},
+           runtime::Flag("pose", "tool pose: metres and degrees").Takes("X Y Z ROLL PITCH YAW", 6),
+           runtime::Flag("position", "tool position in metres, orientation free").Takes("X Y Z", 3),
+           runtime::Flag("config", "SHOULDER-ELBOW-WRIST or nearest").Takes("NAME"),
            runtime::Flag("scale", "fraction of each joint's default speed").Takes("F").Above(0, 1),
            runtime::Flag("wait", "wait until the move is done").Switch(),
            TimeoutFlag("seconds to wait")}),
@@ -427,29 +427,27 @@ const GainFlag kGainFlags[] = {
     {"ol", &sirupp::servo_gains_t::output_limit}, {"el", &sirupp::servo_gains_t::error_limit},
     {"db", &sirupp::servo_gains_t::deadband}};
 
-// --joint as a 0-based index; -1 (every joint) without it.
+// A gain flag: a whole number in the chip's range (servo::ChipGainsFromMessage's).
+runtime::Flag GainFlagOf(const char* name, const std::string& help, long max) {
+  return runtime::Flag(name, help).Takes("N").Integer(0, max);
+}
+
+// --joint as a 0-based index; -1 (every joint) without it. Whole and >= 1 by its declaration;
+// the model's joint count is known only here.
 int OnlyJointFrom(const runtime::Args& parsed, int n) {
-  if (!parsed.Has("joint")) return -1;
-  const double joint = parsed.Numbers("joint", 1)[0];
-  if (joint != std::floor(joint) || joint < 1 || joint > n) {
-    throw core::UsageError("gains: --joint " + core::FormatNumber(joint) + ": allowed 1.." +
+  const long joint = parsed.Integer("joint", 0);
+  if (joint > n) {
+    throw core::UsageError("gains: --joint: '" + std::to_string(joint) +
+                           "' is not allowed; allowed: a whole number from 1 to " +
                            std::to_string(n));
   }
   return static_cast<int>(joint) - 1;
 }
 
-// Whether any gain is named; each named one must be a whole number.
+// Whether any gain is named (each a whole number in range by its declaration).
 bool GainsNamed(const runtime::Args& parsed) {
   bool change = false;
-  for (const GainFlag& flag : kGainFlags) {
-    if (!parsed.Has(flag.name)) continue;
-    change = true;
-    const double v = parsed.Numbers(flag.name, 1)[0];
-    if (v != std::floor(v) || std::abs(v) > 1e9) {
-      throw core::UsageError(std::string("gains: --") + flag.name + " " + core::FormatNumber(v) +
-                             ": allowed whole numbers");
-    }
-  }
+  for (const GainFlag& flag : kGainFlags) change = change || parsed.Has(flag.name);
   return change;
 }
 
@@ -519,17 +517,19 @@ int ConfirmGains(client::Client& rig, const sirupp::servo_gains_t& message, bool
 }  // namespace
 
 int RunGains(const std::vector<std::string>& args, std::ostream& out) {
-  const runtime::Args parsed(args, "gains",
-                             WithRigFlags({runtime::ModelFlag(),
-                                           {"joint", "joint number, 1-based"},
-                                           {"kp", "position gain 0..32767"},
-                                           {"kd", "derivative gain 0..32767"},
-                                           {"ki", "integral gain 0..32767"},
-                                           {"il", "integration limit 0..32767"},
-                                           {"ol", "output limit 0..255"},
-                                           {"el", "position-error limit 0..16383 counts"},
-                                           {"db", "deadband 0..255"}}),
-                             kGainsAbout);
+  const runtime::Args parsed(
+      args, "gains",
+      WithRigFlags(
+          {runtime::ModelFlag(),
+           runtime::Flag("joint", "joint number, 1-based")
+               .Takes("J")
+               .Integer(1, runtime::Flag::kMany),
+           GainFlagOf("kp", "position gain", 32767), GainFlagOf("kd", "derivative gain", 32767),
+           GainFlagOf("ki", "integral gain", 32767), GainFlagOf("il", "integration limit", 32767),
+           GainFlagOf("ol", "output limit", 255),
+           GainFlagOf("el", "position-error limit, counts", 16383),
+           GainFlagOf("db", "deadband", 255)}),
+      kGainsAbout);
   const core::RobotModel model = ModelFromArgs(parsed);
   const int n = model.num_joints();
   const int only = OnlyJointFrom(parsed, n);

@@ -152,9 +152,10 @@ int RunHardware(const std::vector<std::string>& args, std::ostream& out) {
 }
 
 int RunEstop(const std::vector<std::string>& args, std::ostream& out) {
-  const runtime::Args parsed(
-      args, "estop", WithRigFlags({{"release", "release the stop"}, {"reason", "why, one line"}}),
-      kEstopAbout);
+  const runtime::Args parsed(args, "estop",
+                             WithRigFlags({runtime::Flag("release", "release the stop").Switch(),
+                                           runtime::Flag("reason", "why, one line").Takes("TEXT")}),
+                             kEstopAbout);
   const bool release = parsed.Switch("release");
   core::Bus bus = BusFromArgs(parsed);
   client::Options options;

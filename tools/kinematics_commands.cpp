@@ -100,7 +100,11 @@ std::string SolutionText(const core::RobotModel& model, const core::IkSolution& 
 
 int RunFk(const std::vector<std::string>& raw, std::ostream& out) {
   const runtime::Args args(
-      raw, "fk", {runtime::ModelFlag(), {"deg", "Q1 .. QN"}, {"rad", "Q1 .. QN"}, {"json", ""}},
+      raw, "fk",
+      // One or more values, named "Q1 .. QN" in messages; the model gives N (checked where read).
+      {runtime::ModelFlag(), runtime::Flag("deg", "Q1 .. QN").Takes("", -1),
+       runtime::Flag("rad", "Q1 .. QN").Takes("", -1),
+       runtime::Flag("json", "one JSON object").Switch()},
       kFkAbout);
   const core::RobotModel model = core::LoadRobotModel(runtime::ModelFileArg(args));
   const int n = model.num_joints();
@@ -269,11 +273,11 @@ int RunIk(const std::vector<std::string>& raw, std::ostream& out) {
       {runtime::ModelFlag(),
        runtime::Flag("pose", "tool pose in the world frame: metres and degrees")
            .Takes("X Y Z ROLL PITCH YAW", 6),
-       {"config", "NAME|all|nearest"},
-       {"from", "Q1 .. QN"},
-       {"numeric", ""},
-       {"position-only", ""},
-       {"json", ""}},
+       runtime::Flag("config", "SHOULDER-ELBOW-WRIST, all or nearest").Takes("NAME"),
+       runtime::Flag("from", "Q1 .. QN").Takes("", -1),
+       runtime::Flag("numeric", "the numeric solver").Switch(),
+       runtime::Flag("position-only", "position only, orientation free (numeric)").Switch(),
+       runtime::Flag("json", "one JSON object").Switch()},
       kIkAbout);
   const core::RobotModel model = core::LoadRobotModel(runtime::ModelFileArg(args));
   const int n = model.num_joints();

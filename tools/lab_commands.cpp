@@ -70,15 +70,9 @@ double Since(std::chrono::steady_clock::time_point t) {
 
 namespace {
 
-// --evaluations: the fit's budget of experiment runs, 1..10000.
+// --evaluations: the fit's budget of experiment runs (1..10000 by its declaration).
 int EvaluationsArg(const runtime::Args& args, int fallback) {
-  if (!args.Has("evaluations")) return fallback;
-  const double n = args.Numbers("evaluations", 1)[0];
-  if (!(n >= 1 && n <= 10000) || n != std::floor(n)) {
-    throw core::UsageError("fit-emulator: --evaluations " + core::FormatNumber(n) +
-                           ": allowed a whole number 1..10000");
-  }
-  return static_cast<int>(n);
+  return static_cast<int>(args.Integer("evaluations", fallback));
 }
 
 // --out: a new file, or --real-arm itself; empty without it.
@@ -146,11 +140,14 @@ int RunFitEmulator(const std::vector<std::string>& argv, std::ostream& out, std:
            .Takes("FILE"),
        runtime::Flag("sets", "movement sets, 1 to 7 or I to VII (default all)").Takes("N", -1),
        runtime::Flag("evaluate", "only run and print the table; no fit").Switch(),
-       runtime::Flag("evaluations", "the fit's budget of experiment runs (150)").Takes("N"),
-       runtime::Flag("latency-ms",
-                     "hold the board's command latency at this value (0..300 ms) instead of "
-                     "fitting it")
-           .Takes("MS"),
+        runtime::Flag("evaluations", "the fit's budget of experiment runs (150)")
+            .Takes("N")
+            .Integer(1, 10000),
+        runtime::Flag("latency-ms",
+                      "hold the board's command latency at this value (0..300 ms) instead of "
+                      "fitting it")
+            .Takes("MS")
+            .Range(0, 300),
        runtime::Flag("out",
                      "write the fitted effects there (refuses to replace a file unless it is "
                      "--real-arm itself)")
@@ -168,15 +165,7 @@ int RunFitEmulator(const std::vector<std::string>& argv, std::ostream& out, std:
   lab::FitOptions options;
   options.experiment.sets = ParseSets(args);
   options.max_evaluations = EvaluationsArg(args, options.max_evaluations);
-  if (args.Has("latency-ms")) {
-    const double ms = args.Numbers("latency-ms", 1)[0];
-    const hardware::ParamRange r = hardware::real_arm_range::kCommandLatency;
-    if (!(ms >= r.min * 1e3 && ms <= r.max * 1e3)) {
-      throw core::UsageError("fit-emulator: --latency-ms " + core::FormatNumber(ms) +
-                             ": allowed 0..300");
-    }
-    options.latency_s = ms / 1e3;
-  }
+  if (args.Has("latency-ms")) options.latency_s = args.Numbers("latency-ms", 1)[0] / 1e3;
   const std::string out_file = FitOutFile(args);
   const auto started = std::chrono::steady_clock::now();
   out << "virtual arm: " << virtual_model.name
@@ -217,8 +206,11 @@ int RunIdentify(const std::vector<std::string>& argv, std::ostream& out, std::os
            .Takes("FILE"),
        runtime::Flag("out", "the identified model file M2, new (required)").Takes("FILE"),
        runtime::Flag("joints", "the joints to fit (default: every joint the set-point moves)")
-           .Takes("N", -1),
-       runtime::Flag("evaluations", "simulations of the data the fit may run (150)").Takes("N")},
+           .Takes("N", -1)
+           .Integer(1, runtime::Flag::kMany),
+       runtime::Flag("evaluations", "simulations of the data the fit may run (150)")
+           .Takes("N")
+           .Integer(5, 100000)},
       kIdentifyAbout);
   if (files.empty())
     throw core::UsageError("identify: give at least one DATA file (before the options)");
@@ -232,22 +224,17 @@ int RunIdentify(const std::vector<std::string>& argv, std::ostream& out, std::os
   const core::RobotModel model = core::LoadRobotModel(model_file);
   lab::IdentifyOptions options;
   if (args.Has("joints")) {
-    for (double j : args.Numbers("joints", -1)) {
-      if (j != std::floor(j) || j < 1 || j > model.num_joints()) {
-        throw core::UsageError("identify: --joints " + core::FormatNumber(j) + ": allowed 1.." +
+    for (double j : args.Numbers("joints", -1)) {  // whole and >= 1 by its declaration
+      if (j > model.num_joints()) {
+        throw core::UsageError("identify: --joints: '" + core::FormatNumber(j) +
+                               "' is not allowed; allowed: a whole number from 1 to " +
                                std::to_string(model.num_joints()));
       }
       options.joints.push_back(static_cast<int>(j));
     }
   }
-  if (args.Has("evaluations")) {
-    const double n = args.Numbers("evaluations", 1)[0];
-    if (!(n >= 5 && n <= 100000) || n != std::floor(n)) {
-      throw core::UsageError("identify: --evaluations " + core::FormatNumber(n) +
-                             ": allowed a whole number 5..100000");
-    }
-    options.max_evaluations = static_cast<int>(n);
-  }
+  options.max_evaluations =
+      static_cast<int>(args.Integer("evaluations", options.max_evaluations));  // 5..100000
   logger::ImportOptions import;
   const std::vector<logger::RunTable> tables = logger::ReadInputs(files, import);
   const auto started = std::chrono::steady_clock::now();

@@ -39,36 +39,17 @@ logger::ReferenceColumn PaperReference() {
 
 namespace {
 
-double NonNegative(const runtime::Args& args, const std::string& flag, double fallback) {
-  if (!args.Has(flag)) return fallback;
-  const double value = args.Numbers(flag, 1)[0];
-  if (value < 0) {
-    throw core::UsageError("report: --" + flag + " " + core::FormatNumber(value) +
-                           ": must be >= 0");
-  }
-  return value;
-}
-
-}  // namespace
-
-namespace {
-
-// --settle-window, --start-threshold, --band-percent, --min-travel, --last-move, --joints.
+// --settle-window, --start-threshold, --band-percent, --min-travel, --last-move, --joints (each
+// value checked by its declaration).
 logger::AnalysisOptions AnalysisOptionsFrom(const runtime::Args& args) {
   logger::AnalysisOptions a;
-  a.settle_window_s = NonNegative(args, "settle-window", a.settle_window_s);
-  a.start_threshold = NonNegative(args, "start-threshold", a.start_threshold);
-  a.settle_band_fraction = NonNegative(args, "band-percent", a.settle_band_fraction * 100) / 100;
-  a.min_travel = NonNegative(args, "min-travel", a.min_travel);
+  a.settle_window_s = args.Number("settle-window", a.settle_window_s);
+  a.start_threshold = args.Number("start-threshold", a.start_threshold);
+  a.settle_band_fraction = args.Number("band-percent", a.settle_band_fraction * 100) / 100;
+  a.min_travel = args.Number("min-travel", a.min_travel);
   a.last_move_only = args.Switch("last-move");
   if (args.Has("joints")) {
-    for (double joint : args.Numbers("joints", -1)) {
-      if (joint != std::floor(joint) || joint < 1) {
-        throw core::UsageError("report: --joints " + core::FormatNumber(joint) +
-                               ": joints are numbered 1, 2, ...");
-      }
-      a.joints.push_back(static_cast<int>(joint));
-    }
+    for (double joint : args.Numbers("joints", -1)) a.joints.push_back(static_cast<int>(joint));
   }
   return a;
 }
@@ -81,17 +62,11 @@ logger::ImportOptions ImportOptionsFrom(const runtime::Args& args) {
   } catch (const std::invalid_argument& error) {
     throw core::UsageError(std::string("report: --prefix: ") + error.what());
   }
-  if (args.Has("rate")) {
-    const double rate = args.Numbers("rate", 1)[0];
-    if (!(rate > 0 && rate <= 1e6)) {
-      throw core::UsageError("report: --rate " + core::FormatNumber(rate) +
-                             ": allowed 0 < HZ <= 1000000");
-    }
-    import.aligner.period_us = std::max<int64_t>(1, std::llround(1e6 / rate));
+  if (args.Has("rate")) {  // (0, 1e6] by its declaration
+    import.aligner.period_us = std::max<int64_t>(1, std::llround(1e6 / args.Number("rate", 0)));
   }
-  if (args.Has("max-age")) {
-    import.aligner.max_age_us = std::llround(NonNegative(args, "max-age", 0.0) * 1e6);
-  }
+  if (args.Has("max-age"))
+    import.aligner.max_age_us = std::llround(args.Number("max-age", 0) * 1e6);
   import.split_per_plan = !args.Switch("whole-log");
   return import;
 }
@@ -104,21 +79,31 @@ int RunReport(const std::vector<std::string>& argv, std::ostream& out, std::ostr
       {runtime::Flag("files", "data files, folders or LCM logs").Positional("FILE|DIR", -1),
        runtime::Flag("out", "folder for report.md, CSVs and plots (report)").Takes("DIR"),
        runtime::Flag("no-plots", "no PNG plots").Switch(),
-       runtime::Flag("joints", "only these joints (1-based)").Takes("N", -1),
+       runtime::Flag("joints", "only these joints (1-based)")
+           .Takes("N", -1)
+           .Integer(1, runtime::Flag::kMany),
        runtime::Flag("last-move",
                      "only the last move of each movement set (the one Table II measures)")
            .Switch(),
-       runtime::Flag("settle-window", "the transient ends S after move-done (0.25)").Takes("S"),
+       runtime::Flag("settle-window", "the transient ends S after move-done (0.25)")
+           .Takes("S")
+           .AtLeast(0),
        runtime::Flag("start-threshold", "a stream has started once it moved this far (0.5)")
-           .Takes("DEG"),
-       runtime::Flag("band-percent", "settling band, percent of the travel (2)").Takes("P"),
+           .Takes("DEG")
+           .AtLeast(0),
+       runtime::Flag("band-percent", "settling band, percent of the travel (2)")
+           .Takes("P")
+           .AtLeast(0),
        runtime::Flag("min-travel", "joints whose set-point travels less are not reported (0.5)")
-           .Takes("DEG"),
+           .Takes("DEG")
+           .AtLeast(0),
        runtime::Flag("prefix", "LCM logs: channel prefix of the rig").Takes("PREFIX"),
        runtime::Flag("rate", "LCM logs: sample clock (default the 0.512 ms servo tick)")
-           .Takes("HZ"),
+           .Takes("HZ")
+           .Above(0, 1e6),
        runtime::Flag("max-age", "LCM logs: a stream older than S leaves its cell empty (0.025)")
-           .Takes("S"),
+           .Takes("S")
+           .AtLeast(0),
        runtime::Flag("whole-log", "LCM logs: one set, not one per plan run").Switch(),
        runtime::Flag("reference",
                      "the SIRUPP paper's own Table II (virtual vs real, real PUMA 260) as two "
@@ -131,13 +116,7 @@ int RunReport(const std::vector<std::string>& argv, std::ostream& out, std::ostr
   logger::ReportOptions options;
   if (args.Has("out")) options.out_dir = args.String("out");
   options.plots = !args.Switch("no-plots");
-  if (args.Has("reference")) {
-    const std::string which = args.String("reference");
-    if (which != "paper") {
-      throw core::UsageError("report: --reference '" + which + "': allowed paper");
-    }
-    options.reference = PaperReference();
-  }
+  if (args.Has("reference")) options.reference = PaperReference();  // "paper": declared
   options.analysis = AnalysisOptionsFrom(args);
   options.import = ImportOptionsFrom(args);
 

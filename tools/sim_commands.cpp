@@ -25,7 +25,7 @@ int RunReset(const std::vector<std::string>& args, std::ostream& out) {
   const runtime::Args parsed(
       args, "reset",
       WithJointFlags({runtime::ModelFlag(),
-                      {"objects", "reset the free objects too"},
+                      runtime::Flag("objects", "reset the free objects too").Switch(),
                       runtime::Flag("lcm-url", "LCM URL").Takes("URL"),
                       runtime::Flag("prefix", "channel prefix of the rig").Takes("PREFIX")}),
       kResetAbout);

@@ -140,8 +140,10 @@ int RunSpy(const std::vector<std::string>& args, std::ostream& out, std::ostream
       {runtime::Flag("lcm-url", "LCM URL").Takes("URL"),
        runtime::Flag("jar", "the lcmtypes jar (default: the build's sirupp_lcmtypes.jar)")
            .Takes("FILE"),
-       {"check", ""},
-       {"print-command", ""}},
+       runtime::Flag("check", "no window: list the LCM types lcm-spy finds (exit 0 if ours are)")
+           .Switch(),
+       runtime::Flag("print-command", "print the Java command line instead of running it")
+           .Switch()},
       kSpyAbout);
   std::string jar = (fs::path(ProgramDir()) / ".." / "java" / "sirupp_lcmtypes.jar").string();
   if (parsed.Has("jar")) jar = parsed.String("jar");

@@ -125,16 +125,8 @@ void SaveShown(const cv::Mat& shown, const std::string& save_dir, int number, st
   }
 }
 
-// --duration in seconds; 0 (no limit) without it.
-double DurationOf(const runtime::Args& parsed) {
-  if (!parsed.Has("duration")) return 0;
-  const double duration_s = parsed.Numbers("duration", 1)[0];
-  if (!(duration_s > 0)) {
-    throw core::UsageError("view: --duration " + core::FormatNumber(duration_s) +
-                           ": must be > 0 s");
-  }
-  return duration_s;
-}
+// --duration in seconds (> 0 by its declaration); 0 (no limit) without it.
+double DurationOf(const runtime::Args& parsed) { return parsed.Number("duration", 0); }
 
 }  // namespace
 
@@ -143,7 +135,7 @@ int RunView(const std::vector<std::string>& args, std::ostream& out, std::ostrea
       args, "view",
       WithRigFlags({runtime::Flag("channel", "image channel (VIEWER_IMAGE)").Takes("NAME"),
                     runtime::Flag("save", "folder to save the frames as PNG").Takes("DIR"),
-                    runtime::Flag("duration", "exit after S seconds").Takes("S")}),
+                    runtime::Flag("duration", "exit after S seconds").Takes("S").Above(0)}),
       kViewAbout);
   const std::string channel =
       parsed.Has("channel") ? parsed.String("channel") : core::Channels{}.viewer_image;

@@ -71,6 +71,25 @@ expect "fk --deg=..." 0 "$SIRUPP" fk --model=config/robots/puma260.yaml --deg 0 
 expect "fk --scale=2" 2 "$SIRUPP" move joints --pose home --scale=2
 grep -q -- "--scale: '2' is not allowed; allowed: a number > 0 and <= 1" "$work/err" || bad "move joints --scale=2: $(cat "$work/err")"
 
+# Flags whose count and range are declared with them (issue 21): bad count, out of range, not whole.
+for case in "gains --kp 40000|--kp: '40000' is not allowed; allowed: a whole number from 0 to 32767" \
+            "gains --kd 2.5|--kd: '2.5' is not allowed; allowed: a whole number from 0 to 32767" \
+            "gains --joint 0|--joint: '0' is not allowed; allowed: a whole number >= 1" \
+            "gains --joint 7 --kp 5|--joint: '7' is not allowed; allowed: a whole number from 1 to 6" \
+            "report x.csv --max-age -1|--max-age: '-1' is not allowed; allowed: a number >= 0" \
+            "report x.csv --joints 1 0|--joints: '0' is not allowed; allowed: a whole number >= 1" \
+            "view --duration 0|--duration: '0' is not allowed; allowed: a number > 0" \
+            "fit-emulator --evaluations 0|--evaluations: '0' is not allowed; allowed: a whole number from 1 to 10000" \
+            "move pose --position 1 2|--position: At least 3 required but received 2" \
+            "ik --pose 0.3 0 0.3 0 0 0 --from 1 2|--from Q1 .. QN takes 6 value(s), got 2" \
+            "spy --check=yes|--check takes no value, got 'yes'" \
+            "estop --reason|--reason: 1 required TEXT missing"; do
+  IFS='|' read -r line message <<<"$case"
+  # shellcheck disable=SC2086  # the command line is several words
+  expect "sirupp $line" 2 "$SIRUPP" $line
+  grep -qF -- "$message" "$work/err" || bad "sirupp $line: lacks '$message': $(cat "$work/err")"
+done
+
 # Each process: --help, --version, an unknown flag, a value outside the declared check.
 for case in "sim|--mode=warp|--mode: 'warp' is not allowed; allowed: lockstep, realtime, fast, freerun" \
             "control|--sim-timeout 0|--sim-timeout: '0' is not allowed; allowed: a number > 0 and <= 3600" \

@@ -3,8 +3,9 @@
 # processes but no viewer (tests/data/labs/demo-raw.yaml), on the demo's private udpm port (ttl=0).
 #  - the logger records the whole bus beside its data files (raw/demo.lcmlog, lcm-logger's format);
 #  - the layout sees the run's bus as ${LCM_URL};
-#  - `sirupp-logger --from-log` writes the data files again from the raw log (the run's name taken
-#    from it): the same files byte for byte (the writer's passes are recorded on LOGGER_PASS), and
+#  - `sirupp-logger --from-log` writes the data files again from the raw log (the run's name and
+#    the live logger's settings, --velocities --max-age 0.03, taken from it): the same files byte
+#    for byte (the writer's passes are recorded on LOGGER_PASS), and
 #    `sirupp report` on them prints exactly the live run's Table II;
 #  - every line of launch.log and of each process's log carries the ISO-time-with-milliseconds,
 #    name and level prefix.
