@@ -66,6 +66,108 @@ KDL::Chain ToKdlChain(const sirupp::core::RobotModel& model) {
 }
 #endif
 
+// The random poses every figure is measured on: joint vectors inside the limits and their tool
+// poses.
+struct Poses {
+  std::vector<JointVector> qs;
+  std::vector<Eigen::Isometry3d> targets;
+  const JointVector& q(int i) const { return qs[static_cast<size_t>(i) % qs.size()]; }
+  const Eigen::Isometry3d& target(int i) const {
+    return targets[static_cast<size_t>(i) % targets.size()];
+  }
+};
+
+Poses RandomPoses(const sirupp::core::RobotModel& model, int count) {
+  std::mt19937 random(42);
+  Poses poses;
+  for (int k = 0; k < count; ++k) {
+    JointVector q(6);
+    for (int i = 0; i < 6; ++i) {
+      const auto& joint = model.joints[static_cast<size_t>(i)];
+      q[i] = std::uniform_real_distribution<double>(joint.position_min, joint.position_max)(random);
+    }
+    poses.qs.push_back(q);
+    poses.targets.push_back(sirupp::core::ToolPose(model, q));
+  }
+  return poses;
+}
+
+// Our own figures, nanoseconds per call.
+struct OurFigures {
+  double fk_ns, jacobian_ns, ik_ns, numeric_ns;
+};
+
+OurFigures MeasureOurs(const sirupp::core::RobotModel& puma, const Poses& poses, int calls) {
+  const sirupp::core::KinematicChain chain(puma);
+  OurFigures ours{};
+  ours.fk_ns = NanosecondsPerCall(
+      calls, [&](int i) { sink = chain.ToolPose(poses.q(i)).translation().x(); });
+  ours.jacobian_ns =
+      NanosecondsPerCall(calls, [&](int i) { sink = chain.GeometricJacobian(poses.q(i))(0, 0); });
+  ours.ik_ns = NanosecondsPerCall(calls / 4, [&](int i) {
+    sink = static_cast<double>(
+        sirupp::core::SolvePumaIk(puma, poses.target(i), poses.q(i)).solutions.size());
+  });
+  sirupp::core::NumericIkOptions numeric_options;
+  numeric_options.stop_at_first = true;
+  ours.numeric_ns = NanosecondsPerCall(std::max(50, calls / 100), [&](int i) {
+    const JointVector seed = poses.q(i) + JointVector::Constant(6, 0.1);
+    sink = static_cast<double>(
+        sirupp::core::SolveNumericIk(puma, poses.target(i), seed, numeric_options)
+            .solutions.size());
+  });
+  return ours;
+}
+
+#ifdef SIRUPP_HAVE_KDL
+// KDL's FK and LMA IK on the same arm and poses, and the ratios to ours.
+void CompareWithKdl(const sirupp::core::RobotModel& puma, const Poses& poses, int calls,
+                    const OurFigures& ours) {
+  const int count = static_cast<int>(poses.qs.size());
+  const KDL::Chain kdl_chain = ToKdlChain(puma);
+  KDL::ChainFkSolverPos_recursive kdl_fk(kdl_chain);
+  KDL::ChainIkSolverPos_LMA kdl_ik(kdl_chain);
+  std::vector<KDL::JntArray> kdl_qs;
+  for (const JointVector& q : poses.qs) {
+    KDL::JntArray array(6);
+    array.data = q;
+    kdl_qs.push_back(array);
+  }
+  // Same arm: KDL's tool pose must equal ours.
+  double worst = 0;
+  for (int k = 0; k < count; ++k) {
+    KDL::Frame frame;
+    kdl_fk.JntToCart(kdl_qs[static_cast<size_t>(k)], frame);
+    const Eigen::Vector3d p(frame.p.x(), frame.p.y(), frame.p.z());
+    worst = std::max(worst, (p - poses.targets[static_cast<size_t>(k)].translation()).norm());
+  }
+  const double kdl_fk_ns = NanosecondsPerCall(calls, [&](int i) {
+    KDL::Frame frame;
+    kdl_fk.JntToCart(kdl_qs[static_cast<size_t>(i % count)], frame);
+    sink = frame.p.x();
+  });
+  int kdl_ok = 0, kdl_calls = 0;
+  const double kdl_ik_ns = NanosecondsPerCall(std::max(50, calls / 100), [&](int i) {
+    KDL::JntArray seed = kdl_qs[static_cast<size_t>(i % count)], out(6);
+    seed.data.array() += 0.1;
+    const int status = kdl_ik.CartToJnt(seed, ToKdl(poses.target(i)), out);
+    kdl_ok += status >= 0 ? 1 : 0;
+    ++kdl_calls;
+    sink = out(0);
+  });
+  std::printf("KDL 1.5 (liborocos-kdl), same arm (tool positions agree to %.1e m)\n", worst);
+  std::printf("  %-34s %12.0f ns/call\n", "ChainFkSolverPos_recursive", kdl_fk_ns);
+  std::printf("  %-34s %12.0f ns/call  (%d of %d converged)\n", "ChainIkSolverPos_LMA (1 solution)",
+              kdl_ik_ns, kdl_ok, kdl_calls);
+  std::printf("ratios\n");
+  std::printf("  FK time, ours / KDL                 %8.2f   (goal <= 1)\n",
+              ours.fk_ns / kdl_fk_ns);
+  std::printf("  KDL LMA IK / our closed-form IK      %8.1f   (goal >= 10; ours returns all 8)\n",
+              kdl_ik_ns / ours.ik_ns);
+  std::printf("  KDL LMA IK / our numeric IK          %8.2f\n", kdl_ik_ns / ours.numeric_ns);
+}
+#endif
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -79,87 +181,16 @@ int main(int argc, char** argv) {
     }
   }
   const sirupp::core::RobotModel puma = sirupp::core::LoadRobotModel("config/robots/puma260.yaml");
-  std::mt19937 random(42);
-  const int poses = 256;
-  std::vector<JointVector> qs;
-  std::vector<Eigen::Isometry3d> targets;
-  for (int k = 0; k < poses; ++k) {
-    JointVector q(6);
-    for (int i = 0; i < 6; ++i) {
-      const auto& joint = puma.joints[static_cast<size_t>(i)];
-      q[i] = std::uniform_real_distribution<double>(joint.position_min, joint.position_max)(random);
-    }
-    qs.push_back(q);
-    targets.push_back(sirupp::core::ToolPose(puma, q));
-  }
-  auto q_of = [&](int i) -> const JointVector& { return qs[static_cast<size_t>(i % poses)]; };
-  auto t_of = [&](int i) -> const Eigen::Isometry3d& {
-    return targets[static_cast<size_t>(i % poses)];
-  };
-
-  const sirupp::core::KinematicChain chain(puma);
-  const double fk_ns =
-      NanosecondsPerCall(calls, [&](int i) { sink = chain.ToolPose(q_of(i)).translation().x(); });
-  const double jac_ns =
-      NanosecondsPerCall(calls, [&](int i) { sink = chain.GeometricJacobian(q_of(i))(0, 0); });
-  const double ik_ns = NanosecondsPerCall(calls / 4, [&](int i) {
-    sink = static_cast<double>(sirupp::core::SolvePumaIk(puma, t_of(i), q_of(i)).solutions.size());
-  });
-  sirupp::core::NumericIkOptions numeric_options;
-  numeric_options.stop_at_first = true;
-  const double numeric_ns = NanosecondsPerCall(std::max(50, calls / 100), [&](int i) {
-    const JointVector seed = q_of(i) + JointVector::Constant(6, 0.1);
-    sink = static_cast<double>(
-        sirupp::core::SolveNumericIk(puma, t_of(i), seed, numeric_options).solutions.size());
-  });
-
-  std::printf("SIRUPP-LCM kinematics, PUMA 260, %d random poses, median of 5 rounds\n", poses);
-  std::printf("  %-34s %12.0f ns/call\n", "forward kinematics (tool pose)", fk_ns);
-  std::printf("  %-34s %12.0f ns/call\n", "geometric Jacobian", jac_ns);
-  std::printf("  %-34s %12.0f ns/call\n", "closed-form IK, all 8 solutions", ik_ns);
-  std::printf("  %-34s %12.0f ns/call\n", "numeric IK (DLS, seed 0.1 rad off)", numeric_ns);
-
+  const int count = 256;
+  const Poses poses = RandomPoses(puma, count);
+  const OurFigures ours = MeasureOurs(puma, poses, calls);
+  std::printf("SIRUPP-LCM kinematics, PUMA 260, %d random poses, median of 5 rounds\n", count);
+  std::printf("  %-34s %12.0f ns/call\n", "forward kinematics (tool pose)", ours.fk_ns);
+  std::printf("  %-34s %12.0f ns/call\n", "geometric Jacobian", ours.jacobian_ns);
+  std::printf("  %-34s %12.0f ns/call\n", "closed-form IK, all 8 solutions", ours.ik_ns);
+  std::printf("  %-34s %12.0f ns/call\n", "numeric IK (DLS, seed 0.1 rad off)", ours.numeric_ns);
 #ifdef SIRUPP_HAVE_KDL
-  const KDL::Chain kdl_chain = ToKdlChain(puma);
-  KDL::ChainFkSolverPos_recursive kdl_fk(kdl_chain);
-  KDL::ChainIkSolverPos_LMA kdl_ik(kdl_chain);
-  std::vector<KDL::JntArray> kdl_qs;
-  for (const JointVector& q : qs) {
-    KDL::JntArray array(6);
-    array.data = q;
-    kdl_qs.push_back(array);
-  }
-  // Same arm: KDL's tool pose must equal ours.
-  double worst = 0;
-  for (int k = 0; k < poses; ++k) {
-    KDL::Frame frame;
-    kdl_fk.JntToCart(kdl_qs[static_cast<size_t>(k)], frame);
-    const Eigen::Vector3d p(frame.p.x(), frame.p.y(), frame.p.z());
-    worst = std::max(worst, (p - targets[static_cast<size_t>(k)].translation()).norm());
-  }
-  const double kdl_fk_ns = NanosecondsPerCall(calls, [&](int i) {
-    KDL::Frame frame;
-    kdl_fk.JntToCart(kdl_qs[static_cast<size_t>(i % poses)], frame);
-    sink = frame.p.x();
-  });
-  int kdl_ok = 0, kdl_calls = 0;
-  const double kdl_ik_ns = NanosecondsPerCall(std::max(50, calls / 100), [&](int i) {
-    KDL::JntArray seed = kdl_qs[static_cast<size_t>(i % poses)], out(6);
-    seed.data.array() += 0.1;
-    const int status = kdl_ik.CartToJnt(seed, ToKdl(t_of(i)), out);
-    kdl_ok += status >= 0 ? 1 : 0;
-    ++kdl_calls;
-    sink = out(0);
-  });
-  std::printf("KDL 1.5 (liborocos-kdl), same arm (tool positions agree to %.1e m)\n", worst);
-  std::printf("  %-34s %12.0f ns/call\n", "ChainFkSolverPos_recursive", kdl_fk_ns);
-  std::printf("  %-34s %12.0f ns/call  (%d of %d converged)\n", "ChainIkSolverPos_LMA (1 solution)",
-              kdl_ik_ns, kdl_ok, kdl_calls);
-  std::printf("ratios\n");
-  std::printf("  FK time, ours / KDL                 %8.2f   (goal <= 1)\n", fk_ns / kdl_fk_ns);
-  std::printf("  KDL LMA IK / our closed-form IK      %8.1f   (goal >= 10; ours returns all 8)\n",
-              kdl_ik_ns / ik_ns);
-  std::printf("  KDL LMA IK / our numeric IK          %8.2f\n", kdl_ik_ns / numeric_ns);
+  CompareWithKdl(puma, poses, calls, ours);
 #else
   std::printf(
       "KDL not found at build time: install liborocos-kdl-dev (scripts/install-deps.sh --peers)\n"

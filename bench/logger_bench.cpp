@@ -19,9 +19,11 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <optional>
 #include <sirupp/arm_state_t.hpp>
 #include <sirupp/servo_setpoint_t.hpp>
 #include <sstream>
+#include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
@@ -52,36 +54,40 @@ int64_t WallMicros() {
       .count();
 }
 
-int Run(int argc, char** argv) {
+struct Options {
   double seconds = 60;
   int port = 7790;
   std::string logger = SIRUPP_LOGGER_PATH;
+};
+
+// The options, or nullopt after a message on stderr.
+std::optional<Options> ParseOptions(int argc, char** argv) {
+  Options options;
   for (int i = 1; i < argc; ++i) {
     const std::string arg = argv[i];
     if (arg == "--seconds" && i + 1 < argc) {
-      seconds = std::atof(argv[++i]);
+      options.seconds = std::atof(argv[++i]);
     } else if (arg == "--port" && i + 1 < argc) {
-      port = std::atoi(argv[++i]);
+      options.port = std::atoi(argv[++i]);
     } else if (arg == "--logger" && i + 1 < argc) {
-      logger = argv[++i];
+      options.logger = argv[++i];
     } else {
       std::cerr << "usage: bench_logger [--seconds D] [--port P] [--logger PATH]\n";
-      return 2;
+      return std::nullopt;
     }
   }
-  if (!(seconds > 0)) {
+  if (!(options.seconds > 0)) {
     std::cerr << "bench_logger: --seconds must be > 0\n";
-    return 2;
+    return std::nullopt;
   }
-  const std::string url = "udpm://239.255.76.67:" + std::to_string(port) + "?ttl=0";
-  char pattern[] = "/tmp/sirupp_bench_logger_XXXXXX";
-  const std::filesystem::path dir = mkdtemp(pattern);
-  const std::string err_path = (dir / "logger.err").string();
-  std::cout << "bench_logger: sirupp-logger taking 3 streams x 1953.125 Hz for " << seconds
-            << " s on " << url << "\nload average at start: " << LoadAverage() << "\n";
+  return options;
+}
 
+// Starts sirupp-logger on `url`, writing bench.csv into `dir` and its stderr to `err_path`; it
+// dies with this process.
+pid_t StartLogger(const std::string& logger, const std::string& url,
+                  const std::filesystem::path& dir, const std::string& err_path) {
   const pid_t parent = getpid();
-  const Clock::time_point spawned = Clock::now();
   const pid_t child = fork();
   if (child < 0) throw std::runtime_error("fork failed");
   if (child == 0) {
@@ -93,8 +99,11 @@ int Run(int argc, char** argv) {
           "--name", "bench", "--split", "none", static_cast<char*>(nullptr));
     _exit(127);
   }
-  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // let it subscribe
+  return child;
+}
 
+// Publishes the three streams at the servo tick for `ticks` ticks; returns the seconds it took.
+double PublishTicks(const std::string& url, int64_t ticks) {
   sirupp::core::Bus bus(url);
   sirupp::arm_state_t state{};
   state.num_joints = kJoints;
@@ -113,7 +122,6 @@ int Run(int argc, char** argv) {
   }
   setpoint.status.assign(kJoints, sirupp::servo_setpoint_t::STATUS_SERVO_ON);
 
-  const int64_t ticks = static_cast<int64_t>(seconds * 1e6 / kTickUs);
   const Clock::time_point start = Clock::now();
   for (int64_t tick = 0; tick < ticks; ++tick) {
     const Clock::time_point due = start + std::chrono::microseconds(tick * kTickUs);
@@ -129,7 +137,45 @@ int Run(int argc, char** argv) {
     bus.Publish("ARM_SETPOINT", setpoint);
     bus.Publish("REAL_ARM_STATE", real);
   }
-  const double publish_s = std::chrono::duration<double>(Clock::now() - start).count();
+  return std::chrono::duration<double>(Clock::now() - start).count();
+}
+
+// The logger's closing line: rows, files, messages and losses per stream (set, virt, real).
+struct Summary {
+  long long rows = 0, files = 0, got[3] = {0, 0, 0}, lost[3] = {0, 0, 0};
+};
+
+std::optional<Summary> ParseSummary(const std::string& text) {
+  Summary s;
+  const size_t summary = text.find(" rows in ");
+  if (summary == std::string::npos ||
+      std::sscanf(
+          text.c_str() + text.rfind("sirupp-logger info: ", summary),
+          "sirupp-logger info: %lld rows in %lld file(s); messages set %lld, virt %lld, real "
+          "%lld; lost set %lld, virt %lld, real %lld",
+          &s.rows, &s.files, &s.got[0], &s.got[1], &s.got[2], &s.lost[0], &s.lost[1],
+          &s.lost[2]) != 8) {
+    return std::nullopt;
+  }
+  return s;
+}
+
+int Run(int argc, char** argv) {
+  const std::optional<Options> options = ParseOptions(argc, argv);
+  if (!options) return 2;
+  const double seconds = options->seconds;
+  const std::string url = "udpm://239.255.76.67:" + std::to_string(options->port) + "?ttl=0";
+  char pattern[] = "/tmp/sirupp_bench_logger_XXXXXX";
+  const std::filesystem::path dir = mkdtemp(pattern);
+  const std::string err_path = (dir / "logger.err").string();
+  std::cout << "bench_logger: sirupp-logger taking 3 streams x 1953.125 Hz for " << seconds
+            << " s on " << url << "\nload average at start: " << LoadAverage() << "\n";
+
+  const Clock::time_point spawned = Clock::now();
+  const pid_t child = StartLogger(options->logger, url, dir, err_path);
+  std::this_thread::sleep_for(std::chrono::milliseconds(500));  // let it subscribe
+  const int64_t ticks = static_cast<int64_t>(seconds * 1e6 / kTickUs);
+  const double publish_s = PublishTicks(url, ticks);
   std::this_thread::sleep_for(std::chrono::milliseconds(300));
   kill(child, SIGINT);
   int status = 0;
@@ -142,18 +188,11 @@ int Run(int argc, char** argv) {
   std::ifstream err_file(err_path);
   std::stringstream err_text;
   err_text << err_file.rdbuf();
-  long long rows = 0, files = 0, got[3] = {0, 0, 0}, lost[3] = {0, 0, 0};
-  const std::string text = err_text.str();
-  const size_t summary = text.find(" rows in ");
-  if (summary == std::string::npos ||
-      std::sscanf(
-          text.c_str() + text.rfind("sirupp-logger info: ", summary),
-          "sirupp-logger info: %lld rows in %lld file(s); messages set %lld, virt %lld, real "
-          "%lld; lost set %lld, virt %lld, real %lld",
-          &rows, &files, &got[0], &got[1], &got[2], &lost[0], &lost[1], &lost[2]) != 8) {
+  const std::optional<Summary> summary = ParseSummary(err_text.str());
+  if (!summary) {
     std::cerr << "bench_logger: sirupp-logger (exit status " << status << ") did not print its "
               << "summary; its output:\n"
-              << text;
+              << err_text.str();
     std::filesystem::remove_all(dir);
     return 1;
   }
@@ -165,12 +204,13 @@ int Run(int argc, char** argv) {
   std::printf("published %lld ticks in %.2f s (%.1f Hz per stream)\n",
               static_cast<long long>(ticks), publish_s, static_cast<double>(ticks) / publish_s);
   for (int s = 0; s < 3; ++s) {
-    const long long missing = ticks - got[s];
+    const long long missing = ticks - summary->got[s];
     total_lost += missing;
     std::printf(
         "  %-15s received %lld, lost %lld (the logger's own count of gaps and overflow: "
         "%lld); cells in the file %lld\n",
-        names[s], got[s], missing, lost[s], static_cast<long long>(table.cells[s]));
+        names[s], summary->got[s], missing, summary->lost[s],
+        static_cast<long long>(table.cells[s]));
   }
   std::printf("rows in the file: %zu (one per tick: %lld); closed with '# end': %s\n", table.rows(),
               static_cast<long long>(ticks), table.closed ? "yes" : "no");

@@ -774,20 +774,10 @@ struct Case {
   std::string sim_final, replica_final;
 };
 
-int Run(const Options& options) {
-  const std::string model_file = FindModel(options.model);
-  const RobotModel model = sirupp::core::LoadRobotModel(model_file);
-  if (!options.pong_url.empty()) return RunPong(options.pong_url, options.pong_setpoint, model);
-  if (options.law_only) {
-    std::printf("Load average at start: %s (%u CPUs)\n", LoadAverage().c_str(),
-                std::thread::hardware_concurrency());
-    PrintLawIsolation(
-        MeasureLawIsolation(model, SIRUPP_PD_GRAVITY_LIB, options.law_calls, options.warmup),
-        SIRUPP_PD_GRAVITY_LIB);
-    std::printf("Load average at end: %s\n", LoadAverage().c_str());
-    return 0;
-  }
-
+// Where the processes are and the bus they use; throws when sirupp-sim or sirupp-control is
+// missing.
+LoopSetup MakeSetup(const Options& options, const std::string& model_file,
+                    const RobotModel& model) {
   LoopSetup setup;
   setup.bin_dir = options.bin_dir.empty() ? std::filesystem::path(SelfPath()).parent_path().string()
                                           : options.bin_dir;
@@ -800,9 +790,12 @@ int Run(const Options& options) {
                                " (build the project, or give --bin DIR)");
     }
   }
+  return setup;
+}
 
-  // The scenarios: hold the home pose; move every joint towards the "ready" pose (or, for a model
-  // without one, half-way to each joint's upper limit) at the model's default speeds.
+// The scenarios: hold the home pose; move every joint towards the "ready" pose (or, for a model
+// without one, half-way to each joint's upper limit) at the model's default speeds.
+std::vector<Scenario> MakeScenarios(const RobotModel& model) {
   std::vector<Scenario> scenarios(2);
   scenarios[0].name = "hold";
   scenarios[1].name = "move";
@@ -815,8 +808,13 @@ int Run(const Options& options) {
     scenarios[1].moves.push_back(
         {true, goal, joint.servo.default_velocity, joint.servo.default_acceleration});
   }
+  return scenarios;
+}
+
+// Each scenario with and without set-points, in that order.
+std::vector<Case> MakeCases(size_t scenarios) {
   std::vector<Case> cases;
-  for (size_t s = 0; s < scenarios.size(); ++s) {
+  for (size_t s = 0; s < scenarios; ++s) {
     for (const bool setpoints : {true, false}) {
       Case one;
       one.scenario = s;
@@ -824,84 +822,82 @@ int Run(const Options& options) {
       cases.push_back(one);
     }
   }
+  return cases;
+}
 
-  std::printf("Loop benchmark: %s (%d joints), step %.3f ms, on %s\n", model.name.c_str(),
-              model.num_joints(), model.servo_tick_s * 1e3, setup.url.c_str());
-  std::printf(
-      "%d rounds, each: %d round trips (after %d), the physics replica, one loop run of "
-      "%.3g simulated s per case\n",
-      options.rounds, options.round_trips, options.warmup, options.duration_s);
-  std::printf(
-      "Load average at start: %s (%u CPUs; other work on the machine inflates every "
-      "figure)\n",
-      LoadAverage().c_str(), std::thread::hardware_concurrency());
-
-  // The window the loop is timed in also holds a fixed cost (the sim's last messages, summary and
-  // exit): measured once with a 1-tick run.
-  const LoopRun fixed = RunLoop(setup, scenarios[0], true, model.servo_tick_s);
-
+// What the rounds measured: (a) round trips, (b) the physics replica per scenario; (c) goes into
+// the cases.
+struct Rounds {
   std::vector<RoundTrips> trips, trips_setpoint;
-  std::vector<std::vector<double>> step_us(scenarios.size()), state_us(scenarios.size()),
-      control_us(scenarios.size());
-  std::vector<PhysicsRun> physics(scenarios.size());
+  std::vector<std::vector<double>> step_us, state_us, control_us;  // per scenario, per round
+  std::vector<PhysicsRun> physics;                                 // per scenario, last round
+};
+
+Rounds MeasureRounds(const Options& options, const LoopSetup& setup, const RobotModel& model,
+                     const std::vector<Scenario>& scenarios, std::vector<Case>& cases) {
+  Rounds r;
+  r.step_us.resize(scenarios.size());
+  r.state_us.resize(scenarios.size());
+  r.control_us.resize(scenarios.size());
+  r.physics.resize(scenarios.size());
   for (int round = 0; round < options.rounds; ++round) {
-    trips.push_back(MeasureRoundTrips(setup.url, model_file, model, options.round_trips,
-                                      options.warmup, false));
-    trips_setpoint.push_back(
-        MeasureRoundTrips(setup.url, model_file, model, options.round_trips, options.warmup, true));
+    r.trips.push_back(MeasureRoundTrips(setup.url, setup.model_file, model, options.round_trips,
+                                        options.warmup, false));
+    r.trips_setpoint.push_back(MeasureRoundTrips(setup.url, setup.model_file, model,
+                                                 options.round_trips, options.warmup, true));
     if (!options.dump.empty()) {
       FILE* file = std::fopen(options.dump.c_str(), round == 0 ? "w" : "a");
       if (file == nullptr) throw std::runtime_error("cannot write " + options.dump);
-      for (double us : trips.back().us) std::fprintf(file, "%.2f\n", us);
+      for (double us : r.trips.back().us) std::fprintf(file, "%.2f\n", us);
       std::fclose(file);
     }
     for (size_t s = 0; s < scenarios.size(); ++s) {
-      physics[s] = RunPhysics(model, scenarios[s], options.duration_s);
-      step_us[s].push_back(physics[s].step_us);
-      state_us[s].push_back(physics[s].state_us);
-      control_us[s].push_back(physics[s].control_us);
+      r.physics[s] = RunPhysics(model, scenarios[s], options.duration_s);
+      r.step_us[s].push_back(r.physics[s].step_us);
+      r.state_us[s].push_back(r.physics[s].state_us);
+      r.control_us[s].push_back(r.physics[s].control_us);
     }
     for (Case& one : cases) {
       const LoopRun run =
           RunLoop(setup, scenarios[one.scenario], one.setpoints, options.duration_s);
-      const double limit = 1e6 / (trips.back().mean_us + physics[one.scenario].step_us);
+      const double limit = 1e6 / (r.trips.back().mean_us + r.physics[one.scenario].step_us);
       one.rates.push_back(run.ticks_per_s);
       one.limits.push_back(limit);
       one.ratios.push_back(run.ticks_per_s / limit);
       one.steps = run.steps;
       one.timeouts += run.timeouts;
       one.sim_final = run.final_line;
-      one.replica_final = FormatPositions(physics[one.scenario].final_position);
+      one.replica_final = FormatPositions(r.physics[one.scenario].final_position);
       one.same_trajectory = one.same_trajectory && one.sim_final == one.replica_final;
     }
   }
+  return r;
+}
 
-  std::vector<double> pooled;
-  for (const RoundTrips& round : trips)
-    pooled.insert(pooled.end(), round.us.begin(), round.us.end());
-  const double rtt_mean = Mean(pooled);
-  const double rtt_median = Median(pooled);
+std::string CaseLabel(const std::vector<Scenario>& scenarios, const Case& one) {
+  return scenarios[one.scenario].name + (one.setpoints ? ", set-points on " : ", set-points off");
+}
 
-  std::printf(
-      "\n(a) LCM round trip over udpm, arm_state_t out, arm_command_t back (%d joints), "
-      "rounds pooled\n",
-      model.num_joints());
-  PrintRoundTrips("state -> command", trips);
-  PrintRoundTrips("state -> command, then ARM_SETPOINT (diagnostic)", trips_setpoint);
-
+// (b): the physics step per scenario, median of rounds; returns those medians.
+std::vector<double> PrintSteps(const std::vector<Scenario>& scenarios, const Rounds& r) {
   std::printf(
       "\n(b) physics step (ArmWorld::Step, friction on) on the loop's own trajectory, mean "
       "per step, median of rounds\n");
   std::vector<double> step_median(scenarios.size());
   for (size_t s = 0; s < scenarios.size(); ++s) {
-    step_median[s] = Median(step_us[s]);
+    step_median[s] = Median(r.step_us[s]);
     std::printf(
         "  %-5s step %6.2f us (rounds: %s; %4.1f constraint rows); also per tick: "
         "ArmWorld::State %.2f us, ServoBank::Tick %.2f us\n",
-        scenarios[s].name.c_str(), step_median[s], Join(step_us[s], 2).c_str(), physics[s].rows,
-        Median(state_us[s]), Median(control_us[s]));
+        scenarios[s].name.c_str(), step_median[s], Join(r.step_us[s], 2).c_str(), r.physics[s].rows,
+        Median(r.state_us[s]), Median(r.control_us[s]));
   }
+  return step_median;
+}
 
+// (c): each case's ticks/s against its limit; returns whether every case met the goal.
+bool PrintLoop(const std::vector<Scenario>& scenarios, const std::vector<Case>& cases,
+               const std::vector<double>& step_median, double rtt_median, const LoopRun& fixed) {
   std::printf(
       "\n(c) the loop: sirupp-sim --mode lockstep + sirupp-control as processes; ticks/s = "
       "steps / wall time from the sim's start line to its exit (includes %.1f ms of "
@@ -910,17 +906,12 @@ int Run(const Options& options) {
   std::printf(
       "    limit = 1 / (that round's mean round trip + step); ratio = loop / limit, "
       "median of rounds\n");
-  const double message_us = MessageWorkUs(model, false, 20000);
-  const double message_setpoint_us = MessageWorkUs(model, true, 20000);
   bool all_met = true;
-  bool all_same = true;
   for (const Case& one : cases) {
-    const std::string label =
-        scenarios[one.scenario].name + (one.setpoints ? ", set-points on " : ", set-points off");
+    const std::string label = CaseLabel(scenarios, one);
     const double ratio = Median(one.ratios);
     const bool met = ratio >= kGoal;
     all_met = all_met && met;
-    all_same = all_same && one.same_trajectory;
     const double strict_limit = 1e6 / (rtt_median + step_median[one.scenario]);
     std::printf(
         "  %s %6.0f ticks/s (rounds: %s)  limit %6.0f  ratio %.2f (rounds: %s)  goal %.1f: "
@@ -939,22 +930,28 @@ int Run(const Options& options) {
           static_cast<int>(label.size()), "", one.sim_final.c_str(), one.replica_final.c_str());
     }
   }
+  return all_met;
+}
 
+// Each case's tick split into the physics step and the rest, and what set-points cost.
+void PrintPerTick(const RobotModel& model, const std::vector<Scenario>& scenarios,
+                  const std::vector<Case>& cases, const Rounds& r,
+                  const std::vector<double>& step_median, double rtt_median, double rtt_mean) {
+  const double message_us = MessageWorkUs(model, false, 20000);
+  const double message_setpoint_us = MessageWorkUs(model, true, 20000);
   std::printf(
       "\nPer tick, us (1 / median ticks/s) = physics step + the rest; the round trip is "
       "median %.1f, mean %.1f\n",
       rtt_median, rtt_mean);
   for (const Case& one : cases) {
-    const std::string label =
-        scenarios[one.scenario].name + (one.setpoints ? ", set-points on " : ", set-points off");
     const double loop_us = 1e6 / Median(one.rates);
     const double step = step_median[one.scenario];
-    const double cpu_us = Median(state_us[one.scenario]) + Median(control_us[one.scenario]) +
+    const double cpu_us = Median(r.state_us[one.scenario]) + Median(r.control_us[one.scenario]) +
                           (one.setpoints ? message_setpoint_us : message_us);
     std::printf(
         "  %s %6.1f = %5.1f + %5.1f   (of the rest, %.1f is computing: ArmWorld::State, "
         "ServoBank::Tick, message translation and coding)\n",
-        label.c_str(), loop_us, step, loop_us - step, cpu_us);
+        CaseLabel(scenarios, one).c_str(), loop_us, step, loop_us - step, cpu_us);
   }
   for (size_t s = 0; s < scenarios.size(); ++s) {
     const double on = 1e6 / Median(cases[2 * s].rates);
@@ -962,9 +959,60 @@ int Run(const Options& options) {
     std::printf("  ARM_SETPOINT every tick costs the %s loop %.1f us per tick (%.0f %%)\n",
                 scenarios[s].name.c_str(), on - off, 100 * (on - off) / on);
   }
+}
+
+int Run(const Options& options) {
+  const std::string model_file = FindModel(options.model);
+  const RobotModel model = sirupp::core::LoadRobotModel(model_file);
+  if (!options.pong_url.empty()) return RunPong(options.pong_url, options.pong_setpoint, model);
+  if (options.law_only) {
+    std::printf("Load average at start: %s (%u CPUs)\n", LoadAverage().c_str(),
+                std::thread::hardware_concurrency());
+    PrintLawIsolation(
+        MeasureLawIsolation(model, SIRUPP_PD_GRAVITY_LIB, options.law_calls, options.warmup),
+        SIRUPP_PD_GRAVITY_LIB);
+    std::printf("Load average at end: %s\n", LoadAverage().c_str());
+    return 0;
+  }
+  const LoopSetup setup = MakeSetup(options, model_file, model);
+  const std::vector<Scenario> scenarios = MakeScenarios(model);
+  std::vector<Case> cases = MakeCases(scenarios.size());
+
+  std::printf("Loop benchmark: %s (%d joints), step %.3f ms, on %s\n", model.name.c_str(),
+              model.num_joints(), model.servo_tick_s * 1e3, setup.url.c_str());
+  std::printf(
+      "%d rounds, each: %d round trips (after %d), the physics replica, one loop run of "
+      "%.3g simulated s per case\n",
+      options.rounds, options.round_trips, options.warmup, options.duration_s);
+  std::printf(
+      "Load average at start: %s (%u CPUs; other work on the machine inflates every "
+      "figure)\n",
+      LoadAverage().c_str(), std::thread::hardware_concurrency());
+
+  // The window the loop is timed in also holds a fixed cost (the sim's last messages, summary and
+  // exit): measured once with a 1-tick run.
+  const LoopRun fixed = RunLoop(setup, scenarios[0], true, model.servo_tick_s);
+  const Rounds rounds = MeasureRounds(options, setup, model, scenarios, cases);
+
+  std::vector<double> pooled;
+  for (const RoundTrips& round : rounds.trips)
+    pooled.insert(pooled.end(), round.us.begin(), round.us.end());
+  const double rtt_mean = Mean(pooled);
+  const double rtt_median = Median(pooled);
+  std::printf(
+      "\n(a) LCM round trip over udpm, arm_state_t out, arm_command_t back (%d joints), "
+      "rounds pooled\n",
+      model.num_joints());
+  PrintRoundTrips("state -> command", rounds.trips);
+  PrintRoundTrips("state -> command, then ARM_SETPOINT (diagnostic)", rounds.trips_setpoint);
+  const std::vector<double> step_median = PrintSteps(scenarios, rounds);
+  const bool all_met = PrintLoop(scenarios, cases, step_median, rtt_median, fixed);
+  PrintPerTick(model, scenarios, cases, rounds, step_median, rtt_median, rtt_mean);
   PrintLawIsolation(
       MeasureLawIsolation(model, SIRUPP_PD_GRAVITY_LIB, options.law_calls, options.warmup),
       SIRUPP_PD_GRAVITY_LIB);
+  const bool all_same =
+      std::all_of(cases.begin(), cases.end(), [](const Case& one) { return one.same_trajectory; });
   std::printf("\nThe in-process replica %s the sim's final joint positions (%ld steps per run)\n",
               all_same ? "matches" : "does NOT match", cases.front().steps);
   std::printf("Load average at end: %s\n", LoadAverage().c_str());

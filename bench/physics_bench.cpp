@@ -16,6 +16,8 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <memory>
+#include <optional>
 #include <sirupp/arm_state_t.hpp>
 #include <string>
 #include <vector>
@@ -190,47 +192,49 @@ void KeepBest(Figure& best, const Figure& figure) {
   if (figure.steps_per_s > best.steps_per_s) best = figure;
 }
 
-}  // namespace
-
-int main(int argc, char** argv) {
+struct Options {
   double seconds = 4;
   int rounds = 3;
   std::string model_file = "config/robots/puma260.yaml";
   bool static_only = false;
+};
+
+// The options, or nullopt after a message on stderr.
+std::optional<Options> ParseOptions(int argc, char** argv) {
+  Options options;
   for (int i = 1; i < argc; i += 2) {
     const std::string flag = argv[i];
     if (flag == "--static-only") {
-      static_only = true;
+      options.static_only = true;
       --i;
       continue;
     }
     if (i + 1 >= argc) {
       std::fprintf(stderr, "bench_physics: %s needs a value\n", flag.c_str());
-      return 2;
+      return std::nullopt;
     }
     if (flag == "--seconds") {
-      seconds = std::atof(argv[i + 1]);
+      options.seconds = std::atof(argv[i + 1]);
     } else if (flag == "--rounds") {
-      rounds = std::atoi(argv[i + 1]);
+      options.rounds = std::atoi(argv[i + 1]);
     } else if (flag == "--model") {
-      model_file = argv[i + 1];
+      options.model_file = argv[i + 1];
     } else {
       std::fprintf(stderr, "bench_physics: unknown flag %s\n", flag.c_str());
-      return 2;
+      return std::nullopt;
     }
   }
-  if (!(seconds > 0) || rounds < 1) {
+  if (!(options.seconds > 0) || options.rounds < 1) {
     std::fprintf(stderr, "bench_physics: --seconds must be > 0 and --rounds >= 1\n");
-    return 2;
+    return std::nullopt;
   }
-  const RobotModel model = sirupp::core::LoadRobotModel(FindModel(model_file));
-  const double step = model.servo_tick_s;
-  if (static_only) {
-    PrintStaticObjects(model, rounds);
-    return 0;
-  }
-  // LCM: multicast on this machine only (ttl=0); memq:// if multicast cannot be used here.
-  std::string url = "udpm://239.255.76.67:7799?ttl=0";
+  return options;
+}
+
+// LCM: multicast on this machine only (ttl=0); memq:// if multicast cannot be used here. Sets
+// `url` to the one used.
+std::unique_ptr<sirupp::core::Bus> OpenBus(std::string& url) {
+  url = "udpm://239.255.76.67:7799?ttl=0";
   std::unique_ptr<sirupp::core::Bus> bus;
   try {
     bus = std::make_unique<sirupp::core::Bus>(url);
@@ -240,12 +244,21 @@ int main(int argc, char** argv) {
     url = "memq://";
     bus = std::make_unique<sirupp::core::Bus>(url);
   }
+  return bus;
+}
 
+// Our ODE world with and without friction and with LCM publishing, and MuJoCo when built with
+// it: the best of the rounds of each, printed with the ratios.
+void CompareEngines(const RobotModel& model, const Options& options) {
+  const double step = model.servo_tick_s;
+  std::string url;
+  const std::unique_ptr<sirupp::core::Bus> bus = OpenBus(url);
+  const double seconds = options.seconds;
   std::printf("Physics benchmark: %s, step %.3f ms, %.1f simulated s per run, best of %d rounds\n",
-              model.name.c_str(), step * 1e3, seconds, rounds);
+              model.name.c_str(), step * 1e3, seconds, options.rounds);
   std::printf("Reference motion: bench/reference_motion.hpp (clamped PD on slow sinusoids)\n");
   Figure ode_friction, ode_publish, ode_plain, mj_friction, mj_plain;
-  for (int round = 0; round < rounds; ++round) {
+  for (int round = 0; round < options.rounds; ++round) {
     KeepBest(ode_friction, RunOde(model, true, seconds, nullptr));
 #ifdef SIRUPP_HAVE_MUJOCO
     KeepBest(mj_friction, RunMujoco(model, true, seconds));
@@ -275,6 +288,15 @@ int main(int argc, char** argv) {
   std::printf(
       "MuJoCo not installed (scripts/install-deps.sh --peers adds libmujoco-dev): no ratio\n");
 #endif
-  PrintStaticObjects(model, rounds);
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const std::optional<Options> options = ParseOptions(argc, argv);
+  if (!options) return 2;
+  const RobotModel model = sirupp::core::LoadRobotModel(FindModel(options->model_file));
+  if (!options->static_only) CompareEngines(model, *options);
+  PrintStaticObjects(model, options->rounds);
   return 0;
 }

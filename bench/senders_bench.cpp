@@ -18,6 +18,7 @@
 #include <cstdlib>
 #include <cstring>
 #include <fstream>
+#include <optional>
 #include <sirupp/arm_command_t.hpp>
 #include <sirupp/arm_state_t.hpp>
 #include <string>
@@ -56,83 +57,122 @@ Figures Summarise(std::vector<double> us) {
 
 constexpr const char* kUsage = "usage: bench_senders [--ticks T] [--senders S] [--model FILE]\n";
 
-}  // namespace
-
-int main(int argc, char** argv) {
+struct Options {
   int ticks = 4000;
   int senders = 100000;
   std::string model_path = "config/robots/puma260.yaml";
+};
+
+// The options, or nullopt after a message on stderr.
+std::optional<Options> ParseOptions(int argc, char** argv) {
+  Options options;
   for (int i = 1; i < argc; ++i) {
     const bool has_value = i + 1 < argc;
     if (std::strcmp(argv[i], "--ticks") == 0 && has_value) {
-      ticks = std::atoi(argv[++i]);
+      options.ticks = std::atoi(argv[++i]);
     } else if (std::strcmp(argv[i], "--senders") == 0 && has_value) {
-      senders = std::atoi(argv[++i]);
+      options.senders = std::atoi(argv[++i]);
     } else if (std::strcmp(argv[i], "--model") == 0 && has_value) {
-      model_path = argv[++i];
+      options.model_path = argv[++i];
     } else {
       std::fprintf(stderr, "bench_senders: unknown argument '%s'\n%s", argv[i], kUsage);
-      return 2;
+      return std::nullopt;
     }
   }
-  if (ticks < 100 || senders < 0) {
+  if (options.ticks < 100 || options.senders < 0) {
     std::fprintf(stderr, "bench_senders: allowed --ticks >= 100, --senders >= 0\n%s", kUsage);
-    return 2;
+    return std::nullopt;
   }
-  const sirupp::core::RobotModel model = sirupp::core::LoadRobotModel(model_path);
-  sirupp::core::Bus bus("memq://");
-  sirupp::sim::ArmWorld world(model, sirupp::core::Environment{});
-  sirupp::sim::NodeOptions options;
-  options.mode = sirupp::sim::TimingMode::kLockstep;
-  options.participants = {"bench"};
-  sirupp::sim::SimNode node(bus, world, sirupp::core::Environment{}, options);
-  int64_t seq = 0;
-  bus.Subscribe<sirupp::arm_state_t>(
-      "SIM_ARM_STATE", [&](const sirupp::arm_state_t& state, const sirupp::core::ReceiveInfo&) {
-        sirupp::arm_command_t command{};
-        command.tick = state.tick;
-        command.utime = state.utime;
-        command.seq = seq++;
-        command.sender = "bench";
-        command.mode = sirupp::arm_command_t::MODE_EFFORT;
-        command.num_joints = state.num_joints;
-        for (int j = 0; j < state.num_joints; ++j) {
-          const auto u = static_cast<size_t>(j);
-          command.effort.push_back(-20.0 * state.position[u] - 0.5 * state.velocity[u]);
-        }
-        bus.Publish("SIM_ARM_COMMAND", command);
-      });
-  sirupp::arm_command_t stranger{};
-  stranger.mode = sirupp::arm_command_t::MODE_EFFORT;
-  stranger.num_joints = model.num_joints();
-  stranger.effort.assign(static_cast<size_t>(model.num_joints()), 0.0);
-  int next_sender = 0;
-  // Runs `n` ticks, publishing `per_tick` strangers' commands before each; the wall time of each.
-  const auto phase = [&](int n, int per_tick) {
+  return options;
+}
+
+// A lockstep sim with one participant, "bench", that answers every state with a PD effort.
+class LockstepRig {
+ public:
+  explicit LockstepRig(const sirupp::core::RobotModel& model)
+      : bus_("memq://"),
+        world_(model, sirupp::core::Environment{}),
+        node_(bus_, world_, sirupp::core::Environment{}, Lockstep()) {
+    bus_.Subscribe<sirupp::arm_state_t>(
+        "SIM_ARM_STATE", [this](const sirupp::arm_state_t& state,
+                                const sirupp::core::ReceiveInfo&) { Answer(state); });
+    stranger_.mode = sirupp::arm_command_t::MODE_EFFORT;
+    stranger_.num_joints = model.num_joints();
+    stranger_.effort.assign(static_cast<size_t>(model.num_joints()), 0.0);
+  }
+
+  // Runs `n` ticks, publishing `per_tick` strangers' commands (up to `senders` in all) before
+  // each; the wall time of each.
+  Figures Phase(int n, int per_tick, int senders) {
     std::vector<double> us;
     us.reserve(static_cast<size_t>(n));
     for (int k = 0; k < n; ++k) {
-      for (int s = 0; s < per_tick && next_sender < senders; ++s, ++next_sender) {
-        stranger.sender = "stranger-" + std::to_string(next_sender);
-        stranger.seq = next_sender;
-        stranger.tick = world.tick();
-        bus.Publish("SIM_ARM_COMMAND", stranger);
+      for (int s = 0; s < per_tick && next_sender_ < senders; ++s, ++next_sender_) {
+        stranger_.sender = "stranger-" + std::to_string(next_sender_);
+        stranger_.seq = next_sender_;
+        stranger_.tick = world_.tick();
+        bus_.Publish("SIM_ARM_COMMAND", stranger_);
       }
-      const int64_t before = world.tick();
+      const int64_t before = world_.tick();
       const auto t0 = Clock::now();
-      while (world.tick() == before) node.Service(0);
+      while (world_.tick() == before) node_.Service(0);
       us.push_back(std::chrono::duration<double, std::micro>(Clock::now() - t0).count());
     }
     return Summarise(us);
-  };
-  phase(500, 0);  // warm-up
+  }
+
+  int senders_used() const { return next_sender_; }
+  const sirupp::sim::SimNode& node() const { return node_; }
+
+ private:
+  static sirupp::sim::NodeOptions Lockstep() {
+    sirupp::sim::NodeOptions options;
+    options.mode = sirupp::sim::TimingMode::kLockstep;
+    options.participants = {"bench"};
+    return options;
+  }
+
+  void Answer(const sirupp::arm_state_t& state) {
+    sirupp::arm_command_t command{};
+    command.tick = state.tick;
+    command.utime = state.utime;
+    command.seq = seq_++;
+    command.sender = "bench";
+    command.mode = sirupp::arm_command_t::MODE_EFFORT;
+    command.num_joints = state.num_joints;
+    for (int j = 0; j < state.num_joints; ++j) {
+      const auto u = static_cast<size_t>(j);
+      command.effort.push_back(-20.0 * state.position[u] - 0.5 * state.velocity[u]);
+    }
+    bus_.Publish("SIM_ARM_COMMAND", command);
+  }
+
+  sirupp::core::Bus bus_;
+  sirupp::sim::ArmWorld world_;
+  sirupp::sim::SimNode node_;
+  sirupp::arm_command_t stranger_{};
+  int64_t seq_ = 0;
+  int next_sender_ = 0;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  const std::optional<Options> options = ParseOptions(argc, argv);
+  if (!options) return 2;
+  const int ticks = options->ticks;
+  const int senders = options->senders;
+  const sirupp::core::RobotModel model = sirupp::core::LoadRobotModel(options->model_path);
+  LockstepRig rig(model);
+  rig.Phase(500, 0, senders);  // warm-up
   const long rss_before = ResidentKiB();
-  const Figures a = phase(ticks, 0);
-  const Figures b = phase(ticks, (senders + ticks - 1) / ticks);
-  const Figures c = phase(ticks, 0);
+  const Figures a = rig.Phase(ticks, 0, senders);
+  const Figures b = rig.Phase(ticks, (senders + ticks - 1) / ticks, senders);
+  const Figures c = rig.Phase(ticks, 0, senders);
   const long rss_after = ResidentKiB();
+  const auto& counters = rig.node().counters();
   std::printf("bench_senders: %d ticks per phase, %d distinct senders in phase (b), model %s\n",
-              ticks, next_sender, model.name.c_str());
+              ticks, rig.senders_used(), model.name.c_str());
   std::printf("  (a) before:  median %.1f us, p99 %.1f us per tick\n", a.median_us, a.p99_us);
   std::printf("  (b) during:  median %.1f us, p99 %.1f us per tick (with the refusals)\n",
               b.median_us, b.p99_us);
@@ -140,8 +180,8 @@ int main(int argc, char** argv) {
   std::printf("  ratio (b)/(a) %.2f, (c)/(a) %.2f (goal for (c): about 1)\n",
               b.median_us / a.median_us, c.median_us / a.median_us);
   std::printf("  lockstep timeouts (a state sent again for want of an answer): %lld\n",
-              static_cast<long long>(node.counters().lockstep_timeouts));
+              static_cast<long long>(counters.lockstep_timeouts));
   std::printf("  commands refused: %lld; resident memory %ld KiB before, %ld KiB after\n",
-              static_cast<long long>(node.counters().commands_rejected), rss_before, rss_after);
+              static_cast<long long>(counters.commands_rejected), rss_before, rss_after);
   return 0;
 }

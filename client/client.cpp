@@ -17,6 +17,7 @@
 
 #include "core/command_reply.hpp"
 #include "core/errors.hpp"
+#include "core/translate.hpp"
 
 namespace sirupp::client {
 namespace {
@@ -341,71 +342,71 @@ Answer Client::AwaitLoggerAnswer(const RequestId& request, double timeout_s) {
 }
 
 Answer Client::MoveJoints(const JointTarget& target) {
-  sirupp::joint_target_t message{};
-  const size_t n = target.position.size();
-  message.num_joints = static_cast<int32_t>(n);
-  message.position = target.position;
-  message.max_velocity =
-      target.max_velocity.empty() ? std::vector<double>(n, 0.0) : target.max_velocity;
-  message.acceleration =
-      target.acceleration.empty() ? std::vector<double>(n, 0.0) : target.acceleration;
-  message.active = target.active.empty() ? std::vector<int8_t>(n, 1) : target.active;
-  // Every array must have num_joints entries (core/bus.hpp): a short one would be read past.
-  message.max_velocity.resize(n, 0.0);
-  message.acceleration.resize(n, 0.0);
-  message.active.resize(n, 0);
-  return AwaitControllerAnswer(Send(channels_.arm_target, message), options_.answer_timeout_s);
+  // Unset speeds and accelerations are 0 (the joint's default); unset `active` moves every joint.
+  auto at = [](const auto& values, size_t i, auto unset) {
+    return i < values.size() ? values[i] : unset;
+  };
+  core::JointTarget message;
+  for (size_t i = 0; i < target.position.size(); ++i) {
+    message.joints.push_back({target.position[i], at(target.max_velocity, i, 0.0),
+                              at(target.acceleration, i, 0.0),
+                              target.active.empty() || at(target.active, i, int8_t{0}) != 0});
+  }
+  return AwaitControllerAnswer(Send(channels_.arm_target, core::ToMessage(message)),
+                               options_.answer_timeout_s);
 }
 
 Answer Client::MovePose(const PoseTarget& target) {
-  using Pose = sirupp::pose_target_t;
-  Pose message{};
-  std::copy(target.position, target.position + 3, message.position);
-  std::copy(target.orientation, target.orientation + 4, message.orientation);
-  message.position_only = target.position_only ? 1 : 0;
-  if (target.shoulder_left) {
-    message.shoulder = *target.shoulder_left ? Pose::SHOULDER_LEFT : Pose::SHOULDER_RIGHT;
-  }
-  if (target.elbow_up) message.elbow = *target.elbow_up ? Pose::ELBOW_UP : Pose::ELBOW_DOWN;
-  if (target.wrist_flip) {
-    message.wrist = *target.wrist_flip ? Pose::WRIST_FLIP : Pose::WRIST_NO_FLIP;
-  }
+  using core::ArmChoice;
+  // kFirst is LEFT, UP and NO_FLIP on the wire (core/messages.hpp).
+  auto choice = [](const std::optional<bool>& first) {
+    return !first ? ArmChoice::kAny : *first ? ArmChoice::kFirst : ArmChoice::kSecond;
+  };
+  core::PoseTarget message;
+  message.position = Eigen::Vector3d(target.position[0], target.position[1], target.position[2]);
+  message.orientation = Eigen::Quaterniond(target.orientation[0], target.orientation[1],
+                                           target.orientation[2], target.orientation[3]);
+  message.position_only = target.position_only;
+  message.shoulder = choice(target.shoulder_left);
+  message.elbow = choice(target.elbow_up);
+  message.wrist = !target.wrist_flip   ? ArmChoice::kAny
+                  : *target.wrist_flip ? ArmChoice::kSecond
+                                       : ArmChoice::kFirst;
   message.speed_scale = target.speed_scale;
-  return AwaitControllerAnswer(Send(channels_.arm_pose_target, message), options_.answer_timeout_s);
+  return AwaitControllerAnswer(Send(channels_.arm_pose_target, core::ToMessage(message)),
+                               options_.answer_timeout_s);
 }
 
 Answer Client::RunPlan(const std::string& name, const std::string& text) {
-  sirupp::plan_command_t message{};
-  message.command = sirupp::plan_command_t::COMMAND_RUN;
-  message.name = name;
-  message.text = text;
-  return AwaitControllerAnswer(Send(channels_.arm_plan, message), options_.answer_timeout_s);
+  const core::PlanCommand message{0, 0, core::PlanAction::kRun, name, text};
+  return AwaitControllerAnswer(Send(channels_.arm_plan, core::ToMessage(message)),
+                               options_.answer_timeout_s);
 }
 
 Answer Client::Plan(PlanCommand command) {
-  using Command = sirupp::plan_command_t;
-  Command message{};
+  core::PlanCommand message;
   switch (command) {
     case PlanCommand::kPause:
-      message.command = Command::COMMAND_PAUSE;
+      message.command = core::PlanAction::kPause;
       break;
     case PlanCommand::kResume:
-      message.command = Command::COMMAND_RESUME;
+      message.command = core::PlanAction::kResume;
       break;
     case PlanCommand::kAbort:
-      message.command = Command::COMMAND_ABORT;
+      message.command = core::PlanAction::kAbort;
       break;
     case PlanCommand::kManual:
-      message.command = Command::COMMAND_MANUAL;
+      message.command = core::PlanAction::kManual;
       break;
     case PlanCommand::kAutomatic:
-      message.command = Command::COMMAND_AUTOMATIC;
+      message.command = core::PlanAction::kAutomatic;
       break;
     case PlanCommand::kClearFault:
-      message.command = Command::COMMAND_CLEAR_FAULT;
+      message.command = core::PlanAction::kClearFault;
       break;
   }
-  return AwaitControllerAnswer(Send(channels_.arm_plan, message), options_.answer_timeout_s);
+  return AwaitControllerAnswer(Send(channels_.arm_plan, core::ToMessage(message)),
+                               options_.answer_timeout_s);
 }
 
 Answer Client::SetGains(const sirupp::servo_gains_t& gains) {
@@ -414,69 +415,52 @@ Answer Client::SetGains(const sirupp::servo_gains_t& gains) {
 
 RequestId Client::ResetSim(const std::vector<double>& position, bool reset_objects,
                            const std::vector<double>& velocity) {
-  sirupp::sim_reset_t message{};
-  message.sender = options_.sender;
-  message.num_joints = static_cast<int32_t>(position.size());
-  message.position = position;
-  message.num_velocities = static_cast<int32_t>(velocity.size());
-  message.velocity = velocity;
-  message.reset_objects = reset_objects ? 1 : 0;
-  return Send(channels_.sim_reset, message);
+  const core::SimReset message{0, 0, options_.sender, position, velocity, reset_objects};
+  return Send(channels_.sim_reset, core::ToMessage(message));
 }
 
 Answer Client::LoadEnvironment(const std::string& name, const std::string& xml) {
-  sirupp::sim_command_t message{};
-  message.sender = options_.sender;
-  message.command = sirupp::sim_command_t::COMMAND_LOAD_ENVIRONMENT;
-  message.name = name;
-  message.text = xml;
-  return AwaitSimAnswer(Send(channels_.sim_command, message), options_.answer_timeout_s);
+  const core::SimCommand message{0,    0,  options_.sender, core::SimAction::kLoadEnvironment,
+                                 name, xml};
+  return AwaitSimAnswer(Send(channels_.sim_command, core::ToMessage(message)),
+                        options_.answer_timeout_s);
 }
 
 Answer Client::LoadModel(const std::string& name, const std::string& yaml) {
-  sirupp::plan_command_t announce{};
-  announce.command = sirupp::plan_command_t::COMMAND_LOAD_MODEL;
-  announce.name = name;
-  announce.text = yaml;
-  const Answer controller =
-      AwaitControllerAnswer(Send(channels_.arm_plan, announce), options_.answer_timeout_s);
+  const core::PlanCommand announce{0, 0, core::PlanAction::kLoadModel, name, yaml};
+  const Answer controller = AwaitControllerAnswer(
+      Send(channels_.arm_plan, core::ToMessage(announce)), options_.answer_timeout_s);
   if (!controller.accepted()) return controller;
-  sirupp::sim_command_t load{};
-  load.sender = options_.sender;
-  load.command = sirupp::sim_command_t::COMMAND_LOAD_MODEL;
-  load.name = name;
-  load.text = yaml;
-  const Answer sim = AwaitSimAnswer(Send(channels_.sim_command, load), options_.answer_timeout_s);
+  const core::SimCommand load{0, 0, options_.sender, core::SimAction::kLoadModel, name, yaml};
+  const Answer sim =
+      AwaitSimAnswer(Send(channels_.sim_command, core::ToMessage(load)), options_.answer_timeout_s);
   if (!sim.accepted()) {
     // The controller stops waiting for a model that will not come (an empty text cancels).
-    sirupp::plan_command_t cancel{};
-    cancel.command = sirupp::plan_command_t::COMMAND_LOAD_MODEL;
-    cancel.name = name;
-    AwaitControllerAnswer(Send(channels_.arm_plan, cancel), options_.answer_timeout_s);
+    const core::PlanCommand cancel{0, 0, core::PlanAction::kLoadModel, name, ""};
+    AwaitControllerAnswer(Send(channels_.arm_plan, core::ToMessage(cancel)),
+                          options_.answer_timeout_s);
   }
   return sim;
 }
 
 Answer Client::StartRecording(const std::string& name) {
-  sirupp::logger_command_t message{};
-  message.sender = options_.sender;
-  message.command = sirupp::logger_command_t::COMMAND_START;
-  message.name = name;
-  return AwaitLoggerAnswer(Send(channels_.logger_command, message), options_.answer_timeout_s);
+  const core::LoggerCommand message{0, 0, options_.sender, core::LoggerAction::kStart, name};
+  return AwaitLoggerAnswer(Send(channels_.logger_command, core::ToMessage(message)),
+                           options_.answer_timeout_s);
 }
 
 Answer Client::StopRecording() {
-  sirupp::logger_command_t message{};
-  message.sender = options_.sender;
-  message.command = sirupp::logger_command_t::COMMAND_STOP;
-  return AwaitLoggerAnswer(Send(channels_.logger_command, message), options_.answer_timeout_s);
+  const core::LoggerCommand message{0, 0, options_.sender, core::LoggerAction::kStop, ""};
+  return AwaitLoggerAnswer(Send(channels_.logger_command, core::ToMessage(message)),
+                           options_.answer_timeout_s);
 }
 
 Answer Client::Hardware(HardwareCommand command) {
-  hardware_command_t message{};
-  message.command = Verb(command).wire;
-  message.sender = options_.sender;
-  return AwaitHardwareAnswer(Send(channels_.hardware_command, message), options_.answer_timeout_s);
+  // The verb's wire value is its core::HardwareAction (both follow hardware_command_t).
+  const core::HardwareCommand message{0, 0, static_cast<core::HardwareAction>(Verb(command).wire),
+                                      options_.sender};
+  return AwaitHardwareAnswer(Send(channels_.hardware_command, core::ToMessage(message)),
+                             options_.answer_timeout_s);
 }
 
 bool Client::WaitHardwareDone(HardwareCommand command, double timeout_s) {
@@ -486,11 +470,8 @@ bool Client::WaitHardwareDone(HardwareCommand command, double timeout_s) {
 }
 
 RequestId Client::Estop(bool engage, const std::string& reason) {
-  sirupp::estop_t message{};
-  message.engaged = engage ? 1 : 0;
-  message.sender = options_.sender;
-  message.reason = reason;
-  return Send(channels_.estop, message);
+  const core::EStop message{0, 0, engage, options_.sender, reason};
+  return Send(channels_.estop, core::ToMessage(message));
 }
 
 bool Client::WaitEstopShown(bool engaged, double timeout_s) {

@@ -165,36 +165,54 @@ IsolatedEffortLaw::IsolatedEffortLaw(const std::string& library, const std::stri
 
 IsolatedEffortLaw::~IsolatedEffortLaw() { StopHost(); }
 
-void IsolatedEffortLaw::StartHost() {
-  const size_t size = SharedSize(num_joints_, model_bytes_.size());
-  int shared_fd = AboveFour(::memfd_create("sirupp-controller", MFD_CLOEXEC));
-  if (shared_fd < 0 || ::ftruncate(shared_fd, static_cast<off_t>(size)) != 0) {
+namespace {
+
+// The host's descriptors and the block it shares with sirupp-control.
+struct HostLink {
+  int shared_fd = -1;
+  void* shared = MAP_FAILED;
+  int pair[2] = {-1, -1};  // [0] stays here, [1] becomes the host's descriptor 3
+};
+
+// The shared block (size bytes, holding the header and the model) and the socket pair; throws
+// ControllerLoadError after closing what it opened.
+HostLink MakeHostLink(const std::string& library, size_t size, int num_joints,
+                      const std::vector<uint8_t>& model_bytes) {
+  HostLink link;
+  link.shared_fd = AboveFour(::memfd_create("sirupp-controller", MFD_CLOEXEC));
+  if (link.shared_fd < 0 || ::ftruncate(link.shared_fd, static_cast<off_t>(size)) != 0) {
     const std::string problem = ErrnoText("cannot make the shared memory for its host process");
-    if (shared_fd >= 0) ::close(shared_fd);
-    throw ControllerLoadError(library_, problem);
+    if (link.shared_fd >= 0) ::close(link.shared_fd);
+    throw ControllerLoadError(library, problem);
   }
-  void* shared = ::mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_SHARED, shared_fd, 0);
-  int pair[2] = {-1, -1};
-  if (shared == MAP_FAILED || ::socketpair(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0, pair) != 0 ||
-      (pair[1] = AboveFour(pair[1])) < 0) {
+  link.shared = ::mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_SHARED, link.shared_fd, 0);
+  if (link.shared == MAP_FAILED ||
+      ::socketpair(AF_UNIX, SOCK_SEQPACKET | SOCK_CLOEXEC, 0, link.pair) != 0 ||
+      (link.pair[1] = AboveFour(link.pair[1])) < 0) {
     const std::string problem = ErrnoText("cannot connect to its host process");
-    if (shared != MAP_FAILED) ::munmap(shared, size);
-    for (int fd : {pair[0], pair[1], shared_fd}) {
+    if (link.shared != MAP_FAILED) ::munmap(link.shared, size);
+    for (int fd : {link.pair[0], link.pair[1], link.shared_fd}) {
       if (fd >= 0) ::close(fd);
     }
-    throw ControllerLoadError(library_, problem);
+    throw ControllerLoadError(library, problem);
   }
-  Header* header = HeaderOf(shared);
+  Header* header = HeaderOf(link.shared);
   header->magic = kMagic;
   header->layout = kLayout;
-  header->num_joints = num_joints_;
-  header->model_size = static_cast<uint32_t>(model_bytes_.size());
-  std::copy(model_bytes_.begin(), model_bytes_.end(), ModelOf(shared, num_joints_));
+  header->num_joints = num_joints;
+  header->model_size = static_cast<uint32_t>(model_bytes.size());
+  std::copy(model_bytes.begin(), model_bytes.end(), ModelOf(link.shared, num_joints));
+  return link;
+}
 
+// Starts `program library args` with the socket as descriptor 3 and the block as 4, no signal
+// blocked and SIGPIPE at its default. Returns posix_spawn's answer (0: started, *pid set).
+int SpawnHost(const std::string& program, const std::string& library, const std::string& args,
+              const HostLink& link, pid_t* pid) {
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_adddup2(&actions, pair[1], 3);
-  posix_spawn_file_actions_adddup2(&actions, shared_fd, 4);
+  posix_spawn_file_actions_adddup2(&actions, link.pair[1], 3);
+  posix_spawn_file_actions_adddup2(&actions, link.shared_fd, 4);
   posix_spawnattr_t attributes;
   posix_spawnattr_init(&attributes);
   sigset_t none, defaults;
@@ -204,28 +222,39 @@ void IsolatedEffortLaw::StartHost() {
   posix_spawnattr_setsigmask(&attributes, &none);
   posix_spawnattr_setsigdefault(&attributes, &defaults);
   posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
-  std::vector<char*> argv = {const_cast<char*>(host_program_.c_str()),
-                             const_cast<char*>(library_.c_str()), const_cast<char*>(args_.c_str()),
-                             nullptr};
-  pid_t pid = -1;
+  std::vector<char*> argv = {const_cast<char*>(program.c_str()), const_cast<char*>(library.c_str()),
+                             const_cast<char*>(args.c_str()), nullptr};
   const int spawned =
-      ::posix_spawn(&pid, host_program_.c_str(), &actions, &attributes, argv.data(), environ);
+      ::posix_spawn(pid, program.c_str(), &actions, &attributes, argv.data(), environ);
   posix_spawn_file_actions_destroy(&actions);
   posix_spawnattr_destroy(&attributes);
-  ::close(pair[1]);
-  ::close(shared_fd);
+  return spawned;
+}
+
+}  // namespace
+
+void IsolatedEffortLaw::StartHost() {
+  const size_t size = SharedSize(num_joints_, model_bytes_.size());
+  const HostLink link = MakeHostLink(library_, size, num_joints_, model_bytes_);
+  pid_t pid = -1;
+  const int spawned = SpawnHost(host_program_, library_, args_, link, &pid);
+  ::close(link.pair[1]);
+  ::close(link.shared_fd);
   if (spawned != 0) {
-    ::munmap(shared, size);
-    ::close(pair[0]);
+    ::munmap(link.shared, size);
+    ::close(link.pair[0]);
     throw ControllerLoadError(
         library_, "cannot start its host process " + host_program_ + ": " + std::strerror(spawned));
   }
   pid_ = pid;
-  socket_ = pair[0];
-  shared_ = shared;
+  socket_ = link.pair[0];
+  shared_ = link.shared;
   shared_size_ = size;
   ++hosts_started_;
+  AwaitLoad(link.shared);
+}
 
+void IsolatedEffortLaw::AwaitLoad(const void* shared) {
   char byte = 0;
   const int answer = WaitForHost(options_.load_limit_s, &byte);
   if (answer == 1 && byte == kReady) {
@@ -234,7 +263,7 @@ void IsolatedEffortLaw::StartHost() {
   }
   std::string problem;
   if (answer == 1 && byte == kLoadError) {
-    problem = ErrorOf(header);
+    problem = ErrorOf(static_cast<const Header*>(shared));
     ReapHost(false, "");
   } else if (answer == 0) {
     ReapHost(true, "");
@@ -385,47 +414,60 @@ void IsolatedEffortLaw::Update(const ControlInput& input, std::vector<double>& e
   effort.assign(out, out + num_joints_);
 }
 
-int RunControllerHost(int socket_fd, int shared_fd, const std::string& library,
-                      const std::string& args) {
+namespace {
+
+// The host's side of the shared block, mapped and checked; nullptr (after a message) when
+// descriptor shared_fd does not hold one from sirupp-control.
+void* MapSharedBlock(int shared_fd) {
   struct stat file {};
   if (::fstat(shared_fd, &file) != 0 || static_cast<size_t>(file.st_size) < sizeof(Header)) {
     std::fprintf(stderr, "sirupp-controller-host: no shared block on descriptor %d\n", shared_fd);
-    return 2;
+    return nullptr;
   }
   const auto size = static_cast<size_t>(file.st_size);
   void* shared = ::mmap(nullptr, size, PROT_READ | PROT_WRITE, MAP_SHARED, shared_fd, 0);
   if (shared == MAP_FAILED) {
     std::fprintf(stderr, "sirupp-controller-host: cannot map the shared block: %s\n",
                  std::strerror(errno));
-    return 2;
+    return nullptr;
   }
-  Header* header = HeaderOf(shared);
+  const Header* header = HeaderOf(shared);
   const int n = header->num_joints;
   if (header->magic != kMagic || header->layout != kLayout || n < 1 ||
       SharedSize(n, header->model_size) != size) {
     std::fprintf(stderr, "sirupp-controller-host: the shared block is not from sirupp-control\n");
-    return 2;
+    return nullptr;
   }
+  return shared;
+}
 
-  std::unique_ptr<PluginEffortLaw> law;
+// Loads the library with the model from the block; on failure leaves the problem in the block,
+// sends "load error" and returns nullptr.
+std::unique_ptr<PluginEffortLaw> LoadLaw(int socket_fd, void* shared, const std::string& library,
+                                         const std::string& args) {
+  Header* header = HeaderOf(shared);
+  const int n = header->num_joints;
   try {
     sirupp::robot_model_t message;
     if (message.decode(ModelOf(shared, n), 0, static_cast<int>(header->model_size)) < 0) {
       throw std::runtime_error("the robot model from sirupp-control does not decode");
     }
     const core::RobotModel model = core::RobotModelFromMessage(message, "controller host");
-    law = std::make_unique<PluginEffortLaw>(library, args, model);
+    return std::make_unique<PluginEffortLaw>(library, args, model);
   } catch (const ControllerLoadError& error) {
     SetError(header, error.problem());
-    SendByte(socket_fd, kLoadError);
-    return 2;
   } catch (const std::exception& error) {
     SetError(header, error.what());
-    SendByte(socket_fd, kLoadError);
-    return 2;
   }
-  if (!SendByte(socket_fd, kReady)) return 0;
+  SendByte(socket_fd, kLoadError);
+  return nullptr;
+}
 
+// Answers sirupp-control's calls until it closes its end: each "go" byte runs Reset or Update on
+// the block's inputs and answers "done".
+int ServeCalls(int socket_fd, void* shared, PluginEffortLaw& law) {
+  Header* header = HeaderOf(shared);
+  const int n = header->num_joints;
   core::ArmState state;
   state.position.resize(static_cast<size_t>(n));
   state.velocity.resize(static_cast<size_t>(n));
@@ -461,9 +503,9 @@ int RunControllerHost(int socket_fd, int shared_fd, const std::string& library,
     header->error[0] = '\0';
     try {
       if (header->op == kOpReset) {
-        law->Reset(input);
+        law.Reset(input);
       } else {
-        law->Update(input, effort);
+        law.Update(input, effort);
         std::copy_n(effort.begin(), std::min<size_t>(effort.size(), static_cast<size_t>(n)),
                     ArrayOf(shared, n, kEffortOut));
       }
@@ -474,6 +516,18 @@ int RunControllerHost(int socket_fd, int shared_fd, const std::string& library,
     header->reply_seq = header->request_seq;
     if (!SendByte(socket_fd, kDone)) return 0;
   }
+}
+
+}  // namespace
+
+int RunControllerHost(int socket_fd, int shared_fd, const std::string& library,
+                      const std::string& args) {
+  void* shared = MapSharedBlock(shared_fd);
+  if (shared == nullptr) return 2;
+  const std::unique_ptr<PluginEffortLaw> law = LoadLaw(socket_fd, shared, library, args);
+  if (law == nullptr) return 2;
+  if (!SendByte(socket_fd, kReady)) return 0;
+  return ServeCalls(socket_fd, shared, *law);
 }
 
 }  // namespace sirupp::control

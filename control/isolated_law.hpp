@@ -67,6 +67,9 @@ class IsolatedEffortLaw : public EffortLaw {
 
  private:
   void StartHost();
+  // Waits for the new host's "ready"; stops it and throws ControllerLoadError when it does not
+  // load the library.
+  void AwaitLoad(const void* shared);
   void StopHost();
   // One call to the host; throws std::runtime_error naming what went wrong.
   void Call(int32_t op, const ControlInput& input, const char* what);

@@ -1,6 +1,7 @@
 #include "core/channels.hpp"
 
 #include <algorithm>
+#include <iterator>
 #include <stdexcept>
 
 namespace sirupp::core {
@@ -75,103 +76,106 @@ namespace {
 
 // The part of a table row that is prose: who sends and reads a channel, how often, what it carries.
 // Name and type come from Channels.
+// Plain text, so the table below is constant-initialised and safe to read at any time.
 struct ChannelProse {
-  std::string name;
-  std::string publisher;
-  std::string subscribers;
-  std::string rate;
-  std::string carries;
+  const char* name;
+  const char* publisher;
+  const char* subscribers;
+  const char* rate;
+  const char* carries;
 };
 
+// Keep in step with docs/channels.md (tests/test_channels.cpp compares them row by row).
+constexpr ChannelProse kProse[] = {
+    {"ROBOT_MODEL", "sirupp-sim", "sirupp-control, sirupp-hardware, sirupp-logger, sirupp-viewer",
+     "1 Hz, at start-up and at once after a model load (`SIM_COMMAND`)",
+     "the robot model as the physics loaded it: DH rows, links, mass properties, limits, "
+     "friction, servo parameters"},
+    {"ENVIRONMENT", "sirupp-sim", "sirupp-viewer", "1 Hz",
+     "the objects around the robot: shape, pose, size, colour, static or dynamic"},
+    {"SIM_ARM_STATE", "sirupp-sim", "sirupp-control, sirupp-logger, sirupp-viewer",
+     "every physics tick (1953.125 Hz by default)",
+     "virtual arm: tick, joint positions, velocities, applied efforts, limit and brake flags"},
+    {"SIM_ARM_COMMAND", "sirupp-control (or a student's controller)", "sirupp-sim",
+     "one per SIM_ARM_STATE", "joint efforts for the tick it answers, or hold / limp"},
+    {"SIM_RESET", "sirupp CLI, lesson scripts, tests", "sirupp-sim", "on demand",
+     "teleport: joint positions (and speeds) set at once, objects optionally reset"},
+    {"SIM_STATUS", "sirupp-sim", "sirupp CLI, bench_system, student controllers",
+     "1 Hz, on a participant's change and on a new refusal",
+     "run id, timing mode, real-time factor, slipped time, e-stop, each participant's answer "
+     "time and state, refused commands per sender with the reason"},
+    {"SIM_COMMAND", "sirupp-panel (client library)", "sirupp-sim", "on demand",
+     "load an environment (the XML text) or a robot model (the YAML text, after `ARM_PLAN` "
+     "`COMMAND_LOAD_MODEL` to sirupp-control) into the running sim between two ticks, the arm "
+     "untouched"},
+    {"SIM_REPLY", "sirupp-sim", "sirupp-panel (client library)", "one per SIM_COMMAND",
+     "the answer to one command: its channel, utime and seq, accepted or refused and why"},
+    {"ARM_MOVE", "sirupp-control", "sirupp-hardware", "one per move",
+     "per-joint goal, maximum velocity and acceleration: the PIC-SERVO LOAD_TRAJ analogue"},
+    {"ARM_SETPOINT", "sirupp-control", "sirupp-logger, sirupp-viewer", "every servo tick",
+     "profiled set-point position and velocity, goal, position error, effort, move-done per "
+     "joint"},
+    {"ARM_GAINS", "sirupp CLI or user", "sirupp-control, sirupp-hardware, sirupp-logger",
+     "on change", "Kp, Kd, Ki, integration, output and error limits per joint, in chip units"},
+    {"CONTROLLER_GAINS", "sirupp-control", "sirupp CLI, sirupp-logger", "1 Hz and on change",
+     "the gains the virtual servos run with now, in chip units"},
+    {"ARM_TARGET", "sirupp CLI or user", "sirupp-control", "on demand",
+     "a joint-space target with per-joint speed and acceleration"},
+    {"ARM_POSE_TARGET", "sirupp CLI", "sirupp-control", "on demand",
+     "an end-effector pose and the wanted IK configuration (shoulder, elbow, wrist)"},
+    {"ARM_PLAN", "sirupp CLI", "sirupp-control", "on demand",
+     "plan text and run / pause / resume / abort, manual or automatic mode, clear fault; load "
+     "model: the model text the sim is about to load (docs/panel.md)"},
+    {"CONTROLLER_STATUS", "sirupp-control",
+     "sirupp CLI, sirupp-logger, sirupp-viewer, sirupp-hardware", "10 Hz and on change",
+     "mode, state, present move and plan step, last error"},
+    {"CONTROLLER_REPLY", "sirupp-control", "sirupp CLI, sirupp demo, sirupp-panel, sirupp grade",
+     "one per ARM_TARGET, ARM_POSE_TARGET, ARM_PLAN and ARM_GAINS",
+     "the answer to one command: its channel, utime and seq, accepted or refused and why, the "
+     "move it started"},
+    {"REAL_ARM_STATE", "sirupp-hardware", "sirupp-logger, sirupp-viewer",
+     "every status poll (about 100-500 Hz)",
+     "real arm: joint positions and velocities from the encoders, estimated efforts"},
+    {"REAL_ARM_SETPOINT", "sirupp-hardware", "lcm-spy", "with every REAL_ARM_STATE",
+     "the real chips' own command positions (position + position error), goals, status"},
+    {"REAL_ARM_GAINS", "sirupp-hardware", "sirupp CLI, sirupp-logger", "1 Hz and on change",
+     "the gains loaded into the real boards (SET_GAIN), in chip units"},
+    {"HARDWARE_STATUS", "sirupp-hardware", "sirupp CLI, sirupp demo", "10 Hz and on change",
+     "bridge state (connected, armed, linked, fault), module status, serial errors"},
+    {"HARDWARE_COMMAND", "sirupp CLI", "sirupp-hardware", "on demand",
+     "connect, calibrate, arm, disarm, link, unlink, home, clear faults"},
+    {"HARDWARE_REPLY", "sirupp-hardware", "sirupp-control, sirupp CLI, sirupp-panel",
+     "one per HARDWARE_COMMAND, ARM_MOVE and ARM_GAINS",
+     "the answer to one command: its channel, utime and seq, accepted or refused and why"},
+    {"LOGGER_COMMAND", "sirupp-panel (client library)", "sirupp-logger", "on demand",
+     "start recording a named run, or stop the present one"},
+    {"LOGGER_REPLY", "sirupp-logger", "sirupp-panel (client library)", "one per LOGGER_COMMAND",
+     "the answer to one command: its channel, utime and seq, accepted or refused and why"},
+    {"LOGGER_PASS", "sirupp-logger (into its raw log only, never on the bus)",
+     "none on the bus (sirupp-logger --from-log reads the raw log)",
+     "one per writer pass (every 25 ms while messages come)",
+     "when the writer took its messages and how many so far: --from-log replays the live rows"},
+    {"ESTOP", "any process", "sirupp-sim, sirupp-control, sirupp-hardware", "on demand",
+     "emergency stop engaged or released, by whom and why"},
+    {"HEARTBEAT", "every process", "sirupp launch, sirupp CLI", "1 Hz",
+     "process name, host, pid, state and per-channel traffic counters"},
+    {"VIEWER_IMAGE", "sirupp-viewer", "sirupp view, lcm-spy", "chosen rate (e.g. 10-30 Hz)",
+     "rendered frames (JPEG or raw pixels) in the bot_core.image_t layout"},
+    {"VIEWER_CAMERA", "sirupp view, lesson scripts or user", "sirupp-viewer", "on demand",
+     "camera azimuth, elevation, distance and target; DH frames and ghost on or off; a PNG "
+     "snapshot"},
+};
+
+// The rows: name and type from Channels, the rest from kProse, checked to be in the same order.
 std::vector<ChannelInfo> BuildTable() {
-  // Keep in step with docs/channels.md (tests/test_channels.cpp compares them row by row).
-  const std::vector<ChannelProse> prose = {
-      {"ROBOT_MODEL", "sirupp-sim", "sirupp-control, sirupp-hardware, sirupp-logger, sirupp-viewer",
-       "1 Hz, at start-up and at once after a model load (`SIM_COMMAND`)",
-       "the robot model as the physics loaded it: DH rows, links, mass properties, limits, "
-       "friction, servo parameters"},
-      {"ENVIRONMENT", "sirupp-sim", "sirupp-viewer", "1 Hz",
-       "the objects around the robot: shape, pose, size, colour, static or dynamic"},
-      {"SIM_ARM_STATE", "sirupp-sim", "sirupp-control, sirupp-logger, sirupp-viewer",
-       "every physics tick (1953.125 Hz by default)",
-       "virtual arm: tick, joint positions, velocities, applied efforts, limit and brake flags"},
-      {"SIM_ARM_COMMAND", "sirupp-control (or a student's controller)", "sirupp-sim",
-       "one per SIM_ARM_STATE", "joint efforts for the tick it answers, or hold / limp"},
-      {"SIM_RESET", "sirupp CLI, lesson scripts, tests", "sirupp-sim", "on demand",
-       "teleport: joint positions (and speeds) set at once, objects optionally reset"},
-      {"SIM_STATUS", "sirupp-sim", "sirupp CLI, bench_system, student controllers",
-       "1 Hz, on a participant's change and on a new refusal",
-       "run id, timing mode, real-time factor, slipped time, e-stop, each participant's answer "
-       "time and state, refused commands per sender with the reason"},
-      {"SIM_COMMAND", "sirupp-panel (client library)", "sirupp-sim", "on demand",
-       "load an environment (the XML text) or a robot model (the YAML text, after `ARM_PLAN` "
-       "`COMMAND_LOAD_MODEL` to sirupp-control) into the running sim between two ticks, the arm "
-       "untouched"},
-      {"SIM_REPLY", "sirupp-sim", "sirupp-panel (client library)", "one per SIM_COMMAND",
-       "the answer to one command: its channel, utime and seq, accepted or refused and why"},
-      {"ARM_MOVE", "sirupp-control", "sirupp-hardware", "one per move",
-       "per-joint goal, maximum velocity and acceleration: the PIC-SERVO LOAD_TRAJ analogue"},
-      {"ARM_SETPOINT", "sirupp-control", "sirupp-logger, sirupp-viewer", "every servo tick",
-       "profiled set-point position and velocity, goal, position error, effort, move-done per "
-       "joint"},
-      {"ARM_GAINS", "sirupp CLI or user", "sirupp-control, sirupp-hardware, sirupp-logger",
-       "on change", "Kp, Kd, Ki, integration, output and error limits per joint, in chip units"},
-      {"CONTROLLER_GAINS", "sirupp-control", "sirupp CLI, sirupp-logger", "1 Hz and on change",
-       "the gains the virtual servos run with now, in chip units"},
-      {"ARM_TARGET", "sirupp CLI or user", "sirupp-control", "on demand",
-       "a joint-space target with per-joint speed and acceleration"},
-      {"ARM_POSE_TARGET", "sirupp CLI", "sirupp-control", "on demand",
-       "an end-effector pose and the wanted IK configuration (shoulder, elbow, wrist)"},
-      {"ARM_PLAN", "sirupp CLI", "sirupp-control", "on demand",
-       "plan text and run / pause / resume / abort, manual or automatic mode, clear fault; load "
-       "model: the model text the sim is about to load (docs/panel.md)"},
-      {"CONTROLLER_STATUS", "sirupp-control",
-       "sirupp CLI, sirupp-logger, sirupp-viewer, sirupp-hardware", "10 Hz and on change",
-       "mode, state, present move and plan step, last error"},
-      {"CONTROLLER_REPLY", "sirupp-control", "sirupp CLI, sirupp demo, sirupp-panel, sirupp grade",
-       "one per ARM_TARGET, ARM_POSE_TARGET, ARM_PLAN and ARM_GAINS",
-       "the answer to one command: its channel, utime and seq, accepted or refused and why, the "
-       "move it started"},
-      {"REAL_ARM_STATE", "sirupp-hardware", "sirupp-logger, sirupp-viewer",
-       "every status poll (about 100-500 Hz)",
-       "real arm: joint positions and velocities from the encoders, estimated efforts"},
-      {"REAL_ARM_SETPOINT", "sirupp-hardware", "lcm-spy", "with every REAL_ARM_STATE",
-       "the real chips' own command positions (position + position error), goals, status"},
-      {"REAL_ARM_GAINS", "sirupp-hardware", "sirupp CLI, sirupp-logger", "1 Hz and on change",
-       "the gains loaded into the real boards (SET_GAIN), in chip units"},
-      {"HARDWARE_STATUS", "sirupp-hardware", "sirupp CLI, sirupp demo", "10 Hz and on change",
-       "bridge state (connected, armed, linked, fault), module status, serial errors"},
-      {"HARDWARE_COMMAND", "sirupp CLI", "sirupp-hardware", "on demand",
-       "connect, calibrate, arm, disarm, link, unlink, home, clear faults"},
-      {"HARDWARE_REPLY", "sirupp-hardware", "sirupp-control, sirupp CLI, sirupp-panel",
-       "one per HARDWARE_COMMAND, ARM_MOVE and ARM_GAINS",
-       "the answer to one command: its channel, utime and seq, accepted or refused and why"},
-      {"LOGGER_COMMAND", "sirupp-panel (client library)", "sirupp-logger", "on demand",
-       "start recording a named run, or stop the present one"},
-      {"LOGGER_REPLY", "sirupp-logger", "sirupp-panel (client library)", "one per LOGGER_COMMAND",
-       "the answer to one command: its channel, utime and seq, accepted or refused and why"},
-      {"LOGGER_PASS", "sirupp-logger (into its raw log only, never on the bus)",
-       "none on the bus (sirupp-logger --from-log reads the raw log)",
-       "one per writer pass (every 25 ms while messages come)",
-       "when the writer took its messages and how many so far: --from-log replays the live rows"},
-      {"ESTOP", "any process", "sirupp-sim, sirupp-control, sirupp-hardware", "on demand",
-       "emergency stop engaged or released, by whom and why"},
-      {"HEARTBEAT", "every process", "sirupp launch, sirupp CLI", "1 Hz",
-       "process name, host, pid, state and per-channel traffic counters"},
-      {"VIEWER_IMAGE", "sirupp-viewer", "sirupp view, lcm-spy", "chosen rate (e.g. 10-30 Hz)",
-       "rendered frames (JPEG or raw pixels) in the bot_core.image_t layout"},
-      {"VIEWER_CAMERA", "sirupp view, lesson scripts or user", "sirupp-viewer", "on demand",
-       "camera azimuth, elevation, distance and target; DH frames and ghost on or off; a PNG "
-       "snapshot"},
-  };
   const Channels channels;
   const std::vector<const ChannelName*> typed = channels.Each();
-  if (typed.size() != prose.size())
+  if (typed.size() != std::size(kProse))
     throw std::logic_error("channel table: rows do not match Channels");
   std::vector<ChannelInfo> table;
   for (std::size_t i = 0; i < typed.size(); ++i) {
-    const ChannelProse& row = prose[i];
-    if (row.name != typed[i]->name()) {
+    const ChannelProse& row = kProse[i];
+    if (typed[i]->name() != row.name) {
       throw std::logic_error("channel table: row " + std::to_string(i) + " is " + row.name +
                              ", Channels has " + typed[i]->name());
     }

@@ -1,22 +1,23 @@
 #include "core/command_reply.hpp"
 
+#include "core/translate.hpp"
+
 namespace sirupp::core {
 
 sirupp::command_reply_t MakeReply(const std::string& sender, const std::string& request_channel,
                                   int64_t request_utime, int64_t request_seq,
                                   const std::string& error, const ReplyFacts& facts) {
-  sirupp::command_reply_t reply{};
+  CommandReply reply;
   reply.utime = WallMicros();
   reply.sender = sender;
   reply.request_channel = request_channel;
   reply.request_utime = request_utime;
   reply.request_seq = request_seq;
-  reply.result = error.empty() ? sirupp::command_reply_t::RESULT_ACCEPTED
-                               : sirupp::command_reply_t::RESULT_REFUSED;
+  reply.accepted = error.empty();
   reply.error = error;
   reply.move_id = error.empty() ? facts.move_id : -1;
   reply.status_seq = facts.status_seq;
-  return reply;
+  return ToMessage(reply);
 }
 
 bool RepliesTo(const sirupp::command_reply_t& reply, const std::string& request_channel,

@@ -169,135 +169,200 @@ std::optional<std::string> PumaIkNotApplicable(const RobotModel& model) {
   return std::nullopt;
 }
 
-IkResult SolvePumaIk(const RobotModel& model, const Eigen::Isometry3d& target,
-                     const JointVector& reference, const IkTolerance& tolerance) {
-  IkResult result;
-  if (const auto why = PumaIkNotApplicable(model)) {
-    result.failure = IkFailure::kNotApplicable;
-    result.reason = "the closed-form solver does not fit " + model.name + ": " + *why;
-    return result;
+namespace {
+
+// The closed-form solver for one target: the two waist branches, each with two elbow and two
+// wrist branches. Every candidate is checked by forward kinematics before it is kept.
+class PumaSolver {
+ public:
+  PumaSolver(const RobotModel& model, const Eigen::Isometry3d& target, const JointVector& reference,
+             const IkTolerance& tolerance)
+      : model_(model),
+        j_(model.joints),
+        target_(target),
+        reference_(reference),
+        tolerance_(tolerance),
+        chain_(model),
+        g_(GeometryOf(model)),
+        frame6_(Frame6InBase(model, target)),
+        wrist_centre_(WristCentreInBase(model, frame6_)) {}
+
+  IkResult Solve() {
+    const Eigen::Vector3d p = wrist_centre_ - Eigen::Vector3d(0, 0, g_.d1);
+    // Joint 1: the wrist centre's offset along z1 must equal the arm's lateral offset.
+    const double k = g_.lateral / g_.s1;
+    const double r = std::hypot(p.x(), p.y());
+    if (r < std::abs(k) - 1e-12) {
+      result_.failure = IkFailure::kUnreachable;
+      result_.reason = "the wrist centre is " + FormatApprox(r) +
+                       " m from the waist axis, closer than the arm's lateral offset " +
+                       FormatApprox(std::abs(k)) + " m";
+      return result_;
+    }
+    // On the waist axis (possible only without lateral offset) joint 1 is free: keep the
+    // reference.
+    const double phi =
+        r > kAngleEps ? std::atan2(p.y(), p.x()) : reference_[0] + j_[0].dh.theta_rad;
+    const double offset_angle = std::asin(std::clamp(k / std::max(r, kAngleEps), -1.0, 1.0));
+    const double theta1_options[2] = {phi + offset_angle, phi + M_PI - offset_angle};
+    // Direction from the waist axis to the wrist centre, seen from above.
+    reach_ = r > kAngleEps ? Eigen::Vector3d(p.x() / r, p.y() / r, 0)
+                           : Eigen::Vector3d(std::cos(phi), std::sin(phi), 0);
+    for (double theta1 : theta1_options) {
+      if (!SolveWaistBranch(theta1)) return result_;
+    }
+    SortSolutions(result_.solutions, reference_);
+    if (result_.solutions.empty()) {
+      result_.failure = IkFailure::kNoConvergence;
+      result_.reason = "no closed-form branch reproduced the target within tolerance";
+    } else if (!result_.solutions.front().within_limits) {
+      result_.failure = IkFailure::kOutsideJointLimits;
+      result_.reason = std::to_string(result_.solutions.size()) +
+                       " solutions reach the target, but each puts a joint outside its limits";
+    }
+    return result_;
   }
-  const auto& j = model.joints;
-  const KinematicChain chain(model);
-  const PumaGeometry g = GeometryOf(model);
-  const Eigen::Isometry3d frame6 = Frame6InBase(model, target);
-  const Eigen::Vector3d wrist_centre = WristCentreInBase(model, frame6);
-  const Eigen::Vector3d p = wrist_centre - Eigen::Vector3d(0, 0, g.d1);
 
-  // Joint 1: the wrist centre's offset along z1 must equal the arm's lateral offset.
-  const double k = g.lateral / g.s1;
-  const double r = std::hypot(p.x(), p.y());
-  if (r < std::abs(k) - 1e-12) {
-    result.failure = IkFailure::kUnreachable;
-    result.reason = "the wrist centre is " + FormatApprox(r) +
-                    " m from the waist axis, closer than the arm's lateral offset " +
-                    FormatApprox(std::abs(k)) + " m";
-    return result;
-  }
-  // On the waist axis (possible only without lateral offset) joint 1 is free: keep the reference.
-  const double phi = r > kAngleEps ? std::atan2(p.y(), p.x()) : reference[0] + j[0].dh.theta_rad;
-  const double offset_angle = std::asin(std::clamp(k / std::max(r, kAngleEps), -1.0, 1.0));
-  const double theta1_options[2] = {phi + offset_angle, phi + M_PI - offset_angle};
+ private:
+  // Joint 1's frame for one waist branch and the labels that do not depend on the elbow.
+  struct ArmPlane {
+    double theta1;
+    Eigen::Matrix3d r01;
+    Eigen::Vector3d p1;  // the wrist centre in frame 1
+    bool shoulder_left;
+    Eigen::Vector2d side;  // the elbow-up side of the shoulder-wrist line, in frame 1's plane
+  };
 
-  // Direction from the waist axis to the wrist centre, seen from above.
-  const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
-  const Eigen::Vector3d reach = r > kAngleEps ? Eigen::Vector3d(p.x() / r, p.y() / r, 0)
-                                              : Eigen::Vector3d(std::cos(phi), std::sin(phi), 0);
-
-  for (double theta1 : theta1_options) {
+  ArmPlane PlaneOf(double theta1) const {
+    const Eigen::Vector3d up = Eigen::Vector3d::UnitZ();
     // Wrist centre in frame 1: the planar two-link problem of joints 2 and 3.
     const Eigen::Isometry3d a1 =
-        DhTransform(DhConvention::kStandard, j[0], theta1 - j[0].dh.theta_rad);
-    const Eigen::Matrix3d& r01 = a1.linear();
-    const Eigen::Vector3d p1 = r01.transpose() * (wrist_centre - a1.translation());
-    const Eigen::Vector3d z1 = r01.col(2);
+        DhTransform(DhConvention::kStandard, j_[0], theta1 - j_[0].dh.theta_rad);
+    ArmPlane plane;
+    plane.theta1 = theta1;
+    plane.r01 = a1.linear();
+    plane.p1 = plane.r01.transpose() * (wrist_centre_ - a1.translation());
+    const Eigen::Vector3d z1 = plane.r01.col(2);
     // Shoulder label (see the header): the side of the reach line the lateral offset lies on.
-    const bool shoulder_left = std::abs(g.lateral) > 1e-9
-                                   ? up.cross(reach).dot(g.lateral * z1) > 0
-                                   : !(z1.cross(wrist_centre - a1.translation()).dot(up) > 0);
-    // Elbow label, in frame 1's plane: the side of the shoulder-wrist line that points up (or, for
-    // a vertical line, away from the waist axis).
-    Eigen::Vector2d side(-p1.y(), p1.x());
-    const Eigen::Vector3d up_in_1 = r01.transpose() * up;
-    const Eigen::Vector3d reach_in_1 = r01.transpose() * reach;
-    const double upward = side.dot(up_in_1.head<2>());
-    if (std::abs(upward) > 1e-9 * side.norm()) {
-      if (upward < 0) side = -side;
-    } else if (side.dot(reach_in_1.head<2>()) < 0) {
-      side = -side;
+    plane.shoulder_left = std::abs(g_.lateral) > 1e-9
+                              ? up.cross(reach_).dot(g_.lateral * z1) > 0
+                              : !(z1.cross(wrist_centre_ - a1.translation()).dot(up) > 0);
+    // Elbow label, in frame 1's plane: the side of the shoulder-wrist line that points up (or,
+    // for a vertical line, away from the waist axis).
+    plane.side = Eigen::Vector2d(-plane.p1.y(), plane.p1.x());
+    const Eigen::Vector3d up_in_1 = plane.r01.transpose() * up;
+    const Eigen::Vector3d reach_in_1 = plane.r01.transpose() * reach_;
+    const double upward = plane.side.dot(up_in_1.head<2>());
+    if (std::abs(upward) > 1e-9 * plane.side.norm()) {
+      if (upward < 0) plane.side = -plane.side;
+    } else if (plane.side.dot(reach_in_1.head<2>()) < 0) {
+      plane.side = -plane.side;
     }
+    return plane;
+  }
+
+  // Both elbow branches of one waist branch; false (with the failure set) when the wrist centre
+  // is out of the arm's reach.
+  bool SolveWaistBranch(double theta1) {
+    const ArmPlane plane = PlaneOf(theta1);
+    const Eigen::Vector3d& p1 = plane.p1;
     const double reach2 = p1.x() * p1.x() + p1.y() * p1.y();
-    double cos_elbow = (reach2 - g.a2 * g.a2 - g.l3 * g.l3) / (2 * g.a2 * g.l3);
+    double cos_elbow = (reach2 - g_.a2 * g_.a2 - g_.l3 * g_.l3) / (2 * g_.a2 * g_.l3);
     if (std::abs(cos_elbow) > 1 + 1e-12) {
-      result.failure = IkFailure::kUnreachable;
-      result.reason = "the wrist centre is " + FormatApprox(std::sqrt(reach2)) +
-                      " m from the shoulder in the arm's plane; the arm reaches " +
-                      FormatApprox(std::abs(g.a2 - g.l3)) + " to " + FormatApprox(g.a2 + g.l3) +
-                      " m";
-      return result;
+      result_.failure = IkFailure::kUnreachable;
+      result_.reason = "the wrist centre is " + FormatApprox(std::sqrt(reach2)) +
+                       " m from the shoulder in the arm's plane; the arm reaches " +
+                       FormatApprox(std::abs(g_.a2 - g_.l3)) + " to " +
+                       FormatApprox(g_.a2 + g_.l3) + " m";
+      return false;
     }
     cos_elbow = std::clamp(cos_elbow, -1.0, 1.0);
     for (double elbow_sign : {1.0, -1.0}) {
       const double gamma = elbow_sign * std::acos(cos_elbow);  // theta3 + beta
-      const double theta3 = gamma - g.beta;
+      const double theta3 = gamma - g_.beta;
       const double theta2 = std::atan2(p1.y(), p1.x()) -
-                            std::atan2(g.l3 * std::sin(gamma), g.a2 + g.l3 * std::cos(gamma));
-      const bool elbow_up = Eigen::Vector2d(std::cos(theta2), std::sin(theta2)).dot(side) > 0;
-      JointVector q = JointVector::Zero(6);
-      q[0] = theta1 - j[0].dh.theta_rad;
-      q[1] = theta2 - j[1].dh.theta_rad;
-      q[2] = theta3 - j[2].dh.theta_rad;
-      // Wrist: R36 = Rz(t4) Rx(a4) Rz(t5) Rx(-a4) Rz(t6) Rx(a6) = Rz(t4) Ry(-s4 t5) Rz(t6) Rx(a6),
-      // with R03 = R01 Rz(theta2 + theta3) Rx(alpha3) since alpha2 = 0.
-      const Eigen::Matrix3d r03 = r01 *
-                                  Eigen::AngleAxisd(theta2 + theta3, Eigen::Vector3d::UnitZ()) *
-                                  Eigen::AngleAxisd(j[2].dh.alpha_rad, Eigen::Vector3d::UnitX());
-      const Eigen::Matrix3d w = r03.transpose() * frame6.linear() *
-                                Eigen::AngleAxisd(-j[5].dh.alpha_rad, Eigen::Vector3d::UnitX());
-      const double s4 = std::sin(j[3].dh.alpha_rad);
-      const double sin_b = std::hypot(w(0, 2), w(1, 2));
-      for (double wrist_sign : {1.0, -1.0}) {
-        double t4, b, t6;
-        if (sin_b > 1e-12) {
-          b = wrist_sign * std::atan2(sin_b, w(2, 2));
-          t4 = std::atan2(wrist_sign * w(1, 2), wrist_sign * w(0, 2));
-          t6 = std::atan2(wrist_sign * w(2, 1), -wrist_sign * w(2, 0));
-        } else {
-          // Wrist singular: only t4 + t6 (b = 0) or t4 - t6 (b = pi) is fixed; keep t4 at the
-          // reference and give the rest to t6. The second branch is the same pose with t4 + pi.
-          b = w(2, 2) > 0 ? 0.0 : M_PI;
-          t4 = reference[3] + j[3].dh.theta_rad + (wrist_sign > 0 ? 0.0 : M_PI);
-          const double sum = std::atan2(w(1, 0), w(0, 0));
-          t6 = b == 0.0 ? sum - t4 : t4 - std::atan2(-w(1, 0), -w(0, 0));
-          if (wrist_sign < 0) b = -b;
-        }
-        q[3] = t4 - j[3].dh.theta_rad;
-        q[4] = -s4 * b - j[4].dh.theta_rad;
-        q[5] = t6 - j[5].dh.theta_rad;
+                            std::atan2(g_.l3 * std::sin(gamma), g_.a2 + g_.l3 * std::cos(gamma));
+      const bool elbow_up = Eigen::Vector2d(std::cos(theta2), std::sin(theta2)).dot(plane.side) > 0;
+      SolveWristBranches(plane, theta2, theta3, elbow_up);
+    }
+    return true;
+  }
 
-        IkSolution solution;
-        solution.q = q;
-        for (int i = 0; i < 6; ++i) solution.q[i] = WrapPi(solution.q[i]);
-        solution.within_limits = UnwrapIntoLimits(model, reference, solution.q);
-        solution.error = ComparePoses(chain.ToolPose(solution.q), target);
-        if (!Reaches(solution.error, tolerance)) continue;  // never claim what FK does not confirm
-        solution.config =
-            IkConfiguration{shoulder_left, elbow_up, WrapPi(solution.q[4] + j[4].dh.theta_rad) < 0};
-        solution.singularities = PumaSingularities(model, g, solution.q, wrist_centre, 1e-6);
-        result.solutions.push_back(solution);
+  // Both wrist branches for a given arm (joints 1 to 3).
+  void SolveWristBranches(const ArmPlane& plane, double theta2, double theta3, bool elbow_up) {
+    JointVector q = JointVector::Zero(6);
+    q[0] = plane.theta1 - j_[0].dh.theta_rad;
+    q[1] = theta2 - j_[1].dh.theta_rad;
+    q[2] = theta3 - j_[2].dh.theta_rad;
+    // Wrist: R36 = Rz(t4) Rx(a4) Rz(t5) Rx(-a4) Rz(t6) Rx(a6) = Rz(t4) Ry(-s4 t5) Rz(t6) Rx(a6),
+    // with R03 = R01 Rz(theta2 + theta3) Rx(alpha3) since alpha2 = 0.
+    const Eigen::Matrix3d r03 = plane.r01 *
+                                Eigen::AngleAxisd(theta2 + theta3, Eigen::Vector3d::UnitZ()) *
+                                Eigen::AngleAxisd(j_[2].dh.alpha_rad, Eigen::Vector3d::UnitX());
+    const Eigen::Matrix3d w = r03.transpose() * frame6_.linear() *
+                              Eigen::AngleAxisd(-j_[5].dh.alpha_rad, Eigen::Vector3d::UnitX());
+    const double s4 = std::sin(j_[3].dh.alpha_rad);
+    const double sin_b = std::hypot(w(0, 2), w(1, 2));
+    for (double wrist_sign : {1.0, -1.0}) {
+      double t4, b, t6;
+      if (sin_b > 1e-12) {
+        b = wrist_sign * std::atan2(sin_b, w(2, 2));
+        t4 = std::atan2(wrist_sign * w(1, 2), wrist_sign * w(0, 2));
+        t6 = std::atan2(wrist_sign * w(2, 1), -wrist_sign * w(2, 0));
+      } else {
+        // Wrist singular: only t4 + t6 (b = 0) or t4 - t6 (b = pi) is fixed; keep t4 at the
+        // reference and give the rest to t6. The second branch is the same pose with t4 + pi.
+        b = w(2, 2) > 0 ? 0.0 : M_PI;
+        t4 = reference_[3] + j_[3].dh.theta_rad + (wrist_sign > 0 ? 0.0 : M_PI);
+        const double sum = std::atan2(w(1, 0), w(0, 0));
+        t6 = b == 0.0 ? sum - t4 : t4 - std::atan2(-w(1, 0), -w(0, 0));
+        if (wrist_sign < 0) b = -b;
       }
+      q[3] = t4 - j_[3].dh.theta_rad;
+      q[4] = -s4 * b - j_[4].dh.theta_rad;
+      q[5] = t6 - j_[5].dh.theta_rad;
+      Keep(q, plane.shoulder_left, elbow_up);
     }
   }
-  SortSolutions(result.solutions, reference);
-  if (result.solutions.empty()) {
-    result.failure = IkFailure::kNoConvergence;
-    result.reason = "no closed-form branch reproduced the target within tolerance";
-  } else if (!result.solutions.front().within_limits) {
-    result.failure = IkFailure::kOutsideJointLimits;
-    result.reason = std::to_string(result.solutions.size()) +
-                    " solutions reach the target, but each puts a joint outside its limits";
+
+  // Wraps and unwraps a candidate into the limits and keeps it when FK confirms it.
+  void Keep(const JointVector& q, bool shoulder_left, bool elbow_up) {
+    IkSolution solution;
+    solution.q = q;
+    for (int i = 0; i < 6; ++i) solution.q[i] = WrapPi(solution.q[i]);
+    solution.within_limits = UnwrapIntoLimits(model_, reference_, solution.q);
+    solution.error = ComparePoses(chain_.ToolPose(solution.q), target_);
+    if (!Reaches(solution.error, tolerance_)) return;  // never claim what FK does not confirm
+    solution.config =
+        IkConfiguration{shoulder_left, elbow_up, WrapPi(solution.q[4] + j_[4].dh.theta_rad) < 0};
+    solution.singularities = PumaSingularities(model_, g_, solution.q, wrist_centre_, 1e-6);
+    result_.solutions.push_back(solution);
   }
-  return result;
+
+  const RobotModel& model_;
+  const std::vector<Joint>& j_;
+  const Eigen::Isometry3d& target_;
+  const JointVector& reference_;
+  const IkTolerance& tolerance_;
+  const KinematicChain chain_;
+  const PumaGeometry g_;
+  const Eigen::Isometry3d frame6_;
+  const Eigen::Vector3d wrist_centre_;
+  Eigen::Vector3d reach_ = Eigen::Vector3d::Zero();
+  IkResult result_;
+};
+
+}  // namespace
+
+IkResult SolvePumaIk(const RobotModel& model, const Eigen::Isometry3d& target,
+                     const JointVector& reference, const IkTolerance& tolerance) {
+  if (const auto why = PumaIkNotApplicable(model)) {
+    IkResult result;
+    result.failure = IkFailure::kNotApplicable;
+    result.reason = "the closed-form solver does not fit " + model.name + ": " + *why;
+    return result;
+  }
+  return PumaSolver(model, target, reference, tolerance).Solve();
 }
 
 namespace {

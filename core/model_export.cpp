@@ -349,17 +349,12 @@ std::string ExportUrdf(const RobotModel& model) {
   return xml.Text();
 }
 
-std::string ExportMjcf(const RobotModel& model, const MjcfOptions& options) {
-  const ExportNames names = MakeExportNames(model);
+namespace {
+
+// <compiler>, <option> (time step, gravity, contacts) and the joint speed limits as <custom>.
+void MjcfSettings(Writer& xml, const RobotModel& model, const MjcfOptions& options,
+                  const ExportNames& names) {
   const double step = options.timestep_s > 0 ? options.timestep_s : model.servo_tick_s;
-  Writer xml;
-  xml.Comment(Provenance(model));
-  xml.Comment(
-      "body i is DH frame i; joint qpos is the model's q (built at q = 0); frictionloss is the "
-      "mean Coulomb level: static break-away, direction asymmetry and Stribeck decay have no "
-      "MuJoCo counterpart");
-  xml.Open("mujoco");
-  xml.Attr("model", model.name);
   // Inertia comes only from the <inertial> elements, never balanced or derived from geoms;
   // fusestatic off keeps the fixed base as its own body.
   xml.Leaf("compiler", {{"angle", "radian"},
@@ -380,7 +375,52 @@ std::string ExportMjcf(const RobotModel& model, const MjcfOptions& options) {
                          {"data", Num(model.joints[j].velocity_max)}});
   }
   xml.Close();
+}
 
+// Opens the body of link j + 1 (DH frame j + 1 relative to DH frame j at q = 0) with its joint,
+// inertia and geoms; the caller closes it after the bodies nested in it.
+void MjcfOpenJointBody(Writer& xml, const RobotModel& model, const MjcfOptions& options,
+                       const ExportNames& names, size_t j) {
+  const Joint& joint = model.joints[j];
+  const Link& link = model.links[j + 1];
+  const Eigen::Isometry3d step_pose = DhTransform(model.dh_convention, joint, 0.0);
+  const Eigen::Matrix3d& r = step_pose.linear();
+  // The joint line in body coordinates. Standard DH: z of the parent frame through its origin,
+  // axis = R^T z, anchor = -R^T p. Modified DH: z of the body's own frame through its origin.
+  // Turning (or sliding) the body about that line by q gives the DH transform at q, since
+  // Rz(q) and Tz(q) commute with Rz(theta) Tz(d).
+  Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
+  Eigen::Vector3d anchor = Eigen::Vector3d::Zero();
+  if (model.dh_convention == DhConvention::kStandard) {
+    axis = r.transpose() * Eigen::Vector3d::UnitZ();
+    anchor = -(r.transpose() * step_pose.translation());
+  }
+  const bool revolute = joint.type == JointType::kRevolute;
+  xml.Open("body");
+  xml.Attr("name", names.links[j + 1]);
+  xml.Attr("pos", Position(step_pose.translation()));
+  xml.Attr("quat", Quat(r));
+  xml.Open("joint");
+  xml.Attr("name", names.joints[j]);
+  xml.Attr("type", revolute ? "hinge" : "slide");
+  xml.Attr("pos", Position(anchor));
+  xml.Attr("axis", Position(axis));
+  xml.Attr("ref", "0");
+  xml.Attr("limited", "true");
+  xml.Attr("range", Num(joint.position_min) + " " + Num(joint.position_max));
+  xml.Attr("armature", Num(options.armature ? joint.armature : 0.0));
+  const Friction& f = joint.friction;
+  xml.Attr("damping", Num(options.joint_friction ? f.viscous : 0.0));
+  xml.Attr("frictionloss",
+           Num(options.joint_friction ? (f.coulomb_positive + f.coulomb_negative) / 2 : 0.0));
+  xml.Close();
+  MjcfInertial(xml, link);
+  if (options.geoms) MjcfGeoms(xml, link, names.links[j + 1]);
+}
+
+// <worldbody>: the base welded to the world, then one nested body per joint, the tool as a site.
+void MjcfWorldBody(Writer& xml, const RobotModel& model, const MjcfOptions& options,
+                   const ExportNames& names) {
   xml.Open("worldbody");
   const Eigen::Isometry3d base = model.base.ToIsometry();
   xml.Open("body");
@@ -390,63 +430,43 @@ std::string ExportMjcf(const RobotModel& model, const MjcfOptions& options) {
   // The base is welded to the world, so its mass changes nothing; kept for completeness.
   if (model.links[0].mass_kg > 0) MjcfInertial(xml, model.links[0]);
   if (options.geoms) MjcfGeoms(xml, model.links[0], names.links[0]);
-
-  for (size_t j = 0; j < model.joints.size(); ++j) {
-    const Joint& joint = model.joints[j];
-    const Link& link = model.links[j + 1];
-    // Body j+1 is DH frame j+1 relative to DH frame j at q = 0.
-    const Eigen::Isometry3d step_pose = DhTransform(model.dh_convention, joint, 0.0);
-    const Eigen::Matrix3d& r = step_pose.linear();
-    // The joint line in body coordinates. Standard DH: z of the parent frame through its origin,
-    // axis = R^T z, anchor = -R^T p. Modified DH: z of the body's own frame through its origin.
-    // Turning (or sliding) the body about that line by q gives the DH transform at q, since
-    // Rz(q) and Tz(q) commute with Rz(theta) Tz(d).
-    Eigen::Vector3d axis = Eigen::Vector3d::UnitZ();
-    Eigen::Vector3d anchor = Eigen::Vector3d::Zero();
-    if (model.dh_convention == DhConvention::kStandard) {
-      axis = r.transpose() * Eigen::Vector3d::UnitZ();
-      anchor = -(r.transpose() * step_pose.translation());
-    }
-    const bool revolute = joint.type == JointType::kRevolute;
-    xml.Open("body");
-    xml.Attr("name", names.links[j + 1]);
-    xml.Attr("pos", Position(step_pose.translation()));
-    xml.Attr("quat", Quat(r));
-    xml.Open("joint");
-    xml.Attr("name", names.joints[j]);
-    xml.Attr("type", revolute ? "hinge" : "slide");
-    xml.Attr("pos", Position(anchor));
-    xml.Attr("axis", Position(axis));
-    xml.Attr("ref", "0");
-    xml.Attr("limited", "true");
-    xml.Attr("range", Num(joint.position_min) + " " + Num(joint.position_max));
-    xml.Attr("armature", Num(options.armature ? joint.armature : 0.0));
-    const Friction& f = joint.friction;
-    xml.Attr("damping", Num(options.joint_friction ? f.viscous : 0.0));
-    xml.Attr("frictionloss",
-             Num(options.joint_friction ? (f.coulomb_positive + f.coulomb_negative) / 2 : 0.0));
-    xml.Close();
-    MjcfInertial(xml, link);
-    if (options.geoms) MjcfGeoms(xml, link, names.links[j + 1]);
-  }
+  for (size_t j = 0; j < model.joints.size(); ++j) MjcfOpenJointBody(xml, model, options, names, j);
   xml.Leaf("site", {{"name", names.links.back()},
                     {"pos", Position(model.tool.position_m)},
                     {"quat", Quat(model.tool.orientation.toRotationMatrix())}});
   for (size_t j = 0; j <= model.joints.size(); ++j) xml.Close();
   xml.Close();  // worldbody
+}
 
-  if (options.actuators) {
-    xml.Open("actuator");
-    for (size_t j = 0; j < model.joints.size(); ++j) {
-      const double limit = model.joints[j].effort_max;
-      xml.Leaf("motor", {{"name", names.joints[j] + "_motor"},
-                         {"joint", names.joints[j]},
-                         {"gear", "1"},
-                         {"ctrllimited", "true"},
-                         {"ctrlrange", Num(-limit) + " " + Num(limit)}});
-    }
-    xml.Close();
+// One torque (or force) motor per joint, limited to the joint's effort.
+void MjcfActuators(Writer& xml, const RobotModel& model, const ExportNames& names) {
+  xml.Open("actuator");
+  for (size_t j = 0; j < model.joints.size(); ++j) {
+    const double limit = model.joints[j].effort_max;
+    xml.Leaf("motor", {{"name", names.joints[j] + "_motor"},
+                       {"joint", names.joints[j]},
+                       {"gear", "1"},
+                       {"ctrllimited", "true"},
+                       {"ctrlrange", Num(-limit) + " " + Num(limit)}});
   }
+  xml.Close();
+}
+
+}  // namespace
+
+std::string ExportMjcf(const RobotModel& model, const MjcfOptions& options) {
+  const ExportNames names = MakeExportNames(model);
+  Writer xml;
+  xml.Comment(Provenance(model));
+  xml.Comment(
+      "body i is DH frame i; joint qpos is the model's q (built at q = 0); frictionloss is the "
+      "mean Coulomb level: static break-away, direction asymmetry and Stribeck decay have no "
+      "MuJoCo counterpart");
+  xml.Open("mujoco");
+  xml.Attr("model", model.name);
+  MjcfSettings(xml, model, options, names);
+  MjcfWorldBody(xml, model, options, names);
+  if (options.actuators) MjcfActuators(xml, model, names);
   xml.Close();  // mujoco
   return xml.Text();
 }

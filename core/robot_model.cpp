@@ -62,17 +62,35 @@ std::string Index(const char* list, size_t i) {
   return std::string(list) + "[" + std::to_string(i) + "]";
 }
 
-std::optional<ModelProblem> JointProblem(const RobotModel& model, size_t i) {
-  const Joint& joint = model.joints[i];
-  const UnitShow show(model);
-  const std::string at = Index("joints", i);
-  const bool revolute = joint.type == JointType::kRevolute;
-  const char* effort_unit = revolute ? "N*m" : "N";
-  auto problem = [&](const std::string& key, const std::string& text) {
-    return ModelProblem{at + (key.empty() ? "" : "." + key), text};
-  };
-  auto positive = [](double value) { return std::isfinite(value) && value > 0; };
-  auto non_negative = [](double value) { return std::isfinite(value) && value >= 0; };
+bool Positive(double value) { return std::isfinite(value) && value > 0; }
+bool NonNegative(double value) { return std::isfinite(value) && value >= 0; }
+
+// Names the field of joints[i] a problem is about: "joints[2].friction.viscous".
+class JointField {
+ public:
+  JointField(const RobotModel& model, size_t i)
+      : joint(model.joints[i]),
+        show(model),
+        effort_unit(joint.type == JointType::kRevolute ? "N*m" : "N"),
+        at_(Index("joints", i)) {}
+  ModelProblem operator()(const std::string& key, const std::string& text) const {
+    return ModelProblem{at_ + (key.empty() ? "" : "." + key), text};
+  }
+
+  const Joint& joint;
+  const UnitShow show;
+  const char* const effort_unit;
+
+ private:
+  const std::string at_;
+};
+
+// Name, DH row, limits, speed, effort, armature and home of joints[i].
+std::optional<ModelProblem> JointRangeProblem(const RobotModel& model, size_t i) {
+  const JointField problem(model, i);
+  const Joint& joint = problem.joint;
+  const UnitShow& show = problem.show;
+  const char* effort_unit = problem.effort_unit;
 
   if (joint.name.empty()) return problem("name", "is empty; expected a joint name");
   for (size_t k = 0; k < i; ++k) {
@@ -95,15 +113,15 @@ std::optional<ModelProblem> JointProblem(const RobotModel& model, size_t i) {
                                  " is not below max " + show.Position(joint, joint.position_max) +
                                  "; expected min < max");
   }
-  if (!positive(joint.velocity_max)) {
+  if (!Positive(joint.velocity_max)) {
     return problem("max_velocity", show.Position(joint, joint.velocity_max, "/s") +
                                        " is not allowed; expected a speed > 0");
   }
-  if (!positive(joint.effort_max)) {
+  if (!Positive(joint.effort_max)) {
     return problem("max_effort", FormatApprox(joint.effort_max) + " " + effort_unit +
                                      " is not allowed; expected an effort > 0");
   }
-  if (!non_negative(joint.armature)) {
+  if (!NonNegative(joint.armature)) {
     return problem("armature", FormatApprox(joint.armature) + " is not allowed; expected >= 0");
   }
   if (!std::isfinite(joint.home) || joint.home < joint.position_min ||
@@ -112,9 +130,16 @@ std::optional<ModelProblem> JointProblem(const RobotModel& model, size_t i) {
                                show.Position(joint, joint.position_min) + ", " +
                                show.Position(joint, joint.position_max) + "]");
   }
+  return std::nullopt;
+}
 
+std::optional<ModelProblem> FrictionProblem(const RobotModel& model, size_t i) {
+  const JointField problem(model, i);
+  const UnitShow& show = problem.show;
+  const Joint& joint = problem.joint;
+  const char* effort_unit = problem.effort_unit;
   const Friction& f = joint.friction;
-  if (!non_negative(f.coulomb_positive) || !non_negative(f.coulomb_negative)) {
+  if (!NonNegative(f.coulomb_positive) || !NonNegative(f.coulomb_negative)) {
     return problem("friction.coulomb", "levels " + FormatApprox(f.coulomb_positive) + ", " +
                                            FormatApprox(f.coulomb_negative) + " " + effort_unit +
                                            " are not allowed; expected both >= 0");
@@ -127,38 +152,18 @@ std::optional<ModelProblem> JointProblem(const RobotModel& model, size_t i) {
             FormatApprox(std::max(f.coulomb_positive, f.coulomb_negative)) + " " + effort_unit +
             "; expected static >= coulomb (break-away needs at least sliding friction)");
   }
-  if (!non_negative(f.viscous)) {
+  if (!NonNegative(f.viscous)) {
     return problem("friction.viscous", FormatApprox(f.viscous) + " is not allowed; expected >= 0");
   }
-  if (!positive(f.stribeck_velocity)) {
+  if (!Positive(f.stribeck_velocity)) {
     return problem("friction.stribeck_velocity", show.Position(joint, f.stribeck_velocity, "/s") +
                                                      " is not allowed; expected > 0");
   }
+  return std::nullopt;
+}
 
-  const ServoParams& s = joint.servo;
-  if (!positive(s.encoder_counts_per_rev)) {
-    return problem("servo.encoder_counts_per_rev",
-                   FormatApprox(s.encoder_counts_per_rev) + " is not allowed; expected > 0");
-  }
-  if (!std::isfinite(s.gear_ratio) || s.gear_ratio == 0) {
-    return problem("servo.gear_ratio",
-                   FormatApprox(s.gear_ratio) + " is not allowed; expected a non-zero ratio");
-  }
-  if (!positive(s.motor_torque_max_nm)) {
-    return problem("servo.motor_torque_max_nm",
-                   FormatApprox(s.motor_torque_max_nm) + " is not allowed; expected > 0 (N*m)");
-  }
-  if (!positive(s.default_velocity) || s.default_velocity > joint.velocity_max) {
-    return problem("servo.default_velocity",
-                   show.Position(joint, s.default_velocity, "/s") +
-                       " is not allowed; expected > 0 and <= max_velocity " +
-                       show.Position(joint, joint.velocity_max, "/s"));
-  }
-  if (!positive(s.default_acceleration)) {
-    return problem(
-        "servo.default_acceleration",
-        show.Position(joint, s.default_acceleration, "/s^2") + " is not allowed; expected > 0");
-  }
+// The servo parameters the PIC-SERVO SC takes as integers in a range.
+std::optional<ModelProblem> ChipProblem(const JointField& problem, const ServoParams& s) {
   struct ChipField {
     const char* key;
     double value;
@@ -186,6 +191,43 @@ std::optional<ModelProblem> JointProblem(const RobotModel& model, size_t i) {
     }
   }
   return std::nullopt;
+}
+
+std::optional<ModelProblem> ServoProblem(const RobotModel& model, size_t i) {
+  const JointField problem(model, i);
+  const UnitShow& show = problem.show;
+  const Joint& joint = problem.joint;
+  const ServoParams& s = joint.servo;
+  if (!Positive(s.encoder_counts_per_rev)) {
+    return problem("servo.encoder_counts_per_rev",
+                   FormatApprox(s.encoder_counts_per_rev) + " is not allowed; expected > 0");
+  }
+  if (!std::isfinite(s.gear_ratio) || s.gear_ratio == 0) {
+    return problem("servo.gear_ratio",
+                   FormatApprox(s.gear_ratio) + " is not allowed; expected a non-zero ratio");
+  }
+  if (!Positive(s.motor_torque_max_nm)) {
+    return problem("servo.motor_torque_max_nm",
+                   FormatApprox(s.motor_torque_max_nm) + " is not allowed; expected > 0 (N*m)");
+  }
+  if (!Positive(s.default_velocity) || s.default_velocity > joint.velocity_max) {
+    return problem("servo.default_velocity",
+                   show.Position(joint, s.default_velocity, "/s") +
+                       " is not allowed; expected > 0 and <= max_velocity " +
+                       show.Position(joint, joint.velocity_max, "/s"));
+  }
+  if (!Positive(s.default_acceleration)) {
+    return problem(
+        "servo.default_acceleration",
+        show.Position(joint, s.default_acceleration, "/s^2") + " is not allowed; expected > 0");
+  }
+  return ChipProblem(problem, s);
+}
+
+std::optional<ModelProblem> JointProblem(const RobotModel& model, size_t i) {
+  if (auto problem = JointRangeProblem(model, i)) return problem;
+  if (auto problem = FrictionProblem(model, i)) return problem;
+  return ServoProblem(model, i);
 }
 
 std::optional<ModelProblem> LinkProblem(const RobotModel& model, size_t i) {

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <optional>
 
 #include "core/errors.hpp"
 
@@ -150,8 +151,10 @@ std::vector<PairPoint> PairErrors(const RunTable& table, Pair pair, size_t j, si
   return points;
 }
 
-Analysis Analyze(const RunTable& table, const AnalysisOptions& options) {
-  Analysis analysis;
+namespace {
+
+// The joints asked for (1-based), all of them when none were named.
+std::vector<int> JointsToAnalyse(const RunTable& table, const AnalysisOptions& options) {
   const int num_joints = static_cast<int>(table.joints.size());
   std::vector<int> joints = options.joints;
   for (int joint : joints) {
@@ -165,8 +168,130 @@ Analysis Analyze(const RunTable& table, const AnalysisOptions& options) {
   if (joints.empty()) {
     for (int j = 1; j <= num_joints; ++j) joints.push_back(j);
   }
-  const size_t rows = table.rows();
-  const double period = table.period_s();
+  return joints;
+}
+
+// Move boundaries: rows where a known move_id differs from the previous known one.
+std::vector<size_t> MoveStarts(const RunTable& table, bool last_move_only) {
+  std::vector<size_t> starts;
+  int64_t current = -2;
+  for (size_t i = 0; i < table.rows(); ++i) {
+    const int64_t id = table.move_id[i];
+    if (id < 0) continue;
+    if (current != -2 && id != current) starts.push_back(i);
+    current = id;
+  }
+  if (last_move_only && starts.size() > 1) starts.erase(starts.begin(), starts.end() - 1);
+  return starts;
+}
+
+// Move-done: the set-point's flag; without flags, the first row from which the set-point stays at
+// its end value. `end` when the move is not done within [begin, end).
+size_t DoneRow(const RunTable& table, size_t j, size_t begin, size_t end, double to) {
+  const std::vector<double>& set = table.position[j][static_cast<size_t>(Stream::kSetpoint)];
+  size_t done_row = end;
+  const bool have_flags = std::any_of(table.done[j].begin() + static_cast<std::ptrdiff_t>(begin),
+                                      table.done[j].begin() + static_cast<std::ptrdiff_t>(end),
+                                      [](int8_t flag) { return flag >= 0; });
+  if (have_flags) {
+    for (size_t i = begin; i < end && done_row == end; ++i) {
+      if (table.done[j][i] == 1) done_row = i;
+    }
+  } else {
+    done_row = end;
+    for (size_t i = end; i-- > begin;) {
+      if (std::isfinite(set[i]) && std::abs(set[i] - to) > 1e-9) break;
+      done_row = i;
+    }
+  }
+  return done_row;
+}
+
+// One pair's errors over a move: mean before and after the settle window's end, RMS and maximum.
+PairMetrics MetricsOf(const RunTable& table, Pair pair, size_t j, const MoveResult& result,
+                      const AnalysisOptions& options) {
+  PairMetrics metrics;
+  double sum_transient = 0, sum_steady = 0, sum_squares = 0;
+  for (const PairPoint& point :
+       PairErrors(table, pair, j, result.begin, result.end, table.period_s())) {
+    const double error = std::abs(point.error);
+    if (point.time_s <= result.done_s + options.settle_window_s) {
+      sum_transient += error;
+      ++metrics.transient_samples;
+    } else {
+      sum_steady += error;
+      ++metrics.steady_samples;
+    }
+    sum_squares += error * error;
+    metrics.max = std::max(metrics.max, error);
+  }
+  const int64_t all = metrics.transient_samples + metrics.steady_samples;
+  metrics.mean_transient = metrics.transient_samples > 0
+                               ? sum_transient / static_cast<double>(metrics.transient_samples)
+                               : kNaN;
+  metrics.mean_steady =
+      metrics.steady_samples > 0 ? sum_steady / static_cast<double>(metrics.steady_samples) : kNaN;
+  metrics.rms = all > 0 ? std::sqrt(sum_squares / static_cast<double>(all)) : kNaN;
+  if (all == 0) metrics.max = kNaN;
+  return metrics;
+}
+
+// One joint over the move in rows [begin, end); nullopt when it travels less than min_travel.
+std::optional<MoveResult> AnalyseMove(const RunTable& table, int joint, size_t begin, size_t end,
+                                      const AnalysisOptions& options) {
+  const auto j = static_cast<size_t>(joint - 1);
+  const std::vector<double>& set = table.position[j][static_cast<size_t>(Stream::kSetpoint)];
+  const double from =
+      begin > 0 && std::isfinite(set[begin - 1]) ? set[begin - 1] : LastFinite(set, begin, begin);
+  const double to = LastFinite(set, begin, end - 1);
+  if (!std::isfinite(from) || !std::isfinite(to) || std::abs(to - from) < options.min_travel) {
+    return std::nullopt;
+  }
+  MoveResult result;
+  result.table = &table;
+  result.move_id = table.move_id[begin];
+  result.joint = joint;
+  result.begin = begin;
+  result.end = end;
+  result.start_s = table.time_s[begin];
+  result.end_s = table.time_s[end - 1];
+  result.from = from;
+  result.to = to;
+  const size_t done_row = DoneRow(table, j, begin, end, to);
+  result.done_seen = done_row < end;
+  result.done_s = result.done_seen ? table.time_s[done_row] : result.end_s;
+  // The move is analysed up to the end of the settle and steady windows after move-done.
+  size_t window_end = end;
+  if (result.done_seen) {
+    const double last_s = result.done_s + options.settle_window_s + options.steady_window_s;
+    for (size_t i = done_row; i < end; ++i) {
+      if (table.time_s[i] > last_s) {
+        window_end = i;
+        break;
+      }
+    }
+  }
+  result.end = window_end;
+  result.end_s = table.time_s[window_end - 1];
+  result.transient_end_s = std::min(result.done_s + options.settle_window_s, result.end_s);
+
+  for (Pair pair : kAllPairs) {
+    result.pairs[static_cast<size_t>(pair)] = MetricsOf(table, pair, j, result, options);
+  }
+  for (Stream stream : kAllStreams) {
+    StreamResponse& response = result.streams[static_cast<size_t>(stream)];
+    response = Respond(table, stream, table.position[j][static_cast<size_t>(stream)], begin,
+                       window_end, to - from, options);
+    if (response.has()) response.final_error = response.final_value - to;
+  }
+  return result;
+}
+
+}  // namespace
+
+Analysis Analyze(const RunTable& table, const AnalysisOptions& options) {
+  Analysis analysis;
+  const std::vector<int> joints = JointsToAnalyse(table, options);
   if (table.cells[static_cast<size_t>(Stream::kSetpoint)] == 0 ||
       std::all_of(table.move_id.begin(), table.move_id.end(), [](int64_t id) { return id < 0; })) {
     analysis.notes.push_back(table.source + " (" + table.label +
@@ -174,111 +299,18 @@ Analysis Analyze(const RunTable& table, const AnalysisOptions& options) {
                              "set-point's move_id, so this part is not analysed");
     return analysis;
   }
-
-  // Move boundaries: rows where a known move_id differs from the previous known one.
-  std::vector<size_t> starts;
-  int64_t current = -2;
-  for (size_t i = 0; i < rows; ++i) {
-    const int64_t id = table.move_id[i];
-    if (id < 0) continue;
-    if (current != -2 && id != current) starts.push_back(i);
-    current = id;
-  }
-  if (options.last_move_only && starts.size() > 1) starts.erase(starts.begin(), starts.end() - 1);
+  const std::vector<size_t> starts = MoveStarts(table, options.last_move_only);
   if (starts.empty()) {
     analysis.notes.push_back(table.source + " (" + table.label +
                              "): no move starts in this data (move_id never changes)");
   }
   for (size_t m = 0; m < starts.size(); ++m) {
     const size_t begin = starts[m];
-    const size_t end = m + 1 < starts.size() ? starts[m + 1] : rows;
+    const size_t end = m + 1 < starts.size() ? starts[m + 1] : table.rows();
     for (int joint : joints) {
-      const auto j = static_cast<size_t>(joint - 1);
-      const std::vector<double>& set = table.position[j][static_cast<size_t>(Stream::kSetpoint)];
-      const double from = begin > 0 && std::isfinite(set[begin - 1])
-                              ? set[begin - 1]
-                              : LastFinite(set, begin, begin);
-      const double to = LastFinite(set, begin, end - 1);
-      if (!std::isfinite(from) || !std::isfinite(to) || std::abs(to - from) < options.min_travel) {
-        continue;
+      if (auto result = AnalyseMove(table, joint, begin, end, options)) {
+        analysis.moves.push_back(*result);
       }
-      MoveResult result;
-      result.table = &table;
-      result.move_id = table.move_id[begin];
-      result.joint = joint;
-      result.begin = begin;
-      result.end = end;
-      result.start_s = table.time_s[begin];
-      result.end_s = table.time_s[end - 1];
-      result.from = from;
-      result.to = to;
-      // Move-done: the set-point's flag; without flags, the first row from which the set-point
-      // stays at its end value.
-      size_t done_row = end;
-      const bool have_flags =
-          std::any_of(table.done[j].begin() + static_cast<std::ptrdiff_t>(begin),
-                      table.done[j].begin() + static_cast<std::ptrdiff_t>(end),
-                      [](int8_t flag) { return flag >= 0; });
-      if (have_flags) {
-        for (size_t i = begin; i < end && done_row == end; ++i) {
-          if (table.done[j][i] == 1) done_row = i;
-        }
-      } else {
-        done_row = end;
-        for (size_t i = end; i-- > begin;) {
-          if (std::isfinite(set[i]) && std::abs(set[i] - to) > 1e-9) break;
-          done_row = i;
-        }
-      }
-      result.done_seen = done_row < end;
-      result.done_s = result.done_seen ? table.time_s[done_row] : result.end_s;
-      size_t window_end = end;
-      if (result.done_seen) {
-        const double last_s = result.done_s + options.settle_window_s + options.steady_window_s;
-        for (size_t i = done_row; i < end; ++i) {
-          if (table.time_s[i] > last_s) {
-            window_end = i;
-            break;
-          }
-        }
-      }
-      result.end = window_end;
-      result.end_s = table.time_s[window_end - 1];
-      result.transient_end_s = std::min(result.done_s + options.settle_window_s, result.end_s);
-
-      for (Pair pair : kAllPairs) {
-        PairMetrics& metrics = result.pairs[static_cast<size_t>(pair)];
-        double sum_transient = 0, sum_steady = 0, sum_squares = 0;
-        for (const PairPoint& point : PairErrors(table, pair, j, begin, window_end, period)) {
-          const double error = std::abs(point.error);
-          if (point.time_s <= result.done_s + options.settle_window_s) {
-            sum_transient += error;
-            ++metrics.transient_samples;
-          } else {
-            sum_steady += error;
-            ++metrics.steady_samples;
-          }
-          sum_squares += error * error;
-          metrics.max = std::max(metrics.max, error);
-        }
-        const int64_t all = metrics.transient_samples + metrics.steady_samples;
-        metrics.mean_transient =
-            metrics.transient_samples > 0
-                ? sum_transient / static_cast<double>(metrics.transient_samples)
-                : kNaN;
-        metrics.mean_steady = metrics.steady_samples > 0
-                                  ? sum_steady / static_cast<double>(metrics.steady_samples)
-                                  : kNaN;
-        metrics.rms = all > 0 ? std::sqrt(sum_squares / static_cast<double>(all)) : kNaN;
-        if (all == 0) metrics.max = kNaN;
-      }
-      for (Stream stream : kAllStreams) {
-        StreamResponse& response = result.streams[static_cast<size_t>(stream)];
-        response = Respond(table, stream, table.position[j][static_cast<size_t>(stream)], begin,
-                           window_end, to - from, options);
-        if (response.has()) response.final_error = response.final_value - to;
-      }
-      analysis.moves.push_back(result);
     }
   }
   return analysis;

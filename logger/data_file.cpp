@@ -317,6 +317,37 @@ class FileReader {
   explicit FileReader(std::string path) : path_(std::move(path)) {}
 
   RunTable Read() {
+    const Lines lines = ReadLines();
+    const size_t column_index = ReadHeader(lines);
+    const int column_line = static_cast<int>(column_index + 1);
+    ParseColumns(column_line, lines.text[column_index]);
+    table_.label = !table_.plan_name.empty() ? PlanLabel(table_.plan_name)
+                                             : std::filesystem::path(path_).stem().string();
+    ReadBody(lines, column_index);
+    if (lines.partial_last && lines.text.size() > static_cast<size_t>(column_line)) {
+      table_.notes.push_back(path_ + ":" + std::to_string(lines.text.size()) +
+                             ": the last line has no line end (the logger stopped while writing "
+                             "it); ignored");
+    }
+    if (table_.rows() == 0) Fail(column_line, "no data rows after the column line");
+    if (!std::isfinite(table_.realtime_factor)) table_.realtime_factor = factor_so_far_;
+    if (!table_.closed) {
+      table_.notes.push_back(path_ +
+                             ": no '# end:' line: the logger did not close this file "
+                             "(killed?); its " +
+                             std::to_string(table_.rows()) + " complete rows are used");
+    }
+    return std::move(table_);
+  }
+
+ private:
+  struct Lines {
+    std::vector<std::string> text;
+    bool partial_last = false;  // the last line has no line end
+  };
+
+  // The file's lines, checked to be a data file by its first line.
+  Lines ReadLines() const {
     std::ifstream in(path_, std::ios::binary);
     if (!in) Fail(0, "cannot open the file");
     std::ostringstream content;
@@ -324,29 +355,33 @@ class FileReader {
     const std::string text = content.str();
     if (text.empty()) Fail(0, "the file is empty; expected a sirupp-logger data file");
 
-    std::vector<std::string> lines;
+    Lines lines;
     size_t start = 0;
-    bool partial_last = false;
     while (start < text.size()) {
       const size_t end = text.find('\n', start);
       if (end == std::string::npos) {
-        lines.push_back(text.substr(start));
-        partial_last = true;
+        lines.text.push_back(text.substr(start));
+        lines.partial_last = true;
         break;
       }
-      lines.push_back(text.substr(start, end - start));
+      lines.text.push_back(text.substr(start, end - start));
       start = end + 1;
     }
-    if (lines[0].rfind(kFileMagic, 0) != 0) {
+    if (lines.text[0].rfind(kFileMagic, 0) != 0) {
       Fail(1, "not a sirupp-logger data file: the first line must start with '" +
                   std::string(kFileMagic) + "' (an LCM log starts with the sync word 0xEDA1DA01)");
     }
+    return lines;
+  }
+
+  // The '# key: value' lines after the first; returns the index of the column line.
+  size_t ReadHeader(const Lines& lines) {
     table_.source = path_;
-    double factor_so_far = kNaN;
     size_t index = 1;
     int declared_joints = -1;
-    for (; index < lines.size() && !lines[index].empty() && lines[index][0] == '#'; ++index) {
-      const std::string& line = lines[index];
+    for (; index < lines.text.size() && !lines.text[index].empty() && lines.text[index][0] == '#';
+         ++index) {
+      const std::string& line = lines.text[index];
       const size_t colon = line.find(':');
       if (colon == std::string::npos) continue;
       const std::string key = Trim(line.substr(1, colon - 1));
@@ -358,23 +393,25 @@ class FileReader {
         const size_t real = value.find("real arm: ");
         table_.real_on_sim_clock = real != std::string::npos && value.substr(real + 10) == "sim";
       }
-      if (key == "real-time factor so far") factor_so_far = LeadingNumber(value);
+      if (key == "real-time factor so far") factor_so_far_ = LeadingNumber(value);
     }
     const int column_line = static_cast<int>(index + 1);
-    if (index >= lines.size() || (partial_last && index == lines.size() - 1)) {
+    if (index >= lines.text.size() || (lines.partial_last && index == lines.text.size() - 1)) {
       Fail(column_line, "the file ends inside its header, before the column line (truncated)");
     }
     if (declared_joints < 0) {
       Fail(column_line, "the header has no '# joints:' line; it is needed to check the columns");
     }
-    ParseColumns(column_line, lines[index]);
-    table_.label = !table_.plan_name.empty() ? PlanLabel(table_.plan_name)
-                                             : std::filesystem::path(path_).stem().string();
+    return index;
+  }
 
-    const size_t last_complete = partial_last ? lines.size() - 1 : lines.size();
-    for (++index; index < last_complete; ++index) {
+  // The complete lines after the column line: data rows and the comments the logger writes
+  // between them (gains, real-time factor, end).
+  void ReadBody(const Lines& lines, size_t column_index) {
+    const size_t last_complete = lines.partial_last ? lines.text.size() - 1 : lines.text.size();
+    for (size_t index = column_index + 1; index < last_complete; ++index) {
       const int line_number = static_cast<int>(index + 1);
-      const std::string& line = lines[index];
+      const std::string& line = lines.text[index];
       if (line.empty()) Fail(line_number, "empty line inside the data");
       if (line[0] == '#') {
         if (line.rfind("# end:", 0) == 0) table_.closed = true;
@@ -388,23 +425,8 @@ class FileReader {
       if (table_.closed) Fail(line_number, "data after the '# end:' line");
       ParseRow(line_number, line);
     }
-    if (partial_last && lines.size() > static_cast<size_t>(column_line)) {
-      table_.notes.push_back(path_ + ":" + std::to_string(lines.size()) +
-                             ": the last line has no line end (the logger stopped while writing "
-                             "it); ignored");
-    }
-    if (table_.rows() == 0) Fail(column_line, "no data rows after the column line");
-    if (!std::isfinite(table_.realtime_factor)) table_.realtime_factor = factor_so_far;
-    if (!table_.closed) {
-      table_.notes.push_back(path_ +
-                             ": no '# end:' line: the logger did not close this file "
-                             "(killed?); its " +
-                             std::to_string(table_.rows()) + " complete rows are used");
-    }
-    return std::move(table_);
   }
 
- private:
   [[noreturn]] void Fail(int line, const std::string& problem) const {
     throw core::ConfigError(core::SourceLocation{path_, line, 0}, "", core::Printable(problem));
   }
@@ -448,7 +470,6 @@ class FileReader {
 
   void ParseColumns(int line, const std::string& text) {
     const std::vector<std::string> names = SplitFields(text);
-    const int n = static_cast<int>(table_.joints.size());
     std::map<std::string, int> seen;
     for (size_t c = 0; c < names.size(); ++c) {
       const std::string& name = names[c];
@@ -457,68 +478,11 @@ class FileReader {
         Fail(line, where + ": repeats column " + std::to_string(seen[name] + 1));
       }
       seen[name] = static_cast<int>(c);
-      ColumnRole role;
-      if (c == 0) {
-        if (name != "time_s") Fail(line, where + ": the first column must be time_s");
-        roles_.push_back(role);
-        names_.push_back(name);
-        continue;
-      }
-      if (name == "move_id") {
-        role.kind = ColumnRole::kMoveId;
-      } else if (name.size() > 5 && name.compare(name.size() - 5, 5, "_lost") == 0) {
-        role.kind = ColumnRole::kLost;
-        role.stream = StreamIndex(name.substr(0, name.size() - 5));
-        if (role.stream < 0)
-          Fail(line, where + ": unknown; allowed set_lost, virt_lost, real_lost");
-      } else if (name.size() > 7 && name.compare(name.size() - 7, 7, "_age_us") == 0) {
-        role.kind = ColumnRole::kAge;
-        role.stream = StreamIndex(name.substr(0, name.size() - 7));
-        if (role.stream < 0)
-          Fail(line, where + ": unknown; allowed set_age_us, virt_age_us, real_age_us");
-      } else if (name.size() > 1 && name[0] == 'j') {
-        size_t pos = 1;
-        while (pos < name.size() && std::isdigit(static_cast<unsigned char>(name[pos]))) ++pos;
-        int joint = 0;
-        std::from_chars(name.data() + 1, name.data() + pos, joint);
-        if (pos == 1 || pos >= name.size() || name[pos] != '_') {
-          Fail(line, where + ": unknown column" + kAllowed);
-        }
-        if (joint < 1 || joint > n) {
-          Fail(line, where + ": unknown joint j" + name.substr(1, pos - 1) +
-                         ": the header declares " + std::to_string(n) + " joints (j1 to j" +
-                         std::to_string(n) + ")");
-        }
-        role.joint = joint - 1;
-        const JointInfo& info = table_.joints[static_cast<size_t>(role.joint)];
-        const std::string rest = name.substr(pos + 1);
-        if (rest == "done") {
-          role.kind = ColumnRole::kDone;
-        } else {
-          const size_t underscore = rest.find('_');
-          role.stream = StreamIndex(rest.substr(0, underscore));
-          const std::string what =
-              underscore == std::string::npos ? "" : rest.substr(underscore + 1);
-          if (role.stream < 0) Fail(line, where + ": unknown column" + kAllowed);
-          if (what == info.unit()) {
-            role.kind = ColumnRole::kPosition;
-          } else if (what == std::string("vel_") + VelocityUnit(info)) {
-            role.kind = ColumnRole::kVelocity;
-          } else if (what == std::string("effort_") + EffortUnit(info)) {
-            role.kind = ColumnRole::kEffort;
-          } else {
-            Fail(line, where + ": unknown column for joint j" + std::to_string(joint) + " (" +
-                           (info.prismatic ? "prismatic, positions in mm"
-                                           : "revolute, positions in deg") +
-                           ")" + kAllowed);
-          }
-        }
-      } else {
-        Fail(line, where + ": unknown column" + kAllowed);
-      }
-      roles_.push_back(role);
+      if (c == 0 && name != "time_s") Fail(line, where + ": the first column must be time_s");
+      roles_.push_back(c == 0 ? ColumnRole{} : RoleOf(line, where, name));
       names_.push_back(name);
     }
+    const int n = static_cast<int>(table_.joints.size());
     for (int j = 0; j < n; ++j) {
       for (Stream stream : kAllStreams) {
         const std::string want = "j" + std::to_string(j + 1) + "_" + StreamKey(stream) + "_" +
@@ -528,6 +492,69 @@ class FileReader {
       }
     }
     if (!seen.count("move_id")) Fail(line, "no column move_id");
+  }
+
+  // What a column after time_s holds, from its name.
+  ColumnRole RoleOf(int line, const std::string& where, const std::string& name) const {
+    ColumnRole role;
+    if (name == "move_id") {
+      role.kind = ColumnRole::kMoveId;
+    } else if (name.size() > 5 && name.compare(name.size() - 5, 5, "_lost") == 0) {
+      role.kind = ColumnRole::kLost;
+      role.stream = StreamIndex(name.substr(0, name.size() - 5));
+      if (role.stream < 0) Fail(line, where + ": unknown; allowed set_lost, virt_lost, real_lost");
+    } else if (name.size() > 7 && name.compare(name.size() - 7, 7, "_age_us") == 0) {
+      role.kind = ColumnRole::kAge;
+      role.stream = StreamIndex(name.substr(0, name.size() - 7));
+      if (role.stream < 0)
+        Fail(line, where + ": unknown; allowed set_age_us, virt_age_us, real_age_us");
+    } else if (name.size() > 1 && name[0] == 'j') {
+      role = JointRoleOf(line, where, name);
+    } else {
+      Fail(line, where + ": unknown column" + kAllowed);
+    }
+    return role;
+  }
+
+  // A joint's column: jN_done or jN_{set,virt,real}_{position|vel_...|effort_...} in its units.
+  ColumnRole JointRoleOf(int line, const std::string& where, const std::string& name) const {
+    const int n = static_cast<int>(table_.joints.size());
+    ColumnRole role;
+    size_t pos = 1;
+    while (pos < name.size() && std::isdigit(static_cast<unsigned char>(name[pos]))) ++pos;
+    int joint = 0;
+    std::from_chars(name.data() + 1, name.data() + pos, joint);
+    if (pos == 1 || pos >= name.size() || name[pos] != '_') {
+      Fail(line, where + ": unknown column" + kAllowed);
+    }
+    if (joint < 1 || joint > n) {
+      Fail(line, where + ": unknown joint j" + name.substr(1, pos - 1) + ": the header declares " +
+                     std::to_string(n) + " joints (j1 to j" + std::to_string(n) + ")");
+    }
+    role.joint = joint - 1;
+    const JointInfo& info = table_.joints[static_cast<size_t>(role.joint)];
+    const std::string rest = name.substr(pos + 1);
+    if (rest == "done") {
+      role.kind = ColumnRole::kDone;
+      return role;
+    }
+    const size_t underscore = rest.find('_');
+    role.stream = StreamIndex(rest.substr(0, underscore));
+    const std::string what = underscore == std::string::npos ? "" : rest.substr(underscore + 1);
+    if (role.stream < 0) Fail(line, where + ": unknown column" + kAllowed);
+    if (what == info.unit()) {
+      role.kind = ColumnRole::kPosition;
+    } else if (what == std::string("vel_") + VelocityUnit(info)) {
+      role.kind = ColumnRole::kVelocity;
+    } else if (what == std::string("effort_") + EffortUnit(info)) {
+      role.kind = ColumnRole::kEffort;
+    } else {
+      Fail(line,
+           where + ": unknown column for joint j" + std::to_string(joint) + " (" +
+               (info.prismatic ? "prismatic, positions in mm" : "revolute, positions in deg") +
+               ")" + kAllowed);
+    }
+    return role;
   }
 
   static int StreamIndex(const std::string& key) {
@@ -619,6 +646,7 @@ class FileReader {
 
   std::string path_;
   RunTable table_;
+  double factor_so_far_ = kNaN;  // from the header, used when no later line gives the factor
   std::vector<ColumnRole> roles_;
   std::vector<std::string> names_;
 };

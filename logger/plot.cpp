@@ -66,79 +66,102 @@ std::vector<double> NiceTicks(double low, double high, int count) {
   return ticks;
 }
 
-void WritePlot(const PlotSpec& spec, const std::string& path) {
+namespace {
+
+// The data range of a plot and the pixel rectangle it is drawn in.
+struct Frame {
   double x_min = INFINITY, x_max = -INFINITY, y_min = INFINITY, y_max = -INFINITY;
+  cv::Rect area;
+
+  cv::Point2d ToPixel(double x, double y) const {
+    return cv::Point2d(area.x + (x - x_min) / (x_max - x_min) * area.width,
+                       area.y + area.height - (y - y_min) / (y_max - y_min) * area.height);
+  }
+};
+
+// The finite points' range, widened where it is empty and padded by 5 % in y.
+Frame FrameOf(const PlotSpec& spec, const std::string& path) {
+  Frame f;
   for (const PlotSeries& series : spec.series) {
     for (size_t i = 0; i < series.x.size() && i < series.y.size(); ++i) {
       if (!std::isfinite(series.x[i]) || !std::isfinite(series.y[i])) continue;
-      x_min = std::min(x_min, series.x[i]);
-      x_max = std::max(x_max, series.x[i]);
-      y_min = std::min(y_min, series.y[i]);
-      y_max = std::max(y_max, series.y[i]);
+      f.x_min = std::min(f.x_min, series.x[i]);
+      f.x_max = std::max(f.x_max, series.x[i]);
+      f.y_min = std::min(f.y_min, series.y[i]);
+      f.y_max = std::max(f.y_max, series.y[i]);
     }
   }
-  if (!std::isfinite(x_min)) throw std::runtime_error(path + ": nothing to plot (no data)");
-  if (x_max - x_min < 1e-9) x_max = x_min + 1;
-  if (y_max - y_min < 1e-9) {
-    y_min -= 1;
-    y_max += 1;
+  if (!std::isfinite(f.x_min)) throw std::runtime_error(path + ": nothing to plot (no data)");
+  if (f.x_max - f.x_min < 1e-9) f.x_max = f.x_min + 1;
+  if (f.y_max - f.y_min < 1e-9) {
+    f.y_min -= 1;
+    f.y_max += 1;
   }
-  const double y_pad = 0.05 * (y_max - y_min);
-  y_min -= y_pad;
-  y_max += y_pad;
-
-  cv::Mat image(spec.height, spec.width, CV_8UC3, cv::Scalar(255, 255, 255));
+  const double y_pad = 0.05 * (f.y_max - f.y_min);
+  f.y_min -= y_pad;
+  f.y_max += y_pad;
   const int left = 90, right = 30, top = 50, bottom = 70;
-  const cv::Rect area(left, top, spec.width - left - right, spec.height - top - bottom);
-  auto to_pixel = [&](double x, double y) {
-    return cv::Point2d(area.x + (x - x_min) / (x_max - x_min) * area.width,
-                       area.y + area.height - (y - y_min) / (y_max - y_min) * area.height);
-  };
+  f.area = cv::Rect(left, top, spec.width - left - right, spec.height - top - bottom);
+  return f;
+}
 
-  const std::vector<double> x_ticks = NiceTicks(x_min, x_max, 8);
-  const std::vector<double> y_ticks = NiceTicks(y_min, y_max, 7);
+// Grid lines, ticks with their numbers, and the frame around the plot area.
+void DrawAxes(cv::Mat& image, const Frame& f) {
+  const cv::Rect& area = f.area;
+  const std::vector<double> x_ticks = NiceTicks(f.x_min, f.x_max, 8);
+  const std::vector<double> y_ticks = NiceTicks(f.y_min, f.y_max, 7);
   const double x_step = x_ticks.size() > 1 ? x_ticks[1] - x_ticks[0] : 1;
   const double y_step = y_ticks.size() > 1 ? y_ticks[1] - y_ticks[0] : 1;
   for (double tick : x_ticks) {
-    const int px = static_cast<int>(std::lround(to_pixel(tick, y_min).x));
+    const int px = static_cast<int>(std::lround(f.ToPixel(tick, f.y_min).x));
     cv::line(image, {px, area.y}, {px, area.y + area.height}, kGrid, 1);
     cv::line(image, {px, area.y + area.height}, {px, area.y + area.height + 5}, kBlack, 1);
     const std::string text = TickText(tick, x_step);
     PutText(image, text, {px - TextSize(text, 0.45).width / 2, area.y + area.height + 22}, 0.45);
   }
   for (double tick : y_ticks) {
-    const int py = static_cast<int>(std::lround(to_pixel(x_min, tick).y));
+    const int py = static_cast<int>(std::lround(f.ToPixel(f.x_min, tick).y));
     cv::line(image, {area.x, py}, {area.x + area.width, py}, kGrid, 1);
     cv::line(image, {area.x - 5, py}, {area.x, py}, kBlack, 1);
     const std::string text = TickText(tick, y_step);
     PutText(image, text, {area.x - 10 - TextSize(text, 0.45).width, py + 5}, 0.45);
   }
   cv::rectangle(image, area, kBlack, 1);
+}
 
-  // The legend goes to the right-hand corner (top or bottom) with fewer points under it.
+// The legend goes to the right-hand corner (top or bottom) with fewer points under it.
+bool LegendOnTop(const PlotSpec& spec, const Frame& f) {
   int upper = 0, lower = 0;
   for (const PlotSeries& series : spec.series) {
     for (size_t i = 0; i < series.x.size() && i < series.y.size(); ++i) {
       if (!std::isfinite(series.x[i]) || !std::isfinite(series.y[i])) continue;
-      if (series.x[i] < x_min + 0.6 * (x_max - x_min)) continue;
-      const double height = (series.y[i] - y_min) / (y_max - y_min);
+      if (series.x[i] < f.x_min + 0.6 * (f.x_max - f.x_min)) continue;
+      const double height = (series.y[i] - f.y_min) / (f.y_max - f.y_min);
       upper += height > 0.7 ? 1 : 0;
       lower += height < 0.3 ? 1 : 0;
     }
   }
-  const bool legend_top = upper <= lower;
+  return upper <= lower;
+}
 
+// Dashed vertical lines with their labels, on the side the legend leaves free.
+void DrawMarkers(cv::Mat& image, const PlotSpec& spec, const Frame& f, bool legend_top) {
+  const cv::Rect& area = f.area;
   int marker_row = 0;  // labels of neighbouring markers on different lines
   for (const PlotMarker& marker : spec.markers) {
-    if (marker.x < x_min || marker.x > x_max) continue;
-    const int px = static_cast<int>(std::lround(to_pixel(marker.x, y_min).x));
+    if (marker.x < f.x_min || marker.x > f.x_max) continue;
+    const int px = static_cast<int>(std::lround(f.ToPixel(marker.x, f.y_min).x));
     DashedLine(image, {px, area.y}, {px, area.y + area.height}, kMarker);
-    const int row = 14 * (marker_row++ % 3);  // on the side the legend leaves free
+    const int row = 14 * (marker_row++ % 3);
     PutText(image, marker.label,
             {px + 4, legend_top ? area.y + area.height - 8 - row : area.y + 14 + row}, 0.4, 1,
             kMarker);
   }
+}
 
+// Each series as lines through its finite points; a gap (non-finite point) breaks the line.
+void DrawSeries(cv::Mat& image, const PlotSpec& spec, const Frame& f) {
+  const cv::Rect& area = f.area;
   cv::Mat plot_area = image(area);
   for (const PlotSeries& series : spec.series) {
     std::vector<cv::Point> run;
@@ -155,28 +178,34 @@ void WritePlot(const PlotSpec& spec, const std::string& path) {
         draw();
         continue;
       }
-      const cv::Point2d p = to_pixel(series.x[i], series.y[i]);
+      const cv::Point2d p = f.ToPixel(series.x[i], series.y[i]);
       const cv::Point point(static_cast<int>(std::lround(p.x)) - area.x,
                             static_cast<int>(std::lround(p.y)) - area.y);
       if (run.empty() || run.back() != point) run.push_back(point);
     }
     draw();
   }
+}
 
-  // Title, axis labels, legend.
+// The title, the x label and the y label turned by 90 degrees.
+void DrawLabels(cv::Mat& image, const PlotSpec& spec, const Frame& f) {
+  const cv::Rect& area = f.area;
   PutText(image, spec.title, {(spec.width - TextSize(spec.title, 0.6, 2).width) / 2, 30}, 0.6, 2);
   PutText(image, spec.x_label,
           {area.x + (area.width - TextSize(spec.x_label, 0.5).width) / 2, spec.height - 18}, 0.5);
-  {
-    const cv::Size size = TextSize(spec.y_label, 0.5);
-    cv::Mat label(size.height + 10, size.width + 4, CV_8UC3, cv::Scalar(255, 255, 255));
-    PutText(label, spec.y_label, {2, size.height + 2}, 0.5);
-    cv::Mat rotated;
-    cv::rotate(label, rotated, cv::ROTATE_90_COUNTERCLOCKWISE);
-    const int y0 = std::max(0, area.y + (area.height - rotated.rows) / 2);
-    const int rows = std::min(rotated.rows, spec.height - y0);
-    rotated(cv::Rect(0, 0, rotated.cols, rows)).copyTo(image(cv::Rect(8, y0, rotated.cols, rows)));
-  }
+  const cv::Size size = TextSize(spec.y_label, 0.5);
+  cv::Mat label(size.height + 10, size.width + 4, CV_8UC3, cv::Scalar(255, 255, 255));
+  PutText(label, spec.y_label, {2, size.height + 2}, 0.5);
+  cv::Mat rotated;
+  cv::rotate(label, rotated, cv::ROTATE_90_COUNTERCLOCKWISE);
+  const int y0 = std::max(0, area.y + (area.height - rotated.rows) / 2);
+  const int rows = std::min(rotated.rows, spec.height - y0);
+  rotated(cv::Rect(0, 0, rotated.cols, rows)).copyTo(image(cv::Rect(8, y0, rotated.cols, rows)));
+}
+
+// A boxed legend in the chosen right-hand corner: a line of each series' colour and its label.
+void DrawLegend(cv::Mat& image, const PlotSpec& spec, const Frame& f, bool legend_top) {
+  const cv::Rect& area = f.area;
   int legend_width = 0;
   for (const PlotSeries& series : spec.series) {
     legend_width = std::max(legend_width, TextSize(series.label, 0.45).width);
@@ -196,7 +225,9 @@ void WritePlot(const PlotSpec& spec, const std::string& path) {
     PutText(image, series.label, {legend_x + 36, legend_y + 13}, 0.45);
     legend_y += 20;
   }
+}
 
+void Save(const cv::Mat& image, const std::string& path) {
   bool written = false;
   try {
     written = cv::imwrite(path, image);
@@ -204,6 +235,20 @@ void WritePlot(const PlotSpec& spec, const std::string& path) {
     throw std::runtime_error(path + ": cannot write the plot: " + error.what());
   }
   if (!written) throw std::runtime_error(path + ": cannot write the plot");
+}
+
+}  // namespace
+
+void WritePlot(const PlotSpec& spec, const std::string& path) {
+  const Frame frame = FrameOf(spec, path);
+  cv::Mat image(spec.height, spec.width, CV_8UC3, cv::Scalar(255, 255, 255));
+  DrawAxes(image, frame);
+  const bool legend_top = LegendOnTop(spec, frame);
+  DrawMarkers(image, spec, frame, legend_top);
+  DrawSeries(image, spec, frame);
+  DrawLabels(image, spec, frame);
+  DrawLegend(image, spec, frame, legend_top);
+  Save(image, path);
 }
 
 }  // namespace sirupp::logger

@@ -10,8 +10,17 @@
 #include <memory>
 #include <sirupp/command_reply_t.hpp>
 #include <sirupp/controller_status_t.hpp>
+#include <sirupp/estop_t.hpp>
+#include <sirupp/hardware_command_t.hpp>
 #include <sirupp/hardware_status_t.hpp>
+#include <sirupp/joint_target_t.hpp>
+#include <sirupp/logger_command_t.hpp>
+#include <sirupp/plan_command_t.hpp>
+#include <sirupp/pose_target_t.hpp>
+#include <sirupp/sim_command_t.hpp>
+#include <sirupp/sim_reset_t.hpp>
 #include <string>
+#include <type_traits>
 #include <vector>
 
 #include "client/client.hpp"
@@ -238,6 +247,110 @@ TEST(Client, WithNoControllerACommandHasNoAnswerAndSaysWhere) {
   EXPECT_EQ(answer.result, Result::kNoAnswer);
   EXPECT_NE(answer.error.find("no reply on CONTROLLER_REPLY"), std::string::npos) << answer.error;
   EXPECT_EQ(client.WaitForMove(1, 0.1).end, End::kControllerSilent);
+}
+
+// Each request as it goes on the wire (core/translate.hpp builds it): no process answers here, so
+// the test reads what was sent.
+TEST(Client, EachRequestGoesOutWithTheWireValuesOfItsCall) {
+  core::Bus bus("memq://");
+  Options options;
+  options.answer_timeout_s = 0.05;
+  options.sender = "tester";
+  Client client(bus, options);
+  std::vector<sirupp::joint_target_t> targets;
+  std::vector<sirupp::pose_target_t> poses;
+  std::vector<sirupp::plan_command_t> plans;
+  std::vector<sirupp::sim_reset_t> resets;
+  std::vector<sirupp::sim_command_t> sim_commands;
+  std::vector<sirupp::logger_command_t> logger_commands;
+  std::vector<sirupp::hardware_command_t> hardware_commands;
+  std::vector<sirupp::estop_t> estops;
+  auto keep = [&bus](const char* channel, auto& list) {
+    using Msg = typename std::decay_t<decltype(list)>::value_type;
+    bus.Subscribe<Msg>(channel,
+                       [&list](const Msg& m, const core::ReceiveInfo&) { list.push_back(m); });
+  };
+  keep("ARM_TARGET", targets);
+  keep("ARM_POSE_TARGET", poses);
+  keep("ARM_PLAN", plans);
+  keep("SIM_RESET", resets);
+  keep("SIM_COMMAND", sim_commands);
+  keep("LOGGER_COMMAND", logger_commands);
+  keep("HARDWARE_COMMAND", hardware_commands);
+  keep("ESTOP", estops);
+
+  JointTarget target({0.1, 0.2, 0.3});
+  target.max_velocity = {0.5};
+  client.MoveJoints(target);
+  target.active = {0, 1};
+  client.MoveJoints(target);
+  PoseTarget pose;
+  pose.position[2] = 0.4;
+  pose.orientation[0] = 0.6;
+  pose.orientation[3] = 0.8;
+  pose.shoulder_left = true;
+  pose.elbow_up = false;
+  pose.wrist_flip = true;
+  pose.speed_scale = 0.5;
+  client.MovePose(pose);
+  pose.shoulder_left.reset();
+  pose.wrist_flip = false;
+  client.MovePose(pose);
+  client.RunPlan("a.plan", "move j1 10\n");
+  client.Plan(PlanCommand::kClearFault);
+  client.ResetSim({0.1, 0.2}, true, {0.0, 1.0});
+  client.LoadEnvironment("cell.xml", "<environment/>");
+  client.LoadModel("arm.yaml", "name: x");  // refused for want of a controller: no sim command
+  client.StartRecording("run1");
+  client.StopRecording();
+  client.Hardware(HardwareCommand::kHome);
+  client.Estop(true, "test");
+  bus.HandleAvailable();
+
+  ASSERT_EQ(targets.size(), 2u);
+  EXPECT_EQ(targets[0].num_joints, 3);
+  EXPECT_EQ(targets[0].max_velocity, (std::vector<double>{0.5, 0, 0}));
+  EXPECT_EQ(targets[0].acceleration, (std::vector<double>{0, 0, 0}));
+  EXPECT_EQ(targets[0].active, (std::vector<int8_t>{1, 1, 1})) << "unset: every joint moves";
+  EXPECT_EQ(targets[1].active, (std::vector<int8_t>{0, 1, 0})) << "short: the rest stay";
+  ASSERT_EQ(poses.size(), 2u);
+  EXPECT_EQ(poses[0].position[2], 0.4);
+  EXPECT_EQ(poses[0].orientation[0], 0.6);
+  EXPECT_EQ(poses[0].orientation[3], 0.8);
+  EXPECT_EQ(poses[0].shoulder, sirupp::pose_target_t::SHOULDER_LEFT);
+  EXPECT_EQ(poses[0].elbow, sirupp::pose_target_t::ELBOW_DOWN);
+  EXPECT_EQ(poses[0].wrist, sirupp::pose_target_t::WRIST_FLIP);
+  EXPECT_EQ(poses[0].speed_scale, 0.5);
+  EXPECT_EQ(poses[1].shoulder, sirupp::pose_target_t::SHOULDER_ANY);
+  EXPECT_EQ(poses[1].wrist, sirupp::pose_target_t::WRIST_NO_FLIP);
+  ASSERT_EQ(plans.size(), 3u);
+  EXPECT_EQ(plans[0].command, sirupp::plan_command_t::COMMAND_RUN);
+  EXPECT_EQ(plans[0].name, "a.plan");
+  EXPECT_EQ(plans[0].text, "move j1 10\n");
+  EXPECT_EQ(plans[1].command, sirupp::plan_command_t::COMMAND_CLEAR_FAULT);
+  EXPECT_EQ(plans[2].command, sirupp::plan_command_t::COMMAND_LOAD_MODEL);
+  EXPECT_EQ(plans[2].text, "name: x");
+  ASSERT_EQ(resets.size(), 1u);
+  EXPECT_EQ(resets[0].sender, "tester");
+  EXPECT_EQ(resets[0].num_joints, 2);
+  EXPECT_EQ(resets[0].num_velocities, 2);
+  EXPECT_EQ(resets[0].reset_objects, 1);
+  ASSERT_EQ(sim_commands.size(), 1u);
+  EXPECT_EQ(sim_commands[0].command, sirupp::sim_command_t::COMMAND_LOAD_ENVIRONMENT);
+  EXPECT_EQ(sim_commands[0].text, "<environment/>");
+  ASSERT_EQ(logger_commands.size(), 2u);
+  EXPECT_EQ(logger_commands[0].command, sirupp::logger_command_t::COMMAND_START);
+  EXPECT_EQ(logger_commands[0].name, "run1");
+  EXPECT_EQ(logger_commands[1].command, sirupp::logger_command_t::COMMAND_STOP);
+  ASSERT_EQ(hardware_commands.size(), 1u);
+  EXPECT_EQ(hardware_commands[0].command, sirupp::hardware_command_t::COMMAND_HOME);
+  EXPECT_EQ(hardware_commands[0].sender, "tester");
+  ASSERT_EQ(estops.size(), 1u);
+  EXPECT_EQ(estops[0].engaged, 1);
+  EXPECT_EQ(estops[0].reason, "test");
+  // Every request of this client has its own utime, and each channel counts its own seq.
+  EXPECT_LT(targets[0].utime, targets[1].utime);
+  EXPECT_EQ(targets[1].seq, targets[0].seq + 1);
 }
 
 // The bridge on the emulated boards, driven through the client as `sirupp hardware` does.
