@@ -211,7 +211,7 @@ void FillRecord(TickRows& tick_rows, int64_t last_state, bool via_control,
         const ReferencePoint& given = offered.At(row, j);
         record.reference.push_back(given.position);
         record.goal.push_back(given.goal);
-        if (task.track && via_control && setpoint && static_cast<int>(j) == task.track->joint) {
+        if (task.track && via_control && setpoint && task.track->path.joint(j).moves()) {
           record.setpoint_deviation =
               std::max(record.setpoint_deviation, std::abs(reference[at] - given.position));
         }

@@ -63,7 +63,7 @@ struct TaskRecord {
   std::vector<double> effort;     // the controller's effort, after the limits
   int64_t missing_rows = 0;       // ticks without the controller's answer or set-point heard
   // A tracking task run by sirupp-control: the largest |chip set-point - path| on the tracked
-  // joint (rad or m), how closely the chip's profile followed the path it was handed.
+  // joints (rad or m), how closely the chip's profile followed the path it was handed.
   double setpoint_deviation = 0;
   size_t ticks() const { return time_s.size(); }
 };
