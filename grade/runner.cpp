@@ -241,6 +241,7 @@ TaskRecord RunTask(const Suite& suite, const core::RobotModel& model, const Task
   record.num_joints = model.num_joints();
   record.tick_s = model.servo_tick_s;
   record.has_reference = true;  // every controller is given one (grade/reference.hpp)
+  record.track = task.track.has_value();
 
   // Rows by tick, filled as the messages come.
   const auto expected = static_cast<size_t>(std::ceil(task.duration_s / model.servo_tick_s)) + 4;

@@ -56,6 +56,9 @@ struct TaskRecord {
   // set-points computed before the task for a process controller, grade/reference.hpp), or a
   // tracking task's path (for every controller). RunTask always gives one.
   bool has_reference = false;
+  // A tracking task: the reference is a path that may swing past the final goal, so the step
+  // figures look only at the end (grade/metrics.hpp).
+  bool track = false;
   std::vector<double> time_s;     // per tick
   std::vector<double> position;   // tick-major, num_joints per tick
   std::vector<double> reference;  // set-point position (or the path)
