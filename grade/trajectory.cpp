@@ -23,13 +23,15 @@ double Shown(const core::RobotModel& model, size_t joint) {
   return model.joints[joint].type == core::JointType::kRevolute ? 180 / kPi : 1000;
 }
 
-// 6 significant digits for the plan's speeds and accelerations (the plan stays short; the
-// profile's fixed point resolves far less).
-std::string Short(double value) {
+// 6 significant digits for the plan's speeds and accelerations, 9 for its goals (the plan stays
+// short; the profile's fixed point resolves far less).
+std::string Digits(double value, int digits) {
   char buffer[40];
-  std::snprintf(buffer, sizeof buffer, "%.6g", value);
+  std::snprintf(buffer, sizeof buffer, "%.*g", digits, value);
   return buffer;
 }
+std::string Short(double value) { return Digits(value, 6); }
+std::string Goal(double value) { return Digits(value, 9); }
 
 // The coefficients of the `order`-th derivative (in u) of sum c[k] u^k, k = 0..kDegree.
 void Derivative(const double* c, int order, double* out) {
@@ -312,7 +314,7 @@ std::string FollowPlanLines(const Path& path, const core::RobotModel& model,
     return std::strtod(Short(si * joints[j].scale).c_str(), nullptr) * joints[j].unit;
   };
   const auto goal = [&](size_t j, double si) {
-    return std::strtod(core::FormatNumber(si * joints[j].scale).c_str(), nullptr) * joints[j].unit;
+    return std::strtod(Goal(si * joints[j].scale).c_str(), nullptr) * joints[j].unit;
   };
 
   // The chip itself (the profile generators sirupp-control runs), to see where each knot's moves
@@ -369,7 +371,7 @@ std::string FollowPlanLines(const Path& path, const core::RobotModel& model,
           std::max(accel[j], std::abs(speed[j] - std::abs(bank.SetpointVelocity(joint))) / knot_s),
           c.a_floor, c.a_cap);
       moves[j] = {true, goal(j, waypoint[j]), rate(j, speed[j]), rate(j, accel[j])};
-      plan << "move j" << j + 1 << "=" << core::FormatNumber(waypoint[j] * c.scale)
+      plan << "move j" << j + 1 << "=" << Goal(waypoint[j] * c.scale)
            << " speed=" << Short(speed[j] * c.scale) << " accel=" << Short(accel[j] * c.scale)
            << "\n";
     }
@@ -379,8 +381,7 @@ std::string FollowPlanLines(const Path& path, const core::RobotModel& model,
   // Onto the last point at the path's own pace, should the profile be short of it.
   for (size_t j : moving) {
     const Joint& c = joints[j];
-    plan << "move j" << j + 1 << "="
-         << core::FormatNumber(path.joint(j).At(path.end_s()).position * c.scale)
+    plan << "move j" << j + 1 << "=" << Goal(path.joint(j).At(path.end_s()).position * c.scale)
          << " speed=" << Short(std::min(c.v_peak, c.v_cap) * c.scale)
          << " accel=" << Short(std::min(c.a_peak, c.a_cap) * c.scale) << "\n";
   }

@@ -248,6 +248,10 @@ TEST(GradeSuite, TheShippedSuitesLoad) {
   // The plan runs the joint back to where it started.
   EXPECT_NEAR(track.goal[1], track.start[1], 1e-12);
   EXPECT_LT(track.plan_text.size(), control::kMaxPlanBytes);
+  for (const Task& task : advanced.tasks) {
+    if (!task.track) continue;
+    RecordProperty(task.name + "_plan_bytes", std::to_string(task.plan_text.size()));
+  }
 }
 
 TEST(GradeSuite, AMinimumJerkPathHasItsKnownShape) {
