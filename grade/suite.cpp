@@ -161,8 +161,9 @@ Path ReadBackAndForth(const core::YamlValue& node, const core::RobotModel& model
   const double period = track.Number("period_s", core::NumberInRange(0.2, 60, "s"));
   const auto cycles = track.Get("cycles", "a whole number 1..20").Integer(1, 20);
   const double centre = task.start[j];
-  Path path = Path::BackAndForth(task.start, joint, ToSi(model, j, amplitude), period,
-                                 static_cast<int>(cycles));
+  Path path = Path::OneJoint(
+      task.start, joint,
+      JointPath::BackAndForth(centre, ToSi(model, j, amplitude), period, static_cast<int>(cycles)));
   const JointPath& p = path.joint(j);
   const double scale = ToSi(model, j, 1);
   const core::MotionLimits limits = core::DefaultMotionLimits(model);
@@ -202,6 +203,45 @@ Path ReadBackAndForth(const core::YamlValue& node, const core::RobotModel& model
   task.description = "track joint " + std::to_string(joint + 1) + " +-" + Number(amplitude) +
                      (revolute ? " deg" : " mm") + " on a minimum-jerk path, " +
                      std::to_string(cycles) + " cycles of " + Number(period) + " s";
+  return path;
+}
+
+// shape: chirp: one joint swept in frequency about its start, within its soft limits and its
+// speed and acceleration caps all along.
+Path ReadChirp(const core::YamlValue& node, const core::RobotModel& model, Task& task) {
+  const core::YamlMap track =
+      node.Map({"shape", "joint", "amplitude_deg", "from_hz", "to_hz", "sweep_s"});
+  const int joint = ReadJoint(track, model);
+  const auto j = static_cast<size_t>(joint);
+  const double amplitude = track.Number("amplitude_deg", core::NumberInRange(0.5, 180, "deg"));
+  const double from_hz = track.Number("from_hz", core::NumberInRange(0.05, 5, "Hz"));
+  const double to_hz = track.Number("to_hz", core::NumberInRange(0.05, 5, "Hz"));
+  const double sweep_s = track.Number("sweep_s", core::NumberInRange(0.2, kMaxTrackS, "s"));
+  const double fades = 1 / from_hz + 1 / to_hz;
+  if (sweep_s < fades) {
+    track.Get("sweep_s", "")
+        .Fail("sweep_s " + Number(sweep_s) +
+              " s is shorter than its fade in and out (1 / from_hz + 1 / to_hz = " +
+              core::FormatApprox(fades) + " s)");
+  }
+  if (sweep_s > task.duration_s) {
+    track.Get("sweep_s", "")
+        .Fail("sweep_s " + Number(sweep_s) + " s is longer than the task's duration_s " +
+              Number(task.duration_s));
+  }
+  Path path = Path::OneJoint(
+      task.start, joint,
+      JointPath::Chirp(task.start[j], ToSi(model, j, amplitude), from_hz, to_hz, sweep_s));
+  double when_s = 0;
+  const std::string problem = PathProblem(path, model, when_s);
+  if (!problem.empty()) {
+    track.Get("amplitude_deg", "")
+        .Fail("the chirp: " + problem + " (lower the amplitude or the frequencies)");
+  }
+  const bool revolute = model.joints[j].type == core::JointType::kRevolute;
+  task.description = "track joint " + std::to_string(joint + 1) + " +-" + Number(amplitude) +
+                     (revolute ? " deg" : " mm") + " on a chirp from " + Number(from_hz) +
+                     " Hz to " + Number(to_hz) + " Hz over " + Number(sweep_s) + " s";
   return path;
 }
 
@@ -272,18 +312,19 @@ Path ReadSpline(const core::YamlValue& node, const core::RobotModel& model, Task
   return path;
 }
 
-// track: a path to track (back_and_forth or spline), followed by a generated plan of a move per
-// moving joint every kKnotTicks.
+// track: a path to track (back_and_forth, spline or chirp), followed by a generated plan of a move
+// per moving joint every kKnotTicks.
 void ReadTrack(const core::YamlMap& map, const core::RobotModel& model, const std::string& where,
                Task& task) {
   const core::YamlValue node = map.Get("track", "a mapping");
-  const core::YamlMap any =
-      node.Map({"shape", "joint", "amplitude_deg", "period_s", "cycles", "waypoints"});
+  const core::YamlMap any = node.Map({"shape", "joint", "amplitude_deg", "period_s", "cycles",
+                                      "waypoints", "from_hz", "to_hz", "sweep_s"});
   const std::string shape = any.Has("shape")
-                                ? any.Get("shape", "").Choice({"back_and_forth", "spline"})
+                                ? any.Get("shape", "").Choice({"back_and_forth", "spline", "chirp"})
                                 : "back_and_forth";
-  Track track{shape, shape == "spline" ? ReadSpline(node, model, task)
-                                       : ReadBackAndForth(node, model, task)};
+  Track track{shape, shape == "spline"  ? ReadSpline(node, model, task)
+                     : shape == "chirp" ? ReadChirp(node, model, task)
+                                        : ReadBackAndForth(node, model, task)};
   bool prismatic = false;
   for (size_t j = 0; j < track.path.num_joints(); ++j) {
     prismatic = prismatic ||

@@ -211,13 +211,57 @@ double JointPath::NextWaypoint(double t_s) const {
   return last_.position;
 }
 
-Path Path::BackAndForth(const std::vector<double>& start, int joint, double amplitude,
-                        double period_s, int cycles) {
+JointPath JointPath::Chirp(double centre, double amplitude, double from_hz, double to_hz,
+                           double duration_s) {
+  const double fade_in = 1 / from_hz, fade_out = 1 / to_hz;
+  // The envelope w and its first two derivatives at t.
+  const auto envelope = [&](double t, double& w, double& dw, double& ddw) {
+    w = 1;
+    dw = ddw = 0;
+    double u = 0, span = 0, sign = 1;
+    if (t < fade_in) {
+      u = t / fade_in;
+      span = fade_in;
+    } else if (t > duration_s - fade_out) {
+      u = (duration_s - t) / fade_out;
+      span = fade_out;
+      sign = -1;
+    } else {
+      return;
+    }
+    w = u * u * u * (10 + u * (-15 + 6 * u));
+    dw = sign * u * u * (30 + u * (-60 + 30 * u)) / span;
+    ddw = u * (60 + u * (-180 + 120 * u)) / (span * span);
+  };
+  const double sweep = (to_hz - from_hz) / duration_s;  // Hz per s
+  const double step = 1 / (64 * std::max(from_hz, to_hz));
+  const auto count = static_cast<int64_t>(std::ceil(duration_s / step));
+  std::vector<Knot> knots;
+  for (int64_t k = 0; k <= count; ++k) {
+    const double t =
+        std::min(duration_s, static_cast<double>(k) * duration_s / static_cast<double>(count));
+    double w = 0, dw = 0, ddw = 0;
+    envelope(t, w, dw, ddw);
+    const double phase = 2 * kPi * (from_hz * t + sweep * t * t / 2);
+    const double rate = 2 * kPi * (from_hz + sweep * t);  // d phase / dt
+    const double s = std::sin(phase), c = std::cos(phase);
+    Knot knot;
+    knot.t_s = t;
+    const bool end = k == 0 || k == count;  // exactly at rest on the centre
+    knot.at.position = end ? centre : centre + amplitude * w * s;
+    knot.at.velocity = end ? 0 : amplitude * (dw * s + w * c * rate);
+    knot.at.acceleration = end ? 0
+                               : amplitude * (ddw * s + 2 * dw * c * rate +
+                                              w * (c * 2 * kPi * sweep - s * rate * rate));
+    knots.push_back(knot);
+  }
+  return JointPath(std::move(knots));
+}
+
+Path Path::OneJoint(const std::vector<double>& start, int joint, JointPath path) {
   std::vector<JointPath> joints;
   for (size_t j = 0; j < start.size(); ++j) {
-    joints.push_back(static_cast<int>(j) == joint
-                         ? JointPath::BackAndForth(start[j], amplitude, period_s, cycles)
-                         : JointPath::Hold(start[j]));
+    joints.push_back(static_cast<int>(j) == joint ? path : JointPath::Hold(start[j]));
   }
   return Path(std::move(joints));
 }

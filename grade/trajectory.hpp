@@ -5,7 +5,7 @@
 // A joint's path (`JointPath`) is a chain of quintic pieces between knots, each knot a time, a
 // position, a velocity and an acceleration: every piece meets its knots' values, so position,
 // velocity and acceleration are continuous (C2) along the whole path. Before its first knot it
-// holds the first position at rest, after its last knot the last one. Two shapes:
+// holds the first position at rest, after its last knot the last one. Three shapes:
 //  - back and forth (`shape: back_and_forth`): one joint, centre -> centre + A -> centre - A ->
 //    centre per cycle, each leg a minimum-jerk move s(u) = 10u^3 - 15u^4 + 6u^5 (the quintic at
 //    rest at both ends); the legs of size A take a quarter of the period each, the one across the
@@ -13,7 +13,8 @@
 //  - a spline through waypoints (`shape: spline`): every joint at once from the start pose at
 //    time 0 through given poses at given times. At each waypoint the velocity and acceleration are
 //    those of the cubic spline through the waypoints that starts and ends at rest (clamped); at the
-//    start and the last waypoint the path is at rest with no acceleration.
+//    start and the last waypoint the path is at rest with no acceleration;
+//  - a chirp (`shape: chirp`): one joint swept in frequency about its start (JointPath::Chirp).
 // Peaks (position, speed, acceleration) are exact: each piece's extremes are at its ends or where
 // the next derivative is zero (found by bisection), so the suite checks the whole path.
 //
@@ -58,6 +59,13 @@ class JointPath {
   static JointPath Hold(double position);
   // Back and forth around `centre` by `amplitude` (SI, > 0), `cycles` times of `period_s` each.
   static JointPath BackAndForth(double centre, double amplitude, double period_s, int cycles);
+  // A chirp about `centre`: amplitude x w(t) x sin(phase), the frequency sweeping linearly from
+  // `from_hz` to `to_hz` over `duration_s`; w fades in over the first period (1 / from_hz) and out
+  // over the last (1 / to_hz) as minimum-jerk ramps, so it starts and ends at rest on the centre.
+  // Held as quintic pieces through the exact chirp's position, velocity and acceleration at knots
+  // 1/64 of the fastest period apart (C2).
+  static JointPath Chirp(double centre, double amplitude, double from_hz, double to_hz,
+                         double duration_s);
 
   // The path at time t (s); before the first knot at rest there, after the last at rest there.
   Sample At(double t_s) const;
@@ -93,9 +101,8 @@ class Path {
  public:
   Path() = default;
   explicit Path(std::vector<JointPath> joints) : joints_(std::move(joints)) {}
-  // One joint back and forth (JointPath::BackAndForth) about its start, the others holding it.
-  static Path BackAndForth(const std::vector<double>& start, int joint, double amplitude,
-                           double period_s, int cycles);
+  // One joint on `path`, the others holding their start.
+  static Path OneJoint(const std::vector<double>& start, int joint, JointPath path);
   // From `start` at rest at time 0 through `poses[i]` (one value per joint, SI) at `times_s[i]`
   // (strictly increasing, after 0), at rest at the last one.
   static Path Spline(const std::vector<double>& start, const std::vector<double>& times_s,

@@ -195,6 +195,19 @@ TEST(GradeSuite, EveryRuleNamesTheLineTheColumnAndWhatIsAllowed) {
            "  - {name: a, track: {shape: spline, waypoints: [{at_s: 15, deg: [10, 10, 10, 10, "
            "10, 10]}, {at_s: 29, deg: [0, 0, 0, 0, 0, 0]}]}, duration_s: 30}\n"),
        "s.yaml:4:", "bytes; allowed at most 262144 (one ARM_PLAN)"},
+      {"chirp with a spline key",
+       WithTasks("  - {name: a, track: {shape: chirp, joint: 2, amplitude_deg: 5, from_hz: 0.5, "
+                 "to_hz: 1, sweep_s: 6, waypoints: []}, duration_s: 7}\n"),
+       "s.yaml:4:", "unknown key 'waypoints'"},
+      {"chirp shorter than its fades",
+       WithTasks("  - {name: a, track: {shape: chirp, joint: 2, amplitude_deg: 5, from_hz: 0.5, "
+                 "to_hz: 1, sweep_s: 2}, duration_s: 7}\n"),
+       "s.yaml:4:",
+       "sweep_s 2 s is shorter than its fade in and out (1 / from_hz + 1 / to_hz = 3 s)"},
+      {"chirp too fast",
+       WithTasks("  - {name: a, track: {shape: chirp, joint: 2, amplitude_deg: 20, from_hz: 0.5, "
+                 "to_hz: 2, sweep_s: 6}, duration_s: 7}\n"),
+       "s.yaml:4:", "the chirp: joint 2's speed reaches"},
       {"payload out of range",
        WithTasks("  - {name: a, hold: true, arm: {payload_kg: 60}, duration_s: 1}\n"),
        "s.yaml:4:", "60 is not allowed"},
@@ -353,6 +366,36 @@ TEST(GradeSuite, ASplinePassesItsWaypointsAtRestAtBothEndsAndIsC2) {
   }
 }
 
+TEST(GradeSuite, AChirpStartsAndEndsAtRestAndSweepsItsFrequency) {
+  // 10 deg about 0.2 rad, 0.5 Hz to 2 Hz over 8 s.
+  const double a = 10 * kDeg;
+  const JointPath path = JointPath::Chirp(0.2, a, 0.5, 2, 8);
+  EXPECT_DOUBLE_EQ(path.end_s(), 8);
+  for (double t : {0.0, 8.0, 9.0}) {
+    EXPECT_NEAR(path.At(t).position, 0.2, 1e-12) << t;
+    EXPECT_NEAR(path.At(t).velocity, 0, 1e-12) << t;
+    EXPECT_NEAR(path.At(t).acceleration, 0, 1e-9) << t;
+  }
+  // Between the fades (2 s .. 7.5 s) the exact chirp: phase 2 pi (0.5 t + 0.09375 t^2).
+  for (double t = 2.05; t < 7.5; t += 0.31) {
+    const double phase = 2 * 3.14159265358979323846 * (0.5 * t + 0.09375 * t * t);
+    EXPECT_NEAR(path.At(t).position, 0.2 + a * std::sin(phase), 1e-7) << t;
+  }
+  EXPECT_LE(path.highest().value, 0.2 + a + 1e-9);
+  EXPECT_GT(path.highest().value, 0.2 + a - 1e-4);
+  EXPECT_GE(path.lowest().value, 0.2 - a - 1e-9);
+  // The peak speed comes late, where the frequency is highest: about a * 2 pi * 1.9 Hz.
+  EXPECT_GT(path.peak_velocity().t_s, 6);
+  EXPECT_NEAR(path.peak_velocity().value, a * 2 * 3.14159265358979323846 * 1.9, 0.15 * a * 12);
+  const double h = 1e-5;
+  for (double t = 0.05; t < 8; t += 0.23) {
+    EXPECT_NEAR((path.At(t + h).position - path.At(t - h).position) / (2 * h), path.At(t).velocity,
+                1e-6);
+    EXPECT_NEAR((path.At(t + h).velocity - path.At(t - h).velocity) / (2 * h),
+                path.At(t).acceleration, 1e-4);
+  }
+}
+
 // The chip's profile generators run the generated plan as sirupp-control's sequencer does (a move
 // loads and the profile steps in the same tick, `wait T` counts the state's utime, the plan's first
 // step at tick 1): the set-point stays on the path.
@@ -363,13 +406,35 @@ struct Followed {
   int64_t plan_end_tick = -1;
 };
 
-// The largest peak speed of the path's joints.
-double PeakVelocity(const Path& path) {
-  double peak = 0;
+// How closely the chip's set-point must follow the path: within 0.005 deg; where a joint reverses
+// with some acceleration inside a knot (a spline, a chirp), the chip stops on the turning point
+// and starts back at the next knot, lagging the path by up to about its acceleration x knot^2 / 2:
+// twice that.
+double PositionTolerance(const Task& task) {
+  const Path& path = task.track->path;
+  double peak_a = 0;
   for (size_t j = 0; j < path.num_joints(); ++j) {
-    peak = std::max(peak, path.joint(j).peak_velocity().value);
+    peak_a = std::max(peak_a, path.joint(j).peak_acceleration().value);
   }
-  return peak;
+  const double knot_s = kKnotTicks * Puma().servo_tick_s;
+  return task.track->shape == "back_and_forth" ? 0.005 * kDeg
+                                               : std::max(0.005 * kDeg, peak_a * knot_s * knot_s);
+}
+
+// How closely the chip's speed must follow the path: within 1 % of the path's peak; where a
+// joint reverses with some acceleration inside a knot (a spline, a chirp), the chip stops on the
+// turning point and starts back at the next knot, so the speed may lag by what the path's
+// acceleration changes it over one knot.
+double SpeedTolerance(const Task& task) {
+  const Path& path = task.track->path;
+  double peak_v = 0, peak_a = 0;
+  for (size_t j = 0; j < path.num_joints(); ++j) {
+    peak_v = std::max(peak_v, path.joint(j).peak_velocity().value);
+    peak_a = std::max(peak_a, path.joint(j).peak_acceleration().value);
+  }
+  const double knot_s = kKnotTicks * Puma().servo_tick_s;
+  return task.track->shape == "back_and_forth" ? 0.01 * peak_v
+                                               : std::max(0.01 * peak_v, peak_a * knot_s);
 }
 
 Followed RunOnTheChip(const Task& task) {
@@ -442,18 +507,13 @@ TEST(GradeSuite, TheChipFollowsATrackingTasksPathWithinAFewThousandthsOfADegree)
     if (!task.track) continue;
     ++tracks;
     const Followed followed = RunOnTheChip(task);
-    // Where a spline's joint reverses with some acceleration inside a knot, the chip stops on the
-    // turning point and starts back at the next knot: a few thousandths of a degree more.
-    const bool spline = task.track->shape == "spline";
-    EXPECT_LT(followed.max_deviation, (spline ? 0.01 : 0.005) * kDeg) << task.name;
-    // Speed: within 1 % of the path's peak (2 % on a spline).
-    EXPECT_LT(followed.max_speed_error, (spline ? 0.02 : 0.01) * PeakVelocity(task.track->path))
-        << task.name;
+    EXPECT_LT(followed.max_deviation, PositionTolerance(task)) << task.name;
+    EXPECT_LT(followed.max_speed_error, SpeedTolerance(task)) << task.name;
     EXPECT_LT(followed.end_deviation, 1e-4 * kDeg) << task.name;
     EXPECT_GT(followed.plan_end_tick, 0) << task.name << ": the plan did not end";
     RecordProperty(task.name + "_max_deviation_deg", std::to_string(followed.max_deviation / kDeg));
   }
-  EXPECT_EQ(tracks, 4);
+  EXPECT_EQ(tracks, 5);
   // A fast one near the caps, and one from a start away from zero.
   const Suite fast = Parse(WithTasks(
       "  - {name: f, track: {joint: 3, amplitude_deg: 30, period_s: 3, cycles: 2}, duration_s: "
@@ -462,13 +522,13 @@ TEST(GradeSuite, TheChipFollowsATrackingTasksPathWithinAFewThousandthsOfADegree)
       "period_s: 4, cycles: 1}, duration_s: 4.5}\n"
       "  - {name: h, start_deg: [10, 20, -30, 0, 10, 0], track: {shape: spline, waypoints: [{at_s: "
       "1.2, deg: [40, -10, 0, 60, -30, 70]}, {at_s: 2.6, deg: [-20, 30, -60, -50, 40, -60]}]}, "
-      "duration_s: 3}\n"));
+      "duration_s: 3}\n"
+      "  - {name: c, start_deg: [0, 30, 0, 0, 0, 0], track: {shape: chirp, joint: 2, "
+      "amplitude_deg: 3, from_hz: 0.5, to_hz: 1.5, sweep_s: 6}, duration_s: 6.5}\n"));
   for (const Task& task : fast.tasks) {
     const Followed followed = RunOnTheChip(task);
-    const bool spline = task.track->shape == "spline";
-    EXPECT_LT(followed.max_deviation, (spline ? 0.01 : 0.005) * kDeg) << task.name;
-    EXPECT_LT(followed.max_speed_error, (spline ? 0.02 : 0.01) * PeakVelocity(task.track->path))
-        << task.name;
+    EXPECT_LT(followed.max_deviation, PositionTolerance(task)) << task.name;
+    EXPECT_LT(followed.max_speed_error, SpeedTolerance(task)) << task.name;
     EXPECT_LT(followed.end_deviation, 1e-4 * kDeg) << task.name;
   }
 }
