@@ -324,42 +324,70 @@ double Path::end_s() const {
   return end;
 }
 
+namespace {
+
+// One moving joint as FollowPlanLines writes it: how the plan parser turns the written number back
+// into SI (control/plan.cpp), its caps, the path's peaks, and floors for a move's speed and
+// acceleration (a move needs both above 0; these are far below what changes the profile: the speed
+// is reached within a tick, the path is at rest there).
+struct Written {
+  Written(const JointPath& path, const core::RobotModel& model, size_t j) {
+    const core::MotionLimits limits = core::DefaultMotionLimits(model);
+    scale = Shown(model, j);
+    unit = model.joints[j].type == core::JointType::kRevolute ? M_PI / 180.0 : 1e-3;
+    a_cap = limits.acceleration_max[j];
+    v_cap = model.joints[j].velocity_max * limits.velocity_cap_fraction;
+    v_peak = path.peak_velocity().value;
+    a_peak = path.peak_acceleration().value;
+    v_floor = 1e-4 * v_peak;
+    a_floor = 1e-3 * a_peak;
+  }
+  // The values the plan holds, as sirupp-control reads them back.
+  double Rate(double si) const { return std::strtod(Short(si * scale).c_str(), nullptr) * unit; }
+  double Goal(double si) const {
+    return std::strtod(grade::Goal(si * scale).c_str(), nullptr) * unit;
+  }
+  double scale = 0, unit = 0, a_cap = 0, v_cap = 0, v_floor = 0, a_floor = 0, v_peak = 0,
+         a_peak = 0;
+};
+
+// A knot's move for one joint: its goal (the turning point ahead), top speed and acceleration.
+struct KnotMove {
+  double waypoint = 0, speed = 0, accel = 0;
+};
+
+// The move of the knot from t0 to t0 + knot_s before the chip's trial: the path's speed half a
+// tick before the knot's end (the profile adds each tick's velocity to its position), and the
+// change of speed over the knot.
+KnotMove Nominal(const JointPath& p, const Written& c, double t0, double knot_s, double tick_s) {
+  const double t1 = t0 + knot_s;
+  const double v0 = p.At(t0 - tick_s / 2).velocity;
+  const double v1 = p.At(t1 - tick_s / 2).velocity;
+  KnotMove move;
+  move.waypoint = p.NextWaypoint(t0);
+  double a = std::abs(v1 - v0) / knot_s;
+  // The chip slows down when it could no longer stop on its goal (the turning point ahead): the
+  // acceleration must allow the speed it is to have at the knot's end.
+  const double left = std::abs(move.waypoint - p.At(t1).position);
+  if (left > 1e-9 * c.v_peak) a = std::max(a, 1.5 * v1 * v1 / (2 * left));
+  move.accel = std::clamp(a, c.a_floor, c.a_cap);
+  move.speed = std::clamp(std::abs(v1), c.v_floor, c.v_cap);
+  return move;
+}
+
+}  // namespace
+
 std::string FollowPlanLines(const Path& path, const core::RobotModel& model,
                             const std::vector<double>& start, int knot_ticks) {
   const size_t n = start.size();
   std::vector<size_t> moving;
+  std::vector<Written> joints;  // per moving joint
   for (size_t j = 0; j < n; ++j) {
-    if (path.joint(j).moves()) moving.push_back(j);
+    if (!path.joint(j).moves()) continue;
+    moving.push_back(j);
+    joints.emplace_back(path.joint(j), model, j);
   }
   const double knot_s = knot_ticks * model.servo_tick_s;
-  const double tick_s = model.servo_tick_s;
-  const core::MotionLimits limits = core::DefaultMotionLimits(model);
-  // Per joint: how the plan parser turns the written number back into SI (control/plan.cpp), the
-  // caps, and floors for a move's speed and acceleration (a move needs both above 0; these are far
-  // below what changes the profile: the speed is reached within a tick, the path is at rest).
-  struct Joint {
-    double scale = 0, unit = 0, a_cap = 0, v_cap = 0, v_floor = 0, a_floor = 0, v_peak = 0,
-           a_peak = 0;
-  };
-  std::vector<Joint> joints(n);
-  for (size_t j : moving) {
-    Joint& c = joints[j];
-    c.scale = Shown(model, j);
-    c.unit = model.joints[j].type == core::JointType::kRevolute ? M_PI / 180.0 : 1e-3;
-    c.a_cap = limits.acceleration_max[j];
-    c.v_cap = model.joints[j].velocity_max * limits.velocity_cap_fraction;
-    c.v_peak = path.joint(j).peak_velocity().value;
-    c.a_peak = path.joint(j).peak_acceleration().value;
-    c.v_floor = 1e-4 * c.v_peak;
-    c.a_floor = 1e-3 * c.a_peak;
-  }
-  // The values the plan holds, as sirupp-control reads them back.
-  const auto rate = [&](size_t j, double si) {
-    return std::strtod(Short(si * joints[j].scale).c_str(), nullptr) * joints[j].unit;
-  };
-  const auto goal = [&](size_t j, double si) {
-    return std::strtod(Goal(si * joints[j].scale).c_str(), nullptr) * joints[j].unit;
-  };
 
   // The chip itself (the profile generators sirupp-control runs), to see where each knot's moves
   // take the set-points before writing them. The joints' profiles are independent.
@@ -377,55 +405,47 @@ std::string FollowPlanLines(const Path& path, const core::RobotModel& model,
 
   std::ostringstream plan;
   const std::string wait = core::FormatNumber(knot_s);
-  std::vector<double> waypoint(n), accel(n), speed(n);
+  std::vector<KnotMove> knot(moving.size());
   // The plan's first step runs at tick 1, and a move loads and the profile steps in the same
   // tick, so the knot k (its moves loaded at tick 1 + k * knot_ticks) takes the set-point to the
-  // path's position at (k + 1) * knot_s. Its speed is the path's half a tick earlier (the profile
-  // adds each tick's velocity to its position), corrected by half the error the chip would leave
-  // at the knot's end: a feedback that halves any drift from knot to knot.
+  // path's position at (k + 1) * knot_s. Its speed is corrected by half the error the chip would
+  // leave at the knot's end: a feedback that halves any drift from knot to knot.
   for (int64_t k = 0;; ++k) {
     const double t0 = static_cast<double>(k) * knot_s;
     if (t0 >= path.end_s()) break;
-    const double t1 = t0 + knot_s;
-    for (size_t j : moving) {
-      const JointPath& p = path.joint(j);
-      const Joint& c = joints[j];
-      const double v0 = p.At(t0 - tick_s / 2).velocity;
-      const double v1 = p.At(t1 - tick_s / 2).velocity;
-      waypoint[j] = p.NextWaypoint(t0);
-      double a = std::abs(v1 - v0) / knot_s;
-      // The chip slows down when it could no longer stop on its goal (the turning point ahead):
-      // the acceleration must allow the speed it is to have at the knot's end.
-      const double left = std::abs(waypoint[j] - p.At(t1).position);
-      if (left > 1e-9 * c.v_peak) a = std::max(a, 1.5 * v1 * v1 / (2 * left));
-      accel[j] = std::clamp(a, c.a_floor, c.a_cap);
-      speed[j] = std::clamp(std::abs(v1), c.v_floor, c.v_cap);
-      moves[j] = {true, goal(j, waypoint[j]), rate(j, speed[j]), rate(j, accel[j])};
+    for (size_t i = 0; i < moving.size(); ++i) {
+      const Written& c = joints[i];
+      knot[i] = Nominal(path.joint(moving[i]), c, t0, knot_s, model.servo_tick_s);
+      moves[moving[i]] = {true, c.Goal(knot[i].waypoint), c.Rate(knot[i].speed),
+                          c.Rate(knot[i].accel)};
     }
     control::ServoBank trial = bank;
     run(trial);
-    for (size_t j : moving) {
-      const Joint& c = joints[j];
-      const int joint = static_cast<int>(j);
-      const double direction = waypoint[j] >= bank.SetpointPosition(joint) ? 1 : -1;
-      const double error = trial.SetpointPosition(joint) - path.joint(j).At(t1).position;
-      speed[j] = std::clamp(speed[j] - direction * error / knot_s, c.v_floor, c.v_cap);
+    for (size_t i = 0; i < moving.size(); ++i) {
+      const Written& c = joints[i];
+      KnotMove& m = knot[i];
+      const int joint = static_cast<int>(moving[i]);
+      const double direction = m.waypoint >= bank.SetpointPosition(joint) ? 1 : -1;
+      const double error =
+          trial.SetpointPosition(joint) - path.joint(moving[i]).At(t0 + knot_s).position;
+      m.speed = std::clamp(m.speed - direction * error / knot_s, c.v_floor, c.v_cap);
       // Enough acceleration to reach the corrected speed within the knot.
-      accel[j] = std::clamp(
-          std::max(accel[j], std::abs(speed[j] - std::abs(bank.SetpointVelocity(joint))) / knot_s),
+      m.accel = std::clamp(
+          std::max(m.accel, std::abs(m.speed - std::abs(bank.SetpointVelocity(joint))) / knot_s),
           c.a_floor, c.a_cap);
-      moves[j] = {true, goal(j, waypoint[j]), rate(j, speed[j]), rate(j, accel[j])};
-      plan << "move j" << j + 1 << "=" << Goal(waypoint[j] * c.scale)
-           << " speed=" << Short(speed[j] * c.scale) << " accel=" << Short(accel[j] * c.scale)
+      moves[moving[i]] = {true, c.Goal(m.waypoint), c.Rate(m.speed), c.Rate(m.accel)};
+      plan << "move j" << joint + 1 << "=" << Goal(m.waypoint * c.scale)
+           << " speed=" << Short(m.speed * c.scale) << " accel=" << Short(m.accel * c.scale)
            << "\n";
     }
     run(bank);
     plan << "wait " << wait << "\n";
   }
   // Onto the last point at the path's own pace, should the profile be short of it.
-  for (size_t j : moving) {
-    const Joint& c = joints[j];
-    plan << "move j" << j + 1 << "=" << Goal(path.joint(j).At(path.end_s()).position * c.scale)
+  for (size_t i = 0; i < moving.size(); ++i) {
+    const Written& c = joints[i];
+    plan << "move j" << moving[i] + 1 << "="
+         << Goal(path.joint(moving[i]).At(path.end_s()).position * c.scale)
          << " speed=" << Short(std::min(c.v_peak, c.v_cap) * c.scale)
          << " accel=" << Short(std::min(c.a_peak, c.a_cap) * c.scale) << "\n";
   }

@@ -264,6 +264,7 @@ TEST(GradeSuite, TheShippedSuitesLoad) {
   for (const Task& task : advanced.tasks) {
     if (!task.track) continue;
     RecordProperty(task.name + "_plan_bytes", std::to_string(task.plan_text.size()));
+    RecordProperty(task.name + "_plan_fnv1a", core::Fnv1aHex(task.plan_text));
   }
 }
 
