@@ -106,7 +106,12 @@ std::vector<ControllerResult> RunControllers(const Suite& suite, const core::Rob
         result.ended = error.what();
         continue;
       }
-      run.lcm_url = "udpm://239.255.76.67:" + std::to_string(lease.port()) + "?ttl=0";
+      // A receive buffer that holds a whole tracking plan (up to 256 KiB, ~190 datagrams of
+      // LCM's 1.4 KB fragments) even when sirupp-control is slow to read: the kernel's default
+      // (208 KiB of buffer, counted with each datagram's overhead) lost a 164 KB ARM_PLAN on a
+      // loaded machine. The kernel caps it at net.core.rmem_max.
+      run.lcm_url =
+          "udpm://239.255.76.67:" + std::to_string(lease.port()) + "?ttl=0&recv_buf_size=4194304";
       TaskRecord record = RunTask(suite, model, task, controllers[job.controller], run);
       lease.Release();
       if (!record.completed) {

@@ -60,10 +60,12 @@ double MeasureStep(const JointColumns& c, size_t rows, JointMetrics& m) {
     const double fraction = (q - from) / m.step;
     if (!t10 && fraction >= 0.1) t10 = record.time_s[row];
     if (!t90 && fraction >= 0.9) t90 = record.time_s[row];
-    beyond = std::max(beyond, sign * (q - to));
+    // On a tracking task the path itself may swing past the goal: only the end counts.
+    if (!record.track || row >= arrived) beyond = std::max(beyond, sign * (q - to));
     if (std::abs(q - to) > band) last_out = row;
   }
-  if (t10 && t90) m.rise_s = *t90 - *t10;
+  // On a tracking task the path sets the pace: no rise time.
+  if (t10 && t90 && !record.track) m.rise_s = *t90 - *t10;
   m.overshoot_percent = 100 * beyond / std::abs(m.step);
   if (!last_out) {
     m.settling_s = 0.0;
@@ -112,7 +114,7 @@ void MeasureRun(const JointColumns& c, size_t rows, double to, double limit, Joi
 
 // Joint j's checks against the thresholds, in a fixed order; each failed one is added to `failed`.
 void CheckJoint(const JointMetrics& m, size_t j, const std::string& unit, bool has_reference,
-                const Thresholds& pass, std::vector<std::string>& failed) {
+                bool track, const Thresholds& pass, std::vector<std::string>& failed) {
   const std::string joint = "joint " + std::to_string(j + 1) + ": ";
   const auto over = [&](const char* what, double value, const std::optional<double>& limit_value,
                         const std::string& value_unit) {
@@ -122,7 +124,7 @@ void CheckJoint(const JointMetrics& m, size_t j, const std::string& unit, bool h
     }
   };
   if (m.moves) {
-    if (pass.rise_s) {
+    if (pass.rise_s && !track) {
       if (!m.rise_s) {
         failed.push_back(joint + "never reached 90 % of its step");
       } else {
@@ -165,7 +167,8 @@ TaskMetrics ComputeMetrics(const core::RobotModel& model, const TaskRecord& reco
       worst = m.rms_tracking;
       result.worst_joint = static_cast<int>(j);
     }
-    CheckJoint(m, j, Unit(model, j), record.has_reference, pass, result.failed_checks);
+    CheckJoint(m, j, Unit(model, j), record.has_reference, record.track, pass,
+               result.failed_checks);
   }
   return result;
 }

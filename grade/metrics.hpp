@@ -6,7 +6,8 @@
 //  - rise time: 10 % to 90 % of the step; settling time: from the end of the
 //    reference's motion (the profile's end; the move's start for a process controller) until the
 //    joint stays within max(2 % of the step, 0.1 deg) of the goal; overshoot: the largest excursion
-//    past the goal, % of the step (only joints that move);
+//    past the goal, % of the step (only joints that move); on a tracking task, whose path may
+//    swing past the goal on its way, no rise time and the overshoot only after the path's end;
 //  - steady-state error: mean |goal - position| over the task's last 0.1 s (every joint);
 //  - tracking error: position - reference (the profile set-point the controller was given; the
 //    goal for a process controller), RMS and max over the task;

@@ -80,20 +80,15 @@ ReferenceTable TaskReference(const core::RobotModel& model, const Task& task, si
   if (!task.track) return ChipProfile(model, task, ticks);
   const auto n = static_cast<size_t>(model.num_joints());
   ReferenceTable table(ticks, n);
-  const auto tracked = static_cast<size_t>(task.track->joint);
   for (size_t tick = 0; tick < ticks; ++tick) {
     for (size_t j = 0; j < n; ++j) {
       ReferencePoint& point = table.At(tick, j);
       point.goal = task.goal[j];
-      if (j == tracked) {
-        const MinJerkPath::Sample sample =
-            task.track->path.At(static_cast<double>(tick) * model.servo_tick_s);
-        point.position = sample.position;
-        point.velocity = sample.velocity;
-        point.acceleration = sample.acceleration;
-      } else {
-        point.position = task.start[j];
-      }
+      const JointPath::Sample sample =
+          task.track->path.joint(j).At(static_cast<double>(tick) * model.servo_tick_s);
+      point.position = sample.position;
+      point.velocity = sample.velocity;
+      point.acceleration = sample.acceleration;
     }
   }
   return table;

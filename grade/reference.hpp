@@ -13,8 +13,8 @@
 //   tick 1). The trapezoidal profiles do not depend on where the arm is, so these are the
 //   set-points sirupp-control makes in the run (test_grade_runner compares them with the
 //   baseline's ARM_SETPOINT, tick by tick);
-// - track tasks: the smooth path itself on the tracked joint (the others hold their start), the
-//   reference every controller is measured against there.
+// - track tasks: the smooth path itself on every joint (a joint the path does not move holds its
+//   start), the reference every controller is measured against there.
 
 #include <cstddef>
 #include <string>

@@ -211,7 +211,7 @@ void FillRecord(TickRows& tick_rows, int64_t last_state, bool via_control,
         const ReferencePoint& given = offered.At(row, j);
         record.reference.push_back(given.position);
         record.goal.push_back(given.goal);
-        if (task.track && via_control && setpoint && static_cast<int>(j) == task.track->joint) {
+        if (task.track && via_control && setpoint && task.track->path.joint(j).moves()) {
           record.setpoint_deviation =
               std::max(record.setpoint_deviation, std::abs(reference[at] - given.position));
         }
@@ -230,178 +230,233 @@ void FillRecord(TickRows& tick_rows, int64_t last_state, bool via_control,
   }
 }
 
+// One task's run, step by step: what the grader hears on the task's bus (every state, the
+// controller's commands, sirupp-control's set-points, by tick), the processes it starts and the
+// watch over them until the sim ends or the task is given up.
+class TaskRun {
+ public:
+  TaskRun(const Suite& suite, const core::RobotModel& model, const Task& task,
+          const ControllerSpec& controller, const RunOptions& options)
+      : suite_(suite),
+        model_(model),
+        task_(task),
+        controller_(controller),
+        options_(options),
+        n_(static_cast<size_t>(model.num_joints())),
+        via_control_(controller.kind != ControllerSpec::Kind::kProcess),
+        participant_(via_control_ ? "sirupp-control" : "student"),
+        expected_(static_cast<size_t>(std::ceil(task.duration_s / model.servo_tick_s)) + 4),
+        rows_(expected_, n_),
+        progress_(Clock::now()),
+        bus_(options.lcm_url),
+        driver_(bus_, suite.limits.start_s),
+        offered_(0, n_) {
+    Listen();
+  }
+
+  // What a process controller is given ({reference_csv}) and a track task is measured against.
+  // "" or why it could not be made.
+  std::string MakeReference() {
+    if (via_control_ && !task_.track) return "";
+    try {
+      offered_ = TaskReference(model_, task_, expected_);
+    } catch (const std::exception& error) {
+      return std::string("could not make the reference: ") + error.what();
+    }
+    return "";
+  }
+
+  // The controller first (it must hear the first state), then the sim. "" or why not.
+  std::string StartProcesses() {
+    std::vector<std::string> control_argv;
+    const std::string& url = options_.lcm_url;
+    if (via_control_) {
+      control_argv = ControlArgv(suite_, controller_, options_.bin_dir, url);
+    } else {
+      const std::string reference_file = options_.work_dir + "/reference.csv";
+      control_argv =
+          ExpandCommand(controller_.command, model_, task_, url, participant_, reference_file);
+      const bool wants_reference = std::any_of(
+          controller_.command.begin(), controller_.command.end(), [](const std::string& word) {
+            return word.find("{reference_csv}") != std::string::npos;
+          });
+      if (wants_reference) {
+        try {
+          WriteReferenceCsv(reference_file, model_, offered_);
+        } catch (const std::exception& error) {
+          return std::string("could not write the reference: ") + error.what();
+        }
+      }
+    }
+    const std::vector<std::string> sim_argv =
+        SimArgv(suite_, model_, task_, options_.bin_dir, url, participant_);
+    start_ = Clock::now();
+    try {
+      control_.Start(control_argv, options_.work_dir + "/controller.log");
+      sim_.Start(sim_argv, options_.work_dir + "/sim.log");
+    } catch (const std::exception& error) {
+      return std::string("could not start the task's processes: ") + error.what();
+    }
+    progress_ = Clock::now();
+    return "";
+  }
+
+  // Handles the bus until the sim ends or the task is given up; ends both processes. "" when the
+  // sim ran to its end, else why the task ended.
+  std::string Watch() {
+    bool plan_sent = false;
+    bool sim_done = false;
+    const double grace_s = via_control_ ? suite_.limits.tick_s + 5 : suite_.limits.tick_s;
+    while (failure_.empty()) {
+      bus_.Handle(10);
+      bus_.HandleAvailable();
+      if (via_control_ && !plan_sent && controller_tick_ >= 0) {
+        // Waits for the controller's reply; the bus is handled meanwhile (tick 0 is held until
+        // the plan is taken).
+        plan_sent = true;
+        failure_ = driver_.RunPlan(task_.plan_name, task_.plan_text);
+        if (!failure_.empty()) break;
+      }
+      if (last_state_ == 0 && answered_ < 0 && MayAnswer(0)) Answer(0);
+      if (via_control_ && !driver_.Fault().empty()) {
+        failure_ = "fault: " + driver_.Fault();
+        break;
+      }
+      if (!sim_.Running()) {
+        sim_done = true;
+        // Messages still queued belong to the run.
+        while (bus_.Handle(50) > 0) {
+        }
+        if (!sim_.EndedCleanly()) {
+          failure_ = "sirupp-sim ended (" + sim_.HowEnded() + "): " + sim_.LogTail();
+        }
+        break;
+      }
+      if (!control_.Running()) {
+        const std::string who = via_control_ ? "sirupp-control" : "the controller process";
+        failure_ = who + " ended (" + control_.HowEnded() + ") at tick " +
+                   std::to_string(std::max<int64_t>(last_state_, 0)) + ": " + control_.LogTail(2);
+        break;
+      }
+      failure_ = StallFailure(suite_.limits, controller_tick_, last_state_, answered_,
+                              Since(progress_), grace_s, Since(start_));
+    }
+    sim_.Stop(1.0);
+    control_.Stop(1.0);
+    if (failure_.empty() && !sim_done) failure_ = "stopped before the sim ended";
+    return failure_;
+  }
+
+  void Fill(TaskRecord& record) {
+    FillRecord(rows_, last_state_, via_control_, model_, task_, offered_, record);
+  }
+
+ private:
+  // The grader's answer to `tick` as the sim's second participant.
+  void Answer(int64_t tick) {
+    bus_.Publish(channels_.sim_arm_command, GraderAnswer(model_, task_, tick));
+    answered_ = std::max(answered_, tick);
+  }
+  // Tick 0 is held until sirupp-control has taken the plan.
+  bool MayAnswer(int64_t tick) const { return tick > 0 || !via_control_ || driver_.PlanAccepted(); }
+  bool InRange(int64_t tick) const { return tick >= 0 && static_cast<size_t>(tick) < expected_; }
+
+  void Listen() {
+    bus_.Subscribe<sirupp::arm_state_t>(
+        channels_.sim_arm_state,
+        [this](const sirupp::arm_state_t& m, const core::ReceiveInfo&) { OnState(m); });
+    bus_.Subscribe<sirupp::arm_command_t>(
+        channels_.sim_arm_command,
+        [this](const sirupp::arm_command_t& m, const core::ReceiveInfo&) { OnCommand(m); });
+    bus_.Subscribe<sirupp::servo_setpoint_t>(
+        channels_.arm_setpoint,
+        [this](const sirupp::servo_setpoint_t& m, const core::ReceiveInfo&) { OnSetpoint(m); });
+  }
+
+  void OnState(const sirupp::arm_state_t& m) {
+    if (!InRange(m.tick) || m.num_joints != model_.num_joints()) return;
+    const auto row = static_cast<size_t>(m.tick);
+    if (m.tick > last_state_) {
+      last_state_ = m.tick;
+      progress_ = Clock::now();
+      rows_.have_state[row] = 1;
+      std::copy(m.position.begin(), m.position.end(),
+                rows_.position.begin() + static_cast<long>(row * n_));
+    }
+    // A state sent again (the sim's lockstep timeout) is answered again.
+    if (m.tick == last_state_ && MayAnswer(m.tick)) Answer(m.tick);
+  }
+
+  void OnCommand(const sirupp::arm_command_t& m) {
+    if (m.sender != participant_ || !InRange(m.tick)) return;
+    const auto row = static_cast<size_t>(m.tick);
+    controller_tick_ = std::max(controller_tick_, m.tick);
+    if (rows_.have_command[row] != 0) return;
+    rows_.have_command[row] = 1;
+    if (m.mode != sirupp::arm_command_t::MODE_EFFORT || m.num_joints != model_.num_joints()) return;
+    for (size_t j = 0; j < n_; ++j) {
+      const double e = m.effort[j];
+      if (!std::isfinite(e) && failure_.empty()) {
+        failure_ = "returned effort " + core::FormatNumber(e) + " for joint " +
+                   std::to_string(j + 1) + " at tick " + std::to_string(m.tick) +
+                   " (allowed: finite values)";
+      }
+      const double limit = model_.joints[j].effort_max;
+      rows_.effort[row * n_ + j] = std::isfinite(e) ? std::clamp(e, -limit, limit) : 0.0;
+    }
+  }
+
+  void OnSetpoint(const sirupp::servo_setpoint_t& m) {
+    if (!InRange(m.tick) || m.num_joints != model_.num_joints()) return;
+    const auto row = static_cast<size_t>(m.tick);
+    if (rows_.have_setpoint[row] != 0) return;
+    rows_.have_setpoint[row] = 1;
+    std::copy(m.position.begin(), m.position.end(),
+              rows_.reference.begin() + static_cast<long>(row * n_));
+    std::copy(m.goal.begin(), m.goal.end(), rows_.goal.begin() + static_cast<long>(row * n_));
+  }
+
+  const Suite& suite_;
+  const core::RobotModel& model_;
+  const Task& task_;
+  const ControllerSpec& controller_;
+  const RunOptions& options_;
+  const size_t n_;
+  const bool via_control_;
+  const std::string participant_;
+  const size_t expected_;         // rows: the task's ticks and a few more
+  TickRows rows_;                 // filled as the messages come
+  int64_t last_state_ = -1;       // newest tick whose state arrived
+  int64_t answered_ = -1;         // newest tick the grader answered
+  int64_t controller_tick_ = -1;  // newest tick the controller answered
+  std::string failure_;
+  Clock::time_point progress_;  // when the newest state came
+  Clock::time_point start_;     // when the processes started
+  core::Bus bus_;
+  PlanDriver driver_;
+  const core::Channels channels_;
+  ReferenceTable offered_;
+  Child control_, sim_;
+};
+
 }  // namespace
 
 TaskRecord RunTask(const Suite& suite, const core::RobotModel& model, const Task& task,
                    const ControllerSpec& controller, const RunOptions& options) {
-  const auto n = static_cast<size_t>(model.num_joints());
-  const bool via_control = controller.kind != ControllerSpec::Kind::kProcess;
-  const std::string participant = via_control ? "sirupp-control" : "student";
   TaskRecord record;
   record.num_joints = model.num_joints();
   record.tick_s = model.servo_tick_s;
   record.has_reference = true;  // every controller is given one (grade/reference.hpp)
-
-  // Rows by tick, filled as the messages come.
-  const auto expected = static_cast<size_t>(std::ceil(task.duration_s / model.servo_tick_s)) + 4;
-  TickRows rows(expected, n);
-  int64_t last_state = -1;       // newest tick whose state arrived
-  int64_t answered = -1;         // newest tick the grader answered
-  int64_t controller_tick = -1;  // newest tick the controller answered
-  std::string failure;
-  Clock::time_point progress = Clock::now();
-
-  core::Bus bus(options.lcm_url);
-  PlanDriver driver(bus, suite.limits.start_s);
-  const core::Channels channels;
-  const auto answer = [&](int64_t tick) {
-    bus.Publish(channels.sim_arm_command, GraderAnswer(model, task, tick));
-    answered = std::max(answered, tick);
-  };
-  const auto may_answer = [&](int64_t tick) {
-    return tick > 0 || !via_control || driver.PlanAccepted();
-  };
-  bus.Subscribe<sirupp::arm_state_t>(
-      channels.sim_arm_state, [&](const sirupp::arm_state_t& m, const core::ReceiveInfo&) {
-        if (m.tick < 0 || static_cast<size_t>(m.tick) >= expected ||
-            m.num_joints != model.num_joints()) {
-          return;
-        }
-        const auto row = static_cast<size_t>(m.tick);
-        if (m.tick > last_state) {
-          last_state = m.tick;
-          progress = Clock::now();
-          rows.have_state[row] = 1;
-          std::copy(m.position.begin(), m.position.end(),
-                    rows.position.begin() + static_cast<long>(row * n));
-        }
-        // A state sent again (the sim's lockstep timeout) is answered again.
-        if (m.tick == last_state && may_answer(m.tick)) answer(m.tick);
-      });
-  bus.Subscribe<sirupp::arm_command_t>(
-      channels.sim_arm_command, [&](const sirupp::arm_command_t& m, const core::ReceiveInfo&) {
-        if (m.sender != participant || m.tick < 0 || static_cast<size_t>(m.tick) >= expected)
-          return;
-        const auto row = static_cast<size_t>(m.tick);
-        controller_tick = std::max(controller_tick, m.tick);
-        if (rows.have_command[row] != 0) return;
-        rows.have_command[row] = 1;
-        if (m.mode != sirupp::arm_command_t::MODE_EFFORT || m.num_joints != model.num_joints())
-          return;
-        for (size_t j = 0; j < n; ++j) {
-          const double e = m.effort[j];
-          if (!std::isfinite(e) && failure.empty()) {
-            failure = "returned effort " + core::FormatNumber(e) + " for joint " +
-                      std::to_string(j + 1) + " at tick " + std::to_string(m.tick) +
-                      " (allowed: finite values)";
-          }
-          const double limit = model.joints[j].effort_max;
-          rows.effort[row * n + j] = std::isfinite(e) ? std::clamp(e, -limit, limit) : 0.0;
-        }
-      });
-  bus.Subscribe<sirupp::servo_setpoint_t>(
-      channels.arm_setpoint, [&](const sirupp::servo_setpoint_t& m, const core::ReceiveInfo&) {
-        if (m.tick < 0 || static_cast<size_t>(m.tick) >= expected ||
-            m.num_joints != model.num_joints()) {
-          return;
-        }
-        const auto row = static_cast<size_t>(m.tick);
-        if (rows.have_setpoint[row] != 0) return;
-        rows.have_setpoint[row] = 1;
-        std::copy(m.position.begin(), m.position.end(),
-                  rows.reference.begin() + static_cast<long>(row * n));
-        std::copy(m.goal.begin(), m.goal.end(), rows.goal.begin() + static_cast<long>(row * n));
-      });
-
-  // What a process controller is given ({reference_csv}) and a track task is measured against.
-  ReferenceTable offered(0, n);
-  if (!via_control || task.track) {
-    try {
-      offered = TaskReference(model, task, expected);
-    } catch (const std::exception& error) {
-      record.failure = std::string("could not make the reference: ") + error.what();
-      return record;
-    }
-  }
-
-  // The controller first (it must hear the first state), then the sim.
-  Child control, sim;
-  std::vector<std::string> control_argv;
-  const std::string url = options.lcm_url;
-  if (via_control) {
-    control_argv = ControlArgv(suite, controller, options.bin_dir, url);
-  } else {
-    const std::string reference_file = options.work_dir + "/reference.csv";
-    control_argv = ExpandCommand(controller.command, model, task, url, participant, reference_file);
-    const bool wants_reference = std::any_of(
-        controller.command.begin(), controller.command.end(),
-        [](const std::string& word) { return word.find("{reference_csv}") != std::string::npos; });
-    if (wants_reference) {
-      try {
-        WriteReferenceCsv(reference_file, model, offered);
-      } catch (const std::exception& error) {
-        record.failure = std::string("could not write the reference: ") + error.what();
-        return record;
-      }
-    }
-  }
-  const std::vector<std::string> sim_argv =
-      SimArgv(suite, model, task, options.bin_dir, url, participant);
-
-  const Clock::time_point start = Clock::now();
-  try {
-    control.Start(control_argv, options.work_dir + "/controller.log");
-    sim.Start(sim_argv, options.work_dir + "/sim.log");
-  } catch (const std::exception& error) {
-    record.failure = std::string("could not start the task's processes: ") + error.what();
-    return record;
-  }
-  progress = Clock::now();
-  bool plan_sent = false;
-  bool sim_done = false;
-  const double grace_s = via_control ? suite.limits.tick_s + 5 : suite.limits.tick_s;
-  while (failure.empty()) {
-    bus.Handle(10);
-    bus.HandleAvailable();
-    if (via_control && !plan_sent && controller_tick >= 0) {
-      // Waits for the controller's reply; the bus is handled meanwhile (tick 0 is held until
-      // the plan is taken).
-      plan_sent = true;
-      failure = driver.RunPlan(task.plan_name, task.plan_text);
-      if (!failure.empty()) break;
-    }
-    if (last_state == 0 && answered < 0 && may_answer(0)) answer(0);
-    if (via_control && !driver.Fault().empty()) {
-      failure = "fault: " + driver.Fault();
-      break;
-    }
-    if (!sim.Running()) {
-      sim_done = true;
-      // Messages still queued belong to the run.
-      while (bus.Handle(50) > 0) {
-      }
-      if (!sim.EndedCleanly()) {
-        failure = "sirupp-sim ended (" + sim.HowEnded() + "): " + sim.LogTail();
-      }
-      break;
-    }
-    if (!control.Running()) {
-      const std::string who = via_control ? "sirupp-control" : "the controller process";
-      failure = who + " ended (" + control.HowEnded() + ") at tick " +
-                std::to_string(std::max<int64_t>(last_state, 0)) + ": " + control.LogTail(2);
-      break;
-    }
-    failure = StallFailure(suite.limits, controller_tick, last_state, answered, Since(progress),
-                           grace_s, Since(start));
-  }
-  sim.Stop(1.0);
-  control.Stop(1.0);
-  if (failure.empty() && !sim_done) failure = "stopped before the sim ended";
+  record.track = task.track.has_value();
+  TaskRun run(suite, model, task, controller, options);
+  std::string failure = run.MakeReference();
+  if (failure.empty()) failure = run.StartProcesses();
+  if (failure.empty()) failure = run.Watch();
   if (!failure.empty()) {
     record.failure = failure;
     return record;
   }
-  FillRecord(rows, last_state, via_control, model, task, offered, record);
+  run.Fill(record);
   return record;
 }
 

@@ -56,6 +56,9 @@ struct TaskRecord {
   // set-points computed before the task for a process controller, grade/reference.hpp), or a
   // tracking task's path (for every controller). RunTask always gives one.
   bool has_reference = false;
+  // A tracking task: the reference is a path that may swing past the final goal, so the step
+  // figures look only at the end (grade/metrics.hpp).
+  bool track = false;
   std::vector<double> time_s;     // per tick
   std::vector<double> position;   // tick-major, num_joints per tick
   std::vector<double> reference;  // set-point position (or the path)
@@ -63,7 +66,7 @@ struct TaskRecord {
   std::vector<double> effort;     // the controller's effort, after the limits
   int64_t missing_rows = 0;       // ticks without the controller's answer or set-point heard
   // A tracking task run by sirupp-control: the largest |chip set-point - path| on the tracked
-  // joint (rad or m), how closely the chip's profile followed the path it was handed.
+  // joints (rad or m), how closely the chip's profile followed the path it was handed.
   double setpoint_deviation = 0;
   size_t ticks() const { return time_s.size(); }
 };

@@ -15,6 +15,8 @@ namespace {
 constexpr double kPi = 3.14159265358979323846;
 constexpr const char* kFormat = "sirupp-grade-suite-1";
 constexpr double kMaxTrackS = 30;  // s of path: its plan (a move per 16 ticks) stays < 256 KiB
+constexpr size_t kMaxWaypoints = 100;
+constexpr double kMinWaypointGapS = 0.05;
 
 // Degrees (mm for a prismatic joint) as written in suites to SI.
 double ToSi(const core::RobotModel& model, size_t j, double value) {
@@ -109,20 +111,60 @@ void ReadHold(const core::YamlMap& map, const std::string& where, Task& task) {
   task.description = "hold the start pose";
 }
 
-// track: one joint back and forth about its start on a minimum-jerk path, within its soft
-// limits, speed and acceleration caps, followed by a generated plan of a move every kKnotTicks.
-void ReadTrack(const core::YamlMap& map, const core::RobotModel& model, const std::string& where,
-               Task& task) {
-  const core::YamlValue node = map.Get("track", "a mapping");
-  const core::YamlMap track = node.Map({"joint", "amplitude_deg", "period_s", "cycles"});
+// What a tracking task's path may not do: leave a joint's soft limits, or pass its speed or
+// acceleration cap, anywhere along it. "" when it keeps to them, else what it does and the limit.
+std::string PathProblem(const Path& path, const core::RobotModel& model, double& when_s) {
+  const core::MotionLimits limits = core::DefaultMotionLimits(model);
+  for (size_t j = 0; j < path.num_joints(); ++j) {
+    const JointPath& p = path.joint(j);
+    if (!p.moves()) continue;
+    const double scale = ToSi(model, j, 1);
+    const bool revolute = model.joints[j].type == core::JointType::kRevolute;
+    const std::string unit = revolute ? " deg" : " mm";
+    const std::string joint = "joint " + std::to_string(j + 1);
+    const auto at = [&](const JointPath::Extreme& e) {
+      when_s = e.t_s;
+      return " at " + core::FormatApprox(e.t_s) + " s";
+    };
+    const int index = static_cast<int>(j);
+    const double lo = core::SoftMin(model, limits, index);
+    const double hi = core::SoftMax(model, limits, index);
+    for (const JointPath::Extreme& e : {p.lowest(), p.highest()}) {
+      if (e.value < lo || e.value > hi) {
+        return joint + " reaches " + core::FormatApprox(e.value / scale) + unit + at(e) +
+               ", outside its soft limits [" + Number(lo / scale) + ", " + Number(hi / scale) +
+               "]" + unit;
+      }
+    }
+    const double v_cap = model.joints[j].velocity_max * limits.velocity_cap_fraction;
+    const JointPath::Extreme v = p.peak_velocity();
+    if (v.value > v_cap) {
+      return joint + "'s speed reaches " + core::FormatApprox(v.value / scale) + unit + "/s" +
+             at(v) + ", above its cap " + core::FormatApprox(v_cap / scale) + unit + "/s";
+    }
+    const JointPath::Extreme a = p.peak_acceleration();
+    if (a.value > limits.acceleration_max[j]) {
+      return joint + "'s acceleration reaches " + core::FormatApprox(a.value / scale) + unit +
+             "/s^2" + at(a) + ", above its cap " +
+             core::FormatApprox(limits.acceleration_max[j] / scale) + unit + "/s^2";
+    }
+  }
+  return "";
+}
+
+// shape: back_and_forth: one joint back and forth about its start on minimum-jerk legs.
+Path ReadBackAndForth(const core::YamlValue& node, const core::RobotModel& model, Task& task) {
+  const core::YamlMap track = node.Map({"shape", "joint", "amplitude_deg", "period_s", "cycles"});
   const int joint = ReadJoint(track, model);
   const auto j = static_cast<size_t>(joint);
   const double amplitude = track.Number("amplitude_deg", core::NumberInRange(0.5, 180, "deg"));
   const double period = track.Number("period_s", core::NumberInRange(0.2, 60, "s"));
   const auto cycles = track.Get("cycles", "a whole number 1..20").Integer(1, 20);
   const double centre = task.start[j];
-  Track path{joint, MinJerkPath::BackAndForth(centre, ToSi(model, j, amplitude), period,
-                                              static_cast<int>(cycles))};
+  Path path = Path::OneJoint(
+      task.start, joint,
+      JointPath::BackAndForth(centre, ToSi(model, j, amplitude), period, static_cast<int>(cycles)));
+  const JointPath& p = path.joint(j);
   const double scale = ToSi(model, j, 1);
   const core::MotionLimits limits = core::DefaultMotionLimits(model);
   const double lo = core::SoftMin(model, limits, joint);
@@ -134,40 +176,175 @@ void ReadTrack(const core::YamlMap& map, const core::RobotModel& model, const st
               Number(hi / scale) + "]");
   }
   const double v_cap = model.joints[j].velocity_max * limits.velocity_cap_fraction;
-  if (path.path.peak_velocity() > v_cap) {
+  if (p.peak_velocity().value > v_cap) {
     track.Get("period_s", "")
         .Fail("period " + Number(period) + " s is too short: the path's peak speed " +
-              core::FormatApprox(path.path.peak_velocity() / scale) + " is above joint " +
+              core::FormatApprox(p.peak_velocity().value / scale) + " is above joint " +
               std::to_string(joint + 1) + "'s cap " + core::FormatApprox(v_cap / scale) +
               " per s (7.5 x amplitude / period)");
   }
-  if (path.path.peak_acceleration() > limits.acceleration_max[j]) {
+  if (p.peak_acceleration().value > limits.acceleration_max[j]) {
     track.Get("period_s", "")
         .Fail("period " + Number(period) + " s is too short: the path's peak acceleration " +
-              core::FormatApprox(path.path.peak_acceleration() / scale) + " is above joint " +
+              core::FormatApprox(p.peak_acceleration().value / scale) + " is above joint " +
               std::to_string(joint + 1) + "'s cap " +
               core::FormatApprox(limits.acceleration_max[j] / scale) +
               " per s^2 (92.4 x amplitude / period^2)");
   }
-  if (path.path.end_s() > kMaxTrackS) {
-    node.Fail("cycles x period_s = " + Number(path.path.end_s()) + " s; allowed at most " +
+  if (path.end_s() > kMaxTrackS) {
+    node.Fail("cycles x period_s = " + Number(path.end_s()) + " s; allowed at most " +
               Number(kMaxTrackS) + " s (the plan that follows it must fit one ARM_PLAN)");
   }
-  if (path.path.end_s() > task.duration_s) {
-    node.Fail("cycles x period_s = " + Number(path.path.end_s()) +
+  if (path.end_s() > task.duration_s) {
+    node.Fail("cycles x period_s = " + Number(path.end_s()) +
               " s is longer than the task's duration_s " + Number(task.duration_s));
   }
   const bool revolute = model.joints[j].type == core::JointType::kRevolute;
-  std::ostringstream plan;
-  plan << "# generated by sirupp grade for " << where << ": a minimum-jerk path, one move every "
-       << kKnotTicks << " ticks\nunits " << (revolute ? "deg" : "deg mm") << "\n"
-       << FollowPlanLines(path.path, model, joint, task.start, kKnotTicks);
-  task.plan_name = task.name;
-  task.plan_text = plan.str();
   task.description = "track joint " + std::to_string(joint + 1) + " +-" + Number(amplitude) +
                      (revolute ? " deg" : " mm") + " on a minimum-jerk path, " +
                      std::to_string(cycles) + " cycles of " + Number(period) + " s";
-  task.track = std::move(path);
+  return path;
+}
+
+// shape: chirp: one joint swept in frequency about its start, within its soft limits and its
+// speed and acceleration caps all along.
+Path ReadChirp(const core::YamlValue& node, const core::RobotModel& model, Task& task) {
+  const core::YamlMap track =
+      node.Map({"shape", "joint", "amplitude_deg", "from_hz", "to_hz", "sweep_s"});
+  const int joint = ReadJoint(track, model);
+  const auto j = static_cast<size_t>(joint);
+  const double amplitude = track.Number("amplitude_deg", core::NumberInRange(0.5, 180, "deg"));
+  const double from_hz = track.Number("from_hz", core::NumberInRange(0.05, 5, "Hz"));
+  const double to_hz = track.Number("to_hz", core::NumberInRange(0.05, 5, "Hz"));
+  const double sweep_s = track.Number("sweep_s", core::NumberInRange(0.2, kMaxTrackS, "s"));
+  const double fades = 1 / from_hz + 1 / to_hz;
+  if (sweep_s < fades) {
+    track.Get("sweep_s", "")
+        .Fail("sweep_s " + Number(sweep_s) +
+              " s is shorter than its fade in and out (1 / from_hz + 1 / to_hz = " +
+              core::FormatApprox(fades) + " s)");
+  }
+  if (sweep_s > task.duration_s) {
+    track.Get("sweep_s", "")
+        .Fail("sweep_s " + Number(sweep_s) + " s is longer than the task's duration_s " +
+              Number(task.duration_s));
+  }
+  Path path = Path::OneJoint(
+      task.start, joint,
+      JointPath::Chirp(task.start[j], ToSi(model, j, amplitude), from_hz, to_hz, sweep_s));
+  double when_s = 0;
+  const std::string problem = PathProblem(path, model, when_s);
+  if (!problem.empty()) {
+    track.Get("amplitude_deg", "")
+        .Fail("the chirp: " + problem + " (lower the amplitude or the frequencies)");
+  }
+  const bool revolute = model.joints[j].type == core::JointType::kRevolute;
+  task.description = "track joint " + std::to_string(joint + 1) + " +-" + Number(amplitude) +
+                     (revolute ? " deg" : " mm") + " on a chirp from " + Number(from_hz) +
+                     " Hz to " + Number(to_hz) + " Hz over " + Number(sweep_s) + " s";
+  return path;
+}
+
+// shape: spline: every joint from the start pose through waypoints (a pose at a time each) on a
+// C2 path, within the soft limits and the speed and acceleration caps all along.
+Path ReadSpline(const core::YamlValue& node, const core::RobotModel& model, Task& task) {
+  const core::YamlMap track = node.Map({"shape", "waypoints"});
+  const size_t n = static_cast<size_t>(model.num_joints());
+  const core::YamlValue list = track.Get("waypoints", "a list of {at_s, deg}");
+  const std::vector<core::YamlValue> entries = list.Sequence(1, kMaxWaypoints);
+  std::vector<double> times;
+  std::vector<std::vector<double>> poses;
+  const core::MotionLimits limits = core::DefaultMotionLimits(model);
+  for (const core::YamlValue& entry : entries) {
+    const core::YamlMap waypoint = entry.Map({"at_s", "deg"});
+    const double at = waypoint.Number("at_s", core::NumberInRange(0.05, kMaxTrackS, "s"));
+    const double after = times.empty() ? 0 : times.back();
+    if (at < after + kMinWaypointGapS) {
+      waypoint.Get("at_s", "")
+          .Fail("at_s " + Number(at) + " must be at least " + Number(kMinWaypointGapS) +
+                " s after the " +
+                (times.empty() ? "start (0 s)" : "waypoint before (" + Number(after) + " s)"));
+    }
+    if (at > task.duration_s) {
+      waypoint.Get("at_s", "")
+          .Fail("at_s " + Number(at) + " is after the task's duration_s " +
+                Number(task.duration_s));
+    }
+    const std::vector<double> deg =
+        waypoint.Get("deg", "").Numbers(n, core::AnyNumber("deg, mm for prismatic joints"));
+    std::vector<double> pose(n);
+    for (size_t j = 0; j < n; ++j) {
+      pose[j] = ToSi(model, j, deg[j]);
+      const int joint = static_cast<int>(j);
+      const double lo = core::SoftMin(model, limits, joint);
+      const double hi = core::SoftMax(model, limits, joint);
+      if (pose[j] < lo || pose[j] > hi) {
+        const double scale = ToSi(model, j, 1);
+        waypoint.Get("deg", "").Fail("joint " + std::to_string(j + 1) + " at " + Number(deg[j]) +
+                                     " is outside its soft limits [" + Number(lo / scale) + ", " +
+                                     Number(hi / scale) + "]");
+      }
+    }
+    times.push_back(at);
+    poses.push_back(pose);
+  }
+  Path path = Path::Spline(task.start, times, poses);
+  std::string moving;
+  for (size_t j = 0; j < n; ++j) {
+    if (path.joint(j).moves()) moving += (moving.empty() ? "" : ", ") + std::to_string(j + 1);
+  }
+  if (moving.empty()) list.Fail("the waypoints never leave the start pose: nothing to track");
+  double when_s = 0;
+  const std::string problem = PathProblem(path, model, when_s);
+  if (!problem.empty()) {
+    // The waypoint that ends the stretch where it happens.
+    size_t i = 0;
+    while (i + 1 < times.size() && times[i] < when_s) ++i;
+    const std::string stretch =
+        i == 0 ? "between the start and waypoint 1"
+               : "between waypoints " + std::to_string(i) + " and " + std::to_string(i + 1);
+    entries[i].Fail("the spline " + stretch + ": " + problem +
+                    " (a spline can swing past its waypoints; give them more time or move them)");
+  }
+  task.description = "track joints " + moving + " on a spline through " +
+                     std::to_string(times.size()) + " waypoint" + (times.size() == 1 ? "" : "s") +
+                     " over " + Number(path.end_s()) + " s";
+  return path;
+}
+
+// track: a path to track (back_and_forth, spline or chirp), followed by a generated plan of a move
+// per moving joint every kKnotTicks.
+void ReadTrack(const core::YamlMap& map, const core::RobotModel& model, const std::string& where,
+               Task& task) {
+  const core::YamlValue node = map.Get("track", "a mapping");
+  const core::YamlMap any = node.Map({"shape", "joint", "amplitude_deg", "period_s", "cycles",
+                                      "waypoints", "from_hz", "to_hz", "sweep_s"});
+  const std::string shape = any.Has("shape")
+                                ? any.Get("shape", "").Choice({"back_and_forth", "spline", "chirp"})
+                                : "back_and_forth";
+  Track track{shape, shape == "spline"  ? ReadSpline(node, model, task)
+                     : shape == "chirp" ? ReadChirp(node, model, task)
+                                        : ReadBackAndForth(node, model, task)};
+  bool prismatic = false;
+  for (size_t j = 0; j < track.path.num_joints(); ++j) {
+    prismatic = prismatic ||
+                (track.path.joint(j).moves() && model.joints[j].type != core::JointType::kRevolute);
+  }
+  std::ostringstream plan;
+  plan << "# generated by sirupp grade for " << where << ": a " << shape
+       << " path, a move per moving joint every " << kKnotTicks << " ticks\nunits "
+       << (prismatic ? "deg mm" : "deg") << "\n"
+       << FollowPlanLines(track.path, model, task.start, kKnotTicks);
+  if (plan.str().size() > control::kMaxPlanBytes) {
+    node.Fail("the plan that hands this path to sirupp-control (a move per moving joint every " +
+              Number(kKnotTicks * model.servo_tick_s * 1000) + " ms) has " +
+              std::to_string(plan.str().size()) + " bytes; allowed at most " +
+              std::to_string(control::kMaxPlanBytes) +
+              " (one ARM_PLAN): track fewer joints or a shorter path");
+  }
+  task.plan_name = task.name;
+  task.plan_text = plan.str();
+  task.track = std::move(track);
 }
 
 // arm: how the simulated arm differs from the model (payload, friction, gravity).

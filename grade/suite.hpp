@@ -37,11 +37,12 @@ struct Disturbance {
   double from_s = 0, to_s = 0;
 };
 
-// A tracking task's path (grade/trajectory.hpp): one joint on a minimum-jerk path, the others
-// holding their start.
+// A tracking task's path (grade/trajectory.hpp), every joint: one joint back and forth on
+// minimum-jerk legs (the others holding their start), or several joints at once on a spline
+// through waypoints.
 struct Track {
-  int joint = 0;  // 0-based
-  MinJerkPath path;
+  std::string shape;  // "back_and_forth" or "spline"
+  Path path;
 };
 
 struct Task {

@@ -212,5 +212,35 @@ TEST(GradeMetrics, TooShortARecordHasNoFigures) {
   EXPECT_FALSE(m.joints[0].moves);
 }
 
+// A tracking task's path may swing past the final goal on its way (0 -> 20 -> 10 deg, the path
+// ending at 2 s): that is the path's doing, not an overshoot; after the path's end the joint goes
+// 0.5 deg past the goal (5 % of the 10 deg step), and that is. The path sets the pace: no rise
+// time.
+TEST(GradeMetrics, OnATrackingTaskOnlyTheEndCountsForOvershootAndThereIsNoRiseTime) {
+  Signals s;
+  s.goal = [](double) { return 10.0; };
+  s.reference = [](double t) { return t < 1 ? 20 * t : t < 2 ? 30 - 10 * t : 10.0; };
+  s.position = [&s](double t) {
+    if (t < 2) return s.reference(t);
+    if (t < 2.5) return 10 + (t - 2);  // to 10.5 deg
+    return 10.0;
+  };
+  TaskRecord record = Record(4001, s);
+  Thresholds pass;
+  pass.rise_s = 0.1;
+  pass.overshoot_percent = 4;
+  const TaskMetrics plain = ComputeMetrics(Puma(), record, pass);
+  EXPECT_NEAR(*plain.joints[0].overshoot_percent, 100, 1e-6);  // 20 deg is 10 past the goal
+  record.track = true;
+  const TaskMetrics m = ComputeMetrics(Puma(), record, pass);
+  const JointMetrics& j = m.joints[0];
+  EXPECT_TRUE(j.moves);
+  EXPECT_FALSE(j.rise_s.has_value());
+  ASSERT_TRUE(j.overshoot_percent.has_value());
+  EXPECT_NEAR(*j.overshoot_percent, 5, 0.05);
+  ASSERT_EQ(m.failed_checks.size(), 1u);
+  EXPECT_NE(m.failed_checks[0].find("joint 1: overshoot"), std::string::npos) << m.failed_checks[0];
+}
+
 }  // namespace
 }  // namespace sirupp::grade

@@ -275,7 +275,8 @@ TEST(GradeRunner, ATrackingTaskIsGradedAgainstThePathForAProcessAndForTheBaselin
   // Its reference in the record is the path (not the goal), and it followed it.
   ASSERT_GT(mine.ticks(), 4000u);
   const size_t n = 6;
-  EXPECT_NEAR(mine.reference[1465 * n + 1], task.track->path.At(1465 * 0.000512).position, 1e-12);
+  EXPECT_NEAR(mine.reference[1465 * n + 1], task.track->path.joint(1).At(1465 * 0.000512).position,
+              1e-12);
   EXPECT_NEAR(mine.reference[1465 * n + 1], 20 * kDeg, 0.01 * kDeg);
   const TaskMetrics m = ComputeMetrics(Puma(), mine, task.pass);
   EXPECT_LT(m.joints[1].rms_tracking, 0.5) << "deg";

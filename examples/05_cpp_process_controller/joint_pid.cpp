@@ -3,8 +3,12 @@
 // It learns the arm from ROBOT_MODEL (the joint count, each joint's name, position limits and
 // effort limit, as sirupp-sim loaded them), subscribes to SIM_ARM_STATE and answers every state
 // with an arm_command_t on SIM_ARM_COMMAND that carries the same tick, so sirupp-sim can run in
-// lockstep with it as the only participant. Until ROBOT_MODEL has come it answers with hold
-// (brakes on), so the sim is never kept waiting.
+// lockstep with it as the only participant. It answers no state before ROBOT_MODEL has come: in
+// lockstep the sim waits for it (and sends the state again), in realtime the sim brakes the arm for
+// a participant it has not heard yet. So the law starts at the first state whenever the model
+// arrives, and the efforts are a function of the states alone: the same states give the same
+// efforts, bit for bit (answering hold until the model comes would start the law at a tick that
+// depends on when the model happened to arrive, and `sirupp grade` would see different numbers).
 //
 // The law is a PID per joint with no model of the arm's dynamics: the integral term learns the
 // gravity and friction efforts. The reference moves from where the arm starts towards the target at
@@ -243,15 +247,20 @@ class JointPid {
     command.sender = options_.name;
     command.num_joints = state->num_joints;
     command.effort.assign(static_cast<size_t>(state->num_joints), 0.0);
-    if (num_joints_ == 0 || state->num_joints != num_joints_) {
-      command.mode = sirupp::arm_command_t::MODE_HOLD;  // brakes on until the arm is known
+    // Not before the arm is known: the sim waits (lockstep) or brakes (realtime) meanwhile, and
+    // the law starts at the first state, whenever ROBOT_MODEL came.
+    if (num_joints_ == 0) return;
+    if (state->num_joints != num_joints_) {
+      command.mode = sirupp::arm_command_t::MODE_HOLD;  // another arm than the model's: brakes on
       Publish(command);
-      return;  // the PID starts with the first state after ROBOT_MODEL
+      return;
     }
     const auto n = static_cast<size_t>(num_joints_);
     if (reference_.empty()) {
       reference_ = state->position;  // start the reference where the arm is
       integral_.assign(n, 0.0);
+      std::fprintf(stderr, "JointPid: the law starts at tick %lld\n",
+                   static_cast<long long>(state->tick));
     }
     const double dt = last_tick_ < 0 || last_utime_ == 0
                           ? 0

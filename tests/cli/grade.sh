@@ -7,7 +7,8 @@
 #                      note only without a JDK) graded against config/grading/basic.yaml beside
 #                      the baseline; example 05 (C++) against config/grading/advanced.yaml twice,
 #                      ramping to {goal_deg} on its own and following {reference_csv}: the
-#                      reference lowers its tracking error on every task that moves (long)
+#                      reference lowers its tracking error on every task that moves; following
+#                      it twice gives the same results.json (long)
 #   grade.sh batch     a class folder: the examples, bad controllers, one that does not build and
 #                      one that does not load give class.csv and class.md
 # Needs SIRUPP_BIN_DIR, LIB_DIR (build/lib), TEST_CONTROLLERS, JAVA_CP (may be empty).
@@ -112,6 +113,14 @@ examples)
       "$bin/joint_pid" --deg '{goal_deg}' --lcm-url '{url}' --name '{name}'
     grade given --suite config/grading/advanced.yaml -j 2 --no-baseline -- \
       "$bin/joint_pid" --reference '{reference_csv}' --lcm-url '{url}' --name '{name}'
+    # Bit for bit: a second grade of the same process controller gives the same results.json and
+    # hash (example 05 answers no state before ROBOT_MODEL, so its law always starts at tick 0).
+    grade given2 --suite config/grading/advanced.yaml -j 2 --no-baseline -- \
+      "$bin/joint_pid" --reference '{reference_csv}' --lcm-url '{url}' --name '{name}'
+    g1=$(sed -n 's/.*results fnv1a //p' "$work/given.txt"); g2=$(sed -n 's/.*results fnv1a //p' "$work/given2.txt")
+    echo "example 05 graded twice: results fnv1a $g1 and $g2"
+    cmp "$work/given/results.json" "$work/given2/results.json" || fail "example 05: two grades differ"
+    [ -n "$g1" ] && [ "$g1" = "$g2" ] || fail "example 05: hashes differ: $g1 $g2"
     python3 - "$work/ramp/results.json" "$work/given/results.json" <<'PY' || fail "example 05: the reference did not lower the tracking error"
 import json, sys
 ramp, given = (json.load(open(f)) for f in sys.argv[1:3])
