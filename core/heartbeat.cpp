@@ -5,6 +5,8 @@
 #include <array>
 #include <utility>
 
+#include "core/translate.hpp"
+
 namespace sirupp::core {
 namespace {
 
@@ -59,37 +61,30 @@ void Heartbeat::Publish(ProcessState state, const std::string& detail) {
 sirupp::heartbeat_t Heartbeat::Build(ProcessState state, const std::string& detail) {
   const Clock::time_point now = Clock::now();
   const double since_previous = std::chrono::duration<double>(now - previous_time_).count();
-  sirupp::heartbeat_t message{};
-  message.utime = WallMicros();
-  message.seq = seq_;
-  message.process = process_;
-  message.host = host_;
-  message.pid = pid_;
-  message.state = static_cast<int8_t>(state);
-  message.detail = detail;
-  message.uptime_s = std::chrono::duration<double>(now - started_).count();
+  HeartbeatReport report;
+  report.utime = WallMicros();
+  report.seq = seq_;
+  report.process = process_;
+  report.host = host_;
+  report.pid = pid_;
+  report.state = state;
+  report.detail = detail;
+  report.uptime_s = std::chrono::duration<double>(now - started_).count();
   std::map<std::string, int64_t> counts;
   for (const ChannelStats& stats : bus_.Stats()) {
-    sirupp::channel_stats_t entry{};
-    entry.channel = stats.channel;
-    entry.publishing = stats.publishing ? 1 : 0;
-    entry.messages = stats.messages;
-    entry.decode_errors = stats.decode_errors;
-    entry.rejected = stats.rejected;
-    entry.late = stats.late;
-    entry.gaps = stats.gaps;
+    ChannelTraffic traffic;
+    traffic.stats = stats;
     const std::string key = (stats.publishing ? "tx " : "rx ") + stats.channel;
     const auto previous = previous_counts_.find(key);
     const int64_t before = previous == previous_counts_.end() ? 0 : previous->second;
-    entry.rate_hz =
+    traffic.rate_hz =
         since_previous > 0 ? static_cast<double>(stats.messages - before) / since_previous : 0.0;
     counts[key] = stats.messages;
-    message.channels.push_back(entry);
+    report.channels.push_back(std::move(traffic));
   }
-  message.num_channels = static_cast<int32_t>(message.channels.size());
   previous_counts_ = std::move(counts);
   previous_time_ = now;
-  return message;
+  return ToMessage(report);
 }
 
 }  // namespace sirupp::core

@@ -16,6 +16,7 @@
 #include "core/bus.hpp"
 #include "core/channels.hpp"
 #include "core/errors.hpp"
+#include "core/translate.hpp"
 #include "runtime/args.hpp"
 #include "tools/rig_args.hpp"
 #include "viewer/image_codec.hpp"
@@ -48,15 +49,13 @@ std::optional<sirupp::viewer_camera_t> CameraOf(const sirupp::image_t& image) {
   std::istringstream in(*text);
   double az = 0, el = 0, dist = 0, x = 0, y = 0, z = 0;
   if (!(in >> az >> el >> dist >> x >> y >> z)) return std::nullopt;
-  sirupp::viewer_camera_t camera{};
-  camera.set_camera = 1;
+  core::ViewerCamera camera;
+  camera.set_camera = true;
   camera.azimuth = az * kDegToRad;
   camera.elevation = el * kDegToRad;
   camera.distance = dist;
-  camera.target[0] = x;
-  camera.target[1] = y;
-  camera.target[2] = z;
-  return camera;
+  camera.target = Eigen::Vector3d(x, y, z);
+  return core::ToMessage(camera);
 }
 
 }  // namespace
