@@ -314,6 +314,7 @@ int Bus::DeliverRecorded(const std::string& full_channel, const void* data, int 
     }
   }
   dispatching_ = true;
+  ++dispatch_number_;  // one message: counted once however many subscriptions take it
   for (Subscription* subscription : matching) {
     subscription->Dispatch(rbuf, full_channel, newest_only);
   }
@@ -327,8 +328,7 @@ int Bus::DeliverRecorded(const std::string& full_channel, const void* data, int 
 int Bus::Fileno() {
   const std::vector<int> before = SocketsBeforeLcmReceives();
   const int fd = lcm_.getFileno();  // 1.3.1 opens the receive socket here if not yet done
-  FindLcmSocket(before);
-  UpdateLcmFilter();
+  FindLcmSocket(before);            // the filter goes on with the search, the first time only
   return fd;
 }
 
@@ -357,6 +357,7 @@ void Bus::FindLcmSocket(const std::vector<int>& before) {
   std::vector<int> created = created_since(before);
   if (created.empty()) created = created_since(socket_->at_start);
   if (created.size() == 1) socket_->fd = created.front();
+  UpdateLcmFilter();
 }
 
 void Bus::UpdateLcmFilter() {

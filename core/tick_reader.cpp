@@ -30,7 +30,7 @@ int64_t NowMicros() {
 }  // namespace
 
 TickReader::TickReader(const UdpmAddress& address, std::vector<std::string> full_channels,
-                       int buffer_bytes)
+                       int buffer_bytes, Pick pick)
     : address_(address), names_(full_channels) {
   if (full_channels.empty() || full_channels.size() > kMaxFilterChannels) {
     throw std::runtime_error("TickReader: 1 to 8 channels");
@@ -54,7 +54,7 @@ TickReader::TickReader(const UdpmAddress& address, std::vector<std::string> full
   if (setsockopt(fd_, SOL_SOCKET, SO_REUSEADDR, &on, sizeof on) != 0) fail("share the port");
   if (setsockopt(fd_, SOL_SOCKET, SO_TIMESTAMP, &on, sizeof on) != 0) fail("ask for timestamps");
   // The drop count is a best effort: without it, sequence gaps still show a loss.
-  setsockopt(fd_, SOL_SOCKET, SO_RXQ_OVFL, &on, sizeof on);
+  if (pick == Pick::kCountDrops) setsockopt(fd_, SOL_SOCKET, SO_RXQ_OVFL, &on, sizeof on);
   const int want = buffer_bytes > 0 ? buffer_bytes : address_.recv_buf_size;
   if (want > 0) {
     // Beyond net.core.rmem_max only with CAP_NET_ADMIN; else as much as allowed.
@@ -64,7 +64,9 @@ TickReader::TickReader(const UdpmAddress& address, std::vector<std::string> full
   }
   // The filter first, so nothing else is queued between bind and attach... except what arrives in
   // that instant: Match() checks every datagram again.
-  if (!FilterChannels(fd_, names_, true)) fail("attach the channel filter");
+  if (pick == Pick::kFilter && !FilterChannels(fd_, names_, true)) {
+    fail("attach the channel filter");
+  }
   sockaddr_in local{};
   local.sin_family = AF_INET;
   local.sin_addr.s_addr = htonl(INADDR_ANY);
@@ -149,11 +151,12 @@ int TickReader::Drain() {
 }
 
 std::unique_ptr<TickFeed> TickFeed::Open(Bus& bus, std::vector<std::string> full_channels,
-                                         const std::string& who, int buffer_bytes) {
+                                         const std::string& who, int buffer_bytes,
+                                         TickReader::Pick pick) {
   const std::optional<UdpmAddress> address = ParseUdpmUrl(bus.url());
   if (!address) return nullptr;
   try {
-    auto reader = std::make_unique<TickReader>(*address, full_channels, buffer_bytes);
+    auto reader = std::make_unique<TickReader>(*address, full_channels, buffer_bytes, pick);
     if (!bus.TakeOffLcm(full_channels)) {
       std::cerr << who
                 << ": LCM's receive socket could not be filtered; the per-tick channels go "

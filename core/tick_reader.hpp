@@ -12,7 +12,10 @@
 // Two ways to read: every datagram in order with its kernel receive time (DrainEach: the logger,
 // which must keep every message), or each channel's newest message only (Drain + TakeNewest: the
 // viewer and the panel, which draw the newest state per frame; the older ones are never decoded).
-// Datagrams the kernel dropped because the socket's buffer was full are counted (SO_RXQ_OVFL).
+// Datagrams the kernel dropped because the socket's buffer was full can be counted (SO_RXQ_OVFL);
+// the kernel counts the datagrams a socket filter refuses as drops too, so a reader that counts
+// drops has no filter: its socket queues every datagram of the group and the channels are picked
+// here (a woken reader should filter, one drained on a timer can count).
 // Not thread-safe: one thread reads.
 
 #include <cstdint>
@@ -28,12 +31,17 @@ class Bus;
 
 class TickReader {
  public:
+  // How the socket picks the channels.
+  enum class Pick {
+    kFilter,      // a socket filter: only the channels are queued; dropped() stays 0
+    kCountDrops,  // no filter: everything is queued, the channels picked here; dropped() counts
+  };
   // full_channels: 1 to 8 names, rig prefix included. buffer_bytes: the socket's receive buffer
   // to ask for; 0 = the URL's recv_buf_size, else the kernel's default. As root it may exceed
   // net.core.rmem_max (SO_RCVBUFFORCE); otherwise the kernel caps it there.
   // Throws std::runtime_error naming the group and port when the socket cannot be set up.
   TickReader(const UdpmAddress& address, std::vector<std::string> full_channels,
-             int buffer_bytes = 0);
+             int buffer_bytes = 0, Pick pick = Pick::kFilter);
   ~TickReader();
   TickReader(const TickReader&) = delete;
   TickReader& operator=(const TickReader&) = delete;
@@ -68,9 +76,10 @@ class TickReader {
   }
 
   int64_t datagrams() const { return datagrams_; }  // read since the start
-  int64_t refused() const { return refused_; }      // read but not a per-tick message (truncated)
-  // Datagrams for this socket the kernel dropped since the start (its buffer was full), as of the
-  // last datagram read.
+  // Read but not one of the channels (with kFilter: only a truncated one).
+  int64_t refused() const { return refused_; }
+  // kCountDrops: datagrams for this socket the kernel dropped since the start (its buffer was
+  // full), as of the last datagram read.
   int64_t dropped() const { return dropped_; }
   int buffer_bytes() const;  // the receive buffer the kernel gave (SO_RCVBUF)
 
@@ -138,7 +147,8 @@ class TickFeed {
   // socket or LCM's filter cannot be set up; the second is said once on stderr, naming `who`,
   // and the channels then go through LCM as before.
   static std::unique_ptr<TickFeed> Open(Bus& bus, std::vector<std::string> full_channels,
-                                        const std::string& who, int buffer_bytes = 0);
+                                        const std::string& who, int buffer_bytes = 0,
+                                        TickReader::Pick pick = TickReader::Pick::kFilter);
   ~TickFeed();
   TickFeed(const TickFeed&) = delete;
   TickFeed& operator=(const TickFeed&) = delete;

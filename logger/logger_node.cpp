@@ -263,9 +263,11 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
       ticks.push_back(bus_.FullName(options_.channels.sim_arm_command));
       ticks.push_back(bus_.FullName(options_.channels.real_arm_setpoint));
     }
-    // As large a buffer as allowed: it holds what arrives between two drains.
+    // As large a buffer as allowed: it holds what arrives between two drains. No socket filter,
+    // so that the kernel's drop count is only datagrams lost for a full buffer.
     constexpr int kTickBuffer = 32 << 20;
-    ticks_ = core::TickFeed::Open(bus_, std::move(ticks), options_.process_name, kTickBuffer);
+    ticks_ = core::TickFeed::Open(bus_, std::move(ticks), options_.process_name, kTickBuffer,
+                                  core::TickReader::Pick::kCountDrops);
   }
   // From now on every subscription is in place: raw log and handlers take the same messages. A
   // message that reached LCM's socket before the feed took its channel over is older than this,
