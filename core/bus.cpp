@@ -5,12 +5,16 @@
 #include <cinttypes>
 #include <cstdio>
 #include <cstdlib>
+#include <iostream>
 #include <limits>
 #include <map>
+#include <optional>
+#include <regex>
 #include <thread>
 #include <utility>
 
 #include "core/channels.hpp"
+#include "core/udpm_socket.hpp"
 
 namespace sirupp::core {
 
@@ -72,6 +76,18 @@ struct Bus::CounterTable {
   std::map<std::string, Counters> publishing;
 };
 
+struct Bus::LcmSocket {
+  std::optional<UdpmAddress> address;    // nullopt: not udpm, nothing to filter
+  std::vector<std::string> per_tick;     // full names, in Channels::PerTick() order
+  std::vector<int> at_start;             // the process's sockets on the port when the Bus began
+  int fd = -1;                           // LCM's receive socket, once found
+  bool searched = false;                 // FindLcmSocket has run
+  bool warned = false;                   // the one line on stderr
+  std::map<std::string, int> elsewhere;  // TakeOffLcm counts
+  std::vector<std::pair<std::string, std::optional<std::regex>>> raw_patterns;
+  std::vector<std::string> muted;  // the filter on fd now
+};
+
 // ---- Subscription
 // --------------------------------------------------------------------------------
 
@@ -109,7 +125,7 @@ void Subscription::NoteDecodeError(const lcm::ReceiveBuffer& rbuf, const Receive
 
 void Subscription::NoteSequenceNumber(const ReceiveInfo& info, int64_t seq,
                                       const std::string& sender) {
-  bus_.CountSequence(info.channel, seq, sender);
+  bus_.CountSequence(info.channel, seq, sender, !info.newest_only);
 }
 
 void Subscription::OnLcmMessage(const lcm::ReceiveBuffer* rbuf, const std::string& channel,
@@ -117,7 +133,8 @@ void Subscription::OnLcmMessage(const lcm::ReceiveBuffer* rbuf, const std::strin
   self->Dispatch(*rbuf, channel);
 }
 
-void Subscription::Dispatch(const lcm::ReceiveBuffer& rbuf, const std::string& channel) noexcept {
+void Subscription::Dispatch(const lcm::ReceiveBuffer& rbuf, const std::string& channel,
+                            bool newest_only) noexcept {
   // Unsubscribed from inside another handler of the same message: LCM still calls us this once.
   if (!active_) return;
   try {
@@ -125,6 +142,7 @@ void Subscription::Dispatch(const lcm::ReceiveBuffer& rbuf, const std::string& c
     info.channel = channel;
     info.recv_utime = rbuf.recv_utime;
     info.encoded_size_bytes = rbuf.data_size;
+    info.newest_only = newest_only;
     bus_.CountReceived(channel);
     try {
       Deliver(rbuf, info);
@@ -143,7 +161,11 @@ void Subscription::Dispatch(const lcm::ReceiveBuffer& rbuf, const std::string& c
 // -----------------------------------------------------------------------------------------
 
 Bus::Bus(const std::string& lcm_url, const std::string& channel_prefix)
-    : url_(lcm_url), prefix_(channel_prefix), lcm_(lcm_url), counters_(new CounterTable) {
+    : url_(lcm_url),
+      prefix_(channel_prefix),
+      lcm_(lcm_url),
+      counters_(new CounterTable),
+      socket_(new LcmSocket) {
   if (!lcm_.good()) {
     throw BusError("cannot start LCM with URL " + DescribeUrl(lcm_url) +
                    " (bad provider, address or file; LCM printed the detail above); " + kUrlHelp);
@@ -152,6 +174,14 @@ Bus::Bus(const std::string& lcm_url, const std::string& channel_prefix)
     ValidateChannelPrefix(channel_prefix);
   } catch (const std::invalid_argument& error) {
     throw BusError(error.what());
+  }
+  socket_->address = ParseUdpmUrl(lcm_url);
+  if (socket_->address) {
+    // LCM 1.3.1 opens its receive socket with the first subscription, not here.
+    socket_->at_start = UdpSocketsOnPort(socket_->address->port);
+    for (const std::string& name : Channels{}.PerTick()) {
+      socket_->per_tick.push_back(prefix_ + name);
+    }
   }
 }
 
@@ -201,14 +231,17 @@ Subscription& Bus::Attach(std::unique_ptr<Subscription> subscription, int queue_
                    std::to_string(queue_capacity) + " (allowed: 1 or more messages)");
   }
   Receiving(full);  // listed in Stats() from now on, even before the first message
+  const std::vector<int> before = SocketsBeforeLcmReceives();
   lcm::Subscription* lcm_subscription =
       lcm_.subscribeFunction(full, &Subscription::OnLcmMessage, subscription.get());
+  FindLcmSocket(before);
   if (lcm_subscription == nullptr) {
     throw BusError("cannot subscribe to " + full + ": LCM refused the subscription");
   }
   lcm_subscription->setQueueCapacity(queue_capacity);
   subscription->lcm_subscription_ = lcm_subscription;
   subscriptions_.push_back(std::move(subscription));
+  UpdateLcmFilter();
   return *subscriptions_.back();
 }
 
@@ -230,6 +263,7 @@ void Bus::Remove(Subscription* subscription) {
       subscriptions_.begin(), subscriptions_.end(),
       [subscription](const std::unique_ptr<Subscription>& s) { return s.get() == subscription; });
   if (owned != subscriptions_.end()) subscriptions_.erase(owned);
+  UpdateLcmFilter();
 }
 
 int Bus::Handle(int timeout_ms) {
@@ -267,7 +301,7 @@ int Bus::HandleBatched(int wait_ms) {
 }
 
 int Bus::DeliverRecorded(const std::string& full_channel, const void* data, int size_bytes,
-                         int64_t recv_utime) {
+                         int64_t recv_utime, bool newest_only) {
   if (dispatching_) throw BusError("Bus::DeliverRecorded called from inside a message handler");
   lcm::ReceiveBuffer rbuf{};
   rbuf.data = const_cast<void*>(data);  // LCM's type; handlers only read it
@@ -280,7 +314,10 @@ int Bus::DeliverRecorded(const std::string& full_channel, const void* data, int 
     }
   }
   dispatching_ = true;
-  for (Subscription* subscription : matching) subscription->Dispatch(rbuf, full_channel);
+  ++dispatch_number_;  // one message: counted once however many subscriptions take it
+  for (Subscription* subscription : matching) {
+    subscription->Dispatch(rbuf, full_channel, newest_only);
+  }
   dispatching_ = false;
   std::vector<Subscription*> removals;
   removals.swap(pending_removal_);
@@ -288,7 +325,119 @@ int Bus::DeliverRecorded(const std::string& full_channel, const void* data, int 
   return static_cast<int>(matching.size());
 }
 
-int Bus::Fileno() { return lcm_.getFileno(); }
+int Bus::Fileno() {
+  const std::vector<int> before = SocketsBeforeLcmReceives();
+  const int fd = lcm_.getFileno();  // 1.3.1 opens the receive socket here if not yet done
+  FindLcmSocket(before);            // the filter goes on with the search, the first time only
+  return fd;
+}
+
+// ---- The per-tick channels on LCM's socket
+// ----------------------------------------------------------
+
+std::vector<int> Bus::SocketsBeforeLcmReceives() const {
+  if (!socket_->address || socket_->searched) return {};
+  return UdpSocketsOnPort(socket_->address->port);
+}
+
+void Bus::FindLcmSocket(const std::vector<int>& before) {
+  if (!socket_->address || socket_->searched) return;
+  socket_->searched = true;
+  const std::vector<int> now = UdpSocketsOnPort(socket_->address->port);
+  const auto created_since = [&now](const std::vector<int>& then) {
+    std::vector<int> created;
+    for (const int fd : now) {
+      if (!std::binary_search(then.begin(), then.end(), fd)) created.push_back(fd);
+    }
+    return created;
+  };
+  // Exactly one socket that came with the call: LCM's. None: LCM had opened it before (a
+  // subscription through raw_lcm()); then the one socket opened since the Bus began. Otherwise
+  // (another thread opened one at the same moment) it is not known and nothing is filtered.
+  std::vector<int> created = created_since(before);
+  if (created.empty()) created = created_since(socket_->at_start);
+  if (created.size() == 1) socket_->fd = created.front();
+  UpdateLcmFilter();
+}
+
+void Bus::UpdateLcmFilter() {
+  LcmSocket& s = *socket_;
+  if (!s.address || !s.searched) return;
+  std::vector<std::string> muted;
+  for (const std::string& name : s.per_tick) {
+    const auto taken = s.elsewhere.find(name);
+    bool wanted = false;
+    for (const auto& subscription : subscriptions_) {
+      if (subscription->active_ && subscription->channel() == name) wanted = true;
+    }
+    for (const auto& [text, pattern] : s.raw_patterns) {
+      // A pattern std::regex cannot read keeps everything on LCM.
+      if (!pattern || std::regex_match(name, *pattern)) wanted = true;
+    }
+    if ((taken != s.elsewhere.end() && taken->second > 0) || !wanted) muted.push_back(name);
+  }
+  if (muted == s.muted) return;
+  if (s.fd >= 0 && FilterChannels(s.fd, muted, false)) {
+    s.muted = std::move(muted);
+    return;
+  }
+  if (!s.warned) {
+    s.warned = true;
+    std::cerr << "sirupp: LCM's receive socket on udpm " << DescribeUdpm(*s.address)
+              << (s.fd < 0 ? " not found" : " refused the channel filter")
+              << "; LCM still wakes for every per-tick message (docs/timing.md)\n";
+  }
+}
+
+void Bus::NoteRawSubscription(const std::string& regex) {
+  std::optional<std::regex> pattern;
+  try {
+    pattern.emplace(regex);
+  } catch (const std::regex_error&) {
+    pattern.reset();
+  }
+  socket_->raw_patterns.emplace_back(regex, std::move(pattern));
+  UpdateLcmFilter();
+}
+
+void Bus::ForgetRawSubscription(const std::string& regex) {
+  auto& patterns = socket_->raw_patterns;
+  const auto found = std::find_if(patterns.begin(), patterns.end(),
+                                  [&regex](const auto& p) { return p.first == regex; });
+  if (found == patterns.end()) return;
+  patterns.erase(found);
+  UpdateLcmFilter();
+}
+
+bool Bus::TakeOffLcm(const std::vector<std::string>& full_channels) {
+  if (!socket_->address) return false;
+  Fileno();  // LCM's socket exists and has been looked for
+  if (socket_->fd < 0) return false;
+  for (const std::string& name : full_channels) ++socket_->elsewhere[name];
+  UpdateLcmFilter();
+  for (const std::string& name : full_channels) {
+    const bool per_tick = std::find(socket_->per_tick.begin(), socket_->per_tick.end(), name) !=
+                          socket_->per_tick.end();
+    if (!per_tick ||
+        std::find(socket_->muted.begin(), socket_->muted.end(), name) == socket_->muted.end()) {
+      PutBackOnLcm(full_channels);  // the filter was refused, or not a per-tick channel
+      return false;
+    }
+  }
+  return true;
+}
+
+void Bus::PutBackOnLcm(const std::vector<std::string>& full_channels) {
+  for (const std::string& name : full_channels) {
+    const auto taken = socket_->elsewhere.find(name);
+    if (taken != socket_->elsewhere.end() && --taken->second <= 0) {
+      socket_->elsewhere.erase(taken);
+    }
+  }
+  UpdateLcmFilter();
+}
+
+std::vector<std::string> Bus::MutedOnLcm() const { return socket_->muted; }
 
 // ---- Counting
 // ------------------------------------------------------------------------------------
@@ -331,7 +480,8 @@ void Bus::CountLate(const std::string& full_channel) {
   ++counters.stats.late;
 }
 
-void Bus::CountSequence(const std::string& full_channel, int64_t seq, const std::string& sender) {
+void Bus::CountSequence(const std::string& full_channel, int64_t seq, const std::string& sender,
+                        bool count_gaps) {
   Counters& counters = Receiving(full_channel);
   bool known = counters.has_seq;
   int64_t last = counters.last_seq;
@@ -343,7 +493,7 @@ void Bus::CountSequence(const std::string& full_channel, int64_t seq, const std:
     if (known) last = it->second;
     if (!known && counters.sender_seq.size() >= kMaxSequenceSenders) counters.sender_seq.clear();
   }
-  if (known && seq > last) {
+  if (known && seq > last && count_gaps) {
     // Unsigned difference: a wild seq from a corrupt message must not overflow.
     const uint64_t step = static_cast<uint64_t>(seq) - static_cast<uint64_t>(last);
     counters.stats.gaps = SaturatingAdd(counters.stats.gaps, step - 1);

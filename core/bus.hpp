@@ -45,6 +45,9 @@ struct ReceiveInfo {
   std::string channel;             // full name, prefix included
   int64_t recv_utime = 0;          // wall clock at reception, microseconds since the Unix epoch
   int64_t encoded_size_bytes = 0;  // size on the wire, fingerprint included
+  // Handed over by a reader that keeps only each channel's newest message (TickFeed::DeliverNewest,
+  // core/tick_reader.hpp): the messages skipped are not counted as sequence gaps.
+  bool newest_only = false;
 };
 
 // Traffic counters of one channel in one direction; the fields of channel_stats_t except the rate,
@@ -103,7 +106,8 @@ class Subscription {
   static void OnLcmMessage(const lcm::ReceiveBuffer* rbuf, const std::string& channel,
                            Subscription* self) noexcept;
   // Counts the message, then Deliver()s it, catching whatever the handler throws.
-  void Dispatch(const lcm::ReceiveBuffer& rbuf, const std::string& channel) noexcept;
+  void Dispatch(const lcm::ReceiveBuffer& rbuf, const std::string& channel,
+                bool newest_only = false) noexcept;
 
   Bus& bus_;
   std::string channel_;
@@ -247,10 +251,32 @@ class Bus {
   // received when recorded) to this bus's subscriptions of that channel, as if it had just arrived
   // with that receive time. Used to run a node over a raw log exactly as it ran live
   // (sirupp-logger --from-log). Returns how many subscriptions took it.
+  // newest_only: see ReceiveInfo::newest_only.
   int DeliverRecorded(const std::string& full_channel, const void* data, int size_bytes,
-                      int64_t recv_utime);
+                      int64_t recv_utime, bool newest_only = false);
   // A file descriptor that becomes readable when a message is waiting: for poll()/select() loops.
   int Fileno();
+
+  // The per-tick channels on a udpm:// bus (Channels::PerTick(), with this bus's prefix): LCM's
+  // own receive socket drops each one that no subscription of this bus matches, or that is
+  // TakenOffLcm, with a socket filter, so LCM's receive thread never wakes for them
+  // (docs/timing.md, "What a tick costs"). Recomputed whenever subscriptions change: a later
+  // subscription unmutes its channel. Other providers (memq://, file://): nothing to do. If LCM's
+  // socket cannot be found, every channel goes through LCM as before, said once on stderr.
+  //
+  // Subscriptions made on raw_lcm() directly are not seen: declare their pattern here (LCM reads it
+  // as a regular expression, as a whole: ".*" keeps every per-tick channel on LCM).
+  void NoteRawSubscription(const std::string& regex);
+  void ForgetRawSubscription(const std::string& regex);  // undoes one NoteRawSubscription
+  // For per-tick channels (full names) this process reads from a socket of its own
+  // (core/tick_reader.hpp): LCM's socket drops them even when subscribed, and the reader hands
+  // them to the subscriptions (DeliverRecorded). Counted: PutBackOnLcm undoes one TakeOffLcm.
+  // Returns false (and takes nothing off) when LCM's socket cannot be filtered: the caller must
+  // then leave the channels to LCM, or every message would arrive twice.
+  bool TakeOffLcm(const std::vector<std::string>& full_channels);
+  void PutBackOnLcm(const std::vector<std::string>& full_channels);
+  // The per-tick channels LCM's socket drops now (full names, in Channels::PerTick() order).
+  std::vector<std::string> MutedOnLcm() const;
 
   // Counters a handler (or the process's main loop) adds to. `channel` is without prefix; the
   // ReceiveInfo overloads are for use inside handlers. A rejection counts once per message even
@@ -276,12 +302,19 @@ class Bus {
   friend class Subscription;
   struct Counters;
   struct CounterTable;
+  struct LcmSocket;
 
   uint8_t* PublishBuffer(int size_bytes);
   void SendEncoded(const std::string& channel, const char* type_name, int encoded_bytes);
   Subscription& Attach(std::unique_ptr<Subscription> subscription, int queue_capacity);
   [[noreturn]] void ThrowEmptyHandler(const std::string& channel) const;
   void Remove(Subscription* subscription);
+  // Around the call that creates LCM's receive socket (the first subscription, Fileno()): the
+  // process's sockets on the port before it, then LCM's socket is the one that came with it.
+  std::vector<int> SocketsBeforeLcmReceives() const;
+  void FindLcmSocket(const std::vector<int>& before);
+  // Puts on LCM's socket the filter that MutedOnLcm() should be now.
+  void UpdateLcmFilter();
 
   // Counting by full channel name, used by Subscription and the public overloads.
   Counters& Receiving(const std::string& full_channel);
@@ -289,12 +322,14 @@ class Bus {
   void CountDecodeError(const std::string& full_channel, std::string description);
   void CountRejected(const std::string& full_channel, std::string reason);
   void CountLate(const std::string& full_channel);
-  void CountSequence(const std::string& full_channel, int64_t seq, const std::string& sender = "");
+  void CountSequence(const std::string& full_channel, int64_t seq, const std::string& sender = "",
+                     bool count_gaps = true);
 
   std::string url_;
   std::string prefix_;
   lcm::LCM lcm_;
   std::unique_ptr<CounterTable> counters_;
+  std::unique_ptr<LcmSocket> socket_;  // the per-tick filter on LCM's socket (udpm only)
   std::vector<uint8_t>
       publish_buffer_;  // reused so that publishing at the servo rate does not allocate
   // Declared after lcm_ so that they are destroyed first; LCM's own wrappers go with lcm_.

@@ -55,6 +55,11 @@ std::vector<std::string> Channels::All() const {
   return names;
 }
 
+std::vector<std::string> Channels::PerTick() const {
+  return {sim_arm_state.name(), sim_arm_command.name(), arm_setpoint.name(), real_arm_state.name(),
+          real_arm_setpoint.name()};
+}
+
 void ValidateChannelPrefix(const std::string& prefix) {
   const std::size_t max_length = kMaxChannelNameLength - LongestDefaultName();
   const auto bad = std::find_if_not(prefix.begin(), prefix.end(), IsPrefixCharacter);

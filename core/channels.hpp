@@ -77,6 +77,10 @@ struct Channels {
 
   // Every name, in the order of ChannelTable().
   std::vector<std::string> All() const;
+  // The per-tick channels: one message every physics or servo tick, or every status poll of the
+  // real arm (SIM_ARM_STATE, SIM_ARM_COMMAND, ARM_SETPOINT, REAL_ARM_STATE, REAL_ARM_SETPOINT).
+  // On udpm:// a process's LCM socket drops those it does not subscribe (core/bus.hpp).
+  std::vector<std::string> PerTick() const;
   // Every channel, name and type, in the order of ChannelTable().
   std::vector<const ChannelName*> Each() const;
   std::vector<ChannelName*> Each();

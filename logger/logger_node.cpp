@@ -253,7 +253,26 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
           heartbeat_.Publish(core::ProcessState::kFault, model_watch_.mismatch());
         }
       }));
-  // From now on every subscription is in place: raw log and handlers take the same messages.
+  if (!options_.replay) {
+    // The per-tick channels in batches from a socket of the logger's own (every datagram, in
+    // order, with the kernel's receive time, as LCM would give them). With --raw, every per-tick
+    // channel of the rig, so that the raw log still holds the whole bus.
+    std::vector<std::string> ticks{bus_.FullName(options_.channels.arm_setpoint),
+                                   bus_.FullName(options_.channels.sim_arm_state),
+                                   bus_.FullName(options_.channels.real_arm_state)};
+    if (!options_.raw_log.empty()) {
+      ticks.push_back(bus_.FullName(options_.channels.sim_arm_command));
+      ticks.push_back(bus_.FullName(options_.channels.real_arm_setpoint));
+    }
+    // As large a buffer as allowed: it holds what arrives between two drains. No socket filter,
+    // so that the kernel's drop count is only datagrams lost for a full buffer.
+    constexpr int kTickBuffer = 32 << 20;
+    ticks_ = core::TickFeed::Open(bus_, std::move(ticks), options_.process_name, kTickBuffer,
+                                  core::TickReader::Pick::kCountDrops);
+  }
+  // From now on every subscription is in place: raw log and handlers take the same messages. A
+  // message that reached LCM's socket before the feed took its channel over is older than this,
+  // so none is taken twice.
   live_from_utime_ = options_.replay ? INT64_MIN
                                      : std::chrono::duration_cast<std::chrono::microseconds>(
                                            std::chrono::system_clock::now().time_since_epoch())
@@ -287,9 +306,10 @@ void LoggerNode::Push(Input input, Stream stream) {
 void LoggerNode::Service(int max_wait_ms) {
   // Messages in batches, one wake-up per kBatchMs rather than one per message: the receive times
   // are LCM's receive thread's, so the rows do not change, and the lockstep loop keeps the CPUs.
-  // At 30 000 messages a second per channel a batch is 150 of the kQueue (10 000) LCM holds.
-  constexpr int kBatchMs = 5;
-  bus_.HandleBatched(std::min(max_wait_ms, kBatchMs));
+  // At 30 000 messages a second per channel a batch is 150 of the kQueue (10 000) LCM holds; the
+  // per-tick channels wait in the feed's socket buffer (DrainTicks).
+  bus_.HandleBatched(std::min(max_wait_ms, drain_wait_ms_));
+  if (ticks_) DrainTicks();
   // The raw log reaches the disk at least every 0.1 s (a killed logger loses no more).
   if (!raw_path_.empty() &&
       std::chrono::steady_clock::now() - raw_flushed_ > std::chrono::milliseconds(100)) {
@@ -309,11 +329,32 @@ void LoggerNode::Service(int max_wait_ms) {
   }
 }
 
+void LoggerNode::DrainTicks() {
+  core::TickReader& reader = ticks_->reader();
+  const int read = reader.DrainEach([this](size_t, const std::string& channel, const uint8_t* data,
+                                           int size, int64_t recv_utime) {
+    if (!raw_path_.empty() && Live(recv_utime)) {
+      RecordRawEvent(channel.c_str(), data, size, recv_utime);
+    }
+    bus_.DeliverRecorded(channel, data, size, recv_utime);
+  });
+  // A drain that found more than a quarter of what the buffer holds (~1 KiB a datagram in the
+  // kernel's accounting) makes the next wait short, so a busy machine that delays this thread does
+  // not fill it.
+  const int holds = std::max(64, reader.buffer_bytes() / 1024);
+  drain_wait_ms_ = read > holds / 4 ? 1 : 5;
+  if (reader.dropped() > 0) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    stats_.kernel_dropped = reader.dropped();
+  }
+}
+
 void LoggerNode::Close() {
   if (closed_) return;
   if (raw_subscription_ != nullptr) {
     lcm_unsubscribe(bus_.raw_lcm().getUnderlyingLCM(), raw_subscription_);
     raw_subscription_ = nullptr;
+    bus_.ForgetRawSubscription(".*");
   }
   if (options_.replay) {
     Finish(0);
@@ -530,6 +571,8 @@ void LoggerNode::OpenRawLog() {
   if (raw_subscription_ == nullptr) throw std::runtime_error("--raw: LCM refused the subscription");
   // No limit of its own: it must not drop what the logger's own subscriptions keep.
   lcm_subscription_set_queue_capacity(raw_subscription_, 0);
+  // LCM's socket keeps every per-tick channel for it, except those the tick feed takes over.
+  bus_.NoteRawSubscription(".*");
   raw_flushed_ = std::chrono::steady_clock::now();
 }
 
@@ -539,20 +582,23 @@ void LoggerNode::RecordRaw(const lcm_recv_buf_t* rbuf, const char* channel, void
   auto* self = static_cast<LoggerNode*>(node);
   // Passes are this logger's own; another logger's (a log played back onto the bus) are not.
   if (self->pass_channel_ == channel || !self->Live(rbuf->recv_utime)) return;
-  std::lock_guard<std::mutex> lock(self->raw_mutex_);
-  if (!self->raw_file_) return;
-  self->raw_last_utime_ = rbuf->recv_utime;
+  self->RecordRawEvent(channel, rbuf->data, static_cast<int>(rbuf->data_size), rbuf->recv_utime);
+}
+
+void LoggerNode::RecordRawEvent(const char* channel, const void* data, int size,
+                                int64_t recv_utime) {
+  std::lock_guard<std::mutex> lock(raw_mutex_);
+  if (!raw_file_) return;
+  raw_last_utime_ = recv_utime;
   lcm::LogEvent event{};
   event.eventnum = 0;  // numbered by LCM
-  event.timestamp = rbuf->recv_utime;
+  event.timestamp = recv_utime;
   event.channel = channel;
-  event.datalen = static_cast<int32_t>(rbuf->data_size);
-  event.data = rbuf->data;
-  if (self->raw_file_->writeEvent(&event) != 0) {
-    std::lock_guard<std::mutex> stats_lock(self->mutex_);
-    if (self->stats_.error.empty()) {
-      self->stats_.error = "--raw " + self->raw_path_ + ": write failed (disk full?)";
-    }
+  event.datalen = static_cast<int32_t>(size);
+  event.data = const_cast<void*>(data);
+  if (raw_file_->writeEvent(&event) != 0) {
+    std::lock_guard<std::mutex> stats_lock(mutex_);
+    if (stats_.error.empty()) stats_.error = "--raw " + raw_path_ + ": write failed (disk full?)";
   }
 }
 
@@ -777,7 +823,19 @@ std::string LoggerNode::EndLine() const {
   for (Stream s : kAllStreams) {
     text += std::string(" ") + StreamKey(s) + " " + std::to_string(lost[static_cast<size_t>(s)]);
   }
-  return text + " (sequence gaps and logger overflow)";
+  text += " (sequence gaps and logger overflow)";
+  // Only when there were any, so that a file is the same whether or not the logger had a socket
+  // of its own (a replay has none).
+  int64_t dropped = 0;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    dropped = stats_.kernel_dropped;
+  }
+  if (dropped > 0) {
+    text += "; " + std::to_string(dropped) +
+            " per-tick datagrams dropped by the kernel (its buffer was full), counted in the gaps";
+  }
+  return text;
 }
 
 namespace {

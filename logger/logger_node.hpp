@@ -34,6 +34,7 @@
 #include "core/heartbeat.hpp"
 #include "core/model_check.hpp"
 #include "core/robot_model.hpp"
+#include "core/tick_reader.hpp"
 #include "logger/aligner.hpp"
 #include "logger/data_file.hpp"
 #include "logger/samples.hpp"
@@ -72,6 +73,9 @@ struct LoggerStats {
   std::array<int64_t, kNumStreams> samples{};  // messages received per stream
   std::array<int64_t, kNumStreams> lost{};     // missing per stream (gaps + overflow)
   int64_t queue_overflow = 0;
+  // Per-tick datagrams the kernel dropped for the logger's own socket (its buffer was full); the
+  // streams' `lost` above hold them too, as sequence gaps.
+  int64_t kernel_dropped = 0;
   std::vector<std::string> files;  // written so far, in order
   std::string error;               // the writer's failure (disk full, ...), empty when fine
 };
@@ -127,6 +131,10 @@ class LoggerNode {
   void OpenRawLog();
   // Through LCM's C interface: LCM 1.3.1's C++ untyped subscription trips UBSan's vptr check.
   static void RecordRaw(const lcm_recv_buf_t* rbuf, const char* channel, void* node);
+  void RecordRawEvent(const char* channel, const void* data, int size, int64_t recv_utime);
+  // Bus thread: the per-tick datagrams waiting on the feed's socket, each in order into the raw
+  // log and to the subscriptions above.
+  void DrainTicks();
   void WriteRow(const Row& row);
   void OpenFile(const Row& row);
   void CloseFile();
@@ -135,6 +143,11 @@ class LoggerNode {
 
   core::Bus& bus_;
   std::vector<core::Subscription*> subscriptions_;  // ended by the destructor
+  // On udpm: the per-tick channels from a socket of the logger's own, every datagram in order, in
+  // batches (core/tick_reader.hpp); LCM's socket no longer takes them. Null on memq:// and in a
+  // replay.
+  std::unique_ptr<core::TickFeed> ticks_;
+  int drain_wait_ms_ = 5;  // the bus thread's wait between two drains (Service)
   core::RobotModel model_;
   LoggerOptions options_;
   ColumnLayout layout_;

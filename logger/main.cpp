@@ -209,7 +209,12 @@ int Run(const std::vector<std::string>& argv) {
   std::cerr << "sirupp-logger: " << stats.rows << " rows in " << stats.files.size() << " file(s);"
             << " messages set " << stats.samples[0] << ", virt " << stats.samples[1] << ", real "
             << stats.samples[2] << "; lost set " << stats.lost[0] << ", virt " << stats.lost[1]
-            << ", real " << stats.lost[2] << "\n";
+            << ", real " << stats.lost[2];
+  if (stats.kernel_dropped > 0) {
+    std::cerr << " (" << stats.kernel_dropped
+              << " per-tick datagrams dropped by the kernel: its buffer was full)";
+  }
+  std::cerr << "\n";
   return ListFiles(stats);
 }
 

@@ -147,6 +147,7 @@ void Recorder::AddFinished(const LoggerStats& run) {
     finished_.lost[s] += run.lost[s];
   }
   finished_.queue_overflow += run.queue_overflow;
+  finished_.kernel_dropped += run.kernel_dropped;
   finished_.files.insert(finished_.files.end(), run.files.begin(), run.files.end());
   if (finished_.error.empty()) finished_.error = run.error;
 }
@@ -171,6 +172,7 @@ LoggerStats Recorder::stats() const {
       total.lost[s] += run.lost[s];
     }
     total.queue_overflow += run.queue_overflow;
+    total.kernel_dropped += run.kernel_dropped;
     total.files.insert(total.files.end(), run.files.begin(), run.files.end());
     if (total.error.empty()) total.error = run.error;
   }

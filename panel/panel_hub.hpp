@@ -36,7 +36,7 @@
 #include "core/heartbeat.hpp"
 #include "core/kinematics.hpp"
 #include "core/robot_model.hpp"
-#include "panel/tick_reader.hpp"
+#include "core/tick_reader.hpp"
 
 namespace sirupp::panel {
 
@@ -48,7 +48,7 @@ struct HubOptions {
   std::optional<core::RobotModel> fallback_model;
   // How long a command waits for sirupp-control's (or sirupp-hardware's) reply.
   double answer_timeout_s = 2.0;
-  // On udpm: the per-tick channels read in batches by the hub's own socket (tick_reader.hpp)
+  // On udpm: the per-tick channels read in batches by the hub's own socket (core/tick_reader.hpp)
   // instead of LCM's one wake-up per datagram. false: everything through LCM.
   bool batch_ticks = true;
 };
@@ -152,7 +152,7 @@ class PanelHub {
   // Last: subscribes on bus_ after the hub's own handlers; its idle function lets go of mutex_.
   std::unique_ptr<client::Client> client_;
   // The per-tick channels on udpm (set up after every subscription, so LCM's socket exists).
-  std::unique_ptr<TickReader> ticks_;
+  std::unique_ptr<core::TickFeed> ticks_;
 };
 
 // Shared with the API: degrees (revolute) or millimetres (prismatic) <-> rad / m.

@@ -485,6 +485,65 @@ TEST(LoggerNode, WritesOneFilePerMovementSetWithTheGapsCounted) {
   EXPECT_NE(text.str().find("# end: 1000 rows"), std::string::npos);
 }
 
+// On a real udpm bus (a private port, ttl=0) the logger reads the per-tick channels from a socket
+// of its own (core/tick_reader.hpp) and LCM's socket drops them: every message of bursts published
+// while the logger sleeps between its drains is logged, once, in order.
+TEST(LoggerNode, OnUdpmEveryPerTickMessageOfBurstsIsLoggedOnceInOrder) {
+  const std::string url =
+      "udpm://239.255.76.67:" + std::to_string(36000 + ::getpid() % 5000) + "?ttl=0";
+  core::Bus publisher(url);
+  core::Bus bus(url);
+  const core::RobotModel model = core::LoadRobotModel("config/robots/puma260.yaml");
+  TempDir dir;
+  LoggerOptions options;
+  options.out_dir = dir.path.string();
+  options.name = "burst";
+  options.split_per_plan = false;
+  LoggerNode node(bus, model, options);
+  const std::vector<std::string> muted = bus.MutedOnLcm();
+  EXPECT_NE(std::find(muted.begin(), muted.end(), "SIM_ARM_STATE"), muted.end());
+  EXPECT_NE(std::find(muted.begin(), muted.end(), "ARM_SETPOINT"), muted.end());
+  constexpr int64_t kBursts = 20;
+  constexpr int64_t kTicksPerBurst = 50;
+  constexpr int64_t kTicks = kBursts * kTicksPerBurst;
+  std::atomic<bool> sent{false};
+  std::thread sender([&] {
+    for (int64_t tick = 0; tick < kTicks; ++tick) {
+      publisher.Publish("ARM_SETPOINT", Setpoint(tick, tick, 0, 0.01 * static_cast<double>(tick)));
+      publisher.Publish("SIM_ARM_STATE", ArmState(tick, tick, 0.01 * static_cast<double>(tick)));
+      if (tick % kTicksPerBurst == kTicksPerBurst - 1) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(10));
+      }
+    }
+    sent = true;
+  });
+  const auto end = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (std::chrono::steady_clock::now() < end) {
+    node.Service(20);
+    const LoggerStats now = node.stats();
+    if (sent && now.samples[0] + now.lost[0] >= kTicks && now.samples[1] + now.lost[1] >= kTicks) {
+      break;
+    }
+  }
+  sender.join();
+  node.Close();
+  const LoggerStats stats = node.stats();
+  EXPECT_EQ(stats.samples[0], kTicks);
+  EXPECT_EQ(stats.samples[1], kTicks);
+  EXPECT_EQ(stats.lost[0], 0);
+  EXPECT_EQ(stats.lost[1], 0);
+  EXPECT_EQ(stats.kernel_dropped, 0);
+  EXPECT_EQ(bus.StatsFor("SIM_ARM_STATE").messages, kTicks);  // once each, not also through LCM
+  ASSERT_EQ(stats.files.size(), 1u);
+  const RunTable table = ReadDataFile(stats.files[0]);
+  ASSERT_EQ(table.rows(), static_cast<size_t>(kTicks));
+  for (size_t row = 0; row < table.rows(); ++row) {
+    ASSERT_NEAR(table.time_s[row], static_cast<double>(row) * 512e-6, 1e-9) << row;
+    ASSERT_NEAR(table.position[0][1][row], 0.01 * static_cast<double>(row), 1e-6) << row;
+    ASSERT_NEAR(table.position[0][0][row], 0.01 * static_cast<double>(row), 1e-6) << row;
+  }
+}
+
 TEST(LoggerNode, TakesTheRealArmWhenItIsThereAndRefusesWrongJointCounts) {
   LoggerRig rig;
   LoggerOptions options = rig.Options();

@@ -137,6 +137,12 @@ ViewerNode::ViewerNode(core::Bus& bus, ViewerOptions options, std::optional<core
   next_frame_ = Clock::now();
   next_png_ = next_frame_;
   Subscribe();
+  // Only the newest state is drawn: the older ones of a batch are never decoded.
+  ticks_ = core::TickFeed::Open(bus_,
+                                {bus_.FullName(options_.channels.sim_arm_state),
+                                 bus_.FullName(options_.channels.arm_setpoint),
+                                 bus_.FullName(options_.channels.real_arm_state)},
+                                options_.process_name);
   heartbeat_.Publish(core::ProcessState::kStarting, HeartbeatDetail());
 }
 
@@ -342,6 +348,7 @@ void ViewerNode::Service(int max_wait_ms) {
   const int wait_ms = static_cast<int>(
       std::clamp<int64_t>(until_frame, 0, std::min<int64_t>(max_wait_ms, kBatchMs)));
   bus_.HandleBatched(wait_ms);
+  if (ticks_) ticks_->DeliverNewest();
   now = Clock::now();
   if (now >= next_frame_) {
     Frame(now, false);

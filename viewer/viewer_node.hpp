@@ -47,6 +47,7 @@
 #include "core/errors.hpp"
 #include "core/heartbeat.hpp"
 #include "core/robot_model.hpp"
+#include "core/tick_reader.hpp"
 #include "viewer/camera.hpp"
 #include "viewer/frame_outputs.hpp"
 #include "viewer/image_codec.hpp"
@@ -143,6 +144,9 @@ class ViewerNode {
   std::string HeartbeatDetail() const;
 
   core::Bus& bus_;
+  // On udpm: SIM_ARM_STATE, ARM_SETPOINT and REAL_ARM_STATE from a socket of the viewer's own,
+  // each one's newest message per batch (core/tick_reader.hpp); LCM no longer wakes for them.
+  std::unique_ptr<core::TickFeed> ticks_;
   ViewerOptions options_;
   core::Heartbeat heartbeat_;
   std::unique_ptr<OsmesaRenderer> renderer_;
