@@ -293,7 +293,15 @@ LoggerNode::~LoggerNode() {
 }
 
 void LoggerNode::Push(Input input, Stream stream) {
+  if (collecting_) {
+    round_.emplace_back(std::move(input), stream);
+    return;
+  }
   std::lock_guard<std::mutex> lock(mutex_);
+  QueueLocked(std::move(input), stream);
+}
+
+void LoggerNode::QueueLocked(Input&& input, Stream stream) {
   ++handed_;
   if (queue_.size() >= options_.queue_limit) {
     if (std::holds_alternative<Sample>(input)) ++overflow_[static_cast<size_t>(stream)];
@@ -303,13 +311,25 @@ void LoggerNode::Push(Input input, Stream stream) {
   queue_.push_back(std::move(input));
 }
 
+void LoggerNode::HandOver() {
+  collecting_ = false;
+  if (round_.empty()) return;
+  {
+    std::lock_guard<std::mutex> lock(mutex_);
+    for (auto& [input, stream] : round_) QueueLocked(std::move(input), stream);
+  }
+  round_.clear();
+}
+
 void LoggerNode::Service(int max_wait_ms) {
   // Messages in batches, one wake-up per kBatchMs rather than one per message: the receive times
   // are LCM's receive thread's, so the rows do not change, and the lockstep loop keeps the CPUs.
   // At 30 000 messages a second per channel a batch is 150 of the kQueue (10 000) LCM holds; the
   // per-tick channels wait in the feed's socket buffer (DrainTicks).
+  collecting_ = ticks_ != nullptr;
   bus_.HandleBatched(std::min(max_wait_ms, drain_wait_ms_));
   if (ticks_) DrainTicks();
+  HandOver();
   // The raw log reaches the disk at least every 0.1 s (a killed logger loses no more).
   if (!raw_path_.empty() &&
       std::chrono::steady_clock::now() - raw_flushed_ > std::chrono::milliseconds(100)) {

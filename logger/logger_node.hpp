@@ -120,6 +120,11 @@ class LoggerNode {
   using Input = std::variant<Sample, PlanStatus, GainsRecord>;
 
   void Push(Input input, Stream stream);
+  void QueueLocked(Input&& input, Stream stream);  // mutex_ held
+  // Bus thread: hands the messages of one Service() round to the writer at once, so that a writer
+  // pass never takes the plan statuses LCM delivered without the per-tick samples of the same
+  // round that wait in the feed (they are older; a pass would take rows past them).
+  void HandOver();
   void WriterLoop();
   // One pass of the writer over `batch`; now_utime: the wall clock live, the recorded pass's (or
   // the log's clock) in a replay (only for a quiet bus); stopping: close the files after it.
@@ -148,6 +153,9 @@ class LoggerNode {
   // replay.
   std::unique_ptr<core::TickFeed> ticks_;
   int drain_wait_ms_ = 5;  // the bus thread's wait between two drains (Service)
+  // Inside Service() (bus thread only): Push() collects here, HandOver() queues them together.
+  bool collecting_ = false;
+  std::vector<std::pair<Input, Stream>> round_;
   core::RobotModel model_;
   LoggerOptions options_;
   ColumnLayout layout_;
