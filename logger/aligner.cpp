@@ -224,7 +224,7 @@ void Aligner::TakeRows(int64_t now_utime, bool final_flush,
       now_utime - first_recv_us_ < options_.join_window_us + options_.idle_us) {
     return;
   }
-  Produce(final_flush || live_min == INT64_MAX ? latest : live_min, sink);
+  Produce(final_flush || live_min == INT64_MAX ? latest : live_min - options_.status_hold_us, sink);
 }
 
 void Aligner::Restart(const std::function<void(const Row&)>& sink) {

@@ -43,6 +43,11 @@ struct AlignerOptions {
   // `continue_plan` at any step), the rows from the start belong to that run instead of to a
   // "manual" stretch. 0 = off.
   int64_t join_window_us = 250000;
+  // While every stream is live, rows stay this much of the time axis behind the newest sample, so
+  // that a plan's CONTROLLER_STATUS handled a round after the plan's first set-points (they reach
+  // the logger by different sockets: LCM's and the tick feed's) still starts the plan's file at
+  // its first row. A quiet bus or the end takes the rest. 0 = off.
+  int64_t status_hold_us = 50000;
   std::string continue_plan;  // the plan an earlier logger was recording (restarts), or ""
 };
 

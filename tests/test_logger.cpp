@@ -84,6 +84,7 @@ std::vector<Row> Collect(Aligner& aligner, int64_t now, bool final_flush,
 TEST(Aligner, PutsTheStreamsOnTheServoTickAndWaitsForTheSlowestLiveStream) {
   AlignerOptions options;
   options.join_window_us = 0;  // no wait for a plan status at the start (tested below)
+  options.status_hold_us = 0;  // rows as soon as every live stream has them (tested below)
   Aligner aligner(options);
   for (int64_t tick = 0; tick < 10; ++tick) {
     aligner.Add(SimSample(Stream::kVirtual, tick, static_cast<double>(tick)));
@@ -108,6 +109,45 @@ TEST(Aligner, PutsTheStreamsOnTheServoTickAndWaitsForTheSlowestLiveStream) {
   ASSERT_EQ(rows.size(), 4u);
   EXPECT_DOUBLE_EQ(q1[3][1], 9.0);
   EXPECT_DOUBLE_EQ(q1[3][0], 105.0);  // 2 ms old: still the newest set-point
+}
+
+// A plan's status handled after the plan's first set-points (they come by the tick feed's socket,
+// the status by LCM's) still starts the plan's run at its own time: while the streams are live,
+// rows stay status_hold_us of the axis behind. With no hold, the rows past the plan's start had
+// already gone out in the run before.
+TEST(Aligner, APlanStatusHandledAfterItsFirstSetPointsStillStartsItsRunThere) {
+  auto plan_run_at_start = [](int64_t hold_us) {
+    AlignerOptions options;
+    options.join_window_us = 0;
+    options.status_hold_us = hold_us;
+    Aligner aligner(options);
+    std::vector<Row> rows;
+    auto take = [&](int64_t tick, bool final_flush) {
+      const std::vector<Row> some = Collect(aligner, 1'000'000'000 + tick * 512, final_flush);
+      rows.insert(rows.end(), some.begin(), some.end());
+    };
+    for (int64_t tick = 0; tick < 400; ++tick) {
+      aligner.Add(SimSample(Stream::kVirtual, tick, 1.0));
+      aligner.Add(SimSample(Stream::kSetpoint, tick, 1.0));
+      if (tick == 210) {  // the plan started at tick 200; its status comes 10 ticks late
+        PlanStatus status;
+        status.utime = 200 * 512;
+        status.recv_utime = 1'000'000'000 + tick * 512;
+        status.plan_name = "config/plans/set1.plan";
+        status.plan_step = 0;
+        status.plan_steps = 4;
+        aligner.AddStatus(status);
+      }
+      take(tick, false);
+    }
+    take(400, true);
+    for (const Row& row : rows) {
+      if (row.time_us == 200 * 512) return row.plan_run;
+    }
+    return -1;
+  };
+  EXPECT_EQ(plan_run_at_start(50000), 1);  // the default hold: the plan's first row
+  EXPECT_EQ(plan_run_at_start(0), 0);      // without it the row had gone to the manual run
 }
 
 // The first plan status, heard soon after the first sample, decides what the rows so far belong
