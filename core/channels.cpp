@@ -159,7 +159,9 @@ constexpr ChannelProse kProse[] = {
     {"LOGGER_PASS", "sirupp-logger (into its raw log only, never on the bus)",
      "none on the bus (sirupp-logger --from-log reads the raw log)",
      "one per writer pass (every 25 ms while messages come)",
-     "when the writer took its messages and how many so far: --from-log replays the live rows"},
+     "when the writer took its messages and how many so far, and the logger's settings (row "
+     "clock, --max-age, --idle, --split, --velocities, --efforts, --note, model file, prefix): "
+     "--from-log replays the live rows with them"},
     {"ESTOP", "any process", "sirupp-sim, sirupp-control, sirupp-hardware", "on demand",
      "emergency stop engaged or released, by whom and why"},
     {"HEARTBEAT", "every process", "sirupp launch, sirupp CLI", "1 Hz",
