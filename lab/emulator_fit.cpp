@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "core/errors.hpp"
+#include "lab/box_search.hpp"
 
 namespace sirupp::lab {
 namespace {
@@ -198,74 +199,10 @@ FitResult FitEmulator(const core::RobotModel& virtual_model, const core::RobotMo
     }
     return cost;
   };
-  // Nelder-Mead on the unit box (points clamped into it), restarted around the best point with a
-  // smaller simplex whenever the simplex collapses, until the budget is spent.
-  double size = 0.15;
-  while (result.evaluations + static_cast<int>(n) + 2 <= options.max_evaluations) {
-    std::vector<std::vector<double>> simplex(n + 1, centre);
-    std::vector<double> f(n + 1, best_cost);
-    for (size_t i = 0; i < n; ++i) {
-      double& u = simplex[i + 1][i];
-      u = u + size <= 1 ? u + size : u - size;
-      f[i + 1] = cost_of(simplex[i + 1]);
-    }
-    auto clamp_unit = [](std::vector<double> u) {
-      for (double& x : u) x = std::clamp(x, 0.0, 1.0);
-      return u;
-    };
-    while (result.evaluations + 2 <= options.max_evaluations) {
-      std::vector<size_t> order(n + 1);
-      for (size_t i = 0; i <= n; ++i) order[i] = i;
-      std::sort(order.begin(), order.end(), [&](size_t a, size_t b) { return f[a] < f[b]; });
-      const size_t lo = order[0], hi = order[n], second = order[n - 1];
-      double spread = 0;
-      for (size_t i = 0; i <= n; ++i) {
-        for (size_t d = 0; d < n; ++d) {
-          spread = std::max(spread, std::abs(simplex[i][d] - simplex[lo][d]));
-        }
-      }
-      if (spread < 0.004) break;
-      std::vector<double> mean(n, 0.0);
-      for (size_t i = 0; i <= n; ++i) {
-        if (i == hi) continue;
-        for (size_t d = 0; d < n; ++d) mean[d] += simplex[i][d] / static_cast<double>(n);
-      }
-      auto along = [&](double t) {
-        std::vector<double> u(n);
-        for (size_t d = 0; d < n; ++d) u[d] = mean[d] + t * (simplex[hi][d] - mean[d]);
-        return clamp_unit(u);
-      };
-      const std::vector<double> reflected = along(-1);
-      const double fr = cost_of(reflected);
-      if (fr < f[lo]) {
-        const std::vector<double> expanded = along(-2);
-        const double fe = cost_of(expanded);
-        simplex[hi] = fe < fr ? expanded : reflected;
-        f[hi] = std::min(fe, fr);
-      } else if (fr < f[second]) {
-        simplex[hi] = reflected;
-        f[hi] = fr;
-      } else {
-        const std::vector<double> contracted = along(fr < f[hi] ? -0.5 : 0.5);
-        const double fc = cost_of(contracted);
-        if (fc < std::min(fr, f[hi])) {
-          simplex[hi] = contracted;
-          f[hi] = fc;
-        } else {
-          for (size_t i = 0; i <= n; ++i) {  // shrink towards the best
-            if (i == lo) continue;
-            if (result.evaluations + 1 > options.max_evaluations) break;
-            for (size_t d = 0; d < n; ++d) {
-              simplex[i][d] = simplex[lo][d] + 0.5 * (simplex[i][d] - simplex[lo][d]);
-            }
-            f[i] = cost_of(simplex[i]);
-          }
-        }
-      }
-    }
-    for (size_t i = 0; i < n; ++i) centre[i] = params[i].ToUnit(params[i].get(best));
-    size = std::max(0.03, size / 2);
-  }
+  // Nelder-Mead on the unit box, restarted around the best point with a smaller simplex whenever
+  // the simplex collapses (box_search.hpp), until the budget is spent.
+  BoxSearch search(centre, best_cost);
+  while (result.evaluations < options.max_evaluations) search.Tell(cost_of(search.Ask()));
   result.params = best;
   result.table = best_table;
   result.cost_after = best_cost;

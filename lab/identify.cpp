@@ -11,6 +11,7 @@
 #include "core/errors.hpp"
 #include "core/yaml_reader.hpp"
 #include "hardware/emulated_arm.hpp"
+#include "lab/box_search.hpp"
 #include "servo/picservo.hpp"
 #include "servo/servo_units.hpp"
 
@@ -21,7 +22,7 @@ constexpr double kPi = 3.14159265358979323846;
 constexpr double kDeg = kPi / 180;
 constexpr int kParams =
     6;  // static, Coulomb +/- as fractions of static, viscous, Stribeck, armature
-constexpr double kMinStep = 0.005;
+constexpr double kFirstSimplex = 0.1;  // the search's first simplex, in units of its box
 
 // One table, prepared: the set-point per servo tick (SI) and the fresh real samples.
 struct Track {
@@ -112,8 +113,9 @@ Track Prepare(const core::RobotModel& model, const logger::RunTable& table, bool
   return track;
 }
 
-// Simulates the model along the track; adds each joint's squared error (rad^2) and sample count;
-// with `trace`, also the positions at every tick.
+// Simulates the model along the track (hardware::EmulatedArm without real-arm effects, under
+// PIC-SERVO chips with the model's gains); adds each joint's squared error (rad^2) and sample
+// count; with `trace`, also the positions at every tick.
 void Simulate(const core::RobotModel& model, const Track& track, std::vector<double>* sse,
               std::vector<int64_t>* count, std::vector<std::vector<double>>* trace = nullptr) {
   const size_t n = model.joints.size();
@@ -149,50 +151,60 @@ void Simulate(const core::RobotModel& model, const Track& track, std::vector<dou
   }
 }
 
-// Parameter p of joint j, as the search sees it (all positive, steps multiply them).
-double Get(const core::RobotModel& m, size_t j, int p) {
-  const core::Friction& f = m.joints[j].friction;
-  switch (p) {
-    case 0:
-      return f.static_effort;
-    case 1:
-      return f.static_effort > 0 ? f.coulomb_positive / f.static_effort : 1;
-    case 2:
-      return f.static_effort > 0 ? f.coulomb_negative / f.static_effort : 1;
-    case 3:
-      return f.viscous;
-    case 4:
-      return f.stribeck_velocity;
-    default:
-      return m.joints[j].armature;
+// The search's box for one joint: the static level (log scale), the Coulomb levels as fractions
+// of it (so static >= Coulomb, as the model file requires), the viscous coefficient, the Stribeck
+// speed and the armature (log scales). The bounds come from the joint itself, so they fit any
+// model: no friction level above the joint's maximum effort, no viscous friction that would take
+// all of it at the servo's default speed, no armature that would at its default acceleration, a
+// Stribeck speed from 0.1 % to twice the joint's top speed.
+struct Range {
+  double min, max;
+  bool log_scale;
+  double FromUnit(double u) const {
+    u = std::clamp(u, 0.0, 1.0);
+    return log_scale ? min * std::pow(max / min, u) : min + u * (max - min);
   }
+  double ToUnit(double x) const {
+    x = std::clamp(x, min, max);
+    return log_scale ? std::log(x / min) / std::log(max / min) : (x - min) / (max - min);
+  }
+};
+
+std::array<Range, kParams> Box(const core::Joint& joint) {
+  const double effort = joint.effort_max;
+  const double viscous = effort / joint.servo.default_velocity;
+  const double armature = effort / joint.servo.default_acceleration;
+  return {{{1e-3 * effort, 0.5 * effort, true},
+           {0.02, 1.0, false},
+           {0.02, 1.0, false},
+           {1e-5 * viscous, viscous, true},
+           {1e-3 * joint.velocity_max, 2 * joint.velocity_max, true},
+           {1e-5 * armature, armature, true}}};
 }
 
-void Set(core::RobotModel& m, size_t j, int p, double v) {
+// Joint j's values as a point of its box, and back.
+std::vector<double> ToUnit(const core::RobotModel& m, size_t j) {
+  const core::Friction& f = m.joints[j].friction;
+  const std::array<Range, kParams> box = Box(m.joints[j]);
+  const double up = f.static_effort > 0 ? f.coulomb_positive / f.static_effort : 1;
+  const double down = f.static_effort > 0 ? f.coulomb_negative / f.static_effort : 1;
+  return {box[0].ToUnit(f.static_effort),
+          box[1].ToUnit(up),
+          box[2].ToUnit(down),
+          box[3].ToUnit(f.viscous),
+          box[4].ToUnit(f.stribeck_velocity),
+          box[5].ToUnit(m.joints[j].armature)};
+}
+
+void FromUnit(core::RobotModel& m, size_t j, const std::vector<double>& u) {
   core::Friction& f = m.joints[j].friction;
-  const double up = Get(m, j, 1), down = Get(m, j, 2);
-  switch (p) {
-    case 0:
-      f.static_effort = std::max(v, 1e-4);
-      f.coulomb_positive = up * f.static_effort;
-      f.coulomb_negative = down * f.static_effort;
-      break;
-    case 1:
-      f.coulomb_positive = std::clamp(v, 0.02, 1.0) * f.static_effort;
-      break;
-    case 2:
-      f.coulomb_negative = std::clamp(v, 0.02, 1.0) * f.static_effort;
-      break;
-    case 3:
-      f.viscous = std::max(v, 1e-4);
-      break;
-    case 4:
-      f.stribeck_velocity = std::clamp(v, 1e-3, 10.0);
-      break;
-    default:
-      m.joints[j].armature = std::clamp(v, 1e-5, 1.0);
-      break;
-  }
+  const std::array<Range, kParams> box = Box(m.joints[j]);
+  f.static_effort = box[0].FromUnit(u[0]);
+  f.coulomb_positive = box[1].FromUnit(u[1]) * f.static_effort;
+  f.coulomb_negative = box[2].FromUnit(u[2]) * f.static_effort;
+  f.viscous = box[3].FromUnit(u[3]);
+  f.stribeck_velocity = box[4].FromUnit(u[4]);
+  m.joints[j].armature = box[5].FromUnit(u[5]);
 }
 
 // The torque regression. Along a track, the effort each joint's motor gave is known from the
@@ -498,57 +510,62 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
     if (counts) *counts = count;
     return sse;
   };
-  // The torque regression gives the start; the output-error search below refines it.
-  core::RobotModel best = Regress(model, tracks, joints);
-  // A joint without viscous friction gets a small start, so multiplicative steps can move it.
-  for (size_t j : joints) {
-    if (best.joints[j].friction.viscous <= 0) best.joints[j].friction.viscous = 0.01;
-    if (best.joints[j].armature <= 0) best.joints[j].armature = 1e-3;
-  }
+  // Two starts, each put into the search's box: the torque regression's values and the model's.
+  // Per joint the one that follows the data better is where the search begins (a joint the
+  // regression fits worse than the model had it: data the model cannot explain, e.g. a real
+  // arm's latency).
   std::vector<int64_t> counts;
   const std::vector<double> before = evaluate(model, &counts);
-  std::vector<double> best_sse = evaluate(best, nullptr);
-  // A joint the regression fits worse than the model had it (data the model cannot explain, e.g.
-  // a real arm's latency) starts the search from the model's values instead.
-  bool reverted = false;
+  core::RobotModel from_regression = Regress(model, tracks, joints);
+  core::RobotModel from_model = model;
   for (size_t j : joints) {
-    if (best_sse[j] > before[j]) {
-      best.joints[j].friction = model.joints[j].friction;
-      best.joints[j].armature = model.joints[j].armature;
-      reverted = true;
-    }
+    FromUnit(from_regression, j, ToUnit(from_regression, j));
+    FromUnit(from_model, j, ToUnit(from_model, j));
   }
-  if (reverted) best_sse = evaluate(best, nullptr);
-  std::vector<std::array<double, kParams>> step(n);
-  for (auto& s : step) s.fill(0.1);
-  bool moving = true;
-  while (moving && result.evaluations + 3 <= options.max_evaluations) {
-    moving = false;
-    for (int p = 0; p < kParams && result.evaluations + 3 <= options.max_evaluations; ++p) {
-      std::vector<bool> active(n, false), improved(n, false);
-      for (size_t j : joints) active[j] = step[j][static_cast<size_t>(p)] >= kMinStep;
-      if (std::none_of(joints.begin(), joints.end(), [&](size_t j) { return active[j]; })) continue;
-      moving = true;
-      core::RobotModel accepted = best;
-      for (double sign : {1.0, -1.0}) {
-        core::RobotModel trial = best;
-        for (size_t j : joints) {
-          if (!active[j] || improved[j]) continue;
-          Set(trial, j, p, Get(best, j, p) * (1 + sign * step[j][static_cast<size_t>(p)]));
-        }
-        const std::vector<double> sse = evaluate(trial, nullptr);
-        for (size_t j : joints) {
-          if (active[j] && !improved[j] && sse[j] < best_sse[j]) {
-            improved[j] = true;
-            Set(accepted, j, p, Get(trial, j, p));
-          }
-        }
-      }
-      for (size_t j : joints) {
-        if (active[j] && !improved[j]) step[j][static_cast<size_t>(p)] /= 2;
-      }
-      best = accepted;
-      best_sse = evaluate(best, nullptr);  // the joints interact a little: the new base
+  const std::vector<double> regression_sse = evaluate(from_regression, nullptr);
+  auto near = [](double a, double b) { return std::abs(a - b) <= 1e-9 * std::abs(b); };
+  const bool model_in_box = std::all_of(joints.begin(), joints.end(), [&](size_t j) {
+    const core::Friction& a = from_model.joints[j].friction;
+    const core::Friction& b = model.joints[j].friction;
+    return near(a.static_effort, b.static_effort) && near(a.coulomb_positive, b.coulomb_positive) &&
+           near(a.coulomb_negative, b.coulomb_negative) && near(a.viscous, b.viscous) &&
+           near(a.stribeck_velocity, b.stribeck_velocity) &&
+           near(from_model.joints[j].armature, model.joints[j].armature);
+  });
+  const std::vector<double> model_sse = model_in_box ? before : evaluate(from_model, nullptr);
+  core::RobotModel best = from_regression;
+  std::vector<double> best_sse(n, 0.0);
+  for (size_t j : joints) {
+    const bool regression = regression_sse[j] <= model_sse[j];
+    best.joints[j] = (regression ? from_regression : from_model).joints[j];
+    best_sse[j] = regression ? regression_sse[j] : model_sse[j];
+  }
+  // Output error: one Nelder-Mead search per joint on its log box (box_search.hpp), all of them
+  // sharing each simulation of the data (the joints' errors are nearly independent), until the
+  // budget less one simulation is spent; then the joints' best points together, simulated once.
+  std::vector<BoxSearch> searches;
+  for (size_t j : joints) searches.emplace_back(ToUnit(best, j), best_sse[j], kFirstSimplex);
+  const core::RobotModel start = best;
+  bool searched = false;
+  while (!searches.empty() && result.evaluations + 1 < options.max_evaluations) {
+    searched = true;
+    core::RobotModel trial = start;
+    for (size_t k = 0; k < joints.size(); ++k) FromUnit(trial, joints[k], searches[k].Ask());
+    const std::vector<double> sse = evaluate(trial, nullptr);
+    for (size_t k = 0; k < joints.size(); ++k) searches[k].Tell(sse[joints[k]]);
+  }
+  if (searched) {
+    core::RobotModel found = start;
+    for (size_t k = 0; k < joints.size(); ++k) FromUnit(found, joints[k], searches[k].best());
+    const std::vector<double> found_sse = evaluate(found, nullptr);
+    double now = 0, then = 0;
+    for (size_t j : joints) {
+      now += found_sse[j];
+      then += best_sse[j];
+    }
+    if (now < then) {
+      best = found;
+      best_sse = found_sse;
     }
   }
   result.model = best;

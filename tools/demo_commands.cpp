@@ -45,6 +45,10 @@ const char* const kDemoAbout =
     "plots), images/ and video/ (the viewer), logs/ (each process's output).\n"
     "  --lcm-url URL   the bus (default: a private udpm port with ttl=0, so a lab's traffic and\n"
     "                  other demos never mix)\n"
+    "  --model M2      the virtual arm's model (e.g. one `sirupp identify` wrote) for\n"
+    "                  sirupp-sim, sirupp-control, sirupp-hardware and sirupp-logger; the\n"
+    "                  emulated real arm keeps its own. Then `sirupp report RUN2/data --compare\n"
+    "                  RUN1/data` puts both runs' virtual-vs-real errors side by side.\n"
     "Exit: 0 every set ran and every process stopped cleanly, 1 otherwise, 2 bad arguments.\n";
 
 namespace {
@@ -287,6 +291,35 @@ bool ReportSets(const std::vector<std::string>& data, const fs::path& dir, std::
   }
 }
 
+// --model FILE: the virtual arm's model, given to every process of the layout that simulates,
+// controls or links the virtual arm or logs the runs (not the emulated real arm, which keeps its
+// own). core::UsageError if a process already names a model or none takes it.
+void UseVirtualModel(launch::Layout& layout, const std::string& file) {
+  const std::string path = fs::absolute(file).string();
+  int given = 0;
+  for (launch::ProcessSpec& p : layout.processes) {
+    if (p.command.empty()) continue;
+    const std::string program = fs::path(p.command.front()).filename().string();
+    if (program != "sirupp-sim" && program != "sirupp-control" && program != "sirupp-hardware" &&
+        program != "sirupp-logger") {
+      continue;
+    }
+    if (std::find(p.command.begin(), p.command.end(), "--model") != p.command.end()) {
+      throw core::UsageError("--model: " + layout.file + ":" + std::to_string(p.line) +
+                             ": process '" + p.name +
+                             "' names its model already; give --model or that, not both");
+    }
+    p.command.push_back("--model");
+    p.command.push_back(path);
+    ++given;
+  }
+  if (given == 0) {
+    throw core::UsageError("--model: " + layout.file +
+                           " has no sirupp-sim, sirupp-control, sirupp-hardware or sirupp-logger "
+                           "process to give it to");
+  }
+}
+
 }  // namespace
 
 int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
@@ -295,7 +328,11 @@ int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostrea
       {runtime::Flag("out", "folder for data, report, images and logs").Takes("DIR"),
        runtime::Flag("sets", "movement sets, 1 to 7 or I to VII (default all)").Takes("N", -1),
        runtime::Flag("layout", "lab layout to start (default config/labs/demo.yaml)").Takes("FILE"),
-       runtime::Flag("lcm-url", "LCM URL").Takes("URL")},
+       runtime::Flag("lcm-url", "LCM URL").Takes("URL"),
+       runtime::Flag("model",
+                     "the virtual arm's model (default config/robots/puma260.yaml); the emulated "
+                     "real arm keeps its own")
+           .Takes("FILE")},
       kDemoAbout);
   const std::vector<int> sets = SetsFromArgs(parsed);
   const std::string layout_file = runtime::ResolveDataPath(
@@ -305,6 +342,12 @@ int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostrea
       parsed.Has("lcm-url")
           ? parsed.String("lcm-url")
           : "udpm://239.255.76.67:" + std::to_string(20000 + ::getpid() % 20000) + "?ttl=0";
+  // The virtual arm's model, loaded (and so checked) before anything starts.
+  const std::string model_file = parsed.Has("model")
+                                     ? parsed.String("model")
+                                     : runtime::ResolveDataPath(runtime::kDefaultModelFile);
+  const core::RobotModel model = core::LoadRobotModel(model_file);
+  if (parsed.Has("model")) UseVirtualModel(layout, model_file);
   const fs::path dir = NewResultsDir(parsed);
   std::vector<std::string> plans;
   for (int n : sets) {
@@ -312,10 +355,10 @@ int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   }
 
   const auto started = Clock::now();
-  const core::RobotModel model =
-      core::LoadRobotModel(runtime::ResolveDataPath(runtime::kDefaultModelFile));
   out << "SIRUPP-LCM demo: the paper's experiment (Table II), headless\n"
       << "  robot: " << core::ModelSummary(model) << "\n"
+      << "  virtual arm's model: " << model_file
+      << (parsed.Has("model") ? " (the emulated real arm keeps its own)" : "") << "\n"
       << "  sets: " << sets.size() << ", processes: " << layout.processes.size() << " ("
       << layout_file << "), bus " << layout.lcm_url << "\n"
       << "  results: " << dir.string() << "\n\n";

@@ -1,7 +1,11 @@
 #include "tools/report_commands.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <fstream>
+#include <iomanip>
 #include <ostream>
+#include <sstream>
 
 #include "core/channels.hpp"
 #include "core/errors.hpp"
@@ -20,6 +24,10 @@ const char* const kReportAbout =
     "right after the file they continue).\n"
     "Prints Markdown and writes DIR/report.md, report_errors.csv, report_response.csv and PNG\n"
     "plots (angle and error against time per move and joint); DIR default report.\n"
+    "--compare FILE|DIR...: another run of the same sets (e.g. the demo before `sirupp identify`,\n"
+    "FILE the run after): its virtual-vs-real means beside ours in Table II, and a section\n"
+    "comparing the two per set and joint (the last move of each), with the means over the rows\n"
+    "both have and the change in %.\n"
     "Definitions: docs/logging.md. Exit 0, or 2 naming FILE:LINE for bad input.\n";
 
 logger::ReferenceColumn PaperReference() {
@@ -71,7 +79,87 @@ logger::ImportOptions ImportOptionsFrom(const runtime::Args& args) {
   return import;
 }
 
+// One run's virtual-vs-real means per set (the table's label) and joint: the last move of each.
+std::vector<logger::ReferenceRow> VirtualVsReal(const std::vector<logger::RunTable>& tables,
+                                                const logger::AnalysisOptions& options) {
+  std::vector<logger::ReferenceRow> rows;
+  for (const logger::RunTable& table : tables) {
+    for (const logger::MoveResult& move : logger::Analyze(table, options).moves) {
+      const logger::PairMetrics& m = move.pairs[static_cast<size_t>(logger::Pair::kVirtReal)];
+      const logger::ReferenceRow row{table.label, move.joint, m.mean_transient, m.mean_steady};
+      auto same = [&](const logger::ReferenceRow& r) {
+        return r.set == row.set && r.joint == row.joint;
+      };
+      const auto at = std::find_if(rows.begin(), rows.end(), same);
+      if (at == rows.end()) {
+        rows.push_back(row);
+      } else {
+        *at = row;
+      }
+    }
+  }
+  return rows;
+}
+
+std::string Cell(double v) {
+  if (!std::isfinite(v)) return "-";
+  std::ostringstream s;
+  s << std::fixed << std::setprecision(2) << v;
+  return s.str();
+}
+
 }  // namespace
+
+std::string CompareSection(const std::vector<logger::ReferenceRow>& ours,
+                           const std::vector<logger::ReferenceRow>& other,
+                           const std::string& ours_name, const std::string& other_name) {
+  std::string md = "\n## Comparison: virtual vs real, " + other_name + " (A) and " + ours_name +
+                   " (B)\n\n| Set | Joint | Transient A | Transient B | Steady A | Steady B |\n"
+                   "|---|---|---:|---:|---:|---:|\n";
+  double sum_a = 0, sum_b = 0;
+  int n = 0;
+  for (const logger::ReferenceRow& b : ours) {
+    const logger::ReferenceRow* a = nullptr;
+    for (const logger::ReferenceRow& r : other) {
+      if (r.set == b.set && r.joint == b.joint) a = &r;
+    }
+    if (a == nullptr) {
+      md += "| " + b.set + " | " + std::to_string(b.joint) + " | - | " + Cell(b.mean_transient) +
+            " | - | " + Cell(b.mean_steady) + " |\n";
+      continue;
+    }
+    md += "| " + b.set + " | " + std::to_string(b.joint) + " | " + Cell(a->mean_transient) + " | " +
+          Cell(b.mean_transient) + " | " + Cell(a->mean_steady) + " | " + Cell(b.mean_steady) +
+          " |\n";
+    for (const auto& [x, y] : {std::pair{a->mean_transient, b.mean_transient},
+                               std::pair{a->mean_steady, b.mean_steady}}) {
+      if (!std::isfinite(x) || !std::isfinite(y)) continue;
+      sum_a += x;
+      sum_b += y;
+      ++n;
+    }
+  }
+  for (const logger::ReferenceRow& a : other) {
+    const bool shared = std::any_of(ours.begin(), ours.end(), [&](const logger::ReferenceRow& b) {
+      return b.set == a.set && b.joint == a.joint;
+    });
+    if (!shared) {
+      md += "| " + a.set + " | " + std::to_string(a.joint) + " | " + Cell(a.mean_transient) +
+            " | - | " + Cell(a.mean_steady) + " | - |\n";
+    }
+  }
+  if (n == 0) return md + "\nNo set and joint is in both runs: nothing to compare.\n";
+  const double mean_a = sum_a / n, mean_b = sum_b / n;
+  md += "\nMean over the " + std::to_string(n) + " transient and steady means both runs have: A " +
+        Cell(mean_a) + " deg, B " + Cell(mean_b) + " deg";
+  if (mean_a > 0) {
+    std::ostringstream change;
+    change << std::showpos << std::fixed << std::setprecision(1)
+           << 100 * (mean_b - mean_a) / mean_a;
+    md += ", change " + change.str() + " %";
+  }
+  return md + ".\n";
+}
 
 int RunReport(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
   const runtime::Args args(
@@ -109,9 +197,16 @@ int RunReport(const std::vector<std::string>& argv, std::ostream& out, std::ostr
                      "the SIRUPP paper's own Table II (virtual vs real, real PUMA 260) as two "
                      "more columns beside our virtual-vs-real rows, per set and joint")
            .Takes("WHICH")
-           .OneOf({"paper"})},
+           .OneOf({"paper"}),
+       runtime::Flag("compare",
+                     "another run's data files or folders: its virtual-vs-real means beside "
+                     "ours, and a comparison section (the change in %)")
+           .Takes("FILE|DIR", -1)},
       kReportAbout);
   const std::vector<std::string>& files = args.Values("files", -1);
+  if (args.Has("compare") && args.Has("reference")) {
+    throw core::UsageError("report: give --compare or --reference, not both (one column)");
+  }
 
   logger::ReportOptions options;
   if (args.Has("out")) options.out_dir = args.String("out");
@@ -124,8 +219,30 @@ int RunReport(const std::vector<std::string>& argv, std::ostream& out, std::ostr
   for (const logger::RunTable& table : tables) {
     for (const std::string& note : table.notes) err << "sirupp report: note: " << note << "\n";
   }
+  std::string compared;
+  if (args.Has("compare")) {
+    const std::vector<std::string>& others = args.Values("compare", -1);
+    const std::vector<logger::RunTable> other = logger::ReadInputs(others, options.import);
+    const std::vector<logger::ReferenceRow> rows = VirtualVsReal(other, options.analysis);
+    std::string names;
+    for (const std::string& f : others) names += (names.empty() ? "" : " ") + f;
+    logger::ReferenceColumn column;
+    column.title = "compared";
+    column.note = "Compared: the virtual-vs-real means of " + names +
+                  " (the last move of each set and joint), beside ours.";
+    column.rows = rows;
+    options.reference = column;
+    std::string ours;
+    for (const std::string& f : files) ours += (ours.empty() ? "" : " ") + f;
+    compared = CompareSection(VirtualVsReal(tables, options.analysis), rows, ours, names);
+  }
   const logger::ReportOutput output = logger::WriteReport(tables, options);
-  out << output.markdown;
+  out << output.markdown << compared;
+  if (!compared.empty()) {
+    std::ofstream report(output.files.front(), std::ios::app);
+    report << compared;
+    if (!report) throw std::runtime_error("report: cannot write " + output.files.front());
+  }
   err << "sirupp report: " << output.moves << " joint moves; wrote";
   for (const std::string& file : output.files) err << " " << file;
   err << "\n";
