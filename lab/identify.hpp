@@ -7,10 +7,10 @@
 //    links need (inverse dynamics), it is armature x acceleration + friction, linear in the
 //    friction levels, viscous coefficient and armature for a given Stribeck speed. Least squares
 //    over windows in which the joint slides, with a line search over the Stribeck speed.
-// 2. Output-error polish: the model's arm (hardware::EmulatedArm without real-arm effects) under
-//    PIC-SERVO chips follows the logged set-point; a coordinate search lowers the squared
-//    difference to the real angles. A joint the regression fits worse than the model starts the
-//    polish from the model's values.
+// 2. Output-error search: the model's arm (hardware::EmulatedArm without real-arm effects) under
+//    PIC-SERVO chips follows the logged set-point; per joint a Nelder-Mead search on a log box
+//    derived from the joint (box_search.hpp) lowers the squared difference to the real angles,
+//    from the better of the regression's and the model's values.
 // Reads the model and the tables; writes nothing itself.
 
 #include <string>
@@ -23,7 +23,7 @@ namespace sirupp::lab {
 
 struct IdentifyOptions {
   std::vector<int> joints;    // 1-based joints to fit; empty: every joint the set-point moves
-  int max_evaluations = 150;  // simulations of all the data (the polish; 3 or less: none)
+  int max_evaluations = 150;  // simulations of all the data (the search; 3 or less: none)
 };
 
 struct JointIdentification {

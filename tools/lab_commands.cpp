@@ -34,13 +34,14 @@ const char* const kFitEmulatorAbout =
 const char* const kIdentifyAbout =
     "Fits the model's joint friction (static, Coulomb per direction, viscous, Stribeck speed) and\n"
     "armature to a real arm's logged data (sirupp-logger data files or LCM logs, e.g. a demo's\n"
-    "data/ or `sirupp fit-emulator --data DIR`): the model's arm under PIC-SERVO chips with the\n"
-    "model's gains follows the logged set-point, and the parameters minimise the difference to "
-    "the\n"
-    "real joint angles. Writes M2 (M with those values; comments kept) and prints the fit per\n"
-    "joint. Then `sirupp fit-emulator --evaluate --virtual-model M2` (or a demo with M2) shows "
-    "how\n"
-    "much closer the virtual arm comes.\n"
+    "data/ or `sirupp fit-emulator --data DIR`): a torque regression, then per joint a\n"
+    "Nelder-Mead search on a log box from the joint's limits, from the better of the regression's\n"
+    "and the model's values: the model's arm under PIC-SERVO chips follows the logged set-point\n"
+    "and the search lowers the difference to the real joint angles. The values can stand in for\n"
+    "effects the model lacks (a latency fits as viscous friction and armature).\n"
+    "Writes M2 (M with those values; comments kept) and prints the fit per joint. Then\n"
+    "`sirupp fit-emulator --evaluate --virtual-model M2`, or `sirupp demo --model M2 --out RUN2`\n"
+    "and `sirupp report RUN2/data --compare RUN1/data`, show both runs side by side.\n"
     "docs/emulator-fit.md. Exit 0, 2 for bad arguments or files.\n";
 
 namespace {
@@ -140,14 +141,14 @@ int RunFitEmulator(const std::vector<std::string>& argv, std::ostream& out, std:
            .Takes("FILE"),
        runtime::Flag("sets", "movement sets, 1 to 7 or I to VII (default all)").Takes("N", -1),
        runtime::Flag("evaluate", "only run and print the table; no fit").Switch(),
-        runtime::Flag("evaluations", "the fit's budget of experiment runs (150)")
-            .Takes("N")
-            .Integer(1, 10000),
-        runtime::Flag("latency-ms",
-                      "hold the board's command latency at this value (0..300 ms) instead of "
-                      "fitting it")
-            .Takes("MS")
-            .Range(0, 300),
+       runtime::Flag("evaluations", "the fit's budget of experiment runs (150)")
+           .Takes("N")
+           .Integer(1, 10000),
+       runtime::Flag("latency-ms",
+                     "hold the board's command latency at this value (0..300 ms) instead of "
+                     "fitting it")
+           .Takes("MS")
+           .Range(0, 300),
        runtime::Flag("out",
                      "write the fitted effects there (refuses to replace a file unless it is "
                      "--real-arm itself)")
