@@ -5,6 +5,7 @@
 #include <cmath>
 #include <iomanip>
 #include <limits>
+#include <optional>
 #include <sstream>
 
 #include "core/dynamics.hpp"
@@ -605,55 +606,88 @@ logger::RunTable SimulateRealStream(const core::RobotModel& model, const logger:
   return out;
 }
 
+namespace {
+
+// The lines of joint `joint`'s (1-based) one-line `armature:` and `friction: {...}` keys in the
+// model file: within its entry of the `joints:` list (located by the YAML parser, so a link of
+// the same name further down is never taken), up to the next line indented no deeper than the
+// entry's keys.
+std::vector<std::string> SplitLines(const std::string& text) {
+  std::istringstream in(text);
+  std::vector<std::string> lines;
+  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  return lines;
+}
+
+struct EntryLines {
+  size_t armature = 0, friction = 0;
+};
+
+EntryLines FindEntryLines(const YAML::Node& entries, const std::vector<std::string>& lines,
+                          const core::RobotModel& model, int joint, const std::string& file) {
+  const std::string& name = model.joints[static_cast<size_t>(joint - 1)].name;
+  const auto refuse = [&](int line) {
+    return core::ConfigError({file, line, 0}, "joints",
+                             "joint '" + name +
+                                 "': cannot rewrite it (its entry in joints: needs one-line "
+                                 "'armature:' and 'friction: {...}' keys)");
+  };
+  if (!entries || !entries.IsSequence() || entries.size() < static_cast<size_t>(joint)) {
+    throw refuse(0);
+  }
+  const YAML::Mark mark = entries[static_cast<size_t>(joint - 1)].Mark();
+  const auto first = static_cast<size_t>(mark.line);
+  const auto key_column = static_cast<size_t>(mark.column);
+  std::optional<size_t> armature, friction;
+  for (size_t i = first; i < lines.size(); ++i) {
+    const size_t indent = lines[i].find_first_not_of(' ');
+    if (indent == std::string::npos || lines[i][indent] == '#') continue;
+    if (i > first && indent < key_column) break;      // the next entry, or the end of joints:
+    if (indent != key_column && i > first) continue;  // a nested map (servo: ...)
+    const size_t key = i == first ? key_column : indent;
+    if (lines[i].compare(key, 9, "armature:") == 0) armature = i;
+    if (lines[i].compare(key, 9, "friction:") == 0 && lines[i].find('}') != std::string::npos) {
+      friction = i;
+    }
+  }
+  if (!armature || !friction) throw refuse(mark.line + 1);
+  return {*armature, *friction};
+}
+
+}  // namespace
+
+void CheckModelRewritable(const std::string& text, const std::string& file,
+                          const core::RobotModel& model, const std::vector<int>& joints) {
+  const core::YamlDocument doc = core::YamlDocument::Parse(text, file);
+  const std::vector<std::string> lines = SplitLines(text);
+  const YAML::Node entries = doc.Root().node()["joints"];
+  for (int joint : joints) FindEntryLines(entries, lines, model, joint, file);
+}
+
 std::string RewriteModelText(const std::string& text, const std::string& file,
                              const core::RobotModel& original, const IdentifyResult& result) {
   const core::YamlDocument doc = core::YamlDocument::Parse(text, file);
   const YAML::Node angle = doc.Root().node()["units"]["angle"];
   const bool degrees = angle && angle.IsScalar() && angle.Scalar() == "deg";
   const double speed_scale = degrees ? kDeg : 1.0;
-  std::istringstream in(text);
-  std::vector<std::string> lines;
-  for (std::string line; std::getline(in, line);) lines.push_back(line);
+  std::vector<std::string> lines = SplitLines(text);
   auto number = [](double v) {
     std::ostringstream s;
     s << std::setprecision(5) << v;
     return s.str();
   };
+  const YAML::Node entries = doc.Root().node()["joints"];
   for (const JointIdentification& id : result.joints) {
-    const core::Joint& joint = original.joints[static_cast<size_t>(id.joint - 1)];
-    // The joint's entry: the line "- name: NAME", up to the next "- name:" line.
-    size_t begin = lines.size();
-    for (size_t i = 0; i < lines.size(); ++i) {
-      const size_t at = lines[i].find("- name: ");
-      if (at != std::string::npos && lines[i].substr(at + 8) == joint.name) begin = i;
-    }
-    bool armature = false, friction = false;
-    for (size_t i = begin + 1; i < lines.size(); ++i) {
-      if (lines[i].find("- name:") != std::string::npos) break;
-      const size_t indent = lines[i].find_first_not_of(' ');
-      if (indent == std::string::npos) continue;
-      const std::string pad(indent, ' ');
-      if (lines[i].compare(indent, 9, "armature:") == 0) {
-        lines[i] = pad + "armature: " + number(id.armature_after) + "   # identified";
-        armature = true;
-      } else if (lines[i].compare(indent, 9, "friction:") == 0 &&
-                 lines[i].find('}') != std::string::npos) {
-        const core::Friction& f = id.friction_after;
-        lines[i] = pad + "friction: {static: " + number(f.static_effort) + ", coulomb: [" +
-                   number(f.coulomb_positive) + ", " + number(f.coulomb_negative) +
-                   "], viscous: " + number(f.viscous) +
-                   ", stribeck_velocity: " + number(f.stribeck_velocity / speed_scale) +
-                   "}   # identified";
-        friction = true;
-      }
-    }
-    if (begin == lines.size() || !armature || !friction) {
-      throw core::ConfigError({file, 0, 0}, "joints",
-                              "joint '" + joint.name +
-                                  "': cannot rewrite it (its entry needs a '- name: " + joint.name +
-                                  "' line and one-line 'armature:' and "
-                                  "'friction: {...}' keys)");
-    }
+    const EntryLines at = FindEntryLines(entries, lines, original, id.joint, file);
+    const std::string pad(lines[at.armature].find_first_not_of(' '), ' ');
+    lines[at.armature] = pad + "armature: " + number(id.armature_after) + "   # identified";
+    const core::Friction& f = id.friction_after;
+    const std::string fpad(lines[at.friction].find_first_not_of(' '), ' ');
+    lines[at.friction] = fpad + "friction: {static: " + number(f.static_effort) + ", coulomb: [" +
+                         number(f.coulomb_positive) + ", " + number(f.coulomb_negative) +
+                         "], viscous: " + number(f.viscous) +
+                         ", stribeck_velocity: " + number(f.stribeck_velocity / speed_scale) +
+                         "}   # identified";
   }
   std::string out;
   for (const std::string& line : lines) out += line + "\n";

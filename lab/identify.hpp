@@ -56,4 +56,8 @@ logger::RunTable SimulateRealStream(const core::RobotModel& model, const logger:
 std::string RewriteModelText(const std::string& text, const std::string& file,
                              const core::RobotModel& original, const IdentifyResult& result);
 
+// Throws what RewriteModelText would for `joints` (1-based), before any fitting is done.
+void CheckModelRewritable(const std::string& text, const std::string& file,
+                          const core::RobotModel& model, const std::vector<int>& joints);
+
 }  // namespace sirupp::lab

@@ -8,7 +8,9 @@
 
 #include <cmath>
 
+#include "core/errors.hpp"
 #include "core/model_loader.hpp"
+#include "core/yaml_reader.hpp"
 #include "lab/identify.hpp"
 
 namespace sirupp::lab {
@@ -101,6 +103,62 @@ TEST(Identify, RecoversKnownParametersFromSyntheticData) {
     EXPECT_TRUE(
         Near("Stribeck speed", id.joint, got.stribeck_velocity, want.stribeck_velocity, 0.05));
     EXPECT_TRUE(Near("armature", id.joint, id.armature_after, truth.joints[j].armature, 0.05));
+  }
+}
+
+// M2 is written into the joints: list only. The PUMA file has links named like its wrist joints
+// (wrist_pitch, flange) after that list; their entries are left as they are.
+TEST(Identify, TheModelIsRewrittenInItsJointEntriesNotInLinksOfTheSameName) {
+  const std::string file = "config/robots/puma260.yaml";
+  const std::string text = core::ReadTextFile(file);
+  const core::RobotModel model = core::LoadRobotModel(file);
+  IdentifyResult result;
+  for (int joint : {5, 6}) {
+    JointIdentification id;
+    id.joint = joint;
+    id.friction_after = {0.31, 0.21, 0.19, 0.041, 2 * kPi / 180};
+    id.armature_after = 0.0042;
+    result.joints.push_back(id);
+  }
+  EXPECT_NO_THROW(CheckModelRewritable(text, file, model, {1, 2, 3, 4, 5, 6}));
+  const std::string written = RewriteModelText(text, file, model, result);
+  const core::RobotModel m2 = core::ParseRobotModel(written, "m2");
+  for (size_t j = 0; j < 6; ++j) {
+    const bool fitted = j >= 4;
+    EXPECT_DOUBLE_EQ(m2.joints[j].armature, fitted ? 0.0042 : model.joints[j].armature) << j;
+    EXPECT_DOUBLE_EQ(m2.joints[j].friction.static_effort,
+                     fitted ? 0.31 : model.joints[j].friction.static_effort)
+        << j;
+  }
+  EXPECT_NEAR(m2.joints[5].friction.stribeck_velocity, 2 * kPi / 180, 1e-6);
+  // Everything after the joints: list (links, poses) is the same text.
+  const size_t links = text.find("\nlinks:");
+  ASSERT_NE(links, std::string::npos);
+  EXPECT_EQ(written.substr(written.find("\nlinks:")), text.substr(links));
+}
+
+// A joint whose friction is not on one line cannot be written back: refused before any fitting,
+// naming the file, the entry's line and the joint.
+TEST(Identify, AnEntryItCannotRewriteIsRefusedBeforeTheFit) {
+  const std::string file = "config/robots/puma260.yaml";
+  std::string text = core::ReadTextFile(file);
+  const core::RobotModel model = core::LoadRobotModel(file);
+  const std::string one_line =
+      "    friction: {static: 0.8, coulomb: [0.6, 0.55], viscous: 0.25, "
+      "stribeck_velocity: 1.0}";
+  const size_t at = text.find(one_line);
+  ASSERT_NE(at, std::string::npos);
+  text.replace(at, one_line.size(),
+               "    friction:\n      static: 0.8\n      coulomb: [0.6, 0.55]\n      viscous: "
+               "0.25\n      stribeck_velocity: 1.0");
+  EXPECT_NO_THROW(CheckModelRewritable(text, file, model, {1, 2}));
+  try {
+    CheckModelRewritable(text, file, model, {1, 2, 3});
+    FAIL() << "joint 3 (elbow) has a multi-line friction map";
+  } catch (const core::ConfigError& e) {
+    const std::string what = e.what();
+    EXPECT_NE(what.find("config/robots/puma260.yaml:71"), std::string::npos) << what;
+    EXPECT_NE(what.find("joint 'elbow': cannot rewrite it"), std::string::npos) << what;
   }
 }
 

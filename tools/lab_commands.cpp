@@ -236,6 +236,14 @@ int RunIdentify(const std::vector<std::string>& argv, std::ostream& out, std::os
   }
   options.max_evaluations =
       static_cast<int>(args.Integer("evaluations", options.max_evaluations));  // 5..100000
+  {
+    // Before any fitting: every joint that may be fitted can be written back into M2.
+    std::vector<int> joints = options.joints;
+    if (joints.empty()) {
+      for (int j = 1; j <= model.num_joints(); ++j) joints.push_back(j);
+    }
+    lab::CheckModelRewritable(core::ReadTextFile(model_file), model_file, model, joints);
+  }
   logger::ImportOptions import;
   const std::vector<logger::RunTable> tables = logger::ReadInputs(files, import);
   const auto started = std::chrono::steady_clock::now();
