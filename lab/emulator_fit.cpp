@@ -111,7 +111,7 @@ std::string Describe(const Param& p, double value) {
 
 }  // namespace
 
-double FitCost(const std::vector<TableRow>& table) {
+double FitCost(const std::vector<TableRow>& table, double coupling_weight) {
   double cost = 0;
   for (const TableRow& row : table) {
     for (const PaperRow& p : PaperTable()) {
@@ -129,7 +129,7 @@ double FitCost(const std::vector<TableRow>& table) {
   }
   // The paper's main finding: joints moving together lag more than alone (sets IV, VII vs I-III).
   const Comparison c = Compare(table);
-  cost += Robust((c.coupling_ours_deg - c.coupling_paper_deg) / 0.25);
+  cost += coupling_weight * Robust((c.coupling_ours_deg - c.coupling_paper_deg) / 0.25);
   return cost;
 }
 
@@ -156,7 +156,7 @@ FitResult FitEmulator(const core::RobotModel& virtual_model, const core::RobotMo
     }
     *table = TableII(tables);
     ++result.evaluations;
-    return FitCost(*table) + hold;
+    return FitCost(*table, options.coupling_weight) + hold;
   };
   const std::vector<Param> params = Params(!options.latency_s);
   const size_t n = params.size();

@@ -41,6 +41,18 @@ TEST(EmulatorFit, TheCostIsZeroForThePapersTableAndGrowsWithAMisfit) {
   EXPECT_GT(FitCost(rows), one + 1);
 }
 
+TEST(EmulatorFit, TheCouplingWeightScalesOnlyTheCouplingTerm) {
+  std::vector<TableRow> rows = PaperAsOurs();
+  EXPECT_NEAR(FitCost(rows, 5), 0, 1e-9);  // the paper's own coupling costs nothing at any weight
+  rows[4].transient_deg -= 1.5;            // set IV joint 2: less than alone, the coupling falls
+  ASSERT_EQ(rows[4].set, 4);
+  const double without = FitCost(rows, 0), one = FitCost(rows, 1), three = FitCost(rows, 3);
+  EXPECT_GT(without, 0.5);  // the row's own misfit
+  EXPECT_GT(one, without + 0.1);
+  EXPECT_NEAR(three - without, 3 * (one - without), 1e-9);
+  EXPECT_DOUBLE_EQ(FitCost(rows), one);  // the default weight is 1
+}
+
 TEST(EmulatorFit, AHeldLatencyStaysAndTheResultIsInsideTheRanges) {
   const core::RobotModel model = Puma();
   // The model's own arm as effects: inside the fit's ranges, so the search starts from it.

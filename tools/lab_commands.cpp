@@ -140,14 +140,18 @@ int RunFitEmulator(const std::vector<std::string>& argv, std::ostream& out, std:
            .Takes("FILE"),
        runtime::Flag("sets", "movement sets, 1 to 7 or I to VII (default all)").Takes("N", -1),
        runtime::Flag("evaluate", "only run and print the table; no fit").Switch(),
-        runtime::Flag("evaluations", "the fit's budget of experiment runs (150)")
-            .Takes("N")
-            .Integer(1, 10000),
-        runtime::Flag("latency-ms",
-                      "hold the board's command latency at this value (0..300 ms) instead of "
-                      "fitting it")
-            .Takes("MS")
-            .Range(0, 300),
+       runtime::Flag("evaluations", "the fit's budget of experiment runs (150)")
+           .Takes("N")
+           .Integer(1, 10000),
+       runtime::Flag("latency-ms",
+                     "hold the board's command latency at this value (0..300 ms) instead of "
+                     "fitting it")
+           .Takes("MS")
+           .Range(0, 300),
+       runtime::Flag("coupling-weight",
+                     "the coupling term's weight in the fit's cost (1; 0 leaves it out)")
+           .Takes("W")
+           .Range(0, 100),
        runtime::Flag("out",
                      "write the fitted effects there (refuses to replace a file unless it is "
                      "--real-arm itself)")
@@ -166,6 +170,7 @@ int RunFitEmulator(const std::vector<std::string>& argv, std::ostream& out, std:
   options.experiment.sets = ParseSets(args);
   options.max_evaluations = EvaluationsArg(args, options.max_evaluations);
   if (args.Has("latency-ms")) options.latency_s = args.Numbers("latency-ms", 1)[0] / 1e3;
+  if (args.Has("coupling-weight")) options.coupling_weight = args.Numbers("coupling-weight", 1)[0];
   const std::string out_file = FitOutFile(args);
   const auto started = std::chrono::steady_clock::now();
   out << "virtual arm: " << virtual_model.name
