@@ -133,6 +133,25 @@ double FitCost(const std::vector<TableRow>& table, double coupling_weight) {
   return cost;
 }
 
+std::vector<double> SpeedMargins(const hardware::RealArmParams& arm,
+                                 const core::RobotModel& model) {
+  std::vector<double> margins;
+  for (size_t j = 0; j < 3 && j < model.joints.size(); ++j) {
+    const hardware::JointEffects& e = arm.joints[j];
+    const double speed = model.joints[j].velocity_max;
+    const double gear = std::abs(model.joints[j].servo.gear_ratio);
+    const double kt = e.motor.torque_constant_nm_per_a;
+    const double current =
+        std::min(e.motor.current_limit_a,
+                 (arm.supply_voltage_v - kt * gear * speed) / e.motor.resistance_ohm);
+    const double friction =
+        std::max(e.coulomb_nm[0], e.coulomb_nm[1]) + e.viscous_nm_s_per_rad * speed;
+    margins.push_back(friction > 0 ? std::max(0.0, current) * kt * gear / friction
+                                   : std::numeric_limits<double>::infinity());
+  }
+  return margins;
+}
+
 double HoldCost(double hold_stray_deg) { return Robust(hold_stray_deg / 0.5); }
 
 FitResult FitEmulator(const core::RobotModel& virtual_model, const core::RobotModel& real_model,
@@ -179,6 +198,10 @@ FitResult FitEmulator(const core::RobotModel& virtual_model, const core::RobotMo
   for (size_t i = 0; i < n; ++i) centre[i] = params[i].ToUnit(params[i].get(base));
   hardware::RealArmParams best = at(centre);
   double best_cost = evaluate(best, &best_table);
+  for (double margin : SpeedMargins(best, real_model)) {
+    // A start that cannot drive itself at top speed is replaced by the first point that can.
+    if (margin < kMinSpeedMargin) best_cost = std::numeric_limits<double>::infinity();
+  }
   double best_stray = stray;
   auto cost_of = [&](const std::vector<double>& u) {
     const hardware::RealArmParams a = at(u);
@@ -186,6 +209,9 @@ FitResult FitEmulator(const core::RobotModel& virtual_model, const core::RobotMo
       hardware::CheckRealArmParams(a, real_model);
     } catch (const std::invalid_argument&) {
       return std::numeric_limits<double>::infinity();
+    }
+    for (double margin : SpeedMargins(a, real_model)) {
+      if (margin < kMinSpeedMargin) return std::numeric_limits<double>::infinity();
     }
     std::vector<TableRow> table;
     const double cost = evaluate(a, &table);

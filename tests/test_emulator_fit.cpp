@@ -53,6 +53,27 @@ TEST(EmulatorFit, TheCouplingWeightScalesOnlyTheCouplingTerm) {
   EXPECT_DOUBLE_EQ(FitCost(rows), one);  // the default weight is 1
 }
 
+// The speed margin: the motor's torque at the model's top speed (90 deg/s for joints 1-3) over the
+// friction there. Heavy viscous friction on the elbow eats its motor at that speed.
+TEST(EmulatorFit, HeavyViscousFrictionLeavesAJointNoMarginAtTopSpeed) {
+  const core::RobotModel model = Puma();
+  hardware::RealArmParams arm = hardware::ModelLikeParams(model);
+  arm.supply_voltage_v = 24;
+  arm.supply_resistance_ohm = 0;
+  hardware::JointEffects& elbow = arm.joints[2];
+  elbow.motor = {2.0, 0.002, 0.02, 5.0};  // 2 ohm, 0.02 N*m/A, 5 A: 0.02 * 42.99 * 5 = 4.30 N*m
+  elbow.coulomb_nm[0] = elbow.coulomb_nm[1] = 1.0;
+  elbow.static_nm[0] = elbow.static_nm[1] = 1.2;
+  elbow.viscous_nm_s_per_rad = 0.5;
+  const double speed = model.joints[2].velocity_max;  // rad/s
+  ASSERT_NEAR(speed, 3.14159265 / 2, 1e-6);
+  // (24 - 0.02 * 42.99 * 1.571) / 2 = 11.3 A: the 5 A limit holds. 4.30 / (1 + 0.5 * 1.571).
+  EXPECT_NEAR(SpeedMargins(arm, model)[2], 0.02 * 42.9867 * 5 / (1 + 0.5 * speed), 1e-6);
+  EXPECT_GT(SpeedMargins(arm, model)[2], kMinSpeedMargin);
+  elbow.viscous_nm_s_per_rad = 3;  // 1 + 4.71 N*m at top speed: more than the motor gives
+  EXPECT_LT(SpeedMargins(arm, model)[2], 1.0);
+}
+
 TEST(EmulatorFit, AHeldLatencyStaysAndTheResultIsInsideTheRanges) {
   const core::RobotModel model = Puma();
   // The model's own arm as effects: inside the fit's ranges, so the search starts from it.
@@ -116,6 +137,7 @@ TEST(EmulatorFit, TheShippedArmIsPlausibleAndStartsLikeThePapers) {
     EXPECT_GE(e.motor.resistance_ohm, 1) << "joint " << j + 1;
     EXPECT_LE(e.motor.resistance_ohm, 8) << "joint " << j + 1;
   }
+  for (double margin : SpeedMargins(arm, model)) EXPECT_GE(margin, kMinSpeedMargin);
   ExperimentOptions options;
   options.sets = {1, 3};
   double stray = 0;
@@ -126,6 +148,26 @@ TEST(EmulatorFit, TheShippedArmIsPlausibleAndStartsLikeThePapers) {
   EXPECT_GE(c.start_delay_min_s, 0.30);
   EXPECT_LE(c.start_delay_max_s, 0.45);
   EXPECT_LT(stray, 2.0);
+}
+
+// The paper's main finding on the shipped arm: joints moving together (sets IV, VII) lag more than
+// each alone (I-III), through the shared supply's sag (docs/emulator-fit.md, third round).
+TEST(EmulatorFit, TheShippedArmsJointsLagMoreTogetherThanAlone) {
+  const core::RobotModel model = Puma();
+  const hardware::RealArmParams arm =
+      hardware::LoadRealArmParams("config/hardware/puma260-real.yaml", model);
+  ExperimentOptions options;
+  options.sets = {1, 2, 3, 4, 7};
+  const std::vector<TableRow> table = RunExperiment(model, model, arm, options, "", nullptr);
+  const Comparison c = Compare(table);
+  std::printf("coupling %.3f deg (paper %.3f deg)\n", c.coupling_ours_deg, c.coupling_paper_deg);
+  EXPECT_GT(c.coupling_ours_deg, 0.1);
+  // Without the supply's resistance the joints do not share a sagging bus: the coupling is gone.
+  hardware::RealArmParams stiff = arm;
+  stiff.supply_resistance_ohm = 0;
+  const Comparison s = Compare(RunExperiment(model, model, stiff, options, "", nullptr));
+  std::printf("with a stiff supply: coupling %.3f deg\n", s.coupling_ours_deg);
+  EXPECT_LT(s.coupling_ours_deg, c.coupling_ours_deg - 0.1);
 }
 
 }  // namespace

@@ -105,6 +105,13 @@ int Evaluate(const runtime::Args& args, const core::RobotModel& virtual_model,
   out << "joints a set does not move stray at most " << std::fixed << std::setprecision(2) << stray
       << " deg from the virtual arm's\n"
       << std::defaultfloat;
+  out << "torque at the model's top speed over friction (the fit keeps >= "
+      << core::FormatNumber(lab::kMinSpeedMargin) << "):";
+  const std::vector<double> margins = lab::SpeedMargins(start, model);
+  for (size_t j = 0; j < margins.size(); ++j) {
+    out << " joint " << j + 1 << " " << std::setprecision(3) << margins[j];
+  }
+  out << "\n" << std::defaultfloat;
   out << "fit cost (table) " << core::FormatNumber(lab::FitCost(table)) << "; "
       << std::setprecision(3) << Since(started) << " s\n";
   return 0;
