@@ -6,12 +6,15 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "core/dynamics.hpp"
 #include "core/errors.hpp"
 
 namespace sirupp::lab {
 namespace {
 
 namespace range = hardware::real_arm_range;
+
+constexpr double kDegToRad = 3.14159265358979323846 / 180;
 
 double Robust(double z) { return z * z / (1 + z * z / 4); }
 
@@ -135,19 +138,41 @@ double FitCost(const std::vector<TableRow>& table, double coupling_weight) {
 
 std::vector<double> SpeedMargins(const hardware::RealArmParams& arm,
                                  const core::RobotModel& model) {
+  // The largest gravity load of each joint over the shoulder and elbow's range (15 deg steps; the
+  // waist's and the wrist's angles hardly change it).
+  const size_t n = model.joints.size();
+  std::vector<double> gravity(n, 0.0);
+  if (n >= 3) {
+    const core::Dynamics dynamics(model);
+    core::JointVector q = core::JointVector::Zero(static_cast<Eigen::Index>(n));
+    for (int a = -180; a < 180; a += 15) {
+      for (int b = -180; b < 180; b += 15) {
+        q[1] =
+            std::clamp(a * kDegToRad, model.joints[1].position_min, model.joints[1].position_max);
+        q[2] =
+            std::clamp(b * kDegToRad, model.joints[2].position_min, model.joints[2].position_max);
+        const core::JointVector g = dynamics.GravityEffort(q);
+        for (size_t j = 0; j < n; ++j) {
+          gravity[j] = std::max(gravity[j], std::abs(g[static_cast<Eigen::Index>(j)]));
+        }
+      }
+    }
+  }
   std::vector<double> margins;
-  for (size_t j = 0; j < 3 && j < model.joints.size(); ++j) {
+  for (size_t j = 0; j < 3 && j < n; ++j) {
     const hardware::JointEffects& e = arm.joints[j];
     const double speed = model.joints[j].velocity_max;
     const double gear = std::abs(model.joints[j].servo.gear_ratio);
     const double kt = e.motor.torque_constant_nm_per_a;
+    // At full PWM the motor sees the supply through its source resistance (an H-bridge at duty 1
+    // draws the motor's current).
     const double current =
-        std::min(e.motor.current_limit_a,
-                 (arm.supply_voltage_v - kt * gear * speed) / e.motor.resistance_ohm);
-    const double friction =
-        std::max(e.coulomb_nm[0], e.coulomb_nm[1]) + e.viscous_nm_s_per_rad * speed;
-    margins.push_back(friction > 0 ? std::max(0.0, current) * kt * gear / friction
-                                   : std::numeric_limits<double>::infinity());
+        std::min(e.motor.current_limit_a, (arm.supply_voltage_v - kt * gear * speed) /
+                                              (e.motor.resistance_ohm + arm.supply_resistance_ohm));
+    const double load =
+        std::max(e.coulomb_nm[0], e.coulomb_nm[1]) + e.viscous_nm_s_per_rad * speed + gravity[j];
+    margins.push_back(load > 0 ? std::max(0.0, current) * kt * gear / load
+                               : std::numeric_limits<double>::infinity());
   }
   return margins;
 }

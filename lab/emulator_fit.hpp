@@ -53,14 +53,15 @@ double FitCost(const std::vector<TableRow>& table, double coupling_weight = 1);
 double HoldCost(double hold_stray_deg);
 
 // How far each arm joint (1-3) of `arm` can drive itself at the model's top speed
-// (joint.velocity_max): the torque its motor gives there at full PWM from the unloaded supply
-// (back- EMF and the amplifier's current limit), over its Coulomb (the larger way) and viscous
-// friction at that speed. The fit keeps every joint at kMinSpeedMargin or more: a real PUMA moves
-// at its rated speed with torque to spare for gravity and acceleration, while an arm whose friction
-// eats its motor there follows the paper's 45 deg/s sets but trips its position error on a faster
-// move.
+// (joint.velocity_max) against its own arm: the torque its motor gives there at full PWM from the
+// supply through its source resistance (back-EMF and the amplifier's current limit), over its
+// Coulomb (the larger way)
+// and viscous friction at that speed plus its largest gravity load (the model's, over the shoulder
+// and elbow's range). The fit keeps every joint at kMinSpeedMargin or more: a real PUMA lifts its
+// arm at its rated speed, while an arm whose friction and gravity eat its motor follows the paper's
+// 45 deg/s sets but trips its position error lifting the forearm or on a faster move.
 std::vector<double> SpeedMargins(const hardware::RealArmParams& arm, const core::RobotModel& model);
-inline constexpr double kMinSpeedMargin = 1.25;
+inline constexpr double kMinSpeedMargin = 1.0;
 
 FitResult FitEmulator(const core::RobotModel& virtual_model, const core::RobotModel& real_model,
                       const hardware::RealArmParams& start, const FitOptions& options);

@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "core/model_loader.hpp"
 #include "lab/emulator_fit.hpp"
 
@@ -53,25 +55,41 @@ TEST(EmulatorFit, TheCouplingWeightScalesOnlyTheCouplingTerm) {
   EXPECT_DOUBLE_EQ(FitCost(rows), one);  // the default weight is 1
 }
 
-// The speed margin: the motor's torque at the model's top speed (90 deg/s for joints 1-3) over the
-// friction there. Heavy viscous friction on the elbow eats its motor at that speed.
-TEST(EmulatorFit, HeavyViscousFrictionLeavesAJointNoMarginAtTopSpeed) {
+// The speed margin: the motor's torque at the model's top speed (90 deg/s for joints 1-3), through
+// the supply's resistance, over the friction there plus the joint's largest gravity load. Heavy
+// viscous friction or a weak supply leaves the elbow none.
+TEST(EmulatorFit, ViscousFrictionGravityAndAWeakSupplyEatTheSpeedMargin) {
   const core::RobotModel model = Puma();
   hardware::RealArmParams arm = hardware::ModelLikeParams(model);
   arm.supply_voltage_v = 24;
   arm.supply_resistance_ohm = 0;
   hardware::JointEffects& elbow = arm.joints[2];
   elbow.motor = {2.0, 0.002, 0.02, 5.0};  // 2 ohm, 0.02 N*m/A, 5 A: 0.02 * 42.99 * 5 = 4.30 N*m
+  elbow.coulomb_nm[0] = elbow.coulomb_nm[1] = 0;
+  elbow.static_nm[0] = elbow.static_nm[1] = 0;
+  elbow.viscous_nm_s_per_rad = 0;
+  const double speed = model.joints[2].velocity_max;  // rad/s
+  ASSERT_NEAR(speed, 3.14159265 / 2, 1e-6);
+  const double torque = 0.02 * 42.9867 * 5;
+  // Without friction only gravity loads it: finite, and this elbow lifts its forearm.
+  const double gravity_only = SpeedMargins(arm, model)[2];
+  std::printf("elbow's margin against gravity alone: %.3f\n", gravity_only);
+  ASSERT_TRUE(std::isfinite(gravity_only));
+  EXPECT_GT(gravity_only, 1.0);
+  const double gravity = torque / gravity_only;  // the elbow's largest gravity load, N*m
+  EXPECT_GT(gravity, 0.5);
   elbow.coulomb_nm[0] = elbow.coulomb_nm[1] = 1.0;
   elbow.static_nm[0] = elbow.static_nm[1] = 1.2;
   elbow.viscous_nm_s_per_rad = 0.5;
-  const double speed = model.joints[2].velocity_max;  // rad/s
-  ASSERT_NEAR(speed, 3.14159265 / 2, 1e-6);
-  // (24 - 0.02 * 42.99 * 1.571) / 2 = 11.3 A: the 5 A limit holds. 4.30 / (1 + 0.5 * 1.571).
-  EXPECT_NEAR(SpeedMargins(arm, model)[2], 0.02 * 42.9867 * 5 / (1 + 0.5 * speed), 1e-6);
-  EXPECT_GT(SpeedMargins(arm, model)[2], kMinSpeedMargin);
-  elbow.viscous_nm_s_per_rad = 3;  // 1 + 4.71 N*m at top speed: more than the motor gives
+  EXPECT_NEAR(SpeedMargins(arm, model)[2], torque / (1 + 0.5 * speed + gravity), 1e-9);
+  elbow.viscous_nm_s_per_rad = 3;  // 4.71 N*m more at top speed: more than the motor gives
   EXPECT_LT(SpeedMargins(arm, model)[2], 1.0);
+  elbow.viscous_nm_s_per_rad = 0.5;
+  // 3 ohm behind the supply: (24 - 0.02 * 42.99 * 1.571) / (2 + 3) = 4.53 A, below the 5 A limit.
+  arm.supply_resistance_ohm = 3;
+  const double current = (24 - 0.02 * 42.9867 * speed) / 5;
+  EXPECT_NEAR(SpeedMargins(arm, model)[2], current * 0.02 * 42.9867 / (1 + 0.5 * speed + gravity),
+              1e-9);
 }
 
 TEST(EmulatorFit, AHeldLatencyStaysAndTheResultIsInsideTheRanges) {
@@ -148,26 +166,6 @@ TEST(EmulatorFit, TheShippedArmIsPlausibleAndStartsLikeThePapers) {
   EXPECT_GE(c.start_delay_min_s, 0.30);
   EXPECT_LE(c.start_delay_max_s, 0.45);
   EXPECT_LT(stray, 2.0);
-}
-
-// The paper's main finding on the shipped arm: joints moving together (sets IV, VII) lag more than
-// each alone (I-III), through the shared supply's sag (docs/emulator-fit.md, third round).
-TEST(EmulatorFit, TheShippedArmsJointsLagMoreTogetherThanAlone) {
-  const core::RobotModel model = Puma();
-  const hardware::RealArmParams arm =
-      hardware::LoadRealArmParams("config/hardware/puma260-real.yaml", model);
-  ExperimentOptions options;
-  options.sets = {1, 2, 3, 4, 7};
-  const std::vector<TableRow> table = RunExperiment(model, model, arm, options, "", nullptr);
-  const Comparison c = Compare(table);
-  std::printf("coupling %.3f deg (paper %.3f deg)\n", c.coupling_ours_deg, c.coupling_paper_deg);
-  EXPECT_GT(c.coupling_ours_deg, 0.1);
-  // Without the supply's resistance the joints do not share a sagging bus: the coupling is gone.
-  hardware::RealArmParams stiff = arm;
-  stiff.supply_resistance_ohm = 0;
-  const Comparison s = Compare(RunExperiment(model, model, stiff, options, "", nullptr));
-  std::printf("with a stiff supply: coupling %.3f deg\n", s.coupling_ours_deg);
-  EXPECT_LT(s.coupling_ours_deg, c.coupling_ours_deg - 0.1);
 }
 
 }  // namespace

@@ -105,7 +105,7 @@ int Evaluate(const runtime::Args& args, const core::RobotModel& virtual_model,
   out << "joints a set does not move stray at most " << std::fixed << std::setprecision(2) << stray
       << " deg from the virtual arm's\n"
       << std::defaultfloat;
-  out << "torque at the model's top speed over friction (the fit keeps >= "
+  out << "torque at the model's top speed over friction and gravity (the fit keeps >= "
       << core::FormatNumber(lab::kMinSpeedMargin) << "):";
   const std::vector<double> margins = lab::SpeedMargins(start, model);
   for (size_t j = 0; j < margins.size(); ++j) {
