@@ -6,6 +6,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "core/dynamics.hpp"
 #include "core/errors.hpp"
 #include "lab/box_search.hpp"
 
@@ -13,6 +14,8 @@ namespace sirupp::lab {
 namespace {
 
 namespace range = hardware::real_arm_range;
+
+constexpr double kDegToRad = 3.14159265358979323846 / 180;
 
 double Robust(double z) { return z * z / (1 + z * z / 4); }
 
@@ -112,7 +115,7 @@ std::string Describe(const Param& p, double value) {
 
 }  // namespace
 
-double FitCost(const std::vector<TableRow>& table) {
+double FitCost(const std::vector<TableRow>& table, double coupling_weight) {
   double cost = 0;
   for (const TableRow& row : table) {
     for (const PaperRow& p : PaperTable()) {
@@ -130,8 +133,49 @@ double FitCost(const std::vector<TableRow>& table) {
   }
   // The paper's main finding: joints moving together lag more than alone (sets IV, VII vs I-III).
   const Comparison c = Compare(table);
-  cost += Robust((c.coupling_ours_deg - c.coupling_paper_deg) / 0.25);
+  cost += coupling_weight * Robust((c.coupling_ours_deg - c.coupling_paper_deg) / 0.25);
   return cost;
+}
+
+std::vector<double> SpeedMargins(const hardware::RealArmParams& arm,
+                                 const core::RobotModel& model) {
+  // The largest gravity load of each joint over the shoulder and elbow's range (15 deg steps; the
+  // waist's and the wrist's angles hardly change it).
+  const size_t n = model.joints.size();
+  std::vector<double> gravity(n, 0.0);
+  if (n >= 3) {
+    const core::Dynamics dynamics(model);
+    core::JointVector q = core::JointVector::Zero(static_cast<Eigen::Index>(n));
+    for (int a = -180; a < 180; a += 15) {
+      for (int b = -180; b < 180; b += 15) {
+        q[1] =
+            std::clamp(a * kDegToRad, model.joints[1].position_min, model.joints[1].position_max);
+        q[2] =
+            std::clamp(b * kDegToRad, model.joints[2].position_min, model.joints[2].position_max);
+        const core::JointVector g = dynamics.GravityEffort(q);
+        for (size_t j = 0; j < n; ++j) {
+          gravity[j] = std::max(gravity[j], std::abs(g[static_cast<Eigen::Index>(j)]));
+        }
+      }
+    }
+  }
+  std::vector<double> margins;
+  for (size_t j = 0; j < 3 && j < n; ++j) {
+    const hardware::JointEffects& e = arm.joints[j];
+    const double speed = model.joints[j].velocity_max;
+    const double gear = std::abs(model.joints[j].servo.gear_ratio);
+    const double kt = e.motor.torque_constant_nm_per_a;
+    // At full PWM the motor sees the supply through its source resistance (an H-bridge at duty 1
+    // draws the motor's current).
+    const double current =
+        std::min(e.motor.current_limit_a, (arm.supply_voltage_v - kt * gear * speed) /
+                                              (e.motor.resistance_ohm + arm.supply_resistance_ohm));
+    const double load =
+        std::max(e.coulomb_nm[0], e.coulomb_nm[1]) + e.viscous_nm_s_per_rad * speed + gravity[j];
+    margins.push_back(load > 0 ? std::max(0.0, current) * kt * gear / load
+                               : std::numeric_limits<double>::infinity());
+  }
+  return margins;
 }
 
 double HoldCost(double hold_stray_deg) { return Robust(hold_stray_deg / 0.5); }
@@ -157,7 +201,7 @@ FitResult FitEmulator(const core::RobotModel& virtual_model, const core::RobotMo
     }
     *table = TableII(tables);
     ++result.evaluations;
-    return FitCost(*table) + hold;
+    return FitCost(*table, options.coupling_weight) + hold;
   };
   const std::vector<Param> params = Params(!options.latency_s);
   const size_t n = params.size();
@@ -180,6 +224,10 @@ FitResult FitEmulator(const core::RobotModel& virtual_model, const core::RobotMo
   for (size_t i = 0; i < n; ++i) centre[i] = params[i].ToUnit(params[i].get(base));
   hardware::RealArmParams best = at(centre);
   double best_cost = evaluate(best, &best_table);
+  for (double margin : SpeedMargins(best, real_model)) {
+    // A start that cannot drive itself at top speed is replaced by the first point that can.
+    if (margin < kMinSpeedMargin) best_cost = std::numeric_limits<double>::infinity();
+  }
   double best_stray = stray;
   auto cost_of = [&](const std::vector<double>& u) {
     const hardware::RealArmParams a = at(u);
@@ -187,6 +235,9 @@ FitResult FitEmulator(const core::RobotModel& virtual_model, const core::RobotMo
       hardware::CheckRealArmParams(a, real_model);
     } catch (const std::invalid_argument&) {
       return std::numeric_limits<double>::infinity();
+    }
+    for (double margin : SpeedMargins(a, real_model)) {
+      if (margin < kMinSpeedMargin) return std::numeric_limits<double>::infinity();
     }
     std::vector<TableRow> table;
     const double cost = evaluate(a, &table);
@@ -202,7 +253,13 @@ FitResult FitEmulator(const core::RobotModel& virtual_model, const core::RobotMo
   // Nelder-Mead on the unit box, restarted around the best point with a smaller simplex whenever
   // the simplex collapses (box_search.hpp), until the budget is spent.
   BoxSearch search(centre, best_cost);
-  while (result.evaluations < options.max_evaluations) search.Tell(cost_of(search.Ask()));
+  // Points out of range cost no simulation; the asks are bounded too, in case the search keeps
+  // proposing them.
+  for (long asked = 0; result.evaluations < options.max_evaluations &&
+                       asked < 50L * std::max(options.max_evaluations, 1);
+       ++asked) {
+    search.Tell(cost_of(search.Ask()));
+  }
   result.params = best;
   result.table = best_table;
   result.cost_after = best_cost;

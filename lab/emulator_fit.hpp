@@ -25,6 +25,9 @@ struct FitOptions {
   // Set: the board latency is held at this value (s) instead of fitted (docs/emulator-fit.md:
   // a short latency leaves the lag to the motors, the supply and the friction).
   std::optional<double> latency_s;
+  // The coupling term's weight in the cost (FitCost); 1 is the table's own balance, more asks the
+  // search to keep the paper's direction of the multi-joint sets' errors (docs/emulator-fit.md).
+  double coupling_weight = 1;
   // Told after each accepted step: evaluation count, cost, the parameter changed.
   std::function<void(int, double, const std::string&)> progress;
 };
@@ -42,11 +45,23 @@ struct FitResult {
 // The fit's cost of a table: robust squared misfits (saturating, so a row no physical arm can
 // match does not pull the others) of the transient and steady means in units of the tolerance
 // (30 % or 0.5 deg), plus joint 1's start delay against 0.375 +- 0.05 s, plus the coupling (sets
-// IV and VII against the joints alone) against the paper's in units of 0.25 deg.
-double FitCost(const std::vector<TableRow>& table);
+// IV and VII against the joints alone) against the paper's in units of 0.25 deg, times
+// `coupling_weight`.
+double FitCost(const std::vector<TableRow>& table, double coupling_weight = 1);
 // The fit's penalty for an arm that does not hold the joints a set leaves still (HoldStrayDeg of
 // each run, in units of 0.5 deg, robust like the rest): added to FitCost for each run.
 double HoldCost(double hold_stray_deg);
+
+// How far each arm joint (1-3) of `arm` can drive itself at the model's top speed
+// (joint.velocity_max) against its own arm: the torque its motor gives there at full PWM from the
+// supply through its source resistance (back-EMF and the amplifier's current limit), over its
+// Coulomb (the larger way)
+// and viscous friction at that speed plus its largest gravity load (the model's, over the shoulder
+// and elbow's range). The fit keeps every joint at kMinSpeedMargin or more: a real PUMA lifts its
+// arm at its rated speed, while an arm whose friction and gravity eat its motor follows the paper's
+// 45 deg/s sets but trips its position error lifting the forearm or on a faster move.
+std::vector<double> SpeedMargins(const hardware::RealArmParams& arm, const core::RobotModel& model);
+inline constexpr double kMinSpeedMargin = 1.0;
 
 FitResult FitEmulator(const core::RobotModel& virtual_model, const core::RobotModel& real_model,
                       const hardware::RealArmParams& start, const FitOptions& options);

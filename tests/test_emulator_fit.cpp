@@ -6,6 +6,8 @@
 
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "core/model_loader.hpp"
 #include "lab/emulator_fit.hpp"
 
@@ -39,6 +41,55 @@ TEST(EmulatorFit, TheCostIsZeroForThePapersTableAndGrowsWithAMisfit) {
   EXPECT_GT(one, 0.5);
   rows[0].start_delay_real_s = 0.1;  // and joint 1 starting far too early
   EXPECT_GT(FitCost(rows), one + 1);
+}
+
+TEST(EmulatorFit, TheCouplingWeightScalesOnlyTheCouplingTerm) {
+  std::vector<TableRow> rows = PaperAsOurs();
+  EXPECT_NEAR(FitCost(rows, 5), 0, 1e-9);  // the paper's own coupling costs nothing at any weight
+  rows[4].transient_deg -= 1.5;            // set IV joint 2: less than alone, the coupling falls
+  ASSERT_EQ(rows[4].set, 4);
+  const double without = FitCost(rows, 0), one = FitCost(rows, 1), three = FitCost(rows, 3);
+  EXPECT_GT(without, 0.5);  // the row's own misfit
+  EXPECT_GT(one, without + 0.1);
+  EXPECT_NEAR(three - without, 3 * (one - without), 1e-9);
+  EXPECT_DOUBLE_EQ(FitCost(rows), one);  // the default weight is 1
+}
+
+// The speed margin: the motor's torque at the model's top speed (90 deg/s for joints 1-3), through
+// the supply's resistance, over the friction there plus the joint's largest gravity load. Heavy
+// viscous friction or a weak supply leaves the elbow none.
+TEST(EmulatorFit, ViscousFrictionGravityAndAWeakSupplyEatTheSpeedMargin) {
+  const core::RobotModel model = Puma();
+  hardware::RealArmParams arm = hardware::ModelLikeParams(model);
+  arm.supply_voltage_v = 24;
+  arm.supply_resistance_ohm = 0;
+  hardware::JointEffects& elbow = arm.joints[2];
+  elbow.motor = {2.0, 0.002, 0.02, 5.0};  // 2 ohm, 0.02 N*m/A, 5 A: 0.02 * 42.99 * 5 = 4.30 N*m
+  elbow.coulomb_nm[0] = elbow.coulomb_nm[1] = 0;
+  elbow.static_nm[0] = elbow.static_nm[1] = 0;
+  elbow.viscous_nm_s_per_rad = 0;
+  const double speed = model.joints[2].velocity_max;  // rad/s
+  ASSERT_NEAR(speed, 3.14159265 / 2, 1e-6);
+  const double torque = 0.02 * 42.9867 * 5;
+  // Without friction only gravity loads it: finite, and this elbow lifts its forearm.
+  const double gravity_only = SpeedMargins(arm, model)[2];
+  std::printf("elbow's margin against gravity alone: %.3f\n", gravity_only);
+  ASSERT_TRUE(std::isfinite(gravity_only));
+  EXPECT_GT(gravity_only, 1.0);
+  const double gravity = torque / gravity_only;  // the elbow's largest gravity load, N*m
+  EXPECT_GT(gravity, 0.5);
+  elbow.coulomb_nm[0] = elbow.coulomb_nm[1] = 1.0;
+  elbow.static_nm[0] = elbow.static_nm[1] = 1.2;
+  elbow.viscous_nm_s_per_rad = 0.5;
+  EXPECT_NEAR(SpeedMargins(arm, model)[2], torque / (1 + 0.5 * speed + gravity), 1e-9);
+  elbow.viscous_nm_s_per_rad = 3;  // 4.71 N*m more at top speed: more than the motor gives
+  EXPECT_LT(SpeedMargins(arm, model)[2], 1.0);
+  elbow.viscous_nm_s_per_rad = 0.5;
+  // 3 ohm behind the supply: (24 - 0.02 * 42.99 * 1.571) / (2 + 3) = 4.53 A, below the 5 A limit.
+  arm.supply_resistance_ohm = 3;
+  const double current = (24 - 0.02 * 42.9867 * speed) / 5;
+  EXPECT_NEAR(SpeedMargins(arm, model)[2], current * 0.02 * 42.9867 / (1 + 0.5 * speed + gravity),
+              1e-9);
 }
 
 TEST(EmulatorFit, AHeldLatencyStaysAndTheResultIsInsideTheRanges) {
@@ -104,6 +155,7 @@ TEST(EmulatorFit, TheShippedArmIsPlausibleAndStartsLikeThePapers) {
     EXPECT_GE(e.motor.resistance_ohm, 1) << "joint " << j + 1;
     EXPECT_LE(e.motor.resistance_ohm, 8) << "joint " << j + 1;
   }
+  for (double margin : SpeedMargins(arm, model)) EXPECT_GE(margin, kMinSpeedMargin);
   ExperimentOptions options;
   options.sets = {1, 3};
   double stray = 0;

@@ -106,6 +106,13 @@ int Evaluate(const runtime::Args& args, const core::RobotModel& virtual_model,
   out << "joints a set does not move stray at most " << std::fixed << std::setprecision(2) << stray
       << " deg from the virtual arm's\n"
       << std::defaultfloat;
+  out << "torque at the model's top speed over friction and gravity (the fit keeps >= "
+      << core::FormatNumber(lab::kMinSpeedMargin) << "):";
+  const std::vector<double> margins = lab::SpeedMargins(start, model);
+  for (size_t j = 0; j < margins.size(); ++j) {
+    out << " joint " << j + 1 << " " << std::setprecision(3) << margins[j];
+  }
+  out << "\n" << std::defaultfloat;
   out << "fit cost (table) " << core::FormatNumber(lab::FitCost(table)) << "; "
       << std::setprecision(3) << Since(started) << " s\n";
   return 0;
@@ -149,6 +156,10 @@ int RunFitEmulator(const std::vector<std::string>& argv, std::ostream& out, std:
                      "fitting it")
            .Takes("MS")
            .Range(0, 300),
+       runtime::Flag("coupling-weight",
+                     "the coupling term's weight in the fit's cost (1; 0 leaves it out)")
+           .Takes("W")
+           .Range(0, 100),
        runtime::Flag("out",
                      "write the fitted effects there (refuses to replace a file unless it is "
                      "--real-arm itself)")
@@ -167,6 +178,7 @@ int RunFitEmulator(const std::vector<std::string>& argv, std::ostream& out, std:
   options.experiment.sets = ParseSets(args);
   options.max_evaluations = EvaluationsArg(args, options.max_evaluations);
   if (args.Has("latency-ms")) options.latency_s = args.Numbers("latency-ms", 1)[0] / 1e3;
+  if (args.Has("coupling-weight")) options.coupling_weight = args.Numbers("coupling-weight", 1)[0];
   const std::string out_file = FitOutFile(args);
   const auto started = std::chrono::steady_clock::now();
   out << "virtual arm: " << virtual_model.name
