@@ -5,10 +5,27 @@
 // evaluation (identify.cpp runs one per joint on the same simulation) or stop at any budget. The
 // fit of the emulated arm (emulator_fit.cpp) and the identification (identify.cpp) use it.
 
+#include <algorithm>
+#include <cmath>
 #include <cstddef>
 #include <vector>
 
 namespace sirupp::lab {
+
+// One coordinate of the box: x = min + u (max - min), or min (max / min)^u on a log scale, for u
+// in [0, 1] (clamped; x clamped into [min, max] the other way).
+struct BoxAxis {
+  double min, max;
+  bool log_scale;
+  double FromUnit(double u) const {
+    u = std::clamp(u, 0.0, 1.0);
+    return log_scale ? min * std::pow(max / min, u) : min + u * (max - min);
+  }
+  double ToUnit(double x) const {
+    x = std::clamp(x, min, max);
+    return log_scale ? std::log(x / min) / std::log(max / min) : (x - min) / (max - min);
+  }
+};
 
 class BoxSearch {
  public:

@@ -30,14 +30,8 @@ struct Param {
   double min, max;
   bool log_scale;
 
-  double FromUnit(double u) const {
-    u = std::clamp(u, 0.0, 1.0);
-    return log_scale ? min * std::pow(max / min, u) : min + u * (max - min);
-  }
-  double ToUnit(double x) const {
-    x = std::clamp(x, min, max);
-    return log_scale ? std::log(x / min) / std::log(max / min) : (x - min) / (max - min);
-  }
+  double FromUnit(double u) const { return BoxAxis{min, max, log_scale}.FromUnit(u); }
+  double ToUnit(double x) const { return BoxAxis{min, max, log_scale}.ToUnit(x); }
 };
 
 // The fitted numbers. The fit's ranges are the file's, narrowed to what a PUMA 260's small DC

@@ -158,20 +158,7 @@ void Simulate(const core::RobotModel& model, const Track& track, std::vector<dou
 // model: no friction level above the joint's maximum effort, no viscous friction that would take
 // all of it at the servo's default speed, no armature that would at its default acceleration, a
 // Stribeck speed from 0.1 % to twice the joint's top speed.
-struct Range {
-  double min, max;
-  bool log_scale;
-  double FromUnit(double u) const {
-    u = std::clamp(u, 0.0, 1.0);
-    return log_scale ? min * std::pow(max / min, u) : min + u * (max - min);
-  }
-  double ToUnit(double x) const {
-    x = std::clamp(x, min, max);
-    return log_scale ? std::log(x / min) / std::log(max / min) : (x - min) / (max - min);
-  }
-};
-
-std::array<Range, kParams> Box(const core::Joint& joint) {
+std::array<BoxAxis, kParams> Box(const core::Joint& joint) {
   const double effort = joint.effort_max;
   const double viscous = effort / joint.servo.default_velocity;
   const double armature = effort / joint.servo.default_acceleration;
@@ -186,7 +173,7 @@ std::array<Range, kParams> Box(const core::Joint& joint) {
 // Joint j's values as a point of its box, and back.
 std::vector<double> ToUnit(const core::RobotModel& m, size_t j) {
   const core::Friction& f = m.joints[j].friction;
-  const std::array<Range, kParams> box = Box(m.joints[j]);
+  const std::array<BoxAxis, kParams> box = Box(m.joints[j]);
   const double up = f.static_effort > 0 ? f.coulomb_positive / f.static_effort : 1;
   const double down = f.static_effort > 0 ? f.coulomb_negative / f.static_effort : 1;
   return {box[0].ToUnit(f.static_effort),
@@ -199,7 +186,7 @@ std::vector<double> ToUnit(const core::RobotModel& m, size_t j) {
 
 void FromUnit(core::RobotModel& m, size_t j, const std::vector<double>& u) {
   core::Friction& f = m.joints[j].friction;
-  const std::array<Range, kParams> box = Box(m.joints[j]);
+  const std::array<BoxAxis, kParams> box = Box(m.joints[j]);
   f.static_effort = box[0].FromUnit(u[0]);
   f.coulomb_positive = box[1].FromUnit(u[1]) * f.static_effort;
   f.coulomb_negative = box[2].FromUnit(u[2]) * f.static_effort;
