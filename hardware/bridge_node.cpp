@@ -48,6 +48,15 @@ std::string JointLabel(const core::RobotModel& model, size_t j) {
          model.joints[j].name + ")";
 }
 
+// A bus error during `what` (a move, a command): named by the joint of the module that failed,
+// as a fault found by a poll is, so a module that goes silent is one fault whenever it happens.
+std::string BusFault(const core::RobotModel& model, const std::string& what, const BusError& e) {
+  const size_t module = e.address();
+  const std::string text = what + ": " + e.what();
+  if (module < 1 || module > model.joints.size()) return text;
+  return JointLabel(model, module - 1) + ": " + text;
+}
+
 }  // namespace
 
 BridgeNode::BridgeNode(core::Bus& bus, const core::RobotModel& model, ArmLink& link,
@@ -229,7 +238,7 @@ void BridgeNode::OnCommand(const hardware_command_t& m, const core::ReceiveInfo&
   } catch (const core::MessageError&) {
     throw;
   } catch (const BusError& e) {
-    Fault(what + ": " + e.what());
+    Fault(BusFault(model_, what, e));
     throw core::MessageError(info.channel, "", what + ": " + e.what());
   } catch (const std::exception& e) {
     Refuse(info.channel, what + ": " + e.what());
@@ -291,7 +300,7 @@ void BridgeNode::OnMove(const sirupp::servo_move_t& m, const core::ReceiveInfo& 
   try {
     link_.Execute(move);
   } catch (const BusError& e) {
-    Fault(what + ": " + e.what());
+    Fault(BusFault(model_, what, e));
     throw;
   }
   move_id_ = move.move_id;

@@ -3,6 +3,8 @@
 #include <cstdio>
 #include <thread>
 
+#include "core/errors.hpp"
+
 namespace sirupp::hardware {
 namespace {
 
@@ -51,21 +53,25 @@ void NmcBus::Send(const std::vector<uint8_t>& bytes) {
 }
 
 NmcBus::Outcome NmcBus::TryExchange(const std::vector<uint8_t>& bytes, uint8_t items,
-                                    nmc::Status* reply, std::string* problem) {
+                                    std::chrono::microseconds margin, nmc::Status* reply,
+                                    std::string* problem) {
   const size_t want = nmc::ReplyLength(items);
   port_.DiscardInput();  // a late reply to an earlier try must not be taken for this one
   Send(bytes);
   ++counters_.exchanges;
   const auto budget = std::chrono::duration<double>(LineSeconds(bytes.size() + want));
-  const auto deadline =
-      Clock::now() + std::chrono::duration_cast<Clock::duration>(budget) + options_.reply_margin;
+  const auto deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(budget) + margin;
   std::vector<uint8_t> got(want);
   size_t have = 0;
   while (have < want) {
+    // Past the deadline, what has already arrived is still taken: a bridge that the scheduler
+    // held past it has not seen a silent module (a read with no wait looks without waiting).
     const auto left =
-        std::chrono::duration_cast<std::chrono::microseconds>(deadline - Clock::now());
-    if (left.count() <= 0) break;
-    have += port_.Read(got.data() + have, want - have, left);
+        std::max(std::chrono::duration_cast<std::chrono::microseconds>(deadline - Clock::now()),
+                 std::chrono::microseconds(0));
+    const size_t n = port_.Read(got.data() + have, want - have, left);
+    have += n;
+    if (n == 0 && left.count() == 0) break;
   }
   counters_.bytes_received += static_cast<int64_t>(have);
   got.resize(have);
@@ -92,13 +98,50 @@ NmcBus::Outcome NmcBus::TryExchange(const std::vector<uint8_t>& bytes, uint8_t i
   return Outcome::kOk;
 }
 
-void NmcBus::Resync() {
+size_t NmcBus::Resync(std::chrono::microseconds margin) {
   ++counters_.resyncs;
   Send(std::vector<uint8_t>(kResyncZeros, 0));
-  // Long enough for any reply still on its way to finish arriving, then throw it away.
-  SleepSeconds(LineSeconds(kResyncZeros + 20) +
-               std::chrono::duration<double>(options_.reply_margin).count() / 2);
+  // Long enough for any reply still on its way to finish arriving, then throw it away, counting
+  // it: bytes here after a timeout are a reply that came late.
+  SleepSeconds(LineSeconds(kResyncZeros + 20) + std::chrono::duration<double>(margin).count() / 2);
+  size_t late = 0;
+  uint8_t buffer[64];
+  for (size_t n; (n = port_.Read(buffer, sizeof buffer, std::chrono::microseconds(0))) > 0;) {
+    late += n;
+  }
+  counters_.bytes_received += static_cast<int64_t>(late);
+  if (late > 0 && options_.trace) options_.trace("< (late) " + std::to_string(late) + " bytes");
   port_.DiscardInput();
+  return late;
+}
+
+std::chrono::microseconds NmcBus::Widened(std::chrono::microseconds margin) const {
+  return std::min(margin * 2, std::max(options_.late_margin_max, margin));
+}
+
+NmcBus::Outcome NmcBus::TryAndResync(const std::vector<uint8_t>& bytes, uint8_t items,
+                                     std::chrono::microseconds margin, nmc::Status* reply,
+                                     std::string* problem, bool probe) {
+  const Outcome outcome = TryExchange(bytes, items, margin, reply, problem);
+  switch (outcome) {
+    case Outcome::kOk:
+    case Outcome::kModuleChecksum:  // in sync; the command was not carried out
+    case Outcome::kLate:
+      return outcome;
+    case Outcome::kDamaged:
+      ++counters_.checksum_errors;
+      Resync(margin);
+      return outcome;
+    case Outcome::kTimeout:
+      if (!probe) ++counters_.timeouts;
+      if (Resync(margin) == 0) return outcome;
+      ++counters_.late_replies;
+      *problem = "the reply came late, after the " +
+                 core::FormatNumber(std::chrono::duration<double, std::milli>(margin).count()) +
+                 " ms the line allows beyond its transmission time";
+      return Outcome::kLate;
+  }
+  return outcome;
 }
 
 nmc::Status NmcBus::Exchange(const nmc::Packet& packet, uint8_t items, uint8_t reply_address) {
@@ -106,27 +149,24 @@ nmc::Status NmcBus::Exchange(const nmc::Packet& packet, uint8_t items, uint8_t r
   std::string problem;
   nmc::Status reply;
   const int tries = 1 + std::max(0, options_.retries);
-  for (int attempt = 0; attempt < tries; ++attempt) {
+  auto margin = options_.reply_margin;
+  int counted = 0;  // tries that count against `tries`: late ones do not, up to late_tries
+  int late = 0;
+  for (int attempt = 0; counted < tries; ++attempt) {
     if (attempt > 0) ++counters_.retries;
-    switch (TryExchange(bytes, items, &reply, &problem)) {
-      case Outcome::kOk:
-        return reply;
-      case Outcome::kTimeout:
-        ++counters_.timeouts;
-        Resync();
-        break;
-      case Outcome::kDamaged:
-        ++counters_.checksum_errors;
-        Resync();
-        break;
-      case Outcome::kModuleChecksum:
-        ++counters_.module_checksum_errors;  // in sync; the command was not carried out
-        break;
+    const Outcome outcome = TryAndResync(bytes, items, margin, &reply, &problem);
+    if (outcome == Outcome::kOk) return reply;
+    if (outcome == Outcome::kModuleChecksum) ++counters_.module_checksum_errors;
+    if (outcome == Outcome::kLate && late < options_.late_tries) {
+      ++late;
+      margin = Widened(margin);
+      continue;
     }
+    ++counted;
   }
   throw BusError(reply_address, packet.command,
                  AddressText(packet.address) + ": " + nmc::CommandName(packet.command) + ": " +
-                     problem + " (" + std::to_string(tries) + " tries at " +
+                     problem + " (" + std::to_string(counted + late) + " tries at " +
                      std::to_string(port_.baud()) + " baud on " + port_.name() + ")");
 }
 
@@ -236,10 +276,16 @@ std::vector<NmcBus::Addressed> NmcBus::FindAddressed(int max_modules, uint8_t it
     nmc::Status reply;
     std::string problem;
     Outcome outcome = Outcome::kTimeout;
-    for (int attempt = 0; attempt < 2 && outcome != Outcome::kOk; ++attempt) {
-      outcome = TryExchange(bytes, asked, &reply, &problem);
-      // A killed host may have left half a packet on the line: flush the modules' receivers.
-      if (outcome == Outcome::kTimeout || outcome == Outcome::kDamaged) Resync();
+    auto margin = options_.reply_margin;
+    // A killed host may have left half a packet on the line: TryAndResync flushes the modules'
+    // receivers after a timeout or damage. A late reply is a module there: it is asked again.
+    for (int attempt = 0, late = 0; attempt < 2 && outcome != Outcome::kOk; ++attempt) {
+      outcome = TryAndResync(bytes, asked, margin, &reply, &problem, /*probe=*/true);
+      if (outcome == Outcome::kLate && late < options_.late_tries) {
+        ++late;
+        --attempt;
+        margin = Widened(margin);
+      }
     }
     if (outcome != Outcome::kOk) break;
     found.push_back({ModuleInfo{a, reply.type, reply.version}, reply});
@@ -266,22 +312,28 @@ void NmcBus::Adopt(const std::vector<ModuleInfo>& modules, uint8_t group) {
 bool NmcBus::AddressNext(uint8_t address) {
   const std::vector<uint8_t> set_address =
       nmc::Encode(nmc::SetAddress(nmc::kUnaddressed, address, nmc::kBroadcast, false));
+  const std::vector<uint8_t> nop = nmc::Encode(nmc::Nop(address));
   std::string problem;
   nmc::Status reply;
-  for (int attempt = 0; attempt < 2; ++attempt) {
-    const Outcome outcome = TryExchange(set_address, 0, &reply, &problem);
+  auto margin = options_.reply_margin;
+  for (int attempt = 0, late = 0; attempt < 2; ++attempt) {
+    Outcome outcome = TryAndResync(set_address, 0, margin, &reply, &problem);
     if (outcome == Outcome::kOk) return true;
-    if (outcome == Outcome::kTimeout) ++counters_.timeouts;
-    if (outcome == Outcome::kDamaged) ++counters_.checksum_errors;
     if (outcome == Outcome::kModuleChecksum) {
       ++counters_.module_checksum_errors;
       continue;  // the module threw it away: the same module is still at address 0
     }
-    Resync();
-    // The command may have been carried out with its answer lost: sending it again would give the
-    // next module the same address. Ask the new address first.
-    if (TryExchange(nmc::Encode(nmc::Nop(address)), 0, &reply, &problem) == Outcome::kOk) {
-      return true;
+    // The command may have been carried out with its answer lost or late: sending it again would
+    // give the next module the same address. Ask the new address first; a late answer there is a
+    // module that is slow, not absent, and it is asked again with a longer wait.
+    for (;;) {
+      if (outcome == Outcome::kLate && late < options_.late_tries) {
+        ++late;
+        margin = Widened(margin);
+      }
+      outcome = TryAndResync(nop, 0, margin, &reply, &problem, /*probe=*/true);
+      if (outcome == Outcome::kOk) return true;
+      if (outcome != Outcome::kLate || late >= options_.late_tries) break;
     }
   }
   return false;

@@ -24,6 +24,12 @@ struct BusOptions {
   int retries = 2;
   // Called with each packet sent and each reply ("> " / "< " lines), for --trace.
   std::function<void(const std::string&)> trace;
+  // A reply that comes after the deadline (seen while resynchronising) shows a module that is
+  // slow, not silent: such a try is not counted among the retries, and the next one waits twice
+  // as long (at most `late_margin_max`), up to `late_tries` times per exchange. A silent module
+  // sends nothing at all and fails after 1 + retries tries at `reply_margin`, as before.
+  int late_tries = 4;
+  std::chrono::microseconds late_margin_max{1000000};
 };
 
 struct BusCounters {
@@ -33,6 +39,7 @@ struct BusCounters {
   int64_t timeouts = 0;                // replies that did not come in time
   int64_t resyncs = 0;                 // resynchronisations (zero burst, wait, flush)
   int64_t retries = 0;                 // exchanges tried again
+  int64_t late_replies = 0;            // timeouts whose reply came after the deadline
   int64_t bytes_sent = 0;
   int64_t bytes_received = 0;
 };
@@ -107,11 +114,21 @@ class NmcBus {
   double LineSeconds(size_t bytes) const { return ByteSeconds(port_.baud()) * double(bytes); }
 
  private:
-  enum class Outcome { kOk, kTimeout, kDamaged, kModuleChecksum };
-  Outcome TryExchange(const std::vector<uint8_t>& bytes, uint8_t items, nmc::Status* reply,
-                      std::string* problem);
+  enum class Outcome { kOk, kTimeout, kDamaged, kModuleChecksum, kLate };
+  Outcome TryExchange(const std::vector<uint8_t>& bytes, uint8_t items,
+                      std::chrono::microseconds margin, nmc::Status* reply, std::string* problem);
+  // TryExchange, then after a timeout or damage a resync; a timeout whose reply arrived during
+  // the resync is kLate (counted in timeouts and late_replies). A `probe` asks where silence is
+  // an answer (is there a module at this address?): its timeouts are not counted.
+  Outcome TryAndResync(const std::vector<uint8_t>& bytes, uint8_t items,
+                       std::chrono::microseconds margin, nmc::Status* reply, std::string* problem,
+                       bool probe = false);
   nmc::Status Exchange(const nmc::Packet& packet, uint8_t items, uint8_t reply_address);
-  void Resync();
+  // Zero burst, a wait for anything in flight (`margin` / 2 beyond the line time), then reads and
+  // throws away what arrived; returns how many bytes that was.
+  size_t Resync(std::chrono::microseconds margin);
+  // The next try's margin after a late reply: twice `margin`, at most late_margin_max.
+  std::chrono::microseconds Widened(std::chrono::microseconds margin) const;
   // SET_ADDR to the next unaddressed module; false when none answers (end of the chain).
   bool AddressNext(uint8_t address);
   void Send(const std::vector<uint8_t>& bytes);

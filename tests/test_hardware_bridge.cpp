@@ -66,9 +66,12 @@ struct Rig {
     settings = DefaultBridgeSettings(Puma());
     settings.calibration_pose = "ready";
     settings.start_guard_s = 0;
-    // Shared, loaded test machines can starve the emulator's thread for a while: slow answers
-    // must not become faults here (the silence test relies on a truly silent module).
-    settings.reply_margin_ms = 100;
+    // Shared, loaded test machines can starve the emulator's thread for most of a second (an
+    // ASan build with two busy loops on two cores: 0.7 s seen): slow answers must not become
+    // faults here. A late answer is not one (NmcBus waits longer after one); this margin covers a
+    // stall in which nothing comes at all. It costs time only when a module is truly silent (the
+    // silence tests: 5 tries of 0.5 s).
+    settings.reply_margin_ms = 500;
     settings.retries = 4;
     settings.command_timeout_s = 5;  // the test plays the controller between Service() calls
     if (tweak) tweak(settings, eo);
@@ -324,9 +327,10 @@ TEST(HardwareBridge, SetSevenMirroredReachesItsGoals) {
   EXPECT_EQ(rig.node->state(), hardware_status_t::STATE_LINKED);
   rig.RunUntil(0.1, nullptr);
   rig.bus.Publish("ARM_MOVE", SetSeven(7));
-  ASSERT_TRUE(rig.RunUntil(0.3, [&] { return !AllDone(rig); }))
+  // Generous budgets (a loaded machine): they end as soon as the move starts and is done.
+  ASSERT_TRUE(rig.RunUntil(5, [&] { return !AllDone(rig); }))
       << "the move never started: " << rig.node->last_error();
-  ASSERT_TRUE(rig.RunUntil(10, [&] { return AllDone(rig); })) << rig.node->last_error();
+  ASSERT_TRUE(rig.RunUntil(60, [&] { return AllDone(rig); })) << rig.node->last_error();
   rig.RunUntil(0.5, nullptr);  // settle
   const std::vector<double> q = rig.emulator->JointPositions();
   EXPECT_NEAR(q[0] / kDeg, 90, 1.0);
@@ -546,13 +550,18 @@ TEST(HardwareBridge, ExpiredCommandsStopTheArmSmoothly) {
 TEST(HardwareBridge, ASilentModuleBecomesAFaultNotAHang) {
   Rig rig;
   rig.Ready();
-  rig.bus.Publish("ARM_MOVE", SetSeven(1));
-  rig.RunUntil(0.4, nullptr);
+  // Set VII at a tenth of the default speeds: the move lasts far longer than finding the silent
+  // module takes (5 tries of the rig's 0.5 s margin), so the stop comes well before the goals.
+  servo_move_t slow = SetSeven(1);
+  for (double& v : slow.max_velocity) v /= 10;
+  rig.bus.Publish("ARM_MOVE", slow);
+  ASSERT_TRUE(rig.RunUntil(5, [&] { return !AllDone(rig); })) << rig.node->last_error();
   rig.emulator->SetSilent(2, true);  // module 3 (j3) stops answering
   const auto t0 = Clock::now();
-  ASSERT_TRUE(rig.RunUntil(2, [&] { return rig.node->state() == hardware_status_t::STATE_FAULT; }));
+  // A fault, not a hang: a generous bound that only a bridge that never gives up reaches.
+  ASSERT_TRUE(
+      rig.RunUntil(60, [&] { return rig.node->state() == hardware_status_t::STATE_FAULT; }));
   const double to_fault_s = std::chrono::duration<double>(Clock::now() - t0).count();
-  EXPECT_LT(to_fault_s, 2.0);
   std::cout << "silent module 3: FAULT after " << FormatFixed(to_fault_s, 3) << " s, "
             << rig.status.timeouts << " timeouts: '" << rig.node->last_error() << "'\n";
   EXPECT_NE(rig.node->last_error().find("module 3 (j3 elbow): module 3: NOP: no reply (5 tries"),
@@ -561,7 +570,7 @@ TEST(HardwareBridge, ASilentModuleBecomesAFaultNotAHang) {
   EXPECT_EQ(rig.status.state, hardware_status_t::STATE_FAULT);
   EXPECT_GE(rig.status.timeouts, 5);
   // The others were stopped smoothly and hold; the bridge keeps polling and publishing.
-  ASSERT_TRUE(rig.RunUntil(3, [&] {
+  ASSERT_TRUE(rig.RunUntil(30, [&] {
     const ArmReading& r = rig.node->reading();
     return (r.status[0] & nmc::kStatusMoveDone) && (r.status[1] & nmc::kStatusMoveDone);
   }));
@@ -573,6 +582,23 @@ TEST(HardwareBridge, ASilentModuleBecomesAFaultNotAHang) {
   EXPECT_TRUE(rig.states.back().flags[2] & sirupp::arm_state_t::FLAG_FAULT);
   // No linking (so no moves) until the fault is cleared and the arm armed again.
   EXPECT_THROW(rig.node->Link(), std::runtime_error);
+}
+
+// A module that is silent when a mirrored move is loaded: the same fault as when a poll finds it,
+// named by the module's joint, and the move is refused.
+TEST(HardwareBridge, AModuleSilentWhenAMoveIsLoadedIsAFaultNamingItsJoint) {
+  Rig rig;
+  rig.Ready();
+  rig.RunUntil(0.1, nullptr);
+  rig.emulator->SetSilent(0, true);  // module 1 (j1, the waist)
+  rig.bus.Publish("ARM_MOVE", SetSeven(4));
+  rig.bus.HandleAvailable();  // the move before the next poll: LOAD_TRAJ meets the silence
+  EXPECT_EQ(rig.node->state(), hardware_status_t::STATE_FAULT);
+  EXPECT_EQ(rig.node->last_error().rfind(
+                "module 1 (j1 waist): move 4: module 1: LOAD_TRAJ: no reply (5 tries", 0),
+            0u)
+      << rig.node->last_error();
+  EXPECT_EQ(rig.node->moves_mirrored(), 0);
 }
 
 TEST(HardwareBridge, ChecksumErrorsAndLostBytesUnderLoadAreRetried) {

@@ -5,6 +5,7 @@
 
 #include <cstring>
 #include <deque>
+#include <thread>
 #include <vector>
 
 #include "hardware/nmc_bus.hpp"
@@ -15,19 +16,30 @@ namespace {
 using Bytes = std::vector<uint8_t>;
 
 // Each write of a command packet (starting 0xAA) takes the next scripted reply; other writes
-// (resync zeros) take none. An empty reply is silence.
+// (resync zeros) take none. An empty reply is silence. The first `late` replies come late: they
+// arrive with the next write (the resync burst), after the bus stopped waiting.
+// `write_takes` is how long a write holds the caller: a bridge the scheduler held after sending,
+// while the reply arrived.
 class ScriptedPort : public BytePort {
  public:
   std::deque<Bytes> replies;
   std::vector<Bytes> written;
   int discards = 0;
+  int late = 0;
+  std::chrono::microseconds write_takes{0};
 
   void Write(const uint8_t* bytes, size_t n) override {
     written.emplace_back(bytes, bytes + n);
+    if (!late_.empty()) {
+      pending_.insert(pending_.end(), late_.begin(), late_.end());
+      late_.clear();
+    }
     if (n > 0 && bytes[0] == nmc::kHeader && !replies.empty()) {
-      pending_ = replies.front();
+      (late > 0 ? late_ : pending_) = replies.front();
+      if (late > 0 && !replies.front().empty()) --late;
       replies.pop_front();
     }
+    std::this_thread::sleep_for(write_takes);
   }
   size_t Read(uint8_t* bytes, size_t max, std::chrono::microseconds) override {
     const size_t n = std::min(max, pending_.size());
@@ -45,8 +57,11 @@ class ScriptedPort : public BytePort {
 
  private:
   Bytes pending_;
+  Bytes late_;
   int baud_ = 230400;
 };
+
+std::deque<Bytes> Replies(size_t n, const Bytes& reply) { return std::deque<Bytes>(n, reply); }
 
 BusOptions Fast() {
   BusOptions o;
@@ -135,6 +150,57 @@ TEST(NmcBus, SilenceBecomesAnErrorNamingModuleAndCommand) {
   } catch (const BusError& e) {
     EXPECT_NE(std::string(e.what()).find("reply cut short: 1 of 2 bytes"), std::string::npos);
   }
+}
+
+// A bridge held by the scheduler past its deadline (a loaded machine) takes the reply that arrived
+// meanwhile: the module answered in time and is not silent.
+TEST(NmcBus, AReplyThatArrivedWhileTheBridgeWasHeldIsTaken) {
+  ScriptedPort port;
+  NmcBus bus(port, Fast());
+  port.write_takes = std::chrono::milliseconds(20);  // 100 times the margin
+  nmc::Status s;
+  s.status = nmc::kStatusMoveDone;
+  port.replies = {nmc::EncodeStatus(s, 0)};
+  EXPECT_EQ(bus.Command(nmc::Nop(2)).status, nmc::kStatusMoveDone);
+  EXPECT_EQ(bus.counters().timeouts, 0);
+  EXPECT_EQ(bus.counters().retries, 0);
+}
+
+// A module that answers after the deadline is slow, not silent: its late tries do not count among
+// the retries and the next try waits longer; a module late every time is an error that says so.
+TEST(NmcBus, ALateReplyIsNotSilence) {
+  ScriptedPort port;
+  NmcBus bus(port, Fast());
+  nmc::Status s;
+  s.status = nmc::kStatusPowerOn;
+  // Late three times (more than the 2 retries), then in time.
+  port.late = 3;
+  port.replies = {nmc::EncodeStatus(s, 0), nmc::EncodeStatus(s, 0), nmc::EncodeStatus(s, 0),
+                  nmc::EncodeStatus(s, 0)};
+  EXPECT_EQ(bus.Command(nmc::Nop(5)).status, nmc::kStatusPowerOn);
+  EXPECT_EQ(bus.counters().late_replies, 3);
+  EXPECT_EQ(bus.counters().timeouts, 3);
+  EXPECT_EQ(bus.counters().retries, 3);
+  // Late every time: after the 4 late tries and the 3 counted ones, an error naming lateness.
+  port.late = 100;
+  port.replies = Replies(7, nmc::EncodeStatus(s, 0));
+  try {
+    bus.Command(nmc::Nop(5));
+    FAIL() << "no error";
+  } catch (const BusError& e) {
+    EXPECT_EQ(e.address(), 5);
+    EXPECT_EQ(std::string(e.what()),
+              "module 5: NOP: the reply came late, after the 3.2 ms the line allows beyond its "
+              "transmission time (7 tries at 230400 baud on scripted)");
+  }
+  EXPECT_EQ(bus.counters().late_replies, 3 + 7);
+  // Silence is not lateness: 3 tries, as before.
+  port.late = 0;
+  port.replies = {{}, {}, {}};
+  const int64_t exchanges = bus.counters().exchanges;
+  EXPECT_THROW(bus.Command(nmc::Nop(5)), BusError);
+  EXPECT_EQ(bus.counters().exchanges - exchanges, 3);
+  EXPECT_EQ(bus.counters().late_replies, 10);
 }
 
 TEST(NmcBus, GroupCommandsTakeTheLeadersReplyAndBroadcastsNone) {

@@ -237,9 +237,12 @@ std::vector<std::string> RunSets(const launch::Layout& layout, const core::Robot
     supervisor.Service(0);
     while (watch.HandleAvailable() > 0) {
     }
-    if (code == 0 && !real_arm_problem.empty()) {
+    if (!real_arm_problem.empty()) {
+      // The bridge's fault first, whether it came during a move (the plan ran on) or while a
+      // move was being loaded (the plan failed with the bridge's refusal): one fault, one name.
       out << " FAILED: the real arm's bridge stopped following: " << real_arm_problem
           << " (see logs/hardware.log)\n";
+      if (code != 0) out << plan_out.str();
       failed_sets.push_back(Roman(sets[i]));
     } else if (code == 0) {
       out << " done in " << Fixed(Since(t0), 1) << " s\n";
