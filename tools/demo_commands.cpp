@@ -325,6 +325,24 @@ void UseVirtualModel(launch::Layout& layout, const std::string& file) {
 
 }  // namespace
 
+namespace {
+
+// What the demo runs, where, and where its results go.
+void PrintDemoHeader(std::ostream& out, const core::RobotModel& model,
+                     const std::string& model_file, bool own_model, size_t sets,
+                     const launch::Layout& layout, const std::string& layout_file,
+                     const fs::path& dir) {
+  out << "SIRUPP-LCM demo: the paper's experiment (Table II), headless\n"
+      << "  robot: " << core::ModelSummary(model) << "\n"
+      << "  virtual arm's model: " << model_file
+      << (own_model ? " (the emulated real arm keeps its own)" : "") << "\n"
+      << "  sets: " << sets << ", processes: " << layout.processes.size() << " (" << layout_file
+      << "), bus " << layout.lcm_url << "\n"
+      << "  results: " << dir.string() << "\n\n";
+}
+
+}  // namespace
+
 int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   const runtime::Args parsed(
       args, "demo",
@@ -358,13 +376,8 @@ int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   }
 
   const auto started = Clock::now();
-  out << "SIRUPP-LCM demo: the paper's experiment (Table II), headless\n"
-      << "  robot: " << core::ModelSummary(model) << "\n"
-      << "  virtual arm's model: " << model_file
-      << (parsed.Has("model") ? " (the emulated real arm keeps its own)" : "") << "\n"
-      << "  sets: " << sets.size() << ", processes: " << layout.processes.size() << " ("
-      << layout_file << "), bus " << layout.lcm_url << "\n"
-      << "  results: " << dir.string() << "\n\n";
+  PrintDemoHeader(out, model, model_file, parsed.Has("model"), sets.size(), layout, layout_file,
+                  dir);
 
   runtime::InstallStopHandlers();
   launch::SupervisorOptions options;

@@ -208,6 +208,33 @@ int RunFitEmulator(const std::vector<std::string>& argv, std::ostream& out, std:
   return 0;
 }
 
+namespace {
+
+// identify's table: per fitted joint, the RMS and each value before -> after.
+void PrintIdentification(std::ostream& out, const lab::IdentifyResult& result, size_t tables,
+                         double seconds) {
+  out << "identified from " << tables << " data tables in " << result.evaluations
+      << " simulations (" << std::setprecision(3) << seconds << " s)\n\n"
+      << "| joint | samples | rms before (deg) | rms after (deg) | static | Coulomb +/- | "
+         "viscous | Stribeck (deg/s) | armature |\n"
+      << "|---|---:|---:|---:|---|---|---|---|---|\n";
+  auto f = [](double v) { return core::FormatNumber(std::round(v * 1e4) / 1e4); };
+  for (const lab::JointIdentification& id : result.joints) {
+    const core::Friction& a = id.friction_before;
+    const core::Friction& b = id.friction_after;
+    const double deg = 3.14159265358979323846 / 180;
+    out << "| " << id.joint << " | " << id.samples << " | " << f(id.rms_before_deg) << " | "
+        << f(id.rms_after_deg) << " | " << f(a.static_effort) << " -> " << f(b.static_effort)
+        << " | " << f(a.coulomb_positive) << "/" << f(a.coulomb_negative) << " -> "
+        << f(b.coulomb_positive) << "/" << f(b.coulomb_negative) << " | " << f(a.viscous) << " -> "
+        << f(b.viscous) << " | " << f(a.stribeck_velocity / deg) << " -> "
+        << f(b.stribeck_velocity / deg) << " | " << f(id.armature_before) << " -> "
+        << f(id.armature_after) << " |\n";
+  }
+}
+
+}  // namespace
+
 int RunIdentify(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
   std::vector<std::string> files;
   size_t i = 0;
@@ -268,24 +295,7 @@ int RunIdentify(const std::vector<std::string>& argv, std::ostream& out, std::os
     if (!file) throw std::runtime_error("identify: cannot write " + out_file);
   }
   core::LoadRobotModel(out_file);  // what was written loads
-  out << "identified from " << tables.size() << " data tables in " << result.evaluations
-      << " simulations (" << std::setprecision(3) << Since(started) << " s)\n\n"
-      << "| joint | samples | rms before (deg) | rms after (deg) | static | Coulomb +/- | "
-         "viscous | Stribeck (deg/s) | armature |\n"
-      << "|---|---:|---:|---:|---|---|---|---|---|\n";
-  auto f = [](double v) { return core::FormatNumber(std::round(v * 1e4) / 1e4); };
-  for (const lab::JointIdentification& id : result.joints) {
-    const core::Friction& a = id.friction_before;
-    const core::Friction& b = id.friction_after;
-    const double deg = 3.14159265358979323846 / 180;
-    out << "| " << id.joint << " | " << id.samples << " | " << f(id.rms_before_deg) << " | "
-        << f(id.rms_after_deg) << " | " << f(a.static_effort) << " -> " << f(b.static_effort)
-        << " | " << f(a.coulomb_positive) << "/" << f(a.coulomb_negative) << " -> "
-        << f(b.coulomb_positive) << "/" << f(b.coulomb_negative) << " | " << f(a.viscous) << " -> "
-        << f(b.viscous) << " | " << f(a.stribeck_velocity / deg) << " -> "
-        << f(b.stribeck_velocity / deg) << " | " << f(id.armature_before) << " -> "
-        << f(id.armature_after) << " |\n";
-  }
+  PrintIdentification(out, result, tables.size(), Since(started));
   out << "\nwrote " << out_file << "\n";
   err << "sirupp identify: next: sirupp fit-emulator --evaluate --virtual-model " << out_file
       << "\n";

@@ -161,6 +161,29 @@ std::string CompareSection(const std::vector<logger::ReferenceRow>& ours,
   return md + ".\n";
 }
 
+namespace {
+
+// --compare: the other run's virtual-vs-real means become the report's extra columns
+// (options.reference); returns the comparison section that follows the report.
+std::string Compare(const std::vector<std::string>& others, const std::vector<std::string>& files,
+                    const std::vector<logger::RunTable>& tables, logger::ReportOptions& options) {
+  const std::vector<logger::RunTable> other = logger::ReadInputs(others, options.import);
+  const std::vector<logger::ReferenceRow> rows = VirtualVsReal(other, options.analysis);
+  std::string names;
+  for (const std::string& f : others) names += (names.empty() ? "" : " ") + f;
+  logger::ReferenceColumn column;
+  column.title = "compared";
+  column.note = "Compared: the virtual-vs-real means of " + names +
+                " (the last move of each set and joint), beside ours.";
+  column.rows = rows;
+  options.reference = column;
+  std::string ours;
+  for (const std::string& f : files) ours += (ours.empty() ? "" : " ") + f;
+  return CompareSection(VirtualVsReal(tables, options.analysis), rows, ours, names);
+}
+
+}  // namespace
+
 int RunReport(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
   const runtime::Args args(
       argv, "report",
@@ -219,23 +242,8 @@ int RunReport(const std::vector<std::string>& argv, std::ostream& out, std::ostr
   for (const logger::RunTable& table : tables) {
     for (const std::string& note : table.notes) err << "sirupp report: note: " << note << "\n";
   }
-  std::string compared;
-  if (args.Has("compare")) {
-    const std::vector<std::string>& others = args.Values("compare", -1);
-    const std::vector<logger::RunTable> other = logger::ReadInputs(others, options.import);
-    const std::vector<logger::ReferenceRow> rows = VirtualVsReal(other, options.analysis);
-    std::string names;
-    for (const std::string& f : others) names += (names.empty() ? "" : " ") + f;
-    logger::ReferenceColumn column;
-    column.title = "compared";
-    column.note = "Compared: the virtual-vs-real means of " + names +
-                  " (the last move of each set and joint), beside ours.";
-    column.rows = rows;
-    options.reference = column;
-    std::string ours;
-    for (const std::string& f : files) ours += (ours.empty() ? "" : " ") + f;
-    compared = CompareSection(VirtualVsReal(tables, options.analysis), rows, ours, names);
-  }
+  const std::string compared =
+      args.Has("compare") ? Compare(args.Values("compare", -1), files, tables, options) : "";
   const logger::ReportOutput output = logger::WriteReport(tables, options);
   out << output.markdown << compared;
   if (!compared.empty()) {
