@@ -323,10 +323,6 @@ void UseVirtualModel(launch::Layout& layout, const std::string& file) {
   }
 }
 
-}  // namespace
-
-namespace {
-
 // What the demo runs, where, and where its results go.
 void PrintDemoHeader(std::ostream& out, const core::RobotModel& model,
                      const std::string& model_file, bool own_model, size_t sets,

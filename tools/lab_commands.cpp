@@ -67,10 +67,6 @@ double Since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
 }
 
-}  // namespace
-
-namespace {
-
 // --evaluations: the fit's budget of experiment runs (1..10000 by its declaration).
 int EvaluationsArg(const runtime::Args& args, int fallback) {
   return static_cast<int>(args.Integer("evaluations", fallback));
