@@ -1067,8 +1067,8 @@ TEST(LoggerNode, AKillDuringLoggingLeavesAParseableFileMissingAtMost100ms) {
 }
 
 // A child process runs `options`' logger on a stream it publishes in step with the wall clock
-// (sim time = wall time since its start, plus `sim_start_s`) and is killed with SIGKILL after
-// `run_ms`. Returns the newest sim time published (us).
+// (sim time = wall time since its start, plus `sim_start_s`) and is killed with SIGKILL once it
+// has published `run_ms` of it. Returns the newest sim time published (us).
 int64_t LogInAChildAndKillIt(const LoggerOptions& options, double sim_start_s, int run_ms) {
   auto* published_us = static_cast<std::atomic<int64_t>*>(
       mmap(nullptr, sizeof(std::atomic<int64_t>), PROT_READ | PROT_WRITE,
@@ -1097,7 +1097,14 @@ int64_t LogInAChildAndKillIt(const LoggerOptions& options, double sim_start_s, i
       std::this_thread::sleep_for(std::chrono::microseconds(200));
     }
   }
-  std::this_thread::sleep_for(std::chrono::milliseconds(run_ms));
+  // Killed once the child has published (and so logged) `run_ms` of its stream, however long a
+  // loaded machine takes to start it; a minute's deadline only for a child that never gets there.
+  const int64_t first_us = static_cast<int64_t>(sim_start_s / 512e-6) * 512;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(60);
+  while (published_us->load() - first_us < int64_t{run_ms} * 1000 &&
+         std::chrono::steady_clock::now() < deadline) {
+    std::this_thread::sleep_for(std::chrono::milliseconds(10));
+  }
   const int64_t at_kill_us = published_us->load();
   kill(child, SIGKILL);
   int status = 0;
