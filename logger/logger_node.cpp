@@ -868,25 +868,12 @@ std::vector<core::LoggerPass> RecordedPasses(const std::string& log_path,
   LcmLogEvent event;
   while (reader.Next(event)) {
     if (event.channel != pass_channel) continue;
-    auto fail = [&](const std::string& problem) {
-      throw core::ConfigError(core::SourceLocation{log_path, 0, 0},
-                              "byte " + std::to_string(event.offset) + " (event " +
-                                  std::to_string(event.index) + ") on " + pass_channel,
-                              problem);
-    };
-    sirupp::logger_pass_t message;
-    const int size = static_cast<int>(event.data.size());
-    if (message.decode(event.data.data(), 0, size) != size) {
-      fail("the data does not decode as sirupp.logger_pass_t");
-    }
-    try {
-      passes.push_back(core::LoggerPassFromMessage(message, pass_channel));
-    } catch (const std::exception& e) {
-      fail(e.what());
-    }
+    passes.push_back(DecodePassEvent(log_path, event));
     if (passes.size() >= 2 && passes.back().taken < passes[passes.size() - 2].taken) {
-      fail("taken " + std::to_string(passes.back().taken) + " is below the pass before it (" +
-           std::to_string(passes[passes.size() - 2].taken) + "): passes of two loggers?");
+      throw PassEventError(
+          log_path, event,
+          "taken " + std::to_string(passes.back().taken) + " is below the pass before it (" +
+              std::to_string(passes[passes.size() - 2].taken) + "): passes of two loggers?");
     }
   }
   return passes;

@@ -21,6 +21,29 @@ void PutSettings(const LoggerOptions& options, const core::RobotModel& model,
   pass.prefix = prefix;
 }
 
+core::ConfigError PassEventError(const std::string& log_path, const LcmLogEvent& event,
+                                 const std::string& problem) {
+  return core::ConfigError(core::SourceLocation{log_path, 0, 0},
+                           "byte " + std::to_string(event.offset) + " (event " +
+                               std::to_string(event.index) + ") on " + event.channel,
+                           problem);
+}
+
+core::LoggerPass DecodePassEvent(const std::string& log_path, const LcmLogEvent& event) {
+  sirupp::logger_pass_t message;
+  const int size = static_cast<int>(event.data.size());
+  if (message.decode(event.data.data(), 0, size) != size) {
+    throw PassEventError(
+        log_path, event,
+        "the data does not decode as sirupp.logger_pass_t (a log of an older sirupp-logger?)");
+  }
+  try {
+    return core::LoggerPassFromMessage(message, event.channel);
+  } catch (const std::exception& e) {
+    throw PassEventError(log_path, event, e.what());
+  }
+}
+
 std::optional<core::LoggerPass> RecordedSettings(const std::string& log_path,
                                                  const std::optional<std::string>& prefix,
                                                  const core::Channels& channels) {
@@ -33,22 +56,7 @@ std::optional<core::LoggerPass> RecordedSettings(const std::string& log_path,
                              : c.size() >= suffix.size() &&
                                    c.compare(c.size() - suffix.size(), suffix.size(), suffix) == 0;
     if (!ours) continue;
-    const auto fail = [&](const std::string& problem) {
-      throw core::ConfigError(core::SourceLocation{log_path, 0, 0},
-                              "byte " + std::to_string(event.offset) + " (event " +
-                                  std::to_string(event.index) + ") on " + c,
-                              problem);
-    };
-    sirupp::logger_pass_t message;
-    const int size = static_cast<int>(event.data.size());
-    if (message.decode(event.data.data(), 0, size) != size) {
-      fail("the data does not decode as sirupp.logger_pass_t (a log of an older sirupp-logger?)");
-    }
-    try {
-      return core::LoggerPassFromMessage(message, c);
-    } catch (const std::exception& e) {
-      fail(e.what());
-    }
+    return DecodePassEvent(log_path, event);
   }
   return std::nullopt;
 }

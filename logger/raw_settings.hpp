@@ -8,8 +8,10 @@
 #include <string>
 
 #include "core/channels.hpp"
+#include "core/errors.hpp"
 #include "core/messages.hpp"
 #include "core/robot_model.hpp"
+#include "logger/lcm_log.hpp"
 #include "logger/logger_node.hpp"
 
 namespace sirupp::logger {
@@ -17,6 +19,14 @@ namespace sirupp::logger {
 // Fills `pass`'s settings from the live logger's options, model and channel prefix.
 void PutSettings(const LoggerOptions& options, const core::RobotModel& model,
                  const std::string& prefix, core::LoggerPass& pass);
+
+// core::ConfigError for a LOGGER_PASS event of the raw log `log_path`: the log, the event's byte
+// and number, its channel and `problem`.
+core::ConfigError PassEventError(const std::string& log_path, const LcmLogEvent& event,
+                                 const std::string& problem);
+
+// A LOGGER_PASS event decoded; PassEventError if it does not decode or holds bad values.
+core::LoggerPass DecodePassEvent(const std::string& log_path, const LcmLogEvent& event);
 
 // The first LOGGER_PASS of a raw log: on `prefix` + LOGGER_PASS when the prefix is given, else on
 // the first channel whose name ends in LOGGER_PASS. Nothing for a log without passes (one from
