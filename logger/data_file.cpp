@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -11,6 +12,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <utility>
@@ -76,7 +78,17 @@ std::string Trim(const std::string& text) {
 
 // What a column of a data file holds.
 struct ColumnRole {
-  enum Kind { kTime, kPosition, kVelocity, kEffort, kMoveId, kDone, kLost, kAge } kind = kTime;
+  enum Kind {
+    kTime,
+    kPosition,
+    kVelocity,
+    kEffort,
+    kMoveId,
+    kDone,
+    kLost,
+    kAge,
+    kRealClock
+  } kind = kTime;
   int joint = -1;  // 0-based
   int stream = -1;
 };
@@ -98,6 +110,7 @@ std::vector<std::string> ColumnLayout::Names() const {
   for (size_t j = 0; j < n; ++j) names.push_back("j" + std::to_string(j + 1) + "_done");
   for (Stream stream : kAllStreams) names.push_back(std::string(StreamKey(stream)) + "_lost");
   for (Stream stream : kAllStreams) names.push_back(std::string(StreamKey(stream)) + "_age_us");
+  names.push_back("real_clock_us");
   if (velocities) {
     for (size_t j = 0; j < n; ++j) {
       for (Stream stream : kAllStreams) {
@@ -144,6 +157,9 @@ void ColumnLayout::AppendRow(const Row& row, std::string& out) const {
     out += ',';
     if (row.cell[s] != nullptr) AppendInt(out, row.age_us[s]);
   }
+  out += ',';
+  const Sample* real = row.cell[static_cast<size_t>(Stream::kReal)];
+  if (real != nullptr) AppendInt(out, real->utime);
   if (velocities) {
     for (size_t j = 0; j < n; ++j) {
       for (size_t s = 0; s < kNumStreams; ++s) {
@@ -176,6 +192,7 @@ void RunTable::Reset(const std::vector<JointInfo>& joint_list) {
   move_id.clear();
   done.assign(joints.size(), {});
   for (std::vector<double>& ages : age_s) ages.clear();
+  real_clock_us.clear();
   lost = {};
   lost_at_start = {};
   cells = {};
@@ -197,6 +214,8 @@ void RunTable::Append(const Row& row) {
     if (row.cell[s] != nullptr) ++cells[s];
     age_s[s].push_back(row.cell[s] != nullptr ? static_cast<double>(row.age_us[s]) * 1e-6 : kNaN);
   }
+  const Sample* real = row.cell[static_cast<size_t>(Stream::kReal)];
+  real_clock_us.push_back(real != nullptr ? real->utime : kNoClock);
   if (time_s.size() == 1) lost_at_start = row.lost;
   lost = row.lost;
 }
@@ -204,6 +223,74 @@ void RunTable::Append(const Row& row) {
 double RunTable::RealClockScale() const {
   if (real_on_sim_clock || !std::isfinite(realtime_factor) || !(realtime_factor > 0)) return 1.0;
   return realtime_factor;
+}
+
+namespace {
+
+// The real arm's clock (us) at time `at` on the axis, from the stamped real samples of the rows
+// around `row` (their axis time, row time minus age, against their stamps): interpolated between
+// the last taken at or before `at` and the first after it, else carried from the nearest one at
+// the file's factor. nullopt without stamped samples.
+std::optional<double> RealClockAt(const RunTable& table, size_t row, double at) {
+  const size_t n = table.rows();
+  auto taken = [&](size_t k) { return table.time_s[k] - table.Age(Stream::kReal, k); };
+  auto stamped = [&](size_t k) { return table.real_clock_us[k] != kNoClock; };
+  std::optional<size_t> before, after;
+  for (size_t k = row; k < n && !after; ++k) {
+    if (!stamped(k)) continue;
+    if (taken(k) <= at) {
+      before = k;
+    } else {
+      after = k;
+    }
+  }
+  for (size_t k = row; !before && k-- > 0;) {
+    if (stamped(k) && taken(k) <= at) before = k;
+  }
+  if (!before && !after) return std::nullopt;
+  const size_t a = before ? *before : *after;
+  const double base = static_cast<double>(table.real_clock_us[a]);
+  if (before && after) {
+    const double span_axis = taken(*after) - taken(a);
+    const auto span_clock =
+        static_cast<double>(table.real_clock_us[*after] - table.real_clock_us[a]);
+    return base + (at - taken(a)) / span_axis * span_clock;
+  }
+  return base + (at - taken(a)) * 1e6 / table.RealClockScale();
+}
+
+}  // namespace
+
+std::vector<double> RunTable::RealSampleTimes(size_t anchor, size_t begin, size_t end) const {
+  end = std::min(end, rows());
+  std::vector<double> times(end > begin ? end - begin : 0, kNaN);
+  if (times.empty() || anchor >= rows()) return times;
+  const double start = time_s[anchor];
+  const bool have_clock = real_clock_us.size() == rows();
+  const std::optional<double> clock_at_start =
+      have_clock ? RealClockAt(*this, anchor, start) : std::nullopt;
+  const double scale = RealClockScale();
+  for (size_t i = begin; i < end; ++i) {
+    if (clock_at_start && real_clock_us[i] != kNoClock) {
+      times[i - begin] = start + (static_cast<double>(real_clock_us[i]) - *clock_at_start) * 1e-6;
+    } else if (!joints.empty() &&
+               std::isfinite(position[0][static_cast<size_t>(Stream::kReal)][i])) {
+      times[i - begin] = start + (time_s[i] - Age(Stream::kReal, i) - start) / scale;
+    }
+  }
+  return times;
+}
+
+std::vector<size_t> RunTable::MoveStarts() const {
+  std::vector<size_t> starts;
+  int64_t current = -2;
+  for (size_t i = 0; i < rows(); ++i) {
+    const int64_t id = move_id[i];
+    if (id < 0) continue;
+    if (current != -2 && id != current) starts.push_back(i);
+    current = id;
+  }
+  return starts;
 }
 
 double RunTable::period_s() const {
@@ -367,9 +454,10 @@ class FileReader {
       lines.text.push_back(text.substr(start, end - start));
       start = end + 1;
     }
-    if (lines.text[0].rfind(kFileMagic, 0) != 0) {
+    if (lines.text[0].rfind(kFileMagic, 0) != 0 && lines.text[0].rfind(kFileMagicFormat1, 0) != 0) {
       Fail(1, "not a sirupp-logger data file: the first line must start with '" +
-                  std::string(kFileMagic) + "' (an LCM log starts with the sync word 0xEDA1DA01)");
+                  std::string(kFileMagic) +
+                  "' (or format 1) (an LCM log starts with the sync word 0xEDA1DA01)");
     }
     return lines;
   }
@@ -480,6 +568,7 @@ class FileReader {
       seen[name] = static_cast<int>(c);
       if (c == 0 && name != "time_s") Fail(line, where + ": the first column must be time_s");
       roles_.push_back(c == 0 ? ColumnRole{} : RoleOf(line, where, name));
+      has_clock_column_ |= roles_.back().kind == ColumnRole::kRealClock;
       names_.push_back(name);
     }
     const int n = static_cast<int>(table_.joints.size());
@@ -508,6 +597,8 @@ class FileReader {
       role.stream = StreamIndex(name.substr(0, name.size() - 7));
       if (role.stream < 0)
         Fail(line, where + ": unknown; allowed set_age_us, virt_age_us, real_age_us");
+    } else if (name == "real_clock_us") {
+      role.kind = ColumnRole::kRealClock;
     } else if (name.size() > 1 && name[0] == 'j') {
       role = JointRoleOf(line, where, name);
     } else {
@@ -575,6 +666,7 @@ class FileReader {
     std::vector<int8_t> row_done(table_.joints.size(), -1);
     std::array<int64_t, kNumStreams> row_lost = table_.lost;
     std::array<double, kNumStreams> row_age = {kNaN, kNaN, kNaN};
+    int64_t row_clock = kNoClock;
     double time = kNaN;
     for (size_t c = 0; c < fields.size(); ++c) {
       const std::string& field = fields[c];
@@ -585,7 +677,8 @@ class FileReader {
         continue;
       }
       if (role.kind == ColumnRole::kMoveId || role.kind == ColumnRole::kDone ||
-          role.kind == ColumnRole::kLost || role.kind == ColumnRole::kAge) {
+          role.kind == ColumnRole::kLost || role.kind == ColumnRole::kAge ||
+          role.kind == ColumnRole::kRealClock) {
         int64_t value = 0;
         const auto result = std::from_chars(field.data(), field.data() + field.size(), value);
         const int64_t low = role.kind == ColumnRole::kMoveId ? -1 : 0;
@@ -605,6 +698,7 @@ class FileReader {
         if (role.kind == ColumnRole::kAge) {
           row_age[static_cast<size_t>(role.stream)] = static_cast<double>(value) * 1e-6;
         }
+        if (role.kind == ColumnRole::kRealClock) row_clock = value;
         continue;
       }
       double value = 0;
@@ -635,6 +729,7 @@ class FileReader {
       table_.done[j].push_back(row_done[j]);
     }
     for (size_t s = 0; s < kNumStreams; ++s) table_.age_s[s].push_back(row_age[s]);
+    if (has_clock_column_) table_.real_clock_us.push_back(row_clock);
     if (table_.time_s.size() == 1) table_.lost_at_start = row_lost;
     table_.lost = row_lost;
   }
@@ -642,11 +737,12 @@ class FileReader {
   static constexpr const char* kAllowed =
       "; allowed: time_s, jN_{set,virt,real}_{deg|mm}, jN_{set,virt,real}_vel_{dps|mmps}, "
       "jN_{set,virt,real}_effort_{nm|n}, move_id, jN_done, {set,virt,real}_lost, "
-      "{set,virt,real}_age_us";
+      "{set,virt,real}_age_us, real_clock_us";
 
   std::string path_;
   RunTable table_;
-  double factor_so_far_ = kNaN;  // from the header, used when no later line gives the factor
+  double factor_so_far_ = kNaN;    // from the header, used when no later line gives the factor
+  bool has_clock_column_ = false;  // real_clock_us (format 2)
   std::vector<ColumnRole> roles_;
   std::vector<std::string> names_;
 };
