@@ -87,7 +87,8 @@ struct ColumnRole {
     kDone,
     kLost,
     kAge,
-    kRealClock
+    kRealClock,
+    kSetRecv
   } kind = kTime;
   int joint = -1;  // 0-based
   int stream = -1;
@@ -111,6 +112,7 @@ std::vector<std::string> ColumnLayout::Names() const {
   for (Stream stream : kAllStreams) names.push_back(std::string(StreamKey(stream)) + "_lost");
   for (Stream stream : kAllStreams) names.push_back(std::string(StreamKey(stream)) + "_age_us");
   names.push_back("real_clock_us");
+  names.push_back("set_recv_us");
   if (velocities) {
     for (size_t j = 0; j < n; ++j) {
       for (Stream stream : kAllStreams) {
@@ -160,6 +162,8 @@ void ColumnLayout::AppendRow(const Row& row, std::string& out) const {
   out += ',';
   const Sample* real = row.cell[static_cast<size_t>(Stream::kReal)];
   if (real != nullptr) AppendInt(out, real->utime);
+  out += ',';
+  if (set != nullptr && set->recv_utime > 0) AppendInt(out, set->recv_utime);
   if (velocities) {
     for (size_t j = 0; j < n; ++j) {
       for (size_t s = 0; s < kNumStreams; ++s) {
@@ -193,6 +197,7 @@ void RunTable::Reset(const std::vector<JointInfo>& joint_list) {
   done.assign(joints.size(), {});
   for (std::vector<double>& ages : age_s) ages.clear();
   real_clock_us.clear();
+  set_recv_us.clear();
   lost = {};
   lost_at_start = {};
   cells = {};
@@ -216,6 +221,7 @@ void RunTable::Append(const Row& row) {
   }
   const Sample* real = row.cell[static_cast<size_t>(Stream::kReal)];
   real_clock_us.push_back(real != nullptr ? real->utime : kNoClock);
+  set_recv_us.push_back(set != nullptr && set->recv_utime > 0 ? set->recv_utime : kNoClock);
   if (time_s.size() == 1) lost_at_start = row.lost;
   lost = row.lost;
 }
@@ -250,13 +256,23 @@ std::optional<double> RealClockAt(const RunTable& table, size_t row, double at) 
   if (!before && !after) return std::nullopt;
   const size_t a = before ? *before : *after;
   const double base = static_cast<double>(table.real_clock_us[a]);
+  double clock = base + (at - taken(a)) * 1e6 / table.RealClockScale();
   if (before && after) {
     const double span_axis = taken(*after) - taken(a);
     const auto span_clock =
         static_cast<double>(table.real_clock_us[*after] - table.real_clock_us[a]);
-    return base + (at - taken(a)) / span_axis * span_clock;
+    clock = base + (at - taken(a)) / span_axis * span_clock;
   }
-  return base + (at - taken(a)) * 1e6 / table.RealClockScale();
+  // The set-point's receive time at `row`, when `at` is that row's time: the wall clock when the
+  // sim was there, measured rather than estimated; used when the real arm's stamps are on the
+  // same clock (the aligner's rule: within 1 s).
+  constexpr double kSameClockUs = 1e6;
+  if (table.set_recv_us.size() == n && table.set_recv_us[row] != kNoClock &&
+      std::abs(table.time_s[row] - at) < 1e-9) {
+    const auto received = static_cast<double>(table.set_recv_us[row]);
+    if (std::abs(received - clock) < kSameClockUs) return received;
+  }
+  return clock;
 }
 
 }  // namespace
@@ -569,6 +585,7 @@ class FileReader {
       if (c == 0 && name != "time_s") Fail(line, where + ": the first column must be time_s");
       roles_.push_back(c == 0 ? ColumnRole{} : RoleOf(line, where, name));
       has_clock_column_ |= roles_.back().kind == ColumnRole::kRealClock;
+      has_recv_column_ |= roles_.back().kind == ColumnRole::kSetRecv;
       names_.push_back(name);
     }
     const int n = static_cast<int>(table_.joints.size());
@@ -599,6 +616,8 @@ class FileReader {
         Fail(line, where + ": unknown; allowed set_age_us, virt_age_us, real_age_us");
     } else if (name == "real_clock_us") {
       role.kind = ColumnRole::kRealClock;
+    } else if (name == "set_recv_us") {
+      role.kind = ColumnRole::kSetRecv;
     } else if (name.size() > 1 && name[0] == 'j') {
       role = JointRoleOf(line, where, name);
     } else {
@@ -667,6 +686,7 @@ class FileReader {
     std::array<int64_t, kNumStreams> row_lost = table_.lost;
     std::array<double, kNumStreams> row_age = {kNaN, kNaN, kNaN};
     int64_t row_clock = kNoClock;
+    int64_t row_recv = kNoClock;
     double time = kNaN;
     for (size_t c = 0; c < fields.size(); ++c) {
       const std::string& field = fields[c];
@@ -678,7 +698,7 @@ class FileReader {
       }
       if (role.kind == ColumnRole::kMoveId || role.kind == ColumnRole::kDone ||
           role.kind == ColumnRole::kLost || role.kind == ColumnRole::kAge ||
-          role.kind == ColumnRole::kRealClock) {
+          role.kind == ColumnRole::kRealClock || role.kind == ColumnRole::kSetRecv) {
         int64_t value = 0;
         const auto result = std::from_chars(field.data(), field.data() + field.size(), value);
         const int64_t low = role.kind == ColumnRole::kMoveId ? -1 : 0;
@@ -699,6 +719,7 @@ class FileReader {
           row_age[static_cast<size_t>(role.stream)] = static_cast<double>(value) * 1e-6;
         }
         if (role.kind == ColumnRole::kRealClock) row_clock = value;
+        if (role.kind == ColumnRole::kSetRecv) row_recv = value;
         continue;
       }
       double value = 0;
@@ -730,6 +751,7 @@ class FileReader {
     }
     for (size_t s = 0; s < kNumStreams; ++s) table_.age_s[s].push_back(row_age[s]);
     if (has_clock_column_) table_.real_clock_us.push_back(row_clock);
+    if (has_recv_column_) table_.set_recv_us.push_back(row_recv);
     if (table_.time_s.size() == 1) table_.lost_at_start = row_lost;
     table_.lost = row_lost;
   }
@@ -737,12 +759,13 @@ class FileReader {
   static constexpr const char* kAllowed =
       "; allowed: time_s, jN_{set,virt,real}_{deg|mm}, jN_{set,virt,real}_vel_{dps|mmps}, "
       "jN_{set,virt,real}_effort_{nm|n}, move_id, jN_done, {set,virt,real}_lost, "
-      "{set,virt,real}_age_us, real_clock_us";
+      "{set,virt,real}_age_us, real_clock_us, set_recv_us";
 
   std::string path_;
   RunTable table_;
   double factor_so_far_ = kNaN;    // from the header, used when no later line gives the factor
   bool has_clock_column_ = false;  // real_clock_us (format 2)
+  bool has_recv_column_ = false;   // set_recv_us (format 2)
   std::vector<ColumnRole> roles_;
   std::vector<std::string> names_;
 };

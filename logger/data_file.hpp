@@ -4,7 +4,7 @@
 //   # sirupp-logger data file, format 2; the column line is line 14
 //   # model: ...                        (one "# key: value" line each: model, joints, plan, ...)
 //   time_s,j1_set_deg,j1_virt_deg,j1_real_deg,...,move_id,j1_done,...,set_lost,...,real_age_us,
-//   real_clock_us
+//   real_clock_us,set_recv_us
 //   12.345216,45.12345,45.01234,,...
 //   # end: 2048 rows, ...               (written on a clean close only)
 //
@@ -24,7 +24,7 @@
 
 namespace sirupp::logger {
 
-// Format 2 added the real_clock_us column; format 1 files (without it) are still read.
+// Format 2 added the real_clock_us and set_recv_us columns; format 1 files are still read.
 inline constexpr const char* kFileMagic = "# sirupp-logger data file, format 2";
 inline constexpr const char* kFileMagicFormat1 = "# sirupp-logger data file, format 1";
 // real_clock_us of a row whose real cell is empty (or of a file without the column).
@@ -73,6 +73,10 @@ struct RunTable {
   // clock for a real or emulated arm; the real_clock_us column); kNoClock for an empty cell. Empty
   // (not one entry per row) for a file without the column (format 1).
   std::vector<int64_t> real_clock_us;
+  // Per row: when the logger received the row's set-point sample, microseconds on its wall clock
+  // (the set_recv_us column): the wall clock when the sim was at the row's time; kNoClock for an
+  // empty cell or one without a receive time. Empty for a file without the column.
+  std::vector<int64_t> set_recv_us;
   bool closed = false;             // the writer's "# end" line is there
   std::string continues;           // header "continues:": the file a restarted logger continued
   std::vector<std::string> gains;  // the "# gains: ..." lines among the rows, without "# "
@@ -88,10 +92,13 @@ struct RunTable {
   // The real arm on its own clock, per move (docs/logging.md, "Definitions"). For each row of
   // [begin, end): the time on the axis at which its real sample was taken, counted on the real
   // arm's own clock from row `anchor` (a move's first row, at S = time_s[anchor]): S + (W - W0),
-  // W the sample's stamp (real_clock_us), W0 the real arm's clock at S, interpolated between the
+  // W the sample's stamp (real_clock_us), W0 the real arm's clock at S: when the logger received
+  // the set-point sample of row `anchor` (set_recv_us), if the real arm's stamps are on the same
+  // clock (within 1 s, as the aligner takes them); else, or without it, interpolated between the
   // stamped samples around S (their time on the axis, row time minus age, against their stamps:
-  // the sim clock's offsets the logger placed them by). However much and however unevenly the sim
-  // slipped behind the wall clock after S, the real motion keeps its own timing. Rows without a
+  // the sim clock's offsets the logger placed them by, which can be 0.1 s off when the sim runs in
+  // bursts). However much and however unevenly the sim slipped behind the wall clock after S, the
+  // real motion keeps its own timing. Rows without a
   // stamp (format 1 files) use the file-wide factor instead: S + (t - S) / RealClockScale(), t the
   // row time minus the age. NaN where the real cell is empty. analysis.cpp (PairErrors, the
   // responses), report.cpp's plots and lab/identify.cpp place real samples with this.

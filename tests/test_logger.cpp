@@ -513,6 +513,13 @@ TEST(LoggerNode, WritesOneFilePerMovementSetWithTheGapsCounted) {
   EXPECT_EQ(set1.move_id.back(), 1);
   EXPECT_EQ(set1.lost[1], 3);
   EXPECT_EQ(set1.cells[2], 0);  // no real arm: its column stays empty
+  // Each row's set-point sample with the wall-clock time the logger received it (set_recv_us: when
+  // the sim was at that row, for the report's timing of a real arm), in the order received.
+  ASSERT_EQ(set1.set_recv_us.size(), set1.rows());
+  EXPECT_TRUE(std::is_sorted(set1.set_recv_us.begin(), set1.set_recv_us.end()));
+  EXPECT_GT(set1.set_recv_us.front(), 1'500'000'000'000'000);  // after 2017: the wall clock
+  EXPECT_TRUE(std::all_of(set1.real_clock_us.begin(), set1.real_clock_us.end(),
+                          [](int64_t stamp) { return stamp == kNoClock; }));
   std::ifstream in(stats.files[1]);
   std::stringstream text;
   text << in.rdbuf();
@@ -641,11 +648,15 @@ TEST(LoggerNode, TakesTheRealArmWhenItIsThereWithItsStampsAndRefusesWrongJointCo
     if (written.empty() || stamp != written.back()) written.push_back(stamp);
   }
   EXPECT_GT(written.size(), 50u);
+  // No set-point stream here: no set-point receive times either.
+  ASSERT_EQ(table.set_recv_us.size(), table.rows());
+  EXPECT_TRUE(std::all_of(table.set_recv_us.begin(), table.set_recv_us.end(),
+                          [](int64_t recv) { return recv == kNoClock; }));
   std::ifstream in(stats.files[0]);
   std::stringstream text;
   text << in.rdbuf();
   EXPECT_NE(text.str().find("real arm: emulated"), std::string::npos);
-  EXPECT_NE(text.str().find(",real_age_us,real_clock_us\n"), std::string::npos);
+  EXPECT_NE(text.str().find(",real_age_us,real_clock_us,set_recv_us\n"), std::string::npos);
   EXPECT_EQ(text.str().rfind(kFileMagic, 0), 0u);
 }
 
