@@ -266,6 +266,7 @@ void WriteDataFile(const std::string& path, const core::RobotModel& model,
     arm.position = real[k];
     logger::Row row;
     row.time_us = static_cast<int64_t>(k + 1) * tick_us;
+    arm.utime = row.time_us;  // emulated time: the sim clock
     row.cell = {&set, &virt, &arm};
     writer.Append(row);
   }

@@ -95,18 +95,30 @@ Track Prepare(const core::RobotModel& model, const logger::RunTable& table, bool
     track.start[j] =
         std::clamp(track.start[j], model.joints[j].position_min, model.joints[j].position_max);
   }
+  // The real samples of each move on the real arm's own clock from the move's start (a sim that
+  // slipped does not compress them); those that fall past the next move's start are left out.
   const double period = table.period_s();
-  for (size_t i = 0; i < table.rows(); ++i) {
-    if (!table.Fresh(logger::Stream::kReal, i, period)) continue;
-    const double at = table.time_s[i] - table.Age(logger::Stream::kReal, i) - t.front();
-    if (at < 0) continue;
-    const auto k = static_cast<size_t>(std::lround(at / tick));
-    if (k >= ticks) continue;
-    for (size_t j = 0; j < n; ++j) {
-      const double real = table.position[j][2][i];
-      if (!std::isnan(real)) track.samples.push_back({k, j, real / table.joints[j].scale()});
+  std::vector<size_t> moves = table.MoveStarts();
+  moves.insert(moves.begin(), 0);
+  moves.push_back(table.rows());
+  for (size_t m = 0; m + 1 < moves.size(); ++m) {
+    const std::vector<double> real_at = table.RealSampleTimes(moves[m], moves[m], moves[m + 1]);
+    for (size_t i = moves[m]; i < moves[m + 1]; ++i) {
+      if (!table.Fresh(logger::Stream::kReal, i, period)) continue;
+      const double at = real_at[i - moves[m]] - t.front();
+      if (!(at >= 0) ||
+          (moves[m + 1] < table.rows() && at + t.front() >= table.time_s[moves[m + 1]]))
+        continue;
+      const auto k = static_cast<size_t>(std::lround(at / tick));
+      if (k >= ticks) continue;
+      for (size_t j = 0; j < n; ++j) {
+        const double real = table.position[j][2][i];
+        if (!std::isnan(real)) track.samples.push_back({k, j, real / table.joints[j].scale()});
+      }
     }
   }
+  std::stable_sort(track.samples.begin(), track.samples.end(),
+                   [](const Track::Sample& a, const Track::Sample& b) { return a.tick < b.tick; });
   if (track.samples.empty() && need_real) {
     throw core::ConfigError({table.source, 0, 0}, "real",
                             "no real-arm samples to fit the model to");
@@ -590,6 +602,8 @@ logger::RunTable SimulateRealStream(const core::RobotModel& model, const logger:
     }
     out.age_s[2][i] = 0;
   }
+  out.real_clock_us.clear();  // the simulated stream is on the sim clock: no stamps, no factor
+  out.real_on_sim_clock = true;
   return out;
 }
 

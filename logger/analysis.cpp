@@ -23,21 +23,24 @@ double LastFinite(const std::vector<double>& values, size_t begin, size_t i) {
 
 StreamResponse Respond(const RunTable& table, Stream stream, const std::vector<double>& q,
                        size_t begin, size_t end, double travel, const AnalysisOptions& options) {
-  // The real arm's times since the move's start on its own clock (see PairErrors).
-  const double scale = stream == Stream::kReal ? table.RealClockScale() : 1.0;
   StreamResponse response;
   for (size_t i = begin; i < end; ++i) response.samples += std::isfinite(q[i]) ? 1 : 0;
   if (response.samples == 0) return response;
   const double t0 = table.time_s[begin];
+  // When row i's sample was taken: the row time minus its age (a held sample, a real arm polled
+  // at 100 Hz, is older than its row); the real arm's on its own clock from the move's start.
+  const std::vector<double> real_times =
+      stream == Stream::kReal ? table.RealSampleTimes(begin, begin, end) : std::vector<double>{};
+  auto taken = [&](size_t i) {
+    return stream == Stream::kReal ? real_times[i - begin] : table.time_s[i] - table.Age(stream, i);
+  };
   double baseline = begin > 0 && std::isfinite(q[begin - 1]) ? q[begin - 1] : kNaN;
   for (size_t i = begin; std::isnan(baseline) && i < end; ++i) baseline = q[i];
 
   response.start_delay_s = kNaN;
   for (size_t i = begin; i < end; ++i) {
     if (std::isfinite(q[i]) && std::abs(q[i] - baseline) >= options.start_threshold) {
-      // the time the sample was taken: a held sample (a real arm polled at 100 Hz) is older
-      // than its row
-      response.start_delay_s = std::max(0.0, table.time_s[i] - table.Age(stream, i) - t0) / scale;
+      response.start_delay_s = std::max(0.0, taken(i) - t0);
       break;
     }
   }
@@ -57,7 +60,13 @@ StreamResponse Respond(const RunTable& table, Stream stream, const std::vector<d
   for (size_t i = begin; i < end; ++i) {
     if (std::isfinite(q[i]) && std::abs(q[i] - response.final_value) > band) settled_from = i + 1;
   }
-  response.settling_s = settled_from < end ? (table.time_s[settled_from] - t0) / scale : kNaN;
+  // The first sample inside the band for good (the row after the last one outside it holds a new
+  // sample, unless that stretch has none: then the row's own time).
+  size_t settled_row = settled_from;
+  while (settled_row < end && !std::isfinite(q[settled_row])) ++settled_row;
+  response.settling_s = settled_from >= end ? kNaN
+                        : settled_row < end ? std::max(0.0, taken(settled_row) - t0)
+                                            : table.time_s[settled_from] - t0;
   const double direction = travel >= 0 ? 1.0 : -1.0;
   double overshoot = 0;
   for (size_t i = begin; i < end; ++i) {
@@ -123,15 +132,15 @@ std::vector<PairPoint> PairErrors(const RunTable& table, Pair pair, size_t j, si
   const Stream first = PairFirst(pair);
   const std::vector<double>& a = table.position[j][static_cast<size_t>(first)];
   const std::vector<double>& b = table.position[j][static_cast<size_t>(Stream::kReal)];
-  const double scale = table.RealClockScale();
+  const std::vector<double> real_times = table.RealSampleTimes(begin, begin, end);
   const double start = times[begin];
   const double last = times[end - 1];
   constexpr double kSameTime = 1e-9;  // times are whole microseconds
   auto usable = [&](size_t k) { return std::isfinite(a[k]) && table.Fresh(first, k, period); };
   for (size_t i = begin; i < end; ++i) {
     if (!std::isfinite(b[i]) || !table.Fresh(Stream::kReal, i, period)) continue;
-    const double taken = times[i] - table.Age(Stream::kReal, i);
-    const double at = start + (taken - start) / scale;  // on the first stream's clock
+    const double at = real_times[i - begin];  // on the first stream's clock
+    if (std::isnan(at)) continue;
     if (at < start - kSameTime || at > last + kSameTime) continue;
     // The first stream at `at`: its row there, or between the two rows around it.
     const auto after =
@@ -173,14 +182,7 @@ std::vector<int> JointsToAnalyse(const RunTable& table, const AnalysisOptions& o
 
 // Move boundaries: rows where a known move_id differs from the previous known one.
 std::vector<size_t> MoveStarts(const RunTable& table, bool last_move_only) {
-  std::vector<size_t> starts;
-  int64_t current = -2;
-  for (size_t i = 0; i < table.rows(); ++i) {
-    const int64_t id = table.move_id[i];
-    if (id < 0) continue;
-    if (current != -2 && id != current) starts.push_back(i);
-    current = id;
-  }
+  std::vector<size_t> starts = table.MoveStarts();
   if (last_move_only && starts.size() > 1) starts.erase(starts.begin(), starts.end() - 1);
   return starts;
 }

@@ -52,12 +52,13 @@ struct PairPoint {
 };
 // The pair's errors over the move of rows [begin, end) for joint j, compared per move from the
 // move's own start. Set-point vs virtual: row by row (PairError). Pairs with the real arm: each
-// real sample taken within its row's period, at time t (row time minus its age), is compared with
-// the first stream at time S + (t - S) / r after the move's start S, where r is the table's
-// RealClockScale() (the real-time factor): the real arm runs on the wall clock, so when the sim
-// slips (r < 1) its motion is compressed on the sim-time axis, and this undoes that. The first
-// stream is interpolated between its rows there; samples whose time falls past the move's last
-// row are left out. With r = 1 and samples on the rows this is PairError row by row.
+// real sample taken within its row's period is compared with the first stream at the time it has
+// on the real arm's own clock since the move's start S (RunTable::RealSampleTimes: S + (W - W0),
+// its stamp W against the real arm's clock W0 at S; in files without stamps S + (t - S) / r, r the
+// file's real-time factor). The real arm runs on the wall clock, so when the sim slips its motion
+// is compressed on the sim-time axis, by as much as the sim slipped at each moment; this undoes
+// that. The first stream is interpolated between its rows there; samples whose time falls past
+// the move's last row are left out. With a sim that kept pace this is PairError row by row.
 std::vector<PairPoint> PairErrors(const RunTable& table, Pair pair, size_t j, size_t begin,
                                   size_t end, double period);
 
@@ -71,7 +72,7 @@ struct PairMetrics {
   bool has() const { return transient_samples + steady_samples > 0; }
 };
 
-// Times of the real stream are on its own clock (divided by RunTable::RealClockScale()).
+// Times of the real stream are on its own clock from the move's start (RunTable::RealSampleTimes).
 struct StreamResponse {
   int64_t samples = 0;
   double start_delay_s = 0;  // NaN: never moved start_threshold

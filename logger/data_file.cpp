@@ -3,6 +3,7 @@
 #include <fcntl.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <cerrno>
 #include <charconv>
 #include <cmath>
@@ -11,6 +12,7 @@
 #include <fstream>
 #include <limits>
 #include <map>
+#include <optional>
 #include <sstream>
 #include <stdexcept>
 #include <utility>
@@ -76,7 +78,18 @@ std::string Trim(const std::string& text) {
 
 // What a column of a data file holds.
 struct ColumnRole {
-  enum Kind { kTime, kPosition, kVelocity, kEffort, kMoveId, kDone, kLost, kAge } kind = kTime;
+  enum Kind {
+    kTime,
+    kPosition,
+    kVelocity,
+    kEffort,
+    kMoveId,
+    kDone,
+    kLost,
+    kAge,
+    kRealClock,
+    kSetRecv
+  } kind = kTime;
   int joint = -1;  // 0-based
   int stream = -1;
 };
@@ -98,6 +111,8 @@ std::vector<std::string> ColumnLayout::Names() const {
   for (size_t j = 0; j < n; ++j) names.push_back("j" + std::to_string(j + 1) + "_done");
   for (Stream stream : kAllStreams) names.push_back(std::string(StreamKey(stream)) + "_lost");
   for (Stream stream : kAllStreams) names.push_back(std::string(StreamKey(stream)) + "_age_us");
+  names.push_back("real_clock_us");
+  names.push_back("set_recv_us");
   if (velocities) {
     for (size_t j = 0; j < n; ++j) {
       for (Stream stream : kAllStreams) {
@@ -144,6 +159,11 @@ void ColumnLayout::AppendRow(const Row& row, std::string& out) const {
     out += ',';
     if (row.cell[s] != nullptr) AppendInt(out, row.age_us[s]);
   }
+  out += ',';
+  const Sample* real = row.cell[static_cast<size_t>(Stream::kReal)];
+  if (real != nullptr) AppendInt(out, real->utime);
+  out += ',';
+  if (set != nullptr && set->recv_utime > 0) AppendInt(out, set->recv_utime);
   if (velocities) {
     for (size_t j = 0; j < n; ++j) {
       for (size_t s = 0; s < kNumStreams; ++s) {
@@ -176,6 +196,8 @@ void RunTable::Reset(const std::vector<JointInfo>& joint_list) {
   move_id.clear();
   done.assign(joints.size(), {});
   for (std::vector<double>& ages : age_s) ages.clear();
+  real_clock_us.clear();
+  set_recv_us.clear();
   lost = {};
   lost_at_start = {};
   cells = {};
@@ -197,6 +219,9 @@ void RunTable::Append(const Row& row) {
     if (row.cell[s] != nullptr) ++cells[s];
     age_s[s].push_back(row.cell[s] != nullptr ? static_cast<double>(row.age_us[s]) * 1e-6 : kNaN);
   }
+  const Sample* real = row.cell[static_cast<size_t>(Stream::kReal)];
+  real_clock_us.push_back(real != nullptr ? real->utime : kNoClock);
+  set_recv_us.push_back(set != nullptr && set->recv_utime > 0 ? set->recv_utime : kNoClock);
   if (time_s.size() == 1) lost_at_start = row.lost;
   lost = row.lost;
 }
@@ -204,6 +229,84 @@ void RunTable::Append(const Row& row) {
 double RunTable::RealClockScale() const {
   if (real_on_sim_clock || !std::isfinite(realtime_factor) || !(realtime_factor > 0)) return 1.0;
   return realtime_factor;
+}
+
+namespace {
+
+// The real arm's clock (us) at time `at` on the axis, from the stamped real samples of the rows
+// around `row` (their axis time, row time minus age, against their stamps): interpolated between
+// the last taken at or before `at` and the first after it, else carried from the nearest one at
+// the file's factor. nullopt without stamped samples.
+std::optional<double> RealClockAt(const RunTable& table, size_t row, double at) {
+  const size_t n = table.rows();
+  auto taken = [&](size_t k) { return table.time_s[k] - table.Age(Stream::kReal, k); };
+  auto stamped = [&](size_t k) { return table.real_clock_us[k] != kNoClock; };
+  std::optional<size_t> before, after;
+  for (size_t k = row; k < n && !after; ++k) {
+    if (!stamped(k)) continue;
+    if (taken(k) <= at) {
+      before = k;
+    } else {
+      after = k;
+    }
+  }
+  for (size_t k = row; !before && k-- > 0;) {
+    if (stamped(k) && taken(k) <= at) before = k;
+  }
+  if (!before && !after) return std::nullopt;
+  const size_t a = before ? *before : *after;
+  const double base = static_cast<double>(table.real_clock_us[a]);
+  double clock = base + (at - taken(a)) * 1e6 / table.RealClockScale();
+  if (before && after) {
+    const double span_axis = taken(*after) - taken(a);
+    const auto span_clock =
+        static_cast<double>(table.real_clock_us[*after] - table.real_clock_us[a]);
+    clock = base + (at - taken(a)) / span_axis * span_clock;
+  }
+  // The set-point's receive time at `row`, when `at` is that row's time: the wall clock when the
+  // sim was there, measured rather than estimated; used when the real arm's stamps are on the
+  // same clock (the aligner's rule: within 1 s).
+  constexpr double kSameClockUs = 1e6;
+  if (table.set_recv_us.size() == n && table.set_recv_us[row] != kNoClock &&
+      std::abs(table.time_s[row] - at) < 1e-9) {
+    const auto received = static_cast<double>(table.set_recv_us[row]);
+    if (std::abs(received - clock) < kSameClockUs) return received;
+  }
+  return clock;
+}
+
+}  // namespace
+
+std::vector<double> RunTable::RealSampleTimes(size_t anchor, size_t begin, size_t end) const {
+  end = std::min(end, rows());
+  std::vector<double> times(end > begin ? end - begin : 0, kNaN);
+  if (times.empty() || anchor >= rows()) return times;
+  const double start = time_s[anchor];
+  const bool have_clock = real_clock_us.size() == rows();
+  const std::optional<double> clock_at_start =
+      have_clock ? RealClockAt(*this, anchor, start) : std::nullopt;
+  const double scale = RealClockScale();
+  for (size_t i = begin; i < end; ++i) {
+    if (clock_at_start && real_clock_us[i] != kNoClock) {
+      times[i - begin] = start + (static_cast<double>(real_clock_us[i]) - *clock_at_start) * 1e-6;
+    } else if (!joints.empty() &&
+               std::isfinite(position[0][static_cast<size_t>(Stream::kReal)][i])) {
+      times[i - begin] = start + (time_s[i] - Age(Stream::kReal, i) - start) / scale;
+    }
+  }
+  return times;
+}
+
+std::vector<size_t> RunTable::MoveStarts() const {
+  std::vector<size_t> starts;
+  int64_t current = -2;
+  for (size_t i = 0; i < rows(); ++i) {
+    const int64_t id = move_id[i];
+    if (id < 0) continue;
+    if (current != -2 && id != current) starts.push_back(i);
+    current = id;
+  }
+  return starts;
 }
 
 double RunTable::period_s() const {
@@ -367,9 +470,10 @@ class FileReader {
       lines.text.push_back(text.substr(start, end - start));
       start = end + 1;
     }
-    if (lines.text[0].rfind(kFileMagic, 0) != 0) {
+    if (lines.text[0].rfind(kFileMagic, 0) != 0 && lines.text[0].rfind(kFileMagicFormat1, 0) != 0) {
       Fail(1, "not a sirupp-logger data file: the first line must start with '" +
-                  std::string(kFileMagic) + "' (an LCM log starts with the sync word 0xEDA1DA01)");
+                  std::string(kFileMagic) +
+                  "' (or format 1) (an LCM log starts with the sync word 0xEDA1DA01)");
     }
     return lines;
   }
@@ -480,6 +584,8 @@ class FileReader {
       seen[name] = static_cast<int>(c);
       if (c == 0 && name != "time_s") Fail(line, where + ": the first column must be time_s");
       roles_.push_back(c == 0 ? ColumnRole{} : RoleOf(line, where, name));
+      has_clock_column_ |= roles_.back().kind == ColumnRole::kRealClock;
+      has_recv_column_ |= roles_.back().kind == ColumnRole::kSetRecv;
       names_.push_back(name);
     }
     const int n = static_cast<int>(table_.joints.size());
@@ -508,6 +614,10 @@ class FileReader {
       role.stream = StreamIndex(name.substr(0, name.size() - 7));
       if (role.stream < 0)
         Fail(line, where + ": unknown; allowed set_age_us, virt_age_us, real_age_us");
+    } else if (name == "real_clock_us") {
+      role.kind = ColumnRole::kRealClock;
+    } else if (name == "set_recv_us") {
+      role.kind = ColumnRole::kSetRecv;
     } else if (name.size() > 1 && name[0] == 'j') {
       role = JointRoleOf(line, where, name);
     } else {
@@ -575,6 +685,8 @@ class FileReader {
     std::vector<int8_t> row_done(table_.joints.size(), -1);
     std::array<int64_t, kNumStreams> row_lost = table_.lost;
     std::array<double, kNumStreams> row_age = {kNaN, kNaN, kNaN};
+    int64_t row_clock = kNoClock;
+    int64_t row_recv = kNoClock;
     double time = kNaN;
     for (size_t c = 0; c < fields.size(); ++c) {
       const std::string& field = fields[c];
@@ -585,7 +697,8 @@ class FileReader {
         continue;
       }
       if (role.kind == ColumnRole::kMoveId || role.kind == ColumnRole::kDone ||
-          role.kind == ColumnRole::kLost || role.kind == ColumnRole::kAge) {
+          role.kind == ColumnRole::kLost || role.kind == ColumnRole::kAge ||
+          role.kind == ColumnRole::kRealClock || role.kind == ColumnRole::kSetRecv) {
         int64_t value = 0;
         const auto result = std::from_chars(field.data(), field.data() + field.size(), value);
         const int64_t low = role.kind == ColumnRole::kMoveId ? -1 : 0;
@@ -605,6 +718,8 @@ class FileReader {
         if (role.kind == ColumnRole::kAge) {
           row_age[static_cast<size_t>(role.stream)] = static_cast<double>(value) * 1e-6;
         }
+        if (role.kind == ColumnRole::kRealClock) row_clock = value;
+        if (role.kind == ColumnRole::kSetRecv) row_recv = value;
         continue;
       }
       double value = 0;
@@ -635,6 +750,8 @@ class FileReader {
       table_.done[j].push_back(row_done[j]);
     }
     for (size_t s = 0; s < kNumStreams; ++s) table_.age_s[s].push_back(row_age[s]);
+    if (has_clock_column_) table_.real_clock_us.push_back(row_clock);
+    if (has_recv_column_) table_.set_recv_us.push_back(row_recv);
     if (table_.time_s.size() == 1) table_.lost_at_start = row_lost;
     table_.lost = row_lost;
   }
@@ -642,11 +759,13 @@ class FileReader {
   static constexpr const char* kAllowed =
       "; allowed: time_s, jN_{set,virt,real}_{deg|mm}, jN_{set,virt,real}_vel_{dps|mmps}, "
       "jN_{set,virt,real}_effort_{nm|n}, move_id, jN_done, {set,virt,real}_lost, "
-      "{set,virt,real}_age_us";
+      "{set,virt,real}_age_us, real_clock_us, set_recv_us";
 
   std::string path_;
   RunTable table_;
-  double factor_so_far_ = kNaN;  // from the header, used when no later line gives the factor
+  double factor_so_far_ = kNaN;    // from the header, used when no later line gives the factor
+  bool has_clock_column_ = false;  // real_clock_us (format 2)
+  bool has_recv_column_ = false;   // set_recv_us (format 2)
   std::vector<ColumnRole> roles_;
   std::vector<std::string> names_;
 };

@@ -1,9 +1,10 @@
 #pragma once
 // The paper's data file: CSV with a commented header (docs/logging.md, "Data files").
 //
-//   # sirupp-logger data file, format 1; the column line is line 14
+//   # sirupp-logger data file, format 2; the column line is line 14
 //   # model: ...                        (one "# key: value" line each: model, joints, plan, ...)
-//   time_s,j1_set_deg,j1_virt_deg,j1_real_deg,...,move_id,j1_done,...,set_lost,...,real_age_us
+//   time_s,j1_set_deg,j1_virt_deg,j1_real_deg,...,move_id,j1_done,...,set_lost,...,real_age_us,
+//   real_clock_us,set_recv_us
 //   12.345216,45.12345,45.01234,,...
 //   # end: 2048 rows, ...               (written on a clean close only)
 //
@@ -23,7 +24,11 @@
 
 namespace sirupp::logger {
 
-inline constexpr const char* kFileMagic = "# sirupp-logger data file, format 1";
+// Format 2 added the real_clock_us and set_recv_us columns; format 1 files are still read.
+inline constexpr const char* kFileMagic = "# sirupp-logger data file, format 2";
+inline constexpr const char* kFileMagicFormat1 = "# sirupp-logger data file, format 1";
+// real_clock_us of a row whose real cell is empty (or of a file without the column).
+inline constexpr int64_t kNoClock = std::numeric_limits<int64_t>::min();
 
 struct JointInfo {
   std::string name;  // e.g. "waist"; may be empty
@@ -64,6 +69,14 @@ struct RunTable {
   // a real arm polled at 100 Hz holds each sample for about 20 rows of 0.512 ms). NaN: empty cell,
   // or a file without age columns.
   std::array<std::vector<double>, kNumStreams> age_s;
+  // Per row: the real cell's sample's own stamp, in microseconds on the real arm's clock (the wall
+  // clock for a real or emulated arm; the real_clock_us column); kNoClock for an empty cell. Empty
+  // (not one entry per row) for a file without the column (format 1).
+  std::vector<int64_t> real_clock_us;
+  // Per row: when the logger received the row's set-point sample, microseconds on its wall clock
+  // (the set_recv_us column): the wall clock when the sim was at the row's time; kNoClock for an
+  // empty cell or one without a receive time. Empty for a file without the column.
+  std::vector<int64_t> set_recv_us;
   bool closed = false;             // the writer's "# end" line is there
   std::string continues;           // header "continues:": the file a restarted logger continued
   std::vector<std::string> gains;  // the "# gains: ..." lines among the rows, without "# "
@@ -73,10 +86,26 @@ struct RunTable {
   // The real-arm stream is on the sim clock (a second sim standing in for the arm), not the wall
   // clock: no real-time factor applies to it.
   bool real_on_sim_clock = false;
-  // How much faster the real arm's own clock runs than the time axis: the real-time factor's
-  // inverse applies to its times (1 when the factor is unknown or the real arm is on the sim
-  // clock). Virtual and real are compared per move on their own clocks (logger/analysis.hpp).
+  // The file-wide real-time factor as the real arm's clock scale (1 when the factor is unknown or
+  // the real arm is on the sim clock): what RealSampleTimes falls back to without stamps.
   double RealClockScale() const;
+  // The real arm on its own clock, per move (docs/logging.md, "Definitions"). For each row of
+  // [begin, end): the time on the axis at which its real sample was taken, counted on the real
+  // arm's own clock from row `anchor` (a move's first row, at S = time_s[anchor]): S + (W - W0),
+  // W the sample's stamp (real_clock_us), W0 the real arm's clock at S: when the logger received
+  // the set-point sample of row `anchor` (set_recv_us), if the real arm's stamps are on the same
+  // clock (within 1 s, as the aligner takes them); else, or without it, interpolated between the
+  // stamped samples around S (their time on the axis, row time minus age, against their stamps:
+  // the sim clock's offsets the logger placed them by, which can be 0.1 s off when the sim runs in
+  // bursts). However much and however unevenly the sim slipped behind the wall clock after S, the
+  // real motion keeps its own timing. Rows without a
+  // stamp (format 1 files) use the file-wide factor instead: S + (t - S) / RealClockScale(), t the
+  // row time minus the age. NaN where the real cell is empty. analysis.cpp (PairErrors, the
+  // responses), report.cpp's plots and lab/identify.cpp place real samples with this.
+  std::vector<double> RealSampleTimes(size_t anchor, size_t begin, size_t end) const;
+  // The rows where a move starts: a known move_id (>= 0) that differs from the previous known one.
+  // The move in progress at the first row has no start here (its start is not in the data).
+  std::vector<size_t> MoveStarts() const;
   // Messages missing on stream s between the first and the last row of this table.
   int64_t LostInSet(size_t s) const { return lost[s] - lost_at_start[s]; }
   std::vector<std::string> notes;  // warnings worth showing with the report

@@ -820,7 +820,10 @@ std::vector<std::string> LoggerNode::HeaderLines(const Row& row) const {
       "units: positions in deg (mm for prismatic joints); jN_done 1 = the joint's set-point "
       "profile has finished; *_lost = messages missing so far (sequence gaps, logger overflow); "
       "*_age_us = how old the cell's sample is at the row time (a real arm polled at 100 Hz "
-      "repeats each sample until the next)");
+      "repeats each sample until the next); real_clock_us = the real cell's sample's own stamp "
+      "(us on the real arm's clock, the wall clock for a real or emulated arm); set_recv_us = when "
+      "the "
+      "logger received the row's set-point sample (us, wall clock)");
   std::string config;
   for (const std::string& line : lines) config += line + "\n";
   lines.push_back("config hash: fnv1a " + core::Fnv1aHex(config) + " (of the lines above)");

@@ -187,12 +187,25 @@ std::vector<std::string> DistinctLabels(const std::vector<RunTable>& tables) {
   return keys;
 }
 
+// How the real arm's samples are timed (RunTable::RealSampleTimes).
+std::string RealClockSource(const RunTable& table) {
+  if (table.cells[static_cast<size_t>(Stream::kReal)] == 0) return "-";
+  if (table.real_on_sim_clock) return "sim clock";
+  if (table.real_clock_us.size() == table.rows() &&
+      std::any_of(table.real_clock_us.begin(), table.real_clock_us.end(),
+                  [](int64_t stamp) { return stamp != kNoClock; })) {
+    return "own stamps";
+  }
+  return std::isfinite(table.realtime_factor) ? "file's factor" : "sim axis";
+}
+
 std::string InputsSection(const std::vector<RunTable>& tables,
                           const std::vector<std::string>& keys) {
   std::string md = "## Inputs\n\n";
   md +=
       "| input | set | rows | time_s (s) | set-point / virtual / real samples | lost in the set "
-      "(set / virt / real) | closed | real-time factor |\n|---|---|---|---|---|---|---|---|\n";
+      "(set / virt / real) | closed | real-time factor | real arm timed by |\n"
+      "|---|---|---|---|---|---|---|---|---|\n";
   for (size_t t = 0; t < tables.size(); ++t) {
     const RunTable& table = tables[t];
     md += "| `" + table.source + "` | " + keys[t] + " | " + std::to_string(table.rows()) + " | " +
@@ -201,13 +214,18 @@ std::string InputsSection(const std::vector<RunTable>& tables,
           std::to_string(table.cells[2]) + " | " + std::to_string(table.LostInSet(0)) + " / " +
           std::to_string(table.LostInSet(1)) + " / " + std::to_string(table.LostInSet(2)) + " | " +
           (table.closed ? "yes" : "no") + " | " +
-          (std::isfinite(table.realtime_factor) ? Fixed(table.realtime_factor, 3) : "-") + " |\n";
+          (std::isfinite(table.realtime_factor) ? Fixed(table.realtime_factor, 3) : "-") + " | " +
+          RealClockSource(table) + " |\n";
   }
   md +=
       "\nReal-time factor: sim time over wall time while the set was logged (1: the sim kept "
       "pace with the wall clock; below 1: it slipped). The real arm runs on the wall clock, so "
       "it is compared with the set-point and the virtual arm per move, from each move's own "
-      "start, on its own clock: slipped sim time does not show as error.\n";
+      "start, on its own clock: slipped sim time does not show as error. Real arm timed by: "
+      "\"own stamps\" (each sample's wall-clock stamp, real_clock_us, counted from the move's "
+      "start: exact however the slip varied), \"file's factor\" (files before format 2: the "
+      "set's one real-time factor, exact only if the slip was steady), \"sim clock\" (a second "
+      "sim as the real arm), \"sim axis\" (no factor known).\n";
   return md;
 }
 
@@ -378,11 +396,14 @@ MovePlots PlotsOf(const MoveRows& row) {
     if (!move.streams[s].has()) continue;
     PlotSeries series{StreamTitle(stream), {}, {}, kStreamColors[s]};
     // The real arm on its own clock from the move's start (see PairErrors).
-    const double scale = stream == Stream::kReal ? table.RealClockScale() : 1.0;
+    const std::vector<double> real_times =
+        stream == Stream::kReal ? table.RealSampleTimes(move.begin, first_row, move.end)
+                                : std::vector<double>{};
     for (size_t i = first_row; i < move.end; ++i) {
       if (!std::isfinite(table.position[j][s][i]) || !table.Fresh(stream, i, period)) continue;
-      AddPoint(series, (table.time_s[i] - table.Age(stream, i) - move.start_s) / scale,
-               table.position[j][s][i]);
+      const double taken = stream == Stream::kReal ? real_times[i - first_row]
+                                                   : table.time_s[i] - table.Age(stream, i);
+      if (std::isfinite(taken)) AddPoint(series, taken - move.start_s, table.position[j][s][i]);
     }
     angle.series.push_back(std::move(series));
   }

@@ -513,6 +513,13 @@ TEST(LoggerNode, WritesOneFilePerMovementSetWithTheGapsCounted) {
   EXPECT_EQ(set1.move_id.back(), 1);
   EXPECT_EQ(set1.lost[1], 3);
   EXPECT_EQ(set1.cells[2], 0);  // no real arm: its column stays empty
+  // Each row's set-point sample with the wall-clock time the logger received it (set_recv_us: when
+  // the sim was at that row, for the report's timing of a real arm), in the order received.
+  ASSERT_EQ(set1.set_recv_us.size(), set1.rows());
+  EXPECT_TRUE(std::is_sorted(set1.set_recv_us.begin(), set1.set_recv_us.end()));
+  EXPECT_GT(set1.set_recv_us.front(), 1'500'000'000'000'000);  // after 2017: the wall clock
+  EXPECT_TRUE(std::all_of(set1.real_clock_us.begin(), set1.real_clock_us.end(),
+                          [](int64_t stamp) { return stamp == kNoClock; }));
   std::ifstream in(stats.files[1]);
   std::stringstream text;
   text << in.rdbuf();
@@ -584,11 +591,14 @@ TEST(LoggerNode, OnUdpmEveryPerTickMessageOfBurstsIsLoggedOnceInOrder) {
   }
 }
 
-TEST(LoggerNode, TakesTheRealArmWhenItIsThereAndRefusesWrongJointCounts) {
+// The real arm's cells carry its own stamps (real_clock_us, format 2), so the report can time its
+// motion on its own clock (docs/logging.md, "Definitions").
+TEST(LoggerNode, TakesTheRealArmWhenItIsThereWithItsStampsAndRefusesWrongJointCounts) {
   LoggerRig rig;
   LoggerOptions options = rig.Options();
   options.split_per_plan = false;
   LoggerNode node(rig.bus, rig.model, options);
+  std::vector<int64_t> stamps;
   for (int64_t tick = 0; tick < 400; ++tick) {
     rig.bus.Publish("SIM_ARM_STATE", ArmState(tick, tick, 1.0));
     if (tick % 4 == 0) {  // a real arm at a quarter of the rate, stamped with the wall clock
@@ -599,6 +609,7 @@ TEST(LoggerNode, TakesTheRealArmWhenItIsThereAndRefusesWrongJointCounts) {
       real.utime = std::chrono::duration_cast<std::chrono::microseconds>(
                        std::chrono::system_clock::now().time_since_epoch())
                        .count();
+      stamps.push_back(real.utime);
       rig.bus.Publish("REAL_ARM_STATE", real);
     }
     rig.bus.HandleAvailable();
@@ -624,10 +635,29 @@ TEST(LoggerNode, TakesTheRealArmWhenItIsThereAndRefusesWrongJointCounts) {
   EXPECT_GT(table.cells[2], 300);  // real samples held for up to 10 ms between their arrivals
   EXPECT_EQ(stats.samples[2], 100);
   EXPECT_NEAR(table.position[0][2].back(), 3.0, 1e-5);
+  // Every row with a real cell has that sample's stamp, one the bridge sent; rows without one have
+  // none.
+  ASSERT_EQ(table.real_clock_us.size(), table.rows());
+  std::vector<int64_t> written;
+  for (size_t i = 0; i < table.rows(); ++i) {
+    SCOPED_TRACE(i);
+    const int64_t stamp = table.real_clock_us[i];
+    EXPECT_EQ(std::isnan(table.position[0][2][i]), stamp == kNoClock);
+    if (stamp == kNoClock) continue;
+    EXPECT_NE(std::find(stamps.begin(), stamps.end(), stamp), stamps.end());
+    if (written.empty() || stamp != written.back()) written.push_back(stamp);
+  }
+  EXPECT_GT(written.size(), 50u);
+  // No set-point stream here: no set-point receive times either.
+  ASSERT_EQ(table.set_recv_us.size(), table.rows());
+  EXPECT_TRUE(std::all_of(table.set_recv_us.begin(), table.set_recv_us.end(),
+                          [](int64_t recv) { return recv == kNoClock; }));
   std::ifstream in(stats.files[0]);
   std::stringstream text;
   text << in.rdbuf();
   EXPECT_NE(text.str().find("real arm: emulated"), std::string::npos);
+  EXPECT_NE(text.str().find(",real_age_us,real_clock_us,set_recv_us\n"), std::string::npos);
+  EXPECT_EQ(text.str().rfind(kFileMagic, 0), 0u);
 }
 
 // Malformed traffic (a flood, a broken publisher): a NaN or infinite value, or a controller

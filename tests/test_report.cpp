@@ -11,6 +11,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <opencv2/imgcodecs.hpp>
 #include <sirupp/arm_state_t.hpp>
 #include <sirupp/controller_status_t.hpp>
@@ -512,13 +513,17 @@ TEST(SlippedSimTime, ASimAtHalfSpeedGivesTheErrorsOfOneAtFullSpeed) {
 // stamped on sim time and received on the wall clock, the real arm stamped on the wall clock),
 // aligned by the aligner, which follows the slipping sim clock, with the real-time factor taken
 // from the log; the report prints it.
-void WriteSlippedLog(const std::string& path, double factor) {
+// `wall_s_of_sim`: the wall clock (s since sim time 0) when the sim was at a time; `virtual_arm`:
+// the virtual arm's joint 1 (deg) at a sim time since the move's start; `real_arm`: the real arm's
+// at a wall time since the move's start.
+void WriteSlippedLog(const std::string& path, const std::function<double(double)>& wall_s_of_sim,
+                     const std::function<double(double)>& virtual_arm,
+                     const std::function<double(double)>& real_arm, double start) {
   lcm_eventlog_t* log = lcm_eventlog_create(path.c_str(), "w");
   ASSERT_NE(log, nullptr);
   const int64_t wall0 = 1'700'000'000'000'000;
-  const double start = 2930 * 512e-6;  // sim time of the move's start: a tick
   const auto wall_of_sim = [&](double sim_s) {
-    return wall0 + static_cast<int64_t>(std::llround(sim_s / factor * 1e6));
+    return wall0 + static_cast<int64_t>(std::llround(wall_s_of_sim(sim_s) * 1e6));
   };
   const double wall_start = (wall_of_sim(start) - wall0) * 1e-6;
   const int64_t ticks = static_cast<int64_t>(std::llround((start + 2.0) / 512e-6));
@@ -529,7 +534,7 @@ void WriteSlippedLog(const std::string& path, double factor) {
     // The real arm's polls up to now (wall clock), each received 2 ms after it was taken.
     while (wall0 + poll * 10000 <= wall) {
       const int64_t taken = wall0 + poll * 10000;
-      sirupp::arm_state_t real = State(poll, RealArm((taken - wall0) * 1e-6 - wall_start));
+      sirupp::arm_state_t real = State(poll, real_arm((taken - wall0) * 1e-6 - wall_start));
       real.utime = taken;
       real.source = sirupp::arm_state_t::SOURCE_EMULATED;
       WriteEvent(log, "REAL_ARM_STATE", real, taken + 2000);
@@ -537,11 +542,15 @@ void WriteSlippedLog(const std::string& path, double factor) {
     }
     const double tau = sim - start;
     const int64_t move = sim < start - 1e-9 ? 1 : 2;
-    WriteEvent(log, "SIM_ARM_STATE", State(tick, Virtual(tau)), wall + 1000);
+    WriteEvent(log, "SIM_ARM_STATE", State(tick, virtual_arm(tau)), wall + 1000);
     WriteEvent(log, "ARM_SETPOINT",
                SetpointAt(tick, move, Profile(tau), move == 1 || tau >= 1.0 - 1e-9), wall + 1000);
   }
   lcm_eventlog_destroy(log);
+}
+void WriteSlippedLog(const std::string& path, double factor) {
+  WriteSlippedLog(
+      path, [factor](double sim_s) { return sim_s / factor; }, Virtual, RealArm, 2930 * 512e-6);
 }
 
 TEST(SlippedSimTime, TheLoggersPathGivesTheSameErrorsAndPrintsTheFactor) {
@@ -564,6 +573,223 @@ TEST(SlippedSimTime, TheLoggersPathGivesTheSameErrorsAndPrintsTheFactor) {
   const ReportOutput output = WriteReport(half, options);
   EXPECT_NE(output.markdown.find("| closed | real-time factor |"), std::string::npos);
   EXPECT_NE(output.markdown.find("| yes | 0.500 |"), std::string::npos) << output.markdown;
+}
+
+// ---- A sim that slips unevenly within a move
+// -----------------------------------------------------
+
+// The sim's pace against the wall clock changes in the middle of the move: 0.4 until 0.5 s of wall
+// clock after the move's start, 1.0 after it (a loaded machine whose load went away).
+constexpr double kUnevenStart = 977 * 512e-6;  // sim time of the move's start: a tick
+constexpr double kSlowPace = 0.4;
+constexpr double kSlowWallAfterStart = 0.5;        // wall seconds at the slow pace after the start
+constexpr int64_t kWall0 = 1'700'000'000'000'000;  // the wall clock (us) at sim time 0
+// Wall seconds since sim time 0 when the sim was at sim_s.
+double UnevenWall(double sim_s) {
+  const double change = kUnevenStart + kSlowWallAfterStart * kSlowPace;  // sim time of the change
+  return sim_s <= change ? sim_s / kSlowPace : change / kSlowPace + (sim_s - change);
+}
+double UnevenSim(double wall_s) {
+  const double change_wall = kUnevenStart / kSlowPace + kSlowWallAfterStart;
+  return wall_s <= change_wall ? wall_s * kSlowPace
+                               : change_wall * kSlowPace + (wall_s - change_wall);
+}
+
+// What a logger records: rows every 0.512 ms of sim time from 0 to 2 s after the move's start;
+// the set-point and the virtual arm (which follows it exactly) on the rows; a real arm polled every
+// 10 ms of wall clock that follows the set-point exactly on its own clock (the same profile, in
+// wall time since the move's start), each sample placed on the axis where the sim was when it was
+// taken, with its wall-clock stamp (real_clock_us), and each set-point with the wall clock when it
+// was received (set_recv_us); the file's one real-time factor. `misplaced_s`: the logger's
+// estimate of the sim clock, by which it placed the real samples on the axis, runs this far ahead.
+RunTable UnevenlySlipped(double misplaced_s = 0) {
+  RunTable table;
+  table.source = "uneven";
+  table.label = "uneven";
+  table.Reset({{"waist", false}});
+  const double wall_start = UnevenWall(kUnevenStart);
+  int64_t next_poll = 0;
+  double held = NAN;
+  int64_t held_axis_us = 0, held_stamp = kNoClock;
+  for (int64_t i = 0; static_cast<double>(i) * 512e-6 <= kUnevenStart + 2.0 + 1e-9; ++i) {
+    const int64_t row_us = i * 512;
+    const double t = static_cast<double>(row_us) * 1e-6;
+    const double tau = t - kUnevenStart;
+    table.time_s.push_back(t);
+    table.move_id.push_back(tau < -1e-9 ? 1 : 2);
+    table.position[0][kSet].push_back(Profile(tau));
+    table.position[0][kVirt].push_back(Profile(tau));
+    table.done[0].push_back(tau >= 1.0 - 1e-9 || tau < -1e-9 ? 1 : 0);
+    while (true) {  // the polls taken up to this row's sim time
+      const double wall = 0.01 * static_cast<double>(next_poll);
+      const int64_t axis_us = std::llround(UnevenSim(wall + misplaced_s) * 1e6);
+      if (axis_us > row_us) break;
+      held = Profile(wall - wall_start);
+      held_axis_us = axis_us;
+      held_stamp = kWall0 + std::llround(wall * 1e6);
+      ++next_poll;
+    }
+    table.position[0][kReal].push_back(held);
+    for (size_t s = 0; s < 3; ++s) table.age_s[s].push_back(0.0);
+    table.age_s[kReal].back() =
+        std::isnan(held) ? NAN : static_cast<double>(row_us - held_axis_us) * 1e-6;
+    table.real_clock_us.push_back(std::isnan(held) ? kNoClock : held_stamp);
+    table.set_recv_us.push_back(kWall0 + std::llround(UnevenWall(t) * 1e6));
+  }
+  for (size_t s = 0; s < 3; ++s) {
+    table.cells[s] = std::count_if(table.position[0][s].begin(), table.position[0][s].end(),
+                                   [](double v) { return !std::isnan(v); });
+  }
+  table.realtime_factor = (kUnevenStart + 2.0) / UnevenWall(kUnevenStart + 2.0);
+  return table;
+}
+
+// The real arm and the set-point (and the virtual arm) on their own clocks agree exactly.
+void ExpectExactAgreement(const MoveResult& move, double tolerance) {
+  for (Pair pair : {Pair::kSetReal, Pair::kVirtReal}) {
+    SCOPED_TRACE(PairTitle(pair));
+    const PairMetrics& m = move.pairs[static_cast<size_t>(pair)];
+    EXPECT_GT(m.transient_samples, 50);
+    EXPECT_LT(m.mean_transient, tolerance);
+    EXPECT_LT(m.max, tolerance);
+  }
+  // Started and settled when the set-point did, within a poll (10 ms of wall clock).
+  EXPECT_NEAR(move.streams[kReal].start_delay_s, move.streams[kSet].start_delay_s, 0.0101);
+  EXPECT_NEAR(move.streams[kReal].settling_s, move.streams[kSet].settling_s, 0.0101);
+}
+
+// The sim slips at 0.4 of the wall clock, then keeps pace, within one move: with each real sample's
+// stamp the real arm, which follows the set-point exactly on its own clock, shows no error; with
+// the file's one real-time factor (all a format 1 file has) it shows one of many degrees, and the
+// start delay and settling time are wrong.
+TEST(UnevenSlip, TheRealArmsStampsGiveNoErrorWhereTheFilesOneFactorGivesDegrees) {
+  const RunTable table = UnevenlySlipped();
+  ASSERT_GT(table.realtime_factor, 0.6);
+  ASSERT_LT(table.realtime_factor, 0.8);
+  const MoveResult stamped = OnlyMove(Analyze(table, AnalysisOptions{}));
+  ExpectExactAgreement(stamped, 0.02);
+
+  // The logger's estimate of the sim clock (by which it placed the real samples on the axis) 0.1 s
+  // off at the move's start, as a sim running in bursts made it in a loaded demo: the set-point's
+  // receive time there still gives the real arm's clock at the start; without it (and only
+  // then) the estimate's error shows.
+  RunTable misplaced = UnevenlySlipped(0.1);
+  ExpectExactAgreement(OnlyMove(Analyze(misplaced, AnalysisOptions{})), 0.02);
+  misplaced.set_recv_us.clear();
+  EXPECT_GT(OnlyMove(Analyze(misplaced, AnalysisOptions{}))
+                .pairs[static_cast<size_t>(Pair::kVirtReal)]
+                .max,
+            1.0);
+
+  RunTable unstamped = table;
+  unstamped.real_clock_us.clear();
+  const MoveResult by_factor = OnlyMove(Analyze(unstamped, AnalysisOptions{}));
+  const PairMetrics& virt_real = by_factor.pairs[static_cast<size_t>(Pair::kVirtReal)];
+  EXPECT_GT(virt_real.max, 5.0);
+  EXPECT_GT(virt_real.mean_transient, 2.0);
+  // The real arm starts (0.5 deg) 67 ms after the move's start on its own clock, as the set-point;
+  // by the factor, 0.4 * 67 ms of sim time / 0.70 = 38 ms.
+  EXPECT_LT(by_factor.streams[kReal].start_delay_s, 0.7 * by_factor.streams[kSet].start_delay_s);
+  // Counted from the file's first row instead of the move's start (the first set-point is received
+  // with the first real sample).
+  const std::vector<double> times = table.RealSampleTimes(0, 0, table.rows());
+  const std::vector<double> factor_times = unstamped.RealSampleTimes(0, 0, table.rows());
+  ASSERT_EQ(times.size(), table.rows());
+  EXPECT_TRUE(std::isnan(times[0]) == std::isnan(table.position[0][kReal][0]));
+  const size_t last = table.rows() - 1;
+  // From the file's first row, 2.5 s of sim time span 3.55 s of wall clock: the stamps say so.
+  EXPECT_NEAR(times[last] - table.time_s[0], UnevenWall(table.time_s[last]), 0.0101);
+  EXPECT_NEAR(factor_times[last] - table.time_s[0],
+              (table.time_s[last] - table.Age(Stream::kReal, last)) / table.realtime_factor, 1e-9);
+}
+
+// The same through the logger's path: an LCM log of that run (the sim stamped on sim time and
+// received on the wall clock, the real arm stamped on the wall clock), aligned by the aligner into
+// a table with the stamps, and that table written to a data file and read back: no error. The
+// same file without its real_clock_us column (format 1) is still read, with the file's factor.
+TEST(UnevenSlip, TheLoggersPathKeepsTheStampsAndAFormatOneFileFallsBackToTheFactor) {
+  TempDir dir;
+  WriteSlippedLog(dir / "uneven.lcm", UnevenWall, Profile, Profile, kUnevenStart);
+  const std::vector<RunTable> tables = ImportLcmLog(dir / "uneven.lcm", ImportOptions{});
+  ASSERT_EQ(tables.size(), 1u);
+  const RunTable& imported = tables[0];
+  ASSERT_EQ(imported.real_clock_us.size(), imported.rows());
+  const MoveResult from_log = OnlyMove(Analyze(imported, AnalysisOptions{}));
+  // The sim samples arrived 1 ms after they were stamped: the anchor is off by that, 0.07 deg at
+  // the profile's top speed.
+  ExpectExactAgreement(from_log, 0.1);
+
+  // Written as the logger writes it, and read back.
+  const std::string path = dir / "uneven.csv";
+  {
+    ColumnLayout layout;
+    layout.joints = imported.joints;
+    std::string joints = "joints: " + std::to_string(layout.joints.size()) + ":";
+    for (size_t j = 0; j < layout.joints.size(); ++j) {
+      const std::string& name = layout.joints[j].name;
+      joints += (j ? "; j" : " j") + std::to_string(j + 1) + " " + (name.empty() ? "joint" : name) +
+                " deg";
+    }
+    DataFileWriter writer(path, {joints, "plan: set1.plan"}, layout);
+    for (size_t i = 0; i < imported.rows(); ++i) {
+      std::array<Sample, kNumStreams> samples;
+      Row row;
+      row.time_us = std::llround(imported.time_s[i] * 1e6);
+      for (size_t s = 0; s < kNumStreams; ++s) {
+        if (std::isnan(imported.position[0][s][i])) continue;
+        for (size_t j = 0; j < layout.joints.size(); ++j) {
+          samples[s].position.push_back(imported.position[j][s][i] * kDeg);
+        }
+        samples[s].move_id = imported.move_id[i];
+        samples[s].done = {imported.done[0][i]};
+        row.cell[s] = &samples[s];
+        row.age_us[s] = std::llround(imported.age_s[s][i] * 1e6);
+      }
+      samples[kReal].utime = imported.real_clock_us[i];
+      samples[kSet].recv_utime = imported.set_recv_us[i] == kNoClock ? 0 : imported.set_recv_us[i];
+      writer.Append(row);
+    }
+    writer.AppendComment("real-time factor: " + std::to_string(imported.realtime_factor) +
+                         " (sim and wall), this file");
+    writer.Close(std::to_string(imported.rows()) + " rows");
+  }
+  const RunTable read = ReadDataFile(path);
+  ASSERT_EQ(read.real_clock_us, imported.real_clock_us);
+  ASSERT_EQ(read.set_recv_us, imported.set_recv_us);
+  ExpectExactAgreement(OnlyMove(Analyze(read, AnalysisOptions{})), 0.1);
+
+  // The same file as format 1: without the two columns, and with the older magic line.
+  std::ifstream in(path);
+  std::string line, text;
+  while (std::getline(in, line)) {
+    if (line.rfind(kFileMagic, 0) == 0) {
+      line.replace(0, std::string(kFileMagic).size(), kFileMagicFormat1);
+    } else if (!line.empty() && line[0] != '#') {
+      line.erase(line.rfind(','));  // set_recv_us and real_clock_us are the last columns
+      line.erase(line.rfind(','));
+    }
+    text += line + "\n";
+  }
+  in.close();
+  ASSERT_EQ(text.find("real_clock_us"), std::string::npos);
+  ASSERT_EQ(text.find("set_recv_us"), std::string::npos);
+  const std::string old_path = dir / "uneven-format1.csv";
+  std::ofstream(old_path) << text;
+  const RunTable old = ReadDataFile(old_path);
+  EXPECT_TRUE(old.real_clock_us.empty());
+  EXPECT_TRUE(old.set_recv_us.empty());
+  EXPECT_NEAR(old.realtime_factor, imported.realtime_factor, 1e-5);
+  const MoveResult by_factor = OnlyMove(Analyze(old, AnalysisOptions{}));
+  RunTable unstamped = read;
+  unstamped.real_clock_us.clear();
+  ExpectSameErrors(by_factor, OnlyMove(Analyze(unstamped, AnalysisOptions{})), 1e-9);
+  EXPECT_GT(by_factor.pairs[static_cast<size_t>(Pair::kVirtReal)].max, 5.0);
+  // The report says how the real arm was timed.
+  ReportOptions options;
+  options.out_dir = dir / "report";
+  options.plots = false;
+  EXPECT_NE(WriteReport({read}, options).markdown.find("| own stamps |"), std::string::npos);
+  EXPECT_NE(WriteReport({old}, options).markdown.find("| file's factor |"), std::string::npos);
 }
 
 // ---- The paper's set VII, closed loop
