@@ -822,8 +822,7 @@ std::vector<std::string> LoggerNode::HeaderLines(const Row& row) const {
       "*_age_us = how old the cell's sample is at the row time (a real arm polled at 100 Hz "
       "repeats each sample until the next); real_clock_us = the real cell's sample's own stamp "
       "(us on the real arm's clock, the wall clock for a real or emulated arm); set_recv_us = when "
-      "the "
-      "logger received the row's set-point sample (us, wall clock)");
+      "the logger received the row's set-point sample (us, wall clock)");
   std::string config;
   for (const std::string& line : lines) config += line + "\n";
   lines.push_back("config hash: fnv1a " + core::Fnv1aHex(config) + " (of the lines above)");
