@@ -7,6 +7,7 @@
 #include <limits>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
 
 #include "core/dynamics.hpp"
 #include "core/errors.hpp"
@@ -46,7 +47,23 @@ double Interpolate(const std::vector<double>& t, const std::vector<double>& v, s
   return v[i] + std::clamp(f, 0.0, 1.0) * (v[i + 1] - v[i]);
 }
 
-Track Prepare(const core::RobotModel& model, const logger::RunTable& table, bool need_real = true) {
+// The row the table's last move starts at (where a known move_id last differs from the one
+// before it), 0 when the move_id never changes.
+size_t LastMoveRow(const logger::RunTable& table) {
+  size_t start = 0;
+  int64_t current = -1;
+  for (size_t i = 0; i < table.rows(); ++i) {
+    const int64_t id = table.move_id[i];
+    if (id < 0) continue;
+    if (current >= 0 && id != current) start = i;
+    current = id;
+  }
+  return start;
+}
+
+// The track of `table` from row `first_row` on.
+Track Prepare(const core::RobotModel& model, const logger::RunTable& table, size_t first_row = 0,
+              bool need_real = true) {
   const size_t n = model.joints.size();
   if (table.joints.size() != n) {
     throw core::ConfigError({table.source, 0, 0}, "joints",
@@ -58,7 +75,7 @@ Track Prepare(const core::RobotModel& model, const logger::RunTable& table, bool
   std::vector<double> t;
   std::vector<std::vector<double>> set(n);
   std::vector<size_t> rows;
-  for (size_t i = 0; i < table.rows(); ++i) {
+  for (size_t i = first_row; i < table.rows(); ++i) {
     bool complete = true;
     for (size_t j = 0; j < n; ++j) complete &= !std::isnan(table.position[j][0][i]);
     if (!complete) continue;
@@ -86,7 +103,7 @@ Track Prepare(const core::RobotModel& model, const logger::RunTable& table, bool
   // The arm starts where the first real sample has it (else at the set-point).
   track.start = track.setpoint.front();
   for (size_t j = 0; j < n; ++j) {
-    for (size_t i = 0; i < table.rows(); ++i) {
+    for (size_t i = first_row; i < table.rows(); ++i) {
       if (!std::isnan(table.position[j][2][i])) {
         track.start[j] = table.position[j][2][i] / table.joints[j].scale();
         break;
@@ -96,7 +113,7 @@ Track Prepare(const core::RobotModel& model, const logger::RunTable& table, bool
         std::clamp(track.start[j], model.joints[j].position_min, model.joints[j].position_max);
   }
   const double period = table.period_s();
-  for (size_t i = 0; i < table.rows(); ++i) {
+  for (size_t i = first_row; i < table.rows(); ++i) {
     if (!table.Fresh(logger::Stream::kReal, i, period)) continue;
     const double at = table.time_s[i] - table.Age(logger::Stream::kReal, i) - t.front();
     if (at < 0) continue;
@@ -249,8 +266,8 @@ core::RobotModel ArmatureInLinks(const core::RobotModel& model) {
 // rotor that is inertia of its child link. Static friction is also measured where a stuck joint
 // breaks away (the effort then, less the links' own need, between the last tick it held and the
 // first it moved).
-constexpr size_t kWindow = 20;  // ticks per regression window
-constexpr size_t kSmooth = 4;   // velocities over +-kSmooth ticks
+constexpr size_t kWindow = 20;             // ticks per regression window
+constexpr size_t kSmooth = 4;              // velocities over +-kSmooth ticks
 constexpr double kMinSlidingSpeed = 1e-4;  // rad/s (or m/s): slower is not sliding
 
 struct Regression {
@@ -547,7 +564,9 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
                         const IdentifyOptions& options) {
   const size_t n = model.joints.size();
   std::vector<Track> tracks;
-  for (const logger::RunTable& table : tables) tracks.push_back(Prepare(model, table));
+  for (const logger::RunTable& table : tables) {
+    tracks.push_back(Prepare(model, table, options.last_move_only ? LastMoveRow(table) : 0));
+  }
   std::vector<size_t> joints;
   if (options.joints.empty()) {
     for (size_t j = 0; j < n; ++j) {
@@ -570,11 +589,19 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
     }
   }
   IdentifyResult result;
+  // The squared errors of model `m`'s simulation of all the data. A trial whose simulation blows
+  // up in ODE (viscous friction far too stiff for a light joint, say) costs infinity for every
+  // joint; the given model's own (`counts` asked for) is thrown.
   auto evaluate = [&](const core::RobotModel& m, std::vector<int64_t>* counts) {
     std::vector<double> sse(n, 0.0);
     std::vector<int64_t> count(n, 0);
-    for (const Track& t : tracks) Simulate(m, t, &sse, &count);
     ++result.evaluations;
+    try {
+      for (const Track& t : tracks) Simulate(m, t, &sse, &count);
+    } catch (const std::runtime_error&) {
+      if (counts) throw;
+      sse.assign(n, std::numeric_limits<double>::infinity());
+    }
     if (counts) *counts = count;
     return sse;
   };
@@ -654,7 +681,7 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
 }
 
 logger::RunTable SimulateRealStream(const core::RobotModel& model, const logger::RunTable& table) {
-  const Track track = Prepare(model, table, false);
+  const Track track = Prepare(model, table, 0, false);
   std::vector<double> sse(model.joints.size(), 0.0);
   std::vector<int64_t> count(model.joints.size(), 0);
   std::vector<std::vector<double>> trace;
