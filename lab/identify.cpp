@@ -222,7 +222,6 @@ void FromUnit(core::RobotModel& m, size_t j, const std::vector<double>& u) {
 // where a joint's parent turns about a parallel axis (PUMA joint 3 under joint 2, the wrist under
 // joint 1): the rotor then turns with the parent too.
 struct JointAxes {
-  const core::KinematicChain* chain;
   bool standard;
   // World axis of joint i (0-based) in the frames of a forward kinematics result.
   Eigen::Vector3d operator()(const core::ForwardResult& fk, size_t i) const {
@@ -232,7 +231,7 @@ struct JointAxes {
 
 core::RobotModel ArmatureInLinks(const core::RobotModel& model) {
   const core::KinematicChain chain(model);
-  const JointAxes axes{&chain, model.dh_convention == core::DhConvention::kStandard};
+  const JointAxes axes{model.dh_convention == core::DhConvention::kStandard};
   core::JointVector home(model.num_joints());
   for (size_t j = 0; j < model.joints.size(); ++j) {
     home[static_cast<Eigen::Index>(j)] = model.joints[j].home;
@@ -339,7 +338,7 @@ void Collect(const core::RobotModel& model, const Track& track, Regression* out)
   }
   const core::Dynamics dynamics(ArmatureInLinks(model));
   const core::KinematicChain chain(model);
-  const JointAxes axes{&chain, model.dh_convention == core::DhConvention::kStandard};
+  const JointAxes axes{model.dh_convention == core::DhConvention::kStandard};
   // Each joint's rotor term at tick k: sum over l <= j of (a_j . a_l) v_l (a joint's own speed
   // for a prismatic joint).
   auto rotor = [&](size_t k) {
