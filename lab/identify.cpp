@@ -7,14 +7,15 @@
 #include <limits>
 #include <optional>
 #include <sstream>
+#include <stdexcept>
 
 #include "core/dynamics.hpp"
 #include "core/errors.hpp"
 #include "core/yaml_reader.hpp"
-#include "hardware/emulated_arm.hpp"
 #include "lab/box_search.hpp"
 #include "servo/picservo.hpp"
 #include "servo/servo_units.hpp"
+#include "sim/arm_world.hpp"
 
 namespace sirupp::lab {
 namespace {
@@ -46,7 +47,23 @@ double Interpolate(const std::vector<double>& t, const std::vector<double>& v, s
   return v[i] + std::clamp(f, 0.0, 1.0) * (v[i + 1] - v[i]);
 }
 
-Track Prepare(const core::RobotModel& model, const logger::RunTable& table, bool need_real = true) {
+// The row the table's last move starts at (where a known move_id last differs from the one
+// before it), 0 when the move_id never changes.
+size_t LastMoveRow(const logger::RunTable& table) {
+  size_t start = 0;
+  int64_t current = -1;
+  for (size_t i = 0; i < table.rows(); ++i) {
+    const int64_t id = table.move_id[i];
+    if (id < 0) continue;
+    if (current >= 0 && id != current) start = i;
+    current = id;
+  }
+  return start;
+}
+
+// The track of `table` from row `first_row` on.
+Track Prepare(const core::RobotModel& model, const logger::RunTable& table, size_t first_row = 0,
+              bool need_real = true) {
   const size_t n = model.joints.size();
   if (table.joints.size() != n) {
     throw core::ConfigError({table.source, 0, 0}, "joints",
@@ -58,7 +75,7 @@ Track Prepare(const core::RobotModel& model, const logger::RunTable& table, bool
   std::vector<double> t;
   std::vector<std::vector<double>> set(n);
   std::vector<size_t> rows;
-  for (size_t i = 0; i < table.rows(); ++i) {
+  for (size_t i = first_row; i < table.rows(); ++i) {
     bool complete = true;
     for (size_t j = 0; j < n; ++j) complete &= !std::isnan(table.position[j][0][i]);
     if (!complete) continue;
@@ -86,7 +103,7 @@ Track Prepare(const core::RobotModel& model, const logger::RunTable& table, bool
   // The arm starts where the first real sample has it (else at the set-point).
   track.start = track.setpoint.front();
   for (size_t j = 0; j < n; ++j) {
-    for (size_t i = 0; i < table.rows(); ++i) {
+    for (size_t i = first_row; i < table.rows(); ++i) {
       if (!std::isnan(table.position[j][2][i])) {
         track.start[j] = table.position[j][2][i] / table.joints[j].scale();
         break;
@@ -98,8 +115,10 @@ Track Prepare(const core::RobotModel& model, const logger::RunTable& table, bool
   // The real samples of each move on the real arm's own clock from the move's start (a sim that
   // slipped does not compress them); those that fall past the next move's start are left out.
   const double period = table.period_s();
-  std::vector<size_t> moves = table.MoveStarts();
-  moves.insert(moves.begin(), 0);
+  std::vector<size_t> moves = {first_row};
+  for (size_t start : table.MoveStarts()) {
+    if (start > first_row) moves.push_back(start);
+  }
   moves.push_back(table.rows());
   for (size_t m = 0; m + 1 < moves.size(); ++m) {
     const std::vector<double> real_at = table.RealSampleTimes(moves[m], moves[m], moves[m + 1]);
@@ -126,38 +145,42 @@ Track Prepare(const core::RobotModel& model, const logger::RunTable& table, bool
   return track;
 }
 
-// Simulates the model along the track (hardware::EmulatedArm without real-arm effects, under
-// PIC-SERVO chips with the model's gains); adds each joint's squared error (rad^2) and sample
-// count; with `trace`, also the positions at every tick.
+// Simulates the virtual arm along the track: sirupp-sim's ODE arm of the model (sim::ArmWorld)
+// under one PIC-SERVO chip per joint with the model's gains, held at the logged set-point each
+// tick (StopHere), whose PWM becomes an effort command as sirupp-control's ServoBank makes it
+// (JointDrive::EffortFromPwm). Adds each joint's squared error (rad^2) and sample count; with
+// `trace`, also the positions at every tick. Throws std::runtime_error naming the joint if ODE's
+// integration blows up.
 void Simulate(const core::RobotModel& model, const Track& track, std::vector<double>* sse,
               std::vector<int64_t>* count, std::vector<std::vector<double>>* trace = nullptr) {
   const size_t n = model.joints.size();
-  hardware::ArmOptions options;
-  options.friction_scale = 1.0;
-  options.start_positions = track.start;
-  hardware::EmulatedArm arm(model, options);
+  sim::ArmWorld world(model, core::Environment{});
+  world.SetJointState(track.start);
+  std::vector<servo::JointDrive> drives;
   std::vector<servo::PicServo> chips(n);
   for (size_t j = 0; j < n; ++j) {
+    drives.emplace_back(model.joints[j], model.servo_tick_s);
     chips[j].SetGains(servo::GainsFromModel(model.joints[j].servo));
-    chips[j].ServoOn(0);
+    chips[j].ServoOn(drives[j].ToCounts(track.start[j]));
   }
-  std::vector<int64_t> zero(n);
-  for (size_t j = 0; j < n; ++j) zero[j] = arm.drive(static_cast<int>(j)).ToCounts(track.start[j]);
-  std::vector<int> pwm(n);
+  core::ArmCommand command;
+  command.mode = core::CommandMode::kEffort;
+  command.effort.assign(n, 0.0);
+  std::vector<double> position = world.State().position;
   size_t next = 0;
   for (size_t k = 0; k < track.setpoint.size(); ++k) {
     for (size_t j = 0; j < n; ++j) {
-      const auto jj = static_cast<int>(j);
-      const int64_t actual = arm.Inputs(jj).encoder_counts;
-      chips[j].StopHere(arm.drive(jj).ToCounts(track.setpoint[k][j]) - zero[j], actual);
-      pwm[j] = chips[j].Tick(actual);
+      const int64_t actual = drives[j].ToCounts(position[j]);
+      chips[j].StopHere(drives[j].ToCounts(track.setpoint[k][j]), actual);
+      command.effort[j] = drives[j].EffortFromPwm(chips[j].Tick(actual));
     }
-    arm.Step(pwm);
-    if (trace) trace->push_back(arm.positions());
+    world.Step(command);
+    position = world.State().position;
+    if (trace) trace->push_back(position);
     while (next < track.samples.size() && track.samples[next].tick <= k) {
       const Track::Sample& s = track.samples[next++];
       if (s.tick != k) continue;
-      const double e = arm.positions()[s.joint] - s.real;
+      const double e = position[s.joint] - s.real;
       (*sse)[s.joint] += e * e;
       ++(*count)[s.joint];
     }
@@ -207,25 +230,64 @@ void FromUnit(core::RobotModel& m, size_t j, const std::vector<double>& u) {
   m.joints[j].armature = box[5].FromUnit(u[5]);
 }
 
+// The model as sirupp-sim's ODE arm has it (docs/physics.md, "Rotor inertia"): each revolute
+// joint's armature is rotor inertia about the joint axis in its child link's inertia tensor, not
+// the diagonal term core::Dynamics gives a joint's armature (which is then 0 here). The two differ
+// where a joint's parent turns about a parallel axis (PUMA joint 3 under joint 2, the wrist under
+// joint 1): the rotor then turns with the parent too.
+struct JointAxes {
+  bool standard;
+  // World axis of joint i (0-based) in the frames of a forward kinematics result.
+  Eigen::Vector3d operator()(const core::ForwardResult& fk, size_t i) const {
+    return fk.frames[standard ? i : i + 1].linear().col(2);
+  }
+};
+
+core::RobotModel ArmatureInLinks(const core::RobotModel& model) {
+  const core::KinematicChain chain(model);
+  const JointAxes axes{model.dh_convention == core::DhConvention::kStandard};
+  core::JointVector home(model.num_joints());
+  for (size_t j = 0; j < model.joints.size(); ++j) {
+    home[static_cast<Eigen::Index>(j)] = model.joints[j].home;
+  }
+  const core::ForwardResult fk = chain.Forward(home);
+  core::RobotModel out = model;
+  for (size_t j = 0; j < model.joints.size(); ++j) {
+    core::Joint& joint = out.joints[j];
+    if (joint.type == core::JointType::kRevolute) {
+      const Eigen::Vector3d in_link = fk.frames[j + 1].linear().transpose() * axes(fk, j);
+      out.links[j + 1].inertia_kg_m2 += joint.armature * in_link * in_link.transpose();
+    }
+    joint.armature = 0;  // a prismatic joint's: ODE leaves it out
+  }
+  return out;
+}
+
 // The torque regression. Along a track, the effort each joint's motor gave is known from the
-// set-point and the real angles (the chip's PID recomputed, the model's PWM-to-effort); what the
-// model's rigid links need of it follows from its inverse dynamics. The rest is the joint's
-// armature times its acceleration plus its friction, which for a fixed Stribeck speed is linear in
-// the static and Coulomb levels, the viscous coefficient and the armature. Integrated over windows
-// of W ticks (so accelerations enter as velocity changes, and encoder steps average out):
+// set-point and the real angles (the chip's PID recomputed, the model's PWM-to-effort, clamped at
+// the joint's maximum effort as the sim clamps it); what the arm needs of it follows from the
+// inverse dynamics of the model as the sim has it, the present armatures included. The rest is
+// the joint's armature's change times its rotor term plus its friction, which for a fixed Stribeck
+// speed is linear in the static and Coulomb levels, the viscous coefficient and the armature.
+// Integrated over windows of W ticks (so accelerations enter as velocity changes, and encoder
+// steps average out):
 //
-//   sum tau T - M_j(q) dv - sum bias_j T = armature dv_j + sum friction_j(v) T
+//   sum tau T - M_j(q) dv - sum bias_j T = (armature - present) rotor_j + sum friction_j(v) T
 //
-// Static friction is also measured where a stuck joint breaks away (the effort then, less the
-// links' own need, between the last tick it held and the first it moved).
-constexpr size_t kWindow = 20;  // ticks per regression window
-constexpr size_t kSmooth = 4;   // velocities over +-kSmooth ticks
+// The rotor term is the window's change of the rotor's speed about its axis, a_j . w_j (w_j the
+// angular velocity of the joint's child link): sum over l <= j of (a_j . a_l) v_l, exact for a
+// rotor that is inertia of its child link. Static friction is also measured where a stuck joint
+// breaks away (the effort then, less the links' own need, between the last tick it held and the
+// first it moved).
+constexpr size_t kWindow = 20;             // ticks per regression window
+constexpr size_t kSmooth = 4;              // velocities over +-kSmooth ticks
+constexpr double kMinSlidingSpeed = 1e-4;  // rad/s (or m/s): slower is not sliding
 
 struct Regression {
   // Per joint: window rows (sliding windows only) and breakaway estimates of static friction.
   struct Row {
     double target;              // N*m*s
-    double dv;                  // the joint's velocity change over the window (rad/s)
+    double rotor;               // the rotor term's change over the window (rad/s)
     double up, down;            // time sliding positive / negative (s), with each tick's speed
     std::vector<double> speed;  // signed speed of each tick (rad/s), for the Stribeck terms
     double travel;              // displacement (rad): the viscous term
@@ -276,7 +338,8 @@ void Collect(const core::RobotModel& model, const Track& track, Regression* out)
     for (size_t j = 0; j < n; ++j) {
       const int64_t actual = drives[j].ToCounts(k == 0 ? track.start[j] : q[k - 1][j]) - zero[j];
       chips[j].StopHere(drives[j].ToCounts(track.setpoint[k][j]) - zero[j], actual);
-      tau[k][j] = drives[j].EffortFromPwm(chips[j].Tick(actual));
+      const double limit = model.joints[j].effort_max;
+      tau[k][j] = std::clamp(drives[j].EffortFromPwm(chips[j].Tick(actual)), -limit, limit);
     }
   }
   // Velocities at each tick (smoothed) and during each step.
@@ -287,9 +350,28 @@ void Collect(const core::RobotModel& model, const Track& track, Regression* out)
       v[k][j] = (at(k + kSmooth, j) - at(k - kSmooth, j)) / (2.0 * kSmooth * tick);
     }
   }
-  core::RobotModel rigid = model;  // the links alone: armature is fitted
-  for (core::Joint& joint : rigid.joints) joint.armature = 0;
-  const core::Dynamics dynamics(rigid);
+  const core::Dynamics dynamics(ArmatureInLinks(model));
+  const core::KinematicChain chain(model);
+  const JointAxes axes{model.dh_convention == core::DhConvention::kStandard};
+  // Each joint's rotor term at tick k: sum over l <= j of (a_j . a_l) v_l (a joint's own speed
+  // for a prismatic joint).
+  auto rotor = [&](size_t k) {
+    const core::ForwardResult fk =
+        chain.Forward(Eigen::Map<const Eigen::VectorXd>(q[k].data(), static_cast<Eigen::Index>(n)));
+    std::vector<double> r(n, 0.0);
+    for (size_t j = 0; j < n; ++j) {
+      if (model.joints[j].type != core::JointType::kRevolute) {
+        r[j] = v[k][j];
+        continue;
+      }
+      const Eigen::Vector3d aj = axes(fk, j);
+      for (size_t l = 0; l <= j; ++l) {
+        if (model.joints[l].type == core::JointType::kRevolute)
+          r[j] += aj.dot(axes(fk, l)) * v[k][l];
+      }
+    }
+    return r;
+  };
   out->rows.resize(n);
   out->breakaway.resize(n);
   // Breakaways: the joint held (no change over two steps), then moved.
@@ -308,6 +390,7 @@ void Collect(const core::RobotModel& model, const Track& track, Regression* out)
   for (size_t a = kSmooth + 1; a + kWindow + kSmooth < ticks; a += kWindow) {
     const size_t b = a + kWindow;
     std::vector<double> mid(n), dv(n);
+    const std::vector<double> rotor_a = rotor(a), rotor_b = rotor(b);
     for (size_t j = 0; j < n; ++j) {
       mid[j] = q[(a + b) / 2][j];
       dv[j] = v[b][j] - v[a][j];
@@ -322,18 +405,20 @@ void Collect(const core::RobotModel& model, const Track& track, Regression* out)
       for (size_t j = 0; j < n; ++j) bias_sum[j] += bias[static_cast<Eigen::Index>(j)] * tick;
     }
     for (size_t j = 0; j < n; ++j) {
-      // Sliding one way from a - kSmooth to b + kSmooth: every step moves, all the same way.
+      // Sliding one way from a - kSmooth to b + kSmooth: every step moves, all the same way, at
+      // kMinSlidingSpeed or more (a sticking joint in the sim creeps by far less, pulled back to
+      // where it stuck; a real encoder does not move at all).
       int sign = 0;
       bool sliding = true;
       for (size_t k = a - kSmooth; k <= b + kSmooth && sliding; ++k) {
         const double step = q[k][j] - q[k - 1][j];
         const int s = (step > 0) - (step < 0);
-        if (s == 0 || (sign != 0 && s != sign)) sliding = false;
+        if (std::abs(step) < kMinSlidingSpeed * tick || (sign != 0 && s != sign)) sliding = false;
         sign = s;
       }
       if (!sliding) continue;
       Regression::Row row;
-      row.dv = dv[j];
+      row.rotor = rotor_b[j] - rotor_a[j];
       row.travel = q[b][j] - q[a][j];
       row.up = row.down = 0;
       double effort = 0;
@@ -352,10 +437,11 @@ void Collect(const core::RobotModel& model, const Track& track, Regression* out)
   }
 }
 
-// Least squares for one joint at Stribeck speed vs: friction levels, viscous, armature. Returns
-// the residual sum of squares; `fixed_static` >= 0 fixes the static level.
+// Least squares for one joint at Stribeck speed vs: friction levels, viscous, armature (the rows
+// were made with `present` armature). Returns the residual sum of squares; `fixed_static` >= 0
+// fixes the static level.
 double SolveJoint(const std::vector<Regression::Row>& rows, double vs, double fixed_static,
-                  double tick, core::Friction* friction, double* armature) {
+                  double tick, double present, core::Friction* friction, double* armature) {
   // Unknowns: coulomb+, coulomb-, static (unless fixed), viscous, armature.
   const bool fit_static = fixed_static < 0;
   const Eigen::Index cols = fit_static ? 5 : 4;
@@ -379,7 +465,7 @@ double SolveJoint(const std::vector<Regression::Row>& rows, double vs, double fi
     a(i, 0) = up;
     a(i, 1) = down;
     a(i, 2) = row.travel;
-    a(i, 3) = row.dv;
+    a(i, 3) = row.rotor;
     y[i] = row.target;
     if (fit_static) {
       a(i, 4) = peak;
@@ -399,7 +485,7 @@ double SolveJoint(const std::vector<Regression::Row>& rows, double vs, double fi
   friction->coulomb_positive = std::max(x[0], 0.0);
   friction->coulomb_negative = std::max(x[1], 0.0);
   friction->viscous = std::max(x[2], 0.0);
-  *armature = std::max(x[3], 1e-5);
+  *armature = std::max(present + x[3], 1e-5);
   friction->static_effort = fit_static ? x[4] : fixed_static;
   friction->static_effort = std::max(
       {friction->static_effort, friction->coulomb_positive, friction->coulomb_negative, 1e-4});
@@ -421,54 +507,66 @@ bool HasSlowSliding(const std::vector<Regression::Row>& rows) {
   return up >= 10 && down >= 10;
 }
 
-// The regression's model: joints with too little data keep the model's values.
+// One joint's regression: its friction and armature in `out`, unless it has too little data.
+void RegressJoint(const core::RobotModel& present, const Regression& data, size_t j,
+                  core::RobotModel* out) {
+  const std::vector<Regression::Row>& rows = data.rows[j];
+  if (rows.size() < 20) return;
+  std::vector<double> breaks = data.breakaway[j];
+  double fixed_static = -1;
+  if (breaks.size() >= 3 && !HasSlowSliding(rows)) {
+    std::sort(breaks.begin(), breaks.end());
+    // The middle half's mean: robust to a breakaway pushed by another joint's start.
+    const size_t lo = breaks.size() / 4, hi = breaks.size() - breaks.size() / 4;
+    double sum = 0;
+    for (size_t i = lo; i < hi; ++i) sum += breaks[i];
+    fixed_static = sum / static_cast<double>(hi - lo);
+  }
+  // The Stribeck speed: the best of a log grid, then refined by golden section in log speed.
+  auto rss_at = [&](double log_vs, core::Friction* f, double* armature) {
+    return SolveJoint(rows, std::exp(log_vs), fixed_static, present.servo_tick_s,
+                      present.joints[j].armature, f, armature);
+  };
+  core::Friction f;
+  double armature = 0;
+  double best_log = std::log(1e-3), best_rss = std::numeric_limits<double>::infinity();
+  for (int i = 0; i <= 40; ++i) {
+    const double lv = std::log(1e-3) + i * (std::log(3.0) - std::log(1e-3)) / 40;
+    const double rss = rss_at(lv, &f, &armature);
+    if (rss < best_rss) {
+      best_rss = rss;
+      best_log = lv;
+    }
+  }
+  const double width = (std::log(3.0) - std::log(1e-3)) / 40;
+  double lo = best_log - width, hi = best_log + width;
+  const double golden = 0.5 * (std::sqrt(5.0) - 1);
+  for (int i = 0; i < 30; ++i) {
+    const double x1 = hi - golden * (hi - lo), x2 = lo + golden * (hi - lo);
+    if (rss_at(x1, &f, &armature) < rss_at(x2, &f, &armature)) {
+      hi = x2;
+    } else {
+      lo = x1;
+    }
+  }
+  rss_at(0.5 * (lo + hi), &f, &armature);
+  out->joints[j].friction = f;
+  out->joints[j].armature = armature;
+}
+
+// The regression's model: joints with too little data keep the model's values. A joint's armature
+// also acts on the joints it shares an axis direction with (ArmatureInLinks), so the regression is
+// run again with the armatures it found, kRegressionPasses times in all.
+constexpr int kRegressionPasses = 3;
+
 core::RobotModel Regress(const core::RobotModel& model, const std::vector<Track>& tracks,
                          const std::vector<size_t>& joints) {
-  Regression data;
-  for (const Track& t : tracks) Collect(model, t, &data);
   core::RobotModel out = model;
-  for (size_t j : joints) {
-    const std::vector<Regression::Row>& rows = data.rows[j];
-    if (rows.size() < 20) continue;
-    std::vector<double> breaks = data.breakaway[j];
-    double fixed_static = -1;
-    if (breaks.size() >= 3 && !HasSlowSliding(rows)) {
-      std::sort(breaks.begin(), breaks.end());
-      // The middle half's mean: robust to a breakaway pushed by another joint's start.
-      const size_t lo = breaks.size() / 4, hi = breaks.size() - breaks.size() / 4;
-      double sum = 0;
-      for (size_t i = lo; i < hi; ++i) sum += breaks[i];
-      fixed_static = sum / static_cast<double>(hi - lo);
-    }
-    // The Stribeck speed: the best of a log grid, then refined by golden section in log speed.
-    auto rss_at = [&](double log_vs, core::Friction* f, double* armature) {
-      return SolveJoint(rows, std::exp(log_vs), fixed_static, model.servo_tick_s, f, armature);
-    };
-    core::Friction f;
-    double armature = 0;
-    double best_log = std::log(1e-3), best_rss = std::numeric_limits<double>::infinity();
-    for (int i = 0; i <= 40; ++i) {
-      const double lv = std::log(1e-3) + i * (std::log(3.0) - std::log(1e-3)) / 40;
-      const double rss = rss_at(lv, &f, &armature);
-      if (rss < best_rss) {
-        best_rss = rss;
-        best_log = lv;
-      }
-    }
-    const double width = (std::log(3.0) - std::log(1e-3)) / 40;
-    double lo = best_log - width, hi = best_log + width;
-    const double golden = 0.5 * (std::sqrt(5.0) - 1);
-    for (int i = 0; i < 30; ++i) {
-      const double x1 = hi - golden * (hi - lo), x2 = lo + golden * (hi - lo);
-      if (rss_at(x1, &f, &armature) < rss_at(x2, &f, &armature)) {
-        hi = x2;
-      } else {
-        lo = x1;
-      }
-    }
-    rss_at(0.5 * (lo + hi), &f, &armature);
-    out.joints[j].friction = f;
-    out.joints[j].armature = armature;
+  for (int pass = 0; pass < kRegressionPasses; ++pass) {
+    const core::RobotModel present = out;
+    Regression data;
+    for (const Track& t : tracks) Collect(present, t, &data);
+    for (size_t j : joints) RegressJoint(present, data, j, &out);
   }
   return out;
 }
@@ -479,7 +577,9 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
                         const IdentifyOptions& options) {
   const size_t n = model.joints.size();
   std::vector<Track> tracks;
-  for (const logger::RunTable& table : tables) tracks.push_back(Prepare(model, table));
+  for (const logger::RunTable& table : tables) {
+    tracks.push_back(Prepare(model, table, options.last_move_only ? LastMoveRow(table) : 0));
+  }
   std::vector<size_t> joints;
   if (options.joints.empty()) {
     for (size_t j = 0; j < n; ++j) {
@@ -502,11 +602,19 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
     }
   }
   IdentifyResult result;
+  // The squared errors of model `m`'s simulation of all the data. A trial whose simulation blows
+  // up in ODE (viscous friction far too stiff for a light joint, say) costs infinity for every
+  // joint; the given model's own (`counts` asked for) is thrown.
   auto evaluate = [&](const core::RobotModel& m, std::vector<int64_t>* counts) {
     std::vector<double> sse(n, 0.0);
     std::vector<int64_t> count(n, 0);
-    for (const Track& t : tracks) Simulate(m, t, &sse, &count);
     ++result.evaluations;
+    try {
+      for (const Track& t : tracks) Simulate(m, t, &sse, &count);
+    } catch (const std::runtime_error&) {
+      if (counts) throw;
+      sse.assign(n, std::numeric_limits<double>::infinity());
+    }
     if (counts) *counts = count;
     return sse;
   };
@@ -586,7 +694,7 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
 }
 
 logger::RunTable SimulateRealStream(const core::RobotModel& model, const logger::RunTable& table) {
-  const Track track = Prepare(model, table, false);
+  const Track track = Prepare(model, table, 0, false);
   std::vector<double> sse(model.joints.size(), 0.0);
   std::vector<int64_t> count(model.joints.size(), 0);
   std::vector<std::vector<double>> trace;

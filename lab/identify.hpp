@@ -1,17 +1,22 @@
 #pragma once
 // Identification, the paper's "better friction model" as a lab exercise: fits a robot model's
 // joint friction (static, Coulomb per direction, viscous, Stribeck speed) and armature to a real
-// arm's logged data (logger data files, the emulator's or a real PUMA's). Two stages:
+// arm's logged data (logger data files, the emulator's or a real PUMA's), for the virtual arm that
+// will run the model: sirupp-sim's ODE arm (sim::ArmWorld) under sirupp-control's virtual
+// PIC-SERVOs. Two stages:
 // 1. Torque regression: the motor effort at each tick is the chip's PID recomputed from the logged
-//    set-point and real angles (model gains, model PWM-to-effort); less what the model's rigid
-//    links need (inverse dynamics), it is armature x acceleration + friction, linear in the
-//    friction levels, viscous coefficient and armature for a given Stribeck speed. Least squares
-//    over windows in which the joint slides, with a line search over the Stribeck speed.
-// 2. Output-error search: the model's arm (hardware::EmulatedArm without real-arm effects) under
-//    PIC-SERVO chips follows the logged set-point; per joint a Nelder-Mead search on a log box
-//    derived from the joint (box_search.hpp) lowers the squared difference to the real angles,
-//    from the better of the regression's and the model's values.
-// Reads the model and the tables; writes nothing itself.
+//    set-point and real angles (model gains, JointDrive::EffortFromPwm as control::ServoBank uses
+//    it, clamped at the joint's maximum effort as the sim clamps it); less what the arm needs
+//    (inverse dynamics of the model with each armature as rotor inertia in its child link, as the
+//    sim has it), it is the armature's rotor term plus friction, linear in the friction levels,
+//    viscous coefficient and armature for a given Stribeck speed. Least squares over windows in
+//    which the joint slides, with a line search over the Stribeck speed, three passes.
+// 2. Output-error search: the virtual arm (the model's sim::ArmWorld, each joint's PicServo held
+//    at the logged set-point, its PWM turned into the effort command as sirupp-control turns it)
+//    follows the logged set-point; per joint a Nelder-Mead search on a log box derived from the
+//    joint (box_search.hpp) lowers the squared difference to the real angles, from the better of
+//    the regression's and the model's values.
+// Reads the model and the tables; writes nothing itself. docs/emulator-fit.md, "Identification".
 
 #include <string>
 #include <vector>
@@ -24,6 +29,9 @@ namespace sirupp::lab {
 struct IdentifyOptions {
   std::vector<int> joints;    // 1-based joints to fit; empty: every joint the set-point moves
   int max_evaluations = 150;  // simulations of all the data (the search; 3 or less: none)
+  // Only each table's last move, from the row it starts: the move Table II measures (a movement
+  // set's plan first returns the arm to zero, then makes it).
+  bool last_move_only = false;
 };
 
 struct JointIdentification {
@@ -41,13 +49,15 @@ struct IdentifyResult {
 };
 
 // Throws core::ConfigError naming the table if a table has no set-point or real data, or the
-// joints do not match the model.
+// joints do not match the model; std::runtime_error naming the joint if the model's own
+// simulation blows up in ODE (a trial of the search that does costs infinity instead).
 IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger::RunTable>& tables,
                         const IdentifyOptions& options);
 
-// What the model's arm does following `table`'s set-point from where its real stream starts (else
-// the set-point's start): a copy of the table whose real stream is the simulation, one sample per
-// row. For predictions, and to make synthetic data with known parameters (tests).
+// What the model's virtual arm (as the search simulates it) does following `table`'s set-point
+// from where its real stream starts (else the set-point's start): a copy of the table whose real
+// stream is the simulation, one sample per row. For predictions, and to make synthetic data with
+// known parameters (tests).
 logger::RunTable SimulateRealStream(const core::RobotModel& model, const logger::RunTable& table);
 
 // The model file's text with each fitted joint's `armature:` and `friction:` lines replaced by

@@ -36,8 +36,9 @@ const char* const kIdentifyAbout =
     "armature to a real arm's logged data (sirupp-logger data files or LCM logs, e.g. a demo's\n"
     "data/ or `sirupp fit-emulator --data DIR`): a torque regression, then per joint a\n"
     "Nelder-Mead search on a log box from the joint's limits, from the better of the regression's\n"
-    "and the model's values: the model's arm under PIC-SERVO chips follows the logged set-point\n"
-    "and the search lowers the difference to the real joint angles. The values can stand in for\n"
+    "and the model's values: the virtual arm (sirupp-sim's ODE arm of the model, PIC-SERVO chips\n"
+    "giving its efforts as sirupp-control does) follows the logged set-point and the search\n"
+    "lowers the difference to the real joint angles. The values can stand in for\n"
     "effects the model lacks (a latency fits as viscous friction and armature).\n"
     "Writes M2 (M with those values; comments kept) and prints the fit per joint. Then\n"
     "`sirupp fit-emulator --evaluate --virtual-model M2`, or `sirupp demo --model M2 --out RUN2`\n"
@@ -246,7 +247,11 @@ int RunIdentify(const std::vector<std::string>& argv, std::ostream& out, std::os
            .Integer(1, runtime::Flag::kMany),
        runtime::Flag("evaluations", "simulations of the data the fit may run (150)")
            .Takes("N")
-           .Integer(5, 100000)},
+           .Integer(5, 100000),
+       runtime::Flag("last-move",
+                     "fit only each file's last move (the move Table II measures; a movement "
+                     "set first returns the arm to zero)")
+           .Switch()},
       kIdentifyAbout);
   if (files.empty())
     throw core::UsageError("identify: give at least one DATA file (before the options)");
@@ -271,6 +276,7 @@ int RunIdentify(const std::vector<std::string>& argv, std::ostream& out, std::os
   }
   options.max_evaluations =
       static_cast<int>(args.Integer("evaluations", options.max_evaluations));  // 5..100000
+  options.last_move_only = args.Has("last-move");
   {
     // Before any fitting: every joint that may be fitted can be written back into M2.
     std::vector<int> joints = options.joints;
