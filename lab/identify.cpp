@@ -13,6 +13,7 @@
 #include "core/errors.hpp"
 #include "core/yaml_reader.hpp"
 #include "lab/box_search.hpp"
+#include "logger/analysis.hpp"
 #include "servo/picservo.hpp"
 #include "servo/servo_units.hpp"
 #include "sim/arm_world.hpp"
@@ -28,6 +29,9 @@ constexpr double kFirstSimplex = 0.1;  // the search's first simplex, in units o
 
 // One table, prepared: the set-point per servo tick (SI) and the fresh real samples.
 struct Track {
+  size_t table = 0;                           // its table (Identify's tables)
+  double t0 = 0;                              // the time of tick 0 on the table's axis
+  size_t first_row = 0;                       // rows before it are not simulated
   std::vector<double> start;                  // SI, per joint
   std::vector<std::vector<double>> setpoint;  // [tick][joint], SI
   struct Sample {
@@ -90,6 +94,8 @@ Track Prepare(const core::RobotModel& model, const logger::RunTable& table, size
         "no set-point data to drive the model with (" + std::to_string(t.size()) + " rows)");
   }
   Track track;
+  track.t0 = t.front();
+  track.first_row = first_row;
   const double tick = model.servo_tick_s;
   const auto ticks = static_cast<size_t>((t.back() - t.front()) / tick) + 1;
   std::vector<size_t> cursor(n, 0);
@@ -183,6 +189,52 @@ void Simulate(const core::RobotModel& model, const Track& track, std::vector<dou
       const double e = position[s.joint] - s.real;
       (*sse)[s.joint] += e * e;
       ++(*count)[s.joint];
+    }
+  }
+}
+
+// `trace` (positions after each tick, SI) as `stream` of `out`, a copy of the table it was
+// simulated along: at each row from `first_row` on, the tick nearest the row's time (tick 0 at
+// `t0`); earlier rows empty. Each value is fresh (age 0).
+void PutStream(const std::vector<std::vector<double>>& trace, double t0, double tick,
+               size_t first_row, logger::Stream stream, logger::RunTable* out) {
+  const auto s = static_cast<size_t>(stream);
+  const auto last = static_cast<long>(trace.size()) - 1;
+  for (size_t i = 0; i < out->rows(); ++i) {
+    const auto k =
+        static_cast<size_t>(std::clamp<long>(std::lround((out->time_s[i] - t0) / tick), 0, last));
+    for (size_t j = 0; j < out->joints.size(); ++j) {
+      out->position[j][s][i] = i < first_row ? std::nan("") : trace[k][j] * out->joints[j].scale();
+    }
+    out->age_s[s][i] = i < first_row ? std::nan("") : 0;
+  }
+}
+
+// What one simulation of all the data scores, per joint.
+struct Score {
+  std::vector<double> sse;     // squared angle error over the fresh real samples (rad^2)
+  std::vector<int64_t> count;  // those samples
+  // Table II's measure (logger/analysis.hpp): over the moves the joint takes part in, each move's
+  // mean |virtual - real| over the transient and over the steady state (deg or mm), weighted
+  // (a file's last move 1, earlier moves IdentifyOptions::earlier_moves_weight) and summed.
+  std::vector<double> table;
+  std::vector<double> weights;  // the sum of the weights of those means
+};
+
+// Adds Table II's measure of `virt` (a table whose virtual stream is the simulation) to `score`.
+void AddTableMeans(const logger::RunTable& virt, const IdentifyOptions& options, Score* score) {
+  logger::AnalysisOptions analysis;
+  analysis.last_move_only = options.last_move_only;
+  const std::vector<size_t> starts = virt.MoveStarts();
+  const size_t last = starts.empty() ? virt.rows() : starts.back();
+  for (const logger::MoveResult& move : logger::Analyze(virt, analysis).moves) {
+    const logger::PairMetrics& m = move.pairs[static_cast<size_t>(logger::Pair::kVirtReal)];
+    const double w = move.begin == last ? 1.0 : options.earlier_moves_weight;
+    const auto j = static_cast<size_t>(move.joint - 1);
+    for (double mean : {m.mean_transient, m.mean_steady}) {
+      if (!std::isfinite(mean) || w <= 0) continue;
+      score->table[j] += w * mean;
+      score->weights[j] += w;
     }
   }
 }
@@ -577,8 +629,10 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
                         const IdentifyOptions& options) {
   const size_t n = model.joints.size();
   std::vector<Track> tracks;
-  for (const logger::RunTable& table : tables) {
-    tracks.push_back(Prepare(model, table, options.last_move_only ? LastMoveRow(table) : 0));
+  for (size_t i = 0; i < tables.size(); ++i) {
+    tracks.push_back(
+        Prepare(model, tables[i], options.last_move_only ? LastMoveRow(tables[i]) : 0));
+    tracks.back().table = i;
   }
   std::vector<size_t> joints;
   if (options.joints.empty()) {
@@ -602,35 +656,49 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
     }
   }
   IdentifyResult result;
-  // The squared errors of model `m`'s simulation of all the data. A trial whose simulation blows
-  // up in ODE (viscous friction far too stiff for a light joint, say) costs infinity for every
-  // joint; the given model's own (`counts` asked for) is thrown.
-  auto evaluate = [&](const core::RobotModel& m, std::vector<int64_t>* counts) {
-    std::vector<double> sse(n, 0.0);
-    std::vector<int64_t> count(n, 0);
+  // The copies of the tables whose virtual stream each simulation replaces, for Table II's
+  // measure.
+  std::vector<logger::RunTable> work(tables);
+  // What a simulation of model `m` along all the data scores. A trial whose simulation blows up
+  // in ODE (viscous friction far too stiff for a light joint, say) costs infinity for every
+  // joint; the given model's own (`thrown` true) is thrown.
+  auto evaluate = [&](const core::RobotModel& m, bool thrown) {
+    Score score{std::vector<double>(n, 0.0), std::vector<int64_t>(n, 0),
+                std::vector<double>(n, 0.0), std::vector<double>(n, 0.0)};
     ++result.evaluations;
     try {
-      for (const Track& t : tracks) Simulate(m, t, &sse, &count);
+      for (const Track& t : tracks) {
+        std::vector<std::vector<double>> trace;
+        Simulate(m, t, &score.sse, &score.count, &trace);
+        PutStream(trace, t.t0, m.servo_tick_s, t.first_row, logger::Stream::kVirtual,
+                  &work[t.table]);
+        AddTableMeans(work[t.table], options, &score);
+      }
     } catch (const std::runtime_error&) {
-      if (counts) throw;
-      sse.assign(n, std::numeric_limits<double>::infinity());
+      if (thrown) throw;
+      score.sse.assign(n, std::numeric_limits<double>::infinity());
+      score.table.assign(n, std::numeric_limits<double>::infinity());
     }
-    if (counts) *counts = count;
-    return sse;
+    return score;
+  };
+  // Each joint's search lowers Table II's measure where the data has moves the joint takes part
+  // in (the same moves whatever the model: they come from the set-point and the real samples),
+  // else (data without moves, e.g. one long streamed set-point) the squared angle error.
+  const Score before = evaluate(model, true);
+  auto cost = [&](const Score& score, size_t j) {
+    return before.weights[j] > 0 ? score.table[j] : score.sse[j];
   };
   // Two starts, each put into the search's box: the torque regression's values and the model's.
   // Per joint the one that follows the data better is where the search begins (a joint the
   // regression fits worse than the model had it: data the model cannot explain, e.g. a real
   // arm's latency).
-  std::vector<int64_t> counts;
-  const std::vector<double> before = evaluate(model, &counts);
   core::RobotModel from_regression = Regress(model, tracks, joints);
   core::RobotModel from_model = model;
   for (size_t j : joints) {
     FromUnit(from_regression, j, ToUnit(from_regression, j));
     FromUnit(from_model, j, ToUnit(from_model, j));
   }
-  const std::vector<double> regression_sse = evaluate(from_regression, nullptr);
+  const Score regression_score = evaluate(from_regression, false);
   auto near = [](double a, double b) { return std::abs(a - b) <= 1e-9 * std::abs(b); };
   const bool model_in_box = std::all_of(joints.begin(), joints.end(), [&](size_t j) {
     const core::Friction& a = from_model.joints[j].friction;
@@ -640,40 +708,43 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
            near(a.stribeck_velocity, b.stribeck_velocity) &&
            near(from_model.joints[j].armature, model.joints[j].armature);
   });
-  const std::vector<double> model_sse = model_in_box ? before : evaluate(from_model, nullptr);
+  const Score model_score = model_in_box ? before : evaluate(from_model, false);
   core::RobotModel best = from_regression;
-  std::vector<double> best_sse(n, 0.0);
+  Score best_score = regression_score;
   for (size_t j : joints) {
-    const bool regression = regression_sse[j] <= model_sse[j];
+    const bool regression = cost(regression_score, j) <= cost(model_score, j);
     best.joints[j] = (regression ? from_regression : from_model).joints[j];
-    best_sse[j] = regression ? regression_sse[j] : model_sse[j];
+    const Score& from = regression ? regression_score : model_score;
+    best_score.sse[j] = from.sse[j];
+    best_score.table[j] = from.table[j];
   }
   // Output error: one Nelder-Mead search per joint on its log box (box_search.hpp), all of them
   // sharing each simulation of the data (the joints' errors are nearly independent), until the
   // budget less one simulation is spent; then the joints' best points together, simulated once.
   std::vector<BoxSearch> searches;
-  for (size_t j : joints) searches.emplace_back(ToUnit(best, j), best_sse[j], kFirstSimplex);
+  for (size_t j : joints)
+    searches.emplace_back(ToUnit(best, j), cost(best_score, j), kFirstSimplex);
   const core::RobotModel start = best;
   bool searched = false;
   while (!searches.empty() && result.evaluations + 1 < options.max_evaluations) {
     searched = true;
     core::RobotModel trial = start;
     for (size_t k = 0; k < joints.size(); ++k) FromUnit(trial, joints[k], searches[k].Ask());
-    const std::vector<double> sse = evaluate(trial, nullptr);
-    for (size_t k = 0; k < joints.size(); ++k) searches[k].Tell(sse[joints[k]]);
+    const Score score = evaluate(trial, false);
+    for (size_t k = 0; k < joints.size(); ++k) searches[k].Tell(cost(score, joints[k]));
   }
   if (searched) {
     core::RobotModel found = start;
     for (size_t k = 0; k < joints.size(); ++k) FromUnit(found, joints[k], searches[k].best());
-    const std::vector<double> found_sse = evaluate(found, nullptr);
+    const Score found_score = evaluate(found, false);
     double now = 0, then = 0;
     for (size_t j : joints) {
-      now += found_sse[j];
-      then += best_sse[j];
+      now += cost(found_score, j);
+      then += cost(best_score, j);
     }
     if (now < then) {
       best = found;
-      best_sse = found_sse;
+      best_score = found_score;
     }
   }
   result.model = best;
@@ -684,10 +755,14 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
     id.friction_after = best.joints[j].friction;
     id.armature_before = model.joints[j].armature;
     id.armature_after = best.joints[j].armature;
-    id.samples = counts[j];
-    const double c = static_cast<double>(std::max<int64_t>(1, counts[j]));
-    id.rms_before_deg = std::sqrt(before[j] / c) / kDeg;
-    id.rms_after_deg = std::sqrt(best_sse[j] / c) / kDeg;
+    id.samples = before.count[j];
+    const double c = static_cast<double>(std::max<int64_t>(1, before.count[j]));
+    id.rms_before_deg = std::sqrt(before.sse[j] / c) / kDeg;
+    id.rms_after_deg = std::sqrt(best_score.sse[j] / c) / kDeg;
+    if (before.weights[j] > 0) {
+      id.table_before = before.table[j] / before.weights[j];
+      id.table_after = best_score.table[j] / before.weights[j];
+    }
     result.joints.push_back(id);
   }
   return result;
@@ -700,16 +775,7 @@ logger::RunTable SimulateRealStream(const core::RobotModel& model, const logger:
   std::vector<std::vector<double>> trace;
   Simulate(model, track, &sse, &count, &trace);
   logger::RunTable out = table;
-  const double t0 = table.time_s.front();
-  for (size_t i = 0; i < out.rows(); ++i) {
-    const auto k = static_cast<size_t>(
-        std::clamp<long>(std::lround((table.time_s[i] - t0) / model.servo_tick_s), 0,
-                         static_cast<long>(trace.size()) - 1));
-    for (size_t j = 0; j < out.joints.size(); ++j) {
-      out.position[j][2][i] = trace[k][j] * out.joints[j].scale();
-    }
-    out.age_s[2][i] = 0;
-  }
+  PutStream(trace, table.time_s.front(), model.servo_tick_s, 0, logger::Stream::kReal, &out);
   out.real_clock_us.clear();  // the simulated stream is on the sim clock: no stamps, no factor
   out.real_on_sim_clock = true;
   return out;

@@ -18,6 +18,7 @@
 //    the regression's and the model's values.
 // Reads the model and the tables; writes nothing itself. docs/emulator-fit.md, "Identification".
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -32,6 +33,9 @@ struct IdentifyOptions {
   // Only each table's last move, from the row it starts: the move Table II measures (a movement
   // set's plan first returns the arm to zero, then makes it).
   bool last_move_only = false;
+  // Table II's measure counts each file's last move (the one Table II measures) with weight 1 and
+  // the file's earlier moves (a movement set's return to zero, a manual part) with this weight.
+  double earlier_moves_weight = 1.0;
 };
 
 struct JointIdentification {
@@ -39,6 +43,11 @@ struct JointIdentification {
   core::Friction friction_before, friction_after;
   double armature_before = 0, armature_after = 0;
   double rms_before_deg = 0, rms_after_deg = 0;  // simulated vs real, over the fresh samples
+  // Table II's measure, what the search lowers: the weighted mean of the per-move transient and
+  // steady-state means of |virtual - real| (deg, or mm); NaN when the data has no move the joint
+  // takes part in (the search then lowers the squared error).
+  double table_before = std::numeric_limits<double>::quiet_NaN();
+  double table_after = std::numeric_limits<double>::quiet_NaN();
   int64_t samples = 0;
 };
 

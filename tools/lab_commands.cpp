@@ -212,21 +212,22 @@ void PrintIdentification(std::ostream& out, const lab::IdentifyResult& result, s
                          double seconds) {
   out << "identified from " << tables << " data tables in " << result.evaluations
       << " simulations (" << std::setprecision(3) << seconds << " s)\n\n"
-      << "| joint | samples | rms before (deg) | rms after (deg) | static | Coulomb +/- | "
-         "viscous | Stribeck (deg/s) | armature |\n"
-      << "|---|---:|---:|---:|---|---|---|---|---|\n";
+      << "| joint | samples | moves' means before (deg) | after (deg) | rms before (deg) | "
+         "rms after (deg) | static | Coulomb +/- | viscous | Stribeck (deg/s) | armature |\n"
+      << "|---|---:|---:|---:|---:|---:|---|---|---|---|---|\n";
   auto f = [](double v) { return core::FormatNumber(std::round(v * 1e4) / 1e4); };
   for (const lab::JointIdentification& id : result.joints) {
     const core::Friction& a = id.friction_before;
     const core::Friction& b = id.friction_after;
     const double deg = 3.14159265358979323846 / 180;
-    out << "| " << id.joint << " | " << id.samples << " | " << f(id.rms_before_deg) << " | "
-        << f(id.rms_after_deg) << " | " << f(a.static_effort) << " -> " << f(b.static_effort)
-        << " | " << f(a.coulomb_positive) << "/" << f(a.coulomb_negative) << " -> "
-        << f(b.coulomb_positive) << "/" << f(b.coulomb_negative) << " | " << f(a.viscous) << " -> "
-        << f(b.viscous) << " | " << f(a.stribeck_velocity / deg) << " -> "
-        << f(b.stribeck_velocity / deg) << " | " << f(id.armature_before) << " -> "
-        << f(id.armature_after) << " |\n";
+    auto mean = [&](double v) { return std::isnan(v) ? std::string("-") : f(v); };
+    out << "| " << id.joint << " | " << id.samples << " | " << mean(id.table_before) << " | "
+        << mean(id.table_after) << " | " << f(id.rms_before_deg) << " | " << f(id.rms_after_deg)
+        << " | " << f(a.static_effort) << " -> " << f(b.static_effort) << " | "
+        << f(a.coulomb_positive) << "/" << f(a.coulomb_negative) << " -> " << f(b.coulomb_positive)
+        << "/" << f(b.coulomb_negative) << " | " << f(a.viscous) << " -> " << f(b.viscous) << " | "
+        << f(a.stribeck_velocity / deg) << " -> " << f(b.stribeck_velocity / deg) << " | "
+        << f(id.armature_before) << " -> " << f(id.armature_after) << " |\n";
   }
 }
 
@@ -251,7 +252,12 @@ int RunIdentify(const std::vector<std::string>& argv, std::ostream& out, std::os
        runtime::Flag("last-move",
                      "fit only each file's last move (the move Table II measures; a movement "
                      "set first returns the arm to zero)")
-           .Switch()},
+           .Switch(),
+       runtime::Flag("earlier-moves",
+                     "the weight of a file's earlier moves (a return to zero, a manual part) "
+                     "against its last move in what the fit lowers (1)")
+           .Takes("W")
+           .Range(0, 1)},
       kIdentifyAbout);
   if (files.empty())
     throw core::UsageError("identify: give at least one DATA file (before the options)");
@@ -277,6 +283,7 @@ int RunIdentify(const std::vector<std::string>& argv, std::ostream& out, std::os
   options.max_evaluations =
       static_cast<int>(args.Integer("evaluations", options.max_evaluations));  // 5..100000
   options.last_move_only = args.Has("last-move");
+  options.earlier_moves_weight = args.Number("earlier-moves", options.earlier_moves_weight);
   {
     // Before any fitting: every joint that may be fitted can be written back into M2.
     std::vector<int> joints = options.joints;
