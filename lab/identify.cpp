@@ -37,7 +37,8 @@ struct Track {
   struct Sample {
     size_t tick;
     size_t joint;
-    double real;  // SI
+    double real;    // SI
+    double weight;  // its move's weight in the fit (MoveWeight)
   };
   std::vector<Sample> samples;
 };
@@ -65,9 +66,15 @@ size_t LastMoveRow(const logger::RunTable& table) {
   return start;
 }
 
-// The track of `table` from row `first_row` on.
+// The weight in the fit of the move of `table` that row `row` is in: 1 for a movement set's last
+// move (a file a plan ran: the move Table II measures), `others` for every other move.
+double MoveWeight(const logger::RunTable& table, size_t row, double others) {
+  return !table.plan_name.empty() && row >= LastMoveRow(table) ? 1.0 : others;
+}
+
+// The track of `table` from row `first_row` on; its samples weighted by MoveWeight(.., others).
 Track Prepare(const core::RobotModel& model, const logger::RunTable& table, size_t first_row = 0,
-              bool need_real = true) {
+              double others = 1, bool need_real = true) {
   const size_t n = model.joints.size();
   if (table.joints.size() != n) {
     throw core::ConfigError({table.source, 0, 0}, "joints",
@@ -138,7 +145,10 @@ Track Prepare(const core::RobotModel& model, const logger::RunTable& table, size
       if (k >= ticks) continue;
       for (size_t j = 0; j < n; ++j) {
         const double real = table.position[j][2][i];
-        if (!std::isnan(real)) track.samples.push_back({k, j, real / table.joints[j].scale()});
+        if (!std::isnan(real)) {
+          track.samples.push_back(
+              {k, j, real / table.joints[j].scale(), MoveWeight(table, i, others)});
+        }
       }
     }
   }
@@ -154,11 +164,13 @@ Track Prepare(const core::RobotModel& model, const logger::RunTable& table, size
 // Simulates the virtual arm along the track: sirupp-sim's ODE arm of the model (sim::ArmWorld)
 // under one PIC-SERVO chip per joint with the model's gains, held at the logged set-point each
 // tick (StopHere), whose PWM becomes an effort command as sirupp-control's ServoBank makes it
-// (JointDrive::EffortFromPwm). Adds each joint's squared error (rad^2) and sample count; with
+// (JointDrive::EffortFromPwm). Adds each joint's squared error (rad^2, each sample's times its
+// weight), the sum of the weights and the sample count; with
 // `trace`, also the positions at every tick. Throws std::runtime_error naming the joint if ODE's
 // integration blows up.
 void Simulate(const core::RobotModel& model, const Track& track, std::vector<double>* sse,
-              std::vector<int64_t>* count, std::vector<std::vector<double>>* trace = nullptr) {
+              std::vector<double>* weight, std::vector<int64_t>* count,
+              std::vector<std::vector<double>>* trace = nullptr) {
   const size_t n = model.joints.size();
   sim::ArmWorld world(model, core::Environment{});
   world.SetJointState(track.start);
@@ -187,7 +199,8 @@ void Simulate(const core::RobotModel& model, const Track& track, std::vector<dou
       const Track::Sample& s = track.samples[next++];
       if (s.tick != k) continue;
       const double e = position[s.joint] - s.real;
-      (*sse)[s.joint] += e * e;
+      (*sse)[s.joint] += s.weight * e * e;
+      (*weight)[s.joint] += s.weight;
       ++(*count)[s.joint];
     }
   }
@@ -212,24 +225,27 @@ void PutStream(const std::vector<std::vector<double>>& trace, double t0, double 
 
 // What one simulation of all the data scores, per joint.
 struct Score {
-  std::vector<double> sse;     // squared angle error over the fresh real samples (rad^2)
-  std::vector<int64_t> count;  // those samples
+  std::vector<double> sse;  // squared angle error over the fresh real samples (rad^2), weighted
+  std::vector<double> sse_weights;  // the sum of their weights
+  std::vector<int64_t> count;       // those samples
   // Table II's measure (logger/analysis.hpp): over the moves the joint takes part in, each move's
   // mean |virtual - real| over the transient and over the steady state (deg or mm), weighted
-  // (a file's last move 1, earlier moves IdentifyOptions::earlier_moves_weight) and summed.
+  // (MoveWeight) and summed.
   std::vector<double> table;
   std::vector<double> weights;  // the sum of the weights of those means
 };
 
 // Adds Table II's measure of `virt` (a table whose virtual stream is the simulation) to `score`.
-void AddTableMeans(const logger::RunTable& virt, const IdentifyOptions& options, Score* score) {
+// `joints`: the fitted ones (0-based); `others`: MoveWeight's.
+void AddTableMeans(const logger::RunTable& virt, const std::vector<size_t>& joints, bool last_move,
+                   double others, Score* score) {
   logger::AnalysisOptions analysis;
-  analysis.last_move_only = options.last_move_only;
-  const std::vector<size_t> starts = virt.MoveStarts();
-  const size_t last = starts.empty() ? virt.rows() : starts.back();
+  // Only the last move when the others count nothing: the analysis then has less to do.
+  analysis.last_move_only = last_move || (others == 0 && !virt.plan_name.empty());
+  for (size_t j : joints) analysis.joints.push_back(static_cast<int>(j + 1));
   for (const logger::MoveResult& move : logger::Analyze(virt, analysis).moves) {
     const logger::PairMetrics& m = move.pairs[static_cast<size_t>(logger::Pair::kVirtReal)];
-    const double w = move.begin == last ? 1.0 : options.earlier_moves_weight;
+    const double w = MoveWeight(virt, move.begin, others);
     const auto j = static_cast<size_t>(move.joint - 1);
     for (double mean : {m.mean_transient, m.mean_steady}) {
       if (!std::isfinite(mean) || w <= 0) continue;
@@ -628,10 +644,16 @@ core::RobotModel Regress(const core::RobotModel& model, const std::vector<Track>
 IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger::RunTable>& tables,
                         const IdentifyOptions& options) {
   const size_t n = model.joints.size();
+  // The weight of the moves other than the movement sets' last ones: by default none when the
+  // data has movement sets (Table II measures their last moves), else all count.
+  const bool sets = std::any_of(tables.begin(), tables.end(),
+                                [](const logger::RunTable& t) { return !t.plan_name.empty(); });
+  const double others =
+      options.other_moves_weight >= 0 ? options.other_moves_weight : (sets ? 0.0 : 1.0);
   std::vector<Track> tracks;
   for (size_t i = 0; i < tables.size(); ++i) {
     tracks.push_back(
-        Prepare(model, tables[i], options.last_move_only ? LastMoveRow(tables[i]) : 0));
+        Prepare(model, tables[i], options.last_move_only ? LastMoveRow(tables[i]) : 0, others));
     tracks.back().table = i;
   }
   std::vector<size_t> joints;
@@ -662,32 +684,38 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
   // What a simulation of model `m` along all the data scores. A trial whose simulation blows up
   // in ODE (viscous friction far too stiff for a light joint, say) costs infinity for every
   // joint; the given model's own (`thrown` true) is thrown.
+  const double inf = std::numeric_limits<double>::infinity();
   auto evaluate = [&](const core::RobotModel& m, bool thrown) {
-    Score score{std::vector<double>(n, 0.0), std::vector<int64_t>(n, 0),
-                std::vector<double>(n, 0.0), std::vector<double>(n, 0.0)};
+    Score score{std::vector<double>(n, 0.0), std::vector<double>(n, 0.0),
+                std::vector<int64_t>(n, 0), std::vector<double>(n, 0.0),
+                std::vector<double>(n, 0.0)};
     ++result.evaluations;
     try {
       for (const Track& t : tracks) {
         std::vector<std::vector<double>> trace;
-        Simulate(m, t, &score.sse, &score.count, &trace);
+        Simulate(m, t, &score.sse, &score.sse_weights, &score.count, &trace);
         PutStream(trace, t.t0, m.servo_tick_s, t.first_row, logger::Stream::kVirtual,
                   &work[t.table]);
-        AddTableMeans(work[t.table], options, &score);
+        AddTableMeans(work[t.table], joints, options.last_move_only, others, &score);
       }
     } catch (const std::runtime_error&) {
       if (thrown) throw;
-      score.sse.assign(n, std::numeric_limits<double>::infinity());
-      score.table.assign(n, std::numeric_limits<double>::infinity());
+      score.sse.assign(n, inf);
+      score.table.assign(n, inf);
     }
     return score;
   };
-  // Each joint's search lowers Table II's measure where the data has moves the joint takes part
-  // in (the same moves whatever the model: they come from the set-point and the real samples),
-  // else (data without moves, e.g. one long streamed set-point) the squared angle error.
+  // What each joint's search lowers in the end: Table II's measure where the data has moves the
+  // joint takes part in (the same moves whatever the model: they come from the set-point and the
+  // real samples), else (data without moves, e.g. one long streamed set-point) the squared angle
+  // error.
   const Score before = evaluate(model, true);
-  auto cost = [&](const Score& score, size_t j) {
+  auto table_cost = [&](const Score& score, size_t j) {
     return before.weights[j] > 0 ? score.table[j] : score.sse[j];
   };
+  auto sse_cost = [](const Score& score, size_t j) { return score.sse[j]; };
+  const bool two_phases =
+      std::any_of(joints.begin(), joints.end(), [&](size_t j) { return before.weights[j] > 0; });
   // Two starts, each put into the search's box: the torque regression's values and the model's.
   // Per joint the one that follows the data better is where the search begins (a joint the
   // regression fits worse than the model had it: data the model cannot explain, e.g. a real
@@ -712,7 +740,7 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
   core::RobotModel best = from_regression;
   Score best_score = regression_score;
   for (size_t j : joints) {
-    const bool regression = cost(regression_score, j) <= cost(model_score, j);
+    const bool regression = table_cost(regression_score, j) <= table_cost(model_score, j);
     best.joints[j] = (regression ? from_regression : from_model).joints[j];
     const Score& from = regression ? regression_score : model_score;
     best_score.sse[j] = from.sse[j];
@@ -721,26 +749,56 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
   // Output error: one Nelder-Mead search per joint on its log box (box_search.hpp), all of them
   // sharing each simulation of the data (the joints' errors are nearly independent), until the
   // budget less one simulation is spent; then the joints' best points together, simulated once.
-  std::vector<BoxSearch> searches;
-  for (size_t j : joints)
-    searches.emplace_back(ToUnit(best, j), cost(best_score, j), kFirstSimplex);
+  // With Table II's measure, in two phases: the squared error first (smooth: it finds the
+  // valley), for half the budget; then Table II's measure (sums of |error|, with corners), from
+  // each joint's best point by that measure so far.
   const core::RobotModel start = best;
+  std::vector<std::vector<double>> best_unit;
+  std::vector<double> best_cost;
+  for (size_t j : joints) {
+    best_unit.push_back(ToUnit(best, j));
+    best_cost.push_back(table_cost(best_score, j));
+  }
   bool searched = false;
-  while (!searches.empty() && result.evaluations + 1 < options.max_evaluations) {
-    searched = true;
-    core::RobotModel trial = start;
-    for (size_t k = 0; k < joints.size(); ++k) FromUnit(trial, joints[k], searches[k].Ask());
-    const Score score = evaluate(trial, false);
-    for (size_t k = 0; k < joints.size(); ++k) searches[k].Tell(cost(score, joints[k]));
+  auto search = [&](int until, bool by_table) {
+    std::vector<BoxSearch> searches;
+    for (size_t k = 0; k < joints.size(); ++k) {
+      const double c = by_table ? best_cost[k] : sse_cost(best_score, joints[k]);
+      searches.emplace_back(by_table ? best_unit[k] : ToUnit(start, joints[k]), c, kFirstSimplex);
+    }
+    while (!searches.empty() && result.evaluations + 1 < until) {
+      searched = true;
+      core::RobotModel trial = start;
+      std::vector<std::vector<double>> asked;
+      for (size_t k = 0; k < joints.size(); ++k) {
+        asked.push_back(searches[k].Ask());
+        FromUnit(trial, joints[k], asked.back());
+      }
+      const Score score = evaluate(trial, false);
+      for (size_t k = 0; k < joints.size(); ++k) {
+        const double c = table_cost(score, joints[k]);
+        searches[k].Tell(by_table ? c : sse_cost(score, joints[k]));
+        if (c < best_cost[k]) {
+          best_cost[k] = c;
+          best_unit[k] = asked[k];
+        }
+      }
+    }
+  };
+  if (two_phases) {
+    search(result.evaluations + (options.max_evaluations - result.evaluations) / 2, false);
+    search(options.max_evaluations, true);
+  } else {
+    search(options.max_evaluations, true);
   }
   if (searched) {
     core::RobotModel found = start;
-    for (size_t k = 0; k < joints.size(); ++k) FromUnit(found, joints[k], searches[k].best());
+    for (size_t k = 0; k < joints.size(); ++k) FromUnit(found, joints[k], best_unit[k]);
     const Score found_score = evaluate(found, false);
     double now = 0, then = 0;
     for (size_t j : joints) {
-      now += cost(found_score, j);
-      then += cost(best_score, j);
+      now += table_cost(found_score, j);
+      then += table_cost(best_score, j);
     }
     if (now < then) {
       best = found;
@@ -756,9 +814,9 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
     id.armature_before = model.joints[j].armature;
     id.armature_after = best.joints[j].armature;
     id.samples = before.count[j];
-    const double c = static_cast<double>(std::max<int64_t>(1, before.count[j]));
-    id.rms_before_deg = std::sqrt(before.sse[j] / c) / kDeg;
-    id.rms_after_deg = std::sqrt(best_score.sse[j] / c) / kDeg;
+    const double w = std::max(1e-300, before.sse_weights[j]);
+    id.rms_before_deg = std::sqrt(before.sse[j] / w) / kDeg;
+    id.rms_after_deg = std::sqrt(best_score.sse[j] / w) / kDeg;
     if (before.weights[j] > 0) {
       id.table_before = before.table[j] / before.weights[j];
       id.table_after = best_score.table[j] / before.weights[j];
@@ -769,11 +827,11 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
 }
 
 logger::RunTable SimulateRealStream(const core::RobotModel& model, const logger::RunTable& table) {
-  const Track track = Prepare(model, table, 0, false);
-  std::vector<double> sse(model.joints.size(), 0.0);
+  const Track track = Prepare(model, table, 0, 1, false);
+  std::vector<double> sse(model.joints.size(), 0.0), weight(model.joints.size(), 0.0);
   std::vector<int64_t> count(model.joints.size(), 0);
   std::vector<std::vector<double>> trace;
-  Simulate(model, track, &sse, &count, &trace);
+  Simulate(model, track, &sse, &weight, &count, &trace);
   logger::RunTable out = table;
   PutStream(trace, table.time_s.front(), model.servo_tick_s, 0, logger::Stream::kReal, &out);
   out.real_clock_us.clear();  // the simulated stream is on the sim clock: no stamps, no factor

@@ -33,16 +33,18 @@ struct IdentifyOptions {
   // Only each table's last move, from the row it starts: the move Table II measures (a movement
   // set's plan first returns the arm to zero, then makes it).
   bool last_move_only = false;
-  // Table II's measure counts each file's last move (the one Table II measures) with weight 1 and
-  // the file's earlier moves (a movement set's return to zero, a manual part) with this weight.
-  double earlier_moves_weight = 1.0;
+  // The fit weighs each movement set's last move (a file a plan ran: the move Table II measures)
+  // 1 and every other move (a set's return to zero, a manual part, a file without a plan) this;
+  // negative: 0 when the data has movement sets, else 1. Every move is simulated all the same.
+  double other_moves_weight = -1;
 };
 
 struct JointIdentification {
   int joint = 0;  // 1-based
   core::Friction friction_before, friction_after;
   double armature_before = 0, armature_after = 0;
-  double rms_before_deg = 0, rms_after_deg = 0;  // simulated vs real, over the fresh samples
+  // Simulated vs real over the fresh samples, each weighted as its move.
+  double rms_before_deg = 0, rms_after_deg = 0;
   // Table II's measure, what the search lowers: the weighted mean of the per-move transient and
   // steady-state means of |virtual - real| (deg, or mm); NaN when the data has no move the joint
   // takes part in (the search then lowers the squared error).

@@ -253,9 +253,10 @@ int RunIdentify(const std::vector<std::string>& argv, std::ostream& out, std::os
                      "fit only each file's last move (the move Table II measures; a movement "
                      "set first returns the arm to zero)")
            .Switch(),
-       runtime::Flag("earlier-moves",
-                     "the weight of a file's earlier moves (a return to zero, a manual part) "
-                     "against its last move in what the fit lowers (1)")
+       runtime::Flag("other-moves",
+                     "the weight of the moves other than the movement sets' last ones (a "
+                     "return to zero, a manual part) in the fit (default 0 with movement sets, "
+                     "else 1)")
            .Takes("W")
            .Range(0, 1)},
       kIdentifyAbout);
@@ -283,7 +284,7 @@ int RunIdentify(const std::vector<std::string>& argv, std::ostream& out, std::os
   options.max_evaluations =
       static_cast<int>(args.Integer("evaluations", options.max_evaluations));  // 5..100000
   options.last_move_only = args.Has("last-move");
-  options.earlier_moves_weight = args.Number("earlier-moves", options.earlier_moves_weight);
+  if (args.Has("other-moves")) options.other_moves_weight = args.Number("other-moves", 0);
   {
     // Before any fitting: every joint that may be fitted can be written back into M2.
     std::vector<int> joints = options.joints;
