@@ -681,22 +681,23 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
   // The copies of the tables whose virtual stream each simulation replaces, for Table II's
   // measure.
   std::vector<logger::RunTable> work(tables);
-  // What a simulation of model `m` along all the data scores. A trial whose simulation blows up
-  // in ODE (viscous friction far too stiff for a light joint, say) costs infinity for every
-  // joint; the given model's own (`thrown` true) is thrown.
+  // What a simulation of model `m` along `on` scores. A trial whose simulation blows up in ODE
+  // (viscous friction far too stiff for a light joint, say) costs infinity for every joint; the
+  // given model's own (`thrown` true) is thrown.
   const double inf = std::numeric_limits<double>::infinity();
-  auto evaluate = [&](const core::RobotModel& m, bool thrown) {
+  auto evaluate = [&](const core::RobotModel& m, bool thrown, const std::vector<Track>& on) {
     Score score{std::vector<double>(n, 0.0), std::vector<double>(n, 0.0),
                 std::vector<int64_t>(n, 0), std::vector<double>(n, 0.0),
                 std::vector<double>(n, 0.0)};
     ++result.evaluations;
     try {
-      for (const Track& t : tracks) {
+      for (const Track& t : on) {
         std::vector<std::vector<double>> trace;
         Simulate(m, t, &score.sse, &score.sse_weights, &score.count, &trace);
         PutStream(trace, t.t0, m.servo_tick_s, t.first_row, logger::Stream::kVirtual,
                   &work[t.table]);
-        AddTableMeans(work[t.table], joints, options.last_move_only, others, &score);
+        AddTableMeans(work[t.table], joints, t.first_row > 0 || options.last_move_only, others,
+                      &score);
       }
     } catch (const std::runtime_error&) {
       if (thrown) throw;
@@ -709,24 +710,46 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
   // joint takes part in (the same moves whatever the model: they come from the set-point and the
   // real samples), else (data without moves, e.g. one long streamed set-point) the squared angle
   // error.
-  const Score before = evaluate(model, true);
+  const Score before = evaluate(model, true, tracks);
   auto table_cost = [&](const Score& score, size_t j) {
     return before.weights[j] > 0 ? score.table[j] : score.sse[j];
   };
-  auto sse_cost = [](const Score& score, size_t j) { return score.sse[j]; };
+  auto total = [&](const Score& score) {
+    double sum = 0;
+    for (size_t j : joints) sum += table_cost(score, j);
+    return sum;
+  };
   const bool two_phases =
       std::any_of(joints.begin(), joints.end(), [&](size_t j) { return before.weights[j] > 0; });
+  // With Table II's measure the search has two phases. First the squared error (smooth: it finds
+  // the valley), for half the budget; when only the movement sets' last moves count, on those
+  // moves alone, each simulated from where its real arm starts (cheaper, and the returns to zero
+  // do not pull it). Then Table II's measure over all the data (sums of |error|, with corners),
+  // from each joint's point of the first phase.
+  std::vector<Track> last_moves;
+  if (two_phases && others == 0 && !options.last_move_only) {
+    for (size_t i = 0; i < tables.size(); ++i) {
+      if (tables[i].plan_name.empty()) continue;
+      last_moves.push_back(Prepare(model, tables[i], LastMoveRow(tables[i]), others));
+      last_moves.back().table = i;
+    }
+  }
+  const std::vector<Track>& first = last_moves.empty() ? tracks : last_moves;
+  auto first_cost = [&](const Score& score, size_t j) {
+    return two_phases ? score.sse[j] : table_cost(score, j);
+  };
   // Two starts, each put into the search's box: the torque regression's values and the model's.
   // Per joint the one that follows the data better is where the search begins (a joint the
   // regression fits worse than the model had it: data the model cannot explain, e.g. a real
   // arm's latency).
-  core::RobotModel from_regression = Regress(model, tracks, joints);
+  const Score model_first = &first == &tracks ? before : evaluate(model, true, first);
+  core::RobotModel from_regression = Regress(model, first, joints);
   core::RobotModel from_model = model;
   for (size_t j : joints) {
     FromUnit(from_regression, j, ToUnit(from_regression, j));
     FromUnit(from_model, j, ToUnit(from_model, j));
   }
-  const Score regression_score = evaluate(from_regression, false);
+  const Score regression_score = evaluate(from_regression, false, first);
   auto near = [](double a, double b) { return std::abs(a - b) <= 1e-9 * std::abs(b); };
   const bool model_in_box = std::all_of(joints.begin(), joints.end(), [&](size_t j) {
     const core::Friction& a = from_model.joints[j].friction;
@@ -736,73 +759,68 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
            near(a.stribeck_velocity, b.stribeck_velocity) &&
            near(from_model.joints[j].armature, model.joints[j].armature);
   });
-  const Score model_score = model_in_box ? before : evaluate(from_model, false);
-  core::RobotModel best = from_regression;
-  Score best_score = regression_score;
+  const Score model_score = model_in_box ? model_first : evaluate(from_model, false, first);
+  core::RobotModel start = from_regression;
+  std::vector<double> start_cost(n, inf);
   for (size_t j : joints) {
-    const bool regression = table_cost(regression_score, j) <= table_cost(model_score, j);
-    best.joints[j] = (regression ? from_regression : from_model).joints[j];
-    const Score& from = regression ? regression_score : model_score;
-    best_score.sse[j] = from.sse[j];
-    best_score.table[j] = from.table[j];
+    const bool regression = first_cost(regression_score, j) <= first_cost(model_score, j);
+    start.joints[j] = (regression ? from_regression : from_model).joints[j];
+    start_cost[j] = first_cost(regression ? regression_score : model_score, j);
   }
   // Output error: one Nelder-Mead search per joint on its log box (box_search.hpp), all of them
-  // sharing each simulation of the data (the joints' errors are nearly independent), until the
-  // budget less one simulation is spent; then the joints' best points together, simulated once.
-  // With Table II's measure, in two phases: the squared error first (smooth: it finds the
-  // valley), for half the budget; then Table II's measure (sums of |error|, with corners), from
-  // each joint's best point by that measure so far.
-  const core::RobotModel start = best;
-  std::vector<std::vector<double>> best_unit;
-  std::vector<double> best_cost;
-  for (size_t j : joints) {
-    best_unit.push_back(ToUnit(best, j));
-    best_cost.push_back(table_cost(best_score, j));
-  }
-  bool searched = false;
-  auto search = [&](int until, bool by_table) {
+  // sharing each simulation of the data (the joints' errors are nearly independent), until
+  // `until` simulations less one are spent. Returns the joints' best points together.
+  auto search = [&](const core::RobotModel& from, const std::vector<double>& from_cost, int until,
+                    const std::vector<Track>& on, bool by_table) {
     std::vector<BoxSearch> searches;
-    for (size_t k = 0; k < joints.size(); ++k) {
-      const double c = by_table ? best_cost[k] : sse_cost(best_score, joints[k]);
-      searches.emplace_back(by_table ? best_unit[k] : ToUnit(start, joints[k]), c, kFirstSimplex);
-    }
+    for (size_t j : joints) searches.emplace_back(ToUnit(from, j), from_cost[j], kFirstSimplex);
     while (!searches.empty() && result.evaluations + 1 < until) {
-      searched = true;
-      core::RobotModel trial = start;
-      std::vector<std::vector<double>> asked;
+      core::RobotModel trial = from;
+      for (size_t k = 0; k < joints.size(); ++k) FromUnit(trial, joints[k], searches[k].Ask());
+      const Score score = evaluate(trial, false, on);
       for (size_t k = 0; k < joints.size(); ++k) {
-        asked.push_back(searches[k].Ask());
-        FromUnit(trial, joints[k], asked.back());
-      }
-      const Score score = evaluate(trial, false);
-      for (size_t k = 0; k < joints.size(); ++k) {
-        const double c = table_cost(score, joints[k]);
-        searches[k].Tell(by_table ? c : sse_cost(score, joints[k]));
-        if (c < best_cost[k]) {
-          best_cost[k] = c;
-          best_unit[k] = asked[k];
-        }
+        searches[k].Tell(by_table ? table_cost(score, joints[k]) : first_cost(score, joints[k]));
       }
     }
+    core::RobotModel found = from;
+    for (size_t k = 0; k < joints.size(); ++k) FromUnit(found, joints[k], searches[k].best());
+    return found;
   };
-  if (two_phases) {
-    search(result.evaluations + (options.max_evaluations - result.evaluations) / 2, false);
-    search(options.max_evaluations, true);
-  } else {
-    search(options.max_evaluations, true);
-  }
-  if (searched) {
-    core::RobotModel found = start;
-    for (size_t k = 0; k < joints.size(); ++k) FromUnit(found, joints[k], best_unit[k]);
-    const Score found_score = evaluate(found, false);
-    double now = 0, then = 0;
+  // The candidates, each with its score over all the data; the one with the lowest measure wins.
+  std::vector<std::pair<core::RobotModel, Score>> candidates;
+  if (!two_phases) {
+    // One phase on the squared error (table_cost is it): the start's score is known already.
+    Score start_score = regression_score;
     for (size_t j : joints) {
-      now += table_cost(found_score, j);
-      then += table_cost(best_score, j);
+      start_score.sse[j] = start_cost[j];
+      start_score.sse_weights[j] = before.sse_weights[j];
     }
-    if (now < then) {
-      best = found;
-      best_score = found_score;
+    candidates.emplace_back(start, start_score);
+    if (result.evaluations + 1 < options.max_evaluations) {
+      const core::RobotModel found =
+          search(start, start_cost, options.max_evaluations, tracks, true);
+      candidates.emplace_back(found, evaluate(found, false, tracks));
+    }
+  } else {
+    candidates.emplace_back(start, evaluate(start, false, tracks));
+    const int half =
+        result.evaluations + std::max(0, options.max_evaluations - result.evaluations) / 2;
+    const core::RobotModel phase1 = search(start, start_cost, half, first, false);
+    const Score phase1_score = evaluate(phase1, false, tracks);
+    candidates.emplace_back(phase1, phase1_score);
+    if (result.evaluations + 1 < options.max_evaluations) {
+      std::vector<double> cost(n, inf);
+      for (size_t j : joints) cost[j] = table_cost(phase1_score, j);
+      const core::RobotModel found = search(phase1, cost, options.max_evaluations, tracks, true);
+      candidates.emplace_back(found, evaluate(found, false, tracks));
+    }
+  }
+  core::RobotModel best = candidates.front().first;
+  Score best_score = candidates.front().second;
+  for (const auto& [m, score] : candidates) {
+    if (total(score) < total(best_score)) {
+      best = m;
+      best_score = score;
     }
   }
   result.model = best;
