@@ -26,6 +26,18 @@ constexpr double kDeg = kPi / 180;
 constexpr int kParams =
     6;  // static, Coulomb +/- as fractions of static, viscous, Stribeck, armature
 constexpr double kFirstSimplex = 0.1;  // the search's first simplex, in units of its box
+constexpr int kSpreadStarts = 20;      // starts spread over the box (Identify)
+constexpr int kPrimes[kParams] = {2, 3, 5, 7, 11, 13};
+
+// The Halton sequence's element `index` in base `base`, in [0, 1).
+double Halton(int index, int base) {
+  double result = 0, f = 1;
+  for (int i = index; i > 0; i /= base) {
+    f /= base;
+    result += f * (i % base);
+  }
+  return result;
+}
 
 // One table, prepared: the set-point per servo tick (SI) and the fresh real samples.
 struct Track {
@@ -766,6 +778,24 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
     const bool regression = first_cost(regression_score, j) <= first_cost(model_score, j);
     start.joints[j] = (regression ? from_regression : from_model).joints[j];
     start_cost[j] = first_cost(regression ? regression_score : model_score, j);
+  }
+  // With Table II's data, kSpreadStarts more starts spread over the box (a Halton sequence, the
+  // same point for every joint; every second one with its viscous friction in the box's top
+  // tenth): a latency fits as viscous friction near the box's cap, far from both starts, and a
+  // search from them can settle on pure Coulomb friction instead.
+  for (int p = 1; two_phases && p <= kSpreadStarts; ++p) {
+    std::vector<double> unit(kParams);
+    for (size_t a = 0; a < unit.size(); ++a) unit[a] = Halton(p, kPrimes[a]);
+    if (p % 2 == 0) unit[3] = 0.9 + 0.1 * unit[3];  // viscous friction in the box's top decade
+    core::RobotModel trial = start;
+    for (size_t j : joints) FromUnit(trial, j, unit);
+    const Score score = evaluate(trial, false, first);
+    for (size_t j : joints) {
+      if (first_cost(score, j) < start_cost[j]) {
+        start.joints[j] = trial.joints[j];
+        start_cost[j] = first_cost(score, j);
+      }
+    }
   }
   // Output error: one Nelder-Mead search per joint on its log box (box_search.hpp), all of them
   // sharing each simulation of the data (the joints' errors are nearly independent), until
