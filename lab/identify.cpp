@@ -26,7 +26,8 @@ constexpr double kDeg = kPi / 180;
 constexpr int kParams =
     6;  // static, Coulomb +/- as fractions of static, viscous, Stribeck, armature
 constexpr double kFirstSimplex = 0.1;  // the search's first simplex, in units of its box
-constexpr int kSpreadStarts = 20;      // starts spread over the box (Identify)
+constexpr int kSpreadStarts = 20;      // starts spread over the box (Identify), at most a quarter
+                                       // of the budget
 constexpr int kPrimes[kParams] = {2, 3, 5, 7, 11, 13};
 
 // The Halton sequence's element `index` in base `base`, in [0, 1).
@@ -783,7 +784,8 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
   // same point for every joint; every second one with its viscous friction in the box's top
   // tenth): a latency fits as viscous friction near the box's cap, far from both starts, and a
   // search from them can settle on pure Coulomb friction instead.
-  for (int p = 1; two_phases && p <= kSpreadStarts; ++p) {
+  const int spread = std::min(kSpreadStarts, options.max_evaluations / 4);
+  for (int p = 1; two_phases && p <= spread; ++p) {
     std::vector<double> unit(kParams);
     for (size_t a = 0; a < unit.size(); ++a) unit[a] = Halton(p, kPrimes[a]);
     if (p % 2 == 0) unit[3] = 0.9 + 0.1 * unit[3];  // viscous friction in the box's top decade

@@ -14,8 +14,12 @@
 // 2. Output-error search: the virtual arm (the model's sim::ArmWorld, each joint's PicServo held
 //    at the logged set-point, its PWM turned into the effort command as sirupp-control turns it)
 //    follows the logged set-point; per joint a Nelder-Mead search on a log box derived from the
-//    joint (box_search.hpp) lowers the squared difference to the real angles, from the better of
-//    the regression's and the model's values.
+//    joint (box_search.hpp) lowers Table II's measure: per move the joint takes part in, the
+//    mean |virtual - real| over the transient and over the steady state as logger::Analyze
+//    defines them, summed (data without moves: the squared angle error). By default only the
+//    movement sets' last moves count (the ones Table II measures; the rest is simulated). The
+//    search starts from the best of the regression's, the model's and 20 spread values, lowers
+//    the squared error on those moves first (half the budget), then Table II's measure.
 // Reads the model and the tables; writes nothing itself. docs/emulator-fit.md, "Identification".
 
 #include <limits>
