@@ -34,8 +34,8 @@ namespace sirupp::lab {
 struct IdentifyOptions {
   std::vector<int> joints;    // 1-based joints to fit; empty: every joint the set-point moves
   int max_evaluations = 150;  // simulations of all the data (the search; 3 or less: none)
-  // Only each table's last move, from the row it starts: the move Table II measures (a movement
-  // set's plan first returns the arm to zero, then makes it).
+  // Simulate and fit only each table's last move, from the row it starts: the move Table II
+  // measures (a movement set's plan first returns the arm to zero, then makes it).
   bool last_move_only = false;
   // The fit weighs each movement set's last move (a file a plan ran: the move Table II measures)
   // 1 and every other move (a set's return to zero, a manual part, a file without a plan) this;

@@ -253,8 +253,8 @@ int RunIdentify(const std::vector<std::string>& argv, std::ostream& out, std::os
            .Takes("N")
            .Integer(5, 100000),
        runtime::Flag("last-move",
-                     "fit only each file's last move (the move Table II measures; a movement "
-                     "set first returns the arm to zero)")
+                     "simulate and fit only each file's last move, from where the real arm "
+                     "starts it (a movement set first returns the arm to zero)")
            .Switch(),
        runtime::Flag("other-moves",
                      "the weight of the moves other than the movement sets' last ones (a "
