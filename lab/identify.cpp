@@ -13,6 +13,7 @@
 #include "core/errors.hpp"
 #include "core/yaml_reader.hpp"
 #include "lab/box_search.hpp"
+#include "logger/analysis.hpp"
 #include "servo/picservo.hpp"
 #include "servo/servo_units.hpp"
 #include "sim/arm_world.hpp"
@@ -25,15 +26,32 @@ constexpr double kDeg = kPi / 180;
 constexpr int kParams =
     6;  // static, Coulomb +/- as fractions of static, viscous, Stribeck, armature
 constexpr double kFirstSimplex = 0.1;  // the search's first simplex, in units of its box
+constexpr int kSpreadStarts = 20;      // starts spread over the box (Identify), at most a quarter
+                                       // of the budget
+constexpr int kPrimes[kParams] = {2, 3, 5, 7, 11, 13};
+
+// The Halton sequence's element `index` in base `base`, in [0, 1).
+double Halton(int index, int base) {
+  double result = 0, f = 1;
+  for (int i = index; i > 0; i /= base) {
+    f /= base;
+    result += f * (i % base);
+  }
+  return result;
+}
 
 // One table, prepared: the set-point per servo tick (SI) and the fresh real samples.
 struct Track {
+  size_t table = 0;                           // its table (Identify's tables)
+  double t0 = 0;                              // the time of tick 0 on the table's axis
+  size_t first_row = 0;                       // rows before it are not simulated
   std::vector<double> start;                  // SI, per joint
   std::vector<std::vector<double>> setpoint;  // [tick][joint], SI
   struct Sample {
     size_t tick;
     size_t joint;
-    double real;  // SI
+    double real;    // SI
+    double weight;  // its move's weight in the fit (MoveWeight)
   };
   std::vector<Sample> samples;
 };
@@ -61,9 +79,15 @@ size_t LastMoveRow(const logger::RunTable& table) {
   return start;
 }
 
-// The track of `table` from row `first_row` on.
+// The weight in the fit of the move of `table` that row `row` is in: 1 for a movement set's last
+// move (a file a plan ran: the move Table II measures), `others` for every other move.
+double MoveWeight(const logger::RunTable& table, size_t row, double others) {
+  return !table.plan_name.empty() && row >= LastMoveRow(table) ? 1.0 : others;
+}
+
+// The track of `table` from row `first_row` on; its samples weighted by MoveWeight(.., others).
 Track Prepare(const core::RobotModel& model, const logger::RunTable& table, size_t first_row = 0,
-              bool need_real = true) {
+              double others = 1, bool need_real = true) {
   const size_t n = model.joints.size();
   if (table.joints.size() != n) {
     throw core::ConfigError({table.source, 0, 0}, "joints",
@@ -90,6 +114,8 @@ Track Prepare(const core::RobotModel& model, const logger::RunTable& table, size
         "no set-point data to drive the model with (" + std::to_string(t.size()) + " rows)");
   }
   Track track;
+  track.t0 = t.front();
+  track.first_row = first_row;
   const double tick = model.servo_tick_s;
   const auto ticks = static_cast<size_t>((t.back() - t.front()) / tick) + 1;
   std::vector<size_t> cursor(n, 0);
@@ -132,7 +158,10 @@ Track Prepare(const core::RobotModel& model, const logger::RunTable& table, size
       if (k >= ticks) continue;
       for (size_t j = 0; j < n; ++j) {
         const double real = table.position[j][2][i];
-        if (!std::isnan(real)) track.samples.push_back({k, j, real / table.joints[j].scale()});
+        if (!std::isnan(real)) {
+          track.samples.push_back(
+              {k, j, real / table.joints[j].scale(), MoveWeight(table, i, others)});
+        }
       }
     }
   }
@@ -148,11 +177,13 @@ Track Prepare(const core::RobotModel& model, const logger::RunTable& table, size
 // Simulates the virtual arm along the track: sirupp-sim's ODE arm of the model (sim::ArmWorld)
 // under one PIC-SERVO chip per joint with the model's gains, held at the logged set-point each
 // tick (StopHere), whose PWM becomes an effort command as sirupp-control's ServoBank makes it
-// (JointDrive::EffortFromPwm). Adds each joint's squared error (rad^2) and sample count; with
+// (JointDrive::EffortFromPwm). Adds each joint's squared error (rad^2, each sample's times its
+// weight), the sum of the weights and the sample count; with
 // `trace`, also the positions at every tick. Throws std::runtime_error naming the joint if ODE's
 // integration blows up.
 void Simulate(const core::RobotModel& model, const Track& track, std::vector<double>* sse,
-              std::vector<int64_t>* count, std::vector<std::vector<double>>* trace = nullptr) {
+              std::vector<double>* weight, std::vector<int64_t>* count,
+              std::vector<std::vector<double>>* trace = nullptr) {
   const size_t n = model.joints.size();
   sim::ArmWorld world(model, core::Environment{});
   world.SetJointState(track.start);
@@ -181,8 +212,58 @@ void Simulate(const core::RobotModel& model, const Track& track, std::vector<dou
       const Track::Sample& s = track.samples[next++];
       if (s.tick != k) continue;
       const double e = position[s.joint] - s.real;
-      (*sse)[s.joint] += e * e;
+      (*sse)[s.joint] += s.weight * e * e;
+      (*weight)[s.joint] += s.weight;
       ++(*count)[s.joint];
+    }
+  }
+}
+
+// `trace` (positions after each tick, SI) as `stream` of `out`, a copy of the table it was
+// simulated along: at each row from `first_row` on, the tick nearest the row's time (tick 0 at
+// `t0`); earlier rows empty. Each value is fresh (age 0).
+void PutStream(const std::vector<std::vector<double>>& trace, double t0, double tick,
+               size_t first_row, logger::Stream stream, logger::RunTable* out) {
+  const auto s = static_cast<size_t>(stream);
+  const auto last = static_cast<long>(trace.size()) - 1;
+  for (size_t i = 0; i < out->rows(); ++i) {
+    const auto k =
+        static_cast<size_t>(std::clamp<long>(std::lround((out->time_s[i] - t0) / tick), 0, last));
+    for (size_t j = 0; j < out->joints.size(); ++j) {
+      out->position[j][s][i] = i < first_row ? std::nan("") : trace[k][j] * out->joints[j].scale();
+    }
+    out->age_s[s][i] = i < first_row ? std::nan("") : 0;
+  }
+}
+
+// What one simulation of all the data scores, per joint.
+struct Score {
+  std::vector<double> sse;  // squared angle error over the fresh real samples (rad^2), weighted
+  std::vector<double> sse_weights;  // the sum of their weights
+  std::vector<int64_t> count;       // those samples
+  // Table II's measure (logger/analysis.hpp): over the moves the joint takes part in, each move's
+  // mean |virtual - real| over the transient and over the steady state (deg or mm), weighted
+  // (MoveWeight) and summed.
+  std::vector<double> table;
+  std::vector<double> weights;  // the sum of the weights of those means
+};
+
+// Adds Table II's measure of `virt` (a table whose virtual stream is the simulation) to `score`.
+// `joints`: the fitted ones (0-based); `others`: MoveWeight's.
+void AddTableMeans(const logger::RunTable& virt, const std::vector<size_t>& joints, bool last_move,
+                   double others, Score* score) {
+  logger::AnalysisOptions analysis;
+  // Only the last move when the others count nothing: the analysis then has less to do.
+  analysis.last_move_only = last_move || (others == 0 && !virt.plan_name.empty());
+  for (size_t j : joints) analysis.joints.push_back(static_cast<int>(j + 1));
+  for (const logger::MoveResult& move : logger::Analyze(virt, analysis).moves) {
+    const logger::PairMetrics& m = move.pairs[static_cast<size_t>(logger::Pair::kVirtReal)];
+    const double w = MoveWeight(virt, move.begin, others);
+    const auto j = static_cast<size_t>(move.joint - 1);
+    for (double mean : {m.mean_transient, m.mean_steady}) {
+      if (!std::isfinite(mean) || w <= 0) continue;
+      score->table[j] += w * mean;
+      score->weights[j] += w;
     }
   }
 }
@@ -576,9 +657,17 @@ core::RobotModel Regress(const core::RobotModel& model, const std::vector<Track>
 IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger::RunTable>& tables,
                         const IdentifyOptions& options) {
   const size_t n = model.joints.size();
+  // The weight of the moves other than the movement sets' last ones: by default none when the
+  // data has movement sets (Table II measures their last moves), else all count.
+  const bool sets = std::any_of(tables.begin(), tables.end(),
+                                [](const logger::RunTable& t) { return !t.plan_name.empty(); });
+  const double others =
+      options.other_moves_weight >= 0 ? options.other_moves_weight : (sets ? 0.0 : 1.0);
   std::vector<Track> tracks;
-  for (const logger::RunTable& table : tables) {
-    tracks.push_back(Prepare(model, table, options.last_move_only ? LastMoveRow(table) : 0));
+  for (size_t i = 0; i < tables.size(); ++i) {
+    tracks.push_back(
+        Prepare(model, tables[i], options.last_move_only ? LastMoveRow(tables[i]) : 0, others));
+    tracks.back().table = i;
   }
   std::vector<size_t> joints;
   if (options.joints.empty()) {
@@ -602,35 +691,78 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
     }
   }
   IdentifyResult result;
-  // The squared errors of model `m`'s simulation of all the data. A trial whose simulation blows
-  // up in ODE (viscous friction far too stiff for a light joint, say) costs infinity for every
-  // joint; the given model's own (`counts` asked for) is thrown.
-  auto evaluate = [&](const core::RobotModel& m, std::vector<int64_t>* counts) {
-    std::vector<double> sse(n, 0.0);
-    std::vector<int64_t> count(n, 0);
+  // The copies of the tables whose virtual stream each simulation replaces, for Table II's
+  // measure.
+  std::vector<logger::RunTable> work(tables);
+  // What a simulation of model `m` along `on` scores. A trial whose simulation blows up in ODE
+  // (viscous friction far too stiff for a light joint, say) costs infinity for every joint; the
+  // given model's own (`thrown` true) is thrown.
+  const double inf = std::numeric_limits<double>::infinity();
+  auto evaluate = [&](const core::RobotModel& m, bool thrown, const std::vector<Track>& on) {
+    Score score{std::vector<double>(n, 0.0), std::vector<double>(n, 0.0),
+                std::vector<int64_t>(n, 0), std::vector<double>(n, 0.0),
+                std::vector<double>(n, 0.0)};
     ++result.evaluations;
     try {
-      for (const Track& t : tracks) Simulate(m, t, &sse, &count);
+      for (const Track& t : on) {
+        std::vector<std::vector<double>> trace;
+        Simulate(m, t, &score.sse, &score.sse_weights, &score.count, &trace);
+        PutStream(trace, t.t0, m.servo_tick_s, t.first_row, logger::Stream::kVirtual,
+                  &work[t.table]);
+        AddTableMeans(work[t.table], joints, t.first_row > 0 || options.last_move_only, others,
+                      &score);
+      }
     } catch (const std::runtime_error&) {
-      if (counts) throw;
-      sse.assign(n, std::numeric_limits<double>::infinity());
+      if (thrown) throw;
+      score.sse.assign(n, inf);
+      score.table.assign(n, inf);
     }
-    if (counts) *counts = count;
-    return sse;
+    return score;
+  };
+  // What each joint's search lowers in the end: Table II's measure where the data has moves the
+  // joint takes part in (the same moves whatever the model: they come from the set-point and the
+  // real samples), else (data without moves, e.g. one long streamed set-point) the squared angle
+  // error.
+  const Score before = evaluate(model, true, tracks);
+  auto table_cost = [&](const Score& score, size_t j) {
+    return before.weights[j] > 0 ? score.table[j] : score.sse[j];
+  };
+  auto total = [&](const Score& score) {
+    double sum = 0;
+    for (size_t j : joints) sum += table_cost(score, j);
+    return sum;
+  };
+  const bool two_phases =
+      std::any_of(joints.begin(), joints.end(), [&](size_t j) { return before.weights[j] > 0; });
+  // With Table II's measure the search has two phases. First the squared error (smooth: it finds
+  // the valley), for half the budget; when only the movement sets' last moves count, on those
+  // moves alone, each simulated from where its real arm starts (cheaper, and the returns to zero
+  // do not pull it). Then Table II's measure over all the data (sums of |error|, with corners),
+  // from each joint's point of the first phase.
+  std::vector<Track> last_moves;
+  if (two_phases && others == 0 && !options.last_move_only) {
+    for (size_t i = 0; i < tables.size(); ++i) {
+      if (tables[i].plan_name.empty()) continue;
+      last_moves.push_back(Prepare(model, tables[i], LastMoveRow(tables[i]), others));
+      last_moves.back().table = i;
+    }
+  }
+  const std::vector<Track>& first = last_moves.empty() ? tracks : last_moves;
+  auto first_cost = [&](const Score& score, size_t j) {
+    return two_phases ? score.sse[j] : table_cost(score, j);
   };
   // Two starts, each put into the search's box: the torque regression's values and the model's.
   // Per joint the one that follows the data better is where the search begins (a joint the
   // regression fits worse than the model had it: data the model cannot explain, e.g. a real
   // arm's latency).
-  std::vector<int64_t> counts;
-  const std::vector<double> before = evaluate(model, &counts);
-  core::RobotModel from_regression = Regress(model, tracks, joints);
+  const Score model_first = &first == &tracks ? before : evaluate(model, true, first);
+  core::RobotModel from_regression = Regress(model, first, joints);
   core::RobotModel from_model = model;
   for (size_t j : joints) {
     FromUnit(from_regression, j, ToUnit(from_regression, j));
     FromUnit(from_model, j, ToUnit(from_model, j));
   }
-  const std::vector<double> regression_sse = evaluate(from_regression, nullptr);
+  const Score regression_score = evaluate(from_regression, false, first);
   auto near = [](double a, double b) { return std::abs(a - b) <= 1e-9 * std::abs(b); };
   const bool model_in_box = std::all_of(joints.begin(), joints.end(), [&](size_t j) {
     const core::Friction& a = from_model.joints[j].friction;
@@ -640,40 +772,87 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
            near(a.stribeck_velocity, b.stribeck_velocity) &&
            near(from_model.joints[j].armature, model.joints[j].armature);
   });
-  const std::vector<double> model_sse = model_in_box ? before : evaluate(from_model, nullptr);
-  core::RobotModel best = from_regression;
-  std::vector<double> best_sse(n, 0.0);
+  const Score model_score = model_in_box ? model_first : evaluate(from_model, false, first);
+  core::RobotModel start = from_regression;
+  std::vector<double> start_cost(n, inf);
   for (size_t j : joints) {
-    const bool regression = regression_sse[j] <= model_sse[j];
-    best.joints[j] = (regression ? from_regression : from_model).joints[j];
-    best_sse[j] = regression ? regression_sse[j] : model_sse[j];
+    const bool regression = first_cost(regression_score, j) <= first_cost(model_score, j);
+    start.joints[j] = (regression ? from_regression : from_model).joints[j];
+    start_cost[j] = first_cost(regression ? regression_score : model_score, j);
+  }
+  // With Table II's data, kSpreadStarts more starts spread over the box (a Halton sequence, the
+  // same point for every joint; every second one with its viscous friction in the box's top
+  // tenth): a latency fits as viscous friction near the box's cap, far from both starts, and a
+  // search from them can settle on pure Coulomb friction instead.
+  const int spread = std::min(kSpreadStarts, options.max_evaluations / 4);
+  for (int p = 1; two_phases && p <= spread; ++p) {
+    std::vector<double> unit(kParams);
+    for (size_t a = 0; a < unit.size(); ++a) unit[a] = Halton(p, kPrimes[a]);
+    if (p % 2 == 0) unit[3] = 0.9 + 0.1 * unit[3];  // viscous friction in the box's top decade
+    core::RobotModel trial = start;
+    for (size_t j : joints) FromUnit(trial, j, unit);
+    const Score score = evaluate(trial, false, first);
+    for (size_t j : joints) {
+      if (first_cost(score, j) < start_cost[j]) {
+        start.joints[j] = trial.joints[j];
+        start_cost[j] = first_cost(score, j);
+      }
+    }
   }
   // Output error: one Nelder-Mead search per joint on its log box (box_search.hpp), all of them
-  // sharing each simulation of the data (the joints' errors are nearly independent), until the
-  // budget less one simulation is spent; then the joints' best points together, simulated once.
-  std::vector<BoxSearch> searches;
-  for (size_t j : joints) searches.emplace_back(ToUnit(best, j), best_sse[j], kFirstSimplex);
-  const core::RobotModel start = best;
-  bool searched = false;
-  while (!searches.empty() && result.evaluations + 1 < options.max_evaluations) {
-    searched = true;
-    core::RobotModel trial = start;
-    for (size_t k = 0; k < joints.size(); ++k) FromUnit(trial, joints[k], searches[k].Ask());
-    const std::vector<double> sse = evaluate(trial, nullptr);
-    for (size_t k = 0; k < joints.size(); ++k) searches[k].Tell(sse[joints[k]]);
-  }
-  if (searched) {
-    core::RobotModel found = start;
-    for (size_t k = 0; k < joints.size(); ++k) FromUnit(found, joints[k], searches[k].best());
-    const std::vector<double> found_sse = evaluate(found, nullptr);
-    double now = 0, then = 0;
-    for (size_t j : joints) {
-      now += found_sse[j];
-      then += best_sse[j];
+  // sharing each simulation of the data (the joints' errors are nearly independent), until
+  // `until` simulations less one are spent. Returns the joints' best points together.
+  auto search = [&](const core::RobotModel& from, const std::vector<double>& from_cost, int until,
+                    const std::vector<Track>& on, bool by_table) {
+    std::vector<BoxSearch> searches;
+    for (size_t j : joints) searches.emplace_back(ToUnit(from, j), from_cost[j], kFirstSimplex);
+    while (!searches.empty() && result.evaluations + 1 < until) {
+      core::RobotModel trial = from;
+      for (size_t k = 0; k < joints.size(); ++k) FromUnit(trial, joints[k], searches[k].Ask());
+      const Score score = evaluate(trial, false, on);
+      for (size_t k = 0; k < joints.size(); ++k) {
+        searches[k].Tell(by_table ? table_cost(score, joints[k]) : first_cost(score, joints[k]));
+      }
     }
-    if (now < then) {
-      best = found;
-      best_sse = found_sse;
+    core::RobotModel found = from;
+    for (size_t k = 0; k < joints.size(); ++k) FromUnit(found, joints[k], searches[k].best());
+    return found;
+  };
+  // The candidates, each with its score over all the data; the one with the lowest measure wins.
+  std::vector<std::pair<core::RobotModel, Score>> candidates;
+  if (!two_phases) {
+    // One phase on the squared error (table_cost is it): the start's score is known already.
+    Score start_score = regression_score;
+    for (size_t j : joints) {
+      start_score.sse[j] = start_cost[j];
+      start_score.sse_weights[j] = before.sse_weights[j];
+    }
+    candidates.emplace_back(start, start_score);
+    if (result.evaluations + 1 < options.max_evaluations) {
+      const core::RobotModel found =
+          search(start, start_cost, options.max_evaluations, tracks, true);
+      candidates.emplace_back(found, evaluate(found, false, tracks));
+    }
+  } else {
+    candidates.emplace_back(start, evaluate(start, false, tracks));
+    const int half =
+        result.evaluations + std::max(0, options.max_evaluations - result.evaluations) / 2;
+    const core::RobotModel phase1 = search(start, start_cost, half, first, false);
+    const Score phase1_score = evaluate(phase1, false, tracks);
+    candidates.emplace_back(phase1, phase1_score);
+    if (result.evaluations + 1 < options.max_evaluations) {
+      std::vector<double> cost(n, inf);
+      for (size_t j : joints) cost[j] = table_cost(phase1_score, j);
+      const core::RobotModel found = search(phase1, cost, options.max_evaluations, tracks, true);
+      candidates.emplace_back(found, evaluate(found, false, tracks));
+    }
+  }
+  core::RobotModel best = candidates.front().first;
+  Score best_score = candidates.front().second;
+  for (const auto& [m, score] : candidates) {
+    if (total(score) < total(best_score)) {
+      best = m;
+      best_score = score;
     }
   }
   result.model = best;
@@ -684,32 +863,27 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
     id.friction_after = best.joints[j].friction;
     id.armature_before = model.joints[j].armature;
     id.armature_after = best.joints[j].armature;
-    id.samples = counts[j];
-    const double c = static_cast<double>(std::max<int64_t>(1, counts[j]));
-    id.rms_before_deg = std::sqrt(before[j] / c) / kDeg;
-    id.rms_after_deg = std::sqrt(best_sse[j] / c) / kDeg;
+    id.samples = before.count[j];
+    const double w = std::max(1e-300, before.sse_weights[j]);
+    id.rms_before_deg = std::sqrt(before.sse[j] / w) / kDeg;
+    id.rms_after_deg = std::sqrt(best_score.sse[j] / w) / kDeg;
+    if (before.weights[j] > 0) {
+      id.table_before = before.table[j] / before.weights[j];
+      id.table_after = best_score.table[j] / before.weights[j];
+    }
     result.joints.push_back(id);
   }
   return result;
 }
 
 logger::RunTable SimulateRealStream(const core::RobotModel& model, const logger::RunTable& table) {
-  const Track track = Prepare(model, table, 0, false);
-  std::vector<double> sse(model.joints.size(), 0.0);
+  const Track track = Prepare(model, table, 0, 1, false);
+  std::vector<double> sse(model.joints.size(), 0.0), weight(model.joints.size(), 0.0);
   std::vector<int64_t> count(model.joints.size(), 0);
   std::vector<std::vector<double>> trace;
-  Simulate(model, track, &sse, &count, &trace);
+  Simulate(model, track, &sse, &weight, &count, &trace);
   logger::RunTable out = table;
-  const double t0 = table.time_s.front();
-  for (size_t i = 0; i < out.rows(); ++i) {
-    const auto k = static_cast<size_t>(
-        std::clamp<long>(std::lround((table.time_s[i] - t0) / model.servo_tick_s), 0,
-                         static_cast<long>(trace.size()) - 1));
-    for (size_t j = 0; j < out.joints.size(); ++j) {
-      out.position[j][2][i] = trace[k][j] * out.joints[j].scale();
-    }
-    out.age_s[2][i] = 0;
-  }
+  PutStream(trace, table.time_s.front(), model.servo_tick_s, 0, logger::Stream::kReal, &out);
   out.real_clock_us.clear();  // the simulated stream is on the sim clock: no stamps, no factor
   out.real_on_sim_clock = true;
   return out;

@@ -14,10 +14,15 @@
 // 2. Output-error search: the virtual arm (the model's sim::ArmWorld, each joint's PicServo held
 //    at the logged set-point, its PWM turned into the effort command as sirupp-control turns it)
 //    follows the logged set-point; per joint a Nelder-Mead search on a log box derived from the
-//    joint (box_search.hpp) lowers the squared difference to the real angles, from the better of
-//    the regression's and the model's values.
+//    joint (box_search.hpp) lowers Table II's measure: per move the joint takes part in, the
+//    mean |virtual - real| over the transient and over the steady state as logger::Analyze
+//    defines them, summed (data without moves: the squared angle error). By default only the
+//    movement sets' last moves count (the ones Table II measures; the rest is simulated). The
+//    search starts from the best of the regression's, the model's and 20 spread values, lowers
+//    the squared error on those moves first (half the budget), then Table II's measure.
 // Reads the model and the tables; writes nothing itself. docs/emulator-fit.md, "Identification".
 
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -29,16 +34,26 @@ namespace sirupp::lab {
 struct IdentifyOptions {
   std::vector<int> joints;    // 1-based joints to fit; empty: every joint the set-point moves
   int max_evaluations = 150;  // simulations of all the data (the search; 3 or less: none)
-  // Only each table's last move, from the row it starts: the move Table II measures (a movement
-  // set's plan first returns the arm to zero, then makes it).
+  // Simulate and fit only each table's last move, from the row it starts: the move Table II
+  // measures (a movement set's plan first returns the arm to zero, then makes it).
   bool last_move_only = false;
+  // The fit weighs each movement set's last move (a file a plan ran: the move Table II measures)
+  // 1 and every other move (a set's return to zero, a manual part, a file without a plan) this;
+  // negative: 0 when the data has movement sets, else 1. Every move is simulated all the same.
+  double other_moves_weight = -1;
 };
 
 struct JointIdentification {
   int joint = 0;  // 1-based
   core::Friction friction_before, friction_after;
   double armature_before = 0, armature_after = 0;
-  double rms_before_deg = 0, rms_after_deg = 0;  // simulated vs real, over the fresh samples
+  // Simulated vs real over the fresh samples, each weighted as its move.
+  double rms_before_deg = 0, rms_after_deg = 0;
+  // Table II's measure, what the search lowers: the weighted mean of the per-move transient and
+  // steady-state means of |virtual - real| (deg, or mm); NaN when the data has no move the joint
+  // takes part in (the search then lowers the squared error).
+  double table_before = std::numeric_limits<double>::quiet_NaN();
+  double table_after = std::numeric_limits<double>::quiet_NaN();
   int64_t samples = 0;
 };
 

@@ -35,12 +35,15 @@ const char* const kIdentifyAbout =
     "Fits the model's joint friction (static, Coulomb per direction, viscous, Stribeck speed) and\n"
     "armature to a real arm's logged data (sirupp-logger data files or LCM logs, e.g. a demo's\n"
     "data/ or `sirupp fit-emulator --data DIR`): a torque regression, then per joint a\n"
-    "Nelder-Mead search on a log box from the joint's limits, from the better of the regression's\n"
-    "and the model's values: the virtual arm (sirupp-sim's ODE arm of the model, PIC-SERVO chips\n"
-    "giving its efforts as sirupp-control does) follows the logged set-point and the search\n"
-    "lowers the difference to the real joint angles. The values can stand in for\n"
-    "effects the model lacks (a latency fits as viscous friction and armature).\n"
-    "Writes M2 (M with those values; comments kept) and prints the fit per joint. Then\n"
+    "Nelder-Mead search on a log box from the joint's limits: the virtual arm (sirupp-sim's ODE\n"
+    "arm of the model, PIC-SERVO chips giving its efforts as sirupp-control does) follows the\n"
+    "logged set-point and the search lowers what Table II measures, per move the mean\n"
+    "|virtual - real| over the transient and over the steady state (data without moves: the\n"
+    "squared angle error). With movement sets (files a plan ran) only their last moves count by\n"
+    "default, the moves Table II measures; --other-moves W weighs the rest. The values can stand\n"
+    "in for effects the model lacks (a latency fits as viscous friction and armature).\n"
+    "Writes M2 (M with those values; comments kept) and prints the fit per joint (that measure\n"
+    "and the RMS, before and after). Then\n"
     "`sirupp fit-emulator --evaluate --virtual-model M2`, or `sirupp demo --model M2 --out RUN2`\n"
     "and `sirupp report RUN2/data --compare RUN1/data`, show both runs side by side.\n"
     "docs/emulator-fit.md. Exit 0, 2 for bad arguments or files.\n";
@@ -212,21 +215,22 @@ void PrintIdentification(std::ostream& out, const lab::IdentifyResult& result, s
                          double seconds) {
   out << "identified from " << tables << " data tables in " << result.evaluations
       << " simulations (" << std::setprecision(3) << seconds << " s)\n\n"
-      << "| joint | samples | rms before (deg) | rms after (deg) | static | Coulomb +/- | "
-         "viscous | Stribeck (deg/s) | armature |\n"
-      << "|---|---:|---:|---:|---|---|---|---|---|\n";
+      << "| joint | samples | moves' means before (deg) | after (deg) | rms before (deg) | "
+         "rms after (deg) | static | Coulomb +/- | viscous | Stribeck (deg/s) | armature |\n"
+      << "|---|---:|---:|---:|---:|---:|---|---|---|---|---|\n";
   auto f = [](double v) { return core::FormatNumber(std::round(v * 1e4) / 1e4); };
   for (const lab::JointIdentification& id : result.joints) {
     const core::Friction& a = id.friction_before;
     const core::Friction& b = id.friction_after;
     const double deg = 3.14159265358979323846 / 180;
-    out << "| " << id.joint << " | " << id.samples << " | " << f(id.rms_before_deg) << " | "
-        << f(id.rms_after_deg) << " | " << f(a.static_effort) << " -> " << f(b.static_effort)
-        << " | " << f(a.coulomb_positive) << "/" << f(a.coulomb_negative) << " -> "
-        << f(b.coulomb_positive) << "/" << f(b.coulomb_negative) << " | " << f(a.viscous) << " -> "
-        << f(b.viscous) << " | " << f(a.stribeck_velocity / deg) << " -> "
-        << f(b.stribeck_velocity / deg) << " | " << f(id.armature_before) << " -> "
-        << f(id.armature_after) << " |\n";
+    auto mean = [&](double v) { return std::isnan(v) ? std::string("-") : f(v); };
+    out << "| " << id.joint << " | " << id.samples << " | " << mean(id.table_before) << " | "
+        << mean(id.table_after) << " | " << f(id.rms_before_deg) << " | " << f(id.rms_after_deg)
+        << " | " << f(a.static_effort) << " -> " << f(b.static_effort) << " | "
+        << f(a.coulomb_positive) << "/" << f(a.coulomb_negative) << " -> " << f(b.coulomb_positive)
+        << "/" << f(b.coulomb_negative) << " | " << f(a.viscous) << " -> " << f(b.viscous) << " | "
+        << f(a.stribeck_velocity / deg) << " -> " << f(b.stribeck_velocity / deg) << " | "
+        << f(id.armature_before) << " -> " << f(id.armature_after) << " |\n";
   }
 }
 
@@ -249,9 +253,15 @@ int RunIdentify(const std::vector<std::string>& argv, std::ostream& out, std::os
            .Takes("N")
            .Integer(5, 100000),
        runtime::Flag("last-move",
-                     "fit only each file's last move (the move Table II measures; a movement "
-                     "set first returns the arm to zero)")
-           .Switch()},
+                     "simulate and fit only each file's last move, from where the real arm "
+                     "starts it (a movement set first returns the arm to zero)")
+           .Switch(),
+       runtime::Flag("other-moves",
+                     "the weight of the moves other than the movement sets' last ones (a "
+                     "return to zero, a manual part) in the fit (default 0 with movement sets, "
+                     "else 1)")
+           .Takes("W")
+           .Range(0, 1)},
       kIdentifyAbout);
   if (files.empty())
     throw core::UsageError("identify: give at least one DATA file (before the options)");
@@ -277,6 +287,7 @@ int RunIdentify(const std::vector<std::string>& argv, std::ostream& out, std::os
   options.max_evaluations =
       static_cast<int>(args.Integer("evaluations", options.max_evaluations));  // 5..100000
   options.last_move_only = args.Has("last-move");
+  if (args.Has("other-moves")) options.other_moves_weight = args.Number("other-moves", 0);
   {
     // Before any fitting: every joint that may be fitted can be written back into M2.
     std::vector<int> joints = options.joints;

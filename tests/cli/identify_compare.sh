@@ -3,7 +3,8 @@
 # (`sirupp fit-emulator --evaluate --data`) with the model and with a model `sirupp identify`
 # wrote from the first run; `sirupp report RUN2 --compare RUN1` prints both runs' virtual-vs-real
 # means side by side with the table means and the change in %, which the test recomputes from the
-# printed rows. `identify --last-move` fits fewer samples (the last move of each file). Bad arguments (a missing --compare file, --compare with --reference, a demo
+# printed rows. `identify` lowers its printed measure; `--last-move` fits fewer samples (the last
+# move of each file). Bad arguments (a missing --compare file, --compare with --reference, a demo
 # --model that does not load or clashes with the layout's own) exit 2 before anything runs.
 # Needs $SIRUPP.
 set -u
@@ -24,6 +25,10 @@ expect "run A" 0 "$SIRUPP" fit-emulator --evaluate --sets 1 3 --data "$work/a"
 expect "identify" 0 "$SIRUPP" identify "$work/a" --model $model --out "$work/m2.yaml" \
   --joints 1 3 --evaluations 12
 samples_all=$(sed -n 's/^| 1 | \([0-9]*\) |.*/\1/p' "$work/out")
+# What the fit lowers (the sets' last moves' transient and steady means): no higher after.
+measure=$(sed -n 's/^| 1 | [0-9]* | \([0-9.]*\) | \([0-9.]*\) |.*/\1 \2/p' "$work/out")
+awk -v m="$measure" 'BEGIN { split(m, v, " "); exit !(v[1] > 0 && v[2] <= v[1]) }' ||
+  bad "identify: joint 1's measure before/after '$measure'"
 # --last-move: only each file's last move (here the move after the hold before it).
 expect "identify --last-move" 0 "$SIRUPP" identify "$work/a" --model $model \
   --out "$work/m2last.yaml" --joints 1 --evaluations 5 --last-move
@@ -33,6 +38,9 @@ samples_last=$(sed -n 's/^| 1 | \([0-9]*\) |.*/\1/p' "$work/out")
 expect "identify --last-move=x" 2 "$SIRUPP" identify "$work/a" --model $model \
   --out "$work/m2x.yaml" --last-move=x
 [[ ! -e $work/m2x.yaml ]] || bad "identify --last-move=x: wrote its model"
+expect "identify --other-moves 2" 2 "$SIRUPP" identify "$work/a" --model $model \
+  --out "$work/m2x.yaml" --other-moves 2
+grep -q "other-moves" "$work/err" || bad "--other-moves 2: not named: $(cat "$work/err")"
 expect "run B" 0 "$SIRUPP" fit-emulator --evaluate --sets 1 3 --virtual-model "$work/m2.yaml" \
   --data "$work/b"
 expect "report --compare" 0 "$SIRUPP" report "$work/b" --compare "$work/a" --out "$work/rep" \
