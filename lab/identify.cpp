@@ -68,21 +68,15 @@ double Interpolate(const std::vector<double>& t, const std::vector<double>& v, s
 // The row the table's last move starts at (where a known move_id last differs from the one
 // before it), 0 when the move_id never changes.
 size_t LastMoveRow(const logger::RunTable& table) {
-  size_t start = 0;
-  int64_t current = -1;
-  for (size_t i = 0; i < table.rows(); ++i) {
-    const int64_t id = table.move_id[i];
-    if (id < 0) continue;
-    if (current >= 0 && id != current) start = i;
-    current = id;
-  }
-  return start;
+  const std::vector<size_t> starts = table.MoveStarts();
+  return starts.empty() ? 0 : starts.back();
 }
 
 // The weight in the fit of the move of `table` that row `row` is in: 1 for a movement set's last
 // move (a file a plan ran: the move Table II measures), `others` for every other move.
-double MoveWeight(const logger::RunTable& table, size_t row, double others) {
-  return !table.plan_name.empty() && row >= LastMoveRow(table) ? 1.0 : others;
+// last_move_row: LastMoveRow(table).
+double MoveWeight(const logger::RunTable& table, size_t last_move_row, size_t row, double others) {
+  return !table.plan_name.empty() && row >= last_move_row ? 1.0 : others;
 }
 
 // The track of `table` from row `first_row` on; its samples weighted by MoveWeight(.., others).
@@ -146,7 +140,9 @@ Track Prepare(const core::RobotModel& model, const logger::RunTable& table, size
     if (start > first_row) moves.push_back(start);
   }
   moves.push_back(table.rows());
+  const size_t last_move_row = LastMoveRow(table);
   for (size_t m = 0; m + 1 < moves.size(); ++m) {
+    const double weight = MoveWeight(table, last_move_row, moves[m], others);
     const std::vector<double> real_at = table.RealSampleTimes(moves[m], moves[m], moves[m + 1]);
     for (size_t i = moves[m]; i < moves[m + 1]; ++i) {
       if (!table.Fresh(logger::Stream::kReal, i, period)) continue;
@@ -159,8 +155,7 @@ Track Prepare(const core::RobotModel& model, const logger::RunTable& table, size
       for (size_t j = 0; j < n; ++j) {
         const double real = table.position[j][2][i];
         if (!std::isnan(real)) {
-          track.samples.push_back(
-              {k, j, real / table.joints[j].scale(), MoveWeight(table, i, others)});
+          track.samples.push_back({k, j, real / table.joints[j].scale(), weight});
         }
       }
     }
@@ -256,9 +251,10 @@ void AddTableMeans(const logger::RunTable& virt, const std::vector<size_t>& join
   // Only the last move when the others count nothing: the analysis then has less to do.
   analysis.last_move_only = last_move || (others == 0 && !virt.plan_name.empty());
   for (size_t j : joints) analysis.joints.push_back(static_cast<int>(j + 1));
+  const size_t last_move_row = LastMoveRow(virt);
   for (const logger::MoveResult& move : logger::Analyze(virt, analysis).moves) {
     const logger::PairMetrics& m = move.pairs[static_cast<size_t>(logger::Pair::kVirtReal)];
-    const double w = MoveWeight(virt, move.begin, others);
+    const double w = MoveWeight(virt, last_move_row, move.begin, others);
     const auto j = static_cast<size_t>(move.joint - 1);
     for (double mean : {m.mean_transient, m.mean_steady}) {
       if (!std::isfinite(mean) || w <= 0) continue;
