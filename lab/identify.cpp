@@ -686,6 +686,8 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
       joints.push_back(static_cast<size_t>(j - 1));
     }
   }
+  std::vector<int> fitted;  // 1-based, for CheckMoves
+  for (size_t j : joints) fitted.push_back(static_cast<int>(j + 1));
   IdentifyResult result;
   // The copies of the tables whose virtual stream each simulation replaces, for Table II's
   // measure.
@@ -712,6 +714,13 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
       if (thrown) throw;
       score.sse.assign(n, inf);
       score.table.assign(n, inf);
+    }
+    if (options.require_moves && !thrown) {
+      for (const LagCheck& check : CheckMoves(m, fitted)) {
+        if (!check.over()) continue;
+        score.sse[static_cast<size_t>(check.joint - 1)] = inf;
+        score.table[static_cast<size_t>(check.joint - 1)] = inf;
+      }
     }
     return score;
   };
@@ -883,6 +892,106 @@ logger::RunTable SimulateRealStream(const core::RobotModel& model, const logger:
   out.real_clock_us.clear();  // the simulated stream is on the sim clock: no stamps, no factor
   out.real_on_sim_clock = true;
   return out;
+}
+
+namespace {
+
+// One phase of CheckMoves: every joint to `goal` (rad or m), as the chip's trapezoid at the
+// servo's defaults, then 0.3 s of holding; the set-point appended to `table` as move `id`.
+void AppendMove(const core::RobotModel& model, const std::vector<servo::JointDrive>& drives,
+                const std::vector<double>& from, const std::vector<double>& goal, int id,
+                logger::RunTable* table) {
+  const size_t n = model.joints.size();
+  std::vector<servo::TrapezoidalProfile> profiles;
+  for (size_t j = 0; j < n; ++j) {
+    profiles.emplace_back(servo::ToFixed(drives[j].ToCounts(from[j])));
+    const core::ServoParams& servo = model.joints[j].servo;
+    if (goal[j] != from[j]) {
+      profiles[j].SetGoal(servo::ToFixed(drives[j].ToCounts(goal[j])),
+                          drives[j].VelocityWord(servo.default_velocity),
+                          drives[j].AccelerationWord(servo.default_acceleration));
+    }
+  }
+  const auto hold = static_cast<int>(std::lround(0.3 / model.servo_tick_s));
+  for (int held = 0; held < hold;) {
+    bool done = true;
+    const double t = table->time_s.empty() ? 0 : table->time_s.back() + model.servo_tick_s;
+    table->time_s.push_back(t);
+    table->move_id.push_back(id);
+    for (size_t j = 0; j < n; ++j) {
+      const int64_t counts = servo::WholeCounts(profiles[j].Tick());
+      done = done && profiles[j].done();
+      table->position[j][0].push_back(drives[j].FromCounts(counts) * table->joints[j].scale());
+      for (size_t s = 1; s < logger::kNumStreams; ++s)
+        table->position[j][s].push_back(std::nan(""));
+      table->done[j].push_back(profiles[j].done() ? 1 : 0);
+    }
+    for (size_t s = 0; s < logger::kNumStreams; ++s) table->age_s[s].push_back(0);
+    if (done) ++held;
+  }
+}
+
+}  // namespace
+
+std::vector<LagCheck> CheckMoves(const core::RobotModel& model, const std::vector<int>& joints) {
+  const size_t n = model.joints.size();
+  std::vector<servo::JointDrive> drives;
+  std::vector<logger::JointInfo> info;
+  for (const core::Joint& joint : model.joints) {
+    drives.emplace_back(joint, model.servo_tick_s);
+    info.push_back({joint.name, joint.type == core::JointType::kPrismatic});
+  }
+  logger::RunTable table;
+  table.Reset(info);
+  table.label = "moves check";
+  std::vector<std::string> labels;
+  const std::vector<double> zero(n, 0.0);
+  std::vector<double> all = zero;
+  int id = 0;
+  const auto move = [&](const std::vector<double>& from, const std::vector<double>& to,
+                        const std::string& label) {
+    AppendMove(model, drives, from, to, id++, &table);
+    labels.push_back(label);
+  };
+  if (const core::NamedPose* ready = model.FindNamedPose("ready")) {
+    move(ready->position, zero, "ready -> zero, all joints");
+  }
+  for (int joint : joints) {
+    const auto j = static_cast<size_t>(joint - 1);
+    const core::Joint& spec = model.joints[j];
+    const bool prismatic = spec.type == core::JointType::kPrismatic;
+    const double goal = prismatic ? (spec.position_min + spec.position_max) / 2
+                                  : std::clamp(kPi / 2, spec.position_min, spec.position_max);
+    all[j] = goal;
+    std::vector<double> there = zero;
+    there[j] = goal;
+    const std::string span =
+        "0 -> " + core::FormatNumber(goal * table.joints[j].scale()) + (prismatic ? " mm" : " deg");
+    move(zero, there, span + ", alone");
+    move(there, zero, "back, alone");
+  }
+  move(zero, all, "there, all together");
+  move(all, zero, "back, all together");
+  const logger::RunTable simulated = SimulateRealStream(model, table);
+  std::vector<LagCheck> checks;
+  for (int joint : joints) {
+    const auto j = static_cast<size_t>(joint - 1);
+    LagCheck check;
+    check.joint = joint;
+    check.limit_counts = std::llround(model.joints[j].servo.error_limit);
+    const double scale = table.joints[j].scale();
+    for (size_t i = 0; i < table.rows(); ++i) {
+      const int64_t set = drives[j].ToCounts(table.position[j][0][i] / scale);
+      const int64_t at = drives[j].ToCounts(simulated.position[j][2][i] / scale);
+      const int64_t lag = std::abs(set - at);
+      if (lag > check.worst_counts) {
+        check.worst_counts = lag;
+        check.move = labels[static_cast<size_t>(table.move_id[i])];
+      }
+    }
+    checks.push_back(check);
+  }
+  return checks;
 }
 
 namespace {

@@ -41,6 +41,10 @@ struct IdentifyOptions {
   // 1 and every other move (a set's return to zero, a manual part, a file without a plan) this;
   // negative: 0 when the data has movement sets, else 1. Every move is simulated all the same.
   double other_moves_weight = -1;
+  // Each trial must also make the moves any movement set makes (CheckMoves: no fitted joint over
+  // its servo's error limit), which the data may lack; a trial that cannot costs infinity. Slower
+  // (one more simulation of those moves per trial).
+  bool require_moves = false;
 };
 
 struct JointIdentification {
@@ -74,6 +78,25 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
 // stream is the simulation, one sample per row. For predictions, and to make synthetic data with
 // known parameters (tests).
 logger::RunTable SimulateRealStream(const core::RobotModel& model, const logger::RunTable& table);
+
+// How far one joint of a model's virtual arm falls behind its set-point in CheckMoves.
+struct LagCheck {
+  int joint = 0;             // 1-based
+  int64_t worst_counts = 0;  // the largest |set-point - position| over the moves, encoder counts
+  int64_t limit_counts = 0;  // the joint servo's error_limit (0: none)
+  std::string move;          // the move it was largest in, e.g. "0 -> 90 deg"
+  bool over() const { return limit_counts > 0 && worst_counts > limit_counts; }
+};
+
+// The virtual arm of `model` (as the search simulates it) making the moves any movement set makes,
+// whatever a data file held: from the model's `ready` pose (when it has one) to zero, all joints
+// together, then each of `joints` (1-based) alone from zero to +90 deg (a prismatic joint: the
+// middle of its range, a revolute one's goal clamped into its limits) and back, then all of them
+// together there and back, each at its servo's default speed and acceleration (the chip's
+// trapezoid), with 0.3 s of holding after each. Per joint of `joints`, how far it falls behind.
+// A joint over its error limit would stop the real virtual arm with POS_ERR: a model fitted to data
+// without such moves (a return to zero against gravity) can be unable to make them.
+std::vector<LagCheck> CheckMoves(const core::RobotModel& model, const std::vector<int>& joints);
 
 // The model file's text with each fitted joint's `armature:` and `friction:` lines replaced by
 // the identified values (comments and everything else kept). Throws core::ConfigError naming the

@@ -43,7 +43,9 @@ const char* const kIdentifyAbout =
     "default, the moves Table II measures; --other-moves W weighs the rest. The values can stand\n"
     "in for effects the model lacks (a latency fits as viscous friction and armature).\n"
     "Writes M2 (M with those values; comments kept) and prints the fit per joint (that measure\n"
-    "and the RMS, before and after). Then\n"
+    "and the RMS, before and after), and how far M's and M2's virtual arms fall behind in the\n"
+    "moves any movement set makes, which the data may lack (a warning where M2 would trip a\n"
+    "servo's error limit; --require-moves keeps the fit to values that make them). Then\n"
     "`sirupp fit-emulator --evaluate --virtual-model M2`, or `sirupp demo --model M2 --out RUN2`\n"
     "and `sirupp report RUN2/data --compare RUN1/data`, show both runs side by side.\n"
     "docs/emulator-fit.md. Exit 0, 2 for bad arguments or files.\n";
@@ -234,6 +236,35 @@ void PrintIdentification(std::ostream& out, const lab::IdentifyResult& result, s
   }
 }
 
+// Whether M and M2's virtual arms make the moves every movement set makes (lab::CheckMoves), which
+// the data may lack: a table, and a warning for each joint of M2 over its error limit.
+void PrintMovesCheck(std::ostream& out, std::ostream& err, const core::RobotModel& model,
+                     const lab::IdentifyResult& result) {
+  std::vector<int> joints;
+  for (const lab::JointIdentification& id : result.joints) joints.push_back(id.joint);
+  if (joints.empty()) return;
+  const std::vector<lab::LagCheck> before = lab::CheckMoves(model, joints);
+  const std::vector<lab::LagCheck> after = lab::CheckMoves(result.model, joints);
+  out << "\nthe virtual arm on the moves every movement set makes (ready -> zero; each joint "
+         "0 -> 90 deg and back, alone and together; default speeds): the largest lag behind "
+         "the set-point\n\n"
+      << "| joint | M (counts) | M2 (counts) | error limit (counts) | M2's worst move |\n"
+      << "|---|---:|---:|---:|---|\n";
+  for (size_t k = 0; k < after.size(); ++k) {
+    const lab::LagCheck& a = after[k];
+    out << "| " << a.joint << " | " << before[k].worst_counts << " | " << a.worst_counts << " | "
+        << a.limit_counts << " | " << a.move << " |\n";
+    if (a.over()) {
+      err << "sirupp identify: warning: with the identified model, joint " << a.joint << " ("
+          << result.model.joints[static_cast<size_t>(a.joint - 1)].name << ") falls "
+          << a.worst_counts << " counts behind in the move '" << a.move
+          << "', over its error limit of " << a.limit_counts
+          << ": the virtual arm would stop with POS_ERR there. The data lack such a move: fit "
+             "with --require-moves, or with data that has it\n";
+    }
+  }
+}
+
 }  // namespace
 
 int RunIdentify(const std::vector<std::string>& argv, std::ostream& out, std::ostream& err) {
@@ -261,7 +292,12 @@ int RunIdentify(const std::vector<std::string>& argv, std::ostream& out, std::os
                      "return to zero, a manual part) in the fit (default 0 with movement sets, "
                      "else 1)")
            .Takes("W")
-           .Range(0, 1)},
+           .Range(0, 1),
+       runtime::Flag("require-moves",
+                     "keep only values with which the virtual arm makes the moves any movement "
+                     "set makes (ready to zero, each joint 0 to 90 deg and back, alone and "
+                     "together) within its servos' error limits; slower")
+           .Switch()},
       kIdentifyAbout);
   if (files.empty())
     throw core::UsageError("identify: give at least one DATA file (before the options)");
@@ -288,6 +324,7 @@ int RunIdentify(const std::vector<std::string>& argv, std::ostream& out, std::os
       static_cast<int>(args.Integer("evaluations", options.max_evaluations));  // 5..100000
   options.last_move_only = args.Has("last-move");
   if (args.Has("other-moves")) options.other_moves_weight = args.Number("other-moves", 0);
+  options.require_moves = args.Has("require-moves");
   {
     // Before any fitting: every joint that may be fitted can be written back into M2.
     std::vector<int> joints = options.joints;
@@ -309,6 +346,7 @@ int RunIdentify(const std::vector<std::string>& argv, std::ostream& out, std::os
   }
   core::LoadRobotModel(out_file);  // what was written loads
   PrintIdentification(out, result, tables.size(), Since(started));
+  PrintMovesCheck(out, err, model, result);
   out << "\nwrote " << out_file << "\n";
   err << "sirupp identify: next: sirupp fit-emulator --evaluate --virtual-model " << out_file
       << "\n";
