@@ -7,6 +7,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <stdexcept>
+#include <string>
 
 #include "core/model_loader.hpp"
 #include "lab/emulator_fit.hpp"
@@ -53,6 +55,78 @@ TEST(EmulatorFit, TheCouplingWeightScalesOnlyTheCouplingTerm) {
   EXPECT_GT(one, without + 0.1);
   EXPECT_NEAR(three - without, 3 * (one - without), 1e-9);
   EXPECT_DOUBLE_EQ(FitCost(rows), one);  // the default weight is 1
+}
+
+// --leave-out: a left-out mean changes the cost by nothing, the other means and joint 1's start
+// still count, and "rows within" still counts every row.
+TEST(EmulatorFit, ALeftOutMeanChangesTheCostByNothingAndTheOthersStillCount) {
+  const std::vector<LeftOutMean> left = ParseLeftOutMeans("V-1:steady,VI-3");
+  ASSERT_EQ(left.size(), 2u);
+  std::vector<TableRow> rows = PaperAsOurs();
+  auto row = [&](int set, int joint) -> TableRow& {
+    for (TableRow& r : rows) {
+      if (r.set == set && r.joint == joint) return r;
+    }
+    throw std::logic_error("no row");
+  };
+  row(5, 1).steady_deg += 3;  // left out
+  row(6, 3).transient_deg += 3;
+  row(6, 3).steady_deg -= 0.7;
+  EXPECT_EQ(FitCost(rows, 1, left), 0.0);
+  EXPECT_GT(FitCost(rows), 3 * 1.5);  // three misfits of 2.5 tolerances and more each
+  EXPECT_EQ(Compare(rows).rows, 12);
+  EXPECT_EQ(Compare(rows).rows_within, 10);  // left out of the cost, not of the count
+  row(5, 1).transient_deg += 2;              // V-1's transient still counts
+  const double v1 = FitCost(rows, 1, left);
+  EXPECT_GT(v1, 1.0);
+  row(5, 1).start_delay_real_s = 0.2;  // and so does its start (the paper's text)
+  EXPECT_GT(FitCost(rows, 1, left), v1 + 1);
+  // A left-out transient of a coupling pair takes the pair out of the coupling term too: set I's
+  // joint 1 lagging 2 deg less costs nothing, though IV-1 and VII-1 minus it would grow by 2.
+  rows = PaperAsOurs();
+  row(1, 1).transient_deg -= 2;
+  EXPECT_GT(FitCost(rows, 0), 0.5);
+  EXPECT_GT(FitCost(rows, 1), FitCost(rows, 0) + 0.5);  // the row and the coupling
+  EXPECT_EQ(FitCost(rows, 1, ParseLeftOutMeans("I-1:transient")), 0.0);
+  EXPECT_GT(FitCost(rows, 1, ParseLeftOutMeans("I-1:steady")), 0.5);
+}
+
+TEST(EmulatorFit, LeftOutMeansAreNamedAsThePapersRowsAndTheDefaultIsTheContradictoryFour) {
+  const std::vector<LeftOutMean> m = ParseLeftOutMeans("vi-2:steady,5-3:transient,VII-3");
+  ASSERT_EQ(m.size(), 3u);
+  EXPECT_EQ(m[0].set, 6);
+  EXPECT_EQ(m[0].joint, 2);
+  EXPECT_FALSE(m[0].transient);
+  EXPECT_TRUE(m[0].steady);
+  EXPECT_EQ(m[1].set, 5);
+  EXPECT_EQ(m[1].joint, 3);
+  EXPECT_TRUE(m[1].transient);
+  EXPECT_FALSE(m[1].steady);
+  EXPECT_TRUE(m[2].transient && m[2].steady);
+  EXPECT_EQ(FormatLeftOutMeans(m), "VI-2 steady, V-3 transient, VII-3");
+  EXPECT_TRUE(ParseLeftOutMeans("none").empty());
+  EXPECT_EQ(FormatLeftOutMeans({}), "none");
+  EXPECT_EQ(FormatLeftOutMeans(ContradictoryMeans()),
+            "V-1 steady, V-3 transient, VI-2 steady, VI-3 transient");
+  EXPECT_EQ(FormatLeftOutMeans(FitOptions{}.left_out), FormatLeftOutMeans(ContradictoryMeans()));
+  for (const char* bad :
+       {"V-2", "VIII-1", "V-1:both", "V-1:", "V1", "", "V-1,,V-3", "V-1, V-3", "IV-12"}) {
+    try {
+      ParseLeftOutMeans(bad);
+      ADD_FAILURE() << "accepted '" << bad << "'";
+    } catch (const std::invalid_argument& e) {
+      const std::string what = e.what();
+      EXPECT_NE(what.find("is not allowed; allowed: a comma list of the paper's rows (I-1, II-2"),
+                std::string::npos)
+          << what;
+    }
+  }
+  try {
+    ParseLeftOutMeans("V-1,V-2:steady");
+    ADD_FAILURE() << "accepted V-2";
+  } catch (const std::invalid_argument& e) {
+    EXPECT_EQ(std::string(e.what()).rfind("'V-2:steady' is not allowed", 0), 0u) << e.what();
+  }
 }
 
 // The speed margin: the motor's torque at the model's top speed (90 deg/s for joints 1-3), through
@@ -111,7 +185,7 @@ TEST(EmulatorFit, AHeldLatencyStaysAndTheResultIsInsideTheRanges) {
     double stray = 0;
     const std::vector<TableRow> table =
         RunExperiment(model, model, arm, options.experiment, "", &stray);
-    return FitCost(table) + HoldCost(stray);
+    return FitCost(table, options.coupling_weight, options.left_out) + HoldCost(stray);
   };
   // The fit's figure is what the experiment gives for its parameters, and no worse than the start
   // with the latency held.

@@ -93,8 +93,8 @@ std::string FitOutFile(const runtime::Args& args) {
 // --data DIR, each set's data file there too).
 int Evaluate(const runtime::Args& args, const core::RobotModel& virtual_model,
              const core::RobotModel& model, const hardware::RealArmParams& start,
-             const lab::ExperimentOptions& experiment,
-             std::chrono::steady_clock::time_point started, std::ostream& out) {
+             const lab::FitOptions& options, std::chrono::steady_clock::time_point started,
+             std::ostream& out) {
   std::string data_dir;
   if (args.Has("data")) {
     data_dir = args.String("data");
@@ -102,7 +102,7 @@ int Evaluate(const runtime::Args& args, const core::RobotModel& virtual_model,
   }
   double stray = 0;
   const std::vector<lab::TableRow> table =
-      lab::RunExperiment(virtual_model, model, start, experiment, data_dir, &stray);
+      lab::RunExperiment(virtual_model, model, start, options.experiment, data_dir, &stray);
   if (!data_dir.empty()) out << "data files: " << data_dir << "/lab-setN.csv\n";
   out << "\n" << lab::FormatComparison(table, true);
   out << "joints a set does not move stray at most " << std::fixed << std::setprecision(2) << stray
@@ -115,7 +115,8 @@ int Evaluate(const runtime::Args& args, const core::RobotModel& virtual_model,
     out << " joint " << j + 1 << " " << std::setprecision(3) << margins[j];
   }
   out << "\n" << std::defaultfloat;
-  out << "fit cost (table) " << core::FormatNumber(lab::FitCost(table)) << "; "
+  out << "fit cost (table, without " << lab::FormatLeftOutMeans(options.left_out) << ") "
+      << core::FormatNumber(lab::FitCost(table, options.coupling_weight, options.left_out)) << "; "
       << std::setprecision(3) << Since(started) << " s\n";
   return 0;
 }
@@ -162,6 +163,11 @@ int RunFitEmulator(const std::vector<std::string>& argv, std::ostream& out, std:
                      "the coupling term's weight in the fit's cost (1; 0 leaves it out)")
            .Takes("W")
            .Range(0, 100),
+       runtime::Flag("leave-out",
+                     "the paper's means the fit's cost leaves out, still printed and counted: "
+                     "rows like V-1 or V-1:steady, comma-separated, or none (default "
+                     "V-1:steady,V-3:transient,VI-2:steady,VI-3:transient)")
+           .Takes("ROWS"),
        runtime::Flag("out",
                      "write the fitted effects there (refuses to replace a file unless it is "
                      "--real-arm itself)")
@@ -181,13 +187,20 @@ int RunFitEmulator(const std::vector<std::string>& argv, std::ostream& out, std:
   options.max_evaluations = EvaluationsArg(args, options.max_evaluations);
   if (args.Has("latency-ms")) options.latency_s = args.Numbers("latency-ms", 1)[0] / 1e3;
   if (args.Has("coupling-weight")) options.coupling_weight = args.Numbers("coupling-weight", 1)[0];
+  if (args.Has("leave-out")) {
+    try {
+      options.left_out = lab::ParseLeftOutMeans(args.String("leave-out"));
+    } catch (const std::invalid_argument& e) {
+      throw core::UsageError(std::string("--leave-out: ") + e.what());
+    }
+  }
   const std::string out_file = FitOutFile(args);
   const auto started = std::chrono::steady_clock::now();
   out << "virtual arm: " << virtual_model.name
       << (args.Has("virtual-model") ? " (" + args.String("virtual-model") + ")" : "")
       << "; emulated real arm: " << arm_file << "\n";
   if (args.Switch("evaluate")) {
-    return Evaluate(args, virtual_model, model, start, options.experiment, started, out);
+    return Evaluate(args, virtual_model, model, start, options, started, out);
   }
   options.progress = [&](int evaluation, double cost, const std::string& what) {
     err << "  [" << evaluation << "] cost " << core::FormatNumber(std::round(cost * 1000) / 1000)
@@ -197,7 +210,7 @@ int RunFitEmulator(const std::vector<std::string>& argv, std::ostream& out, std:
   out << "fit: cost " << core::FormatNumber(fit.cost_before) << " -> "
       << core::FormatNumber(fit.cost_after) << " in " << fit.evaluations << " runs of the "
       << options.experiment.sets.size() << " sets, " << std::setprecision(3) << Since(started)
-      << " s\n";
+      << " s; the cost leaves out " << lab::FormatLeftOutMeans(options.left_out) << "\n";
   for (const std::string& line : fit.fitted) out << "  " << line << "\n";
   out << "\n" << lab::FormatComparison(fit.table, true);
   out << "joints a set does not move stray at most " << std::fixed << std::setprecision(2)

@@ -80,6 +80,7 @@ for case in "gains --kp 40000|--kp: '40000' is not allowed; allowed: a whole num
             "report x.csv --joints 1 0|--joints: '0' is not allowed; allowed: a whole number >= 1" \
             "view --duration 0|--duration: '0' is not allowed; allowed: a number > 0" \
             "fit-emulator --evaluations 0|--evaluations: '0' is not allowed; allowed: a whole number from 1 to 10000" \
+            "fit-emulator --leave-out V-2|--leave-out: 'V-2' is not allowed; allowed: a comma list of the paper's rows (I-1, II-2" \
             "move pose --position 1 2|--position: At least 3 required but received 2" \
             "ik --pose 0.3 0 0.3 0 0 0 --from 1 2|--from Q1 .. QN takes 6 value(s), got 2" \
             "spy --check=yes|--check takes no value, got 'yes'" \
