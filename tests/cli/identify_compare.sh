@@ -24,15 +24,22 @@ model=config/robots/puma260.yaml
 expect "run A" 0 "$SIRUPP" fit-emulator --evaluate --sets 1 3 --data "$work/a"
 expect "identify" 0 "$SIRUPP" identify "$work/a" --model $model --out "$work/m2.yaml" \
   --joints 1 3 --evaluations 12
-samples_all=$(sed -n 's/^| 1 | \([0-9]*\) |.*/\1/p' "$work/out")
+# The fit's table is the first one (the moves check's follows it).
+fit_row() { grep -m 1 '^| 1 | ' "$work/out"; }
+samples_all=$(fit_row | sed -n 's/^| 1 | \([0-9]*\) |.*/\1/p')
+# The moves check: a row per fitted joint under its header, M and M2 under the error limit.
+grep -q '^| joint | M (counts) | M2 (counts) | error limit (counts) |' "$work/out" ||
+  bad "identify: no moves check table"
+[[ $(grep -c '^| [13] | [0-9]* | [0-9]* | 4000 | ' "$work/out") -eq 2 ]] ||
+  bad "identify: the moves check's rows for joints 1 and 3: $(grep '4000' "$work/out")"
 # What the fit lowers (the sets' last moves' transient and steady means): no higher after.
-measure=$(sed -n 's/^| 1 | [0-9]* | \([0-9.]*\) | \([0-9.]*\) |.*/\1 \2/p' "$work/out")
+measure=$(fit_row | sed -n 's/^| 1 | [0-9]* | \([0-9.]*\) | \([0-9.]*\) |.*/\1 \2/p')
 awk -v m="$measure" 'BEGIN { split(m, v, " "); exit !(v[1] > 0 && v[2] <= v[1]) }' ||
   bad "identify: joint 1's measure before/after '$measure'"
 # --last-move: only each file's last move (here the move after the hold before it).
 expect "identify --last-move" 0 "$SIRUPP" identify "$work/a" --model $model \
   --out "$work/m2last.yaml" --joints 1 --evaluations 5 --last-move
-samples_last=$(sed -n 's/^| 1 | \([0-9]*\) |.*/\1/p' "$work/out")
+samples_last=$(fit_row | sed -n 's/^| 1 | \([0-9]*\) |.*/\1/p')
 [[ -n $samples_all && -n $samples_last && $samples_last -gt 0 && $samples_last -lt $samples_all ]] ||
   bad "identify --last-move: joint 1 samples '$samples_last', all '$samples_all'"
 expect "identify --last-move=x" 2 "$SIRUPP" identify "$work/a" --model $model \

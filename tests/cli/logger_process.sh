@@ -65,12 +65,21 @@ for ((i = 0; i < 400; ++i)); do
   sleep 0.05
 done
 sleep 0.4
+# The rig waits while logger b is killed and restarted: on a loaded PC the restart can take longer
+# than the rest of set II, and the restarted logger would then begin after it.
+kill -STOP "$sim" "$control"
 kill -9 "$logger_b"
 wait "$logger_b" 2>/dev/null
 # Restarted with the same command line (what a layout's `restart: on-failure` does): it goes on in
 # the next file.
 "$SIRUPP_LOGGER" --lcm-url "$URL" --out "$work/data" --name b 2>"$work/b2.err" &
 logger_b2=$!; pids+=("$logger_b2")
+# It has subscribed once it says what it continues.
+for ((i = 0; i < 600; ++i)); do
+  grep -q "continuing that run" "$work/b2.err" 2>/dev/null && break
+  sleep 0.05
+done
+kill -CONT "$sim" "$control"
 wait "$plan" || { echo "FAIL set2: $(cat "$work/set2.out")"; fail=1; }
 kill -INT "$logger_b2"
 wait "$logger_b2" || { echo "FAIL restarted logger b: $(cat "$work/b2.err")"; fail=1; }
