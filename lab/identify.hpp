@@ -42,9 +42,9 @@ struct IdentifyOptions {
   // negative: 0 when the data has movement sets, else 1. Every move is simulated all the same.
   double other_moves_weight = -1;
   // Each trial must also make the moves any movement set makes (CheckMoves: no fitted joint over
-  // its servo's error limit), which the data may lack; a trial that cannot costs infinity. Slower
-  // (one more simulation of those moves per trial).
-  bool require_moves = false;
+  // its servo's error limit), which the data may lack; a trial that cannot costs infinity. Off:
+  // faster (one simulation of those moves less per trial), but M2 may be unable to run the sets.
+  bool require_moves = true;
 };
 
 struct JointIdentification {

@@ -199,10 +199,11 @@ TEST(Identify, TheMovesCheckFindsAJointThatCannotKeepUpAndOnlyThatOne) {
   EXPECT_FALSE(checks[2].over()) << checks[2].worst_counts;
 }
 
-// --require-moves: set II of the in-process experiment (joint 2 from 0 to 90 deg, downhill) has no
-// move that lifts the upper arm; fitted to it, joint 2 takes values (a viscous friction standing
-// in for the emulated board's latency) with which the virtual arm cannot lift it back at the
-// sets' speed. With the requirement every value the search keeps makes those moves.
+// require_moves (the default; --any-moves turns it off): set II of the in-process experiment
+// (joint 2 from 0 to 90 deg, downhill) has no move that lifts the upper arm; fitted to it without
+// the requirement, joint 2 takes values (a viscous friction standing in for the emulated board's
+// latency) with which the virtual arm cannot lift it back at the sets' speed. With it every value
+// the search keeps makes those moves.
 TEST(Identify, RequiringTheMovesKeepsTheFitToValuesThatMakeThem) {
   const core::RobotModel model = core::LoadRobotModel("config/robots/puma260.yaml");
   const hardware::RealArmParams effects =
@@ -213,6 +214,8 @@ TEST(Identify, RequiringTheMovesKeepsTheFitToValuesThatMakeThem) {
   IdentifyOptions options;
   options.joints = {2};
   options.max_evaluations = 60;
+  EXPECT_TRUE(options.require_moves) << "the default";
+  options.require_moves = false;
   const IdentifyResult free = Identify(model, {table}, options);
   options.require_moves = true;
   const IdentifyResult kept = Identify(model, {table}, options);

@@ -44,8 +44,9 @@ const char* const kIdentifyAbout =
     "in for effects the model lacks (a latency fits as viscous friction and armature).\n"
     "Writes M2 (M with those values; comments kept) and prints the fit per joint (that measure\n"
     "and the RMS, before and after), and how far M's and M2's virtual arms fall behind in the\n"
-    "moves any movement set makes, which the data may lack (a warning where M2 would trip a\n"
-    "servo's error limit; --require-moves keeps the fit to values that make them). Then\n"
+    "moves any movement set makes, which the data may lack: the fit keeps to values with which\n"
+    "the virtual arm makes them within its servos' error limits (--any-moves: not, faster; a\n"
+    "warning where M2 would trip a limit). Then\n"
     "`sirupp fit-emulator --evaluate --virtual-model M2`, or `sirupp demo --model M2 --out RUN2`\n"
     "and `sirupp report RUN2/data --compare RUN1/data`, show both runs side by side.\n"
     "docs/emulator-fit.md. Exit 0, 2 for bad arguments or files.\n";
@@ -273,7 +274,7 @@ void PrintMovesCheck(std::ostream& out, std::ostream& err, const core::RobotMode
           << a.worst_counts << " counts behind in the move '" << a.move
           << "', over its error limit of " << a.limit_counts
           << ": the virtual arm would stop with POS_ERR there. The data lack such a move: fit "
-             "with --require-moves, or with data that has it\n";
+             "without --any-moves, or with data that has it\n";
     }
   }
 }
@@ -306,10 +307,11 @@ int RunIdentify(const std::vector<std::string>& argv, std::ostream& out, std::os
                      "else 1)")
            .Takes("W")
            .Range(0, 1),
-       runtime::Flag("require-moves",
-                     "keep only values with which the virtual arm makes the moves any movement "
-                     "set makes (ready to zero, each joint 0 to 90 deg and back, alone and "
-                     "together) within its servos' error limits; slower")
+       runtime::Flag("any-moves",
+                     "do not require values with which the virtual arm makes the moves any "
+                     "movement set makes (ready to zero, each joint 0 to 90 deg and back, alone "
+                     "and together) within its servos' error limits; faster, but M2 may trip "
+                     "them on moves the data lack")
            .Switch()},
       kIdentifyAbout);
   if (files.empty())
@@ -337,7 +339,7 @@ int RunIdentify(const std::vector<std::string>& argv, std::ostream& out, std::os
       static_cast<int>(args.Integer("evaluations", options.max_evaluations));  // 5..100000
   options.last_move_only = args.Has("last-move");
   if (args.Has("other-moves")) options.other_moves_weight = args.Number("other-moves", 0);
-  options.require_moves = args.Has("require-moves");
+  options.require_moves = !args.Has("any-moves");
   {
     // Before any fitting: every joint that may be fitted can be written back into M2.
     std::vector<int> joints = options.joints;
