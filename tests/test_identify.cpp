@@ -66,6 +66,17 @@ logger::RunTable Sweep(const core::RobotModel& model, double seconds, int shift)
          << " (more than " << tolerance * 100 << " % off)";
 }
 
+// Movement set `set` of the in-process experiment (the virtual arm against the shipped emulated
+// arm) as a data table of a plan: a movement set, whose last move is the one Table II measures.
+logger::RunTable InProcessSet(const core::RobotModel& model, int set) {
+  const hardware::RealArmParams effects =
+      hardware::LoadRealArmParams("config/hardware/puma260-real.yaml", model);
+  const VirtualRun run = RunVirtual(model, set, ExperimentOptions{});
+  logger::RunTable table = MakeTable(model, run, RunReal(model, effects, run));
+  table.plan_name = "set" + std::to_string(set) + ".plan";
+  return table;
+}
+
 TEST(Identify, RecoversKnownParametersFromSyntheticData) {
   const core::RobotModel model = core::LoadRobotModel("config/robots/puma260.yaml");
   core::RobotModel truth = model;
@@ -152,11 +163,7 @@ TEST(Identify, SimulatesTheVirtualArmOfTheInProcessExperiment) {
 // Measured: 0.002, 0.001 and 0.010 deg apart (3.05, 1.90 and 2.06 deg).
 TEST(Identify, ItsMeasureIsTheExperimentsTableTwoForTheModelItStartsFrom) {
   const core::RobotModel model = core::LoadRobotModel("config/robots/puma260.yaml");
-  const hardware::RealArmParams effects =
-      hardware::LoadRealArmParams("config/hardware/puma260-real.yaml", model);
-  const VirtualRun run = RunVirtual(model, 7, ExperimentOptions{});
-  logger::RunTable table = MakeTable(model, run, RunReal(model, effects, run));
-  table.plan_name = "set7.plan";  // a movement set: its last move is the one measured
+  const logger::RunTable table = InProcessSet(model, 7);
   const std::vector<TableRow> rows = TableII({table});
   ASSERT_EQ(rows.size(), 3U);
   IdentifyOptions options;
@@ -206,11 +213,7 @@ TEST(Identify, TheMovesCheckFindsAJointThatCannotKeepUpAndOnlyThatOne) {
 // the search keeps makes those moves.
 TEST(Identify, RequiringTheMovesKeepsTheFitToValuesThatMakeThem) {
   const core::RobotModel model = core::LoadRobotModel("config/robots/puma260.yaml");
-  const hardware::RealArmParams effects =
-      hardware::LoadRealArmParams("config/hardware/puma260-real.yaml", model);
-  const VirtualRun run = RunVirtual(model, 2, ExperimentOptions{});
-  logger::RunTable table = MakeTable(model, run, RunReal(model, effects, run));
-  table.plan_name = "set2.plan";
+  const logger::RunTable table = InProcessSet(model, 2);
   IdentifyOptions options;
   options.joints = {2};
   options.max_evaluations = 60;
