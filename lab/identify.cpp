@@ -982,7 +982,8 @@ std::vector<LagCheck> CheckMoves(const core::RobotModel& model, const std::vecto
     const double scale = table.joints[j].scale();
     for (size_t i = 0; i < table.rows(); ++i) {
       const int64_t set = drives[j].ToCounts(table.position[j][0][i] / scale);
-      const int64_t at = drives[j].ToCounts(simulated.position[j][2][i] / scale);
+      const int64_t at = drives[j].ToCounts(
+          simulated.position[j][static_cast<size_t>(logger::Stream::kReal)][i] / scale);
       const int64_t lag = std::abs(set - at);
       if (lag > check.worst_counts) {
         check.worst_counts = lag;
