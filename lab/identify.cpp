@@ -716,10 +716,15 @@ IdentifyResult Identify(const core::RobotModel& model, const std::vector<logger:
       score.table.assign(n, inf);
     }
     if (options.require_moves && !thrown) {
-      for (const LagCheck& check : CheckMoves(m, fitted)) {
-        if (!check.over()) continue;
-        score.sse[static_cast<size_t>(check.joint - 1)] = inf;
-        score.table[static_cast<size_t>(check.joint - 1)] = inf;
+      try {
+        for (const LagCheck& check : CheckMoves(m, fitted)) {
+          if (!check.over()) continue;
+          score.sse[static_cast<size_t>(check.joint - 1)] = inf;
+          score.table[static_cast<size_t>(check.joint - 1)] = inf;
+        }
+      } catch (const std::runtime_error&) {  // the moves blow up in ODE: as the data's would
+        score.sse.assign(n, inf);
+        score.table.assign(n, inf);
       }
     }
     return score;

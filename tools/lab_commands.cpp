@@ -257,8 +257,14 @@ void PrintMovesCheck(std::ostream& out, std::ostream& err, const core::RobotMode
   std::vector<int> joints;
   for (const lab::JointIdentification& id : result.joints) joints.push_back(id.joint);
   if (joints.empty()) return;
-  const std::vector<lab::LagCheck> before = lab::CheckMoves(model, joints);
-  const std::vector<lab::LagCheck> after = lab::CheckMoves(result.model, joints);
+  std::vector<lab::LagCheck> before, after;
+  try {
+    before = lab::CheckMoves(model, joints);
+    after = lab::CheckMoves(result.model, joints);
+  } catch (const std::runtime_error& e) {  // the simulation blew up in ODE
+    err << "sirupp identify: warning: the moves check could not be simulated: " << e.what() << "\n";
+    return;
+  }
   out << "\nthe virtual arm on the moves every movement set makes (ready -> zero; each joint "
          "0 -> 90 deg and back, alone and together; default speeds): the largest lag behind "
          "the set-point\n\n"
