@@ -1,7 +1,5 @@
 #include "lab/emulator_fit.hpp"
 
-#include <strings.h>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -135,10 +133,7 @@ std::vector<LeftOutMean> ParseLeftOutMeans(const std::string& text) {
     const size_t dash = row.find('-');
     if (dash != std::string::npos && dash + 2 == row.size() && row[dash + 1] >= '1' &&
         row[dash + 1] <= '9') {
-      const std::string set = row.substr(0, dash);
-      for (int k = 1; k <= 7; ++k) {
-        if (strcasecmp(set.c_str(), RomanSet(k)) == 0 || set == std::to_string(k)) m.set = k;
-      }
+      m.set = SetFromName(row.substr(0, dash));
       m.joint = row[dash + 1] - '0';
     }
     const bool in_table =

@@ -1,5 +1,7 @@
 #include "lab/experiment.hpp"
 
+#include <strings.h>
+
 #include <algorithm>
 #include <cmath>
 #include <iomanip>
@@ -60,6 +62,13 @@ std::vector<int> SetJoints(int set) {
 const char* RomanSet(int set) {
   static const char* const kRoman[] = {"?", "I", "II", "III", "IV", "V", "VI", "VII"};
   return set >= 1 && set <= 7 ? kRoman[set] : "?";
+}
+
+int SetFromName(const std::string& name) {
+  for (int k = 1; k <= 7; ++k) {
+    if (strcasecmp(name.c_str(), RomanSet(k)) == 0 || name == std::to_string(k)) return k;
+  }
+  return 0;
 }
 
 const std::vector<PaperRow>& PaperTable() {

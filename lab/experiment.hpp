@@ -19,6 +19,8 @@ namespace sirupp::lab {
 // The joints (1-based) movement set `set` (1..7) moves. Throws std::invalid_argument otherwise.
 std::vector<int> SetJoints(int set);
 const char* RomanSet(int set);  // "I" .. "VII"
+// The set named "I" .. "VII" (any case) or "1" .. "7"; 0 for anything else.
+int SetFromName(const std::string& name);
 
 // One row of the paper's Table II, in our numbering: the paper lists each set's joints as 1, 2
 // (and 3) in the order they appear; sets V and VI move joints 1 + 3 and 2 + 3 (config/plans), so

@@ -1,6 +1,5 @@
 #include "tools/demo_commands.hpp"
 
-#include <strings.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -18,6 +17,7 @@
 #include "core/errors.hpp"
 #include "core/model_loader.hpp"
 #include "core/model_report.hpp"
+#include "lab/experiment.hpp"
 #include "launch/layout.hpp"
 #include "launch/supervisor.hpp"
 #include "logger/report.hpp"
@@ -26,6 +26,7 @@
 #include "runtime/process_main.hpp"
 #include "tools/cli.hpp"
 #include "tools/control_commands.hpp"
+#include "tools/lab_commands.hpp"
 #include "tools/launch_commands.hpp"
 #include "tools/report_commands.hpp"
 #include "tools/rig_args.hpp"
@@ -63,11 +64,6 @@ std::string Fixed(double value, int digits) {
   std::ostringstream s;
   s << std::fixed << std::setprecision(digits) << value;
   return s.str();
-}
-
-const char* Roman(int n) {
-  static const char* const kRoman[] = {"0", "I", "II", "III", "IV", "V", "VI", "VII", "VIII", "IX"};
-  return n >= 0 && n <= 9 ? kRoman[n] : "?";
 }
 
 // The first comment line of a plan file, without "# ": what the set does.
@@ -151,24 +147,6 @@ void WaitSimSeconds(client::Client& rig, double seconds) {
 
 namespace {
 
-// --sets as set numbers (1 to 7 or I to VII); all seven without it.
-std::vector<int> SetsFromArgs(const runtime::Args& parsed) {
-  if (!parsed.Has("sets")) return {1, 2, 3, 4, 5, 6, 7};
-  std::vector<int> sets;
-  for (const std::string& text : parsed.Values("sets", -1)) {
-    int n = 0;  // the paper numbers its sets I to VII; 1 to 7 works as well
-    for (int k = 1; k <= 7; ++k) {
-      if (strcasecmp(text.c_str(), Roman(k)) == 0 || text == std::to_string(k)) n = k;
-    }
-    if (n == 0) {
-      throw core::UsageError("--sets: '" + text +
-                             "' is not a movement set; allowed: 1 to 7 or I to VII");
-    }
-    sets.push_back(n);
-  }
-  return sets;
-}
-
 // --out, or results/demo-TIMESTAMP: created; core::UsageError if it holds anything already.
 fs::path NewResultsDir(const runtime::Args& parsed) {
   const fs::path dir =
@@ -221,8 +199,8 @@ std::vector<std::string> RunSets(const launch::Layout& layout, const core::Robot
   client::Client rig(rig_options);
   for (size_t i = 0; i < sets.size() && !runtime::StopRequested(); ++i) {
     const auto t0 = Clock::now();
-    out << "  set " << std::left << std::setw(4) << Roman(sets[i]) << std::right << " (" << i + 1
-        << "/" << sets.size() << ") " << PlanTitle(plans[i]) << " ..." << std::flush;
+    out << "  set " << std::left << std::setw(4) << lab::RomanSet(sets[i]) << std::right << " ("
+        << i + 1 << "/" << sets.size() << ") " << PlanTitle(plans[i]) << " ..." << std::flush;
     std::ostringstream plan_out;
     int code = 1;
     try {
@@ -243,12 +221,12 @@ std::vector<std::string> RunSets(const launch::Layout& layout, const core::Robot
       out << " FAILED: the real arm's bridge stopped following: " << real_arm_problem
           << " (see logs/hardware.log)\n";
       if (code != 0) out << plan_out.str();
-      failed_sets.push_back(Roman(sets[i]));
+      failed_sets.push_back(lab::RomanSet(sets[i]));
     } else if (code == 0) {
       out << " done in " << Fixed(Since(t0), 1) << " s\n";
     } else {
       out << " FAILED\n" << plan_out.str();
-      failed_sets.push_back(Roman(sets[i]));
+      failed_sets.push_back(lab::RomanSet(sets[i]));
     }
   }
   return failed_sets;
@@ -351,7 +329,7 @@ int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostrea
                      "real arm keeps its own")
            .Takes("FILE")},
       kDemoAbout);
-  const std::vector<int> sets = SetsFromArgs(parsed);
+  const std::vector<int> sets = MovementSetsArg(parsed);
   const std::string layout_file = runtime::ResolveDataPath(
       parsed.Has("layout") ? parsed.String("layout") : "config/labs/demo.yaml");
   launch::Layout layout = launch::LoadLayout(layout_file);

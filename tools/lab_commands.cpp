@@ -1,7 +1,5 @@
 #include "tools/lab_commands.hpp"
 
-#include <strings.h>
-
 #include <chrono>
 #include <cmath>
 #include <filesystem>
@@ -51,16 +49,11 @@ const char* const kIdentifyAbout =
     "and `sirupp report RUN2/data --compare RUN1/data`, show both runs side by side.\n"
     "docs/emulator-fit.md. Exit 0, 2 for bad arguments or files.\n";
 
-namespace {
-
-std::vector<int> ParseSets(const runtime::Args& args) {
-  std::vector<int> sets;
+std::vector<int> MovementSetsArg(const runtime::Args& args) {
   if (!args.Has("sets")) return {1, 2, 3, 4, 5, 6, 7};
+  std::vector<int> sets;
   for (const std::string& text : args.Values("sets", -1)) {
-    int n = 0;
-    for (int k = 1; k <= 7; ++k) {
-      if (strcasecmp(text.c_str(), lab::RomanSet(k)) == 0 || text == std::to_string(k)) n = k;
-    }
+    const int n = lab::SetFromName(text);  // the paper numbers its sets I to VII; 1 to 7 as well
     if (n == 0) {
       throw core::UsageError("--sets: '" + text +
                              "' is not a movement set; allowed: 1 to 7 or I to VII");
@@ -69,6 +62,8 @@ std::vector<int> ParseSets(const runtime::Args& args) {
   }
   return sets;
 }
+
+namespace {
 
 double Since(std::chrono::steady_clock::time_point t) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - t).count();
@@ -184,7 +179,7 @@ int RunFitEmulator(const std::vector<std::string>& argv, std::ostream& out, std:
       args.Has("real-arm") ? args.String("real-arm") : "config/hardware/puma260-real.yaml");
   const hardware::RealArmParams start = hardware::LoadRealArmParams(arm_file, model);
   lab::FitOptions options;
-  options.experiment.sets = ParseSets(args);
+  options.experiment.sets = MovementSetsArg(args);
   options.max_evaluations = EvaluationsArg(args, options.max_evaluations);
   if (args.Has("latency-ms")) options.latency_s = args.Numbers("latency-ms", 1)[0] / 1e3;
   if (args.Has("coupling-weight")) options.coupling_weight = args.Numbers("coupling-weight", 1)[0];

@@ -7,6 +7,10 @@
 #include <string>
 #include <vector>
 
+namespace sirupp::runtime {
+class Args;
+}
+
 namespace sirupp::tools {
 
 extern const char* const kFitEmulatorAbout;
@@ -14,5 +18,9 @@ extern const char* const kIdentifyAbout;
 
 int RunFitEmulator(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
 int RunIdentify(const std::vector<std::string>& args, std::ostream& out, std::ostream& err);
+
+// --sets (1 to 7 or I to VII, several) as set numbers; all seven without it. Throws
+// core::UsageError naming a value that is not a movement set.
+std::vector<int> MovementSetsArg(const runtime::Args& args);
 
 }  // namespace sirupp::tools
