@@ -46,6 +46,12 @@ packages=(
   libgtest-dev libgmock-dev liburdfdom-tools python3
   # multi-host tests (network namespaces), process tools
   iproute2 procps
+  # the Python module `sirupp` (pybind11 over the C++ libraries, numpy arrays), its pytest tests,
+  # the course notebooks (plots, headless execution in the suite, `sirupp notebook`)
+  pybind11-dev python3-dev python3-numpy python3-matplotlib python3-pytest
+  python3-nbclient python3-nbformat python3-ipykernel jupyter-nbconvert jupyter-notebook
+  # sandboxes for students' controllers (namespaces without root), the class server's limits
+  bubblewrap
   # an X server without a screen, for the test that starts lcm-spy (sirupp spy)
   xvfb xauth
 )
