@@ -17,6 +17,8 @@
 
 #include "core/command_reply.hpp"
 #include "core/errors.hpp"
+#include "core/heartbeat.hpp"
+#include "core/real_arm_note.hpp"
 #include "core/translate.hpp"
 
 namespace sirupp::client {
@@ -30,6 +32,13 @@ int64_t SteadyMicros() {
   return std::chrono::duration_cast<std::chrono::microseconds>(
              std::chrono::steady_clock::now().time_since_epoch())
       .count();
+}
+
+// Keeps the first real-arm loss a status names (core::kRealArmLost) in `lost`.
+void NoteRealArmLost(const sirupp::controller_status_t& status, std::string& lost) {
+  if (lost.empty() && status.last_error.rfind(core::kRealArmLost, 0) == 0) {
+    lost = status.last_error;
+  }
 }
 
 std::string DefaultSender() {
@@ -177,8 +186,11 @@ void Client::Subscribe() {
       });
   bus_.Subscribe<sirupp::heartbeat_t>(
       channels_.heartbeat, [this](const sirupp::heartbeat_t& message, const core::ReceiveInfo&) {
-        snapshot_.heartbeats[message.process + "@" + message.host] = message;
+        const std::string key = message.process + "@" + message.host;
+        snapshot_.heartbeats[key] = message;
+        heartbeat_heard_us_[key] = SteadyMicros();
       });
+  created_us_ = SteadyMicros();
   if (options_.watch_joints) WatchJoints(true);
 }
 
@@ -341,7 +353,41 @@ Answer Client::AwaitLoggerAnswer(const RequestId& request, double timeout_s) {
   return Await(request, timeout_s, Replier::kLogger);
 }
 
+void Client::WaitOutStartGuard() {
+  constexpr int64_t kListenUs = 150000;  // a starting process beats at 10 Hz
+  // In process (memq://, or a caller stepping the sim between polls) nothing starts on its own.
+  const bool in_process = idle_ || bus_.url().rfind("memq://", 0) == 0;
+  const int64_t listened = SteadyMicros() - created_us_;
+  if (!in_process && listened < kListenUs) {
+    Listen(static_cast<double>(kListenUs - listened) * 1e-6);
+  }
+  // The guarded processes heard in the last second, and the longest time left.
+  std::vector<std::string> guarded;
+  double left_s = 0;
+  for (const auto& [key, beat] : snapshot_.heartbeats) {
+    if (beat.state != sirupp::heartbeat_t::STATE_STARTING) continue;
+    if (SteadyMicros() - heartbeat_heard_us_[key] > 1000000) continue;
+    if (const std::optional<double> left = core::StartGuardLeft(beat.detail)) {
+      guarded.push_back(key);
+      left_s = std::max(left_s, *left);
+    }
+  }
+  if (guarded.empty()) return;
+  if (options_.notice) {
+    options_.notice("waiting " + core::FormatApprox(left_s) + " s for the start guard of " +
+                    guarded.front() + " (it refuses commands just after its start)");
+  }
+  Until(
+      [&] {
+        return std::none_of(guarded.begin(), guarded.end(), [&](const std::string& key) {
+          return snapshot_.heartbeats[key].state == sirupp::heartbeat_t::STATE_STARTING;
+        });
+      },
+      left_s + 1.0);
+}
+
 Answer Client::MoveJoints(const JointTarget& target) {
+  WaitOutStartGuard();
   // Unset speeds and accelerations are 0 (the joint's default); unset `active` moves every joint.
   auto at = [](const auto& values, size_t i, auto unset) {
     return i < values.size() ? values[i] : unset;
@@ -357,6 +403,7 @@ Answer Client::MoveJoints(const JointTarget& target) {
 }
 
 Answer Client::MovePose(const PoseTarget& target) {
+  WaitOutStartGuard();
   using core::ArmChoice;
   // kFirst is LEFT, UP and NO_FLIP on the wire (core/messages.hpp).
   auto choice = [](const std::optional<bool>& first) {
@@ -378,6 +425,7 @@ Answer Client::MovePose(const PoseTarget& target) {
 }
 
 Answer Client::RunPlan(const std::string& name, const std::string& text) {
+  WaitOutStartGuard();
   const core::PlanCommand message{0, 0, core::PlanAction::kRun, name, text};
   return AwaitControllerAnswer(Send(channels_.arm_plan, core::ToMessage(message)),
                                options_.answer_timeout_s);
@@ -517,12 +565,15 @@ std::optional<Outcome> Client::Follow(const std::function<bool(const Status&)>& 
 }
 
 Outcome Client::WaitForMove(int64_t move_id, double timeout_s, int64_t from_status_seq) {
+  std::string real_arm_lost;
   if (std::optional<Outcome> cut = Follow(
           [&](const Status& s) {
+            NoteRealArmLost(s, real_arm_lost);
             return s.state == Status::STATE_FAULT || s.move_id != move_id ||
                    s.state == Status::STATE_IDLE;
           },
           timeout_s, from_status_seq)) {
+    cut->real_arm_lost = real_arm_lost;
     return *cut;
   }
   const Status& s = *snapshot_.controller;
@@ -537,14 +588,17 @@ Outcome Client::WaitForMove(int64_t move_id, double timeout_s, int64_t from_stat
     outcome.end = End::kDone;
     outcome.detail = "move " + std::to_string(move_id) + " done";
   }
+  outcome.real_arm_lost = real_arm_lost;
   return outcome;
 }
 
 Outcome Client::WaitForPlan(const std::string& name, int steps, double timeout_s,
                             const std::function<void(int)>& on_step, int64_t from_status_seq) {
   int shown_step = -1;
+  std::string real_arm_lost;
   if (std::optional<Outcome> cut = Follow(
           [&](const Status& s) {
+            NoteRealArmLost(s, real_arm_lost);
             if (s.plan_name != name) return true;  // another plan replaced it
             if (s.plan_step != shown_step && s.plan_step < steps && s.plan_step >= 0) {
               shown_step = s.plan_step;
@@ -553,6 +607,7 @@ Outcome Client::WaitForPlan(const std::string& name, int steps, double timeout_s
             return s.state == Status::STATE_FAULT || s.state == Status::STATE_IDLE;
           },
           timeout_s, from_status_seq)) {
+    cut->real_arm_lost = real_arm_lost;
     return *cut;
   }
   const Status& s = *snapshot_.controller;
@@ -575,6 +630,7 @@ Outcome Client::WaitForPlan(const std::string& name, int steps, double timeout_s
     outcome.end = End::kDone;
     outcome.detail = "plan " + name + " finished";
   }
+  outcome.real_arm_lost = real_arm_lost;
   return outcome;
 }
 

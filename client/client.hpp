@@ -46,6 +46,9 @@ struct Options {
   // Also follow the per-tick channels SIM_ARM_STATE and ARM_SETPOINT (newest only). Costs CPU
   // while waiting; WatchJoints() switches it later.
   bool watch_joints = false;
+  // Told, in one line, what a command waits for before it is sent (a bridge's start guard);
+  // nullptr: nothing is said.
+  std::function<void(const std::string&)> notice;
 };
 
 // One request on the wire: the channel it went on (full name, prefix included) and its utime and
@@ -144,6 +147,9 @@ enum class End {
 struct Outcome {
   End end = End::kTimeout;
   std::string detail;  // one line for the people: why, with the controller's words where any
+  // Not empty when, during the wait, the controller reported the real arm's half of the run
+  // lost (its last_error began with core::kRealArmLost): the run is incomplete for the real arm.
+  std::string real_arm_lost;
   bool ok() const { return end == End::kDone; }
 };
 
@@ -188,6 +194,12 @@ class Client {
   double SinceControllerStatus() const;
 
   // --- sirupp-control (answers on CONTROLLER_REPLY)
+  // MoveJoints, MovePose and RunPlan first wait out the start guard of a process that refuses
+  // commands for a while after its start (the bridge: its heartbeat says starting, "start guard:
+  // ... 0.54 s more"; it would refuse the move the controller mirrors to it, and the plan would
+  // fail). A fresh client listens up to 0.15 s for such a heartbeat (sent at 10 Hz while
+  // starting); options.notice hears what it waits for.
+  void WaitOutStartGuard();
   Answer MoveJoints(const JointTarget& target);
   Answer MovePose(const PoseTarget& target);
   Answer RunPlan(const std::string& name, const std::string& text);
@@ -273,6 +285,8 @@ class Client {
   core::Channels channels_;
   Snapshot snapshot_;
   int64_t last_status_wall_us_ = 0;     // steady clock of the last CONTROLLER_STATUS, microseconds
+  int64_t created_us_ = 0;              // steady clock when this client began to listen
+  std::map<std::string, int64_t> heartbeat_heard_us_;  // steady clock, by snapshot_.heartbeats key
   int64_t last_utime_ = 0;              // utime of the last request (each request gets a new one)
   std::map<std::string, int64_t> seq_;  // per channel
   std::vector<sirupp::command_reply_t> controller_replies_;

@@ -1,5 +1,6 @@
 #include "control/control_node.hpp"
 
+#include <cstdio>
 #include <iostream>
 #include <optional>
 #include <sirupp/arm_command_t.hpp>
@@ -12,6 +13,7 @@
 
 #include "core/errors.hpp"
 #include "core/model_check.hpp"
+#include "core/real_arm_note.hpp"
 #include "core/translate.hpp"
 #include "servo/chip_gains.hpp"
 
@@ -112,6 +114,9 @@ ControlNode::ControlNode(core::Bus& bus, const core::RobotModel& model, ControlO
   bus_.Subscribe<sirupp::robot_model_t>(
       channels.robot_model,
       [this](const sirupp::robot_model_t& message, const Info& info) { OnModel(message, info); });
+  bus_.Subscribe<sirupp::hardware_status_t>(
+      channels.hardware_status,
+      [this](const sirupp::hardware_status_t& message, const Info&) { OnBridgeStatus(message); });
   heartbeat_.Publish(core::ProcessState::kStarting, "");
 }
 
@@ -204,6 +209,34 @@ void ControlNode::CheckSimAlive() {
   const double silent_s = std::chrono::duration<double>(Clock::now() - last_state_wall_).count();
   if (silent_s < options_.sim_timeout_s) return;
   sequencer_.SimLost(options_.sim_timeout_s);
+  Flush();
+}
+
+void ControlNode::OnBridgeStatus(const sirupp::hardware_status_t& message) {
+  last_bridge_status_ = Clock::now();
+  bridge_linked_ = message.state == sirupp::hardware_status_t::STATE_LINKED;
+  if (bridge_lost_) {
+    bridge_lost_ = false;
+    sequencer_.RealArmBack(std::string(core::kRealArmLost) + "sirupp-hardware heard again (" +
+                           (bridge_linked_ ? "linked" : "not linked") + ")");
+    Flush();
+  }
+}
+
+void ControlNode::CheckBridgeAlive() {
+  if (!bridge_linked_ || bridge_lost_) return;
+  const double silent_s =
+      std::chrono::duration<double>(Clock::now() - last_bridge_status_).count();
+  if (silent_s < options_.bridge_timeout_s) return;
+  bridge_lost_ = true;
+  bridge_linked_ = false;
+  char at[32];
+  std::snprintf(at, sizeof at, "%.3f", static_cast<double>(sequencer_.utime()) * 1e-6);
+  sequencer_.RealArmLost(std::string(core::kRealArmLost) + "sirupp-hardware lost at t = " + at +
+                         " s (no HARDWARE_STATUS for " +
+                         core::FormatNumber(options_.bridge_timeout_s) +
+                         " s while linked); the boards finish the loaded move alone, the run is "
+                         "incomplete for the real arm");
   Flush();
 }
 
@@ -335,6 +368,7 @@ void ControlNode::Service(int max_wait_ms) {
   bus_.HandleAvailable();
   bus_.Handle(max_wait_ms);
   CheckSimAlive();
+  CheckBridgeAlive();
   PublishGains(false);
   PublishStatusIfDue();
   const bool fault = sequencer_.state() == ControlState::kFault;

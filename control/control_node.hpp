@@ -7,7 +7,8 @@
 // In:  SIM_ARM_STATE (answered on SIM_ARM_COMMAND with the same tick, so sirupp-sim can run in
 //      lockstep), ARM_TARGET (joint targets), ARM_POSE_TARGET (tool targets through IK), ARM_PLAN
 //      (movement plans: run, pause, resume, abort; manual/automatic mode), ARM_GAINS (live gains),
-//      ESTOP, HARDWARE_REPLY (a refusal of our latest ARM_MOVE), ROBOT_MODEL (the sim's robot;
+//      ESTOP, HARDWARE_REPLY (a refusal of our latest ARM_MOVE), HARDWARE_STATUS (a linked bridge
+//      that falls silent is lost: named in last_error), ROBOT_MODEL (the sim's robot;
 //      another model announced on ARM_PLAN COMMAND_LOAD_MODEL is taken in place, model_switch.hpp).
 // Out: ARM_MOVE (every move and stop, as LOAD_TRAJ), ARM_SETPOINT (every tick), CONTROLLER_STATUS
 //      (10 Hz and on every change), CONTROLLER_GAINS (1 Hz and on change), CONTROLLER_REPLY (one
@@ -26,6 +27,7 @@
 #include <sirupp/arm_state_t.hpp>
 #include <sirupp/command_reply_t.hpp>
 #include <sirupp/estop_t.hpp>
+#include <sirupp/hardware_status_t.hpp>
 #include <sirupp/joint_target_t.hpp>
 #include <sirupp/plan_command_t.hpp>
 #include <sirupp/pose_target_t.hpp>
@@ -58,6 +60,11 @@ struct ControlOptions {
   // No SIM_ARM_STATE for this long (wall clock) = the sim is lost: a plan is aborted, the real
   // arm stopped (STOP_SMOOTH on ARM_MOVE), the status says so until states come again.
   double sim_timeout_s = 0.5;
+  // No HARDWARE_STATUS (sent at 10 Hz) for this long while the bridge was linked = the bridge is
+  // lost: the virtual arm goes on, last_error names the loss ("real arm: sirupp-hardware lost at
+  // t = ..."), the client marks the plan incomplete for the real arm and the logger's end line
+  // names it, until the bridge is heard again.
+  double bridge_timeout_s = 0.6;
 };
 
 class ControlNode {
@@ -99,6 +106,8 @@ class ControlNode {
   Value Decoded(Value (*from_message)(const Msg&, const std::string&), const Msg& message,
                 const std::string& channel);
   void CheckSimAlive();
+  void OnBridgeStatus(const sirupp::hardware_status_t& message);
+  void CheckBridgeAlive();
   // Publishes what the sequencer asked for since the last call, in order.
   void Flush();
   void PublishMove(const MoveOrder& order);
@@ -120,6 +129,9 @@ class ControlNode {
   sirupp::arm_command_t last_command_{};  // sent again when the same tick's state comes again
   bool have_last_command_ = false;
   std::chrono::steady_clock::time_point last_state_wall_;
+  std::chrono::steady_clock::time_point last_bridge_status_;
+  bool bridge_linked_ = false;  // the newest HARDWARE_STATUS said LINKED
+  bool bridge_lost_ = false;    // linked, then silent past bridge_timeout_s (until heard again)
   std::string start_refusal_;
   std::string model_checked_;  // source hash of the sim's model once it matched ours
   ModelSwitch model_switch_;   // a model announced on ARM_PLAN, until the sim publishes it

@@ -35,7 +35,9 @@ constexpr const char* kAbout =
     "--rt-priority N: run under SCHED_FIFO at priority N (1..99; needs root or CAP_SYS_NICE),\n"
     "so the servo loop answers each state at once on a busy machine (docs/timing.md).\n"
     "--sim-timeout S: no SIM_ARM_STATE for S wall seconds (default 0.5) aborts a plan (sirupp\n"
-    "grade gives more: another participant may hold the lockstep sim that long).\n";
+    "grade gives more: another participant may hold the lockstep sim that long).\n"
+    "--bridge-timeout S: no HARDWARE_STATUS for S wall seconds (default 0.6) while the bridge was\n"
+    "linked = the real arm's half of the run is lost: named in last_error and the plan's result.\n";
 
 // --controller LIB.so with its arguments, in its host process (or in this one with
 // --controller-in-process). Loaded before joining the bus: a library that cannot be used stops
@@ -80,6 +82,9 @@ int Run(const std::vector<std::string>& argv) {
        Flag("sim-timeout", "seconds without a sim state that abort a plan")
            .Takes("S")
            .Above(0, 3600),
+       Flag("bridge-timeout", "seconds without a bridge status that lose the real arm")
+           .Takes("S")
+           .Above(0, 3600),
        Flag("controller", "controller library (.so)").Takes("LIB.so"),
        Flag("controller-args", "arguments for the controller library").Takes("TEXT", -1),
        Flag("controller-tick-limit", "seconds one controller call may take")
@@ -102,6 +107,7 @@ int Run(const std::vector<std::string>& argv) {
   }
   options.publish_setpoints = !args.Switch("no-setpoints");
   options.sim_timeout_s = args.Number("sim-timeout", options.sim_timeout_s);
+  options.bridge_timeout_s = args.Number("bridge-timeout", options.bridge_timeout_s);
   for (const char* flag : {"controller-args", "controller-tick-limit", "controller-in-process"}) {
     if (args.Has(flag) && !args.Has("controller")) {
       throw sirupp::core::UsageError(std::string("sirupp-control: --") + flag +

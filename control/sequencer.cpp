@@ -9,6 +9,7 @@
 #include "control/pose_goal.hpp"
 #include "core/errors.hpp"
 #include "core/geometry.hpp"
+#include "core/real_arm_note.hpp"
 #include "core/translate.hpp"
 
 namespace sirupp::control {
@@ -265,6 +266,16 @@ void Sequencer::Refuse(const std::string& error) {
 }
 
 void Sequencer::Refused(const std::string& error) { Refuse(error); }
+
+void Sequencer::RealArmLost(const std::string& text) {
+  Note(text);
+  Refuse(text);
+}
+
+void Sequencer::RealArmBack(const std::string& text) {
+  Note(text);
+  if (last_error_.rfind(core::kRealArmLost, 0) == 0) Refuse("");
+}
 
 // --- Targets.
 

@@ -148,6 +148,11 @@ class Sequencer {
   // A command the caller refused before it got here (it could not be decoded): made the last
   // error, with a status.
   void Refused(const std::string& error);
+  // The bridge to the real arm was lost while linked (control_node.hpp): the virtual arm goes on;
+  // `text` is logged and made the last error. RealArmBack: heard again; a last error that was the
+  // loss is replaced by `text`.
+  void RealArmLost(const std::string& text);
+  void RealArmBack(const std::string& text);
   // Throws MessageError on `source` unless another model may be taken now: servos on or off but
   // idle (no move, no plan loaded and not ended, no fault, no e-stop, no student's law).
   void RequireModelChangeAllowed(const std::string& source) const;

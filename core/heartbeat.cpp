@@ -3,8 +3,11 @@
 #include <unistd.h>
 
 #include <array>
+#include <cmath>
+#include <cstdlib>
 #include <utility>
 
+#include "core/errors.hpp"
 #include "core/translate.hpp"
 
 namespace sirupp::core {
@@ -34,6 +37,21 @@ const char* ProcessStateName(ProcessState state) {
   return "unknown";
 }
 
+std::string StartGuardDetail(double left_s) {
+  const double hundredths = std::ceil((left_s > 0 ? left_s : 0.0) * 100 - 1e-9);
+  return std::string(kStartGuardWord) + ": commands are refused for " +
+         FormatApprox(hundredths / 100) + " s more";
+}
+
+std::optional<double> StartGuardLeft(const std::string& detail) {
+  const std::string head = std::string(kStartGuardWord) + ": commands are refused for ";
+  if (detail.rfind(head, 0) != 0) return std::nullopt;
+  char* end = nullptr;
+  const double left = std::strtod(detail.c_str() + head.size(), &end);
+  if (end == detail.c_str() + head.size() || !std::isfinite(left)) return std::nullopt;
+  return left;
+}
+
 Heartbeat::Heartbeat(Bus& bus, std::string process_name, std::string channel, double period_s)
     : bus_(bus),
       process_(std::move(process_name)),
@@ -55,6 +73,7 @@ void Heartbeat::Publish(ProcessState state, const std::string& detail) {
   bus_.Publish(channel_, message);
   ++seq_;
   sent_any_ = true;
+  last_state_ = state;
   last_sent_ = Clock::now();
 }
 

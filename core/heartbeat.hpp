@@ -2,10 +2,16 @@
 // The 1 Hz heartbeat every SIRUPP process publishes on HEARTBEAT: name, host, pid, state, one line
 // of detail, and the traffic counters of every channel the process's Bus has seen, with rates
 // computed between two heartbeats.
+//
+// While the last heartbeat sent said kStarting, the next one is due after a tenth of the period
+// (10 Hz at 1 Hz): a process that is starting says at once when it is ready (the launcher waits
+// for a state other than kStarting, docs/launch.md), and a client that listens briefly hears a
+// process that is not ready yet (the bridge's start guard, client/client.hpp).
 
 #include <chrono>
 #include <cstdint>
 #include <map>
+#include <optional>
 #include <sirupp/heartbeat_t.hpp>
 #include <string>
 
@@ -23,6 +29,13 @@ enum class ProcessState : int8_t {
 
 const char* ProcessStateName(ProcessState state);
 
+// The heartbeat detail of a process that refuses commands for a while after its start (the
+// bridge's start guard), sent with kStarting: "start guard: commands are refused for 0.54 s more".
+inline constexpr const char* kStartGuardWord = "start guard";
+std::string StartGuardDetail(double left_s);
+// The seconds left that such a detail names; nullopt for any other detail.
+std::optional<double> StartGuardLeft(const std::string& detail);
+
 class Heartbeat {
  public:
   using Clock = std::chrono::steady_clock;
@@ -35,7 +48,11 @@ class Heartbeat {
   // Returns true if it published.
   bool PublishIfDue(ProcessState state, const std::string& detail);
   // True when PublishIfDue would publish now: lets a per-tick caller build the detail only then.
-  bool Due() const { return !sent_any_ || Clock::now() - last_sent_ >= period_; }
+  bool Due() const {
+    return !sent_any_ ||
+           Clock::now() - last_sent_ >= (last_state_ == ProcessState::kStarting ? period_ / 10
+                                                                                 : period_);
+  }
   // Publishes one now (start-up, state changes, shutdown).
   void Publish(ProcessState state, const std::string& detail);
 
@@ -52,6 +69,7 @@ class Heartbeat {
   Clock::time_point started_;
   Clock::time_point last_sent_;
   bool sent_any_ = false;
+  ProcessState last_state_ = ProcessState::kStarting;
   int64_t seq_ = 0;
   // Messages per channel side at the previous heartbeat, for rates.
   std::map<std::string, int64_t> previous_counts_;

@@ -103,7 +103,9 @@ BridgeNode::BridgeNode(core::Bus& bus, const core::RobotModel& model, ArmLink& l
   bus_.Subscribe<sirupp::robot_model_t>(
       c.robot_model,
       [this](const sirupp::robot_model_t& m, const core::ReceiveInfo& info) { OnModel(m, info); });
-  heartbeat_.Publish(core::ProcessState::kStarting, ModelDetail());
+  heartbeat_.Publish(core::ProcessState::kStarting, settings_.start_guard_s > 0
+                                                       ? core::StartGuardDetail(StartGuardLeft())
+                                                       : ModelDetail());
 }
 
 // The model file this bridge keeps, in its heartbeat's detail while all is well, so that a panel
@@ -207,11 +209,11 @@ void BridgeNode::Refuse(const std::string& channel, const std::string& problem) 
 }
 
 void BridgeNode::CheckStartGuard(const std::string& channel) {
-  const double age = std::chrono::duration<double>(Clock::now() - started_).count();
-  if (age < settings_.start_guard_s) {
-    Refuse(channel, "start guard: commands are refused for the first " +
+  const double left = StartGuardLeft();
+  if (left > 0) {
+    Refuse(channel, std::string(core::kStartGuardWord) + ": commands are refused for the first " +
                         core::FormatNumber(settings_.start_guard_s) + " s after start-up (" +
-                        core::FormatApprox(settings_.start_guard_s - age) + " s left)");
+                        core::FormatApprox(left) + " s left)");
   }
 }
 
@@ -470,10 +472,22 @@ void BridgeNode::Cycle() {
     PublishGains();
   }
   const bool bad = faulted_ || estopped_;
+  // Not ready while the start guard refuses commands: the launcher, `sirupp demo`, the panel's
+  // process table and a client about to send a move all wait for the next state (docs/launch.md).
+  const double guard_left = StartGuardLeft();
+  if (!bad && guard_left > 0) {
+    heartbeat_.PublishIfDue(core::ProcessState::kStarting, core::StartGuardDetail(guard_left));
+    return;
+  }
   heartbeat_.PublishIfDue(bad ? core::ProcessState::kFault : core::ProcessState::kRunning,
                           bad                   ? last_error_
                           : last_error_.empty() ? ModelDetail()
                                                 : ModelDetail() + "; " + last_error_);
+}
+
+double BridgeNode::StartGuardLeft() const {
+  return settings_.start_guard_s -
+         std::chrono::duration<double>(Clock::now() - started_).count();
 }
 
 void BridgeNode::Service(int max_wait_ms) {

@@ -103,6 +103,8 @@ class BridgeNode {
 
   // Refuses (counts on `channel`, last_error, throws MessageError) while the start guard runs.
   void CheckStartGuard(const std::string& channel);
+  // Seconds until the start guard ends (<= 0 once it has).
+  double StartGuardLeft() const;
   [[noreturn]] void Refuse(const std::string& channel, const std::string& problem);
   void Fault(const std::string& problem);
   void Cycle();

@@ -252,6 +252,27 @@ bool Supervisor::Spawn(Child& child) {
   return true;
 }
 
+const Supervisor::Heard* Supervisor::HeardFrom(const Child& child) const {
+  for (const auto& [key, heard] : heard_) {
+    if (heard->beat.pid == child.pid && heard->beat.host == options_.machine) return heard.get();
+  }
+  return nullptr;
+}
+
+// Ready: its newest heartbeat says it is no longer starting (a process that heartbeats says
+// STATE_STARTING until it takes commands: the bridge through its start guard).
+bool Supervisor::HeardReady(const Child& child) const {
+  const Heard* heard = HeardFrom(child);
+  return heard != nullptr && heard->beat.state != sirupp::heartbeat_t::STATE_STARTING;
+}
+
+std::string Supervisor::NotReadyWhy(const Child& child) const {
+  const Heard* heard = HeardFrom(child);
+  if (heard == nullptr) return "no heartbeat from pid " + std::to_string(child.pid);
+  return "its heartbeat still says starting" +
+         (heard->beat.detail.empty() ? std::string() : ": " + heard->beat.detail);
+}
+
 bool Supervisor::WaitReady(Child& child, const std::function<bool()>& keep_going) {
   const auto deadline =
       child.started + std::chrono::duration_cast<Clock::duration>(
@@ -275,9 +296,7 @@ bool Supervisor::WaitReady(Child& child, const std::function<bool()>& keep_going
         ready = fs::exists(Expand(child.spec.ready_file, options_.variables));
         break;
       case Ready::kHeartbeat:
-        for (const auto& [key, heard] : heard_) {
-          if (heard->beat.pid == child.pid && heard->beat.host == options_.machine) ready = true;
-        }
+        ready = HeardReady(child);
         break;
     }
     if (ready) {
@@ -290,7 +309,7 @@ bool Supervisor::WaitReady(Child& child, const std::function<bool()>& keep_going
       failures_.push_back(child.spec.name + ": not ready within " +
                           core::FormatNumber(child.spec.ready_timeout_s) + " s (" +
                           (child.spec.ready == Ready::kHeartbeat
-                               ? "no heartbeat from pid " + std::to_string(child.pid)
+                               ? NotReadyWhy(child)
                                : "no file " + child.spec.ready_file) +
                           ")" + LogTail(child));
       Event(failures_.back());
@@ -391,12 +410,7 @@ bool Supervisor::Service(int wait_ms) {
       Spawn(*child);
     }
     if (child->state == "starting" && child->pid != 0) {
-      for (const auto& [key, heard] : heard_) {
-        if (heard->beat.pid == child->pid && heard->beat.host == options_.machine) {
-          child->state = "running";
-        }
-      }
-      if (child->spec.ready != Ready::kHeartbeat) child->state = "running";
+      if (child->spec.ready != Ready::kHeartbeat || HeardReady(*child)) child->state = "running";
     }
   }
   HandleHeartbeats(wait_ms);

@@ -88,6 +88,10 @@ class Supervisor {
 
   bool Spawn(Child& child);
   bool WaitReady(Child& child, const std::function<bool()>& keep_going);
+  // The newest heartbeat of this child's process on this machine; nullptr if none was heard.
+  const Heard* HeardFrom(const Child& child) const;
+  bool HeardReady(const Child& child) const;
+  std::string NotReadyWhy(const Child& child) const;
   void Reap();
   void Ended(Child& child, int status);
   void HandleHeartbeats(int wait_ms);

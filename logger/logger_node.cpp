@@ -22,6 +22,7 @@
 
 #include "core/errors.hpp"
 #include "core/messages.hpp"
+#include "core/real_arm_note.hpp"
 #include "core/translate.hpp"
 #include "logger/lcm_log.hpp"
 #include "logger/raw_settings.hpp"
@@ -223,6 +224,7 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
         if (!Live(info.recv_utime)) return;
         // Plan runs split the files: a status no controller could send is refused.
         core::ControllerStatusFromMessage(message, info.channel);
+        NoteRealArm(message.last_error);
         Push(StatusFromMessage(message, info.recv_utime), Stream::kSetpoint);
       },
       kQueue));
@@ -289,6 +291,15 @@ LoggerNode::~LoggerNode() {
   try {
     Close();
   } catch (const std::exception&) {  // Close() only throws if joining fails; nothing to add here
+  }
+}
+
+void LoggerNode::NoteRealArm(const std::string& last_error) {
+  const bool lost = last_error.rfind(core::kRealArmLost, 0) == 0;
+  std::lock_guard<std::mutex> lock(mutex_);
+  real_arm_lost_now_ = lost;
+  if (lost && (real_arm_notes_.empty() || real_arm_notes_.back() != last_error)) {
+    real_arm_notes_.push_back(last_error);
   }
 }
 
@@ -751,6 +762,7 @@ void LoggerNode::OpenFile(const Row& row) {
   file_ = std::make_unique<DataFileWriter>(path, header, layout_);
   std::lock_guard<std::mutex> lock(mutex_);
   stats_.files.push_back(path);
+  file_real_arm_notes_ = real_arm_notes_.size();
 }
 
 void LoggerNode::CloseFile() {
@@ -856,6 +868,15 @@ std::string LoggerNode::EndLine() const {
   if (dropped > 0) {
     text += "; " + std::to_string(dropped) +
             " per-tick datagrams dropped by the kernel (its buffer was full), counted in the gaps";
+  }
+  // The real arm's half lost during this file (or before it and not back): its real columns
+  // after that repeat the last sample heard.
+  std::lock_guard<std::mutex> lock(mutex_);
+  for (size_t i = file_real_arm_notes_; i < real_arm_notes_.size(); ++i) {
+    text += "; " + real_arm_notes_[i];
+  }
+  if (file_real_arm_notes_ == real_arm_notes_.size() && real_arm_lost_now_) {
+    text += "; still lost: " + real_arm_notes_.back();
   }
   return text;
 }

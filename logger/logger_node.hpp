@@ -120,6 +120,8 @@ class LoggerNode {
   using Input = std::variant<Sample, PlanStatus, GainsRecord>;
 
   void Push(Input input, Stream stream);
+  // A controller status's last_error: keeps what it says of the real arm (bus thread).
+  void NoteRealArm(const std::string& last_error);
   void QueueLocked(Input&& input, Stream stream);  // mutex_ held
   // Bus thread: hands the messages of one Service() round to the writer at once, so that a writer
   // pass never takes the plan statuses LCM delivered without the per-tick samples of the same
@@ -192,10 +194,15 @@ class LoggerNode {
   std::array<int64_t, kNumStreams> overflow_{};  // dropped since the writer last looked
   bool stop_ = false;
   LoggerStats stats_;
+  // The controller's reports that the real arm's half of the run was lost (core::kRealArmLost),
+  // in order, and whether the newest status still says so: the data files' end lines name them.
+  std::vector<std::string> real_arm_notes_;
+  bool real_arm_lost_now_ = false;
 
   // Writer thread only.
   Aligner aligner_;
   std::unique_ptr<DataFileWriter> file_;
+  size_t file_real_arm_notes_ = 0;  // real_arm_notes_.size() when file_ was opened
   int file_run_ = -1;
   int file_plan_ = -1;
   int file_count_ = 0;

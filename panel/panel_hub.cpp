@@ -242,7 +242,10 @@ void PanelHub::Subscribe() {
       });
   bus_.Subscribe<sirupp::hardware_status_t>(
       channels_.hardware_status,
-      [this](const sirupp::hardware_status_t& msg, const core::ReceiveInfo&) { hardware_ = msg; });
+      [this](const sirupp::hardware_status_t& msg, const core::ReceiveInfo&) {
+        hardware_ = msg;
+        hardware_at_ = Clock::now();
+      });
   bus_.Subscribe<sirupp::sim_status_t>(
       channels_.sim_status,
       [this](const sirupp::sim_status_t& msg, const core::ReceiveInfo&) { sim_status_ = msg; });
@@ -472,6 +475,10 @@ Json PanelHub::StateJson() const {
                            {"checksum_errors", hardware_->checksum_errors},
                            {"timeouts", hardware_->timeouts},
                            {"last_error", hardware_->last_error},
+                           // HARDWARE_STATUS comes at 10 Hz: older than a second, the bridge
+                           // is gone and this is its last word (the page says "lost").
+                           {"age_s", std::chrono::duration<double>(Clock::now() - hardware_at_)
+                                         .count()},
                            {"modules", modules}};
   }
   if (sim_status_) {

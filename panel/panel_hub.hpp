@@ -142,6 +142,7 @@ class PanelHub {
   std::optional<sirupp::servo_setpoint_t> setpoint_;
   std::optional<sirupp::arm_state_t> real_state_;
   std::chrono::steady_clock::time_point real_state_at_;
+  std::chrono::steady_clock::time_point hardware_at_;  // when hardware_ was heard
   std::optional<sirupp::controller_status_t> controller_;
   std::optional<sirupp::hardware_status_t> hardware_;
   std::optional<sirupp::sim_status_t> sim_status_;

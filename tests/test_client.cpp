@@ -408,6 +408,108 @@ TEST(Client, TheBridgeIsConnectedCalibratedArmedAndLinkedAndRefusesOutOfOrder) {
   EXPECT_TRUE(client.WaitEstopShown(false, kLongWaitS));
 }
 
+// The whole linked rig in process: sim and controller in lockstep, the bridge on emulated boards,
+// linked at start-up by the operator's flags (Connect, Calibrate, Arm, Link) and still within its
+// start guard. The bridge can be silenced (not serviced) to lose it.
+struct LinkedRig {
+  LinkedRig(double start_guard_s, double bridge_timeout_s) {
+    hardware::EmulatorOptions eo;
+    eo.model = Puma();
+    eo.start_positions = {0, 0, 0, 0, 0, 0};
+    settings.start_guard_s = start_guard_s;
+    settings.reply_margin_ms = 500;
+    settings.retries = 4;
+    settings.command_timeout_s = 600;  // the lockstep sim may lag the wall clock here
+    emulator = std::make_unique<hardware::Emulator>(eo);
+    emulator->Start();
+    port = std::make_unique<hardware::SerialPort>(emulator->device(), hardware::nmc::kPowerUpBaud);
+    link = std::make_unique<hardware::ArmLink>(Puma(), settings, *port);
+    node = std::make_unique<hardware::BridgeNode>(bus, Puma(), *link, settings);
+    node->Connect();
+    node->Calibrate();
+    node->Arm();
+    node->Link();
+    control::ControlOptions control_options;
+    control_options.bridge_timeout_s = bridge_timeout_s;
+    control = std::make_unique<control::ControlNode>(bus, Puma(), control_options);
+    Options options;
+    options.notice = [this](const std::string& line) { notices.push_back(line); };
+    client = std::make_unique<Client>(bus, options);
+    client->SetIdle([this] {
+      sim.Service(0);
+      control->Service(0);
+      if (bridge_alive) node->Service(0);
+    });
+    client->Until(
+        [this] {
+          const auto& status = client->snapshot().controller;
+          return status && status->state != Status::STATE_OFF && client->snapshot().hardware;
+        },
+        kLongWaitS);
+  }
+  ~LinkedRig() { emulator->Stop(); }
+  core::Bus bus{"memq://"};
+  sim::ArmWorld world{Puma(), core::Environment{}};
+  sim::SimNode sim{bus, world, core::Environment{}, sim::NodeOptions{}};
+  hardware::BridgeSettings settings = hardware::DefaultBridgeSettings(Puma());
+  std::unique_ptr<hardware::Emulator> emulator;
+  std::unique_ptr<hardware::SerialPort> port;
+  std::unique_ptr<hardware::ArmLink> link;
+  std::unique_ptr<hardware::BridgeNode> node;
+  std::unique_ptr<control::ControlNode> control;
+  std::unique_ptr<Client> client;
+  std::vector<std::string> notices;
+  bool bridge_alive = true;
+};
+
+// Issue 33: a move sent right after the bridge started waits out its start guard (the bridge
+// says starting on HEARTBEAT until then) instead of being refused by it and failing the plan.
+TEST(Client, AMoveWaitsOutTheBridgesStartGuardAndRunsOnBothArms) {
+  LinkedRig rig(6.0, 0.6);  // start-up (calibration) takes part of the guard
+  Client& client = *rig.client;
+  const Answer answer = client.MoveJoints(Degrees({10, 0, 0, 0, 0, 0}));
+  ASSERT_EQ(answer.result, Result::kAccepted) << answer.error;
+  ASSERT_EQ(rig.notices.size(), 1u);
+  EXPECT_NE(rig.notices[0].find("for the start guard of sirupp-hardware@"), std::string::npos)
+      << rig.notices[0];
+  const Outcome outcome = client.WaitForMove(answer.move_id, kLongWaitS, answer.status_seq);
+  EXPECT_TRUE(outcome.ok()) << outcome.detail;
+  EXPECT_TRUE(outcome.real_arm_lost.empty()) << outcome.real_arm_lost;
+  EXPECT_EQ(rig.node->moves_mirrored(), 1);
+  EXPECT_TRUE(rig.node->linked()) << rig.node->last_error();
+  // Once the guard has passed, no more waiting.
+  const Answer back = client.MoveJoints(Degrees({0, 0, 0, 0, 0, 0}));
+  EXPECT_EQ(back.result, Result::kAccepted) << back.error;
+  EXPECT_EQ(rig.notices.size(), 1u);
+}
+
+// Issue 33: a linked bridge that falls silent is named: the move's outcome is incomplete for
+// the real arm, the controller's last error says so (not a fault: the virtual arm goes on), and
+// it clears once the bridge is heard again.
+TEST(Client, ALostBridgeIsNamedInTheOutcomeAndTheStatusUntilHeardAgain) {
+  LinkedRig rig(0, 0.3);
+  Client& client = *rig.client;
+  // Slow (2 deg/s: 10 s of sim time), so that the loss comes while it moves.
+  JointTarget slow = Degrees({20, 0, 0, 0, 0, 0});
+  slow.max_velocity = {2 * kDeg, 0, 0, 0, 0, 0};
+  const Answer answer = client.MoveJoints(slow);
+  ASSERT_EQ(answer.result, Result::kAccepted) << answer.error;
+  rig.bridge_alive = false;  // as if killed: no more HARDWARE_STATUS
+  const Outcome outcome = client.WaitForMove(answer.move_id, kLongWaitS, answer.status_seq);
+  EXPECT_TRUE(outcome.ok()) << outcome.detail;  // the virtual arm finished its move
+  EXPECT_EQ(outcome.real_arm_lost.rfind("real arm: sirupp-hardware lost at t = ", 0), 0u)
+      << outcome.real_arm_lost;
+  EXPECT_NE(outcome.real_arm_lost.find("the boards finish the loaded move alone"),
+            std::string::npos);
+  EXPECT_EQ(client.snapshot().controller->last_error.rfind("real arm: sirupp-hardware lost", 0),
+            0u)
+      << client.snapshot().controller->last_error;
+  EXPECT_NE(client.snapshot().controller->state, Status::STATE_FAULT);
+  rig.bridge_alive = true;
+  EXPECT_TRUE(client.Until(
+      [&] { return client.snapshot().controller->last_error.empty(); }, kLongWaitS));
+}
+
 TEST(Client, HardwareCommandNamesGoBothWays) {
   for (HardwareCommand command :
        {HardwareCommand::kConnect, HardwareCommand::kCalibrate, HardwareCommand::kArm,

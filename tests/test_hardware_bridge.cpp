@@ -18,6 +18,7 @@
 #include <functional>
 #include <iostream>
 #include <memory>
+#include <optional>
 #include <sirupp/arm_state_t.hpp>
 #include <sirupp/controller_status_t.hpp>
 #include <sirupp/estop_t.hpp>
@@ -33,6 +34,7 @@
 
 #include "core/bus.hpp"
 #include "core/errors.hpp"
+#include "core/heartbeat.hpp"
 #include "core/model_loader.hpp"
 #include "core/translate.hpp"
 #include "hardware/arm_link.hpp"
@@ -359,6 +361,43 @@ TEST(HardwareBridge, SetSevenMirroredReachesItsGoals) {
     ASSERT_EQ(rig.states[i].seq, rig.states[i - 1].seq + 1);
   }
   EXPECT_NE(rig.node->state(), hardware_status_t::STATE_FAULT) << rig.node->last_error();
+}
+
+// Issue 33: not ready while the start guard refuses commands. The heartbeat says starting with
+// the seconds left (10 Hz, so a launcher or a client hears it at once), then running within a
+// tenth of a second of the guard's end.
+TEST(HardwareBridge, TheHeartbeatSaysStartingUntilTheStartGuardHasPassed) {
+  Rig rig([](BridgeSettings& s, EmulatorOptions&) { s.start_guard_s = 0.6; });
+  std::vector<std::pair<Clock::time_point, sirupp::heartbeat_t>> beats;
+  rig.bus.Subscribe<sirupp::heartbeat_t>(
+      "HEARTBEAT",
+      [&](const sirupp::heartbeat_t& m, const core::ReceiveInfo&) {
+        beats.emplace_back(Clock::now(), m);
+      },
+      1000);
+  const Clock::time_point start = Clock::now();  // the guard began a moment before, with the node
+  rig.RunUntil(1.2, nullptr);
+  ASSERT_FALSE(beats.empty());
+  int starting = 0;
+  std::optional<Clock::time_point> first_running;
+  for (const auto& [when, beat] : beats) {
+    if (beat.state == sirupp::heartbeat_t::STATE_STARTING) {
+      ++starting;
+      EXPECT_FALSE(first_running) << "starting again after running: " << beat.detail;
+      const std::optional<double> left = core::StartGuardLeft(beat.detail);
+      ASSERT_TRUE(left.has_value()) << beat.detail;
+      EXPECT_LE(*left, 0.6);
+    } else if (!first_running) {
+      EXPECT_EQ(beat.state, sirupp::heartbeat_t::STATE_RUNNING) << beat.detail;
+      first_running = when;
+    }
+  }
+  EXPECT_GE(starting, 3) << "10 Hz while starting";
+  ASSERT_TRUE(first_running.has_value());
+  const double ready_after = std::chrono::duration<double>(*first_running - start).count();
+  EXPECT_GE(ready_after, 0.5);
+  EXPECT_EQ(core::StartGuardLeft("model puma hash 1"), std::nullopt);
+  EXPECT_EQ(core::StartGuardLeft(core::StartGuardDetail(0.54)), 0.54);
 }
 
 TEST(HardwareBridge, NothingMovesUnlessArmedLinkedAndWithinLimits) {

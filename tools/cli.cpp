@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <functional>
+#include <iostream>
 #include <map>
 #include <ostream>
 #include <sirupp/arm_state_t.hpp>
@@ -24,6 +25,7 @@
 #include "tools/kinematics_commands.hpp"
 #include "tools/lab_commands.hpp"
 #include "tools/launch_commands.hpp"
+#include "tools/turns_commands.hpp"
 #include "tools/panel_commands.hpp"
 #include "tools/replay_commands.hpp"
 #include "tools/report_commands.hpp"
@@ -100,6 +102,12 @@ std::vector<Command> Commands(std::ostream& out, std::ostream& err) {
        [&](const Args& a) { return RunDemo(a, out, err); }},
       {"", "launch", "run a lab layout's processes (config/labs/*.yaml), live table",
        [&](const Args& a) { return RunLaunch(a, out, err); }},
+      {"turns", "serve", "share the one real arm among rigs by turns (queue on stdin)",
+       [&](const Args& a) {
+         Args args{"serve"};
+         args.insert(args.end(), a.begin(), a.end());
+         return RunTurns(args, std::cin, out, err);
+       }},
       {"", "spy", "lcm-spy with our types: every channel decodes by name",
        [&](const Args& a) { return RunSpy(a, out, err); }},
       {"model", "check", "validate robot model files",
@@ -156,7 +164,8 @@ const std::map<std::string, std::string> kGroups = {
     {"env", "environment files: check, show"},
     {"move", "a joint or tool target for sirupp-control"},
     {"plan", "movement plans: check, run, pause, resume, abort, modes"},
-    {"hardware", "the bridge to the real arm (or sirupp-picservo-emu)"}};
+    {"hardware", "the bridge to the real arm (or sirupp-picservo-emu)"},
+    {"turns", "the one real arm shared by several rigs, by turns: serve"}};
 
 // The help of `level` itself (CLI::App::help() gives a parsed subcommand's instead).
 std::string HelpOf(const CLI::App& level) {

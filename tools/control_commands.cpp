@@ -43,6 +43,13 @@ constexpr double kDeg = 3.14159265358979323846 / 180;
 constexpr double kFirstStatusS = 1.5;  // CONTROLLER_STATUS comes at 10 Hz: wait this long for one
 constexpr int kExitFailed = 1;
 
+// The commands' client: what it waits for before sending (a bridge's start guard) on stderr.
+client::Options ClientOptions() {
+  client::Options options;
+  options.notice = [](const std::string& line) { std::cerr << "sirupp: " << line << "\n"; };
+  return options;
+}
+
 // Waits for the first CONTROLLER_STATUS; false (and a message on `out`) if none came.
 bool FirstStatus(client::Client& rig, std::ostream& out) {
   if (rig.WaitForController(kFirstStatusS)) return true;
@@ -67,12 +74,21 @@ int Report(const client::Answer& answer, std::ostream& out) {
   return kExitFailed;
 }
 
+// A move or plan that ended well on the virtual arm, but whose real arm's half was lost (the
+// bridge fell silent while linked): says so; true then (the command exits 1).
+bool RealArmIncomplete(const client::Outcome& outcome, std::ostream& out) {
+  if (outcome.real_arm_lost.empty()) return false;
+  out << "INCOMPLETE for the real arm: " << outcome.real_arm_lost << "\n";
+  return true;
+}
+
 // After an accepted move: follows it to its end.
 int WaitForMove(client::Client& rig, const client::Answer& answer, double timeout_s,
                 std::ostream& out) {
   const client::Outcome outcome = rig.WaitForMove(answer.move_id, timeout_s, answer.status_seq);
   out << outcome.detail << (outcome.end == client::End::kTimeout ? " (--timeout)" : "") << "\n";
-  return outcome.ok() ? 0 : kExitFailed;
+  if (!outcome.ok()) return kExitFailed;
+  return RealArmIncomplete(outcome, out) ? kExitFailed : 0;
 }
 
 // The joints' present goals from ARM_SETPOINT (where a new plan starts), or home when none came.
@@ -122,7 +138,7 @@ int MoveJoints(const std::vector<std::string>& args, std::ostream& out) {
   }
 
   core::Bus bus = BusFromArgs(parsed);
-  client::Client rig(bus, {});
+  client::Client rig(bus, ClientOptions());
   if (!FirstStatus(rig, out)) return kExitFailed;
   PrintSent(out, bus, rig.channels().arm_target, model, target.position);
   out << "\n";
@@ -218,7 +234,7 @@ int MovePose(const std::vector<std::string>& args, std::ostream& out) {
   const double timeout = TimeoutFrom(parsed, 60);
 
   core::Bus bus = BusFromArgs(parsed);
-  client::Client rig(bus, {});
+  client::Client rig(bus, ClientOptions());
   const control::PoseGoal goal = PoseGoalFromPresent(rig, model, pose.request);
   if (!FirstStatus(rig, out)) return kExitFailed;
 
@@ -269,7 +285,7 @@ int PlanRun(const std::vector<std::string>& args, std::ostream& out) {
   const bool wait = parsed.Switch("wait");
   const double timeout = TimeoutFrom(parsed, 3600);
   core::Bus bus = BusFromArgs(parsed);
-  client::Client rig(bus, {});
+  client::Client rig(bus, ClientOptions());
   return RunPlanFile(rig, model, parsed.String("file"), wait ? timeout : 0, out);
 }
 
@@ -278,7 +294,7 @@ int PlanControl(client::PlanCommand command, const std::string& word,
   const runtime::Args parsed(args, word == "clear-fault" ? word : "plan " + word, WithRigFlags({}),
                              kPlanAbout);
   core::Bus bus = BusFromArgs(parsed);
-  client::Client rig(bus, {});
+  client::Client rig(bus, ClientOptions());
   if (!FirstStatus(rig, out)) return kExitFailed;
   const client::Answer answer = rig.Plan(command);
   if (const int code = Report(answer, out); code != 0) return code;
@@ -370,7 +386,7 @@ int RunPlanFile(client::Client& rig, const core::RobotModel& model, const std::s
   } else {
     out << "finished\n";
   }
-  return 0;
+  return RealArmIncomplete(outcome, out) ? kExitFailed : 0;
 }
 
 int RunMove(const std::vector<std::string>& args, std::ostream& out) {
@@ -540,7 +556,7 @@ int RunGains(const std::vector<std::string>& args, std::ostream& out) {
     ApplyGainFlags(parsed, model, only, check);
   }
   core::Bus bus = BusFromArgs(parsed);
-  client::Client rig(bus, {});
+  client::Client rig(bus, ClientOptions());
   if (!FirstStatus(rig, out)) return kExitFailed;
   const client::Snapshot& seen = rig.snapshot();
   // The live gains: the controller sends them at 1 Hz; the bridge too when it runs.
@@ -646,7 +662,7 @@ int RunStatus(const std::vector<std::string>& args, std::ostream& out) {
   const double listen = TimeoutFrom(parsed, 1.5);
   const core::RobotModel model = ModelFromArgs(parsed);
   core::Bus bus = BusFromArgs(parsed);
-  client::Client rig(bus, {});
+  client::Client rig(bus, ClientOptions());
   rig.WatchJoints(true);
   rig.Listen(listen);
   const client::Snapshot& watch = rig.snapshot();

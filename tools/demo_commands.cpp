@@ -115,7 +115,7 @@ void ListResults(const fs::path& dir, std::ostream& out) {
   }
 }
 
-// Waits until the bridge reports the emulated arm linked and its start guard has passed.
+// Waits until the bridge reports the emulated arm linked.
 bool WaitLinked(const std::string& url, const std::string& prefix, double timeout_s,
                 std::string* last) {
   core::Bus bus(url, prefix);
@@ -159,8 +159,9 @@ fs::path NewResultsDir(const runtime::Args& parsed) {
   return dir;
 }
 
-// Starts the processes and waits until the bridge has linked the emulated arm and its start guard
-// has passed; false (with why on `err`) if that does not happen.
+// Starts the processes (each ready: the bridge once its start guard has passed, docs/launch.md)
+// and waits until the bridge has linked the emulated arm; false (with why on `err`) if that does
+// not happen.
 bool StartRig(launch::Supervisor& supervisor, const launch::Layout& layout, std::ostream& err) {
   if (!supervisor.Start([] { return !runtime::StopRequested(); })) return false;
   std::string last;
@@ -168,8 +169,7 @@ bool StartRig(launch::Supervisor& supervisor, const launch::Layout& layout, std:
     err << "\nsirupp demo: the hardware bridge did not link the emulated arm: " << last;
     return false;
   }
-  // The bridge refuses moves during its start guard (2 s after its start).
-  for (const auto t = Clock::now(); Since(t) < 2.2;) supervisor.Service(100);
+  // The bridge's start guard has passed: the launcher took it as ready only then.
   return true;
 }
 

@@ -352,7 +352,8 @@ for (const verb of ['connect', 'calibrate', 'arm', 'disarm', 'link', 'unlink', '
 function updateHardware(s) {
   const h = s.hardware;
   if (!h || !$('tab-real').classList.contains('active')) return;
-  $('hw-status').textContent = `bridge ${h.state}, ${h.calibrated ? 'calibrated' : 'not calibrated'}, port ${h.port} ${h.baud} baud, ` +
+  const lost = h.age_s > 1 ? `LOST: no status from sirupp-hardware for ${h.age_s.toFixed(1)} s; last heard: ` : '';
+  $('hw-status').textContent = lost + `bridge ${h.state}, ${h.calibrated ? 'calibrated' : 'not calibrated'}, port ${h.port} ${h.baud} baud, ` +
     `${h.checksum_errors} checksum errors, ${h.timeouts} timeouts` + (h.last_error ? `; last error: ${h.last_error}` : '');
   $('hw-modules').tBodies[0].innerHTML = h.modules.map((m, i) =>
     `<tr><td>${i + 1}</td><td>0x${m.status.toString(16)}</td><td>0x${m.aux.toString(16)}</td><td>${m.counts}</td><td>${m.error_counts}</td></tr>`).join('');

@@ -1,0 +1,271 @@
+// The one real arm, by turns (turns/turn_manager.hpp, issue 33), in process: three students' rigs
+// (sirupp-sim and sirupp-control in lockstep, each on a memq:// bus of its own) and the bridge on
+// the emulated PIC-SERVO boards on a fourth bus. The manager relays the holder's rig to the bridge;
+// between two turns the arm is held, homed at reduced speed, checked and disarmed.
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <fstream>
+#include <iostream>
+#include <memory>
+#include <sirupp/hardware_status_t.hpp>
+#include <string>
+#include <vector>
+
+#include "client/client.hpp"
+#include "control/control_node.hpp"
+#include "core/bus.hpp"
+#include "core/model_loader.hpp"
+#include "hardware/arm_link.hpp"
+#include "hardware/bridge_node.hpp"
+#include "hardware/emulator.hpp"
+#include "hardware/serial_port.hpp"
+#include "sim/sim_node.hpp"
+#include "turns/turn_manager.hpp"
+
+namespace sirupp::turns {
+namespace {
+
+constexpr double kDeg = 3.14159265358979323846 / 180;
+constexpr double kLongWaitS = 120;  // wall clock; the tests check what happened, not how fast
+using Status = sirupp::hardware_status_t;
+
+const core::RobotModel& Puma() {
+  static const core::RobotModel model = core::LoadRobotModel("config/robots/puma260.yaml");
+  return model;
+}
+
+// A student's rig: physics and controller in lockstep on a bus of its own.
+struct StudentRig {
+  core::Bus bus{"memq://"};
+  sim::ArmWorld world{Puma(), core::Environment{}};
+  sim::SimNode sim{bus, world, core::Environment{}, sim::NodeOptions{}};
+  control::ControlNode control{bus, Puma(), control::ControlOptions{}};
+  std::unique_ptr<client::Client> client;
+};
+
+struct Class {
+  explicit Class(TurnOptions options) {
+    hardware::EmulatorOptions eo;
+    eo.model = Puma();
+    eo.start_positions = {0, -90 * kDeg, 90 * kDeg, 0, 45 * kDeg, 0};  // ready, servos off
+    settings.calibration_pose = "ready";
+    settings.start_guard_s = 0;
+    settings.reply_margin_ms = 500;  // a loaded machine may starve the emulator's thread
+    settings.retries = 4;
+    emulator = std::make_unique<hardware::Emulator>(eo);
+    emulator->Start();
+    port = std::make_unique<hardware::SerialPort>(emulator->device(), hardware::nmc::kPowerUpBaud);
+    link = std::make_unique<hardware::ArmLink>(Puma(), settings, *port);
+    bridge = std::make_unique<hardware::BridgeNode>(arm_bus, Puma(), *link, settings);
+    bridge->Connect();
+    bridge->Calibrate();
+    options.log_path = log_path;
+    options.on_event = [this](const std::string& line) { events.push_back(line); };
+    std::remove(log_path.c_str());
+    manager = std::make_unique<TurnManager>(arm_bus, Puma(), options);
+    arm_bus.Subscribe<Status>(
+        core::Channels{}.hardware_status,
+        [this](const Status& s, const core::ReceiveInfo&) {
+          if (states.empty() || states.back() != s.state) states.push_back(s.state);
+          hardware = s;
+        },
+        100);
+    arm_bus.Subscribe<sirupp::arm_state_t>(
+        core::Channels{}.real_arm_state,
+        [this](const sirupp::arm_state_t& s, const core::ReceiveInfo&) { real = s; }, 2);
+    for (const char* name : {"alice", "bob", "carol"}) {
+      auto rig = std::make_unique<StudentRig>();
+      core::Bus* bus = &rig->bus;
+      // The rig's own bus (no ownership): its nodes live here.
+      manager->AddRig(name, [bus] { return std::shared_ptr<core::Bus>(std::shared_ptr<void>(), bus); });
+      rig->client = std::make_unique<client::Client>(rig->bus, client::Options{});
+      rig->client->SetIdle([this] { ServiceAll(); });
+      rigs[name] = std::move(rig);
+    }
+  }
+  ~Class() { emulator->Stop(); }
+
+  void ServiceAll() {
+    for (auto& [name, rig] : rigs) {
+      rig->sim.Service(0);
+      rig->control.Service(0);
+    }
+    bridge->Service(0);
+    manager->Service();
+  }
+  bool RunUntil(const std::function<bool()>& done, double seconds) {
+    const auto end = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+    while (std::chrono::steady_clock::now() < end) {
+      ServiceAll();
+      if (done()) return true;
+    }
+    return done();
+  }
+  bool TurnOf(const std::string& student) {
+    return RunUntil(
+        [&] {
+          const TurnStatus s = manager->status();
+          return s.phase == Phase::kTurn && s.holder == student;
+        },
+        kLongWaitS);
+  }
+  // Moves `student`'s virtual arm; returns once the move is done.
+  void Move(const std::string& student, const std::vector<double>& degrees) {
+    client::JointTarget target;
+    for (double d : degrees) target.position.push_back(d * kDeg);
+    client::Client& c = *rigs[student]->client;
+    const client::Answer answer = c.MoveJoints(target);
+    ASSERT_TRUE(answer.accepted()) << student << ": " << answer.error;
+    const client::Outcome outcome = c.WaitForMove(answer.move_id, kLongWaitS, answer.status_seq);
+    ASSERT_TRUE(outcome.ok()) << student << ": " << outcome.detail;
+  }
+  double RealDeg(int joint) const { return real ? real->position[joint] / kDeg : NAN; }
+  double HomeOffsetDeg() const {
+    double worst = 0;
+    for (size_t j = 0; j < Puma().joints.size(); ++j) {
+      worst = std::max(worst, std::abs(real->position[j] - Puma().joints[j].home) / kDeg);
+    }
+    return worst;
+  }
+
+  std::string log_path = ::testing::TempDir() + "/sirupp_turns_test.jsonl";
+  core::Bus arm_bus{"memq://"};
+  hardware::BridgeSettings settings = hardware::DefaultBridgeSettings(Puma());
+  std::unique_ptr<hardware::Emulator> emulator;
+  std::unique_ptr<hardware::SerialPort> port;
+  std::unique_ptr<hardware::ArmLink> link;
+  std::unique_ptr<hardware::BridgeNode> bridge;
+  std::unique_ptr<TurnManager> manager;
+  std::map<std::string, std::unique_ptr<StudentRig>> rigs;
+  std::vector<int8_t> states;  // the bridge's states, each change
+  std::optional<Status> hardware;
+  std::optional<sirupp::arm_state_t> real;
+  std::vector<std::string> events;
+};
+
+TurnOptions ShortTurns() {
+  TurnOptions options;
+  options.turn_s = 10.0;  // wall clock: long enough for a few moves on a loaded machine
+  options.warn_before_s = {2.0};
+  return options;
+}
+
+// Three students take turns. Between two turns the arm is homed within 1 deg and disarmed before
+// the next link; a student out of turn cannot move the real arm (their moves stay virtual, and
+// MayCommand says why); an e-stop from a student without a turn stops the real arm, and the
+// handover that follows cannot finish: the queue stops and says why.
+TEST(Turns, ThreeStudentsTakeTurnsOnTheRealArm) {
+  Class c(ShortTurns());
+  for (const char* name : {"alice", "bob", "carol"}) c.manager->Join(name);
+  EXPECT_THROW(c.manager->Join("alice"), TurnError);
+  EXPECT_THROW(c.manager->Join("mallory"), TurnError);
+
+  // Alice's turn: the bridge linked to her rig, her moves on the real arm too.
+  ASSERT_TRUE(c.TurnOf("alice")) << c.manager->status().last_event;
+  EXPECT_EQ(c.hardware->state, Status::STATE_LINKED);
+  EXPECT_EQ(c.manager->MayCommand("alice"), "");
+  const std::string bob_may = c.manager->MayCommand("bob");
+  EXPECT_NE(bob_may.find("in alice's turn"), std::string::npos) << bob_may;
+  EXPECT_NE(bob_may.find("number 1 in the queue"), std::string::npos) << bob_may;
+  c.Move("alice", {20, -90, 90, 0, 45, 0});
+  EXPECT_TRUE(c.RunUntil([&] { return std::abs(c.RealDeg(0) - 20) < 1.5; }, 10))
+      << "real joint 1 at " << c.RealDeg(0);
+  // Bob, out of turn, moves his own arm: the real arm stays where Alice put it.
+  c.Move("bob", {-30, 0, 0, 0, 0, 0});
+  c.RunUntil([] { return false; }, 0.5);
+  EXPECT_NEAR(c.RealDeg(0), 20, 1.5);
+
+  // Time up: the handover homes the arm and disarms it, then Bob's turn begins.
+  ASSERT_TRUE(c.TurnOf("bob")) << c.manager->status().last_event;
+  ASSERT_EQ(c.manager->history().size(), 2u);
+  EXPECT_EQ(c.manager->history()[0].ended, "time up");
+  EXPECT_EQ(c.manager->history()[0].handover_result, "ok");
+  c.Move("bob", {0, -20, 30, 0, 0, 0});
+  EXPECT_TRUE(c.RunUntil([&] { return std::abs(c.RealDeg(1) + 20) < 1.5; }, 10))
+      << "real joint 2 at " << c.RealDeg(1);
+  c.manager->Done("bob");
+
+  ASSERT_TRUE(c.TurnOf("carol")) << c.manager->status().last_event;
+  EXPECT_EQ(c.manager->history()[1].ended, "done");
+  EXPECT_EQ(c.manager->history()[1].handover_result, "ok");
+  // Between the turns: linked, then disarmed (connected) at home, then linked again.
+  int links = 0;
+  for (size_t i = 0; i < c.states.size(); ++i) {
+    if (c.states[i] != Status::STATE_LINKED) continue;
+    ++links;
+    if (links > 1) {
+      bool disarmed_between = false;
+      for (size_t k = i; k-- > 0 && c.states[k] != Status::STATE_LINKED;) {
+        disarmed_between |= c.states[k] == Status::STATE_CONNECTED;
+      }
+      EXPECT_TRUE(disarmed_between) << "link " << links << " without a disarm before it";
+    }
+  }
+  EXPECT_EQ(links, 3);
+  for (const std::string& event : c.events) {
+    if (event.find("handover after") == std::string::npos) continue;
+    EXPECT_NE(event.find("the arm is home"), std::string::npos) << event;
+  }
+
+  // Carol moves; Alice, without a turn, e-stops the real arm.
+  c.Move("carol", {15, 0, 0, 0, 0, 0});
+  c.manager->Estop("alice", "test: an e-stop from a student without a turn");
+  EXPECT_TRUE(c.RunUntil([&] { return c.hardware->state == Status::STATE_ESTOPPED; }, 5));
+  c.manager->EndTurn("teacher");
+  EXPECT_TRUE(c.RunUntil([&] { return c.manager->status().phase == Phase::kStopped; }, 30));
+  const TurnStatus stopped = c.manager->status();
+  EXPECT_NE(stopped.stopped_reason.find("handover after carol's turn failed"), std::string::npos)
+      << stopped.stopped_reason;
+  EXPECT_NE(stopped.stopped_reason.find("e-stopped"), std::string::npos) << stopped.stopped_reason;
+  // Nobody gets the arm now.
+  c.manager->Join("alice");
+  c.RunUntil([] { return false; }, 1.0);
+  EXPECT_EQ(c.manager->status().phase, Phase::kStopped);
+  EXPECT_EQ(c.manager->status().holder, "");
+
+  // Every turn is in the log: who, when, what ran, how it ended.
+  std::ifstream log(c.log_path);
+  std::string line;
+  int turns = 0;
+  std::cout << "the session's log (" << c.log_path << "):\n";
+  while (std::getline(log, line)) {
+    std::cout << "  " << line << "\n";
+    turns += line.rfind("{\"turn\": ", 0) == 0 ? 1 : 0;
+  }
+  EXPECT_EQ(turns, 3);
+}
+
+// A joint that trips while the arm is homed: the handover cannot finish, the queue stops with the
+// reason for the teacher and the next student never gets the arm.
+TEST(Turns, AHandoverThatCannotHomeStopsTheQueue) {
+  TurnOptions options = ShortTurns();
+  options.turn_s = 1.0;
+  Class c(options);
+  c.manager->Join("alice");
+  c.manager->Join("bob");
+  ASSERT_TRUE(c.TurnOf("alice"));
+  c.Move("alice", {30, -60, 60, 0, 45, 0});
+  ASSERT_TRUE(c.RunUntil([&] { return c.manager->status().step == "home at reduced speed"; },
+                         kLongWaitS));
+  c.RunUntil([] { return false; }, 0.5);  // under way
+  c.emulator->TriggerPositionErrorTrip(1);
+  ASSERT_TRUE(c.RunUntil([&] { return c.manager->status().phase == Phase::kStopped; }, 30))
+      << c.manager->status().last_event;
+  const std::string reason = c.manager->status().stopped_reason;
+  EXPECT_NE(reason.find("handover after alice's turn failed at 'home at reduced speed'"),
+            std::string::npos)
+      << reason;
+  c.RunUntil([] { return false; }, 1.0);
+  EXPECT_EQ(c.manager->status().holder, "");
+  ASSERT_EQ(c.manager->status().queue.size(), 1u);
+  EXPECT_EQ(c.manager->status().queue[0].student, "bob");
+  EXPECT_NE(c.events.back().find("STOPPED"), std::string::npos) << c.events.back();
+  // The teacher sees to the arm (clears the fault, re-arms nothing) and resumes: bob's turn may
+  // begin only with a bridge that is ready again.
+  EXPECT_NE(c.manager->MayCommand("bob").find("queue is stopped"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace sirupp::turns
