@@ -163,12 +163,13 @@ std::vector<std::string> BuildArgv(const Probe& probe, const Policy& policy,
   std::vector<std::string> made = {"/", "/tmp"};
   auto bind = [&out, &made](const std::string& how, const std::string& path) {
     const std::string absolute = Absolute(path);
-    if (absolute.rfind("/usr/", 0) == 0 && how == "--ro-bind") return;
+    if (absolute.rfind("/usr/", 0) == 0 && how != "--bind") return;
     std::vector<std::string> above;
     for (fs::path parent = fs::path(absolute).parent_path(); parent.has_relative_path();
          parent = parent.parent_path()) {
-      above.insert(above.begin(), parent.string());
+      above.push_back(parent.string());
     }
+    std::reverse(above.begin(), above.end());  // from the top down
     for (const std::string& folder : above) {
       if (std::find(made.begin(), made.end(), folder) != made.end()) continue;
       made.push_back(folder);
@@ -176,9 +177,14 @@ std::vector<std::string> BuildArgv(const Probe& probe, const Policy& policy,
     }
     out.insert(out.end(), {how, absolute, absolute});
   };
-  for (const std::string& path : read_only) bind("--ro-bind", path);
+  // A missing path is simply not there inside: the program names it in its own words.
+  for (const std::string& path : read_only) bind("--ro-bind-try", path);
   for (const std::string& path : policy.read_write) bind("--bind", path);
-  out.insert(out.end(), {"--chdir", policy.chdir.empty() ? "/" : Absolute(policy.chdir),
+  const std::string chdir = policy.chdir.empty() ? "/" : Absolute(policy.chdir);
+  if (std::find(made.begin(), made.end(), chdir) == made.end()) {
+    out.insert(out.end(), {"--perms", "0755", "--dir", chdir});  // may be no path's folder
+  }
+  out.insert(out.end(), {"--chdir", chdir,
                          "--clearenv", "--setenv", "PATH", "/usr/bin:/bin", "--setenv", "HOME",
                          "/tmp", "--setenv", "LANG", "C", "--setenv", "TMPDIR", "/tmp"});
   for (const char* keep : {"ASAN_OPTIONS", "UBSAN_OPTIONS", "LSAN_OPTIONS"}) {

@@ -39,10 +39,11 @@ struct Policy {
   // Read-write inside (the code's own folder); may be empty. Made writable by the sandbox's user
   // when running as root.
   std::vector<std::string> read_write;
-  // Visible read-only at their own paths: the library, the model, a submission's sources. /usr
-  // (with /lib, /lib64, /bin as its links) and /etc/ld.so.cache are always there.
+  // Visible read-only at their own paths: the library, the model, a submission's sources; one
+  // that does not exist is not there inside either. /usr (with /lib, /lib64, /bin as its links)
+  // and /etc/ld.so.cache are always there.
   std::vector<std::string> read_only;
-  // The working directory inside ("" = /).
+  // The working directory inside ("" = /); it must be one of the paths or a folder above one.
   std::string chdir;
   // The program is built with AddressSanitizer, which reserves terabytes of address space: the
   // memory limit is then ASan's hard_rss_limit_mb instead of RLIMIT_AS. Default: whether this
