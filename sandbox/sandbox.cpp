@@ -250,7 +250,12 @@ Probe MakeProbe() {
   Probe probe;
   probe.as_root = ::geteuid() == 0;
   probe.seccomp = kFilterSupported;
-  probe.bwrap = FindOnPath("bwrap");
+  // SIRUPP_BWRAP names another bubblewrap (the tests give one that fails, as a machine without
+  // user namespaces would).
+  const char* bwrap = std::getenv("SIRUPP_BWRAP");
+  probe.bwrap = bwrap != nullptr && *bwrap != '\0'
+                    ? (::access(bwrap, X_OK) == 0 ? std::string(bwrap) : std::string())
+                    : FindOnPath("bwrap");
   probe.helper = FindHelper();
   if (probe.bwrap.empty()) {
     probe.problem =
@@ -418,8 +423,9 @@ std::string DropTo(int id) {
 std::string Describe(const Probe& probe, const Limits& limits) {
   if (!probe.usable) return "no sandbox: " + probe.problem;
   std::string text =
-      "sandbox: bubblewrap (own user, network, pid, ipc namespaces; /usr and the named paths "
-      "read-only, a private /tmp), limits " +
+      std::string("sandbox: bubblewrap (own ") +
+      (probe.as_root ? "network, pid, ipc namespaces" : "user, network, pid, ipc namespaces") +
+      "; /usr and the named paths read-only, a private /tmp), limits " +
       Number(limits.cpu_s) + " s CPU, " + std::to_string(limits.memory_mb) + " MB memory, " +
       std::to_string(limits.processes) + " processes, " + std::to_string(limits.file_size_mb) +
       " MB per file";

@@ -53,6 +53,7 @@ struct Policy {
 };
 
 // What the machine allows, probed once per process by starting `true` in the full sandbox.
+// bubblewrap is `bwrap` on PATH, or the program the environment variable SIRUPP_BWRAP names.
 struct Probe {
   bool usable = false;
   std::string problem;      // why not, when !usable: what is missing and what would fix it

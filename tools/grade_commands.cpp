@@ -3,6 +3,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <ostream>
 
@@ -14,6 +15,7 @@
 #include "grade/submission.hpp"
 #include "runtime/args.hpp"
 #include "runtime/data_path.hpp"
+#include "sandbox/sandbox.hpp"
 #include "tools/cli.hpp"
 
 namespace sirupp::tools {
@@ -44,9 +46,10 @@ const char* const kControllerBuildAbout =
     "Builds a controller library from one C++ file (or a few) written against\n"
     "include/sirupp/controller.h, with the fixed flags sirupp grade and the class server use\n"
     "(g++ -std=c++17 -O2 -fPIC -shared -Wl,-z,defs), a time limit (--time-limit S, default 60)\n"
-    "and in the sandbox (docs/sandbox.md; --no-sandbox: unconfined). Writes OUT/NAME.so (NAME:\n"
-    "the first file's name without .cpp) and OUT/NAME.build.log; prints the library's path, or\n"
-    "each compiler error as FILE:LINE:COLUMN: error: TEXT and exits 1. Exit 2: bad options.\n"
+    "and in the sandbox (docs/sandbox.md; --no-sandbox: unconfined).\n"
+    "Writes OUT/NAME.so and OUT/NAME.build.log (NAME: the first file's name without .cpp).\n"
+    "Prints the library's path, or each compiler error as FILE:LINE:COLUMN: error: TEXT and\n"
+    "exits 1. Exit 2: bad options.\n"
     "docs/student-controllers.md.\n";
 
 namespace {
@@ -65,6 +68,12 @@ std::string LoadProblem(const grade::ControllerResult& result) {
 }
 
 std::string IncludeDir() { return std::string(SIRUPP_SOURCE_DIR) + "/include"; }
+
+std::string Seconds(double seconds) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.1f", seconds);
+  return text;
+}
 
 bool EndsWith(const std::string& text, const std::string& end) {
   return text.size() >= end.size() && text.compare(text.size() - end.size(), end.size(), end) == 0;
@@ -89,7 +98,7 @@ std::string BuildSource(const std::string& source, const std::string& out_dir, b
     throw core::UsageError("grade: " + source + " " + built.problem + "; not graded (the whole " +
                            "output: " + built.log_file + ")");
   }
-  err << "grade: built " << built.library << " in " << core::FormatNumber(built.seconds) << " s\n";
+  err << "grade: built " << built.library << " in " << Seconds(built.seconds) << " s\n";
   return built.library;
 }
 
@@ -209,6 +218,13 @@ int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostre
   if (!batch.empty() && !fs::is_directory(batch)) {
     throw core::UsageError("grade: --batch '" + batch + "' is not a folder");
   }
+  // Libraries (and sources) are someone else's code: without the sandbox they are refused here,
+  // with the reason, rather than run unconfined (a process controller runs unconfined anyway).
+  if (sandbox && command.empty() && !sandbox::ProbeMachine().usable) {
+    throw core::UsageError("grade: the sandbox cannot be had on this machine: " +
+                           sandbox::ProbeMachine().problem +
+                           " (docs/sandbox.md; --no-sandbox grades unconfined, for your own code)");
+  }
   const grade::Suite suite = grade::LoadSuite(Resolve(suite_file), &Resolve);
   const core::RobotModel model = core::LoadRobotModel(suite.model_file);
   grade::GradeOptions options;
@@ -271,9 +287,15 @@ int RunControllerBuild(const std::vector<std::string>& args, std::ostream& out,
   options.include_dir = IncludeDir();
   options.time_limit_s = parsed.Number("time-limit", options.time_limit_s);
   options.sandbox = !parsed.Switch("no-sandbox");
-  const grade::BuildResult built =
-      grade::BuildController(sources, parsed.String("out"),
-                             fs::path(sources.front()).stem().string(), options);
+  grade::BuildResult built;
+  try {
+    built = grade::BuildController(sources, parsed.String("out"),
+                                   fs::path(sources.front()).stem().string(), options);
+  } catch (const std::runtime_error& error) {
+    throw core::UsageError(std::string("controller build: ") + error.what() +
+                           (options.sandbox ? " (docs/sandbox.md; --no-sandbox builds unconfined)"
+                                            : ""));
+  }
   if (!built.built) {
     for (const grade::CompilerError& error : built.errors) out << error.ToString() << "\n";
     err << "controller build: " << sources.front() << " " << built.problem << " (the whole "
@@ -281,7 +303,7 @@ int RunControllerBuild(const std::vector<std::string>& args, std::ostream& out,
     return 1;
   }
   out << built.library << "\n";
-  err << "controller build: built in " << core::FormatNumber(built.seconds) << " s"
+  err << "controller build: built in " << Seconds(built.seconds) << " s"
       << (options.sandbox ? " in the sandbox" : " (no sandbox)") << "\n";
   return 0;
 }
