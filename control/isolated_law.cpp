@@ -249,8 +249,12 @@ std::vector<std::string> HostCommand(const std::string& program, const std::stri
 }
 
 // Starts `command` with the socket as descriptor 3 and the block as 4, no signal blocked and
-// SIGPIPE at its default. Returns posix_spawn's answer (0: started, *pid set).
-int SpawnHost(const std::vector<std::string>& command, const HostLink& link, pid_t* pid) {
+// SIGPIPE at its default; with `own_group` in a process group of its own (the sandbox: bwrap does
+// not ignore the Ctrl-C and SIGTERM sent to sirupp-control's group as the host does, and would
+// take the host down before sirupp-control closes it). Returns posix_spawn's answer (0: started,
+// *pid set).
+int SpawnHost(const std::vector<std::string>& command, const HostLink& link, bool own_group,
+              pid_t* pid) {
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_adddup2(&actions, link.pair[1], 3);
@@ -263,7 +267,12 @@ int SpawnHost(const std::vector<std::string>& command, const HostLink& link, pid
   sigaddset(&defaults, SIGPIPE);
   posix_spawnattr_setsigmask(&attributes, &none);
   posix_spawnattr_setsigdefault(&attributes, &defaults);
-  posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
+  short flags = POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF;
+  if (own_group) {
+    posix_spawnattr_setpgroup(&attributes, 0);
+    flags = static_cast<short>(flags | POSIX_SPAWN_SETPGROUP);
+  }
+  posix_spawnattr_setflags(&attributes, flags);
   std::vector<char*> argv;
   for (const std::string& word : command) argv.push_back(const_cast<char*>(word.c_str()));
   argv.push_back(nullptr);
@@ -280,7 +289,7 @@ void IsolatedEffortLaw::StartHost() {
   const size_t size = SharedSize(num_joints_, model_bytes_.size());
   const HostLink link = MakeHostLink(library_, size, num_joints_, model_bytes_);
   pid_t pid = -1;
-  const int spawned = SpawnHost(command, link, &pid);
+  const int spawned = SpawnHost(command, link, options_.sandbox, &pid);
   ::close(link.pair[1]);
   ::close(link.shared_fd);
   if (spawned != 0) {

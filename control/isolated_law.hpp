@@ -14,7 +14,9 @@
 // the cause named until `sirupp clear-fault`; the next Reset then starts a new host process
 // (the library is loaded and constructed afresh). The host ends with the parent: it ignores
 // SIGINT and SIGTERM (a terminal's Ctrl-C and the launcher reach the whole process group; the
-// parent ends it by closing the socket) and has SIGKILL as its parent-death signal. It runs at the
+// parent ends it by closing the socket) and has SIGKILL as its parent-death signal; in the sandbox
+// (sandbox/sandbox.hpp) the sandbox is started in a process group of its own instead and dies
+// with sirupp-control (bwrap --die-with-parent). It runs at the
 // parent's scheduling priority (set again at each Reset, so `--rt-priority` reaches it too).
 //
 // The dynamics (G, bias, M) are computed in the host, from the model sent in the shared block as

@@ -4,7 +4,8 @@
 //   sirupp-sandbox-exec [--cpu S] [--memory MB] [--processes N] [--file-size MB] [--sanitized]
 //                       [--user UID] [--no-network] -- PROGRAM ARGS...
 //
-// in that order: the rlimits, (as root) become uid/gid UID, the socket filter, exec.
+// in that order: the rlimits, (as root) become uid/gid UID, the socket filter, the memory limit,
+// exec.
 //
 // Descriptors stay open across it. Exit 126 with one line when a step fails (nothing runs).
 
@@ -86,6 +87,12 @@ int main(int argc, char** argv) {
   }
   if (no_network) {
     if (const std::string problem = sirupp::sandbox::ForbidNetworkSockets(); !problem.empty()) {
+      return Fail(problem);
+    }
+  }
+  if (apply_limits) {
+    if (const std::string problem = sirupp::sandbox::ApplyMemoryLimit(limits, sanitized);
+        !problem.empty()) {
       return Fail(problem);
     }
   }

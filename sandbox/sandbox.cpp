@@ -348,9 +348,7 @@ std::string ApplyLimits(const Limits& limits, bool sanitized_target) {
     problem = set(RLIMIT_FSIZE, limits.file_size_mb * mb, limits.file_size_mb * mb, "RLIMIT_FSIZE");
   }
   if (!problem.empty()) return problem;
-  if (!sanitized_target) {
-    return set(RLIMIT_AS, limits.memory_mb * mb, limits.memory_mb * mb, "RLIMIT_AS");
-  }
+  if (!sanitized_target) return "";  // RLIMIT_AS: ApplyMemoryLimit, last before exec
   // AddressSanitizer's shadow memory is terabytes of address space: its own resident-memory
   // limit stands in for RLIMIT_AS.
   const char* old = std::getenv("ASAN_OPTIONS");
@@ -358,6 +356,16 @@ std::string ApplyLimits(const Limits& limits, bool sanitized_target) {
                               "hard_rss_limit_mb=" + std::to_string(limits.memory_mb);
   if (::setenv("ASAN_OPTIONS", options.c_str(), 1) != 0) {
     return std::string("setenv(ASAN_OPTIONS): ") + std::strerror(errno);
+  }
+  return "";
+}
+
+std::string ApplyMemoryLimit(const Limits& limits, bool sanitized_target) {
+  if (sanitized_target) return "";  // ApplyLimits set ASan's limit
+  const rlim_t bytes = static_cast<rlim_t>(limits.memory_mb) << 20;
+  const rlimit value{bytes, bytes};
+  if (::setrlimit(RLIMIT_AS, &value) != 0) {
+    return std::string("setrlimit(RLIMIT_AS): ") + std::strerror(errno);
   }
   return "";
 }

@@ -78,6 +78,8 @@ int UnwrapStatus(int status);
 // The inside half (sirupp-sandbox-exec): applies the limits and, when `no_network`, the socket
 // filter to this process. Returns "" or what failed.
 std::string ApplyLimits(const Limits& limits, bool sanitized_target);
+// RLIMIT_AS (unless sanitized_target), last before exec: the helper itself may be an ASan build.
+std::string ApplyMemoryLimit(const Limits& limits, bool sanitized_target);
 std::string ForbidNetworkSockets();
 // Started as root, after the limits: become uid/gid `id` with no supplementary groups (which drops
 // every capability), keeping the parent-death signal SIGKILL. Returns "" or what failed.
