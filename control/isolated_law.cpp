@@ -146,6 +146,19 @@ std::string DefaultHostProgram() {
   return (error ? std::filesystem::path(".") : self.parent_path()) / "sirupp-controller-host";
 }
 
+// Gives `pid` and its descendants (the sandbox's processes and the host) the scheduling policy.
+void SetSchedulerOfTree(pid_t pid, int policy, const sched_param& param) {
+  ::sched_setscheduler(pid, policy, &param);
+  const std::string children = "/proc/" + std::to_string(pid) + "/task/" + std::to_string(pid) +
+                               "/children";
+  std::FILE* file = std::fopen(children.c_str(), "r");
+  if (file == nullptr) return;
+  std::vector<pid_t> found;
+  for (int child = 0; std::fscanf(file, "%d", &child) == 1;) found.push_back(child);
+  std::fclose(file);
+  for (pid_t child : found) SetSchedulerOfTree(child, policy, param);
+}
+
 }  // namespace
 
 IsolatedEffortLaw::IsolatedEffortLaw(const std::string& library, const std::string& args,
@@ -205,10 +218,43 @@ HostLink MakeHostLink(const std::string& library, size_t size, int num_joints,
   return link;
 }
 
-// Starts `program library args` with the socket as descriptor 3 and the block as 4, no signal
-// blocked and SIGPIPE at its default. Returns posix_spawn's answer (0: started, *pid set).
-int SpawnHost(const std::string& program, const std::string& library, const std::string& args,
-              const HostLink& link, pid_t* pid) {
+// The host's command line `program library args`, in the sandbox unless options.sandbox is off
+// (the host program and the library visible read-only, nothing else of the student's folder or
+// anyone's). Throws ControllerLoadError when the sandbox cannot be had.
+std::vector<std::string> HostCommand(const std::string& program, const std::string& library,
+                                     const std::string& args, const IsolationOptions& options) {
+  std::vector<std::string> command = {program, library, args};
+  if (!options.sandbox) return command;
+  // As posix_spawn would say without the sandbox (bwrap itself starts).
+  if (::access(program.c_str(), X_OK) != 0) {
+    throw ControllerLoadError(library, ErrnoText("cannot start its host process " + program));
+  }
+  sandbox::Policy policy;
+  // A relative library is found from the same working folder inside.
+  if (!library.empty() && library.front() != '/') {
+    policy.chdir = std::filesystem::current_path().string();
+  }
+  policy.limits = options.sandbox_limits;
+  policy.read_only = {std::filesystem::absolute(library).string()};
+  policy.read_only.insert(policy.read_only.end(), options.sandbox_read_only.begin(),
+                          options.sandbox_read_only.end());
+  policy.read_write = options.sandbox_read_write;
+  try {
+    return sandbox::Wrap(policy, command);
+  } catch (const std::runtime_error& error) {
+    throw ControllerLoadError(library, std::string(error.what()) +
+                                           " (docs/sandbox.md; --no-sandbox runs the library "
+                                           "unconfined, for your own code only)");
+  }
+}
+
+// Starts `command` with the socket as descriptor 3 and the block as 4, no signal blocked and
+// SIGPIPE at its default; with `own_group` in a process group of its own (the sandbox: bwrap does
+// not ignore the Ctrl-C and SIGTERM sent to sirupp-control's group as the host does, and would
+// take the host down before sirupp-control closes it). Returns posix_spawn's answer (0: started,
+// *pid set).
+int SpawnHost(const std::vector<std::string>& command, const HostLink& link, bool own_group,
+              pid_t* pid) {
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_adddup2(&actions, link.pair[1], 3);
@@ -221,11 +267,16 @@ int SpawnHost(const std::string& program, const std::string& library, const std:
   sigaddset(&defaults, SIGPIPE);
   posix_spawnattr_setsigmask(&attributes, &none);
   posix_spawnattr_setsigdefault(&attributes, &defaults);
-  posix_spawnattr_setflags(&attributes, POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF);
-  std::vector<char*> argv = {const_cast<char*>(program.c_str()), const_cast<char*>(library.c_str()),
-                             const_cast<char*>(args.c_str()), nullptr};
-  const int spawned =
-      ::posix_spawn(pid, program.c_str(), &actions, &attributes, argv.data(), environ);
+  short flags = POSIX_SPAWN_SETSIGMASK | POSIX_SPAWN_SETSIGDEF;
+  if (own_group) {
+    posix_spawnattr_setpgroup(&attributes, 0);
+    flags = static_cast<short>(flags | POSIX_SPAWN_SETPGROUP);
+  }
+  posix_spawnattr_setflags(&attributes, flags);
+  std::vector<char*> argv;
+  for (const std::string& word : command) argv.push_back(const_cast<char*>(word.c_str()));
+  argv.push_back(nullptr);
+  const int spawned = ::posix_spawn(pid, argv[0], &actions, &attributes, argv.data(), environ);
   posix_spawn_file_actions_destroy(&actions);
   posix_spawnattr_destroy(&attributes);
   return spawned;
@@ -234,10 +285,11 @@ int SpawnHost(const std::string& program, const std::string& library, const std:
 }  // namespace
 
 void IsolatedEffortLaw::StartHost() {
+  const std::vector<std::string> command = HostCommand(host_program_, library_, args_, options_);
   const size_t size = SharedSize(num_joints_, model_bytes_.size());
   const HostLink link = MakeHostLink(library_, size, num_joints_, model_bytes_);
   pid_t pid = -1;
-  const int spawned = SpawnHost(host_program_, library_, args_, link, &pid);
+  const int spawned = SpawnHost(command, link, options_.sandbox, &pid);
   ::close(link.pair[1]);
   ::close(link.shared_fd);
   if (spawned != 0) {
@@ -324,7 +376,8 @@ std::string IsolatedEffortLaw::ReapHost(bool kill_first, const std::string& wher
   if (reaped != pid) {
     return "its host process " + std::to_string(pid) + " ended " + where + " (not reaped)";
   }
-  return DescribeEnd(status, where);
+  // bwrap reports its command's signal as exit code 128 + N.
+  return DescribeEnd(options_.sandbox ? sandbox::UnwrapStatus(status) : status, where);
 }
 
 int IsolatedEffortLaw::WaitForHost(double limit_s, char* byte) {
@@ -401,10 +454,10 @@ void IsolatedEffortLaw::Reset(const ControlInput& input) {
   }
   // sirupp-control waits for the host every tick, so the host runs at its scheduling priority:
   // `--rt-priority` is granted after the first host started (a restarted one inherits it). Best
-  // effort, like the request itself.
+  // effort, like the request itself. In the sandbox the host is a descendant of pid_.
   sched_param param{};
   const int policy = ::sched_getscheduler(0);
-  if (policy >= 0 && ::sched_getparam(0, &param) == 0) ::sched_setscheduler(pid_, policy, &param);
+  if (policy >= 0 && ::sched_getparam(0, &param) == 0) SetSchedulerOfTree(pid_, policy, param);
   Call(kOpReset, input, "Reset");
 }
 

@@ -14,7 +14,9 @@
 // the cause named until `sirupp clear-fault`; the next Reset then starts a new host process
 // (the library is loaded and constructed afresh). The host ends with the parent: it ignores
 // SIGINT and SIGTERM (a terminal's Ctrl-C and the launcher reach the whole process group; the
-// parent ends it by closing the socket) and has SIGKILL as its parent-death signal. It runs at the
+// parent ends it by closing the socket) and has SIGKILL as its parent-death signal; in the sandbox
+// (sandbox/sandbox.hpp) the sandbox is started in a process group of its own instead and dies
+// with sirupp-control (bwrap --die-with-parent). It runs at the
 // parent's scheduling priority (set again at each Reset, so `--rt-priority` reaches it too).
 //
 // The dynamics (G, bias, M) are computed in the host, from the model sent in the shared block as
@@ -28,6 +30,7 @@
 
 #include "control/effort_law.hpp"
 #include "core/robot_model.hpp"
+#include "sandbox/sandbox.hpp"
 
 namespace sirupp::control {
 
@@ -40,6 +43,19 @@ struct IsolationOptions {
   double tick_limit_s = 0.5;
   // Wall time for loading the library and running its constructor.
   double load_limit_s = 10;
+  // The host runs in the sandbox (sandbox/sandbox.hpp, docs/sandbox.md): no network, only /usr
+  // and the library file (read-only) and a private /tmp to see, the limits below. Where the
+  // machine cannot give the sandbox, the constructor refuses (ControllerLoadError with the reason)
+  // unless this is false (sirupp-control --no-sandbox), which runs the library unconfined.
+  bool sandbox = true;
+  // A host serves a rig for hours, so its CPU limit is large: the per-tick limit is what stops a
+  // busy loop; RLIMIT_CPU bounds what escapes it (processes the library started).
+  sandbox::Limits sandbox_limits = {1800, 1024, 32, 64, 128};
+  // Folders the library may write besides its private /tmp (its owner's folder); none by default.
+  std::vector<std::string> sandbox_read_write;
+  // More paths the host sees read-only besides /usr, the host program and the library (a host
+  // that needs files of its own, e.g. a Python host's module folder; /usr/lib/python3* is in /usr).
+  std::vector<std::string> sandbox_read_only;
 };
 
 class IsolatedEffortLaw : public EffortLaw {
@@ -60,7 +76,8 @@ class IsolatedEffortLaw : public EffortLaw {
   void Reset(const ControlInput& input) override;
   void Update(const ControlInput& input, std::vector<double>& effort) override;
 
-  // The present host's process id, or -1 when none runs (it ended and was reaped).
+  // The present host's process id (in the sandbox: of its sandbox, whose end ends the host), or
+  // -1 when none runs (it ended and was reaped).
   pid_t host_pid() const { return pid_; }
   // Host processes started so far (1 after construction).
   int hosts_started() const { return hosts_started_; }

@@ -32,6 +32,10 @@ constexpr const char* kAbout =
     "the tick; the arm is braked and `sirupp clear-fault` starts the library afresh.\n"
     "--controller-in-process: load it into sirupp-control itself (for a debugger; a crash then\n"
     "ends sirupp-control). See docs/student-controllers.md.\n"
+    "The host process runs sandboxed (docs/sandbox.md): no network, only /usr and the library's\n"
+    "folder to read, a private /tmp, CPU, memory, process and file-size limits; where this\n"
+    "machine cannot give the sandbox, --controller is refused with the reason. --no-sandbox runs\n"
+    "the library unconfined (your own code only).\n"
     "--rt-priority N: run under SCHED_FIFO at priority N (1..99; needs root or CAP_SYS_NICE),\n"
     "so the servo loop answers each state at once on a busy machine (docs/timing.md).\n"
     "--sim-timeout S: no SIM_ARM_STATE for S wall seconds (default 0.5) aborts a plan (sirupp\n"
@@ -52,6 +56,7 @@ std::shared_ptr<sirupp::control::EffortLaw> LoadController(const sirupp::runtime
   }
   sirupp::control::IsolationOptions isolation;
   isolation.tick_limit_s = args.Number("controller-tick-limit", isolation.tick_limit_s);
+  isolation.sandbox = !args.Switch("no-sandbox");
   const bool in_process = args.Switch("controller-in-process");
   std::shared_ptr<sirupp::control::EffortLaw> law;
   if (in_process) {
@@ -66,7 +71,12 @@ std::shared_ptr<sirupp::control::EffortLaw> LoadController(const sirupp::runtime
             << ") in place of the PID, "
             << (in_process ? std::string("in this process")
                            : "in its host process (call limit " +
-                                 sirupp::core::FormatNumber(isolation.tick_limit_s) + " s)")
+                                 sirupp::core::FormatNumber(isolation.tick_limit_s) + " s; " +
+                                 (isolation.sandbox
+                                      ? sirupp::sandbox::Describe(sirupp::sandbox::ProbeMachine(),
+                                                                  isolation.sandbox_limits)
+                                      : std::string("no sandbox (--no-sandbox)")) +
+                                 ")")
             << "\n";
   return law;
 }
@@ -90,7 +100,8 @@ int Run(const std::vector<std::string>& argv) {
        Flag("controller-tick-limit", "seconds one controller call may take")
            .Takes("S")
            .Above(0, 60),
-       Flag("controller-in-process", "load the library into this process").Switch()},
+       Flag("controller-in-process", "load the library into this process").Switch(),
+       Flag("no-sandbox", "run the controller's host unconfined").Switch()},
       kAbout);
   const int rt_priority = static_cast<int>(args.Integer("rt-priority", 0));
   const sirupp::core::RobotModel model =
@@ -108,7 +119,8 @@ int Run(const std::vector<std::string>& argv) {
   options.publish_setpoints = !args.Switch("no-setpoints");
   options.sim_timeout_s = args.Number("sim-timeout", options.sim_timeout_s);
   options.bridge_timeout_s = args.Number("bridge-timeout", options.bridge_timeout_s);
-  for (const char* flag : {"controller-args", "controller-tick-limit", "controller-in-process"}) {
+  for (const char* flag :
+       {"controller-args", "controller-tick-limit", "controller-in-process", "no-sandbox"}) {
     if (args.Has(flag) && !args.Has("controller")) {
       throw sirupp::core::UsageError(std::string("sirupp-control: --") + flag +
                                      " needs --controller LIB.so");

@@ -113,6 +113,7 @@ std::vector<std::string> ControlArgv(const Suite& suite, const ControllerSpec& c
     if (!controller.args.empty()) {
       control_argv.insert(control_argv.end(), {"--controller-args", controller.args});
     }
+    if (!controller.sandbox) control_argv.emplace_back("--no-sandbox");
   }
   return control_argv;
 }

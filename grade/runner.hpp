@@ -28,6 +28,7 @@ struct ControllerSpec {
   std::string label;                 // for reports: "baseline", "pd_gravity.so", "java JointPid"
   std::string library;               // kLibrary
   std::string args;                  // kLibrary: --controller-args
+  bool sandbox = true;               // kLibrary: false = sirupp-control --no-sandbox
   std::vector<std::string> command;  // kProcess, with placeholders (docs/grading.md)
 };
 

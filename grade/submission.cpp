@@ -1,14 +1,12 @@
 #include "grade/submission.hpp"
 
-#include <unistd.h>
-
 #include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
 #include <vector>
 
-#include "grade/child.hpp"
+#include "grade/build_controller.hpp"
 
 namespace sirupp::grade {
 namespace fs = std::filesystem;
@@ -39,8 +37,9 @@ std::string FirstLine(const fs::path& file) {
 }  // namespace
 
 FoundController FindSubmission(const std::string& folder, const std::string& include_dir,
-                               const std::string& build_dir) {
+                               const std::string& build_dir, bool sandbox) {
   FoundController found;
+  found.spec.sandbox = sandbox;
   const fs::path dir = fs::absolute(folder);
   const std::string name = dir.filename().string();
   if (fs::exists(dir / "command")) {
@@ -67,36 +66,23 @@ FoundController FindSubmission(const std::string& folder, const std::string& inc
     found.problem = "no controller: expected a file 'command', a library (*.so) or sources (*.cpp)";
     return found;
   }
-  fs::create_directories(build_dir);
-  const std::string library = (fs::absolute(build_dir) / (name + ".so")).string();
-  std::vector<std::string> argv = {"g++",   "-std=c++17", "-O2",      "-shared",
-                                   "-fPIC", "-I",         include_dir};
-  for (const fs::path& source : sources) argv.push_back(source.string());
-  argv.insert(argv.end(), {"-o", library});
-  const std::string log = (fs::absolute(build_dir) / (name + ".build.log")).string();
-  fs::remove(log);
-  Child compiler;
-  compiler.Start(argv, log);
-  while (compiler.Running()) {
-    ::usleep(20000);
-  }
-  if (!compiler.EndedCleanly()) {
-    // The first error line names the file and line.
-    std::ifstream in(log);
-    std::string line, first;
-    while (std::getline(in, line)) {
-      if (line.find("error") != std::string::npos) {
-        first = line;
-        break;
-      }
-    }
-    const std::string where = dir.string() + "/";
-    if (first.rfind(where, 0) == 0) first = first.substr(where.size());
-    found.problem = "does not build (g++ " + compiler.HowEnded() +
-                    "): " + (first.empty() ? compiler.LogTail(1) : first);
+  std::vector<std::string> source_names;
+  for (const fs::path& source : sources) source_names.push_back(source.string());
+  BuildOptions options;
+  options.include_dir = include_dir;
+  options.sandbox = sandbox;
+  BuildResult built;
+  try {
+    built = BuildController(source_names, (fs::absolute(build_dir) / name).string(), name, options);
+  } catch (const std::runtime_error& error) {
+    found.problem = std::string("cannot be built: ") + error.what();
     return found;
   }
-  found.spec.library = library;
+  if (!built.built) {
+    found.problem = built.problem;
+    return found;
+  }
+  found.spec.library = built.library;
   return found;
 }
 

@@ -3,7 +3,8 @@
 //   command    a process controller: one line, the command with placeholders; words starting
 //              with "./" are taken relative to the folder
 //   *.so       a controller library (the first by name)
-//   *.cpp      a library's sources, built here with g++ against include/sirupp/controller.h
+//   *.cpp      a library's sources, built with g++ against include/sirupp/controller.h
+//              (grade/build_controller.hpp: fixed flags, a time limit, in the sandbox)
 //   args       optional: --controller-args for a library
 // Anything else, a failed build or an empty folder is a problem with the reason.
 
@@ -18,8 +19,10 @@ struct FoundController {
   std::string problem;  // "" when spec is usable
 };
 
-// `include_dir`: the folder holding sirupp/controller.h; `build_dir`: where a built library goes.
+// `include_dir`: the folder holding sirupp/controller.h; a built library goes to
+// `build_dir`/NAME/NAME.so (a folder per submission: the library's host sees its own only).
+// `sandbox`: build in the sandbox, and run the library in it (ControllerSpec::sandbox).
 FoundController FindSubmission(const std::string& folder, const std::string& include_dir,
-                               const std::string& build_dir);
+                               const std::string& build_dir, bool sandbox = true);
 
 }  // namespace sirupp::grade

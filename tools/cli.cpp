@@ -142,6 +142,8 @@ std::vector<Command> Commands(std::ostream& out, std::ostream& err) {
        [&](const Args& a) { return RunReport(a, out, err); }},
       {"", "grade", "score a controller beside the PIC-SERVO baseline",
        [&](const Args& a) { return RunGrade(a, out, err); }},
+      {"controller", "build", "build a controller library from C++ source (sandboxed)",
+       [&](const Args& a) { return RunControllerBuild(a, out, err); }},
       {"", "fit-emulator", "fit the emulated real arm's effects to the paper's Table II",
        [&](const Args& a) { return RunFitEmulator(a, out, err); }},
       {"", "identify", "fit a model's friction and armature to real data",
@@ -165,7 +167,8 @@ const std::map<std::string, std::string> kGroups = {
     {"move", "a joint or tool target for sirupp-control"},
     {"plan", "movement plans: check, run, pause, resume, abort, modes"},
     {"hardware", "the bridge to the real arm (or sirupp-picservo-emu)"},
-    {"turns", "the one real arm shared by several rigs, by turns: serve"}};
+    {"turns", "the one real arm shared by several rigs, by turns: serve"},
+    {"controller", "student controllers: build"}};
 
 // The help of `level` itself (CLI::App::help() gives a parsed subcommand's instead).
 std::string HelpOf(const CLI::App& level) {

@@ -3,23 +3,27 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdio>
 #include <filesystem>
 #include <ostream>
 
 #include "core/errors.hpp"
 #include "core/model_loader.hpp"
+#include "grade/build_controller.hpp"
 #include "grade/grade.hpp"
 #include "grade/report.hpp"
 #include "grade/submission.hpp"
 #include "runtime/args.hpp"
 #include "runtime/data_path.hpp"
+#include "sandbox/sandbox.hpp"
 #include "tools/cli.hpp"
 
 namespace sirupp::tools {
 namespace fs = std::filesystem;
 
 const char* const kGradeAbout =
-    "Three forms: LIB.so (a controller library), -- COMMAND ... (a process controller), or\n"
+    "Three forms: LIB.so (a controller library) or FILE.cpp (its one source, built first with\n"
+    "fixed flags, as `sirupp controller build` does), -- COMMAND ... (a process controller), or\n"
     "--batch DIR (a class).\n"
     "Runs every task of the suite (config/grading/basic.yaml, advanced.yaml) for a student's\n"
     "controller and for the baseline (the PIC-SERVO PID with the model's gains), each task in\n"
@@ -31,7 +35,22 @@ const char* const kGradeAbout =
     "Writes DIR/report.md, DIR/results.json, DIR/plots/*.png (default DIR: grade-out) and prints\n"
     "one summary line. --batch: one controller per sub-folder (a 'command' file, a *.so or\n"
     "*.cpp sources), DIR/class.csv and DIR/class.md. Exit 0 once graded (whatever the score),\n"
-    "2 for bad options or a bad suite. docs/grading.md.\n";
+    "2 for bad options, a bad suite or a FILE.cpp that does not build (its errors, file:line).\n"
+    "Libraries are built and run in the sandbox (docs/sandbox.md): no network, their own folder\n"
+    "read-only, CPU, memory, process and file-size limits; where this machine cannot give it,\n"
+    "grading a library is refused with the reason. --no-sandbox: unconfined (your own code\n"
+    "only). Process controllers (-- COMMAND) use the network and run unconfined.\n"
+    "docs/grading.md.\n";
+
+const char* const kControllerBuildAbout =
+    "Builds a controller library from one C++ file (or a few) written against\n"
+    "include/sirupp/controller.h, with the fixed flags sirupp grade and the class server use\n"
+    "(g++ -std=c++17 -O2 -fPIC -shared -Wl,-z,defs), a time limit (--time-limit S, default 60)\n"
+    "and in the sandbox (docs/sandbox.md; --no-sandbox: unconfined).\n"
+    "Writes OUT/NAME.so and OUT/NAME.build.log (NAME: the first file's name without .cpp).\n"
+    "Prints the library's path, or each compiler error as FILE:LINE:COLUMN: error: TEXT and\n"
+    "exits 1. Exit 2: bad options.\n"
+    "docs/student-controllers.md.\n";
 
 namespace {
 
@@ -48,10 +67,46 @@ std::string LoadProblem(const grade::ControllerResult& result) {
   return "does not load: " + result.tasks.front().ended.substr(prefix.size());
 }
 
+std::string IncludeDir() { return std::string(SIRUPP_SOURCE_DIR) + "/include"; }
+
+std::string Seconds(double seconds) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.1f", seconds);
+  return text;
+}
+
+bool EndsWith(const std::string& text, const std::string& end) {
+  return text.size() >= end.size() && text.compare(text.size() - end.size(), end.size(), end) == 0;
+}
+
+// FILE.cpp built into OUT/build/NAME/NAME.so; throws UsageError listing the compiler's errors.
+std::string BuildSource(const std::string& source, const std::string& out_dir, bool sandbox,
+                        std::ostream& err) {
+  grade::BuildOptions options;
+  options.include_dir = IncludeDir();
+  options.sandbox = sandbox;
+  const std::string name = fs::path(source).stem().string();
+  grade::BuildResult built;
+  try {
+    built = grade::BuildController({source}, (fs::absolute(out_dir) / "build" / name).string(),
+                                   name, options);
+  } catch (const std::runtime_error& error) {
+    throw core::UsageError("grade: " + source + ": cannot be built: " + error.what());
+  }
+  if (!built.built) {
+    for (const grade::CompilerError& error : built.errors) err << error.ToString() << "\n";
+    throw core::UsageError("grade: " + source + " " + built.problem + "; not graded (the whole " +
+                           "output: " + built.log_file + ")");
+  }
+  err << "grade: built " << built.library << " in " << Seconds(built.seconds) << " s\n";
+  return built.library;
+}
+
 // The one controller graded: LIB.so with its constructor's arguments, or -- COMMAND ...
 grade::ControllerSpec SingleController(const std::string& library, const std::string& library_args,
-                                       const std::vector<std::string>& command) {
+                                       const std::vector<std::string>& command, bool sandbox) {
   grade::ControllerSpec spec;
+  spec.sandbox = sandbox;
   if (!library.empty()) {
     spec.kind = grade::ControllerSpec::Kind::kLibrary;
     spec.library = fs::absolute(library).string();
@@ -67,7 +122,7 @@ grade::ControllerSpec SingleController(const std::string& library, const std::st
 
 // --batch DIR: one submission per sub-folder, by name; those whose controller is found (built
 // under OUT/build) are added to `controllers`, graded[i] naming submission i's (-1: none).
-void AddBatch(const std::string& batch, const std::string& out_dir,
+void AddBatch(const std::string& batch, const std::string& out_dir, bool sandbox,
               std::vector<grade::ControllerSpec>& controllers,
               std::vector<grade::Submission>& submissions, std::vector<size_t>& graded) {
   std::vector<fs::path> folders;
@@ -79,8 +134,8 @@ void AddBatch(const std::string& batch, const std::string& out_dir,
     grade::Submission submission;
     submission.name = folder.filename().string();
     const grade::FoundController found =
-        grade::FindSubmission(folder.string(), std::string(SIRUPP_SOURCE_DIR) + "/include",
-                              (fs::absolute(out_dir) / "build").string());
+        grade::FindSubmission(folder.string(), IncludeDir(),
+                              (fs::absolute(out_dir) / "build").string(), sandbox);
     submission.problem = found.problem;
     if (found.problem.empty()) {
       graded.push_back(controllers.size());
@@ -131,7 +186,8 @@ int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostre
        runtime::Flag("out", "report folder (default grade-out)").Takes("DIR"),
        runtime::Flag("batch", "one controller per sub-folder").Takes("DIR"),
        runtime::Flag("no-baseline", "do not grade the baseline").Switch(),
-       runtime::Flag("jobs", "tasks at a time").Short('j').Takes("N").Integer(1, 64)},
+       runtime::Flag("jobs", "tasks at a time").Short('j').Takes("N").Integer(1, 64),
+       runtime::Flag("no-sandbox", "build and run libraries unconfined").Switch()},
       kGradeAbout);
   const std::vector<std::string> libraries =
       parsed.Has("library") ? parsed.Values("library", -1) : std::vector<std::string>{};
@@ -146,6 +202,7 @@ int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostre
   const std::string library_args = parsed.Has("args") ? parsed.String("args") : "";
   const int jobs = static_cast<int>(parsed.Integer("jobs", 1));
   const bool baseline = !parsed.Switch("no-baseline");
+  const bool sandbox = !parsed.Switch("no-sandbox");
   if (suite_file.empty()) throw core::UsageError("grade: missing --suite FILE");
   const int given = (library.empty() ? 0 : 1) + (command.empty() ? 0 : 1) + (batch.empty() ? 0 : 1);
   if (given != 1) {
@@ -154,8 +211,19 @@ int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostre
   if (!library.empty() && !fs::is_regular_file(library)) {
     throw core::UsageError("grade: controller library '" + library + "' is not a file");
   }
+  if (!library.empty() && !EndsWith(library, ".so") && !EndsWith(library, ".cpp")) {
+    throw core::UsageError("grade: controller '" + library +
+                           "': allowed a library (.so) or its C++ source (.cpp)");
+  }
   if (!batch.empty() && !fs::is_directory(batch)) {
     throw core::UsageError("grade: --batch '" + batch + "' is not a folder");
+  }
+  // Libraries (and sources) are someone else's code: without the sandbox they are refused here,
+  // with the reason, rather than run unconfined (a process controller runs unconfined anyway).
+  if (sandbox && command.empty() && !sandbox::ProbeMachine().usable) {
+    throw core::UsageError("grade: the sandbox cannot be had on this machine: " +
+                           sandbox::ProbeMachine().problem +
+                           " (docs/sandbox.md; --no-sandbox grades unconfined, for your own code)");
   }
   const grade::Suite suite = grade::LoadSuite(Resolve(suite_file), &Resolve);
   const core::RobotModel model = core::LoadRobotModel(suite.model_file);
@@ -168,9 +236,11 @@ int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostre
   std::vector<grade::Submission> submissions;
   std::vector<size_t> graded;  // submissions[i] -> controllers index
   if (batch.empty()) {
-    controllers.push_back(SingleController(library, library_args, command));
+    const std::string built =
+        EndsWith(library, ".cpp") ? BuildSource(library, out_dir, sandbox, err) : library;
+    controllers.push_back(SingleController(built, library_args, command, sandbox));
   } else {
-    AddBatch(batch, out_dir, controllers, submissions, graded);
+    AddBatch(batch, out_dir, sandbox, controllers, submissions, graded);
   }
   if (baseline) {
     grade::ControllerSpec spec;
@@ -187,6 +257,54 @@ int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostre
     return 0;
   }
   ReportBatch(out_dir, suite, model, results, base, graded, submissions, out, err);
+  return 0;
+}
+
+int RunControllerBuild(const std::vector<std::string>& args, std::ostream& out,
+                       std::ostream& err) {
+  const runtime::Args parsed(
+      args, "controller build",
+      {runtime::Flag("source", "C++ sources").Positional("FILE.cpp", -1),
+       runtime::Flag("out", "output folder").Takes("DIR"),
+       runtime::Flag("time-limit", "seconds the build may take").Takes("S").Above(0, 3600),
+       runtime::Flag("no-sandbox", "build unconfined").Switch()},
+      kControllerBuildAbout);
+  if (!parsed.Has("source")) throw core::UsageError("controller build: missing FILE.cpp");
+  if (!parsed.Has("out")) throw core::UsageError("controller build: missing --out DIR");
+  const std::vector<std::string> sources = parsed.Values("source", -1);
+  const fs::path folder = fs::absolute(sources.front()).parent_path();
+  for (const std::string& source : sources) {
+    if (!EndsWith(source, ".cpp") || !fs::is_regular_file(source)) {
+      throw core::UsageError("controller build: '" + source + "': allowed an existing .cpp file");
+    }
+    if (fs::absolute(source).parent_path() != folder) {
+      throw core::UsageError("controller build: '" + source +
+                             "': allowed sources in one folder (that of '" + sources.front() +
+                             "')");
+    }
+  }
+  grade::BuildOptions options;
+  options.include_dir = IncludeDir();
+  options.time_limit_s = parsed.Number("time-limit", options.time_limit_s);
+  options.sandbox = !parsed.Switch("no-sandbox");
+  grade::BuildResult built;
+  try {
+    built = grade::BuildController(sources, parsed.String("out"),
+                                   fs::path(sources.front()).stem().string(), options);
+  } catch (const std::runtime_error& error) {
+    throw core::UsageError(std::string("controller build: ") + error.what() +
+                           (options.sandbox ? " (docs/sandbox.md; --no-sandbox builds unconfined)"
+                                            : ""));
+  }
+  if (!built.built) {
+    for (const grade::CompilerError& error : built.errors) out << error.ToString() << "\n";
+    err << "controller build: " << sources.front() << " " << built.problem << " (the whole "
+        << "output: " << built.log_file << ")\n";
+    return 1;
+  }
+  out << built.library << "\n";
+  err << "controller build: built in " << Seconds(built.seconds) << " s"
+      << (options.sandbox ? " in the sandbox" : " (no sandbox)") << "\n";
   return 0;
 }
 
