@@ -30,8 +30,10 @@ constexpr const char* kAbout =
     "(any signal), an exception, a non-finite effort or a call that takes longer than\n"
     "--controller-tick-limit seconds (default 0.5, wall time) is a fault naming the library and\n"
     "the tick; the arm is braked and `sirupp clear-fault` starts the library afresh.\n"
+    "A file ending in .py is a controller written in Python (update(state) -> efforts), run the\n"
+    "same way by sirupp-python-controller-host (docs/python.md).\n"
     "--controller-in-process: load it into sirupp-control itself (for a debugger; a crash then\n"
-    "ends sirupp-control). See docs/student-controllers.md.\n"
+    "ends sirupp-control; not for .py). See docs/student-controllers.md.\n"
     "--rt-priority N: run under SCHED_FIFO at priority N (1..99; needs root or CAP_SYS_NICE),\n"
     "so the servo loop answers each state at once on a busy machine (docs/timing.md).\n"
     "--sim-timeout S: no SIM_ARM_STATE for S wall seconds (default 0.5) aborts a plan (sirupp\n"
@@ -52,6 +54,11 @@ std::shared_ptr<sirupp::control::EffortLaw> LoadController(const sirupp::runtime
   isolation.tick_limit_s = args.Number("controller-tick-limit", isolation.tick_limit_s);
   const bool in_process = args.Switch("controller-in-process");
   std::shared_ptr<sirupp::control::EffortLaw> law;
+  if (in_process && sirupp::control::HostProgramName(args.String("controller")) !=
+                        "sirupp-controller-host") {
+    throw sirupp::core::UsageError("--controller-in-process: " + args.String("controller") +
+                                   " is a Python controller; it runs only in its host process");
+  }
   if (in_process) {
     law = std::make_shared<sirupp::control::PluginEffortLaw>(args.String("controller"),
                                                              controller_args, model);
@@ -80,7 +87,7 @@ int Run(const std::vector<std::string>& argv) {
        Flag("sim-timeout", "seconds without a sim state that abort a plan")
            .Takes("S")
            .Above(0, 3600),
-       Flag("controller", "controller library (.so)").Takes("LIB.so"),
+       Flag("controller", "controller library (.so) or Python file (.py)").Takes("LIB.so"),
        Flag("controller-args", "arguments for the controller library").Takes("TEXT", -1),
        Flag("controller-tick-limit", "seconds one controller call may take")
            .Takes("S")
