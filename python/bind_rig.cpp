@@ -8,6 +8,9 @@
 // button: ARM_PLAN abort, a smooth stop) and then raises.
 #include <pybind11/stl.h>
 
+#include <pthread.h>
+#include <signal.h>
+
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -72,16 +75,6 @@ std::vector<double> Values(const py::handle& value, const std::string& name) {
   return std::vector<double>(v.data(), v.data() + v.size());
 }
 
-// Runs a client command without the GIL (it waits up to the answer timeout for the reply).
-template <class Command>
-py::dict Unlocked(Command command) {
-  client::Answer answer;
-  {
-    py::gil_scoped_release release;
-    answer = command();
-  }
-  return AnswerDict(answer);
-}
 
 class ClientHandle {
  public:
@@ -100,7 +93,8 @@ class ClientHandle {
   }
 
   // Runs step(slice_s) without the GIL until it returns true or timeout_s passed, checking for
-  // signals between slices. Returns whether it finished.
+  // signals between slices. Returns whether it finished. A pending signal wins over an error the
+  // step met (a signal can also cut a wait short inside LCM).
   template <class Step>
   bool Sliced(double timeout_s, Step step, bool stop_arm_on_interrupt) {
     const Clock::time_point start = Clock::now();
@@ -108,23 +102,58 @@ class ClientHandle {
       const double left = timeout_s - Since(start);
       if (left <= 0) return false;
       bool done = false;
+      std::string failure;
       {
         py::gil_scoped_release release;
-        done = step(std::min(kSliceS, left));
+        try {
+          done = step(std::min(kSliceS, left));
+        } catch (const std::exception& error) {
+          failure = error.what();
+        }
       }
-      if (done) return true;
       if (PyErr_CheckSignals() != 0) {
         if (stop_arm_on_interrupt) {
           py::error_already_set pending;  // keep the KeyboardInterrupt while we stop the arm
-          {
-            py::gil_scoped_release release;
-            client_->Plan(client::PlanCommand::kAbort);
-          }
+          StopArm();
           throw pending;
         }
         throw py::error_already_set();
       }
+      if (!failure.empty()) throw RigError(failure);
+      if (done) return true;
     }
+  }
+
+  // The stop button (ARM_PLAN abort: a smooth stop), without the GIL; best effort.
+  void StopArm() {
+    py::gil_scoped_release release;
+    try {
+      client_->Plan(client::PlanCommand::kAbort);
+    } catch (const std::exception&) {
+    }
+  }
+
+  // Runs a client command without the GIL (it waits up to the answer timeout for the reply);
+  // after a Ctrl-C meanwhile the arm is stopped and KeyboardInterrupt raised.
+  template <class Command>
+  py::dict Unlocked(Command command) {
+    client::Answer answer;
+    std::string failure;
+    {
+      py::gil_scoped_release release;
+      try {
+        answer = command();
+      } catch (const std::exception& error) {
+        failure = error.what();
+      }
+    }
+    if (PyErr_CheckSignals() != 0) {
+      py::error_already_set pending;
+      StopArm();
+      throw pending;
+    }
+    if (!failure.empty()) throw RigError(failure);
+    return AnswerDict(answer);
   }
 
   bool WaitForController(double timeout_s) {
@@ -360,7 +389,16 @@ class Recorder {
                         }),
                     kQueue);
     thread_ = std::thread([this] {
-      while (running_) bus_->Handle(20);
+      sigset_t all;  // Ctrl-C is the interpreter's, on its own thread
+      sigfillset(&all);
+      pthread_sigmask(SIG_BLOCK, &all, nullptr);
+      while (running_) {
+        try {
+          bus_->Handle(20);
+        } catch (const std::exception&) {
+          running_ = false;  // the bus failed: the recording ends here
+        }
+      }
     });
   }
   ~Recorder() { Stop(); }

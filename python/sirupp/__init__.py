@@ -10,16 +10,41 @@
 
 Units are SI (rad, m, s, N*m); joint vectors are 1-D numpy arrays. Guide: docs/python.md.
 """
-from ._sirupp import IKError, Model, ModelError, RigError  # noqa: F401
-from .trajectory import Trajectory, jtraj, trapezoid  # noqa: F401
-from .rig import Rig, connect, start_rig  # noqa: F401
-from .data import read_data, read_reference, read_report  # noqa: F401
-from .controllers import ArmInfo, State, run_process_controller  # noqa: F401
+import importlib
+
+# Names load their module on first use (PEP 562), so that `import sirupp.controllers` (what the
+# controller host does, on every start) costs numpy alone.
+_WHERE = {
+    "Model": "._sirupp", "ModelError": "._sirupp", "IKError": "._sirupp", "RigError": "._sirupp",
+    "jtraj": ".trajectory", "trapezoid": ".trajectory", "Trajectory": ".trajectory",
+    "connect": ".rig", "start_rig": ".rig", "Rig": ".rig",
+    "read_data": ".data", "read_reference": ".data", "read_report": ".data",
+    "State": ".controllers", "ArmInfo": ".controllers",
+    "run_process_controller": ".controllers", "ControllerFault": ".controllers",
+}
+
+
+_SUBMODULES = ("_sirupp", "_paths", "trajectory", "rig", "data", "controllers", "plot", "notebook")
+
+
+def __getattr__(name):
+    if name in _WHERE:
+        value = getattr(importlib.import_module(_WHERE[name], __name__), name)
+        globals()[name] = value
+        return value
+    if name in _SUBMODULES:
+        return importlib.import_module("." + name, __name__)
+    raise AttributeError("module 'sirupp' has no attribute %r" % name)
+
+
+def __dir__():
+    return sorted(set(globals()) | set(_WHERE))
+
 
 __all__ = [
     "Model", "ModelError", "IKError", "RigError", "jtraj", "trapezoid", "Trajectory", "connect",
     "start_rig", "Rig", "read_data", "read_reference", "read_report", "State", "ArmInfo",
-    "run_process_controller", "data_path",
+    "run_process_controller", "ControllerFault", "data_path",
 ]
 
 

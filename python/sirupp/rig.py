@@ -44,7 +44,11 @@ class Recording:
 
     def __init__(self, raw, servo_tick_s):
         sim, sp, real = raw["sim"], raw["setpoint"], raw["real"]
-        order = np.argsort(sim["tick"], kind="stable")
+        # One row per tick: in lockstep the sim sends a state again while a participant is late;
+        # the last copy is kept.
+        ticks = sim["tick"]
+        _, last_from_end = np.unique(ticks[::-1], return_index=True)
+        order = len(ticks) - 1 - last_from_end
         self.tick = sim["tick"][order]
         self.t = self.tick * servo_tick_s
         self.q, self.qd, self.effort = sim["q"][order], sim["qd"][order], sim["effort"][order]
@@ -289,7 +293,8 @@ def _close_all():
 
 
 def start_rig(model=None, mode="realtime", environment=None, panel=False, logger=False,
-              friction=True, controller=None, controller_args=None, log_dir=None, timeout=15.0):
+              friction=True, controller=None, controller_args=None, log_dir=None, timeout=15.0,
+              sim_timeout=5.0):
     """A private rig for a notebook or a script: sirupp-sim (mode 'realtime' or 'lockstep') and
     sirupp-control on a udpm port of its own (ttl=0, leased like `sirupp grade` does), and with
     panel=True the browser panel, with logger=True sirupp-logger writing the paper's data files
@@ -305,7 +310,7 @@ def start_rig(model=None, mode="realtime", environment=None, panel=False, logger
     log_dir = log_dir or tempfile.mkdtemp(prefix="sirupp-rig-")
     os.makedirs(log_dir, exist_ok=True)
     bin_dir = _paths.BIN_DIR
-    control_args = ["--lcm-url", url, "--model", model_file]
+    control_args = ["--lcm-url", url, "--model", model_file, "--sim-timeout", "%g" % sim_timeout]
     if controller:
         if not os.path.isfile(controller):
             raise ValueError("controller: %s: no such file" % controller)
@@ -344,6 +349,23 @@ def start_rig(model=None, mode="realtime", environment=None, panel=False, logger
         lease.release()
         raise
     rig = Rig(url, "", m, timeout, _processes=children, _lease=lease)
+    # Ready when sirupp-control (on the bus: its status was heard) has a state of the sim: a state
+    # newer than the first one seen now (in lockstep the sim steps only once the controller
+    # answered). A controller file may take seconds to import before sirupp-control joins.
+    deadline = time.monotonic() + timeout
+    first = None
+    while True:
+        state = rig._client.arm_state()
+        if state is not None and first is None:
+            first = state["tick"]
+        if state is not None and state["tick"] > first:
+            break
+        if time.monotonic() > deadline:
+            rig.close()
+            raise RigError("the private rig sent no SIM_ARM_STATE within %g s%s" % (
+                timeout, rig._process_logs() or " (logs in %s)" % log_dir))
+        rig._client.listen(0.05)
+    rig._client.listen(0.1)
     rig.log_dir = log_dir
     rig.data_dir = os.path.join(log_dir, "data") if logger else None
     rig.mode = mode

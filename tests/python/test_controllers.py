@@ -131,15 +131,13 @@ tasks:
 def test_faults_end_the_graded_task_with_the_reason(tmp_path):
     suite = tmp_path / "tiny.yaml"
     suite.write_text(TINY_SUITE.format(model=PUMA))
-    graders = {}
-    for name, (source, _) in FAULTY.items():
+    for name, (source, reason) in FAULTY.items():
         file = tmp_path / (name + ".py")
         file.write_text(source)
-        graders[name] = run([os.path.join(bin_dir(), "sirupp"), "grade", str(file), "--suite",
-                             str(suite), "--no-baseline", "--out", str(tmp_path / ("out-" + name))])
-    for name, (_, reason) in FAULTY.items():
-        out = graders[name].communicate(timeout=300)[0]
-        assert graders[name].returncode == 0, out
+        done = subprocess.run([os.path.join(bin_dir(), "sirupp"), "grade", str(file), "--suite",
+                               str(suite), "--no-baseline", "--out", str(tmp_path / ("out-" + name))],
+                              capture_output=True, text=True, timeout=300)
+        assert done.returncode == 0, done.stdout + done.stderr
         results = (tmp_path / ("out-" + name) / "results.json").read_text()
         assert reason in results, results
 
