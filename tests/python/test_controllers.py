@@ -155,3 +155,18 @@ def test_bad_controller_file_is_refused_in_one_line(url, tmp_path):
         assert done.returncode == 2, done.stderr
         assert len(done.stderr.strip().splitlines()) == 1, done.stderr
         assert text in done.stderr and os.path.basename(str(file)) in done.stderr, done.stderr
+
+
+def test_batch_grades_a_python_submission(tmp_path):
+    suite = tmp_path / "tiny.yaml"
+    suite.write_text(TINY_SUITE.format(model=PUMA))
+    batch = tmp_path / "class"
+    (batch / "alice").mkdir(parents=True)
+    (batch / "alice" / "controller.py").write_text(FAULTY["short"][0])
+    out = tmp_path / "out"
+    done = subprocess.run([os.path.join(bin_dir(), "sirupp"), "grade", "--batch", str(batch),
+                           "--suite", str(suite), "--no-baseline", "--out", str(out)],
+                          capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stdout + done.stderr
+    assert "alice" in (out / "class.csv").read_text()
+    assert FAULTY["short"][1] in (out / "alice" / "results.json").read_text()
