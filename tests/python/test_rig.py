@@ -127,6 +127,14 @@ def alive(pid):
         return f.read().split(")")[-1].split()[0] != "Z"
 
 
+def assert_gone(pids, why):
+    for pid in pids:
+        deadline = time.time() + 5
+        while alive(pid) and time.time() < deadline:
+            time.sleep(0.05)
+        assert not alive(pid), "process %d outlived %s" % (pid, why)
+
+
 def test_ctrl_c_during_a_wait_stops_the_arm():
     child, pids = start_child("interrupt")
     try:
@@ -143,11 +151,7 @@ def test_ctrl_c_during_a_wait_stops_the_arm():
     assert 0.1 < q_stop[0] < 100 * DEG
     # A smooth stop: joint 1 comes to rest within a few degrees of where it was interrupted.
     assert abs(q_later[0] - q_stop[0]) < 5 * DEG
-    for pid in pids:
-        deadline = time.time() + 5
-        while alive(pid) and time.time() < deadline:
-            time.sleep(0.05)
-        assert not alive(pid), "process %d outlived rig.close()" % pid
+    assert_gone(pids, "rig.close()")
 
 
 def test_rig_processes_end_when_python_is_killed():
@@ -155,11 +159,7 @@ def test_rig_processes_end_when_python_is_killed():
     assert all(alive(pid) for pid in pids)
     child.kill()  # SIGKILL: no atexit, no finally
     child.wait()
-    for pid in pids:
-        deadline = time.time() + 5
-        while alive(pid) and time.time() < deadline:
-            time.sleep(0.05)
-        assert not alive(pid), "process %d outlived its Python" % pid
+    assert_gone(pids, "its Python")
 
 
 def test_connect_without_a_rig_names_the_problem():
