@@ -140,10 +140,10 @@ int AboveFour(int fd) {
   return moved;
 }
 
-std::string DefaultHostProgram() {
+std::string DefaultHostProgram(const std::string& library) {
   std::error_code error;
   const std::filesystem::path self = std::filesystem::read_symlink("/proc/self/exe", error);
-  return (error ? std::filesystem::path(".") : self.parent_path()) / "sirupp-controller-host";
+  return (error ? std::filesystem::path(".") : self.parent_path()) / HostProgramName(library);
 }
 
 // Gives `pid` and its descendants (the sandbox's processes and the host) the scheduling policy.
@@ -161,11 +161,19 @@ void SetSchedulerOfTree(pid_t pid, int policy, const sched_param& param) {
 
 }  // namespace
 
+std::string HostProgramName(const std::string& library) {
+  const std::string python = ".py";
+  const bool is_python = library.size() > python.size() &&
+                         library.compare(library.size() - python.size(), python.size(), python) == 0;
+  return is_python ? "sirupp-python-controller-host" : "sirupp-controller-host";
+}
+
 IsolatedEffortLaw::IsolatedEffortLaw(const std::string& library, const std::string& args,
                                      const core::RobotModel& model, IsolationOptions options)
     : library_(library),
       args_(args),
-      host_program_(options.host_program.empty() ? DefaultHostProgram() : options.host_program),
+      host_program_(options.host_program.empty() ? DefaultHostProgram(library)
+                                                 : options.host_program),
       options_(options),
       num_joints_(model.num_joints()) {
   const size_t slash = library.find_last_of('/');
@@ -236,6 +244,16 @@ std::vector<std::string> HostCommand(const std::string& program, const std::stri
   }
   policy.limits = options.sandbox_limits;
   policy.read_only = {std::filesystem::absolute(library).string()};
+  // The Python host imports this build's module `sirupp` (build/python beside build/bin); numpy
+  // and the interpreter are under /usr.
+  if (std::filesystem::path(program).filename() == HostProgramName(".py")) {
+    const std::filesystem::path module_dir =
+        std::filesystem::path(program).parent_path().parent_path() / "python";
+    std::error_code error;
+    if (std::filesystem::is_directory(module_dir, error)) {
+      policy.read_only.push_back(std::filesystem::canonical(module_dir, error).string());
+    }
+  }
   policy.read_only.insert(policy.read_only.end(), options.sandbox_read_only.begin(),
                           options.sandbox_read_only.end());
   policy.read_write = options.sandbox_read_write;
@@ -496,8 +514,8 @@ void* MapSharedBlock(int shared_fd) {
 
 // Loads the library with the model from the block; on failure leaves the problem in the block,
 // sends "load error" and returns nullptr.
-std::unique_ptr<PluginEffortLaw> LoadLaw(int socket_fd, void* shared, const std::string& library,
-                                         const std::string& args) {
+std::unique_ptr<EffortLaw> LoadLaw(int socket_fd, void* shared, const std::string& library,
+                                   const std::string& args, const EffortLawFactory& make_law) {
   Header* header = HeaderOf(shared);
   const int n = header->num_joints;
   try {
@@ -506,7 +524,7 @@ std::unique_ptr<PluginEffortLaw> LoadLaw(int socket_fd, void* shared, const std:
       throw std::runtime_error("the robot model from sirupp-control does not decode");
     }
     const core::RobotModel model = core::RobotModelFromMessage(message, "controller host");
-    return std::make_unique<PluginEffortLaw>(library, args, model);
+    return make_law(library, args, model);
   } catch (const ControllerLoadError& error) {
     SetError(header, error.problem());
   } catch (const std::exception& error) {
@@ -518,7 +536,7 @@ std::unique_ptr<PluginEffortLaw> LoadLaw(int socket_fd, void* shared, const std:
 
 // Answers sirupp-control's calls until it closes its end: each "go" byte runs Reset or Update on
 // the block's inputs and answers "done".
-int ServeCalls(int socket_fd, void* shared, PluginEffortLaw& law) {
+int ServeCalls(int socket_fd, void* shared, EffortLaw& law) {
   Header* header = HeaderOf(shared);
   const int n = header->num_joints;
   core::ArmState state;
@@ -575,9 +593,18 @@ int ServeCalls(int socket_fd, void* shared, PluginEffortLaw& law) {
 
 int RunControllerHost(int socket_fd, int shared_fd, const std::string& library,
                       const std::string& args) {
+  return RunControllerHost(
+      socket_fd, shared_fd, library, args,
+      [](const std::string& file, const std::string& text, const core::RobotModel& model) {
+        return std::make_unique<PluginEffortLaw>(file, text, model);
+      });
+}
+
+int RunControllerHost(int socket_fd, int shared_fd, const std::string& library,
+                      const std::string& args, const EffortLawFactory& make_law) {
   void* shared = MapSharedBlock(shared_fd);
   if (shared == nullptr) return 2;
-  const std::unique_ptr<PluginEffortLaw> law = LoadLaw(socket_fd, shared, library, args);
+  const std::unique_ptr<EffortLaw> law = LoadLaw(socket_fd, shared, library, args, make_law);
   if (law == nullptr) return 2;
   if (!SendByte(socket_fd, kReady)) return 0;
   return ServeCalls(socket_fd, shared, *law);

@@ -25,6 +25,8 @@
 #include <sys/types.h>
 
 #include <cstdint>
+#include <functional>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -35,7 +37,7 @@
 namespace sirupp::control {
 
 struct IsolationOptions {
-  // The host program; empty = sirupp-controller-host in the directory of the running program.
+  // The host program; empty = HostProgramFor(library) in the directory of the running program.
   std::string host_program;
   // Wall time one Reset or Update may take. A host still busy then is killed and the call fails
   // ("did not answer ... within"): in lockstep the sim waits for sirupp-control, so this limit is
@@ -110,10 +112,21 @@ class IsolatedEffortLaw : public EffortLaw {
   int hosts_started_ = 0;
 };
 
+// The host program that runs `library`, by its name: sirupp-python-controller-host for a
+// controller written in Python (*.py, python/), sirupp-controller-host for a shared library.
+std::string HostProgramName(const std::string& library);
+
 // The host's side (sirupp-controller-host): serves calls on `socket_fd` with the shared block
 // `shared_fd` until the socket closes. Returns the process exit code: 0, or 2 when the library
 // cannot be used (reported to the parent in the shared block first).
 int RunControllerHost(int socket_fd, int shared_fd, const std::string& library,
                       const std::string& args);
+
+// The same with the law made by `make_law` (which throws ControllerLoadError, or any
+// std::exception, when it cannot): how sirupp-python-controller-host runs a Python controller.
+using EffortLawFactory = std::function<std::unique_ptr<EffortLaw>(
+    const std::string& library, const std::string& args, const core::RobotModel& model)>;
+int RunControllerHost(int socket_fd, int shared_fd, const std::string& library,
+                      const std::string& args, const EffortLawFactory& make_law);
 
 }  // namespace sirupp::control

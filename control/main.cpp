@@ -30,8 +30,10 @@ constexpr const char* kAbout =
     "(any signal), an exception, a non-finite effort or a call that takes longer than\n"
     "--controller-tick-limit seconds (default 0.5, wall time) is a fault naming the library and\n"
     "the tick; the arm is braked and `sirupp clear-fault` starts the library afresh.\n"
+    "A file ending in .py is a controller written in Python (update(state) -> efforts), run the\n"
+    "same way by sirupp-python-controller-host (docs/python.md).\n"
     "--controller-in-process: load it into sirupp-control itself (for a debugger; a crash then\n"
-    "ends sirupp-control). See docs/student-controllers.md.\n"
+    "ends sirupp-control; not for .py). See docs/student-controllers.md.\n"
     "The host process runs sandboxed (docs/sandbox.md): no network, only /usr and the library's\n"
     "folder to read, a private /tmp, CPU, memory, process and file-size limits; where this\n"
     "machine cannot give the sandbox, --controller is refused with the reason. --no-sandbox runs\n"
@@ -59,6 +61,11 @@ std::shared_ptr<sirupp::control::EffortLaw> LoadController(const sirupp::runtime
   isolation.sandbox = !args.Switch("no-sandbox");
   const bool in_process = args.Switch("controller-in-process");
   std::shared_ptr<sirupp::control::EffortLaw> law;
+  if (in_process && sirupp::control::HostProgramName(args.String("controller")) !=
+                        "sirupp-controller-host") {
+    throw sirupp::core::UsageError("--controller-in-process: " + args.String("controller") +
+                                   " is a Python controller; it runs only in its host process");
+  }
   if (in_process) {
     law = std::make_shared<sirupp::control::PluginEffortLaw>(args.String("controller"),
                                                              controller_args, model);
@@ -95,7 +102,7 @@ int Run(const std::vector<std::string>& argv) {
        Flag("bridge-timeout", "seconds without a bridge status that lose the real arm")
            .Takes("S")
            .Above(0, 3600),
-       Flag("controller", "controller library (.so)").Takes("LIB.so"),
+       Flag("controller", "controller library (.so) or Python file (.py)").Takes("LIB.so"),
        Flag("controller-args", "arguments for the controller library").Takes("TEXT", -1),
        Flag("controller-tick-limit", "seconds one controller call may take")
            .Takes("S")

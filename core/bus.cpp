@@ -1,6 +1,7 @@
 #include "core/bus.hpp"
 
 #include <algorithm>
+#include <cerrno>
 #include <chrono>
 #include <cinttypes>
 #include <cstdio>
@@ -275,12 +276,18 @@ int Bus::Handle(int timeout_ms) {
   dispatching_ = true;
   ++dispatch_number_;
   // handleTimeout treats a negative timeout as an error, so "forever" is the blocking handle().
+  errno = 0;
   const int status =
       timeout_ms < 0 ? (lcm_.handle() == 0 ? 1 : -1) : lcm_.handleTimeout(timeout_ms);
+  // A signal that interrupted the wait (select() gives EINTR) is no failure of the bus: nothing
+  // was handled, as after a timeout, and the caller looks at its own signal flag (a Python
+  // program's Ctrl-C lands here when the signal reaches this thread).
+  const bool interrupted = status < 0 && errno == EINTR;
   dispatching_ = false;
   std::vector<Subscription*> removals;
   removals.swap(pending_removal_);
   for (Subscription* subscription : removals) Remove(subscription);
+  if (interrupted) return 0;
   if (status < 0) {
     throw BusError("LCM failed while waiting for messages on " + DescribeUrl(url_) + " (status " +
                    std::to_string(status) + ")");

@@ -61,9 +61,18 @@ FoundController FindSubmission(const std::string& folder, const std::string& inc
     found.spec.library = libraries.front().string();
     return found;
   }
+  // A controller written in Python runs in sirupp-control like a library (its host program is
+  // chosen by the file's name: control/isolated_law.hpp).
+  const std::vector<fs::path> python = FilesEnding(dir, ".py");
+  if (!python.empty()) {
+    found.spec.library = python.front().string();
+    return found;
+  }
   const std::vector<fs::path> sources = FilesEnding(dir, ".cpp");
   if (sources.empty()) {
-    found.problem = "no controller: expected a file 'command', a library (*.so) or sources (*.cpp)";
+    found.problem =
+        "no controller: expected a file 'command', a library (*.so), a Python controller (*.py) "
+        "or sources (*.cpp)";
     return found;
   }
   std::vector<std::string> source_names;

@@ -3,6 +3,7 @@
 //   command    a process controller: one line, the command with placeholders; words starting
 //              with "./" are taken relative to the folder
 //   *.so       a controller library (the first by name)
+//   *.py       else, a controller written in Python (the first by name; python/)
 //   *.cpp      a library's sources, built with g++ against include/sirupp/controller.h
 //              (grade/build_controller.hpp: fixed flags, a time limit, in the sandbox)
 //   args       optional: --controller-args for a library

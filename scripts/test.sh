@@ -5,6 +5,7 @@
 #   scripts/test.sh --asan     the same tests under AddressSanitizer + UBSan (build-asan/)
 #   scripts/test.sh --tsan     under ThreadSanitizer (build-tsan/)
 #   scripts/test.sh --long     also the long tests (label "long": the demo idle and under load)
+#                              (--asan also leaves out label "not-asan": the Python notebooks)
 # Options may be combined (--asan --werror). Further arguments go to ctest (e.g. -R Bus to run
 # only matching tests).
 set -euo pipefail
@@ -22,6 +23,11 @@ build=$("$root/scripts/build.sh" "${build_args[@]}" | tail -n 1)
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 cd "$build"
+# Excluded labels: "long" unless --long; under --asan also "not-asan" (multi-process tests whose
+# code the unit tests already cover under ASan: the Python notebooks).
+exclude=()
+[[ $long -eq 1 ]] || exclude+=(long)
+[[ " ${build_args[*]:-} " == *" --asan "* ]] && exclude+=(not-asan)
 select=()
-[[ $long -eq 1 ]] || select=(-LE long)
+[[ ${#exclude[@]} -eq 0 ]] || select=(-LE "$(IFS='|'; echo "${exclude[*]}")")
 exec ctest --output-on-failure --timeout 900 -j "$(nproc)" "${select[@]}" "$@"

@@ -55,7 +55,10 @@ for i in $(seq 1 "$runs"); do
     passed=$((passed + 1))
   else
     echo "FAIL: run $i: set VII right after launch"; cat "$work/plan$i.out"
-    grep -E "hardware is ready|ready after" "$work/run$i.launch.out"
+    cat "$work/run$i.launch.out"
+    for log in control sim hardware; do
+      echo "--- $log.log (end)"; tail -15 "$work/run$i/logs/$log.log"
+    done
     fail=1
   fi
   # The launcher took the bridge as ready only once its start guard had passed.
