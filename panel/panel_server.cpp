@@ -5,20 +5,7 @@
 #include <stdexcept>
 #include <thread>
 
-#if defined(__GNUC__)
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wconversion"
-#pragma GCC diagnostic ignored "-Wsign-conversion"
-#pragma GCC diagnostic ignored "-Wshadow"
-#pragma GCC diagnostic ignored "-Wold-style-cast"
-#pragma GCC diagnostic ignored "-Wuseless-cast"
-#pragma GCC diagnostic ignored "-Wdouble-promotion"
-#pragma GCC diagnostic ignored "-Wnull-dereference"
-#endif
-#include <httplib.h>
-#if defined(__GNUC__)
-#pragma GCC diagnostic pop
-#endif
+#include "panel/http_glue.hpp"
 
 namespace sirupp::panel {
 namespace {
@@ -31,6 +18,8 @@ double WallMs() {
                                  .count()) /
          1000.0;
 }
+
+}  // namespace
 
 Request ToRequest(const httplib::Request& req) {
   Request out;
@@ -50,7 +39,50 @@ void Send(const Response& from, httplib::Response& res) {
   res.set_content(from.body, from.content_type.c_str());
 }
 
-}  // namespace
+void StreamState(PanelHub& hub, PanelApi& api, double max_rate_hz, const httplib::Request& req,
+                 httplib::Response& res, std::shared_ptr<void> keep,
+                 std::function<void()> on_frame) {
+  double hz = max_rate_hz;
+  if (req.has_param("hz")) {
+    char* end = nullptr;
+    const std::string text = req.get_param_value("hz");
+    const double asked = std::strtod(text.c_str(), &end);
+    if (end == text.c_str() || *end != '\0' || !(asked > 0)) {
+      Send(ErrorResponse(400, "hz: a number > 0 (frames per second)"), res);
+      return;
+    }
+    hz = std::min(asked, max_rate_hz);
+  }
+  const auto period =
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / hz));
+  auto generation = std::make_shared<int64_t>(-1);
+  auto next = std::make_shared<Clock::time_point>(Clock::now());
+  res.set_header("Cache-Control", "no-store");
+  res.set_header("X-Accel-Buffering", "no");
+  res.set_chunked_content_provider(
+      "text/event-stream", [&hub, &api, period, generation, next, keep,
+                            on_frame](size_t, httplib::DataSink& sink) {
+        std::this_thread::sleep_until(*next);
+        *next = std::max(*next + period, Clock::now());
+        const int64_t now_generation = hub.WaitForState(*generation, std::chrono::seconds(1));
+        if (hub.stopping()) {
+          sink.done();
+          return true;
+        }
+        std::string frame;
+        if (now_generation == *generation) {
+          frame = ": idle\n\n";  // keeps proxies and the browser's connection alive
+        } else {
+          *generation = now_generation;
+          Json state = hub.StateJson();
+          state["lock"] = api.LockHolder();
+          state["sent_ms"] = WallMs();
+          frame = "data: " + state.dump(-1, ' ', false, Json::error_handler_t::replace) + "\n\n";
+        }
+        if (on_frame) on_frame();
+        return sink.write(frame.data(), frame.size());
+      });
+}
 
 bool IsLoopback(const std::string& address) {
   return address == "localhost" || address == "::1" || address.rfind("127.", 0) == 0;
@@ -80,7 +112,9 @@ struct PanelServer::Impl {
     server.set_mount_point("/js/three", options.js_dir + "/three");
     server.set_mount_point("/js/dygraphs", options.js_dir + "/dygraphs");
     server.Get("/api/events",
-               [this](const httplib::Request& req, httplib::Response& res) { Events(req, res); });
+               [this](const httplib::Request& req, httplib::Response& res) {
+                 StreamState(hub, api, options.max_rate_hz, req, res);
+               });
     const auto api_handler = [this](const httplib::Request& req, httplib::Response& res) {
       Send(api.Handle(ToRequest(req)), res);
     };
@@ -98,48 +132,6 @@ struct PanelServer::Impl {
           } catch (...) {
           }
           Send(ErrorResponse(500, what), res);
-        });
-  }
-
-  // The live state, one "data:" frame per change, at most `hz` per second.
-  void Events(const httplib::Request& req, httplib::Response& res) {
-    double hz = options.max_rate_hz;
-    if (req.has_param("hz")) {
-      char* end = nullptr;
-      const std::string text = req.get_param_value("hz");
-      const double asked = std::strtod(text.c_str(), &end);
-      if (end == text.c_str() || *end != '\0' || !(asked > 0)) {
-        Send(ErrorResponse(400, "hz: a number > 0 (frames per second)"), res);
-        return;
-      }
-      hz = std::min(asked, options.max_rate_hz);
-    }
-    const auto period =
-        std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / hz));
-    auto generation = std::make_shared<int64_t>(-1);
-    auto next = std::make_shared<Clock::time_point>(Clock::now());
-    res.set_header("Cache-Control", "no-store");
-    res.set_header("X-Accel-Buffering", "no");
-    res.set_chunked_content_provider(
-        "text/event-stream", [this, period, generation, next](size_t, httplib::DataSink& sink) {
-          std::this_thread::sleep_until(*next);
-          *next = std::max(*next + period, Clock::now());
-          const int64_t now_generation = hub.WaitForState(*generation, std::chrono::seconds(1));
-          if (hub.stopping()) {
-            sink.done();
-            return true;
-          }
-          std::string frame;
-          if (now_generation == *generation) {
-            frame = ": idle\n\n";  // keeps proxies and the browser's connection alive
-          } else {
-            *generation = now_generation;
-            Json state = hub.StateJson();
-            state["lock"] = api.LockHolder();
-            state["sent_ms"] = WallMs();
-            frame = "data: " + state.dump(-1, ' ', false, Json::error_handler_t::replace) + "\n\n";
-          }
-          return sink.write(frame.data(), frame.size());
         });
   }
 };
