@@ -310,10 +310,20 @@ struct ClassServer::Impl {
 
   // --- rigs -------------------------------------------------------------------------------------
 
-  void PrepareFolder(const std::string& folder) {
-    if (fs::exists(folder + "/config")) return;
-    fs::create_directories(folder);
-    fs::copy(options.config_dir, folder + "/config", fs::copy_options::recursive);
+  // A new student's folder gets a copy of config/ (what the panel's file lists show and where a
+  // saved model goes). The class's robot model is copied into it at every start, so the rig runs
+  // a file the student's panel may read. Returns the rig's model file.
+  std::string PrepareFolder(const std::string& folder) {
+    if (!fs::exists(folder + "/config")) {
+      fs::create_directories(folder);
+      fs::copy(options.config_dir, folder + "/config", fs::copy_options::recursive);
+    }
+    fs::create_directories(folder + "/config/robots");
+    const std::string model = folder + "/config/robots/" + fs::path(config.robot).filename().string();
+    if (fs::absolute(model).lexically_normal() != fs::path(config.robot)) {
+      fs::copy_file(config.robot, model, fs::copy_options::overwrite_existing);
+    }
+    return model;
   }
 
   // Starts the seat's rig unless it runs. Returns "" or why it cannot (for a 503).
@@ -337,11 +347,10 @@ struct ClassServer::Impl {
       seat.lease = grade::PortLease::Acquire(config.first_port, config.port_count,
                                              static_cast<int>(NowNs() % config.port_count));
       const std::string folder = StudentFolder(config, seat.name);
-      PrepareFolder(folder);
       RigSpec spec;
+      spec.robot = PrepareFolder(folder);
       spec.student = seat.name;
       spec.bin_dir = options.bin_dir;
-      spec.robot = config.robot;
       spec.folder = folder;
       spec.port = seat.lease.port();
       spec.limits = ChildLimits{config.rig_nice, config.rig_memory_mb};
