@@ -779,17 +779,7 @@ struct ClassServer::Impl {
                   "no such page: " + core::Printable(req.path, 100));
       }
     });
-    server->set_exception_handler(
-        [](const httplib::Request&, httplib::Response& res, std::exception_ptr error) {
-          std::string what = "internal error";
-          try {
-            if (error) std::rethrow_exception(error);
-          } catch (const std::exception& e) {
-            what = e.what();
-          } catch (...) {
-          }
-          SendError(res, 500, what);
-        });
+    panel::AnswerExceptionsWith500(*server);
   }
 };
 
@@ -801,18 +791,7 @@ ClassServer::ClassServer(ClassConfig config, ServeOptions options)
 ClassServer::~ClassServer() { Stop(); }
 
 int ClassServer::Bind() {
-  const ClassConfig& c = impl_->config;
-  if (c.port == 0) {
-    impl_->port = impl_->server->bind_to_any_port(c.listen.c_str());
-  } else if (impl_->server->bind_to_port(c.listen.c_str(), c.port)) {
-    impl_->port = c.port;
-  } else {
-    impl_->port = -1;
-  }
-  if (impl_->port <= 0) {
-    throw std::runtime_error("cannot listen on " + c.listen + ":" + std::to_string(c.port) +
-                             " (address not on this computer, or the port is in use)");
-  }
+  impl_->port = panel::BindServer(*impl_->server, impl_->config.listen, impl_->config.port);
   return impl_->port;
 }
 

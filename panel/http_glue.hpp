@@ -28,4 +28,10 @@ void StreamState(PanelHub& hub, PanelApi& api, double max_rate_hz, const httplib
                  httplib::Response& res, std::shared_ptr<void> keep = nullptr,
                  std::function<void()> on_frame = {});
 
+// Binds `server` to listen:port (port 0: any free port) and returns the port; throws
+// std::runtime_error naming the address when it cannot.
+int BindServer(httplib::Server& server, const std::string& listen, int port);
+// A handler that throws is answered 500 {"error": what}, never a crash.
+void AnswerExceptionsWith500(httplib::Server& server);
+
 }  // namespace sirupp::panel

@@ -84,6 +84,34 @@ void StreamState(PanelHub& hub, PanelApi& api, double max_rate_hz, const httplib
       });
 }
 
+int BindServer(httplib::Server& server, const std::string& listen, int port) {
+  int bound = -1;
+  if (port == 0) {
+    bound = server.bind_to_any_port(listen.c_str());
+  } else if (server.bind_to_port(listen.c_str(), port)) {
+    bound = port;
+  }
+  if (bound <= 0) {
+    throw std::runtime_error("cannot listen on " + listen + ":" + std::to_string(port) +
+                             " (address not on this computer, or the port is in use)");
+  }
+  return bound;
+}
+
+void AnswerExceptionsWith500(httplib::Server& server) {
+  server.set_exception_handler(
+      [](const httplib::Request&, httplib::Response& res, std::exception_ptr error) {
+        std::string what = "internal error";
+        try {
+          if (error) std::rethrow_exception(error);
+        } catch (const std::exception& e) {
+          what = e.what();
+        } catch (...) {
+        }
+        Send(ErrorResponse(500, what), res);
+      });
+}
+
 bool IsLoopback(const std::string& address) {
   return address == "localhost" || address == "::1" || address.rfind("127.", 0) == 0;
 }
@@ -122,17 +150,7 @@ struct PanelServer::Impl {
     server.Post(R"(/api/.*)", api_handler);
     server.Put(R"(/api/.*)", api_handler);
     server.Delete(R"(/api/.*)", api_handler);
-    server.set_exception_handler(
-        [](const httplib::Request&, httplib::Response& res, std::exception_ptr error) {
-          std::string what = "internal error";
-          try {
-            if (error) std::rethrow_exception(error);
-          } catch (const std::exception& e) {
-            what = e.what();
-          } catch (...) {
-          }
-          Send(ErrorResponse(500, what), res);
-        });
+    AnswerExceptionsWith500(server);
   }
 };
 
@@ -144,18 +162,7 @@ PanelServer::PanelServer(PanelHub& hub, PanelApi& api, ServerOptions options)
 PanelServer::~PanelServer() { Stop(); }
 
 int PanelServer::Bind() {
-  const ServerOptions& o = impl_->options;
-  if (o.port == 0) {
-    impl_->port = impl_->server.bind_to_any_port(o.listen.c_str());
-  } else if (impl_->server.bind_to_port(o.listen.c_str(), o.port)) {
-    impl_->port = o.port;
-  } else {
-    impl_->port = -1;
-  }
-  if (impl_->port <= 0) {
-    throw std::runtime_error("cannot listen on " + o.listen + ":" + std::to_string(o.port) +
-                             " (address not on this computer, or the port is in use)");
-  }
+  impl_->port = BindServer(impl_->server, impl_->options.listen, impl_->options.port);
   return impl_->port;
 }
 

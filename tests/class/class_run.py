@@ -16,7 +16,7 @@ import urllib.error
 import urllib.request
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "panel"))
-from panel_rig import wait_for  # noqa: E402,F401  (re-exported for the tests)
+from panel_rig import Rig, wait_for  # noqa: E402,F401  (wait_for re-exported for the tests)
 
 
 class ClassRun:
@@ -104,17 +104,8 @@ class ClassRun:
         return out
 
     def browser(self, width=1400, height=900):
-        from selenium import webdriver
-        from selenium.webdriver.chrome.options import Options
-        from selenium.webdriver.chrome.service import Service
-        o = Options()
-        for a in ("--headless=new", "--no-sandbox", "--enable-unsafe-swiftshader",
-                  f"--window-size={width},{height}", "--disable-gpu-sandbox"):
-            o.add_argument(a)
-        o.set_capability("goog:loggingPrefs", {"browser": "ALL"})
-        d = webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=o)
-        self.drivers.append(d)
-        return d
+        """Headless Chromium as the panel's tests start it; ended by stop()."""
+        return Rig.browser(self, width, height)  # it only keeps the driver in self.drivers
 
     def stop(self):
         for d in self.drivers:
