@@ -13,8 +13,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const std::vector<std::string> kTopKeys = {"class",  "description", "robot", "students",
-                                           "data",   "limits",      "server", "rigs"};
+const std::vector<std::string> kTopKeys = {"class", "description", "robot",  "students",
+                                           "data",  "limits",      "server", "rigs"};
 const std::vector<std::string> kLimitKeys = {"max_rigs", "idle_timeout_s", "rig_memory_mb",
                                              "rig_nice"};
 const std::vector<std::string> kServerKeys = {"listen", "port", "public_url", "tls_cert",
@@ -24,8 +24,9 @@ const std::vector<std::string> kRigKeys = {"first_port", "port_count"};
 std::string CheckedName(const core::YamlValue& value, const std::string& what) {
   const std::string text = value.String();
   if (!IsValidName(text)) {
-    value.Fail("'" + text + "' is not a valid " + what +
-               "; allowed: 1 to 32 letters, digits, '-', '_' and '.', not starting with '.' or '-'");
+    value.Fail(
+        "'" + text + "' is not a valid " + what +
+        "; allowed: 1 to 32 letters, digits, '-', '_' and '.', not starting with '.' or '-'");
   }
   return text;
 }
@@ -69,7 +70,8 @@ ClassConfig Read(const core::YamlDocument& document, const std::string& base_dir
   config.data_dir = Absolute(top.Get("data", "the class's data folder").String(), base_dir);
   if (const auto limits = top.Find("limits")) {
     const core::YamlMap map = limits->Map(kLimitKeys);
-    if (const auto v = map.Find("max_rigs")) config.max_rigs = static_cast<int>(v->Integer(1, 1000));
+    if (const auto v = map.Find("max_rigs"))
+      config.max_rigs = static_cast<int>(v->Integer(1, 1000));
     config.idle_timeout_s =
         map.NumberOr("idle_timeout_s", config.idle_timeout_s, core::NumberInRange(1, 86400, "s"));
     if (const auto v = map.Find("rig_memory_mb")) {
@@ -129,8 +131,8 @@ ClassConfig Read(const core::YamlDocument& document, const std::string& base_dir
 bool IsValidName(const std::string& name) {
   if (name.empty() || name.size() > 32 || name[0] == '.' || name[0] == '-') return false;
   return std::all_of(name.begin(), name.end(), [](char c) {
-    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') ||
-           c == '-' || c == '_' || c == '.';
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '-' ||
+           c == '_' || c == '.';
   });
 }
 

@@ -1,9 +1,9 @@
 #pragma once
-// The class file (CLASS.yaml) behind `sirupp class serve`: the class's name, its students, the robot
-// model every rig runs, the limits (most rigs at once, idle timeout, a rig's memory and niceness),
-// where the class's data lives, and how the server listens. Read strictly like every other config
-// file: unknown keys, wrong types and bad values are one core::ConfigError naming file:line, the key,
-// the bad value and what is allowed.
+// The class file (CLASS.yaml) behind `sirupp class serve`: the class's name, its students, the
+// robot model every rig runs, the limits (most rigs at once, idle timeout, a rig's memory and
+// niceness), where the class's data lives, and how the server listens. Read strictly like every
+// other config file: unknown keys, wrong types and bad values are one core::ConfigError naming
+// file:line, the key, the bad value and what is allowed.
 //
 //   class: robotics-2026              # letters, digits, '-', '_', '.'
 //   robot: config/robots/puma260.yaml # relative to the class file's folder, else the source tree
@@ -31,7 +31,7 @@ struct ClassConfig {
   int rig_memory_mb = 2048;  // address-space limit of each rig process; 0 = none
   int rig_nice = 5;          // niceness of each rig process (0..19)
   std::string listen = "127.0.0.1";
-  int port = 8800;  // 0 = any free port
+  int port = 8800;         // 0 = any free port
   std::string public_url;  // the address in the tokens file; "" = http(s)://listen:port
   std::string tls_cert;    // both or neither; absolute
   std::string tls_key;

@@ -3,13 +3,13 @@
 #include <algorithm>
 #include <atomic>
 #include <condition_variable>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <mutex>
 #include <ostream>
 #include <regex>
-#include <ctime>
 #include <sstream>
 #include <thread>
 
@@ -101,11 +101,20 @@ std::string HtmlEscape(const std::string& text) {
   std::string out;
   for (const char c : text) {
     switch (c) {
-      case '<': out += "&lt;"; break;
-      case '>': out += "&gt;"; break;
-      case '&': out += "&amp;"; break;
-      case '"': out += "&quot;"; break;
-      default: out += c;
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '&':
+        out += "&amp;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
     }
   }
   return out;
@@ -219,8 +228,8 @@ struct ClassServer::Impl {
     if (config.tls_cert.empty()) {
       server = std::make_unique<httplib::Server>();
     } else {
-      auto tls = std::make_unique<httplib::SSLServer>(config.tls_cert.c_str(),
-                                                      config.tls_key.c_str());
+      auto tls =
+          std::make_unique<httplib::SSLServer>(config.tls_cert.c_str(), config.tls_key.c_str());
       if (!tls->is_valid()) {
         throw std::runtime_error("cannot use the certificate " + config.tls_cert + " with key " +
                                  config.tls_key + " (unreadable, or not a matching PEM pair)");
@@ -282,9 +291,9 @@ struct ClassServer::Impl {
     const std::string where =
         student_name.empty() ? "/teacher/" : "/s/" + core::Printable(student_name, 40) + "/";
     if (offered.empty()) {
-      SendError(res, 403,
-                "no token: open the address with ?token=... that your teacher gave you (" + where +
-                    ")");
+      SendError(
+          res, 403,
+          "no token: open the address with ?token=... that your teacher gave you (" + where + ")");
     } else {
       throttle.Failed(req.remote_addr, Clock::now());
       Log("refused a bad token for " + where + " from " + req.remote_addr);
@@ -302,8 +311,8 @@ struct ClassServer::Impl {
       return false;
     }
     const std::string secure = config.tls_cert.empty() ? "" : "; Secure";
-    res.set_header("Set-Cookie", cookie + "=" + req.get_param_value("token") +
-                                     "; Path=" + path + "; HttpOnly; SameSite=Strict" + secure);
+    res.set_header("Set-Cookie", cookie + "=" + req.get_param_value("token") + "; Path=" + path +
+                                     "; HttpOnly; SameSite=Strict" + secure);
     res.set_redirect(page, 303);
     return true;
   }
@@ -319,7 +328,8 @@ struct ClassServer::Impl {
       fs::copy(options.config_dir, folder + "/config", fs::copy_options::recursive);
     }
     fs::create_directories(folder + "/config/robots");
-    const std::string model = folder + "/config/robots/" + fs::path(config.robot).filename().string();
+    const std::string model =
+        folder + "/config/robots/" + fs::path(config.robot).filename().string();
     if (fs::absolute(model).lexically_normal() != fs::path(config.robot)) {
       fs::copy_file(config.robot, model, fs::copy_options::overwrite_existing);
     }
@@ -444,11 +454,16 @@ struct ClassServer::Impl {
     {
       const std::lock_guard<std::mutex> info(seat.info_mutex);
       rig_panel = seat.panel;
-      out = Json{{"name", seat.name},     {"state", seat.state},
-                 {"starts", seat.starts}, {"start_s", seat.start_s},
-                 {"last_stop", seat.last_stop}, {"cpu_percent", seat.cpu},
-                 {"port", seat.port},     {"started_at", seat.started_at},
-                 {"idle_s", seat.IdleSeconds()}, {"streams", seat.streams.load()}};
+      out = Json{{"name", seat.name},
+                 {"state", seat.state},
+                 {"starts", seat.starts},
+                 {"start_s", seat.start_s},
+                 {"last_stop", seat.last_stop},
+                 {"cpu_percent", seat.cpu},
+                 {"port", seat.port},
+                 {"started_at", seat.started_at},
+                 {"idle_s", seat.IdleSeconds()},
+                 {"streams", seat.streams.load()}};
     }
     if (live && rig_panel) {
       const Json state = rig_panel->hub->StateJson();
@@ -566,7 +581,8 @@ struct ClassServer::Impl {
       }
       if (MissingClient(req, res)) return;
       if (role != Role::kStudent) {
-        SendError(res, 403, "only " + name + " starts this rig (the teacher restarts it from /teacher/)");
+        SendError(res, 403,
+                  "only " + name + " starts this rig (the teacher restarts it from /teacher/)");
         return;
       }
       const std::string why = EnsureRig(*seat);
@@ -589,8 +605,8 @@ struct ClassServer::Impl {
     if (rest == "class.css" && ServeFileUnder(options.class_web_dir, "class.css", res)) return;
     for (const char* library : {"three", "dygraphs"}) {
       const std::string prefix = std::string("js/") + library + "/";
-      if (rest.rfind(prefix, 0) == 0 &&
-          ServeFileUnder(options.js_dir + "/" + std::string(library), rest.substr(prefix.size()), res)) {
+      if (rest.rfind(prefix, 0) == 0 && ServeFileUnder(options.js_dir + "/" + std::string(library),
+                                                       rest.substr(prefix.size()), res)) {
         return;
       }
     }
@@ -705,7 +721,8 @@ struct ClassServer::Impl {
     if (std::regex_match(rest, match, kRigVerb)) {
       Seat* seat = Find(match[1].str());
       if (seat == nullptr) {
-        SendError(res, 404, "no student '" + core::Printable(match[1].str(), 40) + "' in this class");
+        SendError(res, 404,
+                  "no student '" + core::Printable(match[1].str(), 40) + "' in this class");
         return;
       }
       const std::string verb = match[2];
@@ -730,22 +747,20 @@ struct ClassServer::Impl {
     res.set_header("Cache-Control", "no-store");
     res.set_header("X-Accel-Buffering", "no");
     auto next = std::make_shared<Clock::time_point>(Clock::now());
-    res.set_chunked_content_provider("text/event-stream",
-                                     [this, next](size_t, httplib::DataSink& sink) {
-                                       std::this_thread::sleep_until(*next);
-                                       *next = std::max(*next + std::chrono::milliseconds(500),
-                                                        Clock::now());
-                                       {
-                                         const std::lock_guard<std::mutex> lock(monitor_mutex);
-                                         if (stopping) {
-                                           sink.done();
-                                           return true;
-                                         }
-                                       }
-                                       const std::string frame = "data: " + ClassJson().dump() +
-                                                                 "\n\n";
-                                       return sink.write(frame.data(), frame.size());
-                                     });
+    res.set_chunked_content_provider(
+        "text/event-stream", [this, next](size_t, httplib::DataSink& sink) {
+          std::this_thread::sleep_until(*next);
+          *next = std::max(*next + std::chrono::milliseconds(500), Clock::now());
+          {
+            const std::lock_guard<std::mutex> lock(monitor_mutex);
+            if (stopping) {
+              sink.done();
+              return true;
+            }
+          }
+          const std::string frame = "data: " + ClassJson().dump() + "\n\n";
+          return sink.write(frame.data(), frame.size());
+        });
   }
 
   void Routes() {
@@ -766,7 +781,9 @@ struct ClassServer::Impl {
     server->Get(student_path, student);
     server->Post(student_path, student);
     server->Get(R"(/s/([^/]+))", [](const httplib::Request& req, httplib::Response& res) {
-      res.set_redirect(req.path + "/" + (req.has_param("token") ? "?token=" + req.get_param_value("token") : ""), 303);
+      res.set_redirect(
+          req.path + "/" + (req.has_param("token") ? "?token=" + req.get_param_value("token") : ""),
+          303);
     });
     const auto teacher = [this](const httplib::Request& req, httplib::Response& res) {
       Teacher(req, res);

@@ -62,10 +62,10 @@ class ProcessLauncher {
 
 struct RigSpec {
   std::string student;
-  std::string bin_dir;     // where sirupp-sim, sirupp-control, sirupp-logger are
-  std::string robot;       // model file
-  std::string folder;      // the student's folder: config/ (their copy), results/, logs/
-  int port = 0;            // udpm port, ttl=0
+  std::string bin_dir;  // where sirupp-sim, sirupp-control, sirupp-logger are
+  std::string robot;    // model file
+  std::string folder;   // the student's folder: config/ (their copy), results/, logs/
+  int port = 0;         // udpm port, ttl=0
   ChildLimits limits;
   double ready_timeout_s = 10;
   double stop_grace_s = 3;

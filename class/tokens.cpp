@@ -76,7 +76,8 @@ std::string Sha256Hex(const std::string& bytes) {
 std::string RandomHex(int count) {
   std::string bytes(static_cast<size_t>(count), '\0');
   auto* data = reinterpret_cast<unsigned char*>(bytes.data());
-  if (RAND_bytes(data, count) != 1) throw std::runtime_error("no random bytes (OpenSSL RAND_bytes)");
+  if (RAND_bytes(data, count) != 1)
+    throw std::runtime_error("no random bytes (OpenSSL RAND_bytes)");
   return Hex(data, bytes.size());
 }
 
@@ -105,7 +106,8 @@ void TokenStore::Load() const {
   } catch (const std::exception& e) {
     throw core::ConfigError(where, "", std::string("not a tokens file: ") + e.what());
   }
-  if (!json.is_object()) throw core::ConfigError(where, "", "not a tokens file: expected an object");
+  if (!json.is_object())
+    throw core::ConfigError(where, "", "not a tokens file: expected an object");
   std::map<std::string, Entry> entries;
   for (const auto& [name, entry] : json.items()) {
     if (!entry.is_object() || !entry.contains("salt") || !entry.contains("sha256") ||
@@ -116,8 +118,8 @@ void TokenStore::Load() const {
     if (entry.contains("issued") && entry.at("issued").is_string()) {
       issued = entry.at("issued").get<std::string>();
     }
-    entries[name] = Entry{entry.at("salt").get<std::string>(),
-                          entry.at("sha256").get<std::string>(), issued};
+    entries[name] =
+        Entry{entry.at("salt").get<std::string>(), entry.at("sha256").get<std::string>(), issued};
   }
   entries_ = std::move(entries);
   read_time_ = time;
@@ -190,10 +192,9 @@ void BadTokenThrottle::Failed(const std::string& address, Clock::time_point now)
   state.last = now;
   ++state.failures;
   if (state.failures >= kFreeFailures) {
-    const double lockout =
-        std::min(kMaxLockoutS, std::pow(2.0, state.failures - kFreeFailures));
-    state.locked_until = now + std::chrono::duration_cast<Clock::duration>(
-                                   std::chrono::duration<double>(lockout));
+    const double lockout = std::min(kMaxLockoutS, std::pow(2.0, state.failures - kFreeFailures));
+    state.locked_until =
+        now + std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(lockout));
   }
 }
 

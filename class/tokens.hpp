@@ -77,6 +77,7 @@ class BadTokenThrottle {
 };
 
 // Appends "name,address" rows to the teacher's handout file (made with mode 0600 and a header).
-void AppendHandout(const std::string& file, const std::vector<std::pair<std::string, std::string>>& rows);
+void AppendHandout(const std::string& file,
+                   const std::vector<std::pair<std::string, std::string>>& rows);
 
 }  // namespace sirupp::classroom

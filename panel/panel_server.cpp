@@ -60,8 +60,8 @@ void StreamState(PanelHub& hub, PanelApi& api, double max_rate_hz, const httplib
   res.set_header("Cache-Control", "no-store");
   res.set_header("X-Accel-Buffering", "no");
   res.set_chunked_content_provider(
-      "text/event-stream", [&hub, &api, period, generation, next, keep,
-                            on_frame](size_t, httplib::DataSink& sink) {
+      "text/event-stream",
+      [&hub, &api, period, generation, next, keep, on_frame](size_t, httplib::DataSink& sink) {
         std::this_thread::sleep_until(*next);
         *next = std::max(*next + period, Clock::now());
         const int64_t now_generation = hub.WaitForState(*generation, std::chrono::seconds(1));
@@ -139,10 +139,9 @@ struct PanelServer::Impl {
     // Only the two libraries the page uses, not all of /usr/share/javascript.
     server.set_mount_point("/js/three", options.js_dir + "/three");
     server.set_mount_point("/js/dygraphs", options.js_dir + "/dygraphs");
-    server.Get("/api/events",
-               [this](const httplib::Request& req, httplib::Response& res) {
-                 StreamState(hub, api, options.max_rate_hz, req, res);
-               });
+    server.Get("/api/events", [this](const httplib::Request& req, httplib::Response& res) {
+      StreamState(hub, api, options.max_rate_hz, req, res);
+    });
     const auto api_handler = [this](const httplib::Request& req, httplib::Response& res) {
       Send(api.Handle(ToRequest(req)), res);
     };

@@ -69,8 +69,8 @@ TEST(ClassConfigTest, BadFilesNameLineKeyAndWhatIsAllowed) {
     EXPECT_NE(e.find("colour"), std::string::npos) << e;
   }
   {
-    const std::string e = ErrorOf(
-        "class: a\nrobot: config/robots/puma260.yaml\nstudents: [alice, alice]\ndata: d\n");
+    const std::string e =
+        ErrorOf("class: a\nrobot: config/robots/puma260.yaml\nstudents: [alice, alice]\ndata: d\n");
     EXPECT_NE(e.find("c.yaml:3"), std::string::npos) << e;
     EXPECT_NE(e.find("listed twice"), std::string::npos) << e;
   }
@@ -330,11 +330,13 @@ TEST_F(ClassServerTest, AStudentsRigStartsOnTheFirstVisitAndIsTheirsAlone) {
   // A question of the page reaches the rig's API; a command moves it (with the lock).
   r = Post("/s/alice/api/lock", tokens_["alice"], R"({"name": "alice"})");
   EXPECT_EQ(r->status, 200) << r->body;
-  r = Post("/s/alice/api/move/joints", tokens_["alice"], R"({"targets": [10, null, null, null, null, null]})");
+  r = Post("/s/alice/api/move/joints", tokens_["alice"],
+           R"({"targets": [10, null, null, null, null, null]})");
   EXPECT_EQ(r->status, 200) << r->body;
   // The teacher's token reads it, but may not command it.
   EXPECT_EQ(Get("/s/alice/api/state", tokens_["teacher"])->status, 200);
-  r = Post("/s/alice/api/move/joints", tokens_["teacher"], R"({"targets": [0, null, null, null, null, null]})");
+  r = Post("/s/alice/api/move/joints", tokens_["teacher"],
+           R"({"targets": [0, null, null, null, null, null]})");
   EXPECT_EQ(r->status, 403);
   EXPECT_NE(Error(r).find("read-only"), std::string::npos) << Error(r);
   // Static files and the JavaScript libraries under the prefix; no escape from them.
@@ -378,11 +380,13 @@ namespace {
 // openssl command); a key that does not match is refused at start with both paths named.
 TEST(ClassServerTlsTest, ServesHttpsWithTheGivenCertificate) {
   const std::string dir = TempDir("sirupp-class-tls");
-  const std::string make = "openssl req -x509 -newkey rsa:2048 -nodes -days 1 -subj /CN=localhost"
-                           " -keyout " + dir + "/key.pem -out " + dir + "/cert.pem 2>/dev/null";
+  const std::string make =
+      "openssl req -x509 -newkey rsa:2048 -nodes -days 1 -subj /CN=localhost"
+      " -keyout " +
+      dir + "/key.pem -out " + dir + "/cert.pem 2>/dev/null";
   if (std::system(make.c_str()) != 0) GTEST_SKIP() << "no openssl command";
-  ClassConfig config = ParseClassConfig(
-      std::string(kGood) + "rigs: {first_port: 7900}\n", "class.yaml", dir);
+  ClassConfig config =
+      ParseClassConfig(std::string(kGood) + "rigs: {first_port: 7900}\n", "class.yaml", dir);
   config.tls_cert = dir + "/cert.pem";
   config.tls_key = dir + "/key.pem";
   ServeOptions options;
@@ -405,9 +409,9 @@ TEST(ClassServerTlsTest, ServesHttpsWithTheGivenCertificate) {
   server.Stop();
   serving.join();
   // A key of another pair: refused at start.
-  (void)std::system(("openssl req -x509 -newkey rsa:2048 -nodes -days 1 -subj /CN=x -keyout " + dir +
-               "/other.pem -out " + dir + "/other-cert.pem 2>/dev/null")
-                  .c_str());
+  (void)std::system(("openssl req -x509 -newkey rsa:2048 -nodes -days 1 -subj /CN=x -keyout " +
+                     dir + "/other.pem -out " + dir + "/other-cert.pem 2>/dev/null")
+                        .c_str());
   config.tls_key = dir + "/other.pem";
   try {
     ClassServer refused(config, options);

@@ -43,8 +43,9 @@ int RunClassTokens(const std::vector<std::string>& args, std::ostream& out) {
   const runtime::Args parsed(
       args, "class tokens",
       {ClassFileFlag(),
-       runtime::Flag("reissue", "a new token for NAME (a student, or teacher); the old one stops "
-                                "working")
+       runtime::Flag("reissue",
+                     "a new token for NAME (a student, or teacher); the old one stops "
+                     "working")
            .Takes("NAME")},
       "Issues the missing tokens (or, with --reissue, a new one), appends each address to\n"
       "DATA/tokens.csv and prints it. Tokens are stored hashed: an address cannot be shown again,\n"
@@ -63,13 +64,13 @@ int RunClassTokens(const std::vector<std::string>& args, std::ostream& out) {
 }
 
 int RunClassServe(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
-  const runtime::Args parsed(
-      args, "class serve",
-      {ClassFileFlag(), runtime::Flag("port", "override the class file's port (0: any free)")
-                            .Takes("N")
-                            .Integer(0, 65535),
-       runtime::Flag("duration", "stop after S seconds (tests)").Takes("S")},
-      kServeAbout);
+  const runtime::Args parsed(args, "class serve",
+                             {ClassFileFlag(),
+                              runtime::Flag("port", "override the class file's port (0: any free)")
+                                  .Takes("N")
+                                  .Integer(0, 65535),
+                              runtime::Flag("duration", "stop after S seconds (tests)").Takes("S")},
+                             kServeAbout);
   classroom::ClassConfig config = classroom::LoadClassConfig(parsed.String("class-file"));
   if (parsed.Has("port")) config.port = static_cast<int>(parsed.Integer("port", config.port));
   const double duration = parsed.Number("duration", 0);
