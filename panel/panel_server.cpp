@@ -5,20 +5,7 @@
 #include <stdexcept>
 #include <thread>
 
-#if defined(__GNUC__)
-#pragma GCC diagnostic push
-#pragma GCC diagnostic ignored "-Wconversion"
-#pragma GCC diagnostic ignored "-Wsign-conversion"
-#pragma GCC diagnostic ignored "-Wshadow"
-#pragma GCC diagnostic ignored "-Wold-style-cast"
-#pragma GCC diagnostic ignored "-Wuseless-cast"
-#pragma GCC diagnostic ignored "-Wdouble-promotion"
-#pragma GCC diagnostic ignored "-Wnull-dereference"
-#endif
-#include <httplib.h>
-#if defined(__GNUC__)
-#pragma GCC diagnostic pop
-#endif
+#include "panel/http_glue.hpp"
 
 namespace sirupp::panel {
 namespace {
@@ -31,6 +18,8 @@ double WallMs() {
                                  .count()) /
          1000.0;
 }
+
+}  // namespace
 
 Request ToRequest(const httplib::Request& req) {
   Request out;
@@ -50,7 +39,78 @@ void Send(const Response& from, httplib::Response& res) {
   res.set_content(from.body, from.content_type.c_str());
 }
 
-}  // namespace
+void StreamState(PanelHub& hub, PanelApi& api, double max_rate_hz, const httplib::Request& req,
+                 httplib::Response& res, std::shared_ptr<void> keep,
+                 std::function<void()> on_frame) {
+  double hz = max_rate_hz;
+  if (req.has_param("hz")) {
+    char* end = nullptr;
+    const std::string text = req.get_param_value("hz");
+    const double asked = std::strtod(text.c_str(), &end);
+    if (end == text.c_str() || *end != '\0' || !(asked > 0)) {
+      Send(ErrorResponse(400, "hz: a number > 0 (frames per second)"), res);
+      return;
+    }
+    hz = std::min(asked, max_rate_hz);
+  }
+  const auto period =
+      std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / hz));
+  auto generation = std::make_shared<int64_t>(-1);
+  auto next = std::make_shared<Clock::time_point>(Clock::now());
+  res.set_header("Cache-Control", "no-store");
+  res.set_header("X-Accel-Buffering", "no");
+  res.set_chunked_content_provider(
+      "text/event-stream",
+      [&hub, &api, period, generation, next, keep, on_frame](size_t, httplib::DataSink& sink) {
+        std::this_thread::sleep_until(*next);
+        *next = std::max(*next + period, Clock::now());
+        const int64_t now_generation = hub.WaitForState(*generation, std::chrono::seconds(1));
+        if (hub.stopping()) {
+          sink.done();
+          return true;
+        }
+        std::string frame;
+        if (now_generation == *generation) {
+          frame = ": idle\n\n";  // keeps proxies and the browser's connection alive
+        } else {
+          *generation = now_generation;
+          Json state = hub.StateJson();
+          state["lock"] = api.LockHolder();
+          state["sent_ms"] = WallMs();
+          frame = "data: " + state.dump(-1, ' ', false, Json::error_handler_t::replace) + "\n\n";
+        }
+        if (on_frame) on_frame();
+        return sink.write(frame.data(), frame.size());
+      });
+}
+
+int BindServer(httplib::Server& server, const std::string& listen, int port) {
+  int bound = -1;
+  if (port == 0) {
+    bound = server.bind_to_any_port(listen.c_str());
+  } else if (server.bind_to_port(listen.c_str(), port)) {
+    bound = port;
+  }
+  if (bound <= 0) {
+    throw std::runtime_error("cannot listen on " + listen + ":" + std::to_string(port) +
+                             " (address not on this computer, or the port is in use)");
+  }
+  return bound;
+}
+
+void AnswerExceptionsWith500(httplib::Server& server) {
+  server.set_exception_handler(
+      [](const httplib::Request&, httplib::Response& res, std::exception_ptr error) {
+        std::string what = "internal error";
+        try {
+          if (error) std::rethrow_exception(error);
+        } catch (const std::exception& e) {
+          what = e.what();
+        } catch (...) {
+        }
+        Send(ErrorResponse(500, what), res);
+      });
+}
 
 bool IsLoopback(const std::string& address) {
   return address == "localhost" || address == "::1" || address.rfind("127.", 0) == 0;
@@ -79,8 +139,9 @@ struct PanelServer::Impl {
     // Only the two libraries the page uses, not all of /usr/share/javascript.
     server.set_mount_point("/js/three", options.js_dir + "/three");
     server.set_mount_point("/js/dygraphs", options.js_dir + "/dygraphs");
-    server.Get("/api/events",
-               [this](const httplib::Request& req, httplib::Response& res) { Events(req, res); });
+    server.Get("/api/events", [this](const httplib::Request& req, httplib::Response& res) {
+      StreamState(hub, api, options.max_rate_hz, req, res);
+    });
     const auto api_handler = [this](const httplib::Request& req, httplib::Response& res) {
       Send(api.Handle(ToRequest(req)), res);
     };
@@ -88,59 +149,7 @@ struct PanelServer::Impl {
     server.Post(R"(/api/.*)", api_handler);
     server.Put(R"(/api/.*)", api_handler);
     server.Delete(R"(/api/.*)", api_handler);
-    server.set_exception_handler(
-        [](const httplib::Request&, httplib::Response& res, std::exception_ptr error) {
-          std::string what = "internal error";
-          try {
-            if (error) std::rethrow_exception(error);
-          } catch (const std::exception& e) {
-            what = e.what();
-          } catch (...) {
-          }
-          Send(ErrorResponse(500, what), res);
-        });
-  }
-
-  // The live state, one "data:" frame per change, at most `hz` per second.
-  void Events(const httplib::Request& req, httplib::Response& res) {
-    double hz = options.max_rate_hz;
-    if (req.has_param("hz")) {
-      char* end = nullptr;
-      const std::string text = req.get_param_value("hz");
-      const double asked = std::strtod(text.c_str(), &end);
-      if (end == text.c_str() || *end != '\0' || !(asked > 0)) {
-        Send(ErrorResponse(400, "hz: a number > 0 (frames per second)"), res);
-        return;
-      }
-      hz = std::min(asked, options.max_rate_hz);
-    }
-    const auto period =
-        std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(1.0 / hz));
-    auto generation = std::make_shared<int64_t>(-1);
-    auto next = std::make_shared<Clock::time_point>(Clock::now());
-    res.set_header("Cache-Control", "no-store");
-    res.set_header("X-Accel-Buffering", "no");
-    res.set_chunked_content_provider(
-        "text/event-stream", [this, period, generation, next](size_t, httplib::DataSink& sink) {
-          std::this_thread::sleep_until(*next);
-          *next = std::max(*next + period, Clock::now());
-          const int64_t now_generation = hub.WaitForState(*generation, std::chrono::seconds(1));
-          if (hub.stopping()) {
-            sink.done();
-            return true;
-          }
-          std::string frame;
-          if (now_generation == *generation) {
-            frame = ": idle\n\n";  // keeps proxies and the browser's connection alive
-          } else {
-            *generation = now_generation;
-            Json state = hub.StateJson();
-            state["lock"] = api.LockHolder();
-            state["sent_ms"] = WallMs();
-            frame = "data: " + state.dump(-1, ' ', false, Json::error_handler_t::replace) + "\n\n";
-          }
-          return sink.write(frame.data(), frame.size());
-        });
+    AnswerExceptionsWith500(server);
   }
 };
 
@@ -152,18 +161,7 @@ PanelServer::PanelServer(PanelHub& hub, PanelApi& api, ServerOptions options)
 PanelServer::~PanelServer() { Stop(); }
 
 int PanelServer::Bind() {
-  const ServerOptions& o = impl_->options;
-  if (o.port == 0) {
-    impl_->port = impl_->server.bind_to_any_port(o.listen.c_str());
-  } else if (impl_->server.bind_to_port(o.listen.c_str(), o.port)) {
-    impl_->port = o.port;
-  } else {
-    impl_->port = -1;
-  }
-  if (impl_->port <= 0) {
-    throw std::runtime_error("cannot listen on " + o.listen + ":" + std::to_string(o.port) +
-                             " (address not on this computer, or the port is in use)");
-  }
+  impl_->port = BindServer(impl_->server, impl_->options.listen, impl_->options.port);
   return impl_->port;
 }
 

@@ -50,6 +50,8 @@ packages=(
   # the course notebooks (plots, headless execution in the suite, `sirupp notebook`)
   pybind11-dev python3-dev python3-numpy python3-matplotlib python3-pytest
   python3-nbclient python3-nbformat python3-ipykernel jupyter-nbconvert jupyter-notebook
+  # the class server: token hashes and randomness, HTTPS (libssl-dev); test certificates (openssl)
+  libssl-dev openssl
   # sandboxes for students' controllers (namespaces without root), the class server's limits
   bubblewrap
   # an X server without a screen, for the test that starts lcm-spy (sirupp spy)

@@ -20,6 +20,7 @@
 #include "tools/demo_commands.hpp"
 #include "tools/environment_commands.hpp"
 #include "tools/export_commands.hpp"
+#include "tools/class_commands.hpp"
 #include "tools/grade_commands.hpp"
 #include "tools/hardware_commands.hpp"
 #include "tools/kinematics_commands.hpp"
@@ -150,6 +151,12 @@ std::vector<Command> Commands(std::ostream& out, std::ostream& err) {
        [&](const Args& a) { return RunIdentify(a, out, err); }},
       {"", "replay", "play an lcm-logger file back onto the bus, original timing",
        [&](const Args& a) { return RunReplay(a, out); }},
+      {"class", "serve", "serve a class: a private rig per student, the teacher's page",
+       [&](const Args& a) { return RunClassServe(a, out, err); }},
+      {"class", "tokens", "issue the class's missing tokens, or --reissue one",
+       [&](const Args& a) { return RunClassTokens(a, out); }},
+      {"class", "check", "validate a class file",
+       [&](const Args& a) { return RunClassCheck(a, out); }},
       {"", "panel", "the lab panel in the browser (sirupp-panel)",
        [&](const Args& a) { return RunPanel(a, err); }},
       {"", "view", "show sirupp-viewer's images in a window (needs a display)",
@@ -164,6 +171,7 @@ std::vector<Command> Commands(std::ostream& out, std::ostream& err) {
 const std::map<std::string, std::string> kGroups = {
     {"model", "robot model files: check, show, export"},
     {"env", "environment files: check, show"},
+    {"class", "a class on one server: serve, tokens, check (docs/class.md)"},
     {"move", "a joint or tool target for sirupp-control"},
     {"plan", "movement plans: check, run, pause, resume, abort, modes"},
     {"hardware", "the bridge to the real arm (or sirupp-picservo-emu)"},

@@ -1,5 +1,7 @@
 // The lab panel's page: live state from /api/events (Server-Sent Events), commands as POSTs to
-// /api/... with this page's client id (and the token when the panel asks for one).
+// /api/... with this page's client id (and the token when the panel asks for one). Every path is
+// relative (api/..., js/...), so the page works at / (sirupp-panel) and under a prefix (the class
+// server's /s/NAME/).
 'use strict';
 
 const $ = (id) => document.getElementById(id);
@@ -64,23 +66,23 @@ window.showTab = showTab;
 $('lock-name').value = localStorage.getItem('sirupp-name') || 'student';
 async function takeControl(takeOver) {
   localStorage.setItem('sirupp-name', $('lock-name').value);
-  await post('/api/lock', {name: $('lock-name').value, take_over: takeOver});
+  await post('api/lock', {name: $('lock-name').value, take_over: takeOver});
   refreshLock();
 }
 $('take-control').onclick = () => takeControl(false);
 $('take-over').onclick = () => takeControl(true);
-$('release-control').onclick = async () => { await post('/api/unlock', {}); refreshLock(); };
+$('release-control').onclick = async () => { await post('api/unlock', {}); refreshLock(); };
 let lockState = {held: false, mine: false};
 async function refreshLock() {
-  lockState = await getJson('/api/lock');
+  lockState = await getJson('api/lock');
   $('lock-state').textContent = lockState.mine ? 'you hold control'
     : lockState.held ? 'held by ' + lockState.holder : 'nobody holds control';
   $('take-over').hidden = !(lockState.held && !lockState.mine);
   $('release-control').hidden = !lockState.mine;
   $('take-control').hidden = lockState.mine;
 }
-$('estop').onclick = () => post('/api/estop', {engaged: true, who: $('lock-name').value});
-$('estop-release').onclick = () => post('/api/estop', {engaged: false, who: $('lock-name').value});
+$('estop').onclick = () => post('api/estop', {engaged: true, who: $('lock-name').value});
+$('estop-release').onclick = () => post('api/estop', {engaged: false, who: $('lock-name').value});
 
 // --- joints panel -------------------------------------------------------------------------------
 function buildJoints() {
@@ -119,13 +121,13 @@ function jointInputs(i) { return $('joint-' + (i + 1)).querySelector('.value'); 
 function speed() { return Math.min(1, Math.max(0.01, Number($('speed').value) / 100)); }
 function moveJoint(i) {
   const targets = model.joints.map((_, k) => (k === i ? Number(jointInputs(k).value) : null));
-  return post('/api/move/joints', {targets, speed: speed()});
+  return post('api/move/joints', {targets, speed: speed()});
 }
-$('apply-all').onclick = () => post('/api/move/joints',
+$('apply-all').onclick = () => post('api/move/joints',
   {targets: model.joints.map((_, k) => Number(jointInputs(k).value)), speed: speed()});
 $('go-pose').onclick = () => {
   const q = model.named_poses[$('named-pose').value];
-  if (q) post('/api/move/joints', {targets: q, speed: speed()});
+  if (q) post('api/move/joints', {targets: q, speed: speed()});
 };
 $('targets-from-arm').onclick = () => {
   if (!latest || !latest.virtual) return;
@@ -153,7 +155,7 @@ $('tool-from-arm').onclick = () => {
   latest.virtual.tool.forEach((v, i) => { $(toolIds[i]).value = fmt(v, i < 3 ? 4 : 2); });
 };
 $('ik-solve').onclick = async () => {
-  const r = await post('/api/ik', {pose: toolTarget()}, true);
+  const r = await post('api/ik', {pose: toolTarget()}, true);
   const b = r.body, body = $('ik-table').tBodies[0];
   body.innerHTML = '';
   if (r.status !== 200) return;
@@ -172,7 +174,7 @@ $('ik-solve').onclick = async () => {
     if (c.within_limits) select.add(new Option(c.config, c.config));
   }
 };
-$('tool-apply').onclick = () => post('/api/move/pose', {pose: toolTarget(), config: $('ik-config').value, speed: speed()});
+$('tool-apply').onclick = () => post('api/move/pose', {pose: toolTarget(), config: $('ik-config').value, speed: speed()});
 
 // --- plan panel ---------------------------------------------------------------------------------
 let planSteps = [];  // lines of the checked plan's steps
@@ -217,14 +219,14 @@ function showPlanAnswer(r) {
   renderListing();
 }
 const planBody = () => ({name: $('plan-name').value, text: $('plan-text').value});
-$('plan-check').onclick = async () => showPlanAnswer(await post('/api/plan/check', planBody(), true));
-$('plan-run').onclick = async () => showPlanAnswer(await post('/api/plan/run', planBody()));
+$('plan-check').onclick = async () => showPlanAnswer(await post('api/plan/check', planBody(), true));
+$('plan-run').onclick = async () => showPlanAnswer(await post('api/plan/run', planBody()));
 for (const verb of ['pause', 'resume', 'abort', 'clear-fault']) {
-  $('plan-' + verb).onclick = () => post('/api/plan/' + verb, {});
+  $('plan-' + verb).onclick = () => post('api/plan/' + verb, {});
 }
 $('plan-open').onclick = async () => {
   const path = $('plan-files').value;
-  const r = await getJson('/api/file?path=' + encodeURIComponent(path));
+  const r = await getJson('api/file?path=' + encodeURIComponent(path));
   if (r.error) return say(r.error, true);
   $('plan-text').value = r.text;
   $('plan-name').value = path.split('/').pop();
@@ -247,7 +249,7 @@ function updatePlan(s) {
 // --- gains --------------------------------------------------------------------------------------
 const gainFields = ['kp', 'kd', 'ki', 'il', 'ol', 'el', 'db'];
 async function loadGains() {
-  const g = await getJson('/api/gains');
+  const g = await getJson('api/gains');
   const body = $('gains-table').tBodies[0];
   if (!g.virtual) { body.innerHTML = '<tr><td colspan="9">no CONTROLLER_GAINS heard</td></tr>'; return g; }
   body.innerHTML = '';
@@ -263,7 +265,7 @@ async function loadGains() {
         if (v !== row[f]) values[f] = v;
       }
       if (!Object.keys(values).length) return say('nothing changed on joint ' + (i + 1));
-      await post('/api/gains', {joint: i + 1, values});
+      await post('api/gains', {joint: i + 1, values});
       setTimeout(loadGains, 1500);  // the controller repeats its gains at 1 Hz
     };
     body.appendChild(tr);
@@ -346,7 +348,7 @@ for (const verb of ['connect', 'calibrate', 'arm', 'disarm', 'link', 'unlink', '
   const b = document.createElement('button');
   b.textContent = verb;
   b.id = 'hw-' + verb;
-  b.onclick = () => post('/api/hardware/' + verb, {who: $('lock-name').value});
+  b.onclick = () => post('api/hardware/' + verb, {who: $('lock-name').value});
   $('hw-buttons').appendChild(b);
 }
 function updateHardware(s) {
@@ -361,7 +363,7 @@ function updateHardware(s) {
 
 // --- processes ----------------------------------------------------------------------------------
 async function loadProcesses() {
-  const p = await getJson('/api/processes');
+  const p = await getJson('api/processes');
   $('rtf').textContent = p.realtime_factor !== undefined ? 'sim real-time factor ' + fmt(p.realtime_factor, 3) : '';
   $('processes-table').tBodies[0].innerHTML = p.processes.map((r) =>
     `<tr class="${r.alive ? '' : 'limit'}"><td>${r.process}</td><td>${r.host}</td><td>${r.pid}</td><td>${r.alive ? r.state : 'silent ' + fmt(r.silent_s, 0) + ' s'}</td>
@@ -383,7 +385,7 @@ function showModel() {
     model.links.map((l) => `<tr><td>${l.name}</td><td>${fmt(l.mass, 3)}</td><td>${l.com.map((v) => fmt(v, 3)).join(' ')}</td><td>${l.shapes.map((s) => s.type + ' ' + s.size.map((v) => fmt(v, 3)).join('x')).join(', ')}</td></tr>`).join('');
 }
 async function loadEnvironment() {
-  const env = await getJson('/api/environment');
+  const env = await getJson('api/environment');
   View3d.setEnvironment(env);
   $('env-summary').textContent = env.loaded ? `${env.name || '(none)'} from ${env.source_file || '-'}: ${env.objects.length} objects` : 'no ENVIRONMENT heard';
   $('env-table').tBodies[0].innerHTML = env.objects.map((o) =>
@@ -391,9 +393,9 @@ async function loadEnvironment() {
 }
 $('env-open').onclick = async () => {
   const path = $('env-files').value;
-  const f = await getJson('/api/file?path=' + encodeURIComponent(path));
+  const f = await getJson('api/file?path=' + encodeURIComponent(path));
   if (f.error) return say(f.error, true);
-  const r = await post('/api/environment/check', {name: path, text: f.text}, true);
+  const r = await post('api/environment/check', {name: path, text: f.text}, true);
   $('env-result').className = r.body.ok ? '' : 'error';
   $('env-result').textContent = r.body.ok ? `${path}: ${r.body.objects.length} objects, drawn as wireframes (start the sim with --environment ${path} to use it)` : r.body.error;
   View3d.setPreview(r.body.ok ? r.body.objects : null);
@@ -401,9 +403,9 @@ $('env-open').onclick = async () => {
 $('env-clear').onclick = () => { View3d.setPreview(null); $('env-result').textContent = ''; };
 $('env-load').onclick = async () => {
   const path = $('env-files').value;
-  const f = await getJson('/api/file?path=' + encodeURIComponent(path));
+  const f = await getJson('api/file?path=' + encodeURIComponent(path));
   if (f.error) return say(f.error, true);
-  const r = await post('/api/environment/load', {name: path, text: f.text});
+  const r = await post('api/environment/load', {name: path, text: f.text});
   $('env-result').className = r.status === 200 ? '' : 'error';
   $('env-result').textContent = r.status === 200 ? r.body.message : r.body.error;
   if (r.status === 200) { View3d.setPreview(null); setTimeout(loadEnvironment, 300); }
@@ -413,7 +415,7 @@ $('env-load').onclick = async () => {
 let modelFields = null;  // {path, units, fields: [{key, group, value, line}]}
 async function loadModelFields() {
   if (!model) return;
-  const r = await getJson('/api/model/fields?path=' + encodeURIComponent(model.source_file));
+  const r = await getJson('api/model/fields?path=' + encodeURIComponent(model.source_file));
   const box = $('model-edit');
   if (r.error) { box.textContent = 'not editable here: ' + r.error; modelFields = null; return; }
   modelFields = r;
@@ -460,12 +462,12 @@ function showModelAnswer(r) {
 }
 $('model-check').onclick = async () => {
   if (!modelFields) return;
-  showModelAnswer(await post('/api/model/check', {path: modelFields.path, edits: modelEdits()}, true));
+  showModelAnswer(await post('api/model/check', {path: modelFields.path, edits: modelEdits()}, true));
 };
 let savedModel = null;  // the file the last Save wrote: what Apply loads
 $('model-save').onclick = async () => {
   if (!modelFields) return;
-  const r = await post('/api/model/save', {path: modelFields.path, edits: modelEdits(), name: $('model-save-name').value}, true);
+  const r = await post('api/model/save', {path: modelFields.path, edits: modelEdits(), name: $('model-save-name').value}, true);
   showModelAnswer(r);
   if (r.status === 200) {
     savedModel = r.body.path;
@@ -475,7 +477,7 @@ $('model-save').onclick = async () => {
 };
 $('model-apply').onclick = async () => {
   if (!savedModel) return;
-  const r = await post('/api/model/apply', {path: savedModel});
+  const r = await post('api/model/apply', {path: savedModel});
   $('model-result').className = r.status === 200 ? '' : 'error';
   $('model-result').textContent = r.status === 200 ? r.body.message : r.body.error;
   // The new ROBOT_MODEL raises model_version: onState reloads the model, sliders and 3D view.
@@ -487,7 +489,7 @@ function sizeText(bytes) {
   return bytes >= 1048576 ? fmt(bytes / 1048576, 1) + ' MiB' : bytes >= 1024 ? fmt(bytes / 1024, 1) + ' KiB' : bytes + ' B';
 }
 async function loadRecord() {
-  const r = await getJson('/api/record');
+  const r = await getJson('api/record');
   $('record-logger').textContent = r.logger ? `sirupp-logger ${r.logger.state} on ${r.logger.host}: ${r.logger.detail}` : 'no sirupp-logger heard (start it, e.g. from the lab layout)';
   $('record-logger').className = r.logger ? '' : 'error';
   const body = $('record-runs').tBodies[0];
@@ -499,7 +501,7 @@ async function loadRecord() {
     tr.dataset.run = run.name;
     const links = run.files.map((f) => {
       const name = f.path.split('/').pop();
-      return `<a href="/api/download?path=${encodeURIComponent(f.path)}" download="${name}">${name}</a> (${sizeText(f.size)})`;
+      return `<a href="api/download?path=${encodeURIComponent(f.path)}" download="${name}">${name}</a> (${sizeText(f.size)})`;
     }).join('<br>');
     tr.innerHTML = `<td>${run.name}${run.recording ? ' <b>recording</b>' : ''}</td><td style="text-align:left">${links}</td><td>${sizeText(run.bytes)}</td><td></td>`;
     if (!run.recording) {
@@ -507,7 +509,7 @@ async function loadRecord() {
       b.textContent = 'Report';
       b.className = 'report';
       b.onclick = async () => {
-        const a = await post('/api/record/report', {run: run.name});
+        const a = await post('api/record/report', {run: run.name});
         $('record-report').textContent = a.status === 200 ? a.body.markdown : a.body.error;
       };
       tr.lastChild.appendChild(b);
@@ -518,13 +520,13 @@ async function loadRecord() {
 }
 window.loadRecord = loadRecord;
 $('record-start').onclick = async () => {
-  const r = await post('/api/record/start', {name: $('record-name').value});
+  const r = await post('api/record/start', {name: $('record-name').value});
   $('record-result').className = r.status === 200 ? '' : 'error';
   $('record-result').textContent = r.status === 200 ? r.body.message : r.body.error;
   loadRecord();
 };
 $('record-stop').onclick = async () => {
-  const r = await post('/api/record/stop', {});
+  const r = await post('api/record/stop', {});
   $('record-result').className = r.status === 200 ? '' : 'error';
   $('record-result').textContent = r.status === 200 ? r.body.message : r.body.error;
   loadRecord();
@@ -533,7 +535,7 @@ document.querySelector('[data-tab=record]').addEventListener('click', loadRecord
 setInterval(() => { if ($('tab-record').classList.contains('active')) loadRecord(); }, 1000);
 async function loadFileLists() {
   for (const [dir, select] of [['plans', 'plan-files'], ['environments', 'env-files']]) {
-    const r = await getJson('/api/files?dir=' + dir);
+    const r = await getJson('api/files?dir=' + dir);
     $(select).innerHTML = '';
     for (const f of r.files || []) $(select).add(new Option(f, f));
   }
@@ -541,7 +543,7 @@ async function loadFileLists() {
 
 // --- live state ---------------------------------------------------------------------------------
 async function loadModel() {
-  const m = await getJson('/api/model');
+  const m = await getJson('api/model');
   if (!m.loaded) return false;
   model = m;
   View3d.setModel(model);
@@ -602,7 +604,7 @@ setInterval(() => {
 
 function connect() {
   const hz = Number(params.get('hz')) || 60;
-  const events = new EventSource('/api/events?hz=' + hz);
+  const events = new EventSource('api/events?hz=' + hz);
   events.onopen = () => { $('connection').textContent = 'live'; $('connection').className = 'good'; };
   events.onmessage = (e) => onState(JSON.parse(e.data));
   events.onerror = () => { $('connection').textContent = 'reconnecting'; $('connection').className = 'bad'; };

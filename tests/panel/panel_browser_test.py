@@ -329,8 +329,10 @@ try:
             a, "const r = document.querySelector('#record-runs tr[data-run=browser_run]'); return !!r && !r.classList.contains('recording')"), 15)
         link = js(a, "return document.querySelector('#record-runs tr[data-run=browser_run] a').getAttribute('href')")
         status, _ = 0, None
+        import urllib.parse
         import urllib.request
-        with urllib.request.urlopen(rig.address.split("?")[0].rstrip("/") + link, timeout=5) as r:
+        # The page's links are relative (api/download?...), as the class server serves it too.
+        with urllib.request.urlopen(urllib.parse.urljoin(rig.address.split("?")[0], link), timeout=5) as r:
             body = r.read().decode()
             status = r.status
         assert status == 200 and body.startswith("#") and "# end" in body, body[:200]

@@ -1,0 +1,187 @@
+#!/usr/bin/python3
+"""How many complete rigs one class server holds at real time, and how fast a rig starts.
+
+For each N (--counts, default 2 4 6 ...): a class server (`sirupp class serve`) with N students,
+every rig started through its page (sirupp-sim realtime + sirupp-control + sirupp-logger, the
+panel's hub and API in the server), each with a live event stream open at 30 updates a second and
+running movement set VII in a loop through the panel's API. Over --seconds of steady running it
+measures each rig's real-time factor (sim time advanced / wall time, from the state) and counts
+failed plans (a controller fault or error, or a plan that did not finish in time). Prints one line
+per N, the largest N holding real-time factor >= 0.99 with no failed plan, that per core, and the
+rig start times (median, p95) over every start.
+
+Usage: class_bench.py BIN_DIR SOURCE_DIR [--counts 2 4 6] [--seconds 30]
+(without --counts: 2, 4, ... up to 6 per core, stopping at the first N that does not hold). The
+load column is the machine's 1-minute load average after the trial: the figures only mean
+something on an otherwise idle machine.
+Uses Debian's /usr/bin/python3; every process it starts is ended before it exits."""
+
+import argparse
+import json
+import os
+import statistics
+import sys
+import threading
+import time
+import urllib.request
+
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "class"))
+from class_run import ClassRun  # noqa: E402
+
+SET7 = open(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "config", "plans",
+                         "set7.plan")).read()
+
+
+class Stream(threading.Thread):
+    """Reads a rig's live state at 30 updates a second, as a page does; keeps the newest."""
+
+    def __init__(self, run, name):
+        super().__init__(daemon=True)
+        self.url = f"{run.base}/s/{name}/api/events?hz=30"
+        self.token = run.token(name)
+        self.frames = 0
+        self.latest = None
+        self.stop = False
+
+    def run(self):
+        req = urllib.request.Request(self.url, headers={"X-Sirupp-Token": self.token})
+        try:
+            with urllib.request.urlopen(req, timeout=30) as r:
+                for line in r:
+                    if self.stop:
+                        return
+                    if line.startswith(b"data: "):
+                        self.frames += 1
+                        self.latest = json.loads(line[6:])
+        except Exception:
+            pass
+
+
+class Driver(threading.Thread):
+    """Runs set VII in a loop on one rig through the panel's API; counts finished and failed plans."""
+
+    def __init__(self, run, name, stream):
+        super().__init__(daemon=True)
+        self.run_ = run
+        self.name = name
+        self.stream = stream
+        self.done = 0
+        self.failed = []
+        self.stop = False
+
+    def run(self):
+        token = self.run_.token(self.name)
+        status, body = self.run_.http("POST", f"/s/{self.name}/api/lock", token, {"name": "bench"})
+        if status != 200:
+            self.failed.append(f"lock: {status} {body}")
+            return
+        while not self.stop:
+            status, body = self.run_.http("POST", f"/s/{self.name}/api/plan/run", token,
+                                          {"name": "set7.plan", "text": SET7})
+            if status != 200:
+                self.failed.append(f"plan run: {status} {body}")
+                time.sleep(1)
+                continue
+            start = time.time()
+            started = False
+            error_before = ((self.stream.latest or {}).get("controller") or {}).get("last_error", "")
+            while not self.stop:
+                time.sleep(0.1)
+                s = self.stream.latest or {}
+                c = s.get("controller", {})
+                if c.get("plan_name") == "set7.plan" and c.get("state") in ("moving", "waiting"):
+                    started = True
+                if c.get("state") == "fault" or c.get("last_error", "") not in ("", error_before):
+                    self.failed.append(f"controller: {c.get('state')} {c.get('last_error')}")
+                    self.run_.http("POST", f"/s/{self.name}/api/plan/clear-fault", token, {})
+                    break
+                if started and c.get("state") == "idle" and c.get("plan_step", 0) >= c.get("plan_steps", 1):
+                    self.done += 1
+                    break
+                if time.time() - start > 60:
+                    self.failed.append("set VII did not finish within 60 s")
+                    break
+
+
+def percentile(values, p):
+    values = sorted(values)
+    return values[min(len(values) - 1, int(round(p / 100 * (len(values) - 1))))]
+
+
+def trial(bin_dir, src, n, seconds, start_times):
+    names = [f"s{i:02d}" for i in range(n)]
+    run = ClassRun(bin_dir, src, names, max_rigs=n).start()
+    streams, drivers = [], []
+    try:
+        for name in names:
+            t0 = time.time()
+            status, body = run.http("GET", f"/s/{name}/", run.token(name))
+            if status != 200:
+                raise RuntimeError(f"{name}'s rig did not start: {status} {body!r:.300}")
+            start_times.append(time.time() - t0)
+        for name in names:
+            s = Stream(run, name)
+            s.start()
+            streams.append(s)
+        for name, s in zip(names, streams):
+            d = Driver(run, name, s)
+            d.start()
+            drivers.append(d)
+        time.sleep(3)  # settle: every rig running its plan
+        begin = [(time.time(), (s.latest or {}).get("sim", {}).get("sim_time_s"), s.frames) for s in streams]
+        time.sleep(seconds)
+        end = [(time.time(), (s.latest or {}).get("sim", {}).get("sim_time_s"), s.frames) for s in streams]
+        rtfs, rates = [], []
+        for (w0, t0, f0), (w1, t1, f1) in zip(begin, end):
+            rtfs.append((t1 - t0) / (w1 - w0) if t0 is not None and t1 is not None else 0.0)
+            rates.append((f1 - f0) / (w1 - w0))
+        failed = sum(len(d.failed) for d in drivers)
+        done = sum(d.done for d in drivers)
+        reasons = sorted({r for d in drivers for r in d.failed})[:3]
+        return min(rtfs), statistics.mean(rtfs), failed, done, min(rates), reasons
+    finally:
+        for d in drivers:
+            d.stop = True
+        for s in streams:
+            s.stop = True
+        run.stop()
+        run.clean()
+
+
+def main():
+    parser = argparse.ArgumentParser()
+    parser.add_argument("bin_dir")
+    parser.add_argument("source_dir")
+    parser.add_argument("--counts", type=int, nargs="+", default=None)
+    parser.add_argument("--seconds", type=float, default=30)
+    args = parser.parse_args()
+    cores = os.cpu_count()
+    counts = args.counts or list(range(2, 6 * cores + 1, 2))
+    start_times = []
+    best = 0
+    print(f"class bench: {cores} cores, {args.seconds:.0f} s per trial, set VII in a loop per rig, "
+          f"one 30 Hz stream per rig", flush=True)
+    print(f"{'rigs':>4} {'rtf min':>8} {'rtf mean':>8} {'plans done':>10} {'failed':>6} "
+          f"{'stream Hz min':>13} {'load':>6}", flush=True)
+    for n in counts:
+        rtf_min, rtf_mean, failed, done, rate, reasons = trial(
+            args.bin_dir, args.source_dir, n, args.seconds, start_times)
+        holds = rtf_min >= 0.99 and failed == 0
+        load = open("/proc/loadavg").read().split()[0]
+        print(f"{n:>4} {rtf_min:>8.3f} {rtf_mean:>8.3f} {done:>10} {failed:>6} {rate:>13.1f} {load:>6}"
+              f"  {'holds' if holds else 'does not hold'}{'  ' + '; '.join(reasons) if reasons else ''}",
+              flush=True)
+        if holds:
+            best = max(best, n)
+        elif args.counts is None:
+            break  # ramping up: the first N that does not hold ends it
+    print(f"largest N holding real time (rtf >= 0.99, no failed plan): {best} rigs = "
+          f"{best / cores:.1f} per core")
+    if start_times:
+        print(f"rig start (page request until the rig is ready), {len(start_times)} starts: median "
+              f"{statistics.median(start_times):.2f} s, p95 {percentile(start_times, 95):.2f} s, "
+              f"max {max(start_times):.2f} s")
+
+
+if __name__ == "__main__":
+    main()

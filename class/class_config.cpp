@@ -1,0 +1,157 @@
+#include "class/class_config.hpp"
+
+#include <algorithm>
+#include <filesystem>
+#include <set>
+
+#include "core/errors.hpp"
+#include "core/yaml_reader.hpp"
+#include "runtime/data_path.hpp"
+
+namespace sirupp::classroom {
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::vector<std::string> kTopKeys = {"class", "description", "robot",  "students",
+                                           "data",  "limits",      "server", "rigs"};
+const std::vector<std::string> kLimitKeys = {"max_rigs", "idle_timeout_s", "rig_memory_mb",
+                                             "rig_nice"};
+const std::vector<std::string> kServerKeys = {"listen", "port", "public_url", "tls_cert",
+                                              "tls_key"};
+const std::vector<std::string> kRigKeys = {"first_port", "port_count"};
+
+std::string CheckedName(const core::YamlValue& value, const std::string& what) {
+  const std::string text = value.String();
+  if (!IsValidName(text)) {
+    value.Fail(
+        "'" + text + "' is not a valid " + what +
+        "; allowed: 1 to 32 letters, digits, '-', '_' and '.', not starting with '.' or '-'");
+  }
+  return text;
+}
+
+std::string Absolute(const std::string& path, const std::string& base_dir) {
+  const fs::path p(path);
+  if (p.is_absolute()) return p.lexically_normal().string();
+  return (fs::absolute(fs::path(base_dir)) / p).lexically_normal().string();
+}
+
+// A file that must exist: relative to the class file's folder, else (robot models) the source tree.
+std::string ExistingFile(const core::YamlValue& value, const std::string& base_dir,
+                         bool data_fallback) {
+  const std::string text = value.String();
+  std::string path = Absolute(text, base_dir);
+  if (!fs::is_regular_file(path) && data_fallback && !fs::path(text).is_absolute()) {
+    const std::string resolved = runtime::ResolveDataPath(text);
+    if (fs::is_regular_file(resolved)) path = fs::absolute(resolved).lexically_normal().string();
+  }
+  if (!fs::is_regular_file(path)) {
+    value.Fail("'" + text + "': no such file (looked for " + path + ")");
+  }
+  return path;
+}
+
+ClassConfig Read(const core::YamlDocument& document, const std::string& base_dir) {
+  ClassConfig config;
+  config.file = document.file();
+  const core::YamlMap top = document.Root().Map(kTopKeys);
+  config.name = CheckedName(top.Get("class", "the class's name"), "class name");
+  config.description = top.StringOr("description", "");
+  config.robot = ExistingFile(top.Get("robot", "a robot model file"), base_dir, true);
+  std::set<std::string> seen;
+  for (const core::YamlValue& entry :
+       top.Get("students", "a list of student names").Sequence(1, 1000)) {
+    const std::string name = CheckedName(entry, "student name");
+    if (name == kTeacher) entry.Fail("'teacher' is reserved for the teacher's token");
+    if (!seen.insert(name).second) entry.Fail("student '" + name + "' is listed twice");
+    config.students.push_back(name);
+  }
+  config.data_dir = Absolute(top.Get("data", "the class's data folder").String(), base_dir);
+  if (const auto limits = top.Find("limits")) {
+    const core::YamlMap map = limits->Map(kLimitKeys);
+    if (const auto v = map.Find("max_rigs"))
+      config.max_rigs = static_cast<int>(v->Integer(1, 1000));
+    config.idle_timeout_s =
+        map.NumberOr("idle_timeout_s", config.idle_timeout_s, core::NumberInRange(1, 86400, "s"));
+    if (const auto v = map.Find("rig_memory_mb")) {
+      config.rig_memory_mb = static_cast<int>(v->Integer(0, 1 << 20));
+      if (config.rig_memory_mb != 0 && config.rig_memory_mb < 256) {
+        v->Fail(std::to_string(config.rig_memory_mb) +
+                " MiB is too little for a rig process; allowed: 0 (no limit) or >= 256");
+      }
+    }
+    if (const auto v = map.Find("rig_nice")) config.rig_nice = static_cast<int>(v->Integer(0, 19));
+  }
+  if (const auto server = top.Find("server")) {
+    const core::YamlMap map = server->Map(kServerKeys);
+    config.listen = map.StringOr("listen", config.listen);
+    if (const auto v = map.Find("port")) config.port = static_cast<int>(v->Integer(0, 65535));
+    if (const auto v = map.Find("public_url")) {
+      std::string url = v->String();
+      if (url.rfind("http://", 0) != 0 && url.rfind("https://", 0) != 0) {
+        v->Fail("'" + url + "' is not an address; expected http://HOST[:PORT] or https://...");
+      }
+      while (!url.empty() && url.back() == '/') url.pop_back();
+      config.public_url = url;
+    }
+    const auto cert = map.Find("tls_cert");
+    const auto key = map.Find("tls_key");
+    if (cert.has_value() != key.has_value()) {
+      (cert ? *cert : *key).Fail("tls_cert and tls_key go together; give both or neither");
+    }
+    if (cert) {
+      config.tls_cert = ExistingFile(*cert, base_dir, false);
+      config.tls_key = ExistingFile(*key, base_dir, false);
+    }
+  }
+  if (const auto rigs = top.Find("rigs")) {
+    const core::YamlMap map = rigs->Map(kRigKeys);
+    if (const auto v = map.Find("first_port")) {
+      config.first_port = static_cast<int>(v->Integer(1024, 65000));
+    }
+    if (const auto v = map.Find("port_count")) {
+      config.port_count = static_cast<int>(v->Integer(1, 10000));
+      if (config.first_port + config.port_count > 65536) {
+        v->Fail(std::to_string(config.port_count) + " ports from " +
+                std::to_string(config.first_port) + " pass 65535");
+      }
+    }
+  }
+  if (config.port_count < config.max_rigs) {
+    document.Root().Fail("limits.max_rigs " + std::to_string(config.max_rigs) +
+                         " is more than rigs.port_count " + std::to_string(config.port_count) +
+                         "; each rig needs a port of its own");
+  }
+  return config;
+}
+
+}  // namespace
+
+bool IsValidName(const std::string& name) {
+  if (name.empty() || name.size() > 32 || name[0] == '.' || name[0] == '-') return false;
+  return std::all_of(name.begin(), name.end(), [](char c) {
+    return (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z') || (c >= '0' && c <= '9') || c == '-' ||
+           c == '_' || c == '.';
+  });
+}
+
+ClassConfig LoadClassConfig(const std::string& file) {
+  const std::string base = fs::absolute(fs::path(file)).parent_path().string();
+  return Read(core::YamlDocument::Load(file), base);
+}
+
+ClassConfig ParseClassConfig(const std::string& text, const std::string& name,
+                             const std::string& base_dir) {
+  return Read(core::YamlDocument::Parse(text, name), base_dir);
+}
+
+std::string BaseUrl(const ClassConfig& config, int port) {
+  if (!config.public_url.empty()) return config.public_url;
+  const std::string scheme = config.tls_cert.empty() ? "http" : "https";
+  std::string host = config.listen;
+  if (host == "0.0.0.0" || host == "::") host = "localhost";
+  return scheme + "://" + host + ":" + std::to_string(port);
+}
+
+}  // namespace sirupp::classroom

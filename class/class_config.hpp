@@ -1,0 +1,59 @@
+#pragma once
+// The class file (CLASS.yaml) behind `sirupp class serve`: the class's name, its students, the
+// robot model every rig runs, the limits (most rigs at once, idle timeout, a rig's memory and
+// niceness), where the class's data lives, and how the server listens. Read strictly like every
+// other config file: unknown keys, wrong types and bad values are one core::ConfigError naming
+// file:line, the key, the bad value and what is allowed.
+//
+//   class: robotics-2026              # letters, digits, '-', '_', '.'
+//   robot: config/robots/puma260.yaml # relative to the class file's folder, else the source tree
+//   students: [alice, bob, carol]     # names as above; 'teacher' is reserved
+//   data: robotics-2026-data          # relative to the class file's folder
+//   limits: {max_rigs: 12, idle_timeout_s: 900, rig_memory_mb: 2048, rig_nice: 5}
+//   server: {listen: 127.0.0.1, port: 8800, public_url: "https://lab.example.edu",
+//            tls_cert: cert.pem, tls_key: key.pem}
+//   rigs: {first_port: 7900, port_count: 200}   # the udpm ports rigs lease (ttl=0)
+
+#include <string>
+#include <vector>
+
+namespace sirupp::classroom {
+
+struct ClassConfig {
+  std::string file;  // where it was read from
+  std::string name;
+  std::string description;
+  std::string robot;  // absolute path of the robot model file
+  std::vector<std::string> students;
+  std::string data_dir;  // absolute
+  int max_rigs = 12;
+  double idle_timeout_s = 900;
+  int rig_memory_mb = 2048;  // address-space limit of each rig process; 0 = none
+  int rig_nice = 5;          // niceness of each rig process (0..19)
+  std::string listen = "127.0.0.1";
+  int port = 8800;         // 0 = any free port
+  std::string public_url;  // the address in the tokens file; "" = http(s)://listen:port
+  std::string tls_cert;    // both or neither; absolute
+  std::string tls_key;
+  int first_port = 7900;  // udpm ports leased by the rigs
+  int port_count = 200;
+};
+
+// The reserved name of the teacher's token.
+inline constexpr const char* kTeacher = "teacher";
+
+// Throws core::ConfigError (file:line: key: problem).
+ClassConfig LoadClassConfig(const std::string& file);
+// `base_dir`: what relative paths in the text are relative to.
+ClassConfig ParseClassConfig(const std::string& text, const std::string& name,
+                             const std::string& base_dir);
+
+// True for a name a student (or the class) may have: 1 to 32 of [A-Za-z0-9_.-], not starting
+// with '.' or '-'.
+bool IsValidName(const std::string& name);
+
+// The address the server is reached at, without a trailing '/' (public_url, or
+// scheme://listen:port with the given port).
+std::string BaseUrl(const ClassConfig& config, int port);
+
+}  // namespace sirupp::classroom

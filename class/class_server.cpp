@@ -1,0 +1,835 @@
+#include "class/class_server.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <condition_variable>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <mutex>
+#include <ostream>
+#include <regex>
+#include <sstream>
+#include <thread>
+
+#include "class/rig.hpp"
+#include "class/tokens.hpp"
+#include "core/errors.hpp"
+#include "core/printable.hpp"
+#include "grade/port_lease.hpp"
+#include "panel/http_glue.hpp"
+#include "panel/rig_commands.hpp"
+
+namespace sirupp::classroom {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+using Json = nlohmann::json;
+
+constexpr const char* kStudentCookie = "sirupp_student";
+constexpr const char* kTeacherCookie = "sirupp_teacher";
+
+int64_t NowNs() {
+  return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch())
+      .count();
+}
+
+std::string ContentType(const std::string& path) {
+  const std::string ext = fs::path(path).extension().string();
+  if (ext == ".html") return "text/html; charset=utf-8";
+  if (ext == ".js") return "application/javascript";
+  if (ext == ".css") return "text/css";
+  if (ext == ".json") return "application/json";
+  if (ext == ".png") return "image/png";
+  if (ext == ".svg") return "image/svg+xml";
+  return "application/octet-stream";
+}
+
+void SendJson(httplib::Response& res, int status, const Json& body) {
+  panel::Send(panel::Response{status, "application/json", body.dump()}, res);
+}
+
+void SendError(httplib::Response& res, int status, const std::string& message) {
+  panel::Send(panel::ErrorResponse(status, message), res);
+}
+
+// A file under `dir` named by `relative`, refused when it leaves `dir` (after symlinks) or is not
+// a regular file.
+bool ServeFileUnder(const std::string& dir, const std::string& relative, httplib::Response& res) {
+  if (relative.empty() || relative.size() > 300 || relative.find("..") != std::string::npos) {
+    return false;
+  }
+  std::error_code error;
+  const fs::path base = fs::canonical(dir, error);
+  if (error) return false;
+  const fs::path file = fs::weakly_canonical(base / relative, error);
+  if (error) return false;
+  const std::string text = file.string();
+  if (text.rfind(base.string() + "/", 0) != 0 || !fs::is_regular_file(file)) return false;
+  std::ifstream in(file, std::ios::binary);
+  std::ostringstream body;
+  body << in.rdbuf();
+  res.status = 200;
+  res.set_header("Cache-Control", "no-cache");
+  res.set_content(body.str(), ContentType(text).c_str());
+  return true;
+}
+
+std::string ReadAll(const std::string& file) {
+  std::ifstream in(file, std::ios::binary);
+  std::ostringstream body;
+  body << in.rdbuf();
+  return body.str();
+}
+
+// The value of cookie `name` in a Cookie header; "" when absent.
+std::string CookieValue(const std::string& header, const std::string& name) {
+  std::istringstream in(header);
+  std::string part;
+  while (std::getline(in, part, ';')) {
+    const size_t start = part.find_first_not_of(' ');
+    if (start == std::string::npos) continue;
+    part = part.substr(start);
+    if (part.rfind(name + "=", 0) == 0) return part.substr(name.size() + 1);
+  }
+  return "";
+}
+
+std::string HtmlEscape(const std::string& text) {
+  std::string out;
+  for (const char c : text) {
+    switch (c) {
+      case '<':
+        out += "&lt;";
+        break;
+      case '>':
+        out += "&gt;";
+        break;
+      case '&':
+        out += "&amp;";
+        break;
+      case '"':
+        out += "&quot;";
+        break;
+      default:
+        out += c;
+    }
+  }
+  return out;
+}
+
+void SendHtmlMessage(httplib::Response& res, int status, const std::string& title,
+                     const std::string& message) {
+  res.status = status;
+  res.set_header("Cache-Control", "no-store");
+  res.set_content("<!doctype html><meta charset=\"utf-8\"><title>" + HtmlEscape(title) +
+                      "</title><body style=\"font-family:sans-serif;margin:2em\"><h1>" +
+                      HtmlEscape(title) + "</h1><p id=\"message\">" + HtmlEscape(message) +
+                      "</p></body>",
+                  "text/html; charset=utf-8");
+}
+
+enum class Role { kNone, kStudent, kTeacher };
+
+}  // namespace
+
+std::string TokensFile(const ClassConfig& config) { return config.data_dir + "/tokens.json"; }
+std::string HandoutFile(const ClassConfig& config) { return config.data_dir + "/tokens.csv"; }
+std::string StudentFolder(const ClassConfig& config, const std::string& name) {
+  return config.data_dir + "/students/" + name;
+}
+
+std::string AddressWithToken(const ClassConfig& config, int port, const std::string& name,
+                             const std::string& token) {
+  const std::string base = BaseUrl(config, port);
+  if (name == kTeacher) return base + "/teacher/?token=" + token;
+  return base + "/s/" + name + "/?token=" + token;
+}
+
+std::vector<std::pair<std::string, std::string>> IssueMissingTokens(const ClassConfig& config,
+                                                                    int port) {
+  fs::create_directories(config.data_dir);
+  TokenStore store(TokensFile(config));
+  std::vector<std::pair<std::string, std::string>> rows;
+  std::vector<std::string> names{kTeacher};
+  names.insert(names.end(), config.students.begin(), config.students.end());
+  for (const std::string& name : names) {
+    if (store.Has(name)) continue;
+    rows.emplace_back(name, AddressWithToken(config, port, name, store.Issue(name)));
+  }
+  if (!rows.empty()) AppendHandout(HandoutFile(config), rows);
+  return rows;
+}
+
+std::pair<std::string, std::string> ReissueToken(const ClassConfig& config, int port,
+                                                 const std::string& name) {
+  if (name != kTeacher &&
+      std::find(config.students.begin(), config.students.end(), name) == config.students.end()) {
+    throw core::UsageError("--reissue " + core::Printable(name, 40) + ": not a student of " +
+                           config.file + "; allowed: teacher or a name under students:");
+  }
+  fs::create_directories(config.data_dir);
+  TokenStore store(TokensFile(config));
+  const std::pair<std::string, std::string> row{
+      name, AddressWithToken(config, port, name, store.Issue(name))};
+  AppendHandout(HandoutFile(config), {row});
+  return row;
+}
+
+// One student's place in the class: their rig when it runs, and what the pages show about it.
+struct Seat {
+  std::string name;
+  std::mutex mutex;  // held while the rig starts or stops
+  std::unique_ptr<Rig> rig;
+  grade::PortLease lease;
+  // Read by the pages; written under `mutex` and `info_mutex`.
+  mutable std::mutex info_mutex;
+  std::string state = "stopped";  // stopped, starting, running, failed
+  std::string last_stop;          // why the rig last stopped ("" = never ran in this server)
+  std::shared_ptr<RigPanel> panel;
+  int starts = 0;
+  double start_s = 0;
+  double cpu = 0;
+  int port = 0;
+  std::string started_at;  // wall clock
+  std::atomic<int64_t> activity_ns{0};
+  std::atomic<int> streams{0};  // the student's open event streams (activity while open)
+
+  void Touch() { activity_ns = NowNs(); }
+  double IdleSeconds() const {
+    if (streams > 0) return 0;
+    return static_cast<double>(NowNs() - activity_ns.load()) / 1e9;
+  }
+};
+
+struct ClassServer::Impl {
+  ClassConfig config;
+  ServeOptions options;
+  TokenStore tokens;
+  BadTokenThrottle throttle;
+  ProcessLauncher launcher;  // outlives the rigs
+  std::map<std::string, std::unique_ptr<Seat>> seats;
+  std::atomic<int> running{0};
+  std::mutex start_mutex;  // counts rigs against max_rigs
+  std::thread monitor;
+  std::mutex monitor_mutex;
+  std::condition_variable monitor_wake;
+  bool stopping = false;
+  int port = 0;
+  std::mutex log_mutex;
+  // Last: destroyed first, so no request runs once the seats are gone. HTTPS with a certificate
+  // (Debian's cpp-httplib is built with OpenSSL).
+  std::unique_ptr<httplib::Server> server;
+
+  Impl(ClassConfig c, ServeOptions o)
+      : config(std::move(c)), options(std::move(o)), tokens(TokensFile(config)) {
+    if (config.tls_cert.empty()) {
+      server = std::make_unique<httplib::Server>();
+    } else {
+      auto tls =
+          std::make_unique<httplib::SSLServer>(config.tls_cert.c_str(), config.tls_key.c_str());
+      if (!tls->is_valid()) {
+        throw std::runtime_error("cannot use the certificate " + config.tls_cert + " with key " +
+                                 config.tls_key + " (unreadable, or not a matching PEM pair)");
+      }
+      server = std::move(tls);
+    }
+    for (const std::string& name : config.students) {
+      auto seat = std::make_unique<Seat>();
+      seat->name = name;
+      seat->Touch();
+      seats[name] = std::move(seat);
+    }
+  }
+
+  void Log(const std::string& line) {
+    if (options.log == nullptr) return;
+    const std::lock_guard<std::mutex> lock(log_mutex);
+    *options.log << "sirupp class: " << line << std::endl;
+  }
+
+  Seat* Find(const std::string& name) {
+    const auto found = seats.find(name);
+    return found == seats.end() ? nullptr : found->second.get();
+  }
+
+  // --- tokens -----------------------------------------------------------------------------------
+
+  // Who the request's token makes its sender for /s/NAME/ (student = NAME only), or for /teacher/
+  // (student_name empty). Fills `res` (403 or 429) and returns kNone when nobody.
+  Role Authorize(const httplib::Request& req, const std::string& student_name,
+                 httplib::Response& res) {
+    const double wait = throttle.WaitFor(req.remote_addr, Clock::now());
+    if (wait > 0) {
+      const int seconds = static_cast<int>(wait) + 1;
+      res.set_header("Retry-After", std::to_string(seconds));
+      SendError(res, 429,
+                "too many bad tokens from " + req.remote_addr + "; try again in " +
+                    std::to_string(seconds) + " s");
+      return Role::kNone;
+    }
+    std::vector<std::string> offered;
+    for (const std::string& token :
+         {req.get_header_value("X-Sirupp-Token"), req.get_param_value("token"),
+          CookieValue(req.get_header_value("Cookie"), kStudentCookie),
+          CookieValue(req.get_header_value("Cookie"), kTeacherCookie)}) {
+      if (!token.empty()) offered.push_back(token);
+    }
+    for (const std::string& token : offered) {
+      if (!student_name.empty() && Find(student_name) != nullptr &&
+          tokens.Check(student_name, token)) {
+        throttle.Succeeded(req.remote_addr);
+        return Role::kStudent;
+      }
+      if (tokens.Check(kTeacher, token)) {
+        throttle.Succeeded(req.remote_addr);
+        return Role::kTeacher;
+      }
+    }
+    const std::string where =
+        student_name.empty() ? "/teacher/" : "/s/" + core::Printable(student_name, 40) + "/";
+    if (offered.empty()) {
+      SendError(
+          res, 403,
+          "no token: open the address with ?token=... that your teacher gave you (" + where + ")");
+    } else {
+      throttle.Failed(req.remote_addr, Clock::now());
+      Log("refused a bad token for " + where + " from " + req.remote_addr);
+      SendError(res, 403, "this token does not open " + where);
+    }
+    return Role::kNone;
+  }
+
+  // After a good ?token= on a page: the token goes into a cookie for the path, and the browser to
+  // the address without it (so it stays out of the address bar and history).
+  bool RedirectWithCookie(const httplib::Request& req, httplib::Response& res,
+                          const std::string& owner, const std::string& cookie,
+                          const std::string& path, const std::string& page) {
+    if (!req.has_param("token") || !tokens.Check(owner, req.get_param_value("token"))) {
+      return false;
+    }
+    const std::string secure = config.tls_cert.empty() ? "" : "; Secure";
+    res.set_header("Set-Cookie", cookie + "=" + req.get_param_value("token") + "; Path=" + path +
+                                     "; HttpOnly; SameSite=Strict" + secure);
+    res.set_redirect(page, 303);
+    return true;
+  }
+
+  // --- rigs -------------------------------------------------------------------------------------
+
+  // A new student's folder gets a copy of config/ (what the panel's file lists show and where a
+  // saved model goes). The class's robot model is copied into it at every start, so the rig runs
+  // a file the student's panel may read. Returns the rig's model file.
+  std::string PrepareFolder(const std::string& folder) {
+    if (!fs::exists(folder + "/config")) {
+      fs::create_directories(folder);
+      fs::copy(options.config_dir, folder + "/config", fs::copy_options::recursive);
+    }
+    fs::create_directories(folder + "/config/robots");
+    const std::string model =
+        folder + "/config/robots/" + fs::path(config.robot).filename().string();
+    if (fs::absolute(model).lexically_normal() != fs::path(config.robot)) {
+      fs::copy_file(config.robot, model, fs::copy_options::overwrite_existing);
+    }
+    return model;
+  }
+
+  // Starts the seat's rig unless it runs. Returns "" or why it cannot (for a 503).
+  std::string EnsureRig(Seat& seat) {
+    const std::lock_guard<std::mutex> lock(seat.mutex);
+    if (seat.rig) return "";
+    {
+      const std::lock_guard<std::mutex> stop_lock(monitor_mutex);
+      if (stopping) return "the class server is stopping";
+    }
+    {
+      const std::lock_guard<std::mutex> count_lock(start_mutex);
+      if (running >= config.max_rigs) {
+        return "the class server already runs its limit of " + std::to_string(config.max_rigs) +
+               " rigs; try again in a few minutes (idle rigs stop after " +
+               std::to_string(static_cast<int>(config.idle_timeout_s)) + " s)";
+      }
+      ++running;
+    }
+    try {
+      seat.lease = grade::PortLease::Acquire(config.first_port, config.port_count,
+                                             static_cast<int>(NowNs() % config.port_count));
+      const std::string folder = StudentFolder(config, seat.name);
+      RigSpec spec;
+      spec.robot = PrepareFolder(folder);
+      spec.student = seat.name;
+      spec.bin_dir = options.bin_dir;
+      spec.folder = folder;
+      spec.port = seat.lease.port();
+      spec.limits = ChildLimits{config.rig_nice, config.rig_memory_mb};
+      {
+        const std::lock_guard<std::mutex> info(seat.info_mutex);
+        seat.state = "starting";
+      }
+      auto rig = std::make_unique<Rig>(spec, launcher);
+      rig->Start();
+      const std::lock_guard<std::mutex> info(seat.info_mutex);
+      seat.panel = rig->panel();
+      seat.start_s = rig->start_seconds();
+      seat.port = spec.port;
+      seat.state = "running";
+      ++seat.starts;
+      const std::time_t now = std::time(nullptr);
+      std::tm local{};
+      localtime_r(&now, &local);
+      char text[16];
+      std::strftime(text, sizeof text, "%H:%M:%S", &local);
+      seat.started_at = text;
+      seat.rig = std::move(rig);
+      seat.Touch();
+      Log("started " + seat.name + "'s rig on " + RigUrl(spec.port) + " in " +
+          std::to_string(seat.start_s).substr(0, 4) + " s");
+      return "";
+    } catch (const std::exception& e) {
+      --running;
+      seat.lease.Release();
+      const std::lock_guard<std::mutex> info(seat.info_mutex);
+      seat.state = "failed";
+      seat.last_stop = std::string("could not start: ") + e.what();
+      Log(seat.name + "'s rig could not start: " + e.what());
+      return seat.last_stop;
+    }
+  }
+
+  // Stops the seat's rig (if any), saying why. `locked`: the caller holds seat.mutex.
+  void StopRig(Seat& seat, const std::string& why, bool failed = false) {
+    std::unique_ptr<Rig> rig;
+    {
+      const std::lock_guard<std::mutex> info(seat.info_mutex);
+      if (!seat.rig) return;
+      rig = std::move(seat.rig);
+      seat.panel.reset();
+      seat.state = failed ? "failed" : "stopped";
+      seat.last_stop = why;
+      seat.cpu = 0;
+    }
+    rig->Stop();
+    rig.reset();
+    seat.lease.Release();
+    --running;
+    Log("stopped " + seat.name + "'s rig: " + why);
+  }
+
+  void Monitor() {
+    std::unique_lock<std::mutex> lock(monitor_mutex);
+    while (!stopping) {
+      monitor_wake.wait_for(lock, std::chrono::seconds(1));
+      if (stopping) break;
+      lock.unlock();
+      for (auto& [name, seat] : seats) {
+        std::unique_lock<std::mutex> seat_lock(seat->mutex, std::try_to_lock);
+        if (!seat_lock.owns_lock() || !seat->rig) continue;
+        const std::string ended = seat->rig->CheckProcesses();
+        if (!ended.empty()) {
+          StopRig(*seat, ended, true);
+          continue;
+        }
+        const double cpu = seat->rig->CpuPercent();
+        {
+          const std::lock_guard<std::mutex> info(seat->info_mutex);
+          seat->cpu = cpu;
+        }
+        if (seat->IdleSeconds() > config.idle_timeout_s) {
+          StopRig(*seat, "stopped after " +
+                             std::to_string(static_cast<int>(config.idle_timeout_s)) +
+                             " s without a visit (idle)");
+        }
+      }
+      lock.lock();
+    }
+  }
+
+  // --- what the pages are told -----------------------------------------------------------------
+
+  Json SeatJson(const Seat& seat, bool live) const {
+    std::shared_ptr<RigPanel> rig_panel;
+    Json out;
+    {
+      const std::lock_guard<std::mutex> info(seat.info_mutex);
+      rig_panel = seat.panel;
+      out = Json{{"name", seat.name},
+                 {"state", seat.state},
+                 {"starts", seat.starts},
+                 {"start_s", seat.start_s},
+                 {"last_stop", seat.last_stop},
+                 {"cpu_percent", seat.cpu},
+                 {"port", seat.port},
+                 {"started_at", seat.started_at},
+                 {"idle_s", seat.IdleSeconds()},
+                 {"streams", seat.streams.load()}};
+    }
+    if (live && rig_panel) {
+      const Json state = rig_panel->hub->StateJson();
+      if (state.contains("controller")) out["controller"] = state["controller"];
+      if (state.contains("sim")) out["sim"] = state["sim"];
+      if (state.contains("estop")) out["estop"] = state["estop"];
+      if (state.contains("virtual")) out["q"] = state["virtual"]["q"];
+      out["lock"] = rig_panel->api->LockHolder();
+    }
+    return out;
+  }
+
+  Json ClassJson() const {
+    Json rigs = Json::array();
+    for (const auto& [name, seat] : seats) rigs.push_back(SeatJson(*seat, true));
+    return Json{{"class", config.name},
+                {"description", config.description},
+                {"max_rigs", config.max_rigs},
+                {"running", running.load()},
+                {"idle_timeout_s", config.idle_timeout_s},
+                {"rigs", rigs}};
+  }
+
+  size_t ResultFiles(const std::string& name) const {
+    std::error_code error;
+    size_t count = 0;
+    for (fs::recursive_directory_iterator it(StudentFolder(config, name) + "/results", error), end;
+         !error && it != end; it.increment(error)) {
+      if (it->is_regular_file()) ++count;
+    }
+    return count;
+  }
+
+  // --- routes -----------------------------------------------------------------------------------
+
+  static bool IsChange(const httplib::Request& req) { return req.method != "GET"; }
+
+  // POSTs of our own pages carry X-Sirupp-Client (a cross-site form cannot without a preflight).
+  static bool MissingClient(const httplib::Request& req, httplib::Response& res) {
+    if (IsChange(req) && req.get_header_value("X-Sirupp-Client").empty()) {
+      SendError(res, 400,
+                "missing header X-Sirupp-Client (the page sends it; a request from another site "
+                "cannot)");
+      return true;
+    }
+    return false;
+  }
+
+  void ServeStudentPage(Seat& seat, Role role, httplib::Response& res) {
+    if (role == Role::kStudent) {
+      const std::string why = EnsureRig(seat);
+      if (!why.empty()) {
+        SendHtmlMessage(res, 503, "Your rig is not available", why);
+        return;
+      }
+    }
+    std::string page = ReadAll(options.panel_web_dir + "/index.html");
+    const size_t head = page.find("</head>");
+    if (head != std::string::npos) {
+      page.insert(head, "<link rel=\"stylesheet\" href=\"class.css\">\n");
+    }
+    const size_t body = page.find("<body");
+    const size_t body_end = body == std::string::npos ? body : page.find('>', body);
+    if (body_end != std::string::npos) {
+      page.insert(body_end + 1,
+                  "\n<!-- the class server's bar (class/web/student.js) -->\n"
+                  "<div id=\"class-bar\" class=\"class-bar\"><span id=\"class-status\">class</span>"
+                  "<section id=\"real-arm-queue\" class=\"class-queue\" data-issue=\"33\">"
+                  "Real arm: the queue for turns on the real PUMA goes here.</section></div>\n");
+    }
+    const size_t end = page.rfind("</body>");
+    if (end != std::string::npos) page.insert(end, "<script src=\"class.js\"></script>\n");
+    res.status = 200;
+    res.set_header("Cache-Control", "no-store");
+    res.set_content(page, "text/html; charset=utf-8");
+  }
+
+  void Student(const httplib::Request& req, httplib::Response& res) {
+    const std::string name = req.matches[1];
+    const std::string rest = req.matches[2];
+    const Role role = Authorize(req, name, res);
+    if (role == Role::kNone) return;
+    Seat* seat = Find(name);
+    if (seat == nullptr) {  // only the teacher's token gets here with an unknown name
+      SendError(res, 404, "no student '" + core::Printable(name, 40) + "' in this class");
+      return;
+    }
+    if (role == Role::kStudent) seat->Touch();
+    if (rest.empty() || rest == "index.html") {
+      if (req.method != "GET") {
+        SendError(res, 405, "method " + req.method + " on the page; allowed: GET");
+        return;
+      }
+      const std::string page = "/s/" + name + "/";
+      if (role == Role::kStudent &&
+          RedirectWithCookie(req, res, name, kStudentCookie, page, page)) {
+        return;
+      }
+      ServeStudentPage(*seat, role, res);
+      return;
+    }
+    if (rest == "class/status") {
+      Json status = SeatJson(*seat, false);
+      status["class"] = config.name;
+      status["role"] = role == Role::kStudent ? "student" : "teacher";
+      status["files"] = ResultFiles(name);
+      status["idle_timeout_s"] = config.idle_timeout_s;
+      SendJson(res, 200, status);
+      return;
+    }
+    if (rest == "class/start") {
+      if (req.method != "POST") {
+        SendError(res, 405, "class/start: allowed: POST");
+        return;
+      }
+      if (MissingClient(req, res)) return;
+      if (role != Role::kStudent) {
+        SendError(res, 403,
+                  "only " + name + " starts this rig (the teacher restarts it from /teacher/)");
+        return;
+      }
+      const std::string why = EnsureRig(*seat);
+      if (why.empty()) {
+        SendJson(res, 200, SeatJson(*seat, false));
+      } else {
+        SendError(res, 503, why);
+      }
+      return;
+    }
+    if (rest.rfind("api/", 0) == 0) {
+      Api(*seat, role, rest, req, res);
+      return;
+    }
+    if (req.method != "GET") {
+      SendError(res, 405, "method " + req.method + " on a file; allowed: GET");
+      return;
+    }
+    if (rest == "class.js" && ServeFileUnder(options.class_web_dir, "student.js", res)) return;
+    if (rest == "class.css" && ServeFileUnder(options.class_web_dir, "class.css", res)) return;
+    for (const char* library : {"three", "dygraphs"}) {
+      const std::string prefix = std::string("js/") + library + "/";
+      if (rest.rfind(prefix, 0) == 0 && ServeFileUnder(options.js_dir + "/" + std::string(library),
+                                                       rest.substr(prefix.size()), res)) {
+        return;
+      }
+    }
+    if (rest.find('/') == std::string::npos && ServeFileUnder(options.panel_web_dir, rest, res)) {
+      return;
+    }
+    SendError(res, 404, "no such page or file: /s/" + name + "/" + core::Printable(rest, 100));
+  }
+
+  void Api(Seat& seat, Role role, const std::string& rest, const httplib::Request& req,
+           httplib::Response& res) {
+    if (role == Role::kTeacher && IsChange(req)) {
+      SendError(res, 403,
+                "the teacher's view of " + seat.name +
+                    "'s rig is read-only (stop, restart and e-stop are on /teacher/)");
+      return;
+    }
+    std::shared_ptr<RigPanel> rig_panel;
+    std::string last_stop;
+    {
+      const std::lock_guard<std::mutex> info(seat.info_mutex);
+      rig_panel = seat.panel;
+      last_stop = seat.last_stop;
+    }
+    if (!rig_panel) {
+      SendError(res, 503,
+                seat.name + "'s rig is not running" +
+                    (last_stop.empty() ? "" : " (" + last_stop + ")") +
+                    "; reload the page to start it again (your files are kept)");
+      return;
+    }
+    if (rest == "api/events") {
+      if (role == Role::kStudent) {
+        ++seat.streams;
+        // The count goes down when the stream's provider (and so this guard) is destroyed.
+        auto guard = std::shared_ptr<void>(nullptr, [&seat](void*) {
+          --seat.streams;
+          seat.Touch();
+        });
+        auto keep = std::make_shared<std::pair<std::shared_ptr<RigPanel>, std::shared_ptr<void>>>(
+            rig_panel, guard);
+        panel::StreamState(*rig_panel->hub, *rig_panel->api, options.stream_hz, req, res, keep);
+      } else {
+        panel::StreamState(*rig_panel->hub, *rig_panel->api, options.stream_hz, req, res,
+                           rig_panel);
+      }
+      return;
+    }
+    panel::Request request = panel::ToRequest(req);
+    request.path = "/" + rest;
+    panel::Send(rig_panel->api->Handle(request), res);
+  }
+
+  void Teacher(const httplib::Request& req, httplib::Response& res) {
+    const std::string rest = req.matches[1];
+    if (Authorize(req, "", res) != Role::kTeacher) return;
+    if (rest.empty() || rest == "index.html") {
+      if (RedirectWithCookie(req, res, kTeacher, kTeacherCookie, "/", "/teacher/")) return;
+      if (!ServeFileUnder(options.class_web_dir, "teacher.html", res)) {
+        SendError(res, 500, "the teacher's page is missing from " + options.class_web_dir);
+      }
+      return;
+    }
+    if (rest == "teacher.js" || rest == "class.css") {
+      if (!ServeFileUnder(options.class_web_dir, rest, res)) SendError(res, 404, "no " + rest);
+      return;
+    }
+    if (rest == "api/rigs") {
+      SendJson(res, 200, ClassJson());
+      return;
+    }
+    if (rest == "api/events") {
+      TeacherEvents(res);
+      return;
+    }
+    if (req.method != "POST") {
+      SendError(res, 404, "no such page: /teacher/" + core::Printable(rest, 100));
+      return;
+    }
+    if (MissingClient(req, res)) return;
+    if (rest == "api/estop") {
+      Json body = Json::parse(req.body.empty() ? "{}" : req.body, nullptr, false);
+      if (body.is_discarded() || !body.is_object()) {
+        SendError(res, 400, "body: expected a JSON object like {\"engaged\": true}");
+        return;
+      }
+      const auto engaged = body.find("engaged");
+      if (engaged != body.end() && !engaged->is_boolean()) {
+        SendError(res, 400, "engaged: expected true or false");
+        return;
+      }
+      const bool engage = engaged == body.end() || engaged->get<bool>();
+      Json sent = Json::array();
+      for (auto& [name, seat] : seats) {
+        std::shared_ptr<RigPanel> rig_panel;
+        {
+          const std::lock_guard<std::mutex> info(seat->info_mutex);
+          rig_panel = seat->panel;
+        }
+        if (!rig_panel) continue;
+        panel::RigCommands commands(*rig_panel->hub);
+        commands.Estop(engage, "teacher", engage ? "class e-stop" : "class e-stop released");
+        sent.push_back(name);
+      }
+      Log(std::string("teacher ") + (engage ? "engaged" : "released") + " the e-stop of " +
+          std::to_string(sent.size()) + " rig(s)");
+      SendJson(res, 200, Json{{"engaged", engage}, {"rigs", sent}});
+      return;
+    }
+    static const std::regex kRigVerb(R"(api/rigs/([^/]+)/(stop|restart|start))");
+    std::smatch match;
+    if (std::regex_match(rest, match, kRigVerb)) {
+      Seat* seat = Find(match[1].str());
+      if (seat == nullptr) {
+        SendError(res, 404,
+                  "no student '" + core::Printable(match[1].str(), 40) + "' in this class");
+        return;
+      }
+      const std::string verb = match[2];
+      if (verb != "start") {
+        const std::lock_guard<std::mutex> lock(seat->mutex);
+        StopRig(*seat, verb == "stop" ? "stopped by the teacher" : "restarted by the teacher");
+      }
+      std::string why;
+      if (verb != "stop") why = EnsureRig(*seat);
+      if (why.empty()) {
+        SendJson(res, 200, SeatJson(*seat, false));
+      } else {
+        SendError(res, 503, why);
+      }
+      return;
+    }
+    SendError(res, 404, "no such command: /teacher/" + core::Printable(rest, 100));
+  }
+
+  // One stream for the whole class, twice a second.
+  void TeacherEvents(httplib::Response& res) {
+    res.set_header("Cache-Control", "no-store");
+    res.set_header("X-Accel-Buffering", "no");
+    auto next = std::make_shared<Clock::time_point>(Clock::now());
+    res.set_chunked_content_provider(
+        "text/event-stream", [this, next](size_t, httplib::DataSink& sink) {
+          std::this_thread::sleep_until(*next);
+          *next = std::max(*next + std::chrono::milliseconds(500), Clock::now());
+          {
+            const std::lock_guard<std::mutex> lock(monitor_mutex);
+            if (stopping) {
+              sink.done();
+              return true;
+            }
+          }
+          const std::string frame = "data: " + ClassJson().dump() + "\n\n";
+          return sink.write(frame.data(), frame.size());
+        });
+  }
+
+  void Routes() {
+    const size_t threads = static_cast<size_t>(std::min(512, 16 + 3 * config.max_rigs));
+    server->new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
+    server->set_payload_max_length(1024 * 1024);
+    server->set_keep_alive_max_count(1000);
+    server->set_default_headers(
+        {{"X-Content-Type-Options", "nosniff"}, {"Referrer-Policy", "no-referrer"}});
+    server->Get("/", [this](const httplib::Request&, httplib::Response& res) {
+      SendHtmlMessage(res, 200, "SIRUPP class " + config.name,
+                      "Open the address with your token that your teacher gave you.");
+    });
+    const auto student = [this](const httplib::Request& req, httplib::Response& res) {
+      Student(req, res);
+    };
+    const std::string student_path = R"(/s/([^/]+)/(.*))";
+    server->Get(student_path, student);
+    server->Post(student_path, student);
+    server->Get(R"(/s/([^/]+))", [](const httplib::Request& req, httplib::Response& res) {
+      res.set_redirect(
+          req.path + "/" + (req.has_param("token") ? "?token=" + req.get_param_value("token") : ""),
+          303);
+    });
+    const auto teacher = [this](const httplib::Request& req, httplib::Response& res) {
+      Teacher(req, res);
+    };
+    server->Get(R"(/teacher/(.*))", teacher);
+    server->Post(R"(/teacher/(.*))", teacher);
+    server->set_error_handler([](const httplib::Request& req, httplib::Response& res) {
+      if (res.body.empty()) {
+        SendError(res, res.status == 200 ? 404 : res.status,
+                  "no such page: " + core::Printable(req.path, 100));
+      }
+    });
+    panel::AnswerExceptionsWith500(*server);
+  }
+};
+
+ClassServer::ClassServer(ClassConfig config, ServeOptions options)
+    : impl_(std::make_unique<Impl>(std::move(config), std::move(options))) {
+  impl_->Routes();
+}
+
+ClassServer::~ClassServer() { Stop(); }
+
+int ClassServer::Bind() {
+  impl_->port = panel::BindServer(*impl_->server, impl_->config.listen, impl_->config.port);
+  return impl_->port;
+}
+
+void ClassServer::Serve() {
+  impl_->monitor = std::thread([this] { impl_->Monitor(); });
+  impl_->server->listen_after_bind();
+}
+
+void ClassServer::Stop() {
+  if (!impl_) return;
+  {
+    const std::lock_guard<std::mutex> lock(impl_->monitor_mutex);
+    impl_->stopping = true;
+  }
+  impl_->monitor_wake.notify_all();
+  if (impl_->monitor.joinable()) impl_->monitor.join();
+  for (auto& [name, seat] : impl_->seats) {
+    const std::lock_guard<std::mutex> lock(seat->mutex);
+    impl_->StopRig(*seat, "the class server stopped");
+  }
+  if (impl_->server->is_running()) impl_->server->stop();
+}
+
+}  // namespace sirupp::classroom

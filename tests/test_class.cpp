@@ -1,0 +1,426 @@
+// The class server (class/): the class file's strict reading, tokens stored hashed and checked,
+// the bad-token throttle on an injected clock, and the HTTP server itself on 127.0.0.1 with a real
+// rig (sirupp-sim, sirupp-control, sirupp-logger on a leased udpm port, ttl=0): a student's token
+// opens that student's rig and no other, the teacher's opens every rig read-only, bad requests
+// are 4xx with a message, the rig's processes end when it stops.
+
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <regex>
+#include <sstream>
+#include <thread>
+
+#include "class/class_config.hpp"
+#include "class/class_server.hpp"
+#include "class/tokens.hpp"
+#include "core/errors.hpp"
+#include "panel/httplib_include.hpp"
+
+namespace sirupp::classroom {
+namespace {
+
+namespace fs = std::filesystem;
+using Json = nlohmann::json;
+
+std::string TempDir(const std::string& stem) {
+  std::string pattern = (fs::temp_directory_path() / (stem + "-XXXXXX")).string();
+  if (::mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("mkdtemp");
+  return pattern;
+}
+
+const char* const kGood =
+    "class: robotics-1\n"
+    "robot: config/robots/puma260.yaml\n"
+    "students: [alice, bob]\n"
+    "data: class-data\n"
+    "limits: {max_rigs: 2, idle_timeout_s: 60}\n"
+    "server: {port: 0}\n";
+
+std::string ErrorOf(const std::string& text) {
+  try {
+    ParseClassConfig(text, "c.yaml", fs::current_path().string());
+  } catch (const core::ConfigError& e) {
+    return e.what();
+  }
+  return "";
+}
+
+TEST(ClassConfigTest, ReadsAGoodFile) {
+  const ClassConfig c = ParseClassConfig(kGood, "c.yaml", "/tmp/x");
+  EXPECT_EQ(c.name, "robotics-1");
+  EXPECT_EQ(c.students, (std::vector<std::string>{"alice", "bob"}));
+  EXPECT_EQ(c.data_dir, "/tmp/x/class-data");
+  EXPECT_EQ(c.max_rigs, 2);
+  EXPECT_EQ(c.idle_timeout_s, 60);
+  EXPECT_EQ(c.listen, "127.0.0.1");
+  EXPECT_TRUE(fs::path(c.robot).is_absolute());
+  EXPECT_EQ(BaseUrl(c, 8800), "http://127.0.0.1:8800");
+}
+
+TEST(ClassConfigTest, BadFilesNameLineKeyAndWhatIsAllowed) {
+  {
+    const std::string e = ErrorOf(std::string(kGood) + "colour: red\n");
+    EXPECT_NE(e.find("c.yaml:7"), std::string::npos) << e;
+    EXPECT_NE(e.find("colour"), std::string::npos) << e;
+  }
+  {
+    const std::string e =
+        ErrorOf("class: a\nrobot: config/robots/puma260.yaml\nstudents: [alice, alice]\ndata: d\n");
+    EXPECT_NE(e.find("c.yaml:3"), std::string::npos) << e;
+    EXPECT_NE(e.find("listed twice"), std::string::npos) << e;
+  }
+  {
+    const std::string e =
+        ErrorOf("class: a\nrobot: config/robots/puma260.yaml\nstudents: [teacher]\ndata: d\n");
+    EXPECT_NE(e.find("reserved"), std::string::npos) << e;
+  }
+  {
+    const std::string e =
+        ErrorOf("class: a\nrobot: config/robots/puma260.yaml\nstudents: [../x]\ndata: d\n");
+    EXPECT_NE(e.find("'../x' is not a valid student name"), std::string::npos) << e;
+  }
+  {
+    const std::string e = ErrorOf("class: a\nrobot: nowhere.yaml\nstudents: [a]\ndata: d\n");
+    EXPECT_NE(e.find("c.yaml:2"), std::string::npos) << e;
+    EXPECT_NE(e.find("no such file"), std::string::npos) << e;
+  }
+  {
+    const std::string e = ErrorOf(std::string(kGood) + "rigs: {port_count: 1}\n");
+    EXPECT_NE(e.find("each rig needs a port"), std::string::npos) << e;
+  }
+  {
+    const std::string e = ErrorOf(
+        "class: a\nrobot: config/robots/puma260.yaml\nstudents: [a]\ndata: d\n"
+        "limits: {idle_timeout_s: -5}\n");
+    EXPECT_NE(e.find("c.yaml:5"), std::string::npos) << e;
+    EXPECT_NE(e.find("-5"), std::string::npos) << e;
+  }
+  {
+    const std::string e = ErrorOf(
+        "class: a\nrobot: config/robots/puma260.yaml\nstudents: [a]\ndata: d\n"
+        "server: {tls_cert: x.pem}\n");
+    EXPECT_NE(e.find("go together"), std::string::npos) << e;
+  }
+}
+
+TEST(TokenStoreTest, StoresOnlySaltedHashes) {
+  const std::string dir = TempDir("sirupp-class-tokens");
+  const std::string file = dir + "/tokens.json";
+  std::string alice;
+  {
+    TokenStore store(file);
+    alice = store.Issue("alice");
+    store.Issue("bob");
+  }
+  EXPECT_EQ(alice.size(), 48u);
+  std::ifstream in(file);
+  std::stringstream buffer;
+  buffer << in.rdbuf();
+  const std::string text = buffer.str();
+  EXPECT_EQ(text.find(alice), std::string::npos) << "the token itself is not stored";
+  EXPECT_EQ(fs::status(file).permissions() & fs::perms::others_read, fs::perms::none);
+  TokenStore again(file);  // as a restarted server reads it
+  EXPECT_TRUE(again.Check("alice", alice));
+  EXPECT_FALSE(again.Check("bob", alice));
+  EXPECT_FALSE(again.Check("alice", alice.substr(1)));
+  EXPECT_FALSE(again.Check("alice", ""));
+  EXPECT_FALSE(again.Check("carol", alice));
+  const std::string reissued = again.Issue("alice");
+  EXPECT_FALSE(again.Check("alice", alice)) << "a reissued token replaces the old one";
+  EXPECT_TRUE(again.Check("alice", reissued));
+  // The hash is SHA-256: the standard test vector.
+  EXPECT_EQ(Sha256Hex("abc"), "ba7816bf8f01cfea414140de5dae2223b00361a396177a9cb410ff61f20015ad");
+  fs::remove_all(dir);
+}
+
+TEST(TokenStoreTest, ABrokenFileIsAConfigError) {
+  const std::string dir = TempDir("sirupp-class-tokens");
+  std::ofstream(dir + "/tokens.json") << "[1, 2";
+  EXPECT_THROW(TokenStore(dir + "/tokens.json"), core::ConfigError);
+  fs::remove_all(dir);
+}
+
+TEST(BadTokenThrottleTest, LocksOutAfterFiveFailuresForAGrowingTime) {
+  BadTokenThrottle throttle;
+  const auto t0 = BadTokenThrottle::Clock::time_point{} + std::chrono::hours(10);
+  for (int i = 0; i < BadTokenThrottle::kFreeFailures - 1; ++i) {
+    throttle.Failed("10.0.0.1", t0);
+    EXPECT_EQ(throttle.WaitFor("10.0.0.1", t0), 0) << i;
+  }
+  throttle.Failed("10.0.0.1", t0);  // the fifth: 1 s
+  EXPECT_NEAR(throttle.WaitFor("10.0.0.1", t0), 1.0, 1e-6);
+  EXPECT_EQ(throttle.WaitFor("10.0.0.2", t0), 0) << "other addresses are not slowed";
+  const auto t1 = t0 + std::chrono::seconds(2);
+  EXPECT_EQ(throttle.WaitFor("10.0.0.1", t1), 0);
+  throttle.Failed("10.0.0.1", t1);  // the sixth: 2 s
+  EXPECT_NEAR(throttle.WaitFor("10.0.0.1", t1), 2.0, 1e-6);
+  for (int i = 0; i < 20; ++i) throttle.Failed("10.0.0.1", t1);
+  EXPECT_NEAR(throttle.WaitFor("10.0.0.1", t1), BadTokenThrottle::kMaxLockoutS, 1e-6);
+  throttle.Succeeded("10.0.0.1");
+  EXPECT_EQ(throttle.WaitFor("10.0.0.1", t1), 0);
+}
+
+// The server on 127.0.0.1 with a class of two; rigs only where a test starts one.
+class ClassServerTest : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    const char* bin = std::getenv("SIRUPP_BIN_DIR");
+    if (bin == nullptr) GTEST_SKIP() << "SIRUPP_BIN_DIR not set (ctest sets it)";
+    dir_ = TempDir("sirupp-class-test");
+    config_ = ParseClassConfig(kGood, "class.yaml", dir_);
+    ServeOptions options;
+    options.bin_dir = bin;
+    options.panel_web_dir = fs::absolute("panel/web").string();
+    options.class_web_dir = fs::absolute("class/web").string();
+    options.config_dir = fs::absolute("config").string();
+    server_ = std::make_unique<ClassServer>(config_, options);
+    port_ = server_->Bind();
+    for (const auto& [name, address] : IssueMissingTokens(config_, port_)) {
+      tokens_[name] = address.substr(address.find("token=") + 6);
+    }
+    serving_ = std::thread([this] { server_->Serve(); });
+    client_ = std::make_unique<httplib::Client>("127.0.0.1", port_);
+    client_->set_read_timeout(20, 0);
+  }
+  void TearDown() override {
+    if (server_) server_->Stop();
+    if (serving_.joinable()) serving_.join();
+    if (!dir_.empty()) fs::remove_all(dir_);
+  }
+  httplib::Result Get(const std::string& path, const std::string& token) {
+    httplib::Headers headers;
+    if (!token.empty()) headers.emplace("X-Sirupp-Token", token);
+    return client_->Get(path.c_str(), headers);
+  }
+  httplib::Result Post(const std::string& path, const std::string& token,
+                       const std::string& body = "{}") {
+    httplib::Headers headers{{"X-Sirupp-Client", "test"}};
+    if (!token.empty()) headers.emplace("X-Sirupp-Token", token);
+    return client_->Post(path.c_str(), headers, body, "application/json");
+  }
+  static std::string Error(const httplib::Result& r) {
+    const Json body = Json::parse(r->body, nullptr, false);
+    if (!body.is_object() || !body.contains("error") || !body.at("error").is_string()) {
+      return "(no error)";
+    }
+    return body.at("error").get<std::string>();
+  }
+
+  std::string dir_;
+  ClassConfig config_;
+  std::unique_ptr<ClassServer> server_;
+  std::thread serving_;
+  int port_ = 0;
+  std::map<std::string, std::string> tokens_;
+  std::unique_ptr<httplib::Client> client_;
+};
+
+TEST_F(ClassServerTest, TokensFileAndHandout) {
+  EXPECT_EQ(tokens_.size(), 3u);  // teacher, alice, bob
+  std::ifstream in(HandoutFile(config_));
+  std::string header;
+  std::getline(in, header);
+  EXPECT_EQ(header, "student,address");
+  EXPECT_TRUE(IssueMissingTokens(config_, port_).empty()) << "only missing tokens are issued";
+  const auto row = ReissueToken(config_, port_, "bob");
+  EXPECT_NE(row.second.find("/s/bob/?token="), std::string::npos);
+  EXPECT_THROW(ReissueToken(config_, port_, "mallory"), core::UsageError);
+}
+
+TEST_F(ClassServerTest, RefusesWithoutTheRightTokenAndSlowsRepeatedBadOnes) {
+  auto r = Get("/s/alice/api/state", "");
+  ASSERT_TRUE(r);
+  EXPECT_EQ(r->status, 403);
+  EXPECT_NE(Error(r).find("no token"), std::string::npos) << Error(r);
+  r = Get("/s/alice/api/state", tokens_["bob"]);
+  EXPECT_EQ(r->status, 403);
+  EXPECT_NE(Error(r).find("does not open /s/alice/"), std::string::npos) << Error(r);
+  r = Get("/teacher/api/rigs", tokens_["alice"]);
+  EXPECT_EQ(r->status, 403);
+  r = Get("/s/nobody/", tokens_["alice"]);
+  EXPECT_EQ(r->status, 403);
+  r = Get("/nothing-here", "");
+  EXPECT_EQ(r->status, 404);
+  // The fifth bad token locks the address out; even a good token waits (429, Retry-After).
+  r = Get("/s/alice/api/state", "0123");
+  EXPECT_EQ(r->status, 403);
+  r = Get("/s/alice/api/state", "4567");
+  EXPECT_EQ(r->status, 403);
+  r = Get("/s/alice/api/state", tokens_["alice"]);
+  EXPECT_EQ(r->status, 429) << r->body;
+  EXPECT_TRUE(r->has_header("Retry-After"));
+  std::this_thread::sleep_for(std::chrono::milliseconds(1100));
+  r = Get("/s/alice/api/state", tokens_["alice"]);
+  EXPECT_EQ(r->status, 503) << r->body;  // the right token: alice's rig is not started yet
+  EXPECT_NE(Error(r).find("reload the page"), std::string::npos) << Error(r);
+}
+
+TEST_F(ClassServerTest, TheTeachersViewListsEveryRigAndRefusesBadCommands) {
+  auto r = Get("/teacher/api/rigs", tokens_["teacher"]);
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  const Json rigs = Json::parse(r->body);
+  EXPECT_EQ(rigs["class"], "robotics-1");
+  ASSERT_EQ(rigs["rigs"].size(), 2u);
+  EXPECT_EQ(rigs["rigs"][0]["state"], "stopped");
+  EXPECT_EQ(Post("/teacher/api/estop", tokens_["teacher"], "[1")->status, 400);
+  EXPECT_EQ(Post("/teacher/api/estop", tokens_["teacher"], "{\"engaged\": 3}")->status, 400);
+  EXPECT_EQ(Post("/teacher/api/rigs/mallory/stop", tokens_["teacher"])->status, 404);
+  EXPECT_EQ(Post("/teacher/api/rigs/alice/explode", tokens_["teacher"])->status, 404);
+  // Without the page's header a POST is refused (another site cannot send it).
+  httplib::Headers headers{{"X-Sirupp-Token", tokens_["teacher"]}};
+  EXPECT_EQ(client_->Post("/teacher/api/estop", headers, "{}", "application/json")->status, 400);
+}
+
+// This process's children (the rigs' processes, since the server runs in the test).
+std::vector<int> Children() {
+  std::vector<int> out;
+  for (const auto& entry : fs::directory_iterator("/proc")) {
+    const std::string name = entry.path().filename().string();
+    if (name.find_first_not_of("0123456789") != std::string::npos) continue;
+    std::ifstream stat(entry.path() / "stat");
+    std::string text;
+    std::getline(stat, text);
+    const size_t close = text.rfind(')');
+    if (close == std::string::npos) continue;
+    std::istringstream fields(text.substr(close + 2));
+    std::string state;
+    int ppid = 0;
+    fields >> state >> ppid;
+    if (ppid == ::getpid() && state != "Z") out.push_back(std::stoi(name));
+  }
+  return out;
+}
+
+// Counts the live processes among `pids`.
+int Alive(const std::vector<int>& pids) {
+  int alive = 0;
+  for (const int pid : pids) {
+    if (::kill(pid, 0) == 0) {
+      std::ifstream stat("/proc/" + std::to_string(pid) + "/stat");
+      std::string text;
+      std::getline(stat, text);
+      if (text.find(") Z") == std::string::npos) ++alive;
+    }
+  }
+  return alive;
+}
+
+TEST_F(ClassServerTest, AStudentsRigStartsOnTheFirstVisitAndIsTheirsAlone) {
+  // The page starts the rig (and answers once it is ready).
+  auto r = Get("/s/alice/", tokens_["alice"]);
+  ASSERT_TRUE(r);
+  ASSERT_EQ(r->status, 200) << r->body;
+  EXPECT_NE(r->body.find("id=\"class-bar\""), std::string::npos);
+  EXPECT_NE(r->body.find("id=\"real-arm-queue\""), std::string::npos);
+  r = Get("/s/alice/api/state", tokens_["alice"]);
+  ASSERT_EQ(r->status, 200) << r->body;
+  EXPECT_TRUE(Json::parse(r->body).contains("virtual")) << r->body;
+  // Bob's token does not open it, whatever the path (four tries: the fifth would lock this
+  // address out for a second).
+  for (const char* path : {"/s/alice/api/state", "/s/alice/api/files?dir=results",
+                           "/s/alice/panel.js", "/s/alice/class/status"}) {
+    EXPECT_EQ(Get(path, tokens_["bob"])->status, 403) << path;
+  }
+  // A question of the page reaches the rig's API; a command moves it (with the lock).
+  r = Post("/s/alice/api/lock", tokens_["alice"], R"({"name": "alice"})");
+  EXPECT_EQ(r->status, 200) << r->body;
+  r = Post("/s/alice/api/move/joints", tokens_["alice"],
+           R"({"targets": [10, null, null, null, null, null]})");
+  EXPECT_EQ(r->status, 200) << r->body;
+  // The teacher's token reads it, but may not command it.
+  EXPECT_EQ(Get("/s/alice/api/state", tokens_["teacher"])->status, 200);
+  r = Post("/s/alice/api/move/joints", tokens_["teacher"],
+           R"({"targets": [0, null, null, null, null, null]})");
+  EXPECT_EQ(r->status, 403);
+  EXPECT_NE(Error(r).find("read-only"), std::string::npos) << Error(r);
+  // Static files and the JavaScript libraries under the prefix; no escape from them.
+  EXPECT_EQ(Get("/s/alice/panel.js", tokens_["alice"])->status, 200);
+  EXPECT_EQ(Get("/s/alice/js/three/three.min.js", tokens_["alice"])->status, 200);
+  EXPECT_EQ(Get("/s/alice/js/three/../../../../etc/passwd", tokens_["alice"])->status, 404);
+  EXPECT_EQ(Get("/s/alice/api/file?path=../../tokens.json", tokens_["alice"])->status / 100, 4);
+  // The teacher's list shows the rig running with its processes; stopping it ends them.
+  Json rigs = Json::parse(Get("/teacher/api/rigs", tokens_["teacher"])->body);
+  EXPECT_EQ(rigs["running"], 1);
+  EXPECT_EQ(rigs["rigs"][0]["state"], "running");
+  const std::string log = StudentFolder(config_, "alice") + "/logs/sirupp-sim.log";
+  EXPECT_TRUE(fs::exists(log));
+  const std::vector<int> rig = Children();
+  EXPECT_EQ(rig.size(), 3u) << "sim, control and logger";
+  r = Post("/teacher/api/rigs/alice/stop", tokens_["teacher"]);
+  EXPECT_EQ(r->status, 200) << r->body;
+  EXPECT_EQ(Alive(rig), 0) << "the stopped rig's processes ended";
+  rigs = Json::parse(Get("/teacher/api/rigs", tokens_["teacher"])->body);
+  EXPECT_EQ(rigs["rigs"][0]["state"], "stopped");
+  EXPECT_EQ(rigs["rigs"][0]["last_stop"], "stopped by the teacher");
+  r = Get("/s/alice/api/state", tokens_["alice"]);
+  EXPECT_EQ(r->status, 503);
+  // The student's folder stays; the next visit starts a rig on it again.
+  EXPECT_TRUE(fs::exists(StudentFolder(config_, "alice") + "/config/robots/puma260.yaml"));
+  r = Post("/s/alice/class/start", tokens_["alice"]);
+  EXPECT_EQ(r->status, 200) << r->body;
+  const Json status = Json::parse(Get("/s/alice/class/status", tokens_["alice"])->body);
+  EXPECT_EQ(status["state"], "running");
+  EXPECT_EQ(status["starts"], 2);
+  EXPECT_EQ(status["last_stop"], "stopped by the teacher");
+}
+
+}  // namespace
+}  // namespace sirupp::classroom
+
+namespace sirupp::classroom {
+namespace {
+
+// HTTPS when the class file names a certificate and key (a self-signed pair made here by the
+// openssl command); a key that does not match is refused at start with both paths named.
+TEST(ClassServerTlsTest, ServesHttpsWithTheGivenCertificate) {
+  const std::string dir = TempDir("sirupp-class-tls");
+  const std::string make =
+      "openssl req -x509 -newkey rsa:2048 -nodes -days 1 -subj /CN=localhost"
+      " -keyout " +
+      dir + "/key.pem -out " + dir + "/cert.pem 2>/dev/null";
+  if (std::system(make.c_str()) != 0) GTEST_SKIP() << "no openssl command";
+  ClassConfig config =
+      ParseClassConfig(std::string(kGood) + "rigs: {first_port: 7900}\n", "class.yaml", dir);
+  config.tls_cert = dir + "/cert.pem";
+  config.tls_key = dir + "/key.pem";
+  ServeOptions options;
+  options.class_web_dir = fs::absolute("class/web").string();
+  ClassServer server(config, options);
+  const int port = server.Bind();
+  const auto rows = IssueMissingTokens(config, port);
+  EXPECT_EQ(rows[0].second.rfind("https://127.0.0.1:", 0), 0u) << rows[0].second;
+  const std::string teacher = rows[0].second.substr(rows[0].second.find("token=") + 6);
+  std::thread serving([&] { server.Serve(); });
+  httplib::SSLClient client("127.0.0.1", port);
+  client.enable_server_certificate_verification(false);  // self-signed
+  const auto r = client.Get("/teacher/api/rigs", {{"X-Sirupp-Token", teacher}});
+  ASSERT_TRUE(r) << httplib::to_string(r.error());
+  EXPECT_EQ(r->status, 200);
+  httplib::Client plain("127.0.0.1", port);
+  plain.set_read_timeout(2, 0);
+  const auto answer = plain.Get("/teacher/api/rigs");
+  EXPECT_TRUE(!answer || answer->status != 200) << "plain HTTP got a page";
+  server.Stop();
+  serving.join();
+  // A key of another pair: refused at start.
+  (void)std::system(("openssl req -x509 -newkey rsa:2048 -nodes -days 1 -subj /CN=x -keyout " +
+                     dir + "/other.pem -out " + dir + "/other-cert.pem 2>/dev/null")
+                        .c_str());
+  config.tls_key = dir + "/other.pem";
+  try {
+    ClassServer refused(config, options);
+    ADD_FAILURE() << "a mismatched key was accepted";
+  } catch (const std::runtime_error& e) {
+    EXPECT_NE(std::string(e.what()).find("other.pem"), std::string::npos) << e.what();
+  }
+  fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace sirupp::classroom
