@@ -116,7 +116,11 @@ ControlNode::ControlNode(core::Bus& bus, const core::RobotModel& model, ControlO
       [this](const sirupp::robot_model_t& message, const Info& info) { OnModel(message, info); });
   bus_.Subscribe<sirupp::hardware_status_t>(
       channels.hardware_status,
-      [this](const sirupp::hardware_status_t& message, const Info&) { OnBridgeStatus(message); });
+      [this](const sirupp::hardware_status_t& message, const Info& info) {
+        // Only a status a bridge could have sent counts; others are refused (and counted).
+        core::HardwareStatusFromMessage(message, info.channel);
+        OnBridgeStatus(message);
+      });
   heartbeat_.Publish(core::ProcessState::kStarting, "");
 }
 

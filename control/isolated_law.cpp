@@ -246,7 +246,7 @@ std::vector<std::string> HostCommand(const std::string& program, const std::stri
   policy.read_only = {std::filesystem::absolute(library).string()};
   // The Python host imports this build's module `sirupp` (build/python beside build/bin); numpy
   // and the interpreter are under /usr.
-  if (std::filesystem::path(program).filename() == HostProgramName(".py")) {
+  if (std::filesystem::path(program).filename() == HostProgramName("controller.py")) {
     const std::filesystem::path module_dir =
         std::filesystem::path(program).parent_path().parent_path() / "python";
     std::error_code error;

@@ -211,9 +211,11 @@ int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostre
   if (!library.empty() && !fs::is_regular_file(library)) {
     throw core::UsageError("grade: controller library '" + library + "' is not a file");
   }
-  if (!library.empty() && !EndsWith(library, ".so") && !EndsWith(library, ".cpp")) {
+  if (!library.empty() && !EndsWith(library, ".so") && !EndsWith(library, ".cpp") &&
+      !EndsWith(library, ".py")) {
     throw core::UsageError("grade: controller '" + library +
-                           "': allowed a library (.so) or its C++ source (.cpp)");
+                           "': allowed a library (.so), its C++ source (.cpp) or a controller "
+                           "written in Python (.py)");
   }
   if (!batch.empty() && !fs::is_directory(batch)) {
     throw core::UsageError("grade: --batch '" + batch + "' is not a folder");

@@ -136,7 +136,8 @@ TurnManager::TurnManager(core::Bus& arm_bus, const core::RobotModel& model, Turn
       100));
   arm_subscriptions_.push_back(&arm_bus_.Subscribe<Status>(
       c.hardware_status,
-      [this](const Status& status, const core::ReceiveInfo&) {
+      [this](const Status& status, const core::ReceiveInfo& info) {
+        core::HardwareStatusFromMessage(status, info.channel);  // a bad one is refused, counted
         hardware_ = status;
         hardware_at_ = Clock::now();
       },
