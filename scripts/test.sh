@@ -24,7 +24,7 @@ export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 cd "$build"
 # Excluded labels: "long" unless --long; under --asan also "not-asan" (multi-process tests whose
-# code the unit tests already cover under ASan: the Python notebooks).
+# code the unit tests already cover under ASan: the Python rigs, controllers and notebooks).
 exclude=()
 [[ $long -eq 1 ]] || exclude+=(long)
 [[ " ${build_args[*]:-} " == *" --asan "* ]] && exclude+=(not-asan)
