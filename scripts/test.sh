@@ -5,7 +5,7 @@
 #   scripts/test.sh --asan     the same tests under AddressSanitizer + UBSan (build-asan/)
 #   scripts/test.sh --tsan     under ThreadSanitizer (build-tsan/)
 #   scripts/test.sh --long     also the long tests (label "long": the demo idle and under load)
-#                              (--asan also leaves out label "not-asan": the Python notebooks)
+#                              (--asan also leaves out label "not-asan": the Python tests with processes)
 # Options may be combined (--asan --werror). Further arguments go to ctest (e.g. -R Bus to run
 # only matching tests).
 set -euo pipefail
