@@ -32,8 +32,7 @@ double Since(Clock::time_point start) {
 
 int main(int argc, char** argv) {
   const int rounds = argc > 1 ? std::max(1, std::atoi(argv[1])) : 5;
-  const sirupp::core::RobotModel model =
-      sirupp::core::LoadRobotModel("config/robots/puma260.yaml");
+  const sirupp::core::RobotModel model = sirupp::core::LoadRobotModel("config/robots/puma260.yaml");
   std::printf("%s\n", sirupp::sandbox::Describe(sirupp::sandbox::ProbeMachine(),
                                                 sirupp::control::IsolationOptions{}.sandbox_limits)
                           .c_str());
@@ -66,11 +65,9 @@ int main(int argc, char** argv) {
       tick_us.push_back(Since(ticks) / 2000 * 1e6);
     }
     std::printf("host start with example 02 %-12s median %.3f s, one Update %.1f us (%d rounds)\n",
-                sandboxed ? "sandboxed:" : "unconfined:", Median(start_s), Median(tick_us),
-                rounds);
+                sandboxed ? "sandboxed:" : "unconfined:", Median(start_s), Median(tick_us), rounds);
   }
-  const std::filesystem::path out =
-      std::filesystem::temp_directory_path() / "sirupp-bench-sandbox";
+  const std::filesystem::path out = std::filesystem::temp_directory_path() / "sirupp-bench-sandbox";
   for (const bool sandboxed : {false, true}) {
     sirupp::grade::BuildOptions options;
     options.include_dir = SIRUPP_INCLUDE_DIR;
@@ -85,8 +82,8 @@ int main(int argc, char** argv) {
       }
       build_s.push_back(built.seconds);
     }
-    std::printf("build of example 02 %-12s median %.2f s\n", sandboxed ? "sandboxed:" : "unconfined:",
-                Median(build_s));
+    std::printf("build of example 02 %-12s median %.2f s\n",
+                sandboxed ? "sandboxed:" : "unconfined:", Median(build_s));
   }
   std::filesystem::remove_all(out);
   return 0;

@@ -284,8 +284,8 @@ class Client {
   std::function<void()> idle_;
   core::Channels channels_;
   Snapshot snapshot_;
-  int64_t last_status_wall_us_ = 0;     // steady clock of the last CONTROLLER_STATUS, microseconds
-  int64_t created_us_ = 0;              // steady clock when this client began to listen
+  int64_t last_status_wall_us_ = 0;  // steady clock of the last CONTROLLER_STATUS, microseconds
+  int64_t created_us_ = 0;           // steady clock when this client began to listen
   std::map<std::string, int64_t> heartbeat_heard_us_;  // steady clock, by snapshot_.heartbeats key
   int64_t last_utime_ = 0;              // utime of the last request (each request gets a new one)
   std::map<std::string, int64_t> seq_;  // per channel

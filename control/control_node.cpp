@@ -115,8 +115,7 @@ ControlNode::ControlNode(core::Bus& bus, const core::RobotModel& model, ControlO
       channels.robot_model,
       [this](const sirupp::robot_model_t& message, const Info& info) { OnModel(message, info); });
   bus_.Subscribe<sirupp::hardware_status_t>(
-      channels.hardware_status,
-      [this](const sirupp::hardware_status_t& message, const Info& info) {
+      channels.hardware_status, [this](const sirupp::hardware_status_t& message, const Info& info) {
         // Only a status a bridge could have sent counts; others are refused (and counted).
         core::HardwareStatusFromMessage(message, info.channel);
         OnBridgeStatus(message);
@@ -229,8 +228,7 @@ void ControlNode::OnBridgeStatus(const sirupp::hardware_status_t& message) {
 
 void ControlNode::CheckBridgeAlive() {
   if (!bridge_linked_ || bridge_lost_) return;
-  const double silent_s =
-      std::chrono::duration<double>(Clock::now() - last_bridge_status_).count();
+  const double silent_s = std::chrono::duration<double>(Clock::now() - last_bridge_status_).count();
   if (silent_s < options_.bridge_timeout_s) return;
   bridge_lost_ = true;
   bridge_linked_ = false;

@@ -149,8 +149,8 @@ std::string DefaultHostProgram(const std::string& library) {
 // Gives `pid` and its descendants (the sandbox's processes and the host) the scheduling policy.
 void SetSchedulerOfTree(pid_t pid, int policy, const sched_param& param) {
   ::sched_setscheduler(pid, policy, &param);
-  const std::string children = "/proc/" + std::to_string(pid) + "/task/" + std::to_string(pid) +
-                               "/children";
+  const std::string children =
+      "/proc/" + std::to_string(pid) + "/task/" + std::to_string(pid) + "/children";
   std::FILE* file = std::fopen(children.c_str(), "r");
   if (file == nullptr) return;
   std::vector<pid_t> found;
@@ -163,8 +163,9 @@ void SetSchedulerOfTree(pid_t pid, int policy, const sched_param& param) {
 
 std::string HostProgramName(const std::string& library) {
   const std::string python = ".py";
-  const bool is_python = library.size() > python.size() &&
-                         library.compare(library.size() - python.size(), python.size(), python) == 0;
+  const bool is_python =
+      library.size() > python.size() &&
+      library.compare(library.size() - python.size(), python.size(), python) == 0;
   return is_python ? "sirupp-python-controller-host" : "sirupp-controller-host";
 }
 

@@ -61,8 +61,8 @@ std::shared_ptr<sirupp::control::EffortLaw> LoadController(const sirupp::runtime
   isolation.sandbox = !args.Switch("no-sandbox");
   const bool in_process = args.Switch("controller-in-process");
   std::shared_ptr<sirupp::control::EffortLaw> law;
-  if (in_process && sirupp::control::HostProgramName(args.String("controller")) !=
-                        "sirupp-controller-host") {
+  if (in_process &&
+      sirupp::control::HostProgramName(args.String("controller")) != "sirupp-controller-host") {
     throw sirupp::core::UsageError("--controller-in-process: " + args.String("controller") +
                                    " is a Python controller; it runs only in its host process");
   }

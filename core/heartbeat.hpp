@@ -49,9 +49,8 @@ class Heartbeat {
   bool PublishIfDue(ProcessState state, const std::string& detail);
   // True when PublishIfDue would publish now: lets a per-tick caller build the detail only then.
   bool Due() const {
-    return !sent_any_ ||
-           Clock::now() - last_sent_ >= (last_state_ == ProcessState::kStarting ? period_ / 10
-                                                                                 : period_);
+    return !sent_any_ || Clock::now() - last_sent_ >=
+                             (last_state_ == ProcessState::kStarting ? period_ / 10 : period_);
   }
   // Publishes one now (start-up, state changes, shutdown).
   void Publish(ProcessState state, const std::string& detail);

@@ -24,7 +24,7 @@ struct CompilerError {
 };
 
 struct BuildOptions {
-  std::string include_dir;  // holds sirupp/controller.h
+  std::string include_dir;   // holds sirupp/controller.h
   double time_limit_s = 60;  // wall time; the compiler is killed after it
   bool sandbox = true;
   sandbox::Limits limits = {60, 2048, 16, 256, 256};
@@ -52,6 +52,7 @@ BuildResult BuildController(const std::vector<std::string>& sources, const std::
 
 // The "file:line:column: error: text" lines of a compiler's output; `folder/` is taken off the
 // file names.
-std::vector<CompilerError> ParseCompilerErrors(const std::string& output, const std::string& folder);
+std::vector<CompilerError> ParseCompilerErrors(const std::string& output,
+                                               const std::string& folder);
 
 }  // namespace sirupp::grade

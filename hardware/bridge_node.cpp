@@ -104,8 +104,8 @@ BridgeNode::BridgeNode(core::Bus& bus, const core::RobotModel& model, ArmLink& l
       c.robot_model,
       [this](const sirupp::robot_model_t& m, const core::ReceiveInfo& info) { OnModel(m, info); });
   heartbeat_.Publish(core::ProcessState::kStarting, settings_.start_guard_s > 0
-                                                       ? core::StartGuardDetail(StartGuardLeft())
-                                                       : ModelDetail());
+                                                        ? core::StartGuardDetail(StartGuardLeft())
+                                                        : ModelDetail());
 }
 
 // The model file this bridge keeps, in its heartbeat's detail while all is well, so that a panel
@@ -486,8 +486,7 @@ void BridgeNode::Cycle() {
 }
 
 double BridgeNode::StartGuardLeft() const {
-  return settings_.start_guard_s -
-         std::chrono::duration<double>(Clock::now() - started_).count();
+  return settings_.start_guard_s - std::chrono::duration<double>(Clock::now() - started_).count();
 }
 
 void BridgeNode::Service(int max_wait_ms) {

@@ -468,18 +468,18 @@ Json PanelHub::StateJson() const {
                              {"counts", hardware_->position_counts[j]},
                              {"error_counts", hardware_->position_error_counts[j]}});
     }
-    out["hardware"] = Json{{"state", HardwareStateName(hardware_->state)},
-                           {"calibrated", hardware_->calibrated != 0},
-                           {"port", hardware_->port},
-                           {"baud", hardware_->baud},
-                           {"checksum_errors", hardware_->checksum_errors},
-                           {"timeouts", hardware_->timeouts},
-                           {"last_error", hardware_->last_error},
-                           // HARDWARE_STATUS comes at 10 Hz: older than a second, the bridge
-                           // is gone and this is its last word (the page says "lost").
-                           {"age_s", std::chrono::duration<double>(Clock::now() - hardware_at_)
-                                         .count()},
-                           {"modules", modules}};
+    out["hardware"] =
+        Json{{"state", HardwareStateName(hardware_->state)},
+             {"calibrated", hardware_->calibrated != 0},
+             {"port", hardware_->port},
+             {"baud", hardware_->baud},
+             {"checksum_errors", hardware_->checksum_errors},
+             {"timeouts", hardware_->timeouts},
+             {"last_error", hardware_->last_error},
+             // HARDWARE_STATUS comes at 10 Hz: older than a second, the bridge
+             // is gone and this is its last word (the page says "lost").
+             {"age_s", std::chrono::duration<double>(Clock::now() - hardware_at_).count()},
+             {"modules", modules}};
   }
   if (sim_status_) {
     out["sim"] = Json{{"realtime_factor", sim_status_->realtime_factor},

@@ -5,7 +5,7 @@
 #   scripts/test.sh --asan     the same tests under AddressSanitizer + UBSan (build-asan/)
 #   scripts/test.sh --tsan     under ThreadSanitizer (build-tsan/)
 #   scripts/test.sh --long     also the long tests (label "long": the demo idle and under load)
-#                              (--asan also leaves out label "not-asan": the Python tests with processes)
+#                              (--asan also leaves out label "not-asan": the Python tests)
 # Options may be combined (--asan --werror). Further arguments go to ctest (e.g. -R Bus to run
 # only matching tests).
 set -euo pipefail
@@ -24,7 +24,7 @@ export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}
 cd "$build"
 # Excluded labels: "long" unless --long; under --asan also "not-asan" (multi-process tests whose
-# code the unit tests already cover under ASan: the Python rigs, controllers and notebooks).
+# code the unit tests already cover under ASan: the Python tests, tests/CMakeLists.txt says why).
 exclude=()
 [[ $long -eq 1 ]] || exclude+=(long)
 [[ " ${build_args[*]:-} " == *" --asan "* ]] && exclude+=(not-asan)

@@ -501,13 +501,12 @@ TEST(Client, ALostBridgeIsNamedInTheOutcomeAndTheStatusUntilHeardAgain) {
       << outcome.real_arm_lost;
   EXPECT_NE(outcome.real_arm_lost.find("the boards finish the loaded move alone"),
             std::string::npos);
-  EXPECT_EQ(client.snapshot().controller->last_error.rfind("real arm: sirupp-hardware lost", 0),
-            0u)
+  EXPECT_EQ(client.snapshot().controller->last_error.rfind("real arm: sirupp-hardware lost", 0), 0u)
       << client.snapshot().controller->last_error;
   EXPECT_NE(client.snapshot().controller->state, Status::STATE_FAULT);
   rig.bridge_alive = true;
-  EXPECT_TRUE(client.Until(
-      [&] { return client.snapshot().controller->last_error.empty(); }, kLongWaitS));
+  EXPECT_TRUE(
+      client.Until([&] { return client.snapshot().controller->last_error.empty(); }, kLongWaitS));
 }
 
 TEST(Client, HardwareCommandNamesGoBothWays) {

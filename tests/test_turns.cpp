@@ -79,7 +79,8 @@ struct Class {
       auto rig = std::make_unique<StudentRig>();
       core::Bus* bus = &rig->bus;
       // The rig's own bus (no ownership): its nodes live here.
-      manager->AddRig(name, [bus] { return std::shared_ptr<core::Bus>(std::shared_ptr<void>(), bus); });
+      manager->AddRig(name,
+                      [bus] { return std::shared_ptr<core::Bus>(std::shared_ptr<void>(), bus); });
       rig->client = std::make_unique<client::Client>(rig->bus, client::Options{});
       rig->client->SetIdle([this] { ServiceAll(); });
       rigs[name] = std::move(rig);
@@ -247,8 +248,8 @@ TEST(Turns, AHandoverThatCannotHomeStopsTheQueue) {
   c.manager->Join("bob");
   ASSERT_TRUE(c.TurnOf("alice"));
   c.Move("alice", {30, -60, 60, 0, 45, 0});
-  ASSERT_TRUE(c.RunUntil([&] { return c.manager->status().step == "home at reduced speed"; },
-                         kLongWaitS));
+  ASSERT_TRUE(
+      c.RunUntil([&] { return c.manager->status().step == "home at reduced speed"; }, kLongWaitS));
   c.RunUntil([] { return false; }, 0.5);  // under way
   c.emulator->TriggerPositionErrorTrip(1);
   ASSERT_TRUE(c.RunUntil([&] { return c.manager->status().phase == Phase::kStopped; }, 30))

@@ -32,7 +32,8 @@ void PrintStatus(const turns::TurnManager& manager, std::ostream& out) {
   const turns::TurnStatus s = manager.status();
   out << "turns: " << turns::PhaseName(s.phase);
   if (!s.holder.empty()) out << ", holder " << s.holder;
-  if (s.phase == turns::Phase::kTurn) out << " (" << core::FormatApprox(s.turn_left_s) << " s left)";
+  if (s.phase == turns::Phase::kTurn)
+    out << " (" << core::FormatApprox(s.turn_left_s) << " s left)";
   if (!s.step.empty()) out << ", step: " << s.step;
   if (s.paused) out << ", paused";
   if (!s.stopped_reason.empty()) out << "\n  stopped: " << s.stopped_reason;

@@ -29,7 +29,9 @@ using Status = sirupp::hardware_status_t;
 constexpr double kDeg = 3.14159265358979323846 / 180;
 constexpr double kLivenessPeriodS = 0.1;  // our CONTROLLER_STATUS while we drive the arm
 
-double Since(Clock::time_point t) { return std::chrono::duration<double>(Clock::now() - t).count(); }
+double Since(Clock::time_point t) {
+  return std::chrono::duration<double>(Clock::now() - t).count();
+}
 
 std::string Fixed1(double value) {
   char text[32];
@@ -116,7 +118,8 @@ TurnManager::TurnManager(core::Bus& arm_bus, const core::RobotModel& model, Turn
     arm_subscriptions_.push_back(&arm_bus_.Subscribe<Msg>(
         channel,
         [this, channel](const Msg& message, const core::ReceiveInfo&) {
-          if (relay_on_ && holder_ != nullptr && holder_->bus) holder_->bus->Publish(channel, message);
+          if (relay_on_ && holder_ != nullptr && holder_->bus)
+            holder_->bus->Publish(channel, message);
         },
         1000));
   };
@@ -148,7 +151,8 @@ TurnManager::TurnManager(core::Bus& arm_bus, const core::RobotModel& model, Turn
   arm_subscriptions_.push_back(&arm_bus_.Subscribe<sirupp::command_reply_t>(
       c.hardware_reply,
       [this](const sirupp::command_reply_t& reply, const core::ReceiveInfo&) {
-        if (reply.result == sirupp::command_reply_t::RESULT_REFUSED && reply.request_utime > 0 && reply.request_utime == last_request_utime_) {
+        if (reply.result == sirupp::command_reply_t::RESULT_REFUSED && reply.request_utime > 0 &&
+            reply.request_utime == last_request_utime_) {
           manager_refusal_ = reply.error;
         }
       },
@@ -193,8 +197,8 @@ const TurnManager::Rig* TurnManager::FindRig(const std::string& student) const {
 void TurnManager::Event(const std::string& text) {
   last_event_ = text;
   if (options_.on_event) options_.on_event(text);
-  LogJson("{\"time_us\": " + std::to_string(core::WallMicros()) +
-          ", \"event\": " + Quoted(text) + "}");
+  LogJson("{\"time_us\": " + std::to_string(core::WallMicros()) + ", \"event\": " + Quoted(text) +
+          "}");
 }
 
 void TurnManager::LogJson(const std::string& json_line) {
@@ -250,14 +254,16 @@ std::string TurnManager::MayCommand(const std::string& student) const {
   if (phase_ == Phase::kTurn && holder_ != nullptr && holder_->student == student) return "";
   if (holder_ == nullptr) {
     return "the real arm is nobody's turn now" +
-           std::string(phase_ == Phase::kStopped ? " (the queue is stopped: " + stopped_reason_ + ")"
-                                                 : "") +
+           std::string(phase_ == Phase::kStopped
+                           ? " (the queue is stopped: " + stopped_reason_ + ")"
+                           : "") +
            "; join the queue";
   }
   const auto place = std::find(queue_.begin(), queue_.end(), student);
   std::string text = "the real arm is in " + holder_->student + "'s turn (" + PhaseName(phase_);
   if (phase_ == Phase::kTurn) {
-    text += ", " + Fixed1(std::max(0.0, std::chrono::duration<double>(turn_end_ - Clock::now()).count())) +
+    text += ", " +
+            Fixed1(std::max(0.0, std::chrono::duration<double>(turn_end_ - Clock::now()).count())) +
             " s left";
   }
   text += ")";
@@ -278,7 +284,8 @@ void TurnManager::Estop(const std::string& by, const std::string& reason) {
 }
 
 void TurnManager::EndTurn(const std::string& by) {
-  if (phase_ != Phase::kTurn) throw TurnError(std::string("no turn to end (") + PhaseName(phase_) + ")");
+  if (phase_ != Phase::kTurn)
+    throw TurnError(std::string("no turn to end (") + PhaseName(phase_) + ")");
   EndTurnNow("ended by " + by);
 }
 
@@ -339,7 +346,9 @@ void TurnManager::Attach(Rig& rig) {
       100));
   rig.virtual_subscription = &rig.bus->Subscribe<sirupp::arm_state_t>(
       c.sim_arm_state,
-      [&rig](const sirupp::arm_state_t& state, const core::ReceiveInfo&) { rig.virtual_arm = state; },
+      [&rig](const sirupp::arm_state_t& state, const core::ReceiveInfo&) {
+        rig.virtual_arm = state;
+      },
       2);
   rig.subscriptions.push_back(rig.virtual_subscription);
 }
@@ -388,7 +397,8 @@ std::string TurnManager::BridgeTrouble() const {
   if (Since(hardware_at_) > 1.0) {
     return "sirupp-hardware silent for " + Fixed1(Since(hardware_at_)) + " s";
   }
-  if (hardware_->state == Status::STATE_FAULT) return "the bridge faulted: " + hardware_->last_error;
+  if (hardware_->state == Status::STATE_FAULT)
+    return "the bridge faulted: " + hardware_->last_error;
   if (hardware_->state == Status::STATE_ESTOPPED) {
     return "the real arm is e-stopped: " + hardware_->last_error;
   }
@@ -447,36 +457,37 @@ void TurnManager::StartHandoverIn(const std::string& student) {
                             hardware_->state == Status::STATE_ARMED;
                    },
                    options_.step_timeout_s, false});
-  steps.push_back(
-      {"the virtual arm to the real arm's pose",
-       [this] {
-         core::PlanCommand abort;
-         abort.utime = core::WallMicros();
-         abort.seq = seq_++;
-         abort.command = core::PlanAction::kAbort;
-         holder_->bus->Publish(channels_.arm_plan, core::ToMessage(abort));
-         core::JointTarget target;
-         target.utime = core::WallMicros() + 1;
-         target.seq = seq_++;
-         for (double q : real_->position) target.joints.push_back({q, 0, 0, true});
-         holder_->bus->Publish(channels_.arm_target, core::ToMessage(target));
-       },
-       [this] {
-         const auto& c = holder_->controller;
-         if (c && c->state == sirupp::controller_status_t::STATE_FAULT) {
-           throw TurnError(holder_->student + "'s rig is faulted: " + c->last_error);
-         }
-         const auto& v = holder_->virtual_arm;
-         if (!c || !v || !real_ || v->position.size() != real_->position.size()) return false;
-         if (c->state != sirupp::controller_status_t::STATE_IDLE) return false;
-         for (size_t j = 0; j < v->position.size(); ++j) {
-           if (std::abs(v->position[j] - real_->position[j]) > options_.pose_tolerance_deg * kDeg) {
-             return false;
-           }
-         }
-         return true;
-       },
-       options_.step_timeout_s + 10, false});
+  steps.push_back({"the virtual arm to the real arm's pose",
+                   [this] {
+                     core::PlanCommand abort;
+                     abort.utime = core::WallMicros();
+                     abort.seq = seq_++;
+                     abort.command = core::PlanAction::kAbort;
+                     holder_->bus->Publish(channels_.arm_plan, core::ToMessage(abort));
+                     core::JointTarget target;
+                     target.utime = core::WallMicros() + 1;
+                     target.seq = seq_++;
+                     for (double q : real_->position) target.joints.push_back({q, 0, 0, true});
+                     holder_->bus->Publish(channels_.arm_target, core::ToMessage(target));
+                   },
+                   [this] {
+                     const auto& c = holder_->controller;
+                     if (c && c->state == sirupp::controller_status_t::STATE_FAULT) {
+                       throw TurnError(holder_->student + "'s rig is faulted: " + c->last_error);
+                     }
+                     const auto& v = holder_->virtual_arm;
+                     if (!c || !v || !real_ || v->position.size() != real_->position.size())
+                       return false;
+                     if (c->state != sirupp::controller_status_t::STATE_IDLE) return false;
+                     for (size_t j = 0; j < v->position.size(); ++j) {
+                       if (std::abs(v->position[j] - real_->position[j]) >
+                           options_.pose_tolerance_deg * kDeg) {
+                         return false;
+                       }
+                     }
+                     return true;
+                   },
+                   options_.step_timeout_s + 10, false});
   steps.push_back({"arm the real arm", [this] { Command(sirupp::hardware_command_t::COMMAND_ARM); },
                    [this] {
                      if (const std::string trouble = BridgeTrouble(); !trouble.empty()) {
@@ -491,8 +502,9 @@ void TurnManager::StartHandoverIn(const std::string& student) {
                      if (holder_->virtual_subscription != nullptr) {
                        holder_->virtual_subscription->Unsubscribe();  // per tick: not needed now
                        auto& subs = holder_->subscriptions;
-                       subs.erase(std::remove(subs.begin(), subs.end(), holder_->virtual_subscription),
-                                  subs.end());
+                       subs.erase(
+                           std::remove(subs.begin(), subs.end(), holder_->virtual_subscription),
+                           subs.end());
                        holder_->virtual_subscription = nullptr;
                      }
                      Command(sirupp::hardware_command_t::COMMAND_LINK);
@@ -515,7 +527,7 @@ void TurnManager::StartTurn() {
   const double handover_s = Since(handover_started_);
   handover_durations_s_.push_back(handover_s);
   turn_end_ = Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                                  std::chrono::duration<double>(options_.turn_s));
+                                 std::chrono::duration<double>(options_.turn_s));
   warned_.assign(options_.warn_before_s.size(), false);
   TurnRecord record;
   record.student = holder_->student;
@@ -569,8 +581,7 @@ void TurnManager::StartHandoverOut() {
                      return Since(step_started_) > 0.3 && AllMovesDone();
                    },
                    options_.step_timeout_s + travel_s, true});
-  steps.push_back({"check the pose",
-                   nullptr,
+  steps.push_back({"check the pose", nullptr,
                    [this, home] {
                      const auto [offset, joint] = RealOffset(home);
                      if (offset <= options_.home_tolerance_deg) return true;
@@ -612,10 +623,9 @@ void TurnManager::FinishHandoverOut() {
   LogJson("{\"turn\": " + Quoted(record.student) +
           ", \"start_us\": " + std::to_string(record.start_wall_us) +
           ", \"end_us\": " + std::to_string(record.end_wall_us) + ", \"plans\": " + plans +
-          ", \"ended\": " + Quoted(record.ended) +
-          ", \"handover_in_s\": " + Fixed1(record.handover_in_s) +
-          ", \"handover_out_s\": " + Fixed1(handover_s) + ", \"home_offset_deg\": " +
-          std::to_string(offset) + ", \"handover\": \"ok\"}");
+          ", \"ended\": " + Quoted(record.ended) + ", \"handover_in_s\": " +
+          Fixed1(record.handover_in_s) + ", \"handover_out_s\": " + Fixed1(handover_s) +
+          ", \"home_offset_deg\": " + std::to_string(offset) + ", \"handover\": \"ok\"}");
   Event("handover after " + record.student + "'s turn done in " + Fixed1(handover_s) +
         " s: the arm is home (joint " + std::to_string(joint) + " off by " + Fixed1(offset) +
         " deg at most) and disarmed");

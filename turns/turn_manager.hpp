@@ -57,17 +57,17 @@ class TurnError : public std::runtime_error {
 };
 
 struct TurnOptions {
-  double turn_s = 600;                          // one turn's length
+  double turn_s = 600;                           // one turn's length
   std::vector<double> warn_before_s = {60, 10};  // warnings this long before a turn's end
-  double home_speed_fraction = 0.5;             // of each joint's default velocity
-  double home_tolerance_deg = 1.0;              // the pose check after homing
+  double home_speed_fraction = 0.5;              // of each joint's default velocity
+  double home_tolerance_deg = 1.0;               // the pose check after homing
   // The virtual arm at the real pose before a link: within this of it, at rest under its PID
   // (which lets it sag a little under gravity).
   double pose_tolerance_deg = 2.0;
-  double step_timeout_s = 15;                   // a handover step (homing: plus its travel time)
-  std::string log_path;                         // one JSON line per event and per turn; "" none
-  std::string sender = "sirupp turns";          // hardware_command_t / estop_t sender
-  bool relay_estop_from_all_rigs = false;       // subscribe ESTOP on every rig (standalone)
+  double step_timeout_s = 15;              // a handover step (homing: plus its travel time)
+  std::string log_path;                    // one JSON line per event and per turn; "" none
+  std::string sender = "sirupp turns";     // hardware_command_t / estop_t sender
+  bool relay_estop_from_all_rigs = false;  // subscribe ESTOP on every rig (standalone)
   // Each event as one line for people (turn starts, warnings, handovers, the queue stopping).
   std::function<void(const std::string&)> on_event;
 };
@@ -94,13 +94,13 @@ struct TurnStatus {
 // One turn, as logged.
 struct TurnRecord {
   std::string student;
-  int64_t start_wall_us = 0;   // the link (the turn's start)
-  int64_t end_wall_us = 0;     // the turn's end (the handover out follows)
+  int64_t start_wall_us = 0;       // the link (the turn's start)
+  int64_t end_wall_us = 0;         // the turn's end (the handover out follows)
   std::vector<std::string> plans;  // the plans the rig ran during the turn
-  std::string ended;           // "time up", "done", "left", "ended by NAME"
+  std::string ended;               // "time up", "done", "left", "ended by NAME"
   double handover_in_s = 0;
-  double handover_out_s = 0;   // 0 until it finished
-  std::string handover_result; // "ok", or why the queue stopped
+  double handover_out_s = 0;    // 0 until it finished
+  std::string handover_result;  // "ok", or why the queue stopped
 };
 
 class TurnManager {
@@ -208,7 +208,7 @@ class TurnManager {
   std::optional<sirupp::hardware_status_t> hardware_;
   Clock::time_point hardware_at_;
   std::optional<sirupp::arm_state_t> real_;
-  std::string manager_refusal_;  // the bridge refused one of our commands
+  std::string manager_refusal_;     // the bridge refused one of our commands
   int64_t last_request_utime_ = 0;  // of our latest HARDWARE_COMMAND or ARM_MOVE
   int64_t seq_ = 0;
   int64_t move_id_ = 1000000;
