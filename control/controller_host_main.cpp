@@ -8,12 +8,6 @@
 // SIGTERM, which a terminal's Ctrl-C and the launcher send to the whole process group, are
 // ignored, so that only sirupp-control decides when its library stops.
 
-#include <signal.h>
-#include <sys/prctl.h>
-#include <sys/socket.h>
-#include <unistd.h>
-
-#include <cstdio>
 #include <string>
 
 #include "control/isolated_law.hpp"
@@ -26,18 +20,6 @@ extern "C" const char* __asan_default_options() {
 }
 
 int main(int argc, char** argv) {
-  ::prctl(PR_SET_PDEATHSIG, SIGKILL);
-  ::signal(SIGINT, SIG_IGN);
-  ::signal(SIGTERM, SIG_IGN);
-  int type = 0;
-  socklen_t length = sizeof type;
-  if (argc != 3 || ::getsockopt(3, SOL_SOCKET, SO_TYPE, &type, &length) != 0 ||
-      type != SOCK_SEQPACKET) {
-    std::fprintf(stderr,
-                 "usage: sirupp-controller-host LIBRARY ARGS (descriptor 3: socket, 4: shared "
-                 "block)\nStarted by sirupp-control --controller LIBRARY; not for use by hand.\n");
-    return 2;
-  }
-  ::close_range(5, ~0U, 0);  // nothing of sirupp-control's (its LCM sockets) stays open here
+  if (!sirupp::control::PrepareHostProcess(argc, "sirupp-controller-host", "LIBRARY")) return 2;
   return sirupp::control::RunControllerHost(3, 4, argv[1], argv[2]);
 }

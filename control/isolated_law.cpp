@@ -7,6 +7,7 @@
 #include <spawn.h>
 #include <string.h>
 #include <sys/mman.h>
+#include <sys/prctl.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
@@ -591,6 +592,24 @@ int ServeCalls(int socket_fd, void* shared, EffortLaw& law) {
 }
 
 }  // namespace
+
+bool PrepareHostProcess(int argc, const char* program, const char* file_kind) {
+  ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+  ::signal(SIGINT, SIG_IGN);
+  ::signal(SIGTERM, SIG_IGN);
+  int type = 0;
+  socklen_t length = sizeof type;
+  if (argc != 3 || ::getsockopt(3, SOL_SOCKET, SO_TYPE, &type, &length) != 0 ||
+      type != SOCK_SEQPACKET) {
+    std::fprintf(stderr,
+                 "usage: %s %s ARGS (descriptor 3: socket, 4: shared block)\nStarted by "
+                 "sirupp-control --controller %s; not for use by hand.\n",
+                 program, file_kind, file_kind);
+    return false;
+  }
+  ::close_range(5, ~0U, 0);  // nothing of sirupp-control's (its LCM sockets) stays open here
+  return true;
+}
 
 int RunControllerHost(int socket_fd, int shared_fd, const std::string& library,
                       const std::string& args) {

@@ -116,6 +116,13 @@ class IsolatedEffortLaw : public EffortLaw {
 // controller written in Python (*.py, python/), sirupp-controller-host for a shared library.
 std::string HostProgramName(const std::string& library);
 
+// The start of every host program's main: dies with its parent, ignores the Ctrl-C and SIGTERM
+// sent to sirupp-control's group (the parent ends it), checks it got `program FILE ARGS` and the
+// socket as descriptor 3, and closes every descriptor past 4 (sirupp-control's LCM sockets).
+// False, after a usage line on stderr naming `program` and its `file_kind`, when it was not
+// started by sirupp-control: main then exits 2.
+bool PrepareHostProcess(int argc, const char* program, const char* file_kind);
+
 // The host's side (sirupp-controller-host): serves calls on `socket_fd` with the shared block
 // `shared_fd` until the socket closes. Returns the process exit code: 0, or 2 when the library
 // cannot be used (reported to the parent in the shared block first).

@@ -33,12 +33,14 @@ class Model {
     return VectorArg(q, n(), name, model_->name + " has " + std::to_string(n()) + " joints");
   }
 
-  py::array_t<double> Fkine(const py::handle& q) const { return ToArray(chain_.ToolPose(Joints(q, "q"))); }
+  py::array_t<double> Fkine(const py::handle& q) const {
+    return ToArray(chain_.ToolPose(Joints(q, "q")));
+  }
 
   py::array_t<double> FkineAll(const py::handle& q) const {
     const core::ForwardResult result = chain_.Forward(Joints(q, "q"));
-    py::array_t<double> out({static_cast<py::ssize_t>(result.frames.size()), py::ssize_t{4},
-                             py::ssize_t{4}});
+    py::array_t<double> out(
+        {static_cast<py::ssize_t>(result.frames.size()), py::ssize_t{4}, py::ssize_t{4}});
     auto view = out.mutable_unchecked<3>();
     for (size_t k = 0; k < result.frames.size(); ++k) {
       const Eigen::Matrix4d m = result.frames[k].matrix();
@@ -63,8 +65,8 @@ class Model {
     return names;
   }
 
-  py::list Ikine(const py::handle& target, const py::object& q0, const std::optional<std::string>& config,
-                 bool position_only) const {
+  py::list Ikine(const py::handle& target, const py::object& q0,
+                 const std::optional<std::string>& config, bool position_only) const {
     const Eigen::Isometry3d pose = PoseArg(target, "T");
     std::optional<core::IkConfiguration> wanted;
     if (config) {
@@ -81,11 +83,9 @@ class Model {
     if (!q0.is_none()) reference = Joints(q0, "q0");
     const std::optional<std::string> closed_form_problem = core::PumaIkNotApplicable(*model_);
     if (wanted && (numeric || closed_form_problem)) {
-      throw py::value_error("config: " + *config +
-                            " needs the closed-form solver, which does not apply here (" +
-                            (numeric ? std::string("q0 or position_only given")
-                                     : *closed_form_problem) +
-                            ")");
+      throw py::value_error(
+          "config: " + *config + " needs the closed-form solver, which does not apply here (" +
+          (numeric ? std::string("q0 or position_only given") : *closed_form_problem) + ")");
     }
     core::IkResult result;
     {
@@ -120,15 +120,14 @@ class Model {
   }
   py::array_t<double> Coriolis(const py::handle& q, const py::handle& qd) const {
     const Eigen::VectorXd qv = Joints(q, "q");
-    return ToArray(Eigen::VectorXd(dynamics_.BiasEffort(qv, Joints(qd, "qd")) -
-                                   dynamics_.GravityEffort(qv)));
+    return ToArray(
+        Eigen::VectorXd(dynamics_.BiasEffort(qv, Joints(qd, "qd")) - dynamics_.GravityEffort(qv)));
   }
   py::array_t<double> Bias(const py::handle& q, const py::handle& qd) const {
     return ToArray(dynamics_.BiasEffort(Joints(q, "q"), Joints(qd, "qd")));
   }
   py::array_t<double> Rne(const py::handle& q, const py::handle& qd, const py::handle& qdd) const {
-    return ToArray(
-        dynamics_.InverseDynamics(Joints(q, "q"), Joints(qd, "qd"), Joints(qdd, "qdd")));
+    return ToArray(dynamics_.InverseDynamics(Joints(q, "q"), Joints(qd, "qd"), Joints(qdd, "qdd")));
   }
 
   py::array_t<double> Dh() const {
@@ -168,7 +167,8 @@ class Model {
     const core::NamedPose* pose = model_->FindNamedPose(name);
     if (pose == nullptr) {
       std::string known;
-      for (const core::NamedPose& p : model_->named_poses) known += (known.empty() ? "" : ", ") + p.name;
+      for (const core::NamedPose& p : model_->named_poses)
+        known += (known.empty() ? "" : ", ") + p.name;
       throw py::value_error("pose '" + name + "': " + model_->name + " has no such named pose (" +
                             (known.empty() ? "it has none" : "it has " + known) + ")");
     }
@@ -217,8 +217,9 @@ void BindModel(py::module_& m) {
       [](const py::handle& target) {
         const Eigen::Isometry3d pose = PoseArg(target, "T");
         const Eigen::Quaterniond q(pose.linear());
-        return py::make_tuple(ToArray(Eigen::VectorXd(pose.translation())),
-                              ToArray(Eigen::VectorXd(Eigen::Vector4d(q.w(), q.x(), q.y(), q.z()))));
+        return py::make_tuple(
+            ToArray(Eigen::VectorXd(pose.translation())),
+            ToArray(Eigen::VectorXd(Eigen::Vector4d(q.w(), q.x(), q.y(), q.z()))));
       },
       py::arg("T"), "position (3) and unit quaternion w x y z (4) of a checked 4x4 pose");
   py::class_<Model>(m, "Model", R"(A robot model (config/robots/*.yaml) with its kinematics and
@@ -242,7 +243,9 @@ dynamics. SI units: rad, m, s, kg, N*m. Joint vectors are 1-D numpy arrays of n 
                              [](const Model& self) { return self.model().description; })
       .def_property_readonly(
           "convention",
-          [](const Model& self) { return std::string(core::DhConventionName(self.model().dh_convention)); })
+          [](const Model& self) {
+            return std::string(core::DhConventionName(self.model().dh_convention));
+          })
       .def_property_readonly("dh", &Model::Dh,
                              "n x 4 array, one row per joint: a (m), alpha (rad), d (m), theta "
                              "offset (rad); theta = q + offset (revolute) or d = q + d (prismatic)")
@@ -257,33 +260,36 @@ dynamics. SI units: rad, m, s, kg, N*m. Joint vectors are 1-D numpy arrays of n 
       .def_property_readonly("joint_names",
                              [](const Model& self) {
                                py::list names;
-                               for (const core::Joint& j : self.model().joints) names.append(j.name);
+                               for (const core::Joint& j : self.model().joints)
+                                 names.append(j.name);
                                return names;
                              })
       .def_property_readonly("qlim", &Model::Qlim, "2 x n: row 0 lower, row 1 upper limits")
-      .def_property_readonly("qd_max", [](const Model& self) {
-        return self.PerJoint([](const core::Joint& j) { return j.velocity_max; });
-      })
-      .def_property_readonly("effort_max", [](const Model& self) {
-        return self.PerJoint([](const core::Joint& j) { return j.effort_max; });
-      })
-      .def_property_readonly("home", [](const Model& self) {
-        return self.PerJoint([](const core::Joint& j) { return j.home; });
-      })
+      .def_property_readonly(
+          "qd_max",
+          [](const Model& self) {
+            return self.PerJoint([](const core::Joint& j) { return j.velocity_max; });
+          })
+      .def_property_readonly(
+          "effort_max",
+          [](const Model& self) {
+            return self.PerJoint([](const core::Joint& j) { return j.effort_max; });
+          })
+      .def_property_readonly("home",
+                             [](const Model& self) {
+                               return self.PerJoint([](const core::Joint& j) { return j.home; });
+                             })
       .def_property_readonly("poses", &Model::Poses, "named poses: {name: q}")
       .def("pose", &Model::Pose, py::arg("name"), "q of a named pose")
       .def_property_readonly("servo_tick_s",
                              [](const Model& self) { return self.model().servo_tick_s; })
-      .def_property_readonly("gravity",
-                             [](const Model& self) {
-                               return ToArray(Eigen::VectorXd(self.model().gravity_m_s2));
-                             })
-      .def_property_readonly("base", [](const Model& self) {
-        return ToArray(self.model().base.ToIsometry());
-      })
-      .def_property_readonly("tool", [](const Model& self) {
-        return ToArray(self.model().tool.ToIsometry());
-      })
+      .def_property_readonly(
+          "gravity",
+          [](const Model& self) { return ToArray(Eigen::VectorXd(self.model().gravity_m_s2)); })
+      .def_property_readonly(
+          "base", [](const Model& self) { return ToArray(self.model().base.ToIsometry()); })
+      .def_property_readonly(
+          "tool", [](const Model& self) { return ToArray(self.model().tool.ToIsometry()); })
       .def("fkine", &Model::Fkine, py::arg("q"), "tool pose in the world: 4x4 array")
       .def("fkine_all", &Model::FkineAll, py::arg("q"),
            "world poses of DH frames 0..n: (n+1) x 4 x 4 array (the tool is fkine(q))")

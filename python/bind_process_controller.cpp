@@ -58,12 +58,11 @@ py::dict RunProcessController(const py::object& make, const std::string& name,
                          model_problem = error.what();
                        }
                      }));
-  bus->Subscribe(channels.sim_arm_state,
-                 std::function<void(const sirupp::arm_state_t&, const core::ReceiveInfo&)>(
-                     [&](const sirupp::arm_state_t& m, const core::ReceiveInfo&) {
-                       states.push_back(m);
-                     }),
-                 1000);
+  bus->Subscribe(
+      channels.sim_arm_state,
+      std::function<void(const sirupp::arm_state_t&, const core::ReceiveInfo&)>(
+          [&](const sirupp::arm_state_t& m, const core::ReceiveInfo&) { states.push_back(m); }),
+      1000);
 
   std::unique_ptr<core::Dynamics> dynamics;
   py::object step;
@@ -129,10 +128,10 @@ py::dict RunProcessController(const py::object& make, const std::string& name,
       const Eigen::VectorXd qd = Eigen::Map<const Eigen::VectorXd>(state.velocity.data(), n);
       std::vector<double> effort;
       try {
-        const py::object answer =
-            step(state.tick, static_cast<double>(state.utime) * 1e-6, ToArray(state.position),
-                 ToArray(state.velocity), ToArray(state.effort), ToArray(dynamics->GravityEffort(q)),
-                 ToArray(dynamics->BiasEffort(q, qd)), ToArray(dynamics->MassMatrix(q)));
+        const py::object answer = step(
+            state.tick, static_cast<double>(state.utime) * 1e-6, ToArray(state.position),
+            ToArray(state.velocity), ToArray(state.effort), ToArray(dynamics->GravityEffort(q)),
+            ToArray(dynamics->BiasEffort(q, qd)), ToArray(dynamics->MassMatrix(q)));
         const Eigen::VectorXd e = VectorArg(answer, n, "update's efforts", "one per joint");
         effort.assign(e.data(), e.data() + n);
       } catch (...) {

@@ -6,9 +6,8 @@
 // slices (PyErr_CheckSignals): Ctrl-C or a notebook's "interrupt kernel" raises KeyboardInterrupt
 // within a slice. A wait for a move or a plan that is interrupted first stops the arm (the stop
 // button: ARM_PLAN abort, a smooth stop) and then raises.
-#include <pybind11/stl.h>
-
 #include <pthread.h>
+#include <pybind11/stl.h>
 #include <signal.h>
 
 #include <algorithm>
@@ -57,12 +56,18 @@ py::dict AnswerDict(const client::Answer& answer) {
 
 const char* EndName(client::End end) {
   switch (end) {
-    case client::End::kDone: return "done";
-    case client::End::kFault: return "fault";
-    case client::End::kSuperseded: return "superseded";
-    case client::End::kAborted: return "aborted";
-    case client::End::kTimeout: return "timeout";
-    case client::End::kControllerSilent: return "controller silent";
+    case client::End::kDone:
+      return "done";
+    case client::End::kFault:
+      return "fault";
+    case client::End::kSuperseded:
+      return "superseded";
+    case client::End::kAborted:
+      return "aborted";
+    case client::End::kTimeout:
+      return "timeout";
+    case client::End::kControllerSilent:
+      return "controller silent";
   }
   return "unknown";
 }
@@ -74,7 +79,6 @@ std::vector<double> Values(const py::handle& value, const std::string& name) {
       VectorArg(value, static_cast<int>(py::len(value)), name, "one per joint");
   return std::vector<double>(v.data(), v.data() + v.size());
 }
-
 
 class ClientHandle {
  public:
@@ -157,11 +161,18 @@ class ClientHandle {
   }
 
   bool WaitForController(double timeout_s) {
-    return Sliced(timeout_s, [this](double s) { return client_->WaitForController(s); }, false);
+    return Sliced(
+        timeout_s, [this](double s) { return client_->WaitForController(s); }, false);
   }
 
   void Listen(double seconds) {
-    Sliced(seconds, [this](double s) { client_->Listen(s); return false; }, false);
+    Sliced(
+        seconds,
+        [this](double s) {
+          client_->Listen(s);
+          return false;
+        },
+        false);
   }
 
   void WatchJoints(bool on) { client_->WatchJoints(on); }
@@ -201,12 +212,18 @@ class ClientHandle {
 
   py::dict PlanCommand(const std::string& word) {
     client::PlanCommand command;
-    if (word == "pause") command = client::PlanCommand::kPause;
-    else if (word == "resume") command = client::PlanCommand::kResume;
-    else if (word == "abort") command = client::PlanCommand::kAbort;
-    else if (word == "manual") command = client::PlanCommand::kManual;
-    else if (word == "automatic") command = client::PlanCommand::kAutomatic;
-    else if (word == "clear-fault") command = client::PlanCommand::kClearFault;
+    if (word == "pause")
+      command = client::PlanCommand::kPause;
+    else if (word == "resume")
+      command = client::PlanCommand::kResume;
+    else if (word == "abort")
+      command = client::PlanCommand::kAbort;
+    else if (word == "manual")
+      command = client::PlanCommand::kManual;
+    else if (word == "automatic")
+      command = client::PlanCommand::kAutomatic;
+    else if (word == "clear-fault")
+      command = client::PlanCommand::kClearFault;
     else {
       throw py::value_error("plan command '" + word +
                             "'; expected pause, resume, abort, manual, automatic or clear-fault");
@@ -263,7 +280,8 @@ class ClientHandle {
         },
         true);
     if (!ended) {
-      return py::make_tuple("timeout", "still moving after " + core::FormatApprox(timeout_s) + " s");
+      return py::make_tuple("timeout",
+                            "still moving after " + core::FormatApprox(timeout_s) + " s");
     }
     return py::make_tuple(EndName(outcome.end), outcome.detail);
   }
@@ -467,7 +485,8 @@ class Recorder {
 }  // namespace
 
 void BindRig(py::module_& m) {
-  py::class_<ClientHandle>(m, "_Client", "the client library (client/client.hpp); use sirupp.connect")
+  py::class_<ClientHandle>(m, "_Client",
+                           "the client library (client/client.hpp); use sirupp.connect")
       .def(py::init<const std::string&, const std::string&, const std::string&, double>(),
            py::arg("lcm_url"), py::arg("prefix"), py::arg("sender"), py::arg("answer_timeout_s"))
       .def("wait_for_controller", &ClientHandle::WaitForController, py::arg("timeout_s"))

@@ -27,8 +27,8 @@ class RigError : public std::runtime_error {
   using std::runtime_error::runtime_error;
 };
 
-void BindModel(py::module_& m);                // bind_model.cpp
-void BindRig(py::module_& m);                  // bind_rig.cpp: client, recorder, local processes
-void BindProcessController(py::module_& m);    // bind_process_controller.cpp
+void BindModel(py::module_& m);              // bind_model.cpp
+void BindRig(py::module_& m);                // bind_rig.cpp: client, recorder, local processes
+void BindProcessController(py::module_& m);  // bind_process_controller.cpp
 
 }  // namespace sirupp::python

@@ -10,12 +10,7 @@
 // (they are set before the interpreter starts, so Python installs no KeyboardInterrupt handler).
 // The module `sirupp` of this build is put first on sys.path.
 #include <pybind11/embed.h>
-#include <signal.h>
-#include <sys/prctl.h>
-#include <sys/socket.h>
-#include <unistd.h>
 
-#include <cstdio>
 #include <memory>
 #include <string>
 
@@ -23,20 +18,9 @@
 #include "python/python_law.hpp"
 
 int main(int argc, char** argv) {
-  ::prctl(PR_SET_PDEATHSIG, SIGKILL);
-  ::signal(SIGINT, SIG_IGN);
-  ::signal(SIGTERM, SIG_IGN);
-  int type = 0;
-  socklen_t length = sizeof type;
-  if (argc != 3 || ::getsockopt(3, SOL_SOCKET, SO_TYPE, &type, &length) != 0 ||
-      type != SOCK_SEQPACKET) {
-    std::fprintf(stderr,
-                 "usage: sirupp-python-controller-host FILE.py ARGS (descriptor 3: socket, 4: "
-                 "shared block)\nStarted by sirupp-control --controller FILE.py; not for use by "
-                 "hand.\n");
+  if (!sirupp::control::PrepareHostProcess(argc, "sirupp-python-controller-host", "FILE.py")) {
     return 2;
   }
-  ::close_range(5, ~0U, 0);  // nothing of sirupp-control's (its LCM sockets) stays open here
   pybind11::scoped_interpreter interpreter(false);  // no Python signal handlers
   pybind11::module_::import("sys").attr("path").attr("insert")(0, SIRUPP_PYTHON_DIR);
   return sirupp::control::RunControllerHost(

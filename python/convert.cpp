@@ -10,7 +10,7 @@ namespace {
 
 // Any array-like as a C-contiguous float64 array; ValueError naming `name` when it is not numbers.
 py::array_t<double, py::array::c_style | py::array::forcecast> NumbersOf(const py::handle& value,
-                                                                        const std::string& name) {
+                                                                         const std::string& name) {
   if (value.is_none()) throw py::value_error(name + ": None; expected numbers");
   if (py::isinstance<py::str>(value) || py::isinstance<py::bytes>(value)) {
     throw py::value_error(name + ": a string; expected numbers");

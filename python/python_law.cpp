@@ -12,7 +12,6 @@ namespace sirupp::python {
 
 namespace py = pybind11;
 
-
 PythonEffortLaw::PythonEffortLaw(const std::string& file, const std::string& args,
                                  const core::RobotModel& model)
     : dynamics_(model), n_(model.num_joints()) {
@@ -63,9 +62,8 @@ py::object PythonEffortLaw::Call(bool reset, const control::ControlInput& input)
     const py::object state = state_class_(
         input.time_s, input.tick, ToArray(measured.position), ToArray(measured.velocity),
         ToArray(measured.effort), ToArray(input.setpoint_position),
-        ToArray(input.setpoint_velocity), ToArray(input.setpoint_acceleration),
-        ToArray(input.goal), ToArray(gravity), ToArray(bias),
-        ToArray(dynamics_.MassMatrix(q)));
+        ToArray(input.setpoint_velocity), ToArray(input.setpoint_acceleration), ToArray(input.goal),
+        ToArray(gravity), ToArray(bias), ToArray(dynamics_.MassMatrix(q)));
     return runner_.attr("call")(reset, state);
   } catch (py::error_already_set& error) {
     // Runner turns the student's exceptions into ControllerFault with the traceback's last line;

@@ -24,8 +24,7 @@ class PythonEffortLaw : public control::EffortLaw {
  public:
   // Imports `file` with `args` for `model`; throws control::ControllerLoadError naming the file
   // and the Python error (the traceback's last line) when it cannot.
-  PythonEffortLaw(const std::string& file, const std::string& args,
-                  const core::RobotModel& model);
+  PythonEffortLaw(const std::string& file, const std::string& args, const core::RobotModel& model);
   ~PythonEffortLaw() override;
 
   const std::string& name() const override { return name_; }

@@ -143,16 +143,32 @@ std::vector<std::string> BuildArgv(const Probe& probe, const Policy& policy,
     const fs::path root_link = fs::path("/") / link;
     std::error_code error;
     if (fs::is_symlink(root_link, error)) {
-      out.insert(out.end(), {"--symlink", fs::read_symlink(root_link, error).string(),
-                             root_link.string()});
+      out.insert(out.end(),
+                 {"--symlink", fs::read_symlink(root_link, error).string(), root_link.string()});
     } else if (fs::is_directory(root_link, error)) {
       out.insert(out.end(), {"--ro-bind", root_link.string(), root_link.string()});
     }
   }
-  out.insert(out.end(), {"--perms", "0755", "--dir", "/etc", "--ro-bind-try", "/etc/ld.so.cache", "/etc/ld.so.cache",
-                         "--ro-bind-try", "/etc/alternatives", "/etc/alternatives",
-                         "--proc", "/proc", "--dev", "/dev", "--perms", "1777", "--size",
-                         std::to_string(policy.limits.tmp_mb << 20), "--tmpfs", "/tmp"});
+  out.insert(out.end(), {"--perms",
+                         "0755",
+                         "--dir",
+                         "/etc",
+                         "--ro-bind-try",
+                         "/etc/ld.so.cache",
+                         "/etc/ld.so.cache",
+                         "--ro-bind-try",
+                         "/etc/alternatives",
+                         "/etc/alternatives",
+                         "--proc",
+                         "/proc",
+                         "--dev",
+                         "/dev",
+                         "--perms",
+                         "1777",
+                         "--size",
+                         std::to_string(policy.limits.tmp_mb << 20),
+                         "--tmpfs",
+                         "/tmp"});
   std::vector<std::string> read_only = policy.read_only;
   read_only.push_back(probe.helper);
   if (!argv.empty() && !argv.front().empty() && argv.front()[0] == '/') {
@@ -184,9 +200,9 @@ std::vector<std::string> BuildArgv(const Probe& probe, const Policy& policy,
   if (std::find(made.begin(), made.end(), chdir) == made.end()) {
     out.insert(out.end(), {"--perms", "0755", "--dir", chdir});  // may be no path's folder
   }
-  out.insert(out.end(), {"--chdir", chdir,
-                         "--clearenv", "--setenv", "PATH", "/usr/bin:/bin", "--setenv", "HOME",
-                         "/tmp", "--setenv", "LANG", "C", "--setenv", "TMPDIR", "/tmp"});
+  out.insert(out.end(),
+             {"--chdir", chdir, "--clearenv", "--setenv", "PATH", "/usr/bin:/bin", "--setenv",
+              "HOME", "/tmp", "--setenv", "LANG", "C", "--setenv", "TMPDIR", "/tmp"});
   for (const char* keep : {"ASAN_OPTIONS", "UBSAN_OPTIONS", "LSAN_OPTIONS"}) {
     if (const char* value = std::getenv(keep); value != nullptr) {
       out.insert(out.end(), {"--setenv", keep, value});
@@ -195,10 +211,10 @@ std::vector<std::string> BuildArgv(const Probe& probe, const Policy& policy,
   const Limits& limits = policy.limits;
   out.insert(out.end(), {"--", probe.helper});
   if (probe.as_root) out.insert(out.end(), {"--user", std::to_string(uid)});
-  out.insert(out.end(), {"--cpu", Number(limits.cpu_s), "--memory",
-                         std::to_string(limits.memory_mb), "--processes",
-                         std::to_string(limits.processes), "--file-size",
-                         std::to_string(limits.file_size_mb)});
+  out.insert(
+      out.end(),
+      {"--cpu", Number(limits.cpu_s), "--memory", std::to_string(limits.memory_mb), "--processes",
+       std::to_string(limits.processes), "--file-size", std::to_string(limits.file_size_mb)});
   if (policy.sanitized_target) out.emplace_back("--sanitized");
   out.insert(out.end(), {"--no-network", "--"});
   out.insert(out.end(), argv.begin(), argv.end());
@@ -307,8 +323,10 @@ std::vector<std::string> Wrap(const Policy& policy, const std::vector<std::strin
     for (const std::string& path : paths) {
       const std::string problem = OthersCannotRead(Absolute(path));
       if (!problem.empty()) {
-        throw std::runtime_error("started as root, the sandbox runs the code as a user of its "
-                                 "own, who cannot read " + problem);
+        throw std::runtime_error(
+            "started as root, the sandbox runs the code as a user of its "
+            "own, who cannot read " +
+            problem);
       }
     }
     for (const std::string& path : policy.read_write) {
@@ -374,23 +392,23 @@ std::string ForbidNetworkSockets() {
   if (!kFilterSupported) return "";  // the network namespace alone then
   constexpr uint32_t kRefuse = SECCOMP_RET_ERRNO | (EACCES & SECCOMP_RET_DATA);
   sock_filter filter[] = {
-      BPF_STMT(BPF_LD | BPF_W | BPF_ABS, offsetof(seccomp_data, arch)),
-      BPF_JUMP(BPF_JMP | BPF_JEQ | BPF_K, kAuditArch, 1, 0),
-      BPF_STMT(BPF_RET | BPF_K, SECCOMP_RET_KILL_PROCESS),  // another ABI's system calls
-      BPF_STMT(BPF_LD | BPF_W | BPF_ABS, offsetof(seccomp_data, nr)),
+    BPF_STMT(BPF_LD | BPF_W | BPF_ABS, offsetof(seccomp_data, arch)),
+    BPF_JUMP(BPF_JMP | BPF_JEQ | BPF_K, kAuditArch, 1, 0),
+    BPF_STMT(BPF_RET | BPF_K, SECCOMP_RET_KILL_PROCESS),  // another ABI's system calls
+    BPF_STMT(BPF_LD | BPF_W | BPF_ABS, offsetof(seccomp_data, nr)),
 #if defined(__x86_64__)
-      BPF_JUMP(BPF_JMP | BPF_JGE | BPF_K, 0x40000000U, 0, 1),  // the x32 ABI's numbers
-      BPF_STMT(BPF_RET | BPF_K, kRefuse),
+    BPF_JUMP(BPF_JMP | BPF_JGE | BPF_K, 0x40000000U, 0, 1),  // the x32 ABI's numbers
+    BPF_STMT(BPF_RET | BPF_K, kRefuse),
 #endif
-      // io_uring can open sockets without socket().
-      BPF_JUMP(BPF_JMP | BPF_JEQ | BPF_K, __NR_io_uring_setup, 0, 1),
-      BPF_STMT(BPF_RET | BPF_K, kRefuse),
-      BPF_JUMP(BPF_JMP | BPF_JEQ | BPF_K, __NR_socket, 0, 3),
-      // The domain (an int: the low half of args[0] on these little-endian machines).
-      BPF_STMT(BPF_LD | BPF_W | BPF_ABS, offsetof(seccomp_data, args[0])),
-      BPF_JUMP(BPF_JMP | BPF_JEQ | BPF_K, AF_UNIX, 1, 0),
-      BPF_STMT(BPF_RET | BPF_K, kRefuse),
-      BPF_STMT(BPF_RET | BPF_K, SECCOMP_RET_ALLOW),
+    // io_uring can open sockets without socket().
+    BPF_JUMP(BPF_JMP | BPF_JEQ | BPF_K, __NR_io_uring_setup, 0, 1),
+    BPF_STMT(BPF_RET | BPF_K, kRefuse),
+    BPF_JUMP(BPF_JMP | BPF_JEQ | BPF_K, __NR_socket, 0, 3),
+    // The domain (an int: the low half of args[0] on these little-endian machines).
+    BPF_STMT(BPF_LD | BPF_W | BPF_ABS, offsetof(seccomp_data, args[0])),
+    BPF_JUMP(BPF_JMP | BPF_JEQ | BPF_K, AF_UNIX, 1, 0),
+    BPF_STMT(BPF_RET | BPF_K, kRefuse),
+    BPF_STMT(BPF_RET | BPF_K, SECCOMP_RET_ALLOW),
   };
   const sock_fprog program{static_cast<unsigned short>(sizeof filter / sizeof filter[0]), filter};
   if (::prctl(PR_SET_NO_NEW_PRIVS, 1, 0, 0, 0) != 0) {
@@ -422,7 +440,8 @@ std::string DropTo(int id) {
   if (::syscall(SYS_capset, &header, none) != 0) {
     return std::string("cannot clear the capabilities: ") + std::strerror(errno);
   }
-  if (::setuid(0) == 0) return "could become root again after dropping to uid " + std::to_string(id);
+  if (::setuid(0) == 0)
+    return "could become root again after dropping to uid " + std::to_string(id);
   // Changing the user cleared the parent-death signal; the sandbox ends with its parent.
   ::prctl(PR_SET_PDEATHSIG, SIGKILL);
   return "";
@@ -433,8 +452,8 @@ std::string Describe(const Probe& probe, const Limits& limits) {
   std::string text =
       std::string("sandbox: bubblewrap (own ") +
       (probe.as_root ? "network, pid, ipc namespaces" : "user, network, pid, ipc namespaces") +
-      "; /usr and the named paths read-only, a private /tmp), limits " +
-      Number(limits.cpu_s) + " s CPU, " + std::to_string(limits.memory_mb) + " MB memory, " +
+      "; /usr and the named paths read-only, a private /tmp), limits " + Number(limits.cpu_s) +
+      " s CPU, " + std::to_string(limits.memory_mb) + " MB memory, " +
       std::to_string(limits.processes) + " processes, " + std::to_string(limits.file_size_mb) +
       " MB per file";
   if (probe.seccomp) text += ", sockets other than AF_UNIX refused (seccomp)";

@@ -56,13 +56,13 @@ struct Policy {
 // bubblewrap is `bwrap` on PATH, or the program the environment variable SIRUPP_BWRAP names.
 struct Probe {
   bool usable = false;
-  std::string problem;      // why not, when !usable: what is missing and what would fix it
-  std::string bwrap;        // the bubblewrap found
-  std::string helper;       // sirupp-sandbox-exec
+  std::string problem;  // why not, when !usable: what is missing and what would fix it
+  std::string bwrap;    // the bubblewrap found
+  std::string helper;   // sirupp-sandbox-exec
   // Running as root: bubblewrap runs privileged (no user namespace) and the code runs as a uid of
   // its own (from 2000000), so that the process limit counts its processes only.
   bool as_root = false;
-  bool seccomp = false;     // the socket filter is installed on this architecture
+  bool seccomp = false;  // the socket filter is installed on this architecture
 };
 const Probe& ProbeMachine();
 
