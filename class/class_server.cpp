@@ -222,6 +222,7 @@ struct ClassServer::Impl {
   // Last: destroyed first, so no request runs once the seats are gone. HTTPS with a certificate
   // (Debian's cpp-httplib is built with OpenSSL).
   std::unique_ptr<httplib::Server> server;
+  panel::ListenGate gate;
 
   Impl(ClassConfig c, ServeOptions o)
       : config(std::move(c)), options(std::move(o)), tokens(TokensFile(config)) {
@@ -813,8 +814,14 @@ int ClassServer::Bind() {
 }
 
 void ClassServer::Serve() {
-  impl_->monitor = std::thread([this] { impl_->Monitor(); });
-  impl_->server->listen_after_bind();
+  {
+    // The monitor thread is made under the lock Stop() sets `stopping` under, so a Stop() that
+    // comes first sees no thread to join and this Serve() starts none.
+    const std::lock_guard<std::mutex> lock(impl_->monitor_mutex);
+    if (impl_->stopping) return;
+    impl_->monitor = std::thread([this] { impl_->Monitor(); });
+  }
+  impl_->gate.Listen(*impl_->server);
 }
 
 void ClassServer::Stop() {
@@ -829,7 +836,7 @@ void ClassServer::Stop() {
     const std::lock_guard<std::mutex> lock(seat->mutex);
     impl_->StopRig(*seat, "the class server stopped");
   }
-  if (impl_->server->is_running()) impl_->server->stop();
+  impl_->gate.Stop(*impl_->server);
 }
 
 }  // namespace sirupp::classroom

@@ -5,6 +5,7 @@
 
 #include <functional>
 #include <memory>
+#include <mutex>
 
 // The panel's headers (and so Eigen) first: httplib.h brings <resolv.h>, whose `_res` macro breaks
 // Eigen headers included after it.
@@ -33,5 +34,21 @@ void StreamState(PanelHub& hub, PanelApi& api, double max_rate_hz, const httplib
 int BindServer(httplib::Server& server, const std::string& listen, int port);
 // A handler that throws is answered 500 {"error": what}, never a crash.
 void AnswerExceptionsWith500(httplib::Server& server);
+
+// Serves a bound server on the caller's thread until Stop() from another. httplib's own stop()
+// does nothing before the listen loop has marked itself running, so a Stop() that comes first
+// (a test that ends at once) would leave Listen() serving forever; with the gate, Stop() before
+// Listen() makes Listen() return at once, and Stop() during the loop's start waits for it.
+class ListenGate {
+ public:
+  // False when Stop() came first (nothing was served).
+  bool Listen(httplib::Server& server);
+  void Stop(httplib::Server& server);
+
+ private:
+  std::mutex mutex_;
+  bool stopping_ = false;
+  bool listening_ = false;
+};
 
 }  // namespace sirupp::panel

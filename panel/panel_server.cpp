@@ -112,6 +112,35 @@ void AnswerExceptionsWith500(httplib::Server& server) {
       });
 }
 
+bool ListenGate::Listen(httplib::Server& server) {
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    if (stopping_) return false;
+    listening_ = true;
+  }
+  server.listen_after_bind();
+  const std::lock_guard<std::mutex> lock(mutex_);
+  listening_ = false;
+  return true;
+}
+
+void ListenGate::Stop(httplib::Server& server) {
+  bool stopped = false;
+  for (;;) {
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      stopping_ = true;
+      if (!listening_) return;
+    }
+    // Listening, or about to: stop the loop once it says it runs (stop() closes its socket).
+    if (!stopped && server.is_running()) {
+      server.stop();
+      stopped = true;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  }
+}
+
 bool IsLoopback(const std::string& address) {
   return address == "localhost" || address == "::1" || address.rfind("127.", 0) == 0;
 }
@@ -121,6 +150,7 @@ struct PanelServer::Impl {
   PanelApi& api;
   ServerOptions options;
   httplib::Server server;
+  ListenGate gate;
   int port = 0;
 
   Impl(PanelHub& h, PanelApi& a, ServerOptions o) : hub(h), api(a), options(std::move(o)) {}
@@ -165,10 +195,10 @@ int PanelServer::Bind() {
   return impl_->port;
 }
 
-void PanelServer::Serve() { impl_->server.listen_after_bind(); }
+void PanelServer::Serve() { impl_->gate.Listen(impl_->server); }
 
 void PanelServer::Stop() {
-  if (impl_ && impl_->server.is_running()) impl_->server.stop();
+  if (impl_) impl_->gate.Stop(impl_->server);
 }
 
 }  // namespace sirupp::panel
