@@ -13,13 +13,67 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const std::vector<std::string> kTopKeys = {"class", "description", "robot",  "students",
-                                           "data",  "limits",      "server", "rigs"};
+const std::vector<std::string> kTopKeys = {"class",  "description", "robot", "students", "data",
+                                           "limits", "server",      "rigs",  "real_arm"};
 const std::vector<std::string> kLimitKeys = {"max_rigs", "idle_timeout_s", "rig_memory_mb",
                                              "rig_nice"};
 const std::vector<std::string> kServerKeys = {"listen", "port", "public_url", "tls_cert",
                                               "tls_key"};
 const std::vector<std::string> kRigKeys = {"first_port", "port_count"};
+const std::vector<std::string> kRealArmKeys = {"lcm_url", "turn_s", "warn_before_s",
+                                               "home_tolerance_deg", "home_speed_fraction"};
+
+// The udpm port of an LCM address "udpm://GROUP:PORT?...", or -1.
+int UdpmPort(const std::string& url) {
+  const std::string scheme = "udpm://";
+  if (url.rfind(scheme, 0) != 0) return -1;
+  const size_t colon = url.find(':', scheme.size());
+  if (colon == std::string::npos) return -1;
+  const size_t end = url.find('?', colon);
+  const std::string digits = url.substr(colon + 1, end == std::string::npos ? end : end - colon - 1);
+  if (digits.empty() || digits.size() > 5 ||
+      !std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; })) {
+    return -1;
+  }
+  const int port = std::stoi(digits);
+  return port >= 1 && port <= 65535 ? port : -1;
+}
+
+RealArmConfig ReadRealArm(const core::YamlValue& value, const ClassConfig& config) {
+  const core::YamlMap map = value.Map(kRealArmKeys);
+  RealArmConfig arm;
+  const core::YamlValue url = map.Get("lcm_url", "the bus of sirupp-hardware (udpm://GROUP:PORT?ttl=0)");
+  arm.lcm_url = url.String();
+  const int port = UdpmPort(arm.lcm_url);
+  if (port < 0) {
+    url.Fail("'" + arm.lcm_url +
+             "' is not a udpm address; expected udpm://GROUP:PORT?ttl=0 (the bus sirupp-hardware "
+             "runs on)");
+  }
+  if (port >= config.first_port && port < config.first_port + config.port_count) {
+    url.Fail("port " + std::to_string(port) + " is one the rigs lease (rigs: " +
+             std::to_string(config.first_port) + ".." +
+             std::to_string(config.first_port + config.port_count - 1) +
+             "); give the real arm's bus a port outside that range");
+  }
+  arm.turn_s = map.NumberOr("turn_s", arm.turn_s, core::NumberInRange(5, 86400, "s"));
+  if (const auto warn = map.Find("warn_before_s")) {
+    arm.warn_before_s.clear();
+    for (const core::YamlValue& entry : warn->Sequence(0, 10)) {
+      const double s = entry.Number(core::NumberInRange(0.5, 86400, "s"));
+      if (s >= arm.turn_s) {
+        entry.Fail("a warning " + core::FormatApprox(s) + " s before the end of a " +
+                   core::FormatApprox(arm.turn_s) + " s turn; allowed: less than turn_s");
+      }
+      arm.warn_before_s.push_back(s);
+    }
+  }
+  arm.home_tolerance_deg = map.NumberOr("home_tolerance_deg", arm.home_tolerance_deg,
+                                        core::NumberInRange(0.05, 10, "deg"));
+  arm.home_speed_fraction = map.NumberOr("home_speed_fraction", arm.home_speed_fraction,
+                                         core::NumberInRange(0.05, 1, ""));
+  return arm;
+}
 
 std::string CheckedName(const core::YamlValue& value, const std::string& what) {
   const std::string text = value.String();
@@ -123,6 +177,7 @@ ClassConfig Read(const core::YamlDocument& document, const std::string& base_dir
                          " is more than rigs.port_count " + std::to_string(config.port_count) +
                          "; each rig needs a port of its own");
   }
+  if (const auto arm = top.Find("real_arm")) config.real_arm = ReadRealArm(*arm, config);
   return config;
 }
 

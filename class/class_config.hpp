@@ -13,11 +13,27 @@
 //   server: {listen: 127.0.0.1, port: 8800, public_url: "https://lab.example.edu",
 //            tls_cert: cert.pem, tls_key: key.pem}
 //   rigs: {first_port: 7900, port_count: 200}   # the udpm ports rigs lease (ttl=0)
+//   real_arm:                         # optional: the one real PUMA, shared by turns
+//     lcm_url: "udpm://239.255.76.67:7700?ttl=0"   # the bus sirupp-hardware runs on
+//     turn_s: 600                     # one turn
+//     warn_before_s: [60, 10]         # warnings before a turn's end
+//     home_tolerance_deg: 1           # the pose check after homing, between two turns
+//     home_speed_fraction: 0.5        # homing speed, of each joint's default
 
+#include <optional>
 #include <string>
 #include <vector>
 
 namespace sirupp::classroom {
+
+// The real arm's queue (turns/, docs/class.md "The real arm, by turns").
+struct RealArmConfig {
+  std::string lcm_url;  // the bridge's bus (udpm://...)
+  double turn_s = 600;
+  std::vector<double> warn_before_s = {60, 10};
+  double home_tolerance_deg = 1.0;
+  double home_speed_fraction = 0.5;
+};
 
 struct ClassConfig {
   std::string file;  // where it was read from
@@ -37,6 +53,7 @@ struct ClassConfig {
   std::string tls_key;
   int first_port = 7900;  // udpm ports leased by the rigs
   int port_count = 200;
+  std::optional<RealArmConfig> real_arm;  // none: the class has no real arm
 };
 
 // The reserved name of the teacher's token.

@@ -13,6 +13,7 @@
 #include <sstream>
 #include <thread>
 
+#include "class/real_arm.hpp"
 #include "class/rig.hpp"
 #include "class/tokens.hpp"
 #include "core/errors.hpp"
@@ -141,6 +142,8 @@ std::string StudentFolder(const ClassConfig& config, const std::string& name) {
   return config.data_dir + "/students/" + name;
 }
 
+std::string TurnsLogFile(const ClassConfig& config) { return config.data_dir + "/turns.jsonl"; }
+
 std::string AddressWithToken(const ClassConfig& config, int port, const std::string& name,
                              const std::string& token) {
   const std::string base = BaseUrl(config, port);
@@ -219,6 +222,9 @@ struct ClassServer::Impl {
   bool stopping = false;
   int port = 0;
   std::mutex log_mutex;
+  // The real arm's queue (class file real_arm:), or none. After the seats: it asks them for the
+  // rigs' addresses, so it goes first.
+  std::unique_ptr<RealArm> real_arm;
   // Last: destroyed first, so no request runs once the seats are gone. HTTPS with a certificate
   // (Debian's cpp-httplib is built with OpenSSL).
   std::unique_ptr<httplib::Server> server;
@@ -242,6 +248,18 @@ struct ClassServer::Impl {
       seat->name = name;
       seat->Touch();
       seats[name] = std::move(seat);
+    }
+    if (config.real_arm) {
+      fs::create_directories(config.data_dir);
+      real_arm = std::make_unique<RealArm>(
+          config, TurnsLogFile(config),
+          [this](const std::string& student) -> std::string {
+            const Seat* seat = Find(student);
+            if (seat == nullptr) return "";
+            const std::lock_guard<std::mutex> info(seat->info_mutex);
+            return seat->state == "running" ? RigUrl(seat->port) : "";
+          },
+          [this](const std::string& line) { Log("real arm: " + line); });
     }
   }
 
@@ -411,6 +429,7 @@ struct ClassServer::Impl {
       seat.last_stop = why;
       seat.cpu = 0;
     }
+    if (real_arm) real_arm->RigStopped(seat.name, why);
     rig->Stop();
     rig.reset();
     seat.lease.Release();
@@ -437,7 +456,8 @@ struct ClassServer::Impl {
           const std::lock_guard<std::mutex> info(seat->info_mutex);
           seat->cpu = cpu;
         }
-        if (seat->IdleSeconds() > config.idle_timeout_s) {
+        if (seat->IdleSeconds() > config.idle_timeout_s &&
+            !(real_arm && real_arm->Involved(name))) {  // waiting for the real arm is not idle
           StopRig(*seat, "stopped after " +
                              std::to_string(static_cast<int>(config.idle_timeout_s)) +
                              " s without a visit (idle)");
@@ -485,7 +505,8 @@ struct ClassServer::Impl {
                 {"max_rigs", config.max_rigs},
                 {"running", running.load()},
                 {"idle_timeout_s", config.idle_timeout_s},
-                {"rigs", rigs}};
+                {"rigs", rigs},
+                {"real_arm", real_arm ? real_arm->TeacherJson() : Json{{"enabled", false}}}};
   }
 
   size_t ResultFiles(const std::string& name) const {
@@ -532,8 +553,7 @@ struct ClassServer::Impl {
       page.insert(body_end + 1,
                   "\n<!-- the class server's bar (class/web/student.js) -->\n"
                   "<div id=\"class-bar\" class=\"class-bar\"><span id=\"class-status\">class</span>"
-                  "<section id=\"real-arm-queue\" class=\"class-queue\" data-issue=\"33\">"
-                  "Real arm: the queue for turns on the real PUMA goes here.</section></div>\n");
+                  "<section id=\"real-arm-queue\" class=\"class-queue\" hidden></section></div>\n");
     }
     const size_t end = page.rfind("</body>");
     if (end != std::string::npos) page.insert(end, "<script src=\"class.js\"></script>\n");
@@ -594,6 +614,10 @@ struct ClassServer::Impl {
       }
       return;
     }
+    if (rest == "class/turns" || rest.rfind("class/turns/", 0) == 0) {
+      StudentTurns(*seat, role, rest, req, res);
+      return;
+    }
     if (rest.rfind("api/", 0) == 0) {
       Api(*seat, role, rest, req, res);
       return;
@@ -615,6 +639,50 @@ struct ClassServer::Impl {
       return;
     }
     SendError(res, 404, "no such page or file: /s/" + name + "/" + core::Printable(rest, 100));
+  }
+
+  // /s/NAME/class/turns: the real arm's queue as NAME sees it; POST .../join|leave|done|estop.
+  void StudentTurns(Seat& seat, Role role, const std::string& rest, const httplib::Request& req,
+                    httplib::Response& res) {
+    if (!real_arm) {
+      if (rest == "class/turns" && req.method == "GET") {
+        SendJson(res, 200, Json{{"enabled", false}});
+      } else {
+        SendError(res, 404, "this class has no real arm (no real_arm: in the class file)");
+      }
+      return;
+    }
+    if (rest == "class/turns") {
+      if (req.method != "GET") {
+        SendError(res, 405, "class/turns: allowed: GET (POST class/turns/join|leave|done|estop)");
+        return;
+      }
+      SendJson(res, 200, real_arm->StudentJson(seat.name));
+      return;
+    }
+    if (req.method != "POST") {
+      SendError(res, 405, rest + ": allowed: POST");
+      return;
+    }
+    if (MissingClient(req, res)) return;
+    if (role != Role::kStudent) {
+      SendError(res, 403,
+                "the teacher's view of " + seat.name +
+                    "'s rig is read-only; the queue's commands are on /teacher/");
+      return;
+    }
+    const std::string verb = rest.substr(std::string("class/turns/").size());
+    try {
+      real_arm->StudentCommand(seat.name, verb);
+    } catch (const turns::TurnError& e) {
+      SendError(res, 409, e.what());
+      return;
+    } catch (const std::invalid_argument& e) {
+      SendError(res, 404, e.what());
+      return;
+    }
+    Log(seat.name + ": real arm " + verb);
+    SendJson(res, 200, real_arm->StudentJson(seat.name));
   }
 
   void Api(Seat& seat, Role role, const std::string& rest, const httplib::Request& req,
@@ -656,6 +724,17 @@ struct ClassServer::Impl {
       }
       return;
     }
+    // Commands for the bridge (arm, link, ...) from anyone but the real arm's holder in their
+    // turn: refused here with the reason (they would reach no bridge anyway).
+    if (IsChange(req) && rest.rfind("api/hardware/", 0) == 0) {
+      const std::string why = real_arm ? real_arm->MayCommand(seat.name)
+                                       : "this class has no real arm (no real_arm: in the class "
+                                         "file)";
+      if (!why.empty()) {
+        SendError(res, 409, "the real arm: " + why);
+        return;
+      }
+    }
     panel::Request request = panel::ToRequest(req);
     request.path = "/" + rest;
     panel::Send(rig_panel->api->Handle(request), res);
@@ -681,6 +760,10 @@ struct ClassServer::Impl {
     }
     if (rest == "api/events") {
       TeacherEvents(res);
+      return;
+    }
+    if (rest == "api/turns" && req.method == "GET") {
+      SendJson(res, 200, real_arm ? real_arm->TeacherJson() : Json{{"enabled", false}});
       return;
     }
     if (req.method != "POST") {
@@ -717,6 +800,10 @@ struct ClassServer::Impl {
       SendJson(res, 200, Json{{"engaged", engage}, {"rigs", sent}});
       return;
     }
+    if (rest.rfind("api/turns/", 0) == 0) {
+      TeacherTurns(rest.substr(std::string("api/turns/").size()), req, res);
+      return;
+    }
     static const std::regex kRigVerb(R"(api/rigs/([^/]+)/(stop|restart|start))");
     std::smatch match;
     if (std::regex_match(rest, match, kRigVerb)) {
@@ -741,6 +828,34 @@ struct ClassServer::Impl {
       return;
     }
     SendError(res, 404, "no such command: /teacher/" + core::Printable(rest, 100));
+  }
+
+  // POST /teacher/api/turns/end|pause|resume|estop|release, and skip {"student": NAME}.
+  void TeacherTurns(const std::string& verb, const httplib::Request& req, httplib::Response& res) {
+    if (!real_arm) {
+      SendError(res, 404, "this class has no real arm (no real_arm: in the class file)");
+      return;
+    }
+    std::string student;
+    if (verb == "skip") {
+      const Json body = Json::parse(req.body.empty() ? "{}" : req.body, nullptr, false);
+      if (!body.is_object() || !body.contains("student") || !body["student"].is_string()) {
+        SendError(res, 400, "skip: expected a JSON body like {\"student\": \"alice\"}");
+        return;
+      }
+      student = body["student"].get<std::string>();
+    }
+    try {
+      real_arm->TeacherCommand(verb, student);
+    } catch (const turns::TurnError& e) {
+      SendError(res, 409, e.what());
+      return;
+    } catch (const std::invalid_argument& e) {
+      SendError(res, 404, e.what());
+      return;
+    }
+    Log("teacher: real arm " + verb + (student.empty() ? "" : " " + student));
+    SendJson(res, 200, real_arm->TeacherJson());
   }
 
   // One stream for the whole class, twice a second.
@@ -832,6 +947,7 @@ void ClassServer::Stop() {
   }
   impl_->monitor_wake.notify_all();
   if (impl_->monitor.joinable()) impl_->monitor.join();
+  if (impl_->real_arm) impl_->real_arm->Stop();
   for (auto& [name, seat] : impl_->seats) {
     const std::lock_guard<std::mutex> lock(seat->mutex);
     impl_->StopRig(*seat, "the class server stopped");

@@ -36,6 +36,7 @@ struct ServeOptions {
 std::string TokensFile(const ClassConfig& config);   // DATA/tokens.json (hashes)
 std::string HandoutFile(const ClassConfig& config);  // DATA/tokens.csv (addresses, for the teacher)
 std::string StudentFolder(const ClassConfig& config, const std::string& name);
+std::string TurnsLogFile(const ClassConfig& config);  // DATA/turns.jsonl (the real arm's turns)
 
 // The address that opens `name`'s page (or the teacher's) with `token`.
 std::string AddressWithToken(const ClassConfig& config, int port, const std::string& name,

@@ -17,11 +17,8 @@
 #include "control/control_node.hpp"
 #include "core/bus.hpp"
 #include "core/model_loader.hpp"
-#include "hardware/arm_link.hpp"
-#include "hardware/bridge_node.hpp"
-#include "hardware/emulator.hpp"
-#include "hardware/serial_port.hpp"
 #include "sim/sim_node.hpp"
+#include "tests/emulated_bridge.hpp"
 #include "turns/turn_manager.hpp"
 
 namespace sirupp::turns {
@@ -47,20 +44,7 @@ struct StudentRig {
 
 struct Class {
   explicit Class(TurnOptions options) {
-    hardware::EmulatorOptions eo;
-    eo.model = Puma();
-    eo.start_positions = {0, -90 * kDeg, 90 * kDeg, 0, 45 * kDeg, 0};  // ready, servos off
-    settings.calibration_pose = "ready";
-    settings.start_guard_s = 0;
-    settings.reply_margin_ms = 500;  // a loaded machine may starve the emulator's thread
-    settings.retries = 4;
-    emulator = std::make_unique<hardware::Emulator>(eo);
-    emulator->Start();
-    port = std::make_unique<hardware::SerialPort>(emulator->device(), hardware::nmc::kPowerUpBaud);
-    link = std::make_unique<hardware::ArmLink>(Puma(), settings, *port);
-    bridge = std::make_unique<hardware::BridgeNode>(arm_bus, Puma(), *link, settings);
-    bridge->Connect();
-    bridge->Calibrate();
+    arm = std::make_unique<testing::EmulatedBridge>(arm_bus, Puma());
     options.log_path = log_path;
     options.on_event = [this](const std::string& line) { events.push_back(line); };
     std::remove(log_path.c_str());
@@ -86,14 +70,13 @@ struct Class {
       rigs[name] = std::move(rig);
     }
   }
-  ~Class() { emulator->Stop(); }
 
   void ServiceAll() {
     for (auto& [name, rig] : rigs) {
       rig->sim.Service(0);
       rig->control.Service(0);
     }
-    bridge->Service(0);
+    arm->bridge->Service(0);
     manager->Service();
   }
   bool RunUntil(const std::function<bool()>& done, double seconds) {
@@ -133,11 +116,7 @@ struct Class {
 
   std::string log_path = ::testing::TempDir() + "/sirupp_turns_test.jsonl";
   core::Bus arm_bus{"memq://"};
-  hardware::BridgeSettings settings = hardware::DefaultBridgeSettings(Puma());
-  std::unique_ptr<hardware::Emulator> emulator;
-  std::unique_ptr<hardware::SerialPort> port;
-  std::unique_ptr<hardware::ArmLink> link;
-  std::unique_ptr<hardware::BridgeNode> bridge;
+  std::unique_ptr<testing::EmulatedBridge> arm;
   std::unique_ptr<TurnManager> manager;
   std::map<std::string, std::unique_ptr<StudentRig>> rigs;
   std::vector<int8_t> states;  // the bridge's states, each change
@@ -251,7 +230,7 @@ TEST(Turns, AHandoverThatCannotHomeStopsTheQueue) {
   ASSERT_TRUE(
       c.RunUntil([&] { return c.manager->status().step == "home at reduced speed"; }, kLongWaitS));
   c.RunUntil([] { return false; }, 0.5);  // under way
-  c.emulator->TriggerPositionErrorTrip(1);
+  c.arm->emulator->TriggerPositionErrorTrip(1);
   ASSERT_TRUE(c.RunUntil([&] { return c.manager->status().phase == Phase::kStopped; }, 30))
       << c.manager->status().last_event;
   const std::string reason = c.manager->status().stopped_reason;

@@ -211,6 +211,9 @@ void TurnManager::LogJson(const std::string& json_line) {
 
 void TurnManager::Join(const std::string& student) {
   RigOf(student);
+  if (options_.admit) {
+    if (const std::string why = options_.admit(student); !why.empty()) throw TurnError(why);
+  }
   if (holder_ != nullptr && holder_->student == student) {
     throw TurnError(student + " has the real arm now (" + PhaseName(phase_) + ")");
   }
@@ -281,6 +284,22 @@ void TurnManager::Estop(const std::string& by, const std::string& reason) {
   estop.reason = reason;
   arm_bus_.Publish(channels_.estop, core::ToMessage(estop));
   Event("e-stop of the real arm by " + by + (reason.empty() ? "" : ": " + reason));
+}
+
+void TurnManager::ReleaseEstop(const std::string& by) {
+  core::EStop estop;
+  estop.utime = core::WallMicros();
+  estop.seq = seq_++;
+  estop.engaged = false;
+  estop.sender = by;
+  estop.reason = "released";
+  arm_bus_.Publish(channels_.estop, core::ToMessage(estop));
+  Event("the real arm's e-stop released by " + by);
+}
+
+bool TurnManager::Involved(const std::string& student) const {
+  if (holder_ != nullptr && holder_->student == student) return true;
+  return std::find(queue_.begin(), queue_.end(), student) != queue_.end();
 }
 
 void TurnManager::EndTurn(const std::string& by) {
@@ -440,10 +459,22 @@ double TurnManager::EstimatedHandoverS() const {
 
 void TurnManager::StartHandoverIn(const std::string& student) {
   Rig& rig = RigOf(student);
+  std::string refusal = options_.admit ? options_.admit(student) : "";
+  if (refusal.empty()) {
+    try {
+      Attach(rig);  // the rig's bus (a rig that stopped has none)
+    } catch (const std::exception& e) {
+      Detach(rig);
+      refusal = e.what();
+    }
+  }
+  if (!refusal.empty()) {
+    Event("handover to " + student + " not begun: " + refusal + "; their turn is skipped");
+    return;
+  }
   holder_ = &rig;
   phase_ = Phase::kHandoverIn;
   handover_started_ = Clock::now();
-  Attach(rig);
   Event("handover to " + student + " begins");
   std::vector<Step> steps;
   steps.push_back({"the bridge is ready", nullptr,
@@ -459,6 +490,7 @@ void TurnManager::StartHandoverIn(const std::string& student) {
                    options_.step_timeout_s, false});
   steps.push_back({"the virtual arm to the real arm's pose",
                    [this] {
+                     if (!real_) throw TurnError("no REAL_ARM_STATE from sirupp-hardware");
                      core::PlanCommand abort;
                      abort.utime = core::WallMicros();
                      abort.seq = seq_++;
@@ -679,13 +711,13 @@ void TurnManager::Fail(const std::string& reason) {
 void TurnManager::StepHandover() {
   while (step_ < steps_.size()) {
     Step& step = steps_[step_];
-    if (!step_entered_) {
-      step_entered_ = true;
-      step_started_ = Clock::now();
-      if (step.enter) step.enter();
-    }
     bool done = false;
     try {
+      if (!step_entered_) {
+        step_entered_ = true;
+        step_started_ = Clock::now();
+        if (step.enter) step.enter();
+      }
       done = step.done();
     } catch (const TurnError& error) {
       Fail(error.what());
@@ -729,7 +761,7 @@ void TurnManager::Service() {
         const std::string next = queue_.front();
         queue_.erase(queue_.begin());
         StartHandoverIn(next);
-        StepHandover();
+        if (phase_ == Phase::kHandoverIn) StepHandover();  // else skipped
       }
       break;
     case Phase::kHandoverIn:
@@ -765,6 +797,14 @@ TurnStatus TurnManager::status() const {
   }
   s.paused = paused_;
   s.stopped_reason = stopped_reason_;
+  if (!hardware_) {
+    s.bridge = "not heard";
+  } else if (Since(hardware_at_) > 1.0) {
+    s.bridge = "silent " + Fixed1(Since(hardware_at_)) + " s";
+  } else {
+    s.bridge = BridgeStateName(hardware_->state) +
+               (hardware_->last_error.empty() ? "" : " (" + hardware_->last_error + ")");
+  }
   s.last_event = last_event_;
   // The wait: what is left of the present turn and its handover, then a turn and a handover for
   // each student ahead.

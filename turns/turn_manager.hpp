@@ -70,6 +70,10 @@ struct TurnOptions {
   bool relay_estop_from_all_rigs = false;  // subscribe ESTOP on every rig (standalone)
   // Each event as one line for people (turn starts, warnings, handovers, the queue stopping).
   std::function<void(const std::string&)> on_event;
+  // "" when `student` may have the real arm, else why not (for example: the controller on their
+  // rig is a submission that has not passed the class's safety tasks). Asked on Join and again
+  // when their turn comes (then their turn is skipped with the reason). None: everyone may.
+  std::function<std::string(const std::string& student)> admit;
 };
 
 enum class Phase { kIdle, kHandoverIn, kTurn, kHandoverOut, kStopped };
@@ -87,6 +91,7 @@ struct TurnStatus {
   std::string step;            // the handover step under way
   bool paused = false;         // no new turn starts (the present one goes on)
   std::string stopped_reason;  // kStopped: why; the teacher resumes once the arm is seen to
+  std::string bridge;          // the bridge as last heard: "linked", "e-stopped", "silent 3.0 s"...
   std::vector<Waiting> queue;  // in order
   std::string last_event;
 };
@@ -128,18 +133,24 @@ class TurnManager {
   std::string MayCommand(const std::string& student) const;
   // Anyone: the real arm's e-stop (ESTOP on the arm bus).
   void Estop(const std::string& by, const std::string& reason);
+  // In the queue, or holding or being handed the arm (their rig must keep running).
+  bool Involved(const std::string& student) const;
 
   // --- the teacher
   void EndTurn(const std::string& by);
   void Skip(const std::string& student);  // out of the queue
   void Pause();
   void Resume();  // also restarts a stopped queue (after the arm was seen to)
+  // Releases the real arm's e-stop (ESTOP engaged=false on the arm bus); the bridge then needs
+  // arming again, which the next handover does.
+  void ReleaseEstop(const std::string& by);
 
   // Relays, watches and steps the handover; call often (every few ms).
   void Service();
 
   TurnStatus status() const;
   const std::vector<TurnRecord>& history() const { return history_; }
+  const TurnOptions& options() const { return options_; }
 
  private:
   struct Rig;

@@ -1,6 +1,7 @@
 // The class server's bar on a student's page (class/class_server.cpp inserts it into the panel's
 // page): who and which rig this is, whether the rig was started again (and why it had stopped),
-// and a button to start it again when it is stopped. The panel itself is unchanged.
+// and a button to start it again when it is stopped; and the real arm's queue when the class has
+// one (place, wait, the turn's time left, e-stop of the real arm). The panel itself is unchanged.
 'use strict';
 (() => {
   const status = document.getElementById('class-status');
@@ -42,4 +43,54 @@
   }
   refresh();
   setInterval(refresh, 2000);
+
+  // The real arm's queue (class/real_arm.hpp): join, leave, end my turn, e-stop the real arm.
+  const queue = document.getElementById('real-arm-queue');
+  const minutes = (s) => (s < 90 ? `${Math.round(s)} s` : `${Math.round(s / 60)} min`);
+  async function turnCommand(verb) {
+    const r = await fetch('class/turns/' + verb, {method: 'POST', headers: {'X-Sirupp-Client': clientId}});
+    const answer = await r.json();
+    if (!r.ok) document.getElementById('turn-answer').textContent = answer.error;
+    else showTurns(answer);
+  }
+  function showTurns(t) {
+    if (!t.enabled) { queue.hidden = true; return; }
+    queue.hidden = false;
+    const you = t.you;
+    let line;
+    let buttons = '';
+    if (t.stopped) {
+      line = `<span class="warn" id="turn-line">The queue is stopped: ${text(t.stopped)}. The teacher has been told.</span>`;
+    } else if (you.in_turn) {
+      const last = t.warn_before_s.length ? Math.max(...t.warn_before_s) : 0;
+      line = `<strong id="turn-line" class="${you.turn_left_s <= last ? 'warn' : ''}">YOUR TURN on the real arm: ` +
+             `${minutes(you.turn_left_s)} left.</strong> Your moves and plans drive the real arm too.`;
+      buttons = '<button id="turn-done">End my turn</button>';
+    } else if (you.holder) {
+      line = `<span id="turn-line">Your turn is being prepared: ${text(you.step || t.phase)}...</span>`;
+    } else if (you.place > 0) {
+      line = `<span id="turn-line">You are number ${you.place} in the queue (about ${minutes(you.estimated_wait_s)}).</span>`;
+      buttons = '<button id="turn-leave">Leave the queue</button>';
+    } else {
+      const who = t.holder ? `${text(t.holder)}'s turn (${text(t.phase)})` : 'free';
+      line = `<span id="turn-line">The real arm: ${who}; ${t.queue_length} waiting. Turns of ${minutes(t.turn_s)}.</span>`;
+      buttons = '<button id="turn-join">Join the queue</button>';
+    }
+    if (t.paused && !t.stopped) line += ' <span class="warn">(the teacher paused the queue)</span>';
+    const latest = t.events.length ? `<span class="turn-event" id="turn-event">${text(t.events[t.events.length - 1])}</span>` : '';
+    queue.innerHTML = `${line} ${buttons} <button id="turn-estop" class="estop-real">E-STOP THE REAL ARM</button> ` +
+                      `<span id="turn-answer" class="warn"></span> ${latest}`;
+    for (const verb of ['join', 'leave', 'done', 'estop']) {
+      const b = document.getElementById('turn-' + verb);
+      if (b) b.onclick = () => turnCommand(verb);
+    }
+  }
+  async function refreshTurns() {
+    try {
+      const r = await fetch('class/turns');
+      if (r.ok) showTurns(await r.json());
+    } catch (e) { /* the bar above says the server is unreachable */ }
+  }
+  refreshTurns();
+  setInterval(refreshTurns, 1000);
 })();

@@ -1,5 +1,6 @@
 // The teacher's page: every rig of the class from one event stream (/teacher/api/events, twice a
-// second whatever the number of rigs), a read-only link to each, stop / restart, e-stop all.
+// second whatever the number of rigs), a read-only link to each, stop / restart, e-stop all; and
+// the real arm's queue when the class has one (end a turn, skip, pause, resume, e-stop).
 'use strict';
 const $ = (id) => document.getElementById(id);
 const clientId = 'teacher-' + Math.random().toString(36).slice(2);
@@ -38,10 +39,42 @@ function row(rig) {
       <button data-verb="restart" data-name="${text(rig.name)}">restart</button></td></tr>`;
 }
 
+const clock = (us) => (us ? new Date(us / 1000).toLocaleTimeString() : '-');
+
+// The real arm's queue (class/real_arm.hpp), from the same stream.
+function showTurns(t) {
+  $('real-arm-queue').hidden = !t.enabled;
+  if (!t.enabled) return;
+  let state = `Phase: <strong>${text(t.phase)}</strong>`;
+  if (t.holder) state += `, holder <strong>${text(t.holder)}</strong>`;
+  if (t.phase === 'turn') state += ` (${Math.round(t.turn_left_s)} s left)`;
+  if (t.step) state += `, step: ${text(t.step)}`;
+  if (t.paused) state += ', <strong>paused</strong>';
+  state += `. Bridge: ${text(t.bridge)}. Turns of ${t.turn_s} s.`;
+  if (t.stopped) state += `<br><span class="stopped" id="turn-stopped">STOPPED: ${text(t.stopped)}</span> ` +
+                          '(see to the arm, then release its e-stop if engaged and resume the queue)';
+  $('turn-state').innerHTML = state;
+  $('turn-queue').innerHTML = t.queue.length ? t.queue.map((w) =>
+    `<li>${text(w.student)} (about ${Math.round(w.estimated_wait_s)} s) <button data-skip="${text(w.student)}">skip</button></li>`).join('')
+    : '<li>nobody waiting</li>';
+  for (const b of document.querySelectorAll('#turn-queue button')) {
+    b.onclick = () => post('api/turns/skip', {student: b.dataset.skip});
+  }
+  $('turn-history').innerHTML = t.history.map((h) => `<tr><td>${text(h.student)}</td><td>${clock(h.start_us)}</td>
+    <td>${clock(h.end_us)}</td><td>${text(h.ended || 'running')}</td><td>${text(h.plans.join(', ') || '-')}</td>
+    <td>${h.handover_in_s.toFixed(1)} s</td><td>${h.handover_out_s ? h.handover_out_s.toFixed(1) + ' s' : '-'}</td>
+    <td>${text(h.handover || '-')}</td></tr>`).join('');
+  $('turn-events').innerHTML = t.events.map((e) => `<li>${text(e)}</li>`).join('');
+}
+for (const verb of ['end', 'pause', 'resume', 'estop', 'release']) {
+  $('turn-' + verb).onclick = () => post('api/turns/' + verb, {});
+}
+
 function show(c) {
   $('class-name').textContent = `Class ${c.class}` + (c.description ? `: ${c.description}` : '');
   $('summary').textContent = `${c.running} of at most ${c.max_rigs} rigs running; idle rigs stop after ${c.idle_timeout_s} s.`;
   $('rigs').innerHTML = c.rigs.map(row).join('');
+  showTurns(c.real_arm);
   for (const b of document.querySelectorAll('#rigs button')) {
     b.onclick = () => post(`api/rigs/${encodeURIComponent(b.dataset.name)}/${b.dataset.verb}`, {});
   }
