@@ -143,6 +143,7 @@ TurnManager::TurnManager(core::Bus& arm_bus, const core::RobotModel& model, Turn
         core::HardwareStatusFromMessage(status, info.channel);  // a bad one is refused, counted
         hardware_ = status;
         hardware_at_ = Clock::now();
+        ++statuses_since_accept_;
       },
       100));
   arm_subscriptions_.push_back(&arm_bus_.Subscribe<sirupp::arm_state_t>(
@@ -151,9 +152,12 @@ TurnManager::TurnManager(core::Bus& arm_bus, const core::RobotModel& model, Turn
   arm_subscriptions_.push_back(&arm_bus_.Subscribe<sirupp::command_reply_t>(
       c.hardware_reply,
       [this](const sirupp::command_reply_t& reply, const core::ReceiveInfo&) {
-        if (reply.result == sirupp::command_reply_t::RESULT_REFUSED && reply.request_utime > 0 &&
-            reply.request_utime == last_request_utime_) {
+        if (reply.request_utime <= 0 || reply.request_utime != last_request_utime_) return;
+        if (reply.result == sirupp::command_reply_t::RESULT_REFUSED) {
           manager_refusal_ = reply.error;
+        } else {
+          accepted_utime_ = reply.request_utime;
+          statuses_since_accept_ = 0;
         }
       },
       100));
@@ -391,6 +395,7 @@ void TurnManager::Command(int8_t hardware_command) {
   command.command = static_cast<core::HardwareAction>(hardware_command);
   command.sender = options_.sender;
   manager_refusal_.clear();
+  accepted_utime_ = 0;
   arm_bus_.Publish(channels_.hardware_command, core::ToMessage(command));
 }
 
@@ -408,6 +413,7 @@ void TurnManager::Move(bool stop, const std::vector<double>& goal, double speed_
                            p.default_acceleration, sirupp::servo_move_t::FLAG_ACTIVE});
   }
   manager_refusal_.clear();
+  accepted_utime_ = 0;
   arm_bus_.Publish(channels_.arm_move, core::ToMessage(move));
 }
 
@@ -423,6 +429,11 @@ std::string TurnManager::BridgeTrouble() const {
   }
   if (!manager_refusal_.empty()) return "the bridge refused: " + manager_refusal_;
   return "";
+}
+
+bool TurnManager::MoveTaken() const {
+  return accepted_utime_ != 0 && accepted_utime_ == last_request_utime_ &&
+         statuses_since_accept_ >= 2;
 }
 
 bool TurnManager::AllMovesDone() const {
@@ -593,7 +604,7 @@ void TurnManager::StartHandoverOut() {
                      if (const std::string trouble = BridgeTrouble(); !trouble.empty()) {
                        throw TurnError(trouble);
                      }
-                     return Since(step_started_) > 0.3 && AllMovesDone();
+                     return MoveTaken() && Since(step_started_) > 0.3 && AllMovesDone();
                    },
                    options_.step_timeout_s, true});
   // The farthest joint's travel at the reduced speed, as the step's extra time.
@@ -610,7 +621,7 @@ void TurnManager::StartHandoverOut() {
                      if (const std::string trouble = BridgeTrouble(); !trouble.empty()) {
                        throw TurnError(trouble);
                      }
-                     return Since(step_started_) > 0.3 && AllMovesDone();
+                     return MoveTaken() && Since(step_started_) > 0.3 && AllMovesDone();
                    },
                    options_.step_timeout_s + travel_s, true});
   steps.push_back({"check the pose", nullptr,

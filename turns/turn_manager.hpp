@@ -184,6 +184,10 @@ class TurnManager {
   void Move(bool stop, const std::vector<double>& goal, double speed_fraction);
   // Why the bridge cannot go on (fault, e-stop), or "".
   std::string BridgeTrouble() const;
+  // Our last ARM_MOVE was accepted by the bridge and two HARDWARE_STATUS came after it, so the
+  // modules' MOVE_DONE bits are about that move, not the one before (a busy machine may delay
+  // the bridge past any fixed time).
+  bool MoveTaken() const;
   bool AllMovesDone() const;
   // The largest |real - goal| in degrees and its joint (1-based), from REAL_ARM_STATE.
   std::pair<double, int> RealOffset(const std::vector<double>& goal) const;
@@ -221,6 +225,8 @@ class TurnManager {
   std::optional<sirupp::arm_state_t> real_;
   std::string manager_refusal_;     // the bridge refused one of our commands
   int64_t last_request_utime_ = 0;  // of our latest HARDWARE_COMMAND or ARM_MOVE
+  int64_t accepted_utime_ = 0;      // the bridge accepted that request
+  int statuses_since_accept_ = 0;
   int64_t seq_ = 0;
   int64_t move_id_ = 1000000;
   Clock::time_point last_liveness_;
