@@ -13,6 +13,11 @@
 //   server: {listen: 127.0.0.1, port: 8800, public_url: "https://lab.example.edu",
 //            tls_cert: cert.pem, tls_key: key.pem}
 //   rigs: {first_port: 7900, port_count: 200}   # the udpm ports rigs lease (ttl=0)
+//   grading:                                  # students' controllers from the browser
+//     suite: config/grading/basic.yaml        # as robot: relative to this file, else the tree
+//     safety_tasks: [set1, step_j2]           # tasks of the suite a controller must pass before
+//                                             # the real arm (default: every task)
+//     max_source_kb: 256                      # largest source accepted (1..900)
 
 #include <string>
 #include <vector>
@@ -37,6 +42,11 @@ struct ClassConfig {
   std::string tls_key;
   int first_port = 7900;  // udpm ports leased by the rigs
   int port_count = 200;
+  // grading: (class/submissions.hpp). Without a suite, submissions are built and run on the rig
+  // but not graded, and the real arm takes none.
+  std::string grading_suite;              // absolute; "" = no grading
+  std::vector<std::string> safety_tasks;  // names of the suite's tasks; all of them by default
+  int max_source_kb = 256;
 };
 
 // The reserved name of the teacher's token.

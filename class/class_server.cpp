@@ -14,12 +14,14 @@
 #include <thread>
 
 #include "class/rig.hpp"
+#include "class/submissions.hpp"
 #include "class/tokens.hpp"
 #include "core/errors.hpp"
 #include "core/printable.hpp"
 #include "grade/port_lease.hpp"
 #include "panel/http_glue.hpp"
 #include "panel/rig_commands.hpp"
+#include "runtime/data_path.hpp"
 
 namespace sirupp::classroom {
 namespace {
@@ -210,6 +212,9 @@ struct ClassServer::Impl {
   TokenStore tokens;
   BadTokenThrottle throttle;
   ProcessLauncher launcher;  // outlives the rigs
+  // Students' controllers from the browser: store, builds, the grading worker (after the launcher,
+  // so it ends first).
+  std::unique_ptr<SubmissionService> submissions;
   std::map<std::string, std::unique_ptr<Seat>> seats;
   std::atomic<int> running{0};
   std::mutex start_mutex;  // counts rigs against max_rigs
@@ -237,6 +242,15 @@ struct ClassServer::Impl {
       }
       server = std::move(tls);
     }
+    SubmissionOptions submission_options;
+    submission_options.bin_dir = options.bin_dir;
+    submission_options.include_dir =
+        fs::path(runtime::ResolveDataPath("include/sirupp/controller.h"))
+            .parent_path()
+            .parent_path()
+            .string();
+    submissions = std::make_unique<SubmissionService>(
+        config, submission_options, launcher, [this](const std::string& line) { Log(line); });
     for (const std::string& name : config.students) {
       auto seat = std::make_unique<Seat>();
       seat->name = name;
@@ -365,6 +379,7 @@ struct ClassServer::Impl {
       spec.folder = folder;
       spec.port = seat.lease.port();
       spec.limits = ChildLimits{config.rig_nice, config.rig_memory_mb};
+      spec.controller = submissions->RigController(seat.name);
       {
         const std::lock_guard<std::mutex> info(seat.info_mutex);
         seat.state = "starting";
@@ -598,11 +613,26 @@ struct ClassServer::Impl {
       Api(*seat, role, rest, req, res);
       return;
     }
+    // Controllers from the browser (class/submissions.hpp): submit, list, report, run on the rig.
+    if (req.method == "POST" && rest.rfind("class/", 0) == 0 && MissingClient(req, res)) return;
+    const auto restart = [this, seat] {
+      {
+        const std::lock_guard<std::mutex> lock(seat->mutex);
+        StopRig(*seat, "restarted with another controller");
+      }
+      return EnsureRig(*seat);
+    };
+    if (auto answer = submissions->StudentRoute(name, role == Role::kStudent, req.method, rest,
+                                                req.body, restart)) {
+      panel::Send(*answer, res);
+      return;
+    }
     if (req.method != "GET") {
       SendError(res, 405, "method " + req.method + " on a file; allowed: GET");
       return;
     }
     if (rest == "class.js" && ServeFileUnder(options.class_web_dir, "student.js", res)) return;
+    if (rest == "submit.js" && ServeFileUnder(options.class_web_dir, "submit.js", res)) return;
     if (rest == "class.css" && ServeFileUnder(options.class_web_dir, "class.css", res)) return;
     for (const char* library : {"three", "dygraphs"}) {
       const std::string prefix = std::string("js/") + library + "/";
@@ -671,7 +701,11 @@ struct ClassServer::Impl {
       }
       return;
     }
-    if (rest == "teacher.js" || rest == "class.css") {
+    if (auto answer = submissions->TeacherRoute(rest)) {  // grades, class.csv, class.md
+      panel::Send(*answer, res);
+      return;
+    }
+    if (rest == "teacher.js" || rest == "class.css" || rest == "grades.js") {
       if (!ServeFileUnder(options.class_web_dir, rest, res)) SendError(res, 404, "no " + rest);
       return;
     }
@@ -832,6 +866,7 @@ void ClassServer::Stop() {
   }
   impl_->monitor_wake.notify_all();
   if (impl_->monitor.joinable()) impl_->monitor.join();
+  impl_->submissions->Stop();
   for (auto& [name, seat] : impl_->seats) {
     const std::lock_guard<std::mutex> lock(seat->mutex);
     impl_->StopRig(*seat, "the class server stopped");
