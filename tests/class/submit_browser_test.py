@@ -81,13 +81,18 @@ def submit(d, language, source):
         d, "return document.getElementById('submit-answer').dataset.id"), 90))
 
 
+def click(d, selector):
+    """Clicks in the page itself: the list is drawn anew every 3 s (a found element goes stale)."""
+    wait_for(f"{selector} to click", lambda: js(
+        d, "const b = document.querySelector(arguments[0]); if (!b) return false; b.click(); return true",
+        selector), 20)
+
+
 def run_on_rig(d, sub_id):
     """Clicks "run on my rig" for sub_id; the rig restarts and the page reloads."""
     open_submit(d)
-    button = wait_for(f"the run button of {sub_id}", lambda: d.find_element(
-        By.CSS_SELECTOR, f'#submit-list button.submit-run[data-id="{sub_id}"]'), 20)
     js(d, "window.beforeRestart = true")
-    button.click()
+    click(d, f'#submit-list button.submit-run[data-id="{sub_id}"]')
     wait_for("the page reloaded after the rig restarted",
              lambda: js(d, "return window.beforeRestart === undefined"), 60)
     open_student(d)
@@ -220,9 +225,7 @@ try:
                   f"{s['grade']['tasks_total']}), safety {'passed' if s['grade']['safety_passed'] else 'failed'};"
                   f" graded in {s['grade_seconds']:.1f} s; results.json identical to sirupp grade's")
         open_submit(a)
-        button = wait_for("the report button", lambda: a.find_element(
-            By.CSS_SELECTOR, f'#submit-list button.submit-report[data-id="{subs["alice"]}"]'), 10)
-        button.click()
+        click(a, f'#submit-list button.submit-report[data-id="{subs["alice"]}"]')
         wait_for("the report's plots", lambda: js(
             a, "return [...document.querySelectorAll('#submit-report img')].filter(i => i.naturalWidth > 0).length >= 2"), 20)
     check("both are graded with the same results.json as sirupp grade on the command line",
