@@ -24,7 +24,7 @@ from panel_rig import wait_for  # noqa: E402
 
 from selenium.webdriver.common.by import By  # noqa: E402
 
-BIN, SRC = sys.argv[1], sys.argv[2]
+BIN, SRC = os.path.abspath(sys.argv[1]), os.path.abspath(sys.argv[2])
 SHOTS = sys.argv[3] if len(sys.argv) > 3 else None
 SUITE = os.path.join(SRC, "tests/data/grade_small.yaml")
 failures = []
@@ -76,7 +76,7 @@ def submit(d, language, source):
           "s.dispatchEvent(new Event('input'));", source)
     js(d, f"document.getElementById('submit-language').value = '{language}'")
     js(d, "delete document.getElementById('submit-answer').dataset.id")
-    d.find_element(By.ID, "submit-send").click()
+    click(d, "#submit-send")
     return int(wait_for("the submission's answer", lambda: js(
         d, "return document.getElementById('submit-answer').dataset.id"), 90))
 
@@ -152,6 +152,7 @@ def wait_graded(run, name, token, sub_id, timeout=600):
 def cli_results(source_file, language):
     """results.json of `sirupp grade` on the same file (named as the server names it)."""
     work = tempfile.mkdtemp(prefix="sirupp-submit-cli-")
+    os.chmod(work, 0o755)  # as root the sandbox's own uid reads the source
     copy = os.path.join(work, "controller" + (".cpp" if language == "cpp" else ".py"))
     with open(copy, "w") as f:
         f.write(read(source_file))
@@ -280,6 +281,7 @@ try:
                 assert old in source, old
                 source = source.replace(old, new)
             bob_before = folder_hash(run.data("students", "bob"))
+            a.get(run.base + "/s/alice/")  # anew: the rig restarted by the last check reloads it
             open_student(a)
             sub_id = submit(a, "cpp", source)
             state = js(a, "return document.getElementById('submit-answer').dataset.state")
