@@ -6,6 +6,7 @@
 
 #include "core/errors.hpp"
 #include "core/yaml_reader.hpp"
+#include "grade/suite.hpp"
 #include "runtime/data_path.hpp"
 
 namespace sirupp::classroom {
@@ -14,7 +15,8 @@ namespace {
 namespace fs = std::filesystem;
 
 const std::vector<std::string> kTopKeys = {"class",  "description", "robot", "students", "data",
-                                           "limits", "server",      "rigs",  "real_arm"};
+                                           "limits", "server",      "rigs",  "real_arm",
+                                           "grading"};
 const std::vector<std::string> kLimitKeys = {"max_rigs", "idle_timeout_s", "rig_memory_mb",
                                              "rig_nice"};
 const std::vector<std::string> kServerKeys = {"listen", "port", "public_url", "tls_cert",
@@ -74,6 +76,7 @@ RealArmConfig ReadRealArm(const core::YamlValue& value, const ClassConfig& confi
                                          core::NumberInRange(0.05, 1, ""));
   return arm;
 }
+const std::vector<std::string> kGradingKeys = {"suite", "safety_tasks", "max_source_kb"};
 
 std::string CheckedName(const core::YamlValue& value, const std::string& what) {
   const std::string text = value.String();
@@ -104,6 +107,42 @@ std::string ExistingFile(const core::YamlValue& value, const std::string& base_d
     value.Fail("'" + text + "': no such file (looked for " + path + ")");
   }
   return path;
+}
+
+// grading: {suite, safety_tasks, max_source_kb}. The suite is read here, so a bad suite or a
+// safety task it does not have stops `sirupp class check` rather than the first submission.
+void ReadGrading(const core::YamlValue& value, const std::string& base_dir, ClassConfig& config) {
+  const core::YamlMap map = value.Map(kGradingKeys);
+  const core::YamlValue suite = map.Get("suite", "a grading suite file (config/grading/*.yaml)");
+  config.grading_suite = ExistingFile(suite, base_dir, true);
+  grade::Suite loaded;
+  try {
+    loaded = grade::LoadSuite(config.grading_suite, &runtime::ResolveDataPath);
+  } catch (const std::exception& e) {
+    suite.Fail("the suite '" + suite.String() + "' does not load: " + e.what());
+  }
+  std::vector<std::string> names;
+  for (const grade::Task& task : loaded.tasks) names.push_back(task.name);
+  if (const auto safety = map.Find("safety_tasks")) {
+    for (const core::YamlValue& entry : safety->Sequence(1, 1000)) {
+      const std::string name = entry.String();
+      if (std::find(names.begin(), names.end(), name) == names.end()) {
+        std::string allowed;
+        for (const std::string& n : names) allowed += (allowed.empty() ? "" : ", ") + n;
+        entry.Fail("'" + name + "' is not a task of " + loaded.name + "; allowed: " + allowed);
+      }
+      if (std::find(config.safety_tasks.begin(), config.safety_tasks.end(), name) !=
+          config.safety_tasks.end()) {
+        entry.Fail("safety task '" + name + "' is listed twice");
+      }
+      config.safety_tasks.push_back(name);
+    }
+  } else {
+    config.safety_tasks = names;
+  }
+  if (const auto v = map.Find("max_source_kb")) {
+    config.max_source_kb = static_cast<int>(v->Integer(1, 900));
+  }
 }
 
 ClassConfig Read(const core::YamlDocument& document, const std::string& base_dir) {
@@ -172,6 +211,7 @@ ClassConfig Read(const core::YamlDocument& document, const std::string& base_dir
       }
     }
   }
+  if (const auto grading = top.Find("grading")) ReadGrading(*grading, base_dir, config);
   if (config.port_count < config.max_rigs) {
     document.Root().Fail("limits.max_rigs " + std::to_string(config.max_rigs) +
                          " is more than rigs.port_count " + std::to_string(config.port_count) +

@@ -19,6 +19,11 @@
 //     warn_before_s: [60, 10]         # warnings before a turn's end
 //     home_tolerance_deg: 1           # the pose check after homing, between two turns
 //     home_speed_fraction: 0.5        # homing speed, of each joint's default
+//   grading:                                  # students' controllers from the browser
+//     suite: config/grading/basic.yaml        # as robot: relative to this file, else the tree
+//     safety_tasks: [set1, step_j2]           # tasks of the suite a controller must pass before
+//                                             # the real arm (default: every task)
+//     max_source_kb: 256                      # largest source accepted (1..900)
 
 #include <optional>
 #include <string>
@@ -54,6 +59,11 @@ struct ClassConfig {
   int first_port = 7900;  // udpm ports leased by the rigs
   int port_count = 200;
   std::optional<RealArmConfig> real_arm;  // none: the class has no real arm
+  // grading: (class/submissions.hpp). Without a suite, submissions are built and run on the rig
+  // but not graded, and the real arm takes none.
+  std::string grading_suite;              // absolute; "" = no grading
+  std::vector<std::string> safety_tasks;  // names of the suite's tasks; all of them by default
+  int max_source_kb = 256;
 };
 
 // The reserved name of the teacher's token.

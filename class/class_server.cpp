@@ -8,6 +8,7 @@
 #include <fstream>
 #include <map>
 #include <mutex>
+#include <optional>
 #include <ostream>
 #include <regex>
 #include <sstream>
@@ -15,12 +16,14 @@
 
 #include "class/real_arm.hpp"
 #include "class/rig.hpp"
+#include "class/submissions.hpp"
 #include "class/tokens.hpp"
 #include "core/errors.hpp"
 #include "core/printable.hpp"
 #include "grade/port_lease.hpp"
 #include "panel/http_glue.hpp"
 #include "panel/rig_commands.hpp"
+#include "runtime/data_path.hpp"
 
 namespace sirupp::classroom {
 namespace {
@@ -213,6 +216,9 @@ struct ClassServer::Impl {
   TokenStore tokens;
   BadTokenThrottle throttle;
   ProcessLauncher launcher;  // outlives the rigs
+  // Students' controllers from the browser: store, builds, the grading worker (after the launcher,
+  // so it ends first).
+  std::unique_ptr<SubmissionService> submissions;
   std::map<std::string, std::unique_ptr<Seat>> seats;
   std::atomic<int> running{0};
   std::mutex start_mutex;  // counts rigs against max_rigs
@@ -243,6 +249,15 @@ struct ClassServer::Impl {
       }
       server = std::move(tls);
     }
+    SubmissionOptions submission_options;
+    submission_options.bin_dir = options.bin_dir;
+    submission_options.include_dir =
+        fs::path(runtime::ResolveDataPath("include/sirupp/controller.h"))
+            .parent_path()
+            .parent_path()
+            .string();
+    submissions = std::make_unique<SubmissionService>(
+        config, submission_options, launcher, [this](const std::string& line) { Log(line); });
     for (const std::string& name : config.students) {
       auto seat = std::make_unique<Seat>();
       seat->name = name;
@@ -260,6 +275,12 @@ struct ClassServer::Impl {
             return seat->state == "running" ? RigUrl(seat->port) : "";
           },
           [this](const std::string& line) { Log("real arm: " + line); });
+      // Only a controller that passed the class's safety tasks in simulation drives the real arm
+      // (a rig that switches controller restarts, which ends its place in the queue).
+      real_arm->SetAdmit([this](const std::string& student) {
+        const std::optional<std::string> why = submissions->RealArmRefusal(student);
+        return why ? *why : std::string();
+      });
     }
   }
 
@@ -383,6 +404,7 @@ struct ClassServer::Impl {
       spec.folder = folder;
       spec.port = seat.lease.port();
       spec.limits = ChildLimits{config.rig_nice, config.rig_memory_mb};
+      spec.controller = submissions->RigController(seat.name);
       {
         const std::lock_guard<std::mutex> info(seat.info_mutex);
         seat.state = "starting";
@@ -622,11 +644,26 @@ struct ClassServer::Impl {
       Api(*seat, role, rest, req, res);
       return;
     }
+    // Controllers from the browser (class/submissions.hpp): submit, list, report, run on the rig.
+    if (req.method == "POST" && rest.rfind("class/", 0) == 0 && MissingClient(req, res)) return;
+    const auto restart = [this, seat] {
+      {
+        const std::lock_guard<std::mutex> lock(seat->mutex);
+        StopRig(*seat, "restarted with another controller");
+      }
+      return EnsureRig(*seat);
+    };
+    if (auto answer = submissions->StudentRoute(name, role == Role::kStudent, req.method, rest,
+                                                req.body, restart)) {
+      panel::Send(*answer, res);
+      return;
+    }
     if (req.method != "GET") {
       SendError(res, 405, "method " + req.method + " on a file; allowed: GET");
       return;
     }
     if (rest == "class.js" && ServeFileUnder(options.class_web_dir, "student.js", res)) return;
+    if (rest == "submit.js" && ServeFileUnder(options.class_web_dir, "submit.js", res)) return;
     if (rest == "class.css" && ServeFileUnder(options.class_web_dir, "class.css", res)) return;
     for (const char* library : {"three", "dygraphs"}) {
       const std::string prefix = std::string("js/") + library + "/";
@@ -750,7 +787,11 @@ struct ClassServer::Impl {
       }
       return;
     }
-    if (rest == "teacher.js" || rest == "class.css") {
+    if (auto answer = submissions->TeacherRoute(rest)) {  // grades, class.csv, class.md
+      panel::Send(*answer, res);
+      return;
+    }
+    if (rest == "teacher.js" || rest == "class.css" || rest == "grades.js") {
       if (!ServeFileUnder(options.class_web_dir, rest, res)) SendError(res, 404, "no " + rest);
       return;
     }
@@ -948,6 +989,7 @@ void ClassServer::Stop() {
   impl_->monitor_wake.notify_all();
   if (impl_->monitor.joinable()) impl_->monitor.join();
   if (impl_->real_arm) impl_->real_arm->Stop();
+  impl_->submissions->Stop();
   for (auto& [name, seat] : impl_->seats) {
     const std::lock_guard<std::mutex> lock(seat->mutex);
     impl_->StopRig(*seat, "the class server stopped");

@@ -171,16 +171,22 @@ void Rig::Start() {
   panel_ = rig_panel;
   try {
     Launch("sirupp-sim", {"--mode", "realtime", "--model", spec_.robot, "--lcm-url", url()});
-    Launch("sirupp-control", {"--model", spec_.robot, "--lcm-url", url()});
+    std::vector<std::string> control{"--model", spec_.robot, "--lcm-url", url()};
+    double ready_s = spec_.ready_timeout_s;
+    if (!spec_.controller.empty()) {
+      control.insert(control.end(), {"--controller", spec_.controller});
+      ready_s += 15;  // past the host's 10 s load limit, so its reason is the one given
+    }
+    Launch("sirupp-control", control);
     Launch("sirupp-logger",
            {"--out", spec_.folder + "/results", "--model", spec_.robot, "--lcm-url", url()});
     while (true) {
       const std::string ended = CheckProcesses();
       if (!ended.empty()) throw std::runtime_error(ended);
       if (rig_panel->hub->VirtualJoints() && rig_panel->hub->ControllerStatus()) break;
-      if (Since(start) > spec_.ready_timeout_s) {
+      if (Since(start) > ready_s) {
         throw std::runtime_error("the rig was not ready within " +
-                                 std::to_string(static_cast<int>(spec_.ready_timeout_s)) +
+                                 std::to_string(static_cast<int>(ready_s)) +
                                  " s (no arm state or controller status on " + url() + ")");
       }
       std::this_thread::sleep_for(std::chrono::milliseconds(10));

@@ -67,6 +67,9 @@ struct RigSpec {
   std::string folder;   // the student's folder: config/ (their copy), results/, logs/
   int port = 0;         // udpm port, ttl=0
   ChildLimits limits;
+  // A student's controller (a built library or a .py; class/submissions.hpp) in place of the
+  // PIC-SERVO law: sirupp-control --controller FILE, its host in the sandbox. "" = built-in law.
+  std::string controller;
   double ready_timeout_s = 10;
   double stop_grace_s = 3;
 };
