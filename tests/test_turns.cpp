@@ -247,5 +247,36 @@ TEST(Turns, AHandoverThatCannotHomeStopsTheQueue) {
   EXPECT_NE(c.manager->MayCommand("bob").find("queue is stopped"), std::string::npos);
 }
 
+// Who may have the arm (TurnOptions::admit; the class server asks whether the student's controller
+// passed the class's safety tasks): a refused student cannot join, with the reason; one refused
+// by the time their turn comes is skipped with it, and the arm is never armed for them.
+TEST(Turns, OnlyAnAdmittedStudentGetsTheArm) {
+  std::string refused;  // the student refused now
+  TurnOptions options = ShortTurns();
+  options.admit = [&refused](const std::string& student) {
+    return student == refused ? student + "'s controller failed the class's safety tasks" : "";
+  };
+  Class c(options);
+  refused = "bob";
+  try {
+    c.manager->Join("bob");
+    ADD_FAILURE() << "bob joined";
+  } catch (const TurnError& error) {
+    EXPECT_NE(std::string(error.what()).find("failed the class's safety tasks"), std::string::npos)
+        << error.what();
+  }
+  refused = "";
+  c.manager->Join("alice");
+  refused = "alice";  // alice switches to a controller that did not pass before her turn
+  c.RunUntil([] { return false; }, 0.5);
+  EXPECT_EQ(c.manager->status().phase, Phase::kIdle);
+  EXPECT_EQ(c.manager->status().holder, "");
+  EXPECT_TRUE(c.manager->status().queue.empty());
+  EXPECT_NE(c.manager->status().last_event.find("handover to alice not begun: alice's controller"),
+            std::string::npos)
+      << c.manager->status().last_event;
+  for (int8_t state : c.states) EXPECT_NE(state, Status::STATE_ARMED);
+}
+
 }  // namespace
 }  // namespace sirupp::turns
