@@ -28,6 +28,8 @@ using Clock = TurnManager::Clock;
 using Status = sirupp::hardware_status_t;
 constexpr double kDeg = 3.14159265358979323846 / 180;
 constexpr double kLivenessPeriodS = 0.1;  // our CONTROLLER_STATUS while we drive the arm
+constexpr int kHomeCorrections = 3;        // the pose check's correction moves, at most
+constexpr double kMaxCorrectionDeg = 5.0;  // larger errors are not friction: no correction
 
 double Since(Clock::time_point t) {
   return std::chrono::duration<double>(Clock::now() - t).count();
@@ -624,16 +626,41 @@ void TurnManager::StartHandoverOut() {
                      return MoveTaken() && Since(step_started_) > 0.3 && AllMovesDone();
                    },
                    options_.step_timeout_s + travel_s, true});
-  steps.push_back({"check the pose", nullptr,
-                   [this, home] {
-                     const auto [offset, joint] = RealOffset(home);
-                     if (offset <= options_.home_tolerance_deg) return true;
-                     if (Since(step_started_) < 1.0) return false;  // a last poll may settle it
-                     throw TurnError("the arm did not reach home: joint " + std::to_string(joint) +
-                                     " is " + Fixed1(offset) + " deg away (allowed " +
-                                     Fixed1(options_.home_tolerance_deg) + " deg)");
-                   },
-                   options_.step_timeout_s, true});
+  // The check: every joint within home_tolerance_deg of home. A joint held short of home by its
+  // static friction (the PD law has no integral by default, so it stops where its torque no longer
+  // overcomes it) is corrected: a slow move to home plus the error, which stops again about that
+  // far short, i.e. at home; at most kHomeCorrections times, each for errors of at most
+  // kMaxCorrectionDeg (a larger one is no friction: the check fails at once).
+  steps.push_back(
+      {"check the pose", [this] { corrections_ = 0; },
+       [this, home] {
+         const auto [offset, joint] = RealOffset(home);
+         if (offset <= options_.home_tolerance_deg) return true;
+         const double since = corrections_ == 0 ? Since(step_started_) : Since(correction_at_);
+         if (since < 1.0) return false;  // let it settle
+         if (corrections_ > 0 && !(MoveTaken() && AllMovesDone())) return false;
+         const std::string off = "joint " + std::to_string(joint) + " is " + Fixed1(offset) +
+                                 " deg away (allowed " + Fixed1(options_.home_tolerance_deg) +
+                                 " deg)";
+         if (corrections_ >= kHomeCorrections || offset > kMaxCorrectionDeg) {
+           throw TurnError("the arm did not reach home: " + off +
+                           (corrections_ > 0
+                                ? " after " + std::to_string(corrections_) + " correction(s)"
+                                : ""));
+         }
+         std::vector<double> goal = home;
+         for (size_t j = 0; j < goal.size() && j < real_->position.size(); ++j) {
+           const double error = home[j] - real_->position[j];
+           if (std::abs(error) > 0.25 * kDeg) goal[j] = home[j] + error;
+         }
+         Event("homing: " + off + "; correction " + std::to_string(corrections_ + 1) +
+               ": a slow move to home plus that error (held short by friction)");
+         Move(false, goal, options_.home_speed_fraction * 0.5);
+         ++corrections_;
+         correction_at_ = Clock::now();
+         return false;
+       },
+       options_.step_timeout_s + 10, true});
   steps.push_back({"unlink and disarm",
                    [this] {
                      Command(sirupp::hardware_command_t::COMMAND_UNLINK);

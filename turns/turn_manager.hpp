@@ -227,6 +227,8 @@ class TurnManager {
   int64_t last_request_utime_ = 0;  // of our latest HARDWARE_COMMAND or ARM_MOVE
   int64_t accepted_utime_ = 0;      // the bridge accepted that request
   int statuses_since_accept_ = 0;
+  int corrections_ = 0;  // the pose check's correction moves so far
+  Clock::time_point correction_at_;
   int64_t seq_ = 0;
   int64_t move_id_ = 1000000;
   Clock::time_point last_liveness_;

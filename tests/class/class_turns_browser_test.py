@@ -99,8 +99,16 @@ try:
         js(a, """const s = document.querySelector('#joint-1 .slider');
                  s.value = 25; s.dispatchEvent(new Event('input'));
                  s.dispatchEvent(new Event('change'));""")
-        wait_for("the real arm's joint 1 at 25 deg (alice's panel)", lambda: js(
-            a, "return latest && latest.real && Math.abs(latest.real.q[0] - 25) < 1.5"), 30)
+        # Within 3 deg, as Table II's check in the demo: the emulated arm's static friction holds
+        # a joint short of its goal under the PD law without integral (1.5 deg seen here).
+        try:
+            wait_for("the real arm's joint 1 at 25 deg (alice's panel)", lambda: js(
+                a, "return latest && latest.real && Math.abs(latest.real.q[0] - 25) < 3"), 30)
+        except AssertionError as error:
+            raise AssertionError(f"{error}; panel says: " + js(
+                a, "return document.getElementById('message').textContent + ' | real ' + "
+                   "JSON.stringify(latest.real && latest.real.q) + ' | virtual ' + "
+                   "JSON.stringify(latest.virtual && latest.virtual.q)"))
 
     def bob_out_of_turn_is_refused_the_bridge():
         js(b, "document.getElementById('hw-arm').click()")
