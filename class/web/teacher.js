@@ -56,7 +56,7 @@ function showTurns(t) {
   $('turn-state').innerHTML = state;
   $('turn-queue').innerHTML = t.queue.length ? t.queue.map((w) =>
     `<li>${text(w.student)} (about ${Math.round(w.estimated_wait_s)} s) <button data-skip="${text(w.student)}">skip</button></li>`).join('')
-    : '<li>nobody waiting</li>';
+    : '<li class="empty">nobody waiting</li>';
   for (const b of document.querySelectorAll('#turn-queue button')) {
     b.onclick = () => post('api/turns/skip', {student: b.dataset.skip});
   }
