@@ -36,6 +36,13 @@ int RunClassCheck(const std::vector<std::string>& args, std::ostream& out) {
       << " rigs, idle timeout " << config.idle_timeout_s << " s, data " << config.data_dir
       << ", listens on " << config.listen << ":" << config.port
       << (config.tls_cert.empty() ? "" : " (HTTPS)") << "\n";
+  if (config.real_arm) {
+    out << "  real arm: the bridge on " << config.real_arm->lcm_url << ", turns of "
+        << core::FormatApprox(config.real_arm->turn_s) << " s\n";
+  }
+  if (!config.grading_suite.empty()) {
+    out << "  grading: " << config.grading_suite << "\n";
+  }
   return 0;
 }
 
