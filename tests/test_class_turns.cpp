@@ -1,4 +1,4 @@
-// The real arm by turns through the class server (class/real_arm.hpp, issue 33): a class of two
+// The real arm by turns through the class server (class/real_arm.hpp, issue 33): a class of three
 // whose rigs are real processes (sirupp-sim realtime, sirupp-control, sirupp-logger on leased
 // udpm ports, ttl=0), the bridge on the emulated boards on a udpm bus of its own (class file
 // real_arm.lcm_url), every command over HTTP as the pages send it. The students join from their
@@ -12,6 +12,7 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <iostream>
 #include <map>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -113,9 +114,9 @@ class ClassTurnsTest : public ::testing::Test {
     arm_ = std::make_unique<ArmOnItsBus>(arm_url);
     const std::string text = "class: turns-test\n"
                              "robot: config/robots/puma260.yaml\n"
-                             "students: [alice, bob]\n"
+                             "students: [alice, bob, carol]\n"
                              "data: data\n"
-                             "limits: {max_rigs: 2, idle_timeout_s: 600}\n"
+                             "limits: {max_rigs: 3, idle_timeout_s: 600}\n"
                              "server: {port: 0}\n"
                              "rigs: {first_port: 7900, port_count: 200}\n"
                              "real_arm: {lcm_url: \"" +
@@ -193,9 +194,9 @@ class ClassTurnsTest : public ::testing::Test {
   std::unique_ptr<httplib::Client> client_;
 };
 
-TEST_F(ClassTurnsTest, TwoStudentsTakeTurnsThroughTheirPages) {
-  // Both rigs start on the students' first visits; the bar has the queue's place.
-  for (const char* name : {"alice", "bob"}) {
+TEST_F(ClassTurnsTest, ThreeStudentsTakeTurnsThroughTheirPages) {
+  // The rigs start on the students' first visits; the bar has the queue's place.
+  for (const char* name : {"alice", "bob", "carol"}) {
     const auto page = Get(std::string("/s/") + name + "/", name);
     ASSERT_TRUE(page);
     ASSERT_EQ(page->status, 200) << page->body;
@@ -206,6 +207,7 @@ TEST_F(ClassTurnsTest, TwoStudentsTakeTurnsThroughTheirPages) {
   // Join from the pages; a second join and an unknown verb are refused with the reason.
   ASSERT_EQ(Post("/s/alice/class/turns/join", "alice")->status, 200);
   ASSERT_EQ(Post("/s/bob/class/turns/join", "bob")->status, 200);
+  ASSERT_EQ(Post("/s/carol/class/turns/join", "carol")->status, 200);
   auto r = Post("/s/bob/class/turns/join", "bob");
   EXPECT_EQ(r->status, 409);
   EXPECT_NE(Error(r).find("already in the queue"), std::string::npos) << Error(r);
@@ -232,48 +234,56 @@ TEST_F(ClassTurnsTest, TwoStudentsTakeTurnsThroughTheirPages) {
   std::this_thread::sleep_for(std::chrono::milliseconds(1500));
   EXPECT_NEAR(arm_->RealDeg(0), 20, 1.5) << "bob's move reached the real arm";
 
-  // Alice ends her turn: the arm is held, homed, checked, disarmed; then Bob's turn.
+  // Alice ends her turn: the arm is held, homed, checked, disarmed; then Bob's turn; Bob moves
+  // and ends his; then Carol's.
   ASSERT_EQ(Post("/s/alice/class/turns/done", "alice")->status, 200);
   ASSERT_TRUE(TurnOf("bob")) << Teacher().dump(1);
+  Move("bob", {-15, -90, 90, 0, 45, 0});
+  EXPECT_TRUE(Eventually([&] { return std::abs(arm_->RealDeg(0) + 15) < 1.5; }, 20))
+      << "real joint 1 at " << arm_->RealDeg(0);
+  ASSERT_EQ(Post("/s/bob/class/turns/done", "bob")->status, 200);
+  ASSERT_TRUE(TurnOf("carol")) << Teacher().dump(1);
   const Json teacher = Teacher();
-  ASSERT_EQ(teacher["history"].size(), 2u) << teacher.dump(1);
-  EXPECT_EQ(teacher["history"][0]["ended"], "done");
-  EXPECT_EQ(teacher["history"][0]["handover"], "ok");
+  ASSERT_EQ(teacher["history"].size(), 3u) << teacher.dump(1);
+  for (int i = 0; i < 2; ++i) {
+    EXPECT_EQ(teacher["history"][i]["ended"], "done");
+    EXPECT_EQ(teacher["history"][i]["handover"], "ok");
+  }
   {
     std::ifstream log(TurnsLogFile(config_));
     std::string line;
-    bool found = false;
+    std::vector<std::string> homed;
     while (std::getline(log, line)) {
       const Json entry = Json::parse(line, nullptr, false);
       if (!entry.is_object() || !entry.contains("home_offset_deg")) continue;
-      found = true;
-      EXPECT_EQ(entry["turn"], "alice");
+      homed.push_back(entry["turn"]);
       EXPECT_LT(entry["home_offset_deg"].get<double>(), 1.0) << line;
     }
-    EXPECT_TRUE(found) << "no handover line in " << TurnsLogFile(config_);
+    EXPECT_EQ(homed, (std::vector<std::string>{"alice", "bob"})) << TurnsLogFile(config_);
   }
-  const std::vector<int8_t> states = arm_->States();
+  // Between every two links the bridge was disarmed (connected).
   int links = 0;
-  bool disarmed_between = false;
-  for (const int8_t s : states) {
+  bool disarmed = true;
+  for (const int8_t s : arm_->States()) {
     if (s == Status::STATE_LINKED) {
+      EXPECT_TRUE(disarmed) << "link " << links + 1 << " without a disarm before it";
       ++links;
-    } else if (links == 1 && s == Status::STATE_CONNECTED) {
-      disarmed_between = true;
+      disarmed = false;
+    } else if (s == Status::STATE_CONNECTED) {
+      disarmed = true;
     }
   }
-  EXPECT_EQ(links, 2);
-  EXPECT_TRUE(disarmed_between) << "bob's link without a disarm before it";
+  EXPECT_EQ(links, 3);
 
   // Alice, without a turn, e-stops the real arm from her page: it stops at once.
   ASSERT_EQ(Post("/s/alice/class/turns/estop", "alice")->status, 200);
   EXPECT_TRUE(Eventually([&] { return arm_->State() == Status::STATE_ESTOPPED; }, 1.0));
-  // The teacher ends Bob's turn: the handover cannot home an e-stopped arm, the queue stops, and
+  // The teacher ends Carol's turn: the handover cannot home an e-stopped arm, the queue stops, and
   // the teacher's page says why; nobody gets the arm.
   ASSERT_EQ(Post("/teacher/api/turns/end", "teacher")->status, 200);
   ASSERT_TRUE(Eventually([&] { return Teacher()["phase"] == "stopped"; }, 30)) << Teacher().dump(1);
   const std::string stopped = Teacher()["stopped"];
-  EXPECT_NE(stopped.find("handover after bob's turn failed"), std::string::npos) << stopped;
+  EXPECT_NE(stopped.find("handover after carol's turn failed"), std::string::npos) << stopped;
   EXPECT_NE(stopped.find("e-stopped"), std::string::npos) << stopped;
   ASSERT_EQ(Post("/s/alice/class/turns/join", "alice")->status, 200);
   std::this_thread::sleep_for(std::chrono::milliseconds(500));
@@ -287,6 +297,12 @@ TEST_F(ClassTurnsTest, TwoStudentsTakeTurnsThroughTheirPages) {
   EXPECT_EQ(Post("/teacher/api/turns/skip", "teacher", Json{{"who", 3}})->status, 400);
   ASSERT_EQ(Post("/teacher/api/turns/resume", "teacher")->status, 200);
   EXPECT_EQ(Teacher()["phase"], "idle");
+  // The session's log, for the record (handover times, home offsets).
+  {
+    std::ifstream log(TurnsLogFile(config_));
+    std::cout << "the session's log (" << TurnsLogFile(config_) << "):\n";
+    for (std::string line; std::getline(log, line);) std::cout << "  " << line << "\n";
+  }
   // The class's stream carries the queue too.
   const auto rigs = Get("/teacher/api/rigs", "teacher");
   ASSERT_TRUE(rigs);
