@@ -15,8 +15,7 @@ namespace {
 namespace fs = std::filesystem;
 
 const std::vector<std::string> kTopKeys = {"class",  "description", "robot", "students", "data",
-                                           "limits", "server",      "rigs",  "real_arm",
-                                           "grading"};
+                                           "limits", "server",      "rigs",  "real_arm", "grading"};
 const std::vector<std::string> kLimitKeys = {"max_rigs", "idle_timeout_s", "rig_memory_mb",
                                              "rig_nice"};
 const std::vector<std::string> kServerKeys = {"listen", "port", "public_url", "tls_cert",
@@ -32,7 +31,8 @@ int UdpmPort(const std::string& url) {
   const size_t colon = url.find(':', scheme.size());
   if (colon == std::string::npos) return -1;
   const size_t end = url.find('?', colon);
-  const std::string digits = url.substr(colon + 1, end == std::string::npos ? end : end - colon - 1);
+  const std::string digits =
+      url.substr(colon + 1, end == std::string::npos ? end : end - colon - 1);
   if (digits.empty() || digits.size() > 5 ||
       !std::all_of(digits.begin(), digits.end(), [](char c) { return c >= '0' && c <= '9'; })) {
     return -1;
@@ -44,7 +44,8 @@ int UdpmPort(const std::string& url) {
 RealArmConfig ReadRealArm(const core::YamlValue& value, const ClassConfig& config) {
   const core::YamlMap map = value.Map(kRealArmKeys);
   RealArmConfig arm;
-  const core::YamlValue url = map.Get("lcm_url", "the bus of sirupp-hardware (udpm://GROUP:PORT?ttl=0)");
+  const core::YamlValue url =
+      map.Get("lcm_url", "the bus of sirupp-hardware (udpm://GROUP:PORT?ttl=0)");
   arm.lcm_url = url.String();
   const int port = UdpmPort(arm.lcm_url);
   if (port < 0) {
@@ -53,8 +54,8 @@ RealArmConfig ReadRealArm(const core::YamlValue& value, const ClassConfig& confi
              "runs on)");
   }
   if (port >= config.first_port && port < config.first_port + config.port_count) {
-    url.Fail("port " + std::to_string(port) + " is one the rigs lease (rigs: " +
-             std::to_string(config.first_port) + ".." +
+    url.Fail("port " + std::to_string(port) +
+             " is one the rigs lease (rigs: " + std::to_string(config.first_port) + ".." +
              std::to_string(config.first_port + config.port_count - 1) +
              "); give the real arm's bus a port outside that range");
   }

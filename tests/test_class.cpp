@@ -20,6 +20,7 @@
 #include "class/tokens.hpp"
 #include "core/errors.hpp"
 #include "panel/httplib_include.hpp"
+#include "tests/class_server_harness.hpp"
 
 namespace sirupp::classroom {
 namespace {
@@ -27,11 +28,7 @@ namespace {
 namespace fs = std::filesystem;
 using Json = nlohmann::json;
 
-std::string TempDir(const std::string& stem) {
-  std::string pattern = (fs::temp_directory_path() / (stem + "-XXXXXX")).string();
-  if (::mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("mkdtemp");
-  return pattern;
-}
+using testing::TempDir;
 
 const char* const kGood =
     "class: robotics-1\n"
@@ -173,23 +170,13 @@ class ClassServerTest : public ::testing::Test {
     if (bin == nullptr) GTEST_SKIP() << "SIRUPP_BIN_DIR not set (ctest sets it)";
     dir_ = TempDir("sirupp-class-test");
     config_ = ParseClassConfig(kGood, "class.yaml", dir_);
-    ServeOptions options;
-    options.bin_dir = bin;
-    options.panel_web_dir = fs::absolute("panel/web").string();
-    options.class_web_dir = fs::absolute("class/web").string();
-    options.config_dir = fs::absolute("config").string();
-    server_ = std::make_unique<ClassServer>(config_, options);
-    port_ = server_->Bind();
-    for (const auto& [name, address] : IssueMissingTokens(config_, port_)) {
-      tokens_[name] = address.substr(address.find("token=") + 6);
-    }
-    serving_ = std::thread([this] { server_->Serve(); });
-    client_ = std::make_unique<httplib::Client>("127.0.0.1", port_);
-    client_->set_read_timeout(20, 0);
+    harness_ = std::make_unique<testing::TestClassServer>(config_, bin, 20);
+    tokens_ = harness_->tokens;
+    client_ = harness_->client.get();
+    port_ = harness_->port;
   }
   void TearDown() override {
-    if (server_) server_->Stop();
-    if (serving_.joinable()) serving_.join();
+    harness_.reset();
     if (!dir_.empty()) fs::remove_all(dir_);
   }
   httplib::Result Get(const std::string& path, const std::string& token) {
@@ -213,11 +200,10 @@ class ClassServerTest : public ::testing::Test {
 
   std::string dir_;
   ClassConfig config_;
-  std::unique_ptr<ClassServer> server_;
-  std::thread serving_;
+  std::unique_ptr<testing::TestClassServer> harness_;
   int port_ = 0;
   std::map<std::string, std::string> tokens_;
-  std::unique_ptr<httplib::Client> client_;
+  httplib::Client* client_ = nullptr;  // harness_'s
 };
 
 TEST_F(ClassServerTest, TokensFileAndHandout) {

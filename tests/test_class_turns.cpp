@@ -28,6 +28,7 @@
 #include "core/model_loader.hpp"
 #include "grade/port_lease.hpp"
 #include "panel/httplib_include.hpp"
+#include "tests/class_server_harness.hpp"
 #include "tests/emulated_bridge.hpp"
 
 namespace sirupp::classroom {
@@ -112,34 +113,23 @@ class ClassTurnsTest : public ::testing::Test {
     const std::string arm_url =
         "udpm://239.255.76.67:" + std::to_string(arm_lease_.port()) + "?ttl=0";
     arm_ = std::make_unique<ArmOnItsBus>(arm_url);
-    const std::string text = "class: turns-test\n"
-                             "robot: config/robots/puma260.yaml\n"
-                             "students: [alice, bob, carol]\n"
-                             "data: data\n"
-                             "limits: {max_rigs: 3, idle_timeout_s: 600}\n"
-                             "server: {port: 0}\n"
-                             "rigs: {first_port: 7900, port_count: 200}\n"
-                             "real_arm: {lcm_url: \"" +
-                             arm_url + "\", turn_s: 60, warn_before_s: [10]}\n";
+    const std::string text =
+        "class: turns-test\n"
+        "robot: config/robots/puma260.yaml\n"
+        "students: [alice, bob, carol]\n"
+        "data: data\n"
+        "limits: {max_rigs: 3, idle_timeout_s: 600}\n"
+        "server: {port: 0}\n"
+        "rigs: {first_port: 7900, port_count: 200}\n"
+        "real_arm: {lcm_url: \"" +
+        arm_url + "\", turn_s: 60, warn_before_s: [10]}\n";
     config_ = ParseClassConfig(text, "class.yaml", dir_);
-    ServeOptions options;
-    options.bin_dir = bin;
-    options.panel_web_dir = fs::absolute("panel/web").string();
-    options.class_web_dir = fs::absolute("class/web").string();
-    options.config_dir = fs::absolute("config").string();
-    server_ = std::make_unique<ClassServer>(config_, options);
-    const int port = server_->Bind();
-    for (const auto& [name, address] : IssueMissingTokens(config_, port)) {
-      tokens_[name] = address.substr(address.find("token=") + 6);
-    }
-    serving_ = std::thread([this] { server_->Serve(); });
-    client_ = std::make_unique<httplib::Client>("127.0.0.1", port);
-    client_->set_read_timeout(30, 0);
+    harness_ = std::make_unique<testing::TestClassServer>(config_, bin, 30);
+    tokens_ = harness_->tokens;
+    client_ = harness_->client.get();
   }
   void TearDown() override {
-    if (server_) server_->Stop();
-    if (serving_.joinable()) serving_.join();
-    server_.reset();
+    harness_.reset();
     arm_.reset();
     if (!dir_.empty()) fs::remove_all(dir_);
   }
@@ -188,10 +178,9 @@ class ClassTurnsTest : public ::testing::Test {
   grade::PortLease arm_lease_;
   std::unique_ptr<ArmOnItsBus> arm_;
   ClassConfig config_;
-  std::unique_ptr<ClassServer> server_;
-  std::thread serving_;
+  std::unique_ptr<testing::TestClassServer> harness_;
   std::map<std::string, std::string> tokens_;
-  std::unique_ptr<httplib::Client> client_;
+  httplib::Client* client_ = nullptr;  // harness_'s
 };
 
 TEST_F(ClassTurnsTest, ThreeStudentsTakeTurnsThroughTheirPages) {
@@ -332,8 +321,9 @@ TEST(ClassTurnsConfigTest, TheRealArmKeyIsCheckedLikeEveryOther) {
       error("real_arm: {lcm_url: \"udpm://239.255.76.67:7700\", turn_s: 60, warn_before_s: [90]}\n")
           .find("less than turn_s"),
       std::string::npos);
-  EXPECT_NE(error("real_arm: {lcm_url: \"udpm://239.255.76.67:7700\", colour: red}\n").find("colour"),
-            std::string::npos);
+  EXPECT_NE(
+      error("real_arm: {lcm_url: \"udpm://239.255.76.67:7700\", colour: red}\n").find("colour"),
+      std::string::npos);
   const ClassConfig good = ParseClassConfig(
       head + "real_arm: {lcm_url: \"udpm://239.255.76.67:7700?ttl=0\", turn_s: 300}\n", "c.yaml",
       fs::current_path().string());

@@ -28,7 +28,12 @@ using Clock = TurnManager::Clock;
 using Status = sirupp::hardware_status_t;
 constexpr double kDeg = 3.14159265358979323846 / 180;
 constexpr double kLivenessPeriodS = 0.1;  // our CONTROLLER_STATUS while we drive the arm
-constexpr int kHomeCorrections = 3;        // the pose check's correction moves, at most
+constexpr int kHomeCorrections = 3;       // the pose check's correction moves, at most
+// HARDWARE_STATUS comes at 10 Hz; this long without one, a handover step waits (its timeout ends
+// the wait). A loaded machine delays it past 1 s now and then, and a bridge busy with a command
+// over a slow line past 3 s (both seen with a build beside the tests); the boards finish a loaded
+// move alone, so the wait costs only time.
+constexpr double kBridgeSilentS = 3.0;
 constexpr double kMaxCorrectionDeg = 5.0;  // larger errors are not friction: no correction
 
 double Since(Clock::time_point t) {
@@ -421,9 +426,6 @@ void TurnManager::Move(bool stop, const std::vector<double>& goal, double speed_
 
 std::string TurnManager::BridgeTrouble() const {
   if (!hardware_) return "no HARDWARE_STATUS from sirupp-hardware";
-  if (Since(hardware_at_) > 1.0) {
-    return "sirupp-hardware silent for " + Fixed1(Since(hardware_at_)) + " s";
-  }
   if (hardware_->state == Status::STATE_FAULT)
     return "the bridge faulted: " + hardware_->last_error;
   if (hardware_->state == Status::STATE_ESTOPPED) {
@@ -432,6 +434,8 @@ std::string TurnManager::BridgeTrouble() const {
   if (!manager_refusal_.empty()) return "the bridge refused: " + manager_refusal_;
   return "";
 }
+
+bool TurnManager::BridgeSilent() const { return hardware_ && Since(hardware_at_) > kBridgeSilentS; }
 
 bool TurnManager::MoveTaken() const {
   return accepted_utime_ != 0 && accepted_utime_ == last_request_utime_ &&
@@ -493,7 +497,8 @@ void TurnManager::StartHandoverIn(const std::string& student) {
   steps.push_back({"the bridge is ready", nullptr,
                    [this] {
                      if (const std::string trouble = BridgeTrouble(); !trouble.empty()) {
-                       if (!hardware_ || Since(hardware_at_) > 1.0) return false;  // may come
+                       if (!hardware_ || Since(hardware_at_) > kBridgeSilentS)
+                         return false;  // may come
                        throw TurnError(trouble);
                      }
                      if (!hardware_->calibrated) throw TurnError("the real arm is not calibrated");
@@ -756,7 +761,10 @@ void TurnManager::StepHandover() {
         step_started_ = Clock::now();
         if (step.enter) step.enter();
       }
-      done = step.done();
+      // A bridge silent for a while (a command that takes it long on a loaded machine, or a
+      // bridge that is gone) is waited for: what it said last may be stale. The step's timeout
+      // ends the wait, naming the silence.
+      done = !BridgeSilent() && step.done();
     } catch (const TurnError& error) {
       Fail(error.what());
       return;
@@ -764,7 +772,9 @@ void TurnManager::StepHandover() {
     if (!done) {
       if (Since(step_started_) > step.timeout_s) {
         Fail("not done within " + Fixed1(step.timeout_s) + " s" +
-             (hardware_ ? " (bridge " + BridgeStateName(hardware_->state) + ")" : ""));
+             (BridgeSilent() ? " (sirupp-hardware silent for " + Fixed1(Since(hardware_at_)) + " s)"
+              : hardware_    ? " (bridge " + BridgeStateName(hardware_->state) + ")"
+                             : ""));
       }
       return;
     }
@@ -780,7 +790,17 @@ void TurnManager::StepHandover() {
 
 void TurnManager::Service() {
   arm_bus_.HandleAvailable();
-  if (holder_ != nullptr && holder_->bus) holder_->bus->HandleAvailable();
+  // The holder's bus carries all of the rig's per-tick traffic: drained in slices with the arm's
+  // bus between them, so that a backlog (a loaded machine) never leaves the bridge's status
+  // unread long enough to look silent.
+  if (holder_ != nullptr && holder_->bus) {
+    constexpr int kSlice = 200;
+    for (int slice = 0; slice < 100; ++slice) {
+      const int handled = holder_->bus ? holder_->bus->HandleAvailable(kSlice) : 0;
+      arm_bus_.HandleAvailable();
+      if (handled < kSlice) break;
+    }
+  }
   for (auto& [name, rig] : rigs_) {
     if (rig->estop_bus) rig->estop_bus->HandleAvailable();
   }
@@ -837,7 +857,7 @@ TurnStatus TurnManager::status() const {
   s.stopped_reason = stopped_reason_;
   if (!hardware_) {
     s.bridge = "not heard";
-  } else if (Since(hardware_at_) > 1.0) {
+  } else if (Since(hardware_at_) > kBridgeSilentS) {
     s.bridge = "silent " + Fixed1(Since(hardware_at_)) + " s";
   } else {
     s.bridge = BridgeStateName(hardware_->state) +

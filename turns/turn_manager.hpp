@@ -182,8 +182,10 @@ class TurnManager {
   void Detach(Rig& rig);
   void Command(int8_t hardware_command);
   void Move(bool stop, const std::vector<double>& goal, double speed_fraction);
-  // Why the bridge cannot go on (fault, e-stop), or "".
+  // Why the bridge cannot go on (fault, e-stop, refusal), or "".
   std::string BridgeTrouble() const;
+  // Its last HARDWARE_STATUS is older than kBridgeSilentS: what it said may be stale.
+  bool BridgeSilent() const;
   // Our last ARM_MOVE was accepted by the bridge and two HARDWARE_STATUS came after it, so the
   // modules' MOVE_DONE bits are about that move, not the one before (a busy machine may delay
   // the bridge past any fixed time).

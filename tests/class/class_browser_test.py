@@ -13,7 +13,7 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from class_run import ClassRun  # noqa: E402
-from panel_rig import wait_for, severe_errors  # noqa: E402
+from panel_rig import checker, severe_errors, wait_for  # noqa: E402
 
 from selenium.webdriver.common.by import By  # noqa: E402
 
@@ -23,14 +23,7 @@ IDLE_S = 10
 failures = []
 
 
-def check(name, fn):
-    t0 = time.time()
-    try:
-        fn()
-        print(f"ok   {name} ({time.time() - t0:.1f} s)", flush=True)
-    except Exception as error:  # one failed check does not hide the others
-        failures.append(name)
-        print(f"FAIL {name}: {error}", flush=True)
+check = checker(failures)
 
 
 def shot(driver, name):

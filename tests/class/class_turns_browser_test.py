@@ -18,7 +18,7 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from class_run import ClassRun, alive  # noqa: E402
-from panel_rig import wait_for  # noqa: E402
+from panel_rig import checker, wait_for  # noqa: E402
 
 from selenium.webdriver.common.by import By  # noqa: E402
 
@@ -27,14 +27,7 @@ SHOTS = sys.argv[3] if len(sys.argv) > 3 else None
 failures = []
 
 
-def check(name, fn):
-    t0 = time.time()
-    try:
-        fn()
-        print(f"ok   {name} ({time.time() - t0:.1f} s)", flush=True)
-    except Exception as error:  # one failed check does not hide the others
-        failures.append(name)
-        print(f"FAIL {name}: {error}", flush=True)
+check = checker(failures)
 
 
 def shot(driver, name):

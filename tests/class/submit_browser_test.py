@@ -20,7 +20,7 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from class_run import ClassRun  # noqa: E402
-from panel_rig import wait_for  # noqa: E402
+from panel_rig import checker, wait_for  # noqa: E402
 
 from selenium.webdriver.common.by import By  # noqa: E402
 
@@ -31,14 +31,7 @@ failures = []
 timings = {}
 
 
-def check(name, fn):
-    t0 = time.time()
-    try:
-        fn()
-        print(f"ok   {name} ({time.time() - t0:.1f} s)", flush=True)
-    except Exception as error:  # one failed check does not hide the others
-        failures.append(name)
-        print(f"FAIL {name}: {error}", flush=True)
+check = checker(failures)
 
 
 def shot(driver, name):

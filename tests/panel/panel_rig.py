@@ -19,6 +19,20 @@ from selenium.webdriver.chrome.options import Options
 from selenium.webdriver.chrome.service import Service
 
 
+def checker(failures):
+    """check(name, fn) for the browser tests: runs fn, prints "ok   NAME (T s)" or "FAIL NAME: why",
+    and appends NAME to `failures` when it raised (one failed check does not hide the others)."""
+    def check(name, fn):
+        t0 = time.time()
+        try:
+            fn()
+            print(f"ok   {name} ({time.time() - t0:.1f} s)", flush=True)
+        except Exception as error:
+            failures.append(name)
+            print(f"FAIL {name}: {error}", flush=True)
+    return check
+
+
 def wait_for(what, predicate, timeout=20.0, period=0.05):
     """Polls predicate() until it returns a true value (returned) or raises after timeout."""
     end = time.time() + timeout
