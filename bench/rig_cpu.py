@@ -94,7 +94,8 @@ def round_(bin_dir, src, rigs, seconds):
         failed = sum(len(d.failed) for d in drivers)
         done = sum(d.done for d in drivers)
         rtf = simulated / rigs / (wall1 - wall0)
-        return {k: v / simulated for k, v in per_kind.items()}, rtf, done, failed
+        reasons = sorted({r for d in drivers for r in d.failed})[:3]
+        return {k: v / simulated for k, v in per_kind.items()}, rtf, done, failed, reasons
     finally:
         for d in drivers:
             d.stop = True
@@ -117,12 +118,13 @@ def main():
           f"at real time)", flush=True)
     results = []
     for r in range(args.rounds):
-        shares, rtf, done, failed = round_(args.bin_dir, args.source_dir, args.rigs, args.seconds)
+        shares, rtf, done, failed, reasons = round_(args.bin_dir, args.source_dir, args.rigs, args.seconds)
         load = open("/proc/loadavg").read().split()[0]
         total = sum(shares.values())
         line = "  ".join(f"{k} {100 * v:5.1f} %" for k, v in sorted(shares.items()))
         print(f"round {r + 1}: {line}  | rig total {100 * total:5.1f} % = {1 / total:4.1f} rigs "
-              f"per core | rtf {rtf:.3f}, plans done {done}, failed {failed}, load {load}",
+              f"per core | rtf {rtf:.3f}, plans done {done}, failed {failed}, load {load}"
+              f"{'  ' + '; '.join(reasons) if reasons else ''}",
               flush=True)
         results.append((shares, total))
     if args.rounds > 1:

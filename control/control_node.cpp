@@ -120,6 +120,9 @@ ControlNode::ControlNode(core::Bus& bus, const core::RobotModel& model, ControlO
         core::HardwareStatusFromMessage(message, info.channel);
         OnBridgeStatus(message);
       });
+  // The states are read in this thread from a socket of their own (udpm), without LCM's hand-over
+  // from its receive thread: one wake-up per tick (core/bus.hpp, ReadDirectly).
+  bus_.ReadDirectly({bus_.FullName(channels.sim_arm_state)}, options_.name);
   heartbeat_.Publish(core::ProcessState::kStarting, "");
 }
 
