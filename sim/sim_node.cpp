@@ -648,8 +648,14 @@ void SimNode::ServiceRealtime(int max_wait_ms) {
   // Reading the answers directly, nothing needs this thread before the tick ends: it sleeps to
   // then and finds the answer waiting (one wake-up per tick instead of two; the answer's time is
   // still its reception's). Through LCM (memq://) it waits for the answer as before.
-  if (bus_.reads_directly() && Now() < end_of_tick()) options_.clock.sleep_until(end_of_tick());
-  bus_.HandleAvailable();
+  // One poll then takes every answer waiting and one message of LCM's (the rest on later ticks):
+  // HandleAvailable would poll once more to find nothing.
+  if (bus_.reads_directly()) {
+    if (Now() < end_of_tick()) options_.clock.sleep_until(end_of_tick());
+    bus_.Handle(0);
+  } else {
+    bus_.HandleAvailable();
+  }
   TimePoint now = Now();
   if (!GateOpen()) {
     const TimePoint deadline = waiting_since_ + Duration(options_.watchdog_s);
