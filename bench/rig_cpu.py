@@ -16,7 +16,10 @@ factor class_bench.py measures; so this is the figure to compare before and afte
 shared machine. The server's line includes what is the same for any number of rigs (its own
 threads); with --rigs N it is divided by N.
 
-Usage: rig_cpu.py BIN_DIR SOURCE_DIR [--seconds 20] [--rigs 1] [--rounds 1]
+Usage: rig_cpu.py BIN_DIR SOURCE_DIR [--seconds 20] [--rigs 1] [--rounds 1] [--first-port 9431]
+The rigs lease udpm ports from --first-port on, away from the class file's default range (7900),
+which the class tests use: two class servers on one machine leasing the same port would share
+their rigs' traffic.
 Uses Debian's /usr/bin/python3; every process it starts is ended before it exits."""
 
 import argparse
@@ -56,9 +59,15 @@ def sim_time(stream):
     return ((stream.latest or {}).get("sim") or {}).get("sim_time_s")
 
 
-def round_(bin_dir, src, rigs, seconds):
+def round_(bin_dir, src, rigs, seconds, first_port):
     names = [f"s{i:02d}" for i in range(rigs)]
-    run = ClassRun(bin_dir, src, names, max_rigs=rigs).start()
+    run = ClassRun(bin_dir, src, names, max_rigs=rigs)
+    if first_port:
+        # Another class server on this machine (a test, a second bench) leasing the same udpm ports
+        # would share its rigs' traffic: keep to a range of our own.
+        with open(run.class_file, "a") as f:
+            f.write(f"rigs: {{first_port: {first_port}, port_count: {max(rigs, 8)}}}\n")
+    run.start()
     streams, drivers = [], []
     try:
         for name in names:
@@ -112,13 +121,16 @@ def main():
     parser.add_argument("--seconds", type=float, default=20)
     parser.add_argument("--rigs", type=int, default=1)
     parser.add_argument("--rounds", type=int, default=1)
+    parser.add_argument("--first-port", type=int, default=9431,
+                        help="first udpm port of the rigs (0: the class file's default, 7900)")
     args = parser.parse_args()
     print(f"rig CPU: {args.rigs} rig(s), set VII in a loop, one 30 Hz stream each, "
           f"{args.seconds:.0f} s per round; CPU seconds per simulated second (% of one core "
           f"at real time)", flush=True)
     results = []
     for r in range(args.rounds):
-        shares, rtf, done, failed, reasons = round_(args.bin_dir, args.source_dir, args.rigs, args.seconds)
+        shares, rtf, done, failed, reasons = round_(args.bin_dir, args.source_dir, args.rigs, args.seconds,
+                                                       args.first_port)
         load = open("/proc/loadavg").read().split()[0]
         total = sum(shares.values())
         line = "  ".join(f"{k} {100 * v:5.1f} %" for k, v in sorted(shares.items()))
