@@ -289,8 +289,8 @@ int Bus::HandleDirect(int timeout_ms) {
   const int ready = ::poll(fds, 2, timeout_ms < 0 ? -1 : timeout_ms);
   if (ready < 0) {
     if (errno == EINTR) return 0;  // as in HandleLcm: the caller looks at its signal flag
-    throw BusError("waiting for messages on " + DescribeUrl(url_) + " failed: " +
-                   std::strerror(errno));
+    throw BusError("waiting for messages on " + DescribeUrl(url_) +
+                   " failed: " + std::strerror(errno));
   }
   int handled = 0;
   if (fds[0].revents != 0) {

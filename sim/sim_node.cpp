@@ -307,10 +307,9 @@ void SimNode::OnCommand(const sirupp::arm_command_t& message, const core::Receiv
   participant->answer = std::move(command);
   // Read directly, an answer may wait in the socket until the tick ends: its time is the
   // kernel's reception time.
-  const double latency_ms =
-      bus_.reads_directly()
-          ? static_cast<double>(info.recv_utime - waiting_since_utime_) * 1e-3
-          : Seconds(now - waiting_since_) * 1e3;
+  const double latency_ms = bus_.reads_directly()
+                                ? static_cast<double>(info.recv_utime - waiting_since_utime_) * 1e-3
+                                : Seconds(now - waiting_since_) * 1e3;
   participant->latency_sum_ms += latency_ms;
   participant->latency_max_ms = std::max(participant->latency_max_ms, latency_ms);
   ++participant->latency_count;
