@@ -10,7 +10,10 @@ failed plans (a controller fault or error, or a plan that did not finish in time
 per N, the largest N holding real-time factor >= 0.99 with no failed plan, that per core, and the
 rig start times (median, p95) over every start.
 
-Usage: class_bench.py BIN_DIR SOURCE_DIR [--counts 2 4 6] [--seconds 30]
+Usage: class_bench.py BIN_DIR SOURCE_DIR [--counts 2 4 6] [--seconds 30] [--first-port 9431]
+The rigs lease udpm ports from --first-port on, away from the class file's default range (7900)
+that the class tests use: two class servers on one machine leasing the same port would share
+their rigs' traffic.
 (without --counts: 2, 4, ... up to 6 per core, stopping at the first N that does not hold). The
 load column is the machine's 1-minute load average after the trial: the figures only mean
 something on an otherwise idle machine.
@@ -108,9 +111,15 @@ def percentile(values, p):
     return values[min(len(values) - 1, int(round(p / 100 * (len(values) - 1))))]
 
 
-def trial(bin_dir, src, n, seconds, start_times):
+def trial(bin_dir, src, n, seconds, start_times, first_port):
     names = [f"s{i:02d}" for i in range(n)]
-    run = ClassRun(bin_dir, src, names, max_rigs=n).start()
+    run = ClassRun(bin_dir, src, names, max_rigs=n)
+    if first_port:
+        # Another class server on this machine (the class tests) leasing the same udpm ports would
+        # share its rigs' traffic: keep to a range of our own.
+        with open(run.class_file, "a") as f:
+            f.write(f"rigs: {{first_port: {first_port}, port_count: {max(n, 8)}}}\n")
+    run.start()
     streams, drivers = [], []
     try:
         for name in names:
@@ -154,6 +163,8 @@ def main():
     parser.add_argument("source_dir")
     parser.add_argument("--counts", type=int, nargs="+", default=None)
     parser.add_argument("--seconds", type=float, default=30)
+    parser.add_argument("--first-port", type=int, default=9431,
+                        help="first udpm port of the rigs (0: the class file's default, 7900)")
     args = parser.parse_args()
     cores = os.cpu_count()
     counts = args.counts or list(range(2, 6 * cores + 1, 2))
@@ -165,7 +176,7 @@ def main():
           f"{'stream Hz min':>13} {'load':>6}", flush=True)
     for n in counts:
         rtf_min, rtf_mean, failed, done, rate, reasons = trial(
-            args.bin_dir, args.source_dir, n, args.seconds, start_times)
+            args.bin_dir, args.source_dir, n, args.seconds, start_times, args.first_port)
         holds = rtf_min >= 0.99 and failed == 0
         load = open("/proc/loadavg").read().split()[0]
         print(f"{n:>4} {rtf_min:>8.3f} {rtf_mean:>8.3f} {done:>10} {failed:>6} {rate:>13.1f} {load:>6}"

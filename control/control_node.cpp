@@ -120,6 +120,9 @@ ControlNode::ControlNode(core::Bus& bus, const core::RobotModel& model, ControlO
         core::HardwareStatusFromMessage(message, info.channel);
         OnBridgeStatus(message);
       });
+  // The states are read in this thread from a socket of their own (udpm), without LCM's hand-over
+  // from its receive thread: one wake-up per tick (core/bus.hpp, ReadDirectly).
+  bus_.ReadDirectly({bus_.FullName(channels.sim_arm_state)}, options_.name);
   heartbeat_.Publish(core::ProcessState::kStarting, "");
 }
 
@@ -367,7 +370,10 @@ void ControlNode::PublishGains(bool force) {
 }
 
 void ControlNode::Service(int max_wait_ms) {
-  bus_.HandleAvailable();
+  // Reading the states directly, Handle takes every state waiting and one message of LCM's per
+  // call, returning at once when something waits: a HandleAvailable first would cost one more
+  // poll per tick to find nothing.
+  if (!bus_.reads_directly()) bus_.HandleAvailable();
   bus_.Handle(max_wait_ms);
   CheckSimAlive();
   CheckBridgeAlive();

@@ -1,11 +1,14 @@
 #include "core/bus.hpp"
 
+#include <poll.h>
+
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <cinttypes>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <iostream>
 #include <limits>
 #include <map>
@@ -15,6 +18,7 @@
 #include <utility>
 
 #include "core/channels.hpp"
+#include "core/tick_reader.hpp"
 #include "core/udpm_socket.hpp"
 
 namespace sirupp::core {
@@ -268,6 +272,38 @@ void Bus::Remove(Subscription* subscription) {
 }
 
 int Bus::Handle(int timeout_ms) {
+  return direct_ ? HandleDirect(timeout_ms) : HandleLcm(timeout_ms);
+}
+
+bool Bus::ReadDirectly(const std::vector<std::string>& full_channels, const std::string& who) {
+  if (direct_) return false;  // one direct socket per bus: the first caller's
+  const int lcm_fd = Fileno();
+  direct_ = TickFeed::Open(*this, full_channels, who);
+  if (direct_) lcm_fd_ = lcm_fd;
+  return direct_ != nullptr;
+}
+
+int Bus::HandleDirect(int timeout_ms) {
+  if (dispatching_) throw BusError("Bus::Handle called from inside a message handler");
+  pollfd fds[2] = {{direct_->reader().fd(), POLLIN, 0}, {lcm_fd_, POLLIN, 0}};
+  const int ready = ::poll(fds, 2, timeout_ms < 0 ? -1 : timeout_ms);
+  if (ready < 0) {
+    if (errno == EINTR) return 0;  // as in HandleLcm: the caller looks at its signal flag
+    throw BusError("waiting for messages on " + DescribeUrl(url_) +
+                   " failed: " + std::strerror(errno));
+  }
+  int handled = 0;
+  if (fds[0].revents != 0) {
+    handled += direct_->reader().DrainEach(
+        [this](size_t, const std::string& channel, const uint8_t* data, int size, int64_t at) {
+          DeliverRecorded(channel, data, size, at);
+        });
+  }
+  if (fds[1].revents != 0) handled += HandleLcm(0);
+  return handled;
+}
+
+int Bus::HandleLcm(int timeout_ms) {
   if (dispatching_) {
     throw BusError(
         "Bus::Handle called from inside a message handler: LCM cannot dispatch re-entrantly; "
@@ -297,7 +333,10 @@ int Bus::Handle(int timeout_ms) {
 
 int Bus::HandleAvailable(int max_messages) {
   int handled = 0;
-  while (handled < max_messages && Handle(0) > 0) ++handled;
+  for (int got = 1; handled < max_messages && got > 0;) {
+    got = Handle(0);
+    handled += got;
+  }
   return handled;
 }
 

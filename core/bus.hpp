@@ -33,6 +33,8 @@
 
 namespace sirupp::core {
 
+class TickFeed;  // core/tick_reader.hpp
+
 // Any failure of the bus: bad URL or channel name, a message that cannot be encoded or sent, an LCM
 // error while waiting for messages.
 class BusError : public std::runtime_error {
@@ -255,7 +257,20 @@ class Bus {
   int DeliverRecorded(const std::string& full_channel, const void* data, int size_bytes,
                       int64_t recv_utime, bool newest_only = false);
   // A file descriptor that becomes readable when a message is waiting: for poll()/select() loops.
+  // Not with ReadDirectly (its channels arrive on another socket): use Handle() to wait.
   int Fileno();
+
+  // For the per-tick channel a process must answer at once (the sim's SIM_ARM_COMMAND, the
+  // controller's SIM_ARM_STATE; full names, 1 to 8): Handle() and HandleAvailable() read them
+  // from a socket of their own (core/tick_reader.hpp), every datagram in order with its kernel
+  // receive time, in this thread, and LCM's socket drops them. LCM 1.3.1 hands each message from
+  // its receive thread to this one through a pipe: two wake-ups and five system calls per message
+  // where this takes one wake-up (docs/timing.md, "What a tick costs"). Call once, after
+  // subscribing. Returns false, and these channels go through LCM as before, on another provider
+  // (memq://), when LCM's socket cannot be filtered (said once on stderr, naming `who`), or when
+  // this bus already reads others directly (one direct socket per bus: the first caller's).
+  bool ReadDirectly(const std::vector<std::string>& full_channels, const std::string& who);
+  bool reads_directly() const { return direct_ != nullptr; }
 
   // The per-tick channels on a udpm:// bus (Channels::PerTick(), with this bus's prefix): LCM's
   // own receive socket drops each one that no subscription of this bus matches, or that is
@@ -315,6 +330,10 @@ class Bus {
   void FindLcmSocket(const std::vector<int>& before);
   // Puts on LCM's socket the filter that MutedOnLcm() should be now.
   void UpdateLcmFilter();
+  // Handle() with ReadDirectly: waits on both sockets, handles every direct datagram waiting and
+  // at most one message of LCM's.
+  int HandleDirect(int timeout_ms);
+  int HandleLcm(int timeout_ms);  // Handle() without ReadDirectly
 
   // Counting by full channel name, used by Subscription and the public overloads.
   Counters& Receiving(const std::string& full_channel);
@@ -338,6 +357,9 @@ class Bus {
   bool dispatching_ = false;
   // Numbers each dispatched message so that several subscriptions of one channel count it once.
   int64_t dispatch_number_ = 0;
+  int lcm_fd_ = -1;  // LCM's notification descriptor, with ReadDirectly
+  // Last: destroyed first, while what it gives the channels back to is still there.
+  std::unique_ptr<TickFeed> direct_;
 };
 
 // The newest valid message of one channel, for code that samples rather than reacts (a viewer

@@ -230,6 +230,7 @@ class SimNode {
   std::vector<Participant> participants_;
   int64_t awaited_tick_ = 0;
   NodeClock::TimePoint waiting_since_;  // when the awaited tick's state was first sent
+  int64_t waiting_since_utime_ = 0;     // the same on the wall clock (us since the epoch)
   NodeClock::TimePoint last_resend_;
   static constexpr double kResendPeriodS = 0.1;  // unanswered state sent again
   // Realtime pacing: tick pace_tick_ is due at pace_wall_; tick k at pace_wall_ + (k - pace_tick_)

@@ -231,6 +231,61 @@ TEST(BusUdpm, ATickReaderThatCountsDropsCountsWhatItsFullBufferLost) {
   EXPECT_GE(reader.refused(), 1);  // the heartbeat
 }
 
+// ReadDirectly: Handle() itself reads the channel from a socket of its own, every message in
+// order with its kernel receive time, and still handles LCM's channels; LCM's socket drops it.
+TEST(BusUdpm, AChannelReadDirectlyComesThroughHandleInOrderBesideLcmsChannels) {
+  const std::string url = PrivateUrl(20000);
+  Bus publisher(url);
+  Bus bus(url);
+  SeenByLcm seen;
+  bus.raw_lcm().subscribeFunction(".*", &SeenByLcm::Add, &seen);
+  std::vector<int64_t> commands;
+  int64_t last_recv_utime = 0;
+  int heartbeats = 0;
+  bus.Subscribe<sirupp::arm_command_t>(
+      "SIM_ARM_COMMAND", [&](const sirupp::arm_command_t& command, const ReceiveInfo& info) {
+        EXPECT_EQ(info.channel, "SIM_ARM_COMMAND");
+        EXPECT_GE(info.recv_utime, last_recv_utime);
+        last_recv_utime = info.recv_utime;
+        commands.push_back(command.seq);
+      });
+  bus.Subscribe<sirupp::heartbeat_t>(
+      "HEARTBEAT", [&](const sirupp::heartbeat_t&, const ReceiveInfo&) { ++heartbeats; });
+  EXPECT_FALSE(bus.reads_directly());
+  ASSERT_TRUE(bus.ReadDirectly({"SIM_ARM_COMMAND"}, "test"));
+  EXPECT_TRUE(bus.reads_directly());
+  EXPECT_FALSE(bus.ReadDirectly({"SIM_ARM_STATE"}, "test")) << "one direct socket per bus";
+  std::vector<int64_t> expected;
+  for (int64_t seq = 1; seq <= 40; ++seq) {
+    sirupp::arm_command_t command = Command();
+    command.seq = seq;
+    publisher.Publish("SIM_ARM_COMMAND", command);
+    expected.push_back(seq);
+  }
+  publisher.Publish("HEARTBEAT", sirupp::heartbeat_t{});
+  ASSERT_TRUE(HandleUntil(
+      bus, [&] { return heartbeats == 1 && commands.size() == expected.size(); }, 5.0));
+  EXPECT_EQ(commands, expected);
+  EXPECT_GT(last_recv_utime, 0);
+  EXPECT_EQ(seen.count["SIM_ARM_COMMAND"], 0) << "LCM's socket drops the channel read directly";
+  EXPECT_EQ(seen.count["HEARTBEAT"], 1);
+  EXPECT_EQ(bus.StatsFor("SIM_ARM_COMMAND").messages, 40);
+  EXPECT_EQ(bus.StatsFor("SIM_ARM_COMMAND").gaps, 0);
+  // Handle() waits for a message on either socket, and returns 0 when none comes.
+  const auto start = std::chrono::steady_clock::now();
+  EXPECT_EQ(bus.Handle(30), 0);
+  EXPECT_GE(std::chrono::steady_clock::now() - start, std::chrono::milliseconds(25));
+  std::thread later([&] {
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    publisher.Publish("SIM_ARM_COMMAND", Command());
+  });
+  int handled = 0;
+  for (int round = 0; round < 50 && handled == 0; ++round) handled = bus.Handle(100);
+  later.join();
+  EXPECT_EQ(handled, 1);
+  EXPECT_EQ(commands.size(), 41U);
+}
+
 TEST(BusUdpm, OtherProvidersHaveNothingToMute) {
   Bus bus("memq://");
   bus.Subscribe<sirupp::arm_state_t>("SIM_ARM_STATE",
@@ -238,6 +293,8 @@ TEST(BusUdpm, OtherProvidersHaveNothingToMute) {
   EXPECT_TRUE(bus.MutedOnLcm().empty());
   EXPECT_FALSE(bus.TakeOffLcm({"SIM_ARM_STATE"}));
   EXPECT_EQ(TickFeed::Open(bus, {"SIM_ARM_STATE"}, "test"), nullptr);
+  EXPECT_FALSE(bus.ReadDirectly({"SIM_ARM_STATE"}, "test"));
+  EXPECT_FALSE(bus.reads_directly());
 }
 
 }  // namespace
