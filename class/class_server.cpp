@@ -6,6 +6,7 @@
 #include <ctime>
 #include <filesystem>
 #include <fstream>
+#include <functional>
 #include <map>
 #include <mutex>
 #include <optional>
@@ -678,6 +679,21 @@ struct ClassServer::Impl {
     SendError(res, 404, "no such page or file: /s/" + name + "/" + core::Printable(rest, 100));
   }
 
+  // Runs a command of the real arm's queue; false after answering its refusal (409 with the
+  // manager's reason, 404 for an unknown command).
+  static bool TurnCommand(const std::function<void()>& command, httplib::Response& res) {
+    try {
+      command();
+    } catch (const turns::TurnError& e) {
+      SendError(res, 409, e.what());
+      return false;
+    } catch (const std::invalid_argument& e) {
+      SendError(res, 404, e.what());
+      return false;
+    }
+    return true;
+  }
+
   // /s/NAME/class/turns: the real arm's queue as NAME sees it; POST .../join|leave|done|estop.
   void StudentTurns(Seat& seat, Role role, const std::string& rest, const httplib::Request& req,
                     httplib::Response& res) {
@@ -709,15 +725,7 @@ struct ClassServer::Impl {
       return;
     }
     const std::string verb = rest.substr(std::string("class/turns/").size());
-    try {
-      real_arm->StudentCommand(seat.name, verb);
-    } catch (const turns::TurnError& e) {
-      SendError(res, 409, e.what());
-      return;
-    } catch (const std::invalid_argument& e) {
-      SendError(res, 404, e.what());
-      return;
-    }
+    if (!TurnCommand([&] { real_arm->StudentCommand(seat.name, verb); }, res)) return;
     Log(seat.name + ": real arm " + verb);
     SendJson(res, 200, real_arm->StudentJson(seat.name));
   }
@@ -886,15 +894,7 @@ struct ClassServer::Impl {
       }
       student = body["student"].get<std::string>();
     }
-    try {
-      real_arm->TeacherCommand(verb, student);
-    } catch (const turns::TurnError& e) {
-      SendError(res, 409, e.what());
-      return;
-    } catch (const std::invalid_argument& e) {
-      SendError(res, 404, e.what());
-      return;
-    }
+    if (!TurnCommand([&] { real_arm->TeacherCommand(verb, student); }, res)) return;
     Log("teacher: real arm " + verb + (student.empty() ? "" : " " + student));
     SendJson(res, 200, real_arm->TeacherJson());
   }

@@ -16,6 +16,7 @@
 
 #include "class/class_config.hpp"
 #include "class/class_server.hpp"
+#include "core/errors.hpp"
 #include "panel/httplib_include.hpp"
 
 namespace sirupp::testing {
@@ -25,6 +26,25 @@ inline std::string TempDir(const std::string& stem) {
   std::string pattern = (std::filesystem::temp_directory_path() / (stem + "-XXXXXX")).string();
   if (::mkdtemp(pattern.data()) == nullptr) throw std::runtime_error("mkdtemp " + pattern);
   return pattern;
+}
+
+// A class of two (alice, bob) on any free port; data in class-data under the given folder.
+inline constexpr const char* kClassOfTwo =
+    "class: robotics-1\n"
+    "robot: config/robots/puma260.yaml\n"
+    "students: [alice, bob]\n"
+    "data: class-data\n"
+    "limits: {max_rigs: 2, idle_timeout_s: 60}\n"
+    "server: {port: 0}\n";
+
+// The error a class file's text gives (core::ConfigError's what()), or "".
+inline std::string ClassFileError(const std::string& text) {
+  try {
+    classroom::ParseClassConfig(text, "c.yaml", std::filesystem::current_path().string());
+  } catch (const core::ConfigError& e) {
+    return e.what();
+  }
+  return "";
 }
 
 class TestClassServer {

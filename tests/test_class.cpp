@@ -30,22 +30,8 @@ using Json = nlohmann::json;
 
 using testing::TempDir;
 
-const char* const kGood =
-    "class: robotics-1\n"
-    "robot: config/robots/puma260.yaml\n"
-    "students: [alice, bob]\n"
-    "data: class-data\n"
-    "limits: {max_rigs: 2, idle_timeout_s: 60}\n"
-    "server: {port: 0}\n";
-
-std::string ErrorOf(const std::string& text) {
-  try {
-    ParseClassConfig(text, "c.yaml", fs::current_path().string());
-  } catch (const core::ConfigError& e) {
-    return e.what();
-  }
-  return "";
-}
+const char* const kGood = testing::kClassOfTwo;
+const auto ErrorOf = testing::ClassFileError;
 
 TEST(ClassConfigTest, ReadsAGoodFile) {
   const ClassConfig c = ParseClassConfig(kGood, "c.yaml", "/tmp/x");

@@ -133,9 +133,8 @@ void AddBatch(const std::string& batch, const std::string& out_dir, bool sandbox
   for (const fs::path& folder : folders) {
     grade::Submission submission;
     submission.name = folder.filename().string();
-    const grade::FoundController found =
-        grade::FindSubmission(folder.string(), IncludeDir(),
-                              (fs::absolute(out_dir) / "build").string(), sandbox);
+    const grade::FoundController found = grade::FindSubmission(
+        folder.string(), IncludeDir(), (fs::absolute(out_dir) / "build").string(), sandbox);
     submission.problem = found.problem;
     if (found.problem.empty()) {
       graded.push_back(controllers.size());
@@ -223,9 +222,9 @@ int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostre
   // Libraries (and sources) are someone else's code: without the sandbox they are refused here,
   // with the reason, rather than run unconfined (a process controller runs unconfined anyway).
   if (sandbox && command.empty() && !sandbox::ProbeMachine().usable) {
-    throw core::UsageError("grade: the sandbox cannot be had on this machine: " +
-                           sandbox::ProbeMachine().problem +
-                           " (docs/sandbox.md; --no-sandbox grades unconfined, for your own code)");
+    throw core::UsageError(
+        "grade: the sandbox cannot be had on this machine: " + sandbox::ProbeMachine().problem +
+        " (docs/sandbox.md; --no-sandbox grades unconfined, for your own code)");
   }
   const grade::Suite suite = grade::LoadSuite(Resolve(suite_file), &Resolve);
   const core::RobotModel model = core::LoadRobotModel(suite.model_file);
@@ -262,8 +261,7 @@ int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostre
   return 0;
 }
 
-int RunControllerBuild(const std::vector<std::string>& args, std::ostream& out,
-                       std::ostream& err) {
+int RunControllerBuild(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   const runtime::Args parsed(
       args, "controller build",
       {runtime::Flag("source", "C++ sources").Positional("FILE.cpp", -1),
@@ -294,9 +292,9 @@ int RunControllerBuild(const std::vector<std::string>& args, std::ostream& out,
     built = grade::BuildController(sources, parsed.String("out"),
                                    fs::path(sources.front()).stem().string(), options);
   } catch (const std::runtime_error& error) {
-    throw core::UsageError(std::string("controller build: ") + error.what() +
-                           (options.sandbox ? " (docs/sandbox.md; --no-sandbox builds unconfined)"
-                                            : ""));
+    throw core::UsageError(
+        std::string("controller build: ") + error.what() +
+        (options.sandbox ? " (docs/sandbox.md; --no-sandbox builds unconfined)" : ""));
   }
   if (!built.built) {
     for (const grade::CompilerError& error : built.errors) out << error.ToString() << "\n";

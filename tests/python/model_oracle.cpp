@@ -33,7 +33,8 @@ int main(int argc, char** argv) {
     if (argc < 2) throw std::runtime_error("usage: python_model_oracle MODEL Q.. QD.. QDD..");
     const sirupp::core::RobotModel model = sirupp::core::LoadRobotModel(argv[1]);
     const int n = model.num_joints();
-    if (argc != 2 + 3 * n) throw std::runtime_error("expected 3 x " + std::to_string(n) + " values");
+    if (argc != 2 + 3 * n)
+      throw std::runtime_error("expected 3 x " + std::to_string(n) + " values");
     Eigen::VectorXd q(n), qd(n), qdd(n);
     for (int i = 0; i < n; ++i) {
       q[i] = std::strtod(argv[2 + i], nullptr);
