@@ -8,6 +8,7 @@
 #include <signal.h>
 #include <unistd.h>
 
+#include <chrono>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -350,6 +351,33 @@ namespace {
 
 // HTTPS when the class file names a certificate and key (a self-signed pair made here by the
 // openssl command); a key that does not match is refused at start with both paths named.
+// Stop() may come before Serve() has started its loop (a test that ends at once, a server told to
+// stop while starting): Serve() then returns, and a Stop() while it starts ends it. httplib's own
+// stop() does nothing before its loop runs; CI once waited 900 s on that (panel::ListenGate).
+TEST(ClassServerStopTest, AStopBeforeOrWhileServingStartsEndsIt) {
+  const std::string dir = TempDir("sirupp-class-stop");
+  const ClassConfig config = ParseClassConfig(kGood, "class.yaml", dir);
+  ServeOptions options;
+  options.class_web_dir = fs::absolute("class/web").string();
+  {
+    ClassServer server(config, options);
+    server.Bind();
+    server.Stop();
+    const auto start = std::chrono::steady_clock::now();
+    server.Serve();  // returns at once
+    EXPECT_LT(std::chrono::steady_clock::now() - start, std::chrono::seconds(5));
+  }
+  for (int i = 0; i < 20; ++i) {  // Stop() racing the loop's start
+    ClassServer server(config, options);
+    server.Bind();
+    std::thread serving([&] { server.Serve(); });
+    if (i % 2 == 1) std::this_thread::sleep_for(std::chrono::microseconds(200 * i));
+    server.Stop();
+    serving.join();  // the test's timeout is the failure
+  }
+  fs::remove_all(dir);
+}
+
 TEST(ClassServerTlsTest, ServesHttpsWithTheGivenCertificate) {
   const std::string dir = TempDir("sirupp-class-tls");
   const std::string make =
