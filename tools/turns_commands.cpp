@@ -3,6 +3,7 @@
 #include <poll.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <chrono>
 #include <cmath>
 #include <iostream>
@@ -130,21 +131,35 @@ int RunTurns(const std::vector<std::string>& args, std::istream& in, std::ostrea
   const bool from_terminal = &in == &std::cin;  // standard input: polled
   bool input_open = true;
   std::string line;
+  std::string pending;  // standard input read but not yet a whole line
+  const auto obey = [&](const std::string& command) {
+    Obey(manager, command, out);
+    out << std::flush;  // a pipe or file is not line-buffered: the answer now
+  };
   while (!runtime::StopRequested()) {
     manager.Service();
-    if (input_open) {
-      if (from_terminal) {
-        // Lines already buffered, or more to read: never block the relay waiting for a line.
-        pollfd fd{STDIN_FILENO, POLLIN, 0};
-        if (in.rdbuf()->in_avail() > 0 || ::poll(&fd, 1, 0) > 0) {
-          if (std::getline(in, line)) {
-            Obey(manager, line, out);
-          } else {
-            input_open = false;
-          }
+    if (input_open && from_terminal) {
+      // Read with read(2) what poll(2) says is there, never blocking the relay for a line (lines
+      // kept in stdio's buffer by std::getline would be invisible to poll until more came).
+      pollfd fd{STDIN_FILENO, POLLIN, 0};
+      if (::poll(&fd, 1, 0) > 0) {
+        char chunk[4096];
+        const ssize_t n = ::read(STDIN_FILENO, chunk, sizeof chunk);
+        if (n > 0) {
+          pending.append(chunk, static_cast<size_t>(n));
+        } else if (n == 0 || (errno != EINTR && errno != EAGAIN)) {
+          input_open = false;
+          if (!pending.empty()) pending += '\n';  // a last line without its newline
         }
-      } else if (std::getline(in, line)) {
-        Obey(manager, line, out);
+      }
+      for (size_t end = pending.find('\n'); end != std::string::npos; end = pending.find('\n')) {
+        line = pending.substr(0, end);
+        pending.erase(0, end + 1);
+        obey(line);
+      }
+    } else if (input_open) {
+      if (std::getline(in, line)) {
+        obey(line);
       } else {
         input_open = false;
       }
