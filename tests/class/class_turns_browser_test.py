@@ -18,7 +18,7 @@ import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from class_run import ClassRun, alive  # noqa: E402
-from panel_rig import checker, wait_for  # noqa: E402
+from panel_rig import checker, severe_errors, wait_for  # noqa: E402
 
 from selenium.webdriver.common.by import By  # noqa: E402
 
@@ -146,6 +146,15 @@ try:
     check("an e-stop from a student without a turn stops the real arm", estop_from_a_student_without_a_turn)
     check("a handover that cannot finish stops the queue; the teacher resumes it",
           failed_handover_stops_the_queue_for_the_teacher)
+
+    def no_console_errors():
+        # The refused "arm" on bob's page is a 409 the page shows; Chromium logs it as a failed
+        # resource, which is the page working, not an error of its code.
+        for d, who in ((a, "alice"), (b, "bob"), (t, "teacher")):
+            errors = [e for e in severe_errors(d) if "status of 409" not in e["message"]]
+            assert not errors, f"{who}'s page: {errors}"
+
+    check("no errors in the pages' consoles", no_console_errors)
     if failures:
         print("server log:\n" + run.server_log())
 finally:
