@@ -149,12 +149,17 @@ def trial(bin_dir, src, n, seconds, start_times, first_port):
         reasons = sorted({r for d in drivers for r in d.failed})[:3]
         return min(rtfs), statistics.mean(rtfs), failed, done, min(rates), reasons
     finally:
-        for d in drivers:
-            d.stop = True
-        for s in streams:
-            s.stop = True
-        run.stop()
-        run.clean()
+        end_rigs(run, drivers, streams)
+
+
+def end_rigs(run, drivers, streams):
+    """Stops the plan drivers and the page streams, then the class server and its rigs."""
+    for d in drivers:
+        d.stop = True
+    for s in streams:
+        s.stop = True
+    run.stop()
+    run.clean()
 
 
 def main():

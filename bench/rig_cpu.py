@@ -29,7 +29,7 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from class_bench import Driver, Stream  # noqa: E402
+from class_bench import Driver, Stream, end_rigs  # noqa: E402
 
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "class"))
 from class_run import ClassRun  # noqa: E402
@@ -106,12 +106,7 @@ def round_(bin_dir, src, rigs, seconds, first_port):
         reasons = sorted({r for d in drivers for r in d.failed})[:3]
         return {k: v / simulated for k, v in per_kind.items()}, rtf, done, failed, reasons
     finally:
-        for d in drivers:
-            d.stop = True
-        for s in streams:
-            s.stop = True
-        run.stop()
-        run.clean()
+        end_rigs(run, drivers, streams)
 
 
 def main():
