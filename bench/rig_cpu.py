@@ -17,6 +17,9 @@ shared machine. The server's line includes what is the same for any number of ri
 threads); with --rigs N it is divided by N.
 
 Usage: rig_cpu.py BIN_DIR SOURCE_DIR [--seconds 20] [--rigs 1] [--rounds 1] [--first-port 9431]
+                  [--no-pin | --compare-pin]
+--compare-pin runs each round twice, with the class file's limits.pin_rigs on (each rig's
+processes on one CPU) and off, and prints the ratio of the medians.
 The rigs lease udpm ports from --first-port on, away from the class file's default range (7900),
 which the class tests use: two class servers on one machine leasing the same port would share
 their rigs' traffic.
@@ -59,9 +62,9 @@ def sim_time(stream):
     return ((stream.latest or {}).get("sim") or {}).get("sim_time_s")
 
 
-def round_(bin_dir, src, rigs, seconds, first_port):
+def round_(bin_dir, src, rigs, seconds, first_port, pin):
     names = [f"s{i:02d}" for i in range(rigs)]
-    run = ClassRun(bin_dir, src, names, max_rigs=rigs)
+    run = ClassRun(bin_dir, src, names, max_rigs=rigs, extra_limits="" if pin else ", pin_rigs: false")
     if first_port:
         # Another class server on this machine (a test, a second bench) leasing the same udpm ports
         # would share its rigs' traffic: keep to a range of our own.
@@ -118,29 +121,41 @@ def main():
     parser.add_argument("--rounds", type=int, default=1)
     parser.add_argument("--first-port", type=int, default=9431,
                         help="first udpm port of the rigs (0: the class file's default, 7900)")
+    parser.add_argument("--no-pin", action="store_true",
+                        help="limits.pin_rigs: false (the scheduler places every rig's processes)")
+    parser.add_argument("--compare-pin", action="store_true",
+                        help="every round twice: pinned, then not (same minutes, same load)")
     args = parser.parse_args()
     print(f"rig CPU: {args.rigs} rig(s), set VII in a loop, one 30 Hz stream each, "
           f"{args.seconds:.0f} s per round; CPU seconds per simulated second (% of one core "
           f"at real time)", flush=True)
-    results = []
+    variants = [True, False] if args.compare_pin else [not args.no_pin]
+    results = {pin: [] for pin in variants}
     for r in range(args.rounds):
-        shares, rtf, done, failed, reasons = round_(args.bin_dir, args.source_dir, args.rigs, args.seconds,
-                                                       args.first_port)
-        load = open("/proc/loadavg").read().split()[0]
-        total = sum(shares.values())
-        line = "  ".join(f"{k} {100 * v:5.1f} %" for k, v in sorted(shares.items()))
-        print(f"round {r + 1}: {line}  | rig total {100 * total:5.1f} % = {1 / total:4.1f} rigs "
-              f"per core | rtf {rtf:.3f}, plans done {done}, failed {failed}, load {load}"
-              f"{'  ' + '; '.join(reasons) if reasons else ''}",
-              flush=True)
-        results.append((shares, total))
-    if args.rounds > 1:
-        kinds = sorted(results[0][0])
-        med = {k: statistics.median(s.get(k, 0.0) for s, _ in results) for k in kinds}
-        total = statistics.median(t for _, t in results)
-        print("median: " + "  ".join(f"{k} {100 * v:5.1f} %" for k, v in med.items()) +
-              f"  | rig total {100 * total:5.1f} % = {1 / total:4.1f} rigs per core")
-
+        for pin in variants:
+            shares, rtf, done, failed, reasons = round_(args.bin_dir, args.source_dir, args.rigs,
+                                                        args.seconds, args.first_port, pin)
+            load = open("/proc/loadavg").read().split()[0]
+            total = sum(shares.values())
+            line = "  ".join(f"{k} {100 * v:5.1f} %" for k, v in sorted(shares.items()))
+            print(f"round {r + 1}, {'pinned' if pin else 'not pinned'}: {line}  | rig total "
+                  f"{100 * total:5.1f} % = {1 / total:4.1f} rigs per core | rtf {rtf:.3f}, "
+                  f"plans done {done}, failed {failed}, load {load}"
+                  f"{'  ' + '; '.join(reasons) if reasons else ''}",
+                  flush=True)
+            results[pin].append((shares, total))
+    medians = {}
+    for pin in variants:
+        if args.rounds < 2 and len(variants) < 2:
+            break
+        kinds = sorted(results[pin][0][0])
+        med = {k: statistics.median(s.get(k, 0.0) for s, _ in results[pin]) for k in kinds}
+        medians[pin] = statistics.median(t for _, t in results[pin])
+        print(f"median, {'pinned' if pin else 'not pinned'}: " +
+              "  ".join(f"{k} {100 * v:5.1f} %" for k, v in med.items()) +
+              f"  | rig total {100 * medians[pin]:5.1f} % = {1 / medians[pin]:4.1f} rigs per core")
+    if len(medians) == 2:
+        print(f"pinned / not pinned: {medians[True] / medians[False]:.2f} of the CPU per rig")
 
 if __name__ == "__main__":
     main()

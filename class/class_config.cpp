@@ -17,10 +17,10 @@ namespace fs = std::filesystem;
 const std::vector<std::string> kTopKeys = {"class",  "description", "robot", "students", "data",
                                            "limits", "server",      "rigs",  "real_arm", "grading"};
 const std::vector<std::string> kLimitKeys = {"max_rigs", "idle_timeout_s", "rig_memory_mb",
-                                             "rig_nice"};
+                                             "rig_nice", "pin_rigs"};
 const std::vector<std::string> kServerKeys = {"listen", "port", "public_url", "tls_cert",
                                               "tls_key"};
-const std::vector<std::string> kRigKeys = {"first_port", "port_count"};
+const std::vector<std::string> kRigKeys = {"first_port", "port_count", "pace_ticks"};
 const std::vector<std::string> kRealArmKeys = {"lcm_url", "turn_s", "warn_before_s",
                                                "home_tolerance_deg", "home_speed_fraction"};
 
@@ -176,6 +176,7 @@ ClassConfig Read(const core::YamlDocument& document, const std::string& base_dir
       }
     }
     if (const auto v = map.Find("rig_nice")) config.rig_nice = static_cast<int>(v->Integer(0, 19));
+    if (const auto v = map.Find("pin_rigs")) config.pin_rigs = v->Bool();
   }
   if (const auto server = top.Find("server")) {
     const core::YamlMap map = server->Map(kServerKeys);
@@ -210,6 +211,9 @@ ClassConfig Read(const core::YamlDocument& document, const std::string& base_dir
         v->Fail(std::to_string(config.port_count) + " ports from " +
                 std::to_string(config.first_port) + " pass 65535");
       }
+    }
+    if (const auto v = map.Find("pace_ticks")) {
+      config.pace_ticks = static_cast<int>(v->Integer(1, 64));
     }
   }
   if (const auto grading = top.Find("grading")) ReadGrading(*grading, base_dir, config);

@@ -9,10 +9,12 @@
 //   robot: config/robots/puma260.yaml # relative to the class file's folder, else the source tree
 //   students: [alice, bob, carol]     # names as above; 'teacher' is reserved
 //   data: robotics-2026-data          # relative to the class file's folder
-//   limits: {max_rigs: 12, idle_timeout_s: 900, rig_memory_mb: 2048, rig_nice: 5}
+//   limits: {max_rigs: 12, idle_timeout_s: 900, rig_memory_mb: 2048, rig_nice: 5,
+//            pin_rigs: true}
 //   server: {listen: 127.0.0.1, port: 8800, public_url: "https://lab.example.edu",
 //            tls_cert: cert.pem, tls_key: key.pem}
-//   rigs: {first_port: 7900, port_count: 200}   # the udpm ports rigs lease (ttl=0)
+//   rigs: {first_port: 7900, port_count: 200,   # the udpm ports rigs lease (ttl=0)
+//          pace_ticks: 4}                       # each sim sleeps once per 4 ticks (2 ms)
 //   real_arm:                         # optional: the one real PUMA, shared by turns
 //     lcm_url: "udpm://239.255.76.67:7700?ttl=0"   # the bus sirupp-hardware runs on
 //     turn_s: 600                     # one turn
@@ -51,6 +53,7 @@ struct ClassConfig {
   double idle_timeout_s = 900;
   int rig_memory_mb = 2048;  // address-space limit of each rig process; 0 = none
   int rig_nice = 5;          // niceness of each rig process (0..19)
+  bool pin_rigs = true;      // each rig's processes on one CPU, the one with the fewest rigs
   std::string listen = "127.0.0.1";
   int port = 8800;         // 0 = any free port
   std::string public_url;  // the address in the tokens file; "" = http(s)://listen:port
@@ -58,6 +61,7 @@ struct ClassConfig {
   std::string tls_key;
   int first_port = 7900;  // udpm ports leased by the rigs
   int port_count = 200;
+  int pace_ticks = 4;  // sirupp-sim --pace-ticks of every rig (1..64)
   std::optional<RealArmConfig> real_arm;  // none: the class has no real arm
   // grading: (class/submissions.hpp). Without a suite, submissions are built and run on the rig
   // but not graded, and the real arm takes none.

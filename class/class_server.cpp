@@ -1,5 +1,7 @@
 #include "class/class_server.hpp"
 
+#include <sched.h>
+
 #include <algorithm>
 #include <atomic>
 #include <condition_variable>
@@ -199,6 +201,8 @@ struct Seat {
   int starts = 0;
   double start_s = 0;
   double cpu = 0;
+  int on_cpu = -1;  // the CPU the rig's processes run on (limits.pin_rigs), else -1
+  int shown_cpu = -1;  // on_cpu for the pages (under info_mutex)
   int port = 0;
   std::string started_at;  // wall clock
   std::atomic<int64_t> activity_ns{0};
@@ -223,6 +227,10 @@ struct ClassServer::Impl {
   std::map<std::string, std::unique_ptr<Seat>> seats;
   std::atomic<int> running{0};
   std::mutex start_mutex;  // counts rigs against max_rigs
+  // limits.pin_rigs: the CPUs this server may use (its affinity when it starts) and how many
+  // rigs run on each; under start_mutex. Empty: nothing is pinned.
+  std::vector<int> cpus;
+  std::vector<int> rigs_on_cpu;
   std::thread monitor;
   std::mutex monitor_mutex;
   std::condition_variable monitor_wake;
@@ -259,6 +267,14 @@ struct ClassServer::Impl {
             .string();
     submissions = std::make_unique<SubmissionService>(
         config, submission_options, launcher, [this](const std::string& line) { Log(line); });
+    cpu_set_t allowed;
+    CPU_ZERO(&allowed);
+    if (config.pin_rigs && ::sched_getaffinity(0, sizeof allowed, &allowed) == 0) {
+      for (int cpu = 0; cpu < CPU_SETSIZE; ++cpu) {
+        if (CPU_ISSET(cpu, &allowed)) cpus.push_back(cpu);
+      }
+      rigs_on_cpu.assign(cpus.size(), 0);
+    }
     for (const std::string& name : config.students) {
       auto seat = std::make_unique<Seat>();
       seat->name = name;
@@ -393,6 +409,7 @@ struct ClassServer::Impl {
                std::to_string(static_cast<int>(config.idle_timeout_s)) + " s)";
       }
       ++running;
+      seat.on_cpu = PickCpu();
     }
     try {
       seat.lease = grade::PortLease::Acquire(config.first_port, config.port_count,
@@ -404,7 +421,8 @@ struct ClassServer::Impl {
       spec.bin_dir = options.bin_dir;
       spec.folder = folder;
       spec.port = seat.lease.port();
-      spec.limits = ChildLimits{config.rig_nice, config.rig_memory_mb};
+      spec.limits = ChildLimits{config.rig_nice, config.rig_memory_mb, seat.on_cpu};
+      spec.pace_ticks = config.pace_ticks;
       spec.controller = submissions->RigController(seat.name);
       {
         const std::lock_guard<std::mutex> info(seat.info_mutex);
@@ -417,6 +435,7 @@ struct ClassServer::Impl {
       seat.start_s = rig->start_seconds();
       seat.port = spec.port;
       seat.state = "running";
+      seat.shown_cpu = seat.on_cpu;
       ++seat.starts;
       const std::time_t now = std::time(nullptr);
       std::tm local{};
@@ -426,10 +445,12 @@ struct ClassServer::Impl {
       seat.started_at = text;
       seat.rig = std::move(rig);
       seat.Touch();
-      Log("started " + seat.name + "'s rig on " + RigUrl(spec.port) + " in " +
+      Log("started " + seat.name + "'s rig on " + RigUrl(spec.port) +
+          (seat.on_cpu >= 0 ? " (CPU " + std::to_string(seat.on_cpu) + ")" : "") + " in " +
           std::to_string(seat.start_s).substr(0, 4) + " s");
       return "";
     } catch (const std::exception& e) {
+      ReleaseCpu(seat);
       --running;
       seat.lease.Release();
       const std::lock_guard<std::mutex> info(seat.info_mutex);
@@ -451,13 +472,33 @@ struct ClassServer::Impl {
       seat.state = failed ? "failed" : "stopped";
       seat.last_stop = why;
       seat.cpu = 0;
+      seat.shown_cpu = -1;
     }
     if (real_arm) real_arm->RigStopped(seat.name, why);
     rig->Stop();
     rig.reset();
     seat.lease.Release();
+    ReleaseCpu(seat);
     --running;
     Log("stopped " + seat.name + "'s rig: " + why);
+  }
+
+  // The allowed CPU with the fewest rigs (the lowest of equals), counted for the seat; -1 when
+  // nothing is pinned. Under start_mutex.
+  int PickCpu() {
+    if (cpus.size() < 2) return -1;
+    const size_t least = static_cast<size_t>(
+        std::min_element(rigs_on_cpu.begin(), rigs_on_cpu.end()) - rigs_on_cpu.begin());
+    ++rigs_on_cpu[least];
+    return cpus[least];
+  }
+
+  void ReleaseCpu(Seat& seat) {
+    const std::lock_guard<std::mutex> count_lock(start_mutex);
+    if (seat.on_cpu < 0) return;
+    const auto at = std::find(cpus.begin(), cpus.end(), seat.on_cpu);
+    if (at != cpus.end()) --rigs_on_cpu[static_cast<size_t>(at - cpus.begin())];
+    seat.on_cpu = -1;
   }
 
   void Monitor() {
@@ -504,6 +545,7 @@ struct ClassServer::Impl {
                  {"start_s", seat.start_s},
                  {"last_stop", seat.last_stop},
                  {"cpu_percent", seat.cpu},
+                 {"on_cpu", seat.shown_cpu},
                  {"port", seat.port},
                  {"started_at", seat.started_at},
                  {"idle_s", seat.IdleSeconds()},

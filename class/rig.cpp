@@ -1,6 +1,7 @@
 #include "class/rig.hpp"
 
 #include <fcntl.h>
+#include <sched.h>
 #include <signal.h>
 #include <sys/prctl.h>
 #include <sys/resource.h>
@@ -79,6 +80,9 @@ pid_t ProcessLauncher::Spawn(const std::vector<std::string>& argv, const std::st
     for (std::string& word : words) args.push_back(word.data());
     args.push_back(nullptr);
     const pid_t parent = ::getpid();
+    cpu_set_t cpus;
+    CPU_ZERO(&cpus);
+    if (limits.cpu >= 0) CPU_SET(limits.cpu, &cpus);
     rlimit memory{};
     memory.rlim_cur = memory.rlim_max = static_cast<rlim_t>(limits.memory_mb) * 1024 * 1024;
 #if defined(__SANITIZE_ADDRESS__)
@@ -101,6 +105,7 @@ pid_t ProcessLauncher::Spawn(const std::vector<std::string>& argv, const std::st
       const int null_fd = ::open("/dev/null", O_RDONLY);
       if (null_fd >= 0) ::dup2(null_fd, 0);
       ::setpriority(PRIO_PROCESS, 0, limits.nice);
+      if (limits.cpu >= 0) ::sched_setaffinity(0, sizeof cpus, &cpus);
       if (limit_memory) ::setrlimit(RLIMIT_AS, &memory);
       ::execv(args[0], args.data());
       ::_exit(127);
@@ -170,7 +175,8 @@ void Rig::Start() {
   rig_panel->hub->Start();
   panel_ = rig_panel;
   try {
-    Launch("sirupp-sim", {"--mode", "realtime", "--model", spec_.robot, "--lcm-url", url()});
+    Launch("sirupp-sim", {"--mode", "realtime", "--pace-ticks", std::to_string(spec_.pace_ticks),
+                          "--model", spec_.robot, "--lcm-url", url()});
     std::vector<std::string> control{"--model", spec_.robot, "--lcm-url", url()};
     double ready_s = spec_.ready_timeout_s;
     if (!spec_.controller.empty()) {

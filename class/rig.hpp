@@ -36,6 +36,10 @@ namespace sirupp::classroom {
 struct ChildLimits {
   int nice = 0;
   int memory_mb = 0;  // 0 = no limit
+  // The one CPU the child (and what it starts) runs on; -1 = wherever the scheduler puts it. A
+  // rig's sim and controller answer each other every tick: on one CPU each wake-up is a switch on
+  // that CPU instead of a cross-CPU wake (docs/class.md, "How many rigs a server holds").
+  int cpu = -1;
 };
 
 // Starts child processes from one thread that lives as long as the launcher.
@@ -70,6 +74,8 @@ struct RigSpec {
   // A student's controller (a built library or a .py; class/submissions.hpp) in place of the
   // PIC-SERVO law: sirupp-control --controller FILE, its host in the sandbox. "" = built-in law.
   std::string controller;
+  // sirupp-sim --pace-ticks: the sim sleeps once per this many ticks (class file rigs.pace_ticks).
+  int pace_ticks = 1;
   double ready_timeout_s = 10;
   double stop_grace_s = 3;
 };

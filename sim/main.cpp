@@ -47,6 +47,11 @@ std::vector<Flag> SimFlags() {
            "realtime: seconds a participant may be silent before the arm brakes (0.5); freerun: "
            "age of a held command (0.05)")
           .Takes("SECONDS"),
+      Flag("pace-ticks",
+           "realtime: sleep once per N ticks, then run them back to back (each still waits for "
+           "every answer); the sim time lags the wall clock by up to N ticks (1)")
+          .Takes("N")
+          .Integer(1, 64),
       Flag("duration", "simulated seconds to run (0 = until stopped)").Takes("SECONDS"),
       Flag("idle", "before the first command").Takes("MODE").OneOf({"hold", "limp"}),
       Flag("no-friction", "switch joint friction off").Switch(),
@@ -102,6 +107,7 @@ sirupp::sim::NodeOptions NodeOptionsFromArgs(const sirupp::runtime::Args& args) 
     options.watchdog_s = 0.05;  // a held command goes stale fast
   }
   if (args.Has("duration")) options.duration_s = args.Numbers("duration", 1)[0];
+  options.pace_ticks = static_cast<int>(args.Integer("pace-ticks", options.pace_ticks));
   return options;
 }
 

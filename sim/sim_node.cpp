@@ -112,6 +112,9 @@ void CheckNodeOptions(const NodeOptions& options) {
   if (!(options.watchdog_s > 0) || !std::isfinite(options.watchdog_s)) {
     bad("watchdog " + core::FormatNumber(options.watchdog_s) + " s: allowed > 0");
   }
+  if (options.pace_ticks < 1 || options.pace_ticks > 64) {
+    bad("pace_ticks " + std::to_string(options.pace_ticks) + ": allowed 1 to 64 ticks");
+  }
   if (!(options.duration_s >= 0) || !std::isfinite(options.duration_s)) {
     bad("duration " + core::FormatNumber(options.duration_s) + " s: allowed >= 0 (0 = no end)");
   }
@@ -535,7 +538,7 @@ void SimNode::Start() {
   started_ = true;
   const TimePoint now = Now();
   start_wall_ = pace_wall_ = status_time_ = now;
-  start_tick_ = pace_tick_ = world_.tick();
+  start_tick_ = pace_tick_ = batch_end_tick_ = world_.tick();
   awaited_tick_ = world_.tick();
   waiting_since_ = now;
   waiting_since_utime_ = WallMicros();
@@ -649,8 +652,16 @@ void SimNode::ServiceRealtime(int max_wait_ms) {
   // still its reception's). Through LCM (memq://) it waits for the answer as before.
   // One poll then takes every answer waiting and one message of LCM's (the rest on later ticks):
   // HandleAvailable would poll once more to find nothing.
+  // Ticks step in batches of pace_ticks: the sim waits until that many are due (their ends have
+  // passed), then steps every due tick as soon as its answers are in; 1 = each tick at its end.
+  const auto wake_at = [&] {
+    return end_of_tick() + Duration(static_cast<double>(options_.pace_ticks - 1) * step);
+  };
+  const auto may_step = [&](TimePoint at) {
+    return world_.tick() < batch_end_tick_ || at >= wake_at();
+  };
   if (bus_.reads_directly()) {
-    if (Now() < end_of_tick()) options_.clock.sleep_until(end_of_tick());
+    if (!may_step(Now())) options_.clock.sleep_until(wake_at());
     bus_.Handle(0);
   } else {
     bus_.HandleAvailable();
@@ -685,18 +696,26 @@ void SimNode::ServiceRealtime(int max_wait_ms) {
     }
   }
   // Every answering participant has answered: step when the wall clock has reached the tick's
-  // end, at once when behind it, and let the sim time slip when too far behind to catch up.
+  // end (the batch's last tick's, between batches), at once when behind it, and let the sim time
+  // slip when too far behind to catch up.
   now = Now();
-  if (now < end_of_tick()) {
-    WaitUntil(end_of_tick(), max_wait_ms);
-    if (Now() < end_of_tick()) return;
+  if (!may_step(now)) {
+    WaitUntil(wake_at(), max_wait_ms);
     now = Now();
+    if (!may_step(now)) return;
+  }
+  if (world_.tick() >= batch_end_tick_) {
+    // A new batch: every tick whose end has passed (tick t ends at pace_wall_ + (t + 1 -
+    // pace_tick_) x step), so none steps before the wall clock reached its end.
+    batch_end_tick_ =
+        pace_tick_ + static_cast<int64_t>(std::floor(Seconds(now - pace_wall_) / step));
   }
   const double behind_s = Seconds(now - end_of_tick());
   if (behind_s > kMaxCatchUpS) {
     counters_.slipped_s += behind_s;
     pace_wall_ = now;
     pace_tick_ = world_.tick() + 1;
+    batch_end_tick_ = pace_tick_;  // this tick now; the next when its end has come
     if (Seconds(now - last_slip_report_) >= 1.0) {
       last_slip_report_ = now;
       NoteProblem("realtime: " + core::FormatApprox(behind_s * 1e3) +
@@ -704,8 +723,8 @@ void SimNode::ServiceRealtime(int max_wait_ms) {
                       Fixed(RealtimeFactor(), 3) + " since start)",
                   true);
     }
-  } else if (behind_s > step) {
-    ++counters_.overruns;
+  } else if (behind_s > static_cast<double>(options_.pace_ticks) * step) {
+    ++counters_.overruns;  // later than a batch makes it
   }
   StepGate();
 }

@@ -82,6 +82,12 @@ struct NodeOptions {
   // the physics; a brake does, so it is kept for a participant that is really gone.
   // Freerun: a command older than this brakes the arm (sirupp-sim gives 0.05 s there).
   double watchdog_s = 0.5;
+  // Realtime: the sim sleeps once per this many ticks and then runs them back to back, each still
+  // waiting for every answer (1..64; 1 = a sleep per tick). Its time then lags the wall clock by
+  // up to this many ticks, never leads it; in return sim and controller trade the tick with a
+  // switch between them instead of a wake-up from idle per tick, which is most of a rig's CPU on
+  // a virtual machine (docs/timing.md, "Sleeping once per few ticks").
+  int pace_ticks = 1;
   // Stop after this much simulated time; 0 = run until RequestStop().
   double duration_s = 0;
   // What the arm does before a participant (or, in freerun and fast, any sender) has answered:
@@ -237,6 +243,9 @@ class SimNode {
   // steps. Moved forward when the sim time slips.
   NodeClock::TimePoint pace_wall_;
   int64_t pace_tick_ = 0;
+  // Realtime: the ticks before this one are due (their end has passed) and step as soon as every
+  // answer is in; past it the sim waits for the next options_.pace_ticks to be due.
+  int64_t batch_end_tick_ = 0;
   NodeClock::TimePoint last_slip_report_;
   // Freerun and fast: the newest command of each sender (bounded: forgotten after a while).
   std::map<std::string, Answer> newest_;

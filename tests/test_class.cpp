@@ -42,6 +42,8 @@ TEST(ClassConfigTest, ReadsAGoodFile) {
   EXPECT_EQ(c.max_rigs, 2);
   EXPECT_EQ(c.idle_timeout_s, 60);
   EXPECT_EQ(c.listen, "127.0.0.1");
+  EXPECT_TRUE(c.pin_rigs) << "each rig on one CPU unless the class file says pin_rigs: false";
+  EXPECT_EQ(c.pace_ticks, 4);
   EXPECT_TRUE(fs::path(c.robot).is_absolute());
   EXPECT_EQ(BaseUrl(c, 8800), "http://127.0.0.1:8800");
 }
@@ -90,6 +92,22 @@ TEST(ClassConfigTest, BadFilesNameLineKeyAndWhatIsAllowed) {
         "server: {tls_cert: x.pem}\n");
     EXPECT_NE(e.find("go together"), std::string::npos) << e;
   }
+  {
+    const std::string e = ErrorOf(
+        "class: a\nrobot: config/robots/puma260.yaml\nstudents: [a]\ndata: d\n"
+        "limits: {pin_rigs: sometimes}\n");
+    EXPECT_NE(e.find("c.yaml:5"), std::string::npos) << e;
+    EXPECT_NE(e.find("sometimes"), std::string::npos) << e;
+  }
+  {
+    const std::string e = ErrorOf(std::string(kGood) + "rigs: {pace_ticks: 0}\n");
+    EXPECT_NE(e.find("c.yaml:7"), std::string::npos) << e;
+    EXPECT_NE(e.find("pace_ticks"), std::string::npos) << e;
+  }
+  EXPECT_FALSE(ParseClassConfig("class: a\nrobot: config/robots/puma260.yaml\nstudents: [a]\n"
+                                "data: d\nlimits: {pin_rigs: false}\n",
+                                "c.yaml", "/tmp/x")
+                   .pin_rigs);
 }
 
 TEST(TokenStoreTest, StoresOnlySaltedHashes) {
@@ -270,6 +288,17 @@ std::vector<int> Children() {
   return out;
 }
 
+// The CPUs a process may run on, as /proc/PID/status lists them ("0-1", "1").
+std::string CpusAllowed(int pid) {
+  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+  for (std::string line; std::getline(status, line);) {
+    if (line.rfind("Cpus_allowed_list:", 0) == 0) {
+      return line.substr(line.find_first_not_of(" \t", sizeof "Cpus_allowed_list:" - 1));
+    }
+  }
+  return "";
+}
+
 // Counts the live processes among `pids`.
 int Alive(const std::vector<int>& pids) {
   int alive = 0;
@@ -325,6 +354,15 @@ TEST_F(ClassServerTest, AStudentsRigStartsOnTheFirstVisitAndIsTheirsAlone) {
   EXPECT_TRUE(fs::exists(log));
   const std::vector<int> rig = Children();
   EXPECT_EQ(rig.size(), 3u) << "sim, control and logger";
+  // limits.pin_rigs (on by default): where the server may use two CPUs or more, the rig's three
+  // processes share the one the page names.
+  const int on_cpu = rigs["rigs"][0]["on_cpu"].get<int>();
+  if (CpusAllowed(::getpid()).find_first_of(",-") != std::string::npos) {
+    EXPECT_GE(on_cpu, 0);
+    for (const int pid : rig) EXPECT_EQ(CpusAllowed(pid), std::to_string(on_cpu)) << pid;
+  } else {
+    EXPECT_EQ(on_cpu, -1) << "one CPU: nothing to choose";
+  }
   r = Post("/teacher/api/rigs/alice/stop", tokens_["teacher"]);
   EXPECT_EQ(r->status, 200) << r->body;
   EXPECT_EQ(Alive(rig), 0) << "the stopped rig's processes ended";

@@ -298,6 +298,52 @@ TEST(SimNode, RealtimeNeverRunsAheadOfTheClockAndWaitsForEveryAnswer) {
   EXPECT_EQ(world.tick(), 11) << "the answer to tick 10 was in; tick 11's is not";
 }
 
+// --pace-ticks N (the class server's rigs): the sim waits until N ticks are due, then steps them
+// back to back, each with the answer to its own state; never a tick before the clock reached its
+// end, and no tick counted late for the batch's own lag.
+TEST(SimNode, RealtimeInBatchesStepsOnlyDueTicksWithTheirAnswers) {
+  core::Bus bus("memq://");
+  ArmWorld world(Puma(), core::Environment{});
+  TestClock clock;
+  clock.sleeping_moves_time = false;
+  NodeOptions options = Realtime(clock, {"a"});
+  options.pace_ticks = 4;
+  SimNode node(bus, world, core::Environment{}, options);
+  Participant a(bus, "a", {0, 0.2, 0, 0, 0, 0});
+  const double step = world.step_s();
+  node.Service(0);  // starts the clock
+  const auto service = [&node] {
+    for (int k = 0; k < 200; ++k) node.Service(0);
+  };
+  clock.Advance(3.9 * step);
+  service();
+  EXPECT_EQ(world.tick(), 0) << "three ticks due: the batch waits for the fourth";
+  clock.Advance(0.1 * step + 1e-7);
+  service();
+  EXPECT_EQ(world.tick(), 4) << "four due: all four, at once";
+  clock.Advance(2.5 * step);
+  service();
+  EXPECT_EQ(world.tick(), 4);
+  clock.Advance(1.5 * step);
+  service();
+  EXPECT_EQ(world.tick(), 8);
+  // Behind by more than a batch (a hiccup of 10 ticks): every due tick, and the overrun counted.
+  clock.Advance(10 * step);
+  service();
+  EXPECT_EQ(world.tick(), 18);
+  EXPECT_GT(node.counters().overruns, 0);
+  EXPECT_EQ(node.counters().commands_late, 0);
+  EXPECT_EQ(node.counters().watchdog_holds, 0);
+  EXPECT_EQ(node.counters().commands_accepted, 19) << "every tick stepped with its own answer";
+  // A participant that has not answered holds the batch, although its ticks are due.
+  a.silent = true;
+  clock.Advance(4 * step);
+  service();
+  EXPECT_EQ(world.tick(), 19) << "the answer to tick 18 was in; tick 19's is not";
+  options.pace_ticks = 65;
+  EXPECT_THROW(CheckNodeOptions(options), std::invalid_argument);
+}
+
 TEST(SimNode, RealtimeBehindTheClockCatchesUpThenSlipsWhenTooFarBehind) {
   core::Bus bus("memq://");
   ArmWorld world(Puma(), core::Environment{});

@@ -33,7 +33,8 @@ function row(rig) {
     <td>${text(rig.name)}</td><td class="${text(rig.state)}">${text(state)}</td>
     <td>${text(c.state || '-')}</td><td>${text(plan)}</td><td>${text(faults || '-')}</td>
     <td>${rtf}</td><td>${rig.streams > 0 ? 'page open' : ago(rig.idle_s)}</td>
-    <td>${rig.state === 'running' ? rig.cpu_percent.toFixed(0) + ' %' : '-'}</td>
+    <td>${rig.state === 'running' ? rig.cpu_percent.toFixed(0) + ' %' +
+          (rig.on_cpu >= 0 ? ` (CPU ${rig.on_cpu})` : '') : '-'}</td>
     <td><a href="/s/${encodeURIComponent(rig.name)}/" target="_blank">open (read-only)</a>
       <button data-verb="${verb}" data-name="${text(rig.name)}">${verb}</button>
       <button data-verb="restart" data-name="${text(rig.name)}">restart</button></td></tr>`;

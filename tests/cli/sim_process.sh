@@ -95,7 +95,8 @@ for bad in "--step 0.5|--step: step 0.5 s: allowed 0 < step <= 0.01 s" \
            "--participants a a|--participants a a: participant 'a' is listed twice" \
            "--lockstep-timeout -1|--lockstep-timeout -1: lockstep timeout -1 s: allowed > 0" \
            "--mode fast --duration -2|--duration -2: duration -2 s: allowed >= 0" \
-           "--state-every 0|--state-every: '0' is not allowed; allowed: a whole number >= 1"; do
+           "--state-every 0|--state-every: '0' is not allowed; allowed: a whole number >= 1" \
+           "--pace-ticks 65|--pace-ticks: '65' is not allowed; allowed: a whole number from 1 to 64"; do
   flags=${bad%%|*}
   # shellcheck disable=SC2086  # the flags are words
   "$SIRUPP_SIM" $flags --lcm-url memq:// >"$work/out" 2>&1; code=$?

@@ -23,3 +23,21 @@ def bin_dir():
 
 
 assert sys.executable.startswith("/usr/bin/"), "run the tests with Debian's /usr/bin/python3"
+
+
+@pytest.fixture(scope="session", autouse=True)
+def temporary_folders_in_pytests_own(tmp_path_factory):
+    """What the code under test keeps in new temporary folders for its user (a private rig's logs,
+    notebook 07's work folder) lands in pytest's temporary folder, which pytest prunes, instead of
+    piling up in /tmp run after run. Notebook kernels inherit TMPDIR."""
+    import tempfile
+    folder = str(tmp_path_factory.mktemp("tmp"))
+    saved_env, saved_dir = os.environ.get("TMPDIR"), tempfile.tempdir
+    os.environ["TMPDIR"] = folder
+    tempfile.tempdir = folder
+    yield
+    tempfile.tempdir = saved_dir
+    if saved_env is None:
+        os.environ.pop("TMPDIR", None)
+    else:
+        os.environ["TMPDIR"] = saved_env
