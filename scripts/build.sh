@@ -4,6 +4,9 @@
 #   scripts/build.sh --werror        build/        warnings are errors (CI; or SIRUPP_WERROR=1)
 #   scripts/build.sh --asan          build-asan/   AddressSanitizer + UndefinedBehaviorSanitizer
 #   scripts/build.sh --tsan          build-tsan/   ThreadSanitizer
+#                                    (sanitizer builds leave out the Python module and the
+#                                    benchmarks, which no test runs there; -DSIRUPP_BUILD_PYTHON=ON
+#                                    or -DSIRUPP_BUILD_BENCH=ON after the option puts them back)
 # Options may be combined (--asan --werror). Arguments after them go to cmake (e.g.
 # -DCMAKE_BUILD_TYPE=Debug). Prints the build directory on its last line.
 set -euo pipefail
@@ -31,6 +34,9 @@ generator=()
 if [[ ! -f "$build/CMakeCache.txt" ]] && command -v ninja >/dev/null; then generator=(-G Ninja); fi
 # SIRUPP_WERROR is passed every time, so a build directory configured with --werror once does not
 # keep it.
-cmake -S "$root" -B "$build" "${generator[@]}" -DSIRUPP_WERROR="$werror" -DSIRUPP_SANITIZER="$sanitizer" "$@" >&2
+parts=ON
+[[ -z "$sanitizer" ]] || parts=OFF
+cmake -S "$root" -B "$build" "${generator[@]}" -DSIRUPP_WERROR="$werror" -DSIRUPP_SANITIZER="$sanitizer" \
+  -DSIRUPP_BUILD_PYTHON="$parts" -DSIRUPP_BUILD_BENCH="$parts" "$@" >&2
 cmake --build "$build" -j "$(nproc)" >&2
 echo "$build"
