@@ -111,14 +111,14 @@ def percentile(values, p):
     return values[min(len(values) - 1, int(round(p / 100 * (len(values) - 1))))]
 
 
-def trial(bin_dir, src, n, seconds, start_times, first_port, pin=True):
+def trial(bin_dir, src, n, seconds, start_times, first_port, pin=True, pace_ticks=4):
     names = [f"s{i:02d}" for i in range(n)]
     run = ClassRun(bin_dir, src, names, max_rigs=n, extra_limits="" if pin else ", pin_rigs: false")
-    if first_port:
-        # Another class server on this machine (the class tests) leasing the same udpm ports would
-        # share its rigs' traffic: keep to a range of our own.
-        with open(run.class_file, "a") as f:
-            f.write(f"rigs: {{first_port: {first_port}, port_count: {max(n, 8)}}}\n")
+    # Another class server on this machine (the class tests) leasing the same udpm ports would
+    # share its rigs' traffic: keep to a range of our own (first_port 0: the class file's default).
+    ports = f"first_port: {first_port}, port_count: {max(n, 8)}, " if first_port else ""
+    with open(run.class_file, "a") as f:
+        f.write(f"rigs: {{{ports}pace_ticks: {pace_ticks}}}\n")
     run.start()
     streams, drivers = [], []
     try:
@@ -172,20 +172,23 @@ def main():
                         help="first udpm port of the rigs (0: the class file's default, 7900)")
     parser.add_argument("--no-pin", action="store_true",
                         help="limits.pin_rigs: false (the scheduler places every rig's processes)")
+    parser.add_argument("--pace-ticks", type=int, default=4,
+                        help="rigs.pace_ticks: each sim sleeps once per N ticks (1: every tick)")
     args = parser.parse_args()
     cores = os.cpu_count()
     counts = args.counts or list(range(2, 6 * cores + 1, 2))
     start_times = []
     best = 0
     print(f"class bench: {cores} cores, {args.seconds:.0f} s per trial, set VII in a loop per rig, "
-          f"one 30 Hz stream per rig, {'no rig pinned' if args.no_pin else 'each rig on one CPU'}",
+          f"one 30 Hz stream per rig, {'no rig pinned' if args.no_pin else 'each rig on one CPU'}, "
+          f"pace_ticks {args.pace_ticks}",
           flush=True)
     print(f"{'rigs':>4} {'rtf min':>8} {'rtf mean':>8} {'plans done':>10} {'failed':>6} "
           f"{'stream Hz min':>13} {'load':>6}", flush=True)
     for n in counts:
         rtf_min, rtf_mean, failed, done, rate, reasons = trial(
             args.bin_dir, args.source_dir, n, args.seconds, start_times, args.first_port,
-            not args.no_pin)
+            not args.no_pin, args.pace_ticks)
         holds = rtf_min >= 0.99 and failed == 0
         load = open("/proc/loadavg").read().split()[0]
         print(f"{n:>4} {rtf_min:>8.3f} {rtf_mean:>8.3f} {done:>10} {failed:>6} {rate:>13.1f} {load:>6}"

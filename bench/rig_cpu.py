@@ -62,14 +62,14 @@ def sim_time(stream):
     return ((stream.latest or {}).get("sim") or {}).get("sim_time_s")
 
 
-def round_(bin_dir, src, rigs, seconds, first_port, pin):
+def round_(bin_dir, src, rigs, seconds, first_port, pin, pace_ticks):
     names = [f"s{i:02d}" for i in range(rigs)]
     run = ClassRun(bin_dir, src, names, max_rigs=rigs, extra_limits="" if pin else ", pin_rigs: false")
-    if first_port:
-        # Another class server on this machine (a test, a second bench) leasing the same udpm ports
-        # would share its rigs' traffic: keep to a range of our own.
-        with open(run.class_file, "a") as f:
-            f.write(f"rigs: {{first_port: {first_port}, port_count: {max(rigs, 8)}}}\n")
+    # Another class server on this machine (a test, a second bench) leasing the same udpm ports
+    # would share its rigs' traffic: keep to a range of our own (0: the class file's default).
+    ports = f"first_port: {first_port}, port_count: {max(rigs, 8)}, " if first_port else ""
+    with open(run.class_file, "a") as f:
+        f.write(f"rigs: {{{ports}pace_ticks: {pace_ticks}}}\n")
     run.start()
     streams, drivers = [], []
     try:
@@ -123,10 +123,12 @@ def main():
                         help="first udpm port of the rigs (0: the class file's default, 7900)")
     parser.add_argument("--no-pin", action="store_true",
                         help="limits.pin_rigs: false (the scheduler places every rig's processes)")
+    parser.add_argument("--pace-ticks", type=int, default=4,
+                        help="rigs.pace_ticks: each sim sleeps once per N ticks (1: every tick)")
     parser.add_argument("--compare-pin", action="store_true",
                         help="every round twice: pinned, then not (same minutes, same load)")
     args = parser.parse_args()
-    print(f"rig CPU: {args.rigs} rig(s), set VII in a loop, one 30 Hz stream each, "
+    print(f"rig CPU: {args.rigs} rig(s), pace_ticks {args.pace_ticks}, set VII in a loop, one 30 Hz stream each, "
           f"{args.seconds:.0f} s per round; CPU seconds per simulated second (% of one core "
           f"at real time)", flush=True)
     variants = [True, False] if args.compare_pin else [not args.no_pin]
@@ -134,7 +136,8 @@ def main():
     for r in range(args.rounds):
         for pin in variants:
             shares, rtf, done, failed, reasons = round_(args.bin_dir, args.source_dir, args.rigs,
-                                                        args.seconds, args.first_port, pin)
+                                                        args.seconds, args.first_port, pin,
+                                                        args.pace_ticks)
             load = open("/proc/loadavg").read().split()[0]
             total = sum(shares.values())
             line = "  ".join(f"{k} {100 * v:5.1f} %" for k, v in sorted(shares.items()))

@@ -360,6 +360,13 @@ TEST_F(ClassServerTest, AStudentsRigStartsOnTheFirstVisitAndIsTheirsAlone) {
   if (CpusAllowed(::getpid()).find_first_of(",-") != std::string::npos) {
     EXPECT_GE(on_cpu, 0);
     for (const int pid : rig) EXPECT_EQ(CpusAllowed(pid), std::to_string(on_cpu)) << pid;
+    // A second rig goes on another CPU: the one with the fewest rigs.
+    r = Post("/s/bob/class/start", tokens_["bob"]);
+    ASSERT_EQ(r->status, 200) << r->body;
+    const Json both = Json::parse(Get("/teacher/api/rigs", tokens_["teacher"])->body);
+    EXPECT_GE(both["rigs"][1]["on_cpu"].get<int>(), 0);
+    EXPECT_NE(both["rigs"][1]["on_cpu"].get<int>(), on_cpu);
+    EXPECT_EQ(Post("/teacher/api/rigs/bob/stop", tokens_["teacher"])->status, 200);
   } else {
     EXPECT_EQ(on_cpu, -1) << "one CPU: nothing to choose";
   }
