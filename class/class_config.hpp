@@ -10,7 +10,7 @@
 //   students: [alice, bob, carol]     # names as above; 'teacher' is reserved
 //   data: robotics-2026-data          # relative to the class file's folder
 //   limits: {max_rigs: 12, idle_timeout_s: 900, rig_memory_mb: 2048, rig_nice: 5,
-//            pin_rigs: true}
+//            pin_rigs: false}
 //   server: {listen: 127.0.0.1, port: 8800, public_url: "https://lab.example.edu",
 //            tls_cert: cert.pem, tls_key: key.pem}
 //   rigs: {first_port: 7900, port_count: 200,   # the udpm ports rigs lease (ttl=0)
@@ -53,7 +53,7 @@ struct ClassConfig {
   double idle_timeout_s = 900;
   int rig_memory_mb = 2048;  // address-space limit of each rig process; 0 = none
   int rig_nice = 5;          // niceness of each rig process (0..19)
-  bool pin_rigs = true;      // each rig's processes on one CPU, the one with the fewest rigs
+  bool pin_rigs = false;     // each rig's processes on one CPU, the one with the fewest rigs
   std::string listen = "127.0.0.1";
   int port = 8800;         // 0 = any free port
   std::string public_url;  // the address in the tokens file; "" = http(s)://listen:port

@@ -42,7 +42,7 @@ TEST(ClassConfigTest, ReadsAGoodFile) {
   EXPECT_EQ(c.max_rigs, 2);
   EXPECT_EQ(c.idle_timeout_s, 60);
   EXPECT_EQ(c.listen, "127.0.0.1");
-  EXPECT_TRUE(c.pin_rigs) << "each rig on one CPU unless the class file says pin_rigs: false";
+  EXPECT_FALSE(c.pin_rigs) << "the scheduler places the rigs unless the class file says otherwise";
   EXPECT_EQ(c.pace_ticks, 4);
   EXPECT_TRUE(fs::path(c.robot).is_absolute());
   EXPECT_EQ(BaseUrl(c, 8800), "http://127.0.0.1:8800");
@@ -104,10 +104,10 @@ TEST(ClassConfigTest, BadFilesNameLineKeyAndWhatIsAllowed) {
     EXPECT_NE(e.find("c.yaml:7"), std::string::npos) << e;
     EXPECT_NE(e.find("pace_ticks"), std::string::npos) << e;
   }
-  EXPECT_FALSE(ParseClassConfig("class: a\nrobot: config/robots/puma260.yaml\nstudents: [a]\n"
-                                "data: d\nlimits: {pin_rigs: false}\n",
-                                "c.yaml", "/tmp/x")
-                   .pin_rigs);
+  EXPECT_TRUE(ParseClassConfig("class: a\nrobot: config/robots/puma260.yaml\nstudents: [a]\n"
+                               "data: d\nlimits: {pin_rigs: true}\n",
+                               "c.yaml", "/tmp/x")
+                  .pin_rigs);
 }
 
 TEST(TokenStoreTest, StoresOnlySaltedHashes) {
@@ -175,6 +175,7 @@ class ClassServerTest : public ::testing::Test {
     if (bin == nullptr) GTEST_SKIP() << "SIRUPP_BIN_DIR not set (ctest sets it)";
     dir_ = TempDir("sirupp-class-test");
     config_ = ParseClassConfig(kGood, "class.yaml", dir_);
+    config_.pin_rigs = true;  // off by default; its placement is checked here
     harness_ = std::make_unique<testing::TestClassServer>(config_, bin, 20);
     tokens_ = harness_->tokens;
     client_ = harness_->client.get();
@@ -354,8 +355,8 @@ TEST_F(ClassServerTest, AStudentsRigStartsOnTheFirstVisitAndIsTheirsAlone) {
   EXPECT_TRUE(fs::exists(log));
   const std::vector<int> rig = Children();
   EXPECT_EQ(rig.size(), 3u) << "sim, control and logger";
-  // limits.pin_rigs (on by default): where the server may use two CPUs or more, the rig's three
-  // processes share the one the page names.
+  // limits.pin_rigs (on in this fixture): where the server may use two CPUs or more, the rig's
+  // three processes share the one the page names.
   const int on_cpu = rigs["rigs"][0]["on_cpu"].get<int>();
   if (CpusAllowed(::getpid()).find_first_of(",-") != std::string::npos) {
     EXPECT_GE(on_cpu, 0);
