@@ -61,7 +61,7 @@ struct ClassConfig {
   std::string tls_key;
   int first_port = 7900;  // udpm ports leased by the rigs
   int port_count = 200;
-  int pace_ticks = 4;  // sirupp-sim --pace-ticks of every rig (1..64)
+  int pace_ticks = 4;                     // sirupp-sim --pace-ticks of every rig (1..64)
   std::optional<RealArmConfig> real_arm;  // none: the class has no real arm
   // grading: (class/submissions.hpp). Without a suite, submissions are built and run on the rig
   // but not graded, and the real arm takes none.

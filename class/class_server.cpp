@@ -201,8 +201,8 @@ struct Seat {
   int starts = 0;
   double start_s = 0;
   double cpu = 0;
-  int on_cpu = -1;  // the CPU the rig's processes run on (limits.pin_rigs), else -1
-  int shown_cpu = -1;  // on_cpu for the pages (under info_mutex)
+  // The CPU the rig's processes run on (limits.pin_rigs), else -1; counted under start_mutex.
+  std::atomic<int> on_cpu{-1};
   int port = 0;
   std::string started_at;  // wall clock
   std::atomic<int64_t> activity_ns{0};
@@ -421,7 +421,7 @@ struct ClassServer::Impl {
       spec.bin_dir = options.bin_dir;
       spec.folder = folder;
       spec.port = seat.lease.port();
-      spec.limits = ChildLimits{config.rig_nice, config.rig_memory_mb, seat.on_cpu};
+      spec.limits = ChildLimits{config.rig_nice, config.rig_memory_mb, seat.on_cpu.load()};
       spec.pace_ticks = config.pace_ticks;
       spec.controller = submissions->RigController(seat.name);
       {
@@ -435,7 +435,6 @@ struct ClassServer::Impl {
       seat.start_s = rig->start_seconds();
       seat.port = spec.port;
       seat.state = "running";
-      seat.shown_cpu = seat.on_cpu;
       ++seat.starts;
       const std::time_t now = std::time(nullptr);
       std::tm local{};
@@ -446,7 +445,7 @@ struct ClassServer::Impl {
       seat.rig = std::move(rig);
       seat.Touch();
       Log("started " + seat.name + "'s rig on " + RigUrl(spec.port) +
-          (seat.on_cpu >= 0 ? " (CPU " + std::to_string(seat.on_cpu) + ")" : "") + " in " +
+          (spec.limits.cpu >= 0 ? " (CPU " + std::to_string(spec.limits.cpu) + ")" : "") + " in " +
           std::to_string(seat.start_s).substr(0, 4) + " s");
       return "";
     } catch (const std::exception& e) {
@@ -472,7 +471,6 @@ struct ClassServer::Impl {
       seat.state = failed ? "failed" : "stopped";
       seat.last_stop = why;
       seat.cpu = 0;
-      seat.shown_cpu = -1;
     }
     if (real_arm) real_arm->RigStopped(seat.name, why);
     rig->Stop();
@@ -495,10 +493,10 @@ struct ClassServer::Impl {
 
   void ReleaseCpu(Seat& seat) {
     const std::lock_guard<std::mutex> count_lock(start_mutex);
-    if (seat.on_cpu < 0) return;
-    const auto at = std::find(cpus.begin(), cpus.end(), seat.on_cpu);
+    const int cpu = seat.on_cpu.exchange(-1);
+    if (cpu < 0) return;
+    const auto at = std::find(cpus.begin(), cpus.end(), cpu);
     if (at != cpus.end()) --rigs_on_cpu[static_cast<size_t>(at - cpus.begin())];
-    seat.on_cpu = -1;
   }
 
   void Monitor() {
@@ -545,7 +543,7 @@ struct ClassServer::Impl {
                  {"start_s", seat.start_s},
                  {"last_stop", seat.last_stop},
                  {"cpu_percent", seat.cpu},
-                 {"on_cpu", seat.shown_cpu},
+                 {"on_cpu", seat.on_cpu.load()},
                  {"port", seat.port},
                  {"started_at", seat.started_at},
                  {"idle_s", seat.IdleSeconds()},

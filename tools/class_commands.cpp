@@ -32,11 +32,10 @@ int RunClassCheck(const std::vector<std::string>& args, std::ostream& out) {
                              "Checks a class file; prints what it sets up.\n");
   const classroom::ClassConfig config = classroom::LoadClassConfig(parsed.String("class-file"));
   out << config.file << ": ok: class " << config.name << ", " << config.students.size()
-      << " students, robot " << config.robot << ", at most " << config.max_rigs
-      << " rigs (" << (config.pin_rigs ? "each on one CPU, " : "") << "sims pacing "
-      << config.pace_ticks << " ticks per sleep), idle timeout "
-      << config.idle_timeout_s << " s, data " << config.data_dir
-      << ", listens on " << config.listen << ":" << config.port
+      << " students, robot " << config.robot << ", at most " << config.max_rigs << " rigs ("
+      << (config.pin_rigs ? "each on one CPU, " : "") << "sims pacing " << config.pace_ticks
+      << " ticks per sleep), idle timeout " << config.idle_timeout_s << " s, data "
+      << config.data_dir << ", listens on " << config.listen << ":" << config.port
       << (config.tls_cert.empty() ? "" : " (HTTPS)") << "\n";
   if (config.real_arm) {
     out << "  real arm: the bridge on " << config.real_arm->lcm_url << ", turns of "
