@@ -111,14 +111,21 @@ def percentile(values, p):
     return values[min(len(values) - 1, int(round(p / 100 * (len(values) - 1))))]
 
 
-def trial(bin_dir, src, n, seconds, start_times, first_port, pin=True, pace_ticks=4):
+def bench_class(bin_dir, src, n, first_port, pin, pace_ticks):
+    """A class of n students s00.. with limits.pin_rigs and rigs.pace_ticks as given. Another class
+    server on this machine (the class tests) leasing the same udpm ports would share its rigs'
+    traffic: the rigs keep to ports from first_port on (0: the class file's default range)."""
     names = [f"s{i:02d}" for i in range(n)]
-    run = ClassRun(bin_dir, src, names, max_rigs=n, extra_limits="" if pin else ", pin_rigs: false")
-    # Another class server on this machine (the class tests) leasing the same udpm ports would
-    # share its rigs' traffic: keep to a range of our own (first_port 0: the class file's default).
+    run = ClassRun(bin_dir, src, names, max_rigs=n,
+                   extra_limits=f", pin_rigs: {'true' if pin else 'false'}")
     ports = f"first_port: {first_port}, port_count: {max(n, 8)}, " if first_port else ""
     with open(run.class_file, "a") as f:
         f.write(f"rigs: {{{ports}pace_ticks: {pace_ticks}}}\n")
+    return run, names
+
+
+def trial(bin_dir, src, n, seconds, start_times, first_port, pin=False, pace_ticks=4):
+    run, names = bench_class(bin_dir, src, n, first_port, pin, pace_ticks)
     run.start()
     streams, drivers = [], []
     try:
@@ -170,8 +177,8 @@ def main():
     parser.add_argument("--seconds", type=float, default=30)
     parser.add_argument("--first-port", type=int, default=9431,
                         help="first udpm port of the rigs (0: the class file's default, 7900)")
-    parser.add_argument("--no-pin", action="store_true",
-                        help="limits.pin_rigs: false (the scheduler places every rig's processes)")
+    parser.add_argument("--pin", action="store_true",
+                        help="limits.pin_rigs: true (each rig's processes on one CPU; default off)")
     parser.add_argument("--pace-ticks", type=int, default=4,
                         help="rigs.pace_ticks: each sim sleeps once per N ticks (1: every tick)")
     args = parser.parse_args()
@@ -180,7 +187,7 @@ def main():
     start_times = []
     best = 0
     print(f"class bench: {cores} cores, {args.seconds:.0f} s per trial, set VII in a loop per rig, "
-          f"one 30 Hz stream per rig, {'no rig pinned' if args.no_pin else 'each rig on one CPU'}, "
+          f"one 30 Hz stream per rig, {'each rig on one CPU' if args.pin else 'no rig pinned'}, "
           f"pace_ticks {args.pace_ticks}",
           flush=True)
     print(f"{'rigs':>4} {'rtf min':>8} {'rtf mean':>8} {'plans done':>10} {'failed':>6} "
@@ -188,7 +195,7 @@ def main():
     for n in counts:
         rtf_min, rtf_mean, failed, done, rate, reasons = trial(
             args.bin_dir, args.source_dir, n, args.seconds, start_times, args.first_port,
-            not args.no_pin, args.pace_ticks)
+            args.pin, args.pace_ticks)
         holds = rtf_min >= 0.99 and failed == 0
         load = open("/proc/loadavg").read().split()[0]
         print(f"{n:>4} {rtf_min:>8.3f} {rtf_mean:>8.3f} {done:>10} {failed:>6} {rate:>13.1f} {load:>6}"

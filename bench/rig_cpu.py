@@ -17,7 +17,7 @@ shared machine. The server's line includes what is the same for any number of ri
 threads); with --rigs N it is divided by N.
 
 Usage: rig_cpu.py BIN_DIR SOURCE_DIR [--seconds 20] [--rigs 1] [--rounds 1] [--first-port 9431]
-                  [--no-pin | --compare-pin]
+                  [--pace-ticks 4] [--pin | --compare-pin]
 --compare-pin runs each round twice, with the class file's limits.pin_rigs on (each rig's
 processes on one CPU) and off, and prints the ratio of the medians.
 The rigs lease udpm ports from --first-port on, away from the class file's default range (7900),
@@ -32,10 +32,8 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from class_bench import Driver, Stream, end_rigs  # noqa: E402
+from class_bench import Driver, Stream, bench_class, end_rigs  # noqa: E402
 
-sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "tests", "class"))
-from class_run import ClassRun  # noqa: E402
 
 TICKS = os.sysconf("SC_CLK_TCK")
 
@@ -63,13 +61,7 @@ def sim_time(stream):
 
 
 def round_(bin_dir, src, rigs, seconds, first_port, pin, pace_ticks):
-    names = [f"s{i:02d}" for i in range(rigs)]
-    run = ClassRun(bin_dir, src, names, max_rigs=rigs, extra_limits="" if pin else ", pin_rigs: false")
-    # Another class server on this machine (a test, a second bench) leasing the same udpm ports
-    # would share its rigs' traffic: keep to a range of our own (0: the class file's default).
-    ports = f"first_port: {first_port}, port_count: {max(rigs, 8)}, " if first_port else ""
-    with open(run.class_file, "a") as f:
-        f.write(f"rigs: {{{ports}pace_ticks: {pace_ticks}}}\n")
+    run, names = bench_class(bin_dir, src, rigs, first_port, pin, pace_ticks)
     run.start()
     streams, drivers = [], []
     try:
@@ -121,8 +113,8 @@ def main():
     parser.add_argument("--rounds", type=int, default=1)
     parser.add_argument("--first-port", type=int, default=9431,
                         help="first udpm port of the rigs (0: the class file's default, 7900)")
-    parser.add_argument("--no-pin", action="store_true",
-                        help="limits.pin_rigs: false (the scheduler places every rig's processes)")
+    parser.add_argument("--pin", action="store_true",
+                        help="limits.pin_rigs: true (each rig's processes on one CPU; default off)")
     parser.add_argument("--pace-ticks", type=int, default=4,
                         help="rigs.pace_ticks: each sim sleeps once per N ticks (1: every tick)")
     parser.add_argument("--compare-pin", action="store_true",
@@ -131,7 +123,7 @@ def main():
     print(f"rig CPU: {args.rigs} rig(s), pace_ticks {args.pace_ticks}, set VII in a loop, one 30 Hz stream each, "
           f"{args.seconds:.0f} s per round; CPU seconds per simulated second (% of one core "
           f"at real time)", flush=True)
-    variants = [True, False] if args.compare_pin else [not args.no_pin]
+    variants = [True, False] if args.compare_pin else [args.pin]
     results = {pin: [] for pin in variants}
     for r in range(args.rounds):
         for pin in variants:
@@ -148,9 +140,7 @@ def main():
                   flush=True)
             results[pin].append((shares, total))
     medians = {}
-    for pin in variants:
-        if args.rounds < 2 and len(variants) < 2:
-            break
+    for pin in variants if args.rounds > 1 or len(variants) > 1 else []:
         kinds = sorted(results[pin][0][0])
         med = {k: statistics.median(s.get(k, 0.0) for s, _ in results[pin]) for k in kinds}
         medians[pin] = statistics.median(t for _, t in results[pin])
