@@ -2,6 +2,8 @@
 
 #include <poll.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <iostream>
 #include <sirupp/robot_model_t.hpp>
@@ -16,11 +18,14 @@ namespace {
 
 constexpr double kPi = 3.14159265358979323846;
 using Clock = std::chrono::steady_clock;
-// The hub thread's pause between two rounds of handling. On udpm the per-tick channels wait in the
-// tick reader's socket meanwhile and only each one's newest is decoded; otherwise (memq://, or
-// --lcm-ticks) LCM's queue of one message per channel does the same. What the page gets is at
-// most one round (5 ms) old.
+// Through LCM (memq://, or --lcm-ticks) the hub thread pauses this long between two rounds of
+// handling; LCM's queue of one message per channel keeps each per-tick channel's newest meanwhile.
 constexpr std::chrono::milliseconds kBatchPeriod{5};
+// With the tick reader (udpm), LCM's own messages (statuses, replies, heartbeats: a few dozen a
+// second) are handled as they come, and the per-tick channels (1953 Hz each) wait in the reader's
+// socket and are taken this often: each channel's newest, fresher than a 60 Hz page needs. The hub
+// thread then wakes about 80 times a second rather than 400 (a class server has one per rig).
+constexpr std::chrono::milliseconds kTickPeriod{15};
 constexpr int kNewestOnly = 1;
 
 Json Vec(const double* values, size_t n) {
@@ -156,12 +161,39 @@ void PanelHub::Run() {
   // Batches: the per-tick channels come at 1953 Hz each; waking and decoding for every message
   // cost most of the panel's CPU (LCM's receive thread wakes per datagram: core/tick_reader.hpp).
   // The page samples at most 60 Hz.
+  auto next_ticks = Clock::now();
   while (!stopping()) {
-    ServiceOnce(50);
-    std::this_thread::sleep_for(kBatchPeriod);
+    if (!ticks_) {
+      ServiceOnce(50);
+      std::this_thread::sleep_for(kBatchPeriod);
+      continue;
+    }
+    const auto now = Clock::now();
+    if (now >= next_ticks) {
+      {
+        const std::lock_guard<std::mutex> lock(mutex_);
+        ticks_->DeliverNewest();
+      }
+      next_ticks = std::max(next_ticks + kTickPeriod, now);
+    }
+    const auto wait = std::chrono::ceil<std::chrono::milliseconds>(next_ticks - Clock::now());
+    ServiceLcm(static_cast<int>(std::clamp<int64_t>(wait.count(), 1, 50)));
   }
   const std::lock_guard<std::mutex> lock(mutex_);
   heartbeat_.Publish(core::ProcessState::kStopping, "");
+}
+
+void PanelHub::ServiceLcm(int timeout_ms) {
+  pollfd fd{};
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    fd.fd = bus_.Fileno();
+  }
+  fd.events = POLLIN;
+  ::poll(&fd, 1, timeout_ms);  // without the lock, so HTTP threads can publish meanwhile
+  const std::lock_guard<std::mutex> lock(mutex_);
+  bus_.HandleAvailable(2000);
+  heartbeat_.PublishIfDue(core::ProcessState::kRunning, model_ ? "model " + model_->name : "");
 }
 
 void PanelHub::ServiceOnce(int timeout_ms) {

@@ -661,8 +661,12 @@ void SimNode::ServiceRealtime(int max_wait_ms) {
     return world_.tick() < batch_end_tick_ || at >= wake_at();
   };
   if (bus_.reads_directly()) {
-    if (!may_step(Now())) options_.clock.sleep_until(wake_at());
-    bus_.Handle(0);
+    const bool slept = !may_step(Now());
+    if (slept) options_.clock.sleep_until(wake_at());
+    // Inside a batch the answer to the state just sent is seldom in yet: the wait below polls for
+    // it (and LCM's messages) once, so a poll here would only find nothing (one system call of
+    // the tick's few).
+    if (slept || GateOpen() || max_wait_ms <= 0) bus_.Handle(0);
   } else {
     bus_.HandleAvailable();
   }
