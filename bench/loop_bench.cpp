@@ -28,19 +28,31 @@
 //      through sirupp-controller-host (IsolatedEffortLaw, as sirupp-control --controller runs it):
 //      median and p99 of C calls each, in alternating blocks of 1000.
 //
+//  (e) alone, with --scale K1,K2,...: the exchange of (a) as a class server's rigs make it, with
+//      nothing else: K pairs at once, each on a port of its own, a ping paced like `sirupp-sim
+//      --pace-ticks P` (a state per servo tick in real time) and a pong answering like
+//      sirupp-control (command + ARM_SETPOINT), both reading directly (Bus::ReadDirectly). Prints
+//      their real-time factor and CPU time per tick, and the pairs one core could hold: the ceiling
+//      this machine puts on rigs per core for any rig whose sim and controller are processes that
+//      exchange every tick (issue 32; compare bench/rig_cpu.py's cost of a whole rig).
+//
 // Usage: bench_loop [--port P] [--round-trips N] [--warmup W] [--duration D] [--rounds R]
 //                   [--model FILE] [--bin DIR] [--dump FILE] [--law-calls C] [--law-only]
+//        bench_loop --scale K1,K2,... [--scale-seconds S] [--pace-ticks P] [--port P]
+//   K: pairs at once, 1..64, one run each; S: wall seconds per run (10); P: 1..64 (4).
 //   P: udpm port (default 20000 + pid % 10000); N: timed round trips per round (10000) after W
 //   (1000); D: simulated seconds per loop run (2); R: rounds (5); DIR: where sirupp-sim and
 //   sirupp-control are (default: this program's directory); FILE: every timed round trip, in us;
 //   C: timed Update calls of each kind in (d) (20000); --law-only: only (d).
-// Internal: bench_loop --pong URL [--setpoint] answers round trips (see RunPong).
+// Internal: bench_loop --pong URL [--setpoint] [--direct] answers round trips (see RunPong);
+// bench_loop --ping URL --scale-seconds S --pace-ticks P is a paced ping of (e) (RunPacedPing).
 
 #include <fcntl.h>
 #include <poll.h>
 #include <signal.h>
 #include <sys/prctl.h>
 #include <sys/wait.h>
+#include <time.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -50,6 +62,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <memory>
 #include <numeric>
 #include <sirupp/arm_command_t.hpp>
 #include <sirupp/arm_state_t.hpp>
@@ -255,6 +268,13 @@ class Child {
 
 std::string SelfPath() { return std::filesystem::read_symlink("/proc/self/exe").string(); }
 
+// This process's CPU time (every thread, user + system), exact (not sampled at the timer tick).
+double ProcessCpuSeconds() {
+  timespec now{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &now);
+  return static_cast<double>(now.tv_sec) + static_cast<double>(now.tv_nsec) * 1e-9;
+}
+
 // ---- Messages -----------------------------------------------------------------------------------
 
 // An arm state of the model's size with plausible values (sizes are what matter on the wire).
@@ -295,7 +315,7 @@ sirupp::servo_setpoint_t SampleSetpoint(int joints) {
 // The pong role: answers each arm_state_t on SIM_ARM_STATE with an arm_command_t of the same tick
 // on SIM_ARM_COMMAND (and, with `setpoint`, then a servo_setpoint_t on ARM_SETPOINT, as
 // sirupp-control does). A negative tick ends it.
-int RunPong(const std::string& url, bool setpoint, const RobotModel& model) {
+int RunPong(const std::string& url, bool setpoint, bool direct, const RobotModel& model) {
   const sirupp::core::Channels channels;
   sirupp::core::Bus bus(url);
   sirupp::arm_command_t answer = sirupp::core::ToMessage(SampleCommand(model), 0);
@@ -320,11 +340,15 @@ int RunPong(const std::string& url, bool setpoint, const RobotModel& model) {
         }
       },
       1000);
+  // As sirupp-control reads its states: from a socket of its own, in this thread (core/bus.hpp).
+  if (direct) bus.ReadDirectly({bus.FullName(channels.sim_arm_state)}, kParticipant);
   std::printf("%s\n", kPongReady);
   std::fflush(stdout);
+  const double cpu_start = ProcessCpuSeconds();
   while (!quit) {
     if (bus.Handle(1000) == 0 && getppid() == 1) break;  // the benchmark is gone
   }
+  std::printf("pong cpu %.6f s\n", ProcessCpuSeconds() - cpu_start);
   return 0;
 }
 
@@ -663,6 +687,146 @@ void PrintLawIsolation(const LawTimes& times, const std::string& library) {
               Percentile(times.isolated_us, 0.99) - Percentile(times.in_process_us, 0.99));
 }
 
+// ---- (e) the exchange alone, at a class's scale ------------------------------------------------
+
+// The sim role without the sim: sends an arm_state_t each servo tick and waits for its answer,
+// paced as `sirupp-sim --mode realtime --pace-ticks P` (sleeps until P ticks are due, then
+// exchanges them back to back; never ahead of the wall clock), reading the answers directly as
+// sirupp-sim does. For `seconds` of wall time after a first exchange; then prints the ticks, the
+// wall time and its CPU time, and ends the pong.
+int RunPacedPing(const std::string& url, double seconds, int pace, const RobotModel& model) {
+  const sirupp::core::Channels channels;
+  sirupp::core::Bus bus(url);
+  int64_t answered = -1;
+  bus.Subscribe<sirupp::arm_command_t>(
+      channels.sim_arm_command,
+      [&answered](const sirupp::arm_command_t& message, const sirupp::core::ReceiveInfo&) {
+        answered = std::max(answered, message.tick);
+      },
+      1000);
+  bus.ReadDirectly({bus.FullName(channels.sim_arm_command)}, "sirupp-sim");
+  sirupp::arm_state_t state = sirupp::core::ToMessage(SampleState(model), 0);
+  state.tick = 0;
+  for (int attempt = 0; answered < 0; ++attempt) {
+    if (attempt == 50) throw std::runtime_error("the pong process never answered on " + url);
+    bus.Publish(channels.sim_arm_state, state);
+    while (bus.Handle(100) > 0 && answered < 0) {
+    }
+  }
+  std::printf("ping ready\n");
+  std::fflush(stdout);
+  const double step = model.servo_tick_s;
+  const auto at_tick = [step](int64_t ticks) {
+    return std::chrono::duration_cast<Clock::duration>(
+        std::chrono::duration<double>(static_cast<double>(ticks) * step));
+  };
+  const double cpu_start = ProcessCpuSeconds();
+  const Clock::time_point start = Clock::now();
+  const Clock::time_point end = start + at_tick(static_cast<int64_t>(seconds / step));
+  int64_t tick = 0;
+  while (Clock::now() < end) {
+    const auto due = static_cast<int64_t>(std::floor(Seconds(Clock::now() - start) / step));
+    if (due - tick < pace) {
+      std::this_thread::sleep_until(start + at_tick(tick + pace));
+      continue;
+    }
+    while (tick < due) {
+      state.tick = ++tick;
+      state.seq = tick;
+      state.utime = tick * 512;
+      bus.Publish(channels.sim_arm_state, state);
+      while (answered < tick) {
+        if (bus.Handle(2000) == 0) {
+          throw std::runtime_error("no answer to tick " + std::to_string(tick) + " on " + url);
+        }
+      }
+    }
+  }
+  const double wall = Seconds(Clock::now() - start);
+  const double cpu = ProcessCpuSeconds() - cpu_start;
+  state.tick = -1;
+  bus.Publish(channels.sim_arm_state, state);
+  std::printf("ping done %lld ticks %.6f s cpu %.6f s\n", static_cast<long long>(tick), wall, cpu);
+  return 0;
+}
+
+struct ScaleRun {
+  int pairs = 0;
+  double factor_min = 0, factor_mean = 0;  // ticks x step / wall time, over the pairs
+  double ping_us = 0, pong_us = 0;         // CPU per tick, mean over the pairs
+};
+
+// K pairs at once, each on a port of its own (as the class server's rigs): a pong (the control
+// role: answer + ARM_SETPOINT each tick, states read directly) and a paced ping.
+ScaleRun MeasureScale(const std::string& model_file, const RobotModel& model, int port, int pairs,
+                      double seconds, int pace) {
+  std::vector<std::unique_ptr<Child>> pongs, pings;
+  for (int k = 0; k < pairs; ++k) {
+    const std::string url = "udpm://239.255.76.67:" + std::to_string(port + k) + "?ttl=0";
+    pongs.push_back(std::make_unique<Child>(std::vector<std::string>{
+        SelfPath(), "--pong", url, "--setpoint", "--direct", "--model", model_file}));
+    pongs.back()->WaitForLine(kPongReady, 10);
+  }
+  for (int k = 0; k < pairs; ++k) {
+    const std::string url = "udpm://239.255.76.67:" + std::to_string(port + k) + "?ttl=0";
+    pings.push_back(std::make_unique<Child>(std::vector<std::string>{
+        SelfPath(), "--ping", url, "--scale-seconds", std::to_string(seconds), "--pace-ticks",
+        std::to_string(pace), "--model", model_file}));
+  }
+  ScaleRun run;
+  run.pairs = pairs;
+  std::vector<double> factors;
+  double ping_cpu = 0, pong_cpu = 0;
+  int64_t ticks = 0;
+  for (int k = 0; k < pairs; ++k) {
+    const std::string done = pings[k]->WaitForLine("ping done", seconds + 30);
+    long long n = 0;
+    double wall = 0, cpu = 0;
+    if (std::sscanf(done.c_str(), "ping done %lld ticks %lf s cpu %lf s", &n, &wall, &cpu) != 3 ||
+        n <= 0 || !(wall > 0)) {
+      throw std::runtime_error("pair " + std::to_string(k) + ": cannot read '" + done + "'");
+    }
+    factors.push_back(static_cast<double>(n) * model.servo_tick_s / wall);
+    ticks += n;
+    ping_cpu += cpu;
+    const std::string pong = pongs[k]->WaitForLine("pong cpu", 10);
+    double pong_seconds = 0;
+    if (std::sscanf(pong.c_str(), "pong cpu %lf s", &pong_seconds) != 1) {
+      throw std::runtime_error("pair " + std::to_string(k) + ": cannot read '" + pong + "'");
+    }
+    pong_cpu += pong_seconds;
+  }
+  for (auto& child : pings) child->Wait(5);
+  for (auto& child : pongs) child->Wait(5);
+  run.factor_min = *std::min_element(factors.begin(), factors.end());
+  run.factor_mean = Mean(factors);
+  run.ping_us = ping_cpu / static_cast<double>(ticks) * 1e6;
+  run.pong_us = pong_cpu / static_cast<double>(ticks) * 1e6;
+  return run;
+}
+
+void PrintScale(const RobotModel& model, const std::vector<ScaleRun>& runs, int pace) {
+  const double rate = 1.0 / model.servo_tick_s;
+  std::printf(
+      "\n(e) the exchange alone at a class's scale: K pairs at once, each a paced ping (the sim's "
+      "part: a state per tick, --pace-ticks %d) and a pong (the controller's: answer + "
+      "ARM_SETPOINT), no physics and no control law, on ports of their own; CPU time of both per "
+      "tick\n",
+      pace);
+  std::printf("  %5s %9s %9s %10s %10s %10s %14s\n", "pairs", "rtf min", "rtf mean", "ping us",
+              "pong us", "pair us", "pairs per core");
+  for (const ScaleRun& run : runs) {
+    const double pair_us = run.ping_us + run.pong_us;
+    std::printf("  %5d %9.3f %9.3f %10.1f %10.1f %10.1f %14.1f\n", run.pairs, run.factor_min,
+                run.factor_mean, run.ping_us, run.pong_us, pair_us, 1e6 / (pair_us * rate));
+  }
+  std::printf(
+      "  pairs per core = 1 / (pair us x %.1f ticks/s): the most rigs one core could hold if a "
+      "rig cost nothing but this exchange (no physics, no controller, no logger, no page). A rig "
+      "costs more: compare bench/rig_cpu.py; goal of issue 32: 6 rigs per core\n",
+      rate);
+}
+
 // ---- main ---------------------------------------------------------------------------------------
 
 struct Options {
@@ -676,8 +840,13 @@ struct Options {
   std::string dump;      // file for the round-trip samples, one per line (us)
   std::string pong_url;  // internal role
   bool pong_setpoint = false;
-  int law_calls = 20000;  // (d): timed Update calls of each kind
-  bool law_only = false;  // only (d)
+  int law_calls = 20000;      // (d): timed Update calls of each kind
+  bool law_only = false;      // only (d)
+  std::vector<int> scale;     // (e) alone: pairs per run
+  double scale_seconds = 10;  // (e): wall seconds per run
+  int pace_ticks = 4;         // (e): the pings' pacing, as the class server's rigs
+  std::string ping_url;       // internal role of (e)
+  bool pong_direct = false;   // internal: the pong reads its states directly
 };
 
 Options ParseOptions(int argc, char** argv) {
@@ -712,6 +881,25 @@ Options ParseOptions(int argc, char** argv) {
       options.law_calls = std::atoi(value().c_str());
     } else if (flag == "--law-only") {
       options.law_only = true;
+    } else if (flag == "--scale") {
+      std::string list = value();
+      for (size_t at = 0; at <= list.size();) {
+        const size_t comma = std::min(list.find(',', at), list.size());
+        const int pairs = std::atoi(list.substr(at, comma - at).c_str());
+        if (pairs < 1 || pairs > 64) {
+          throw std::invalid_argument("--scale " + list + ": each count must be 1..64");
+        }
+        options.scale.push_back(pairs);
+        at = comma + 1;
+      }
+    } else if (flag == "--scale-seconds") {
+      options.scale_seconds = std::atof(value().c_str());
+    } else if (flag == "--pace-ticks") {
+      options.pace_ticks = std::atoi(value().c_str());
+    } else if (flag == "--ping") {
+      options.ping_url = value();
+    } else if (flag == "--direct") {
+      options.pong_direct = true;
     } else {
       throw std::invalid_argument("unknown flag " + flag);
     }
@@ -719,10 +907,11 @@ Options ParseOptions(int argc, char** argv) {
   if (options.port == 0) options.port = 20000 + static_cast<int>(getpid() % 10000);
   if (options.port < 1024 || options.port > 65535 || options.round_trips < 1 ||
       options.warmup < 0 || !(options.duration_s > 0) || options.rounds < 1 ||
-      options.law_calls < 1) {
+      options.law_calls < 1 || !(options.scale_seconds > 0) || options.pace_ticks < 1 ||
+      options.pace_ticks > 64) {
     throw std::invalid_argument(
         "allowed: --port 1024..65535, --round-trips >= 1, --warmup >= 0, --duration > 0, "
-        "--rounds >= 1, --law-calls >= 1");
+        "--rounds >= 1, --law-calls >= 1, --scale-seconds > 0, --pace-ticks 1..64");
   }
   return options;
 }
@@ -964,7 +1153,24 @@ void PrintPerTick(const RobotModel& model, const std::vector<Scenario>& scenario
 int Run(const Options& options) {
   const std::string model_file = FindModel(options.model);
   const RobotModel model = sirupp::core::LoadRobotModel(model_file);
-  if (!options.pong_url.empty()) return RunPong(options.pong_url, options.pong_setpoint, model);
+  if (!options.pong_url.empty()) {
+    return RunPong(options.pong_url, options.pong_setpoint, options.pong_direct, model);
+  }
+  if (!options.ping_url.empty()) {
+    return RunPacedPing(options.ping_url, options.scale_seconds, options.pace_ticks, model);
+  }
+  if (!options.scale.empty()) {
+    std::printf("Load average at start: %s (%u CPUs)\n", LoadAverage().c_str(),
+                std::thread::hardware_concurrency());
+    std::vector<ScaleRun> runs;
+    for (size_t i = 0; i < options.scale.size(); ++i) {
+      runs.push_back(MeasureScale(model_file, model, options.port + static_cast<int>(i) * 64,
+                                  options.scale[i], options.scale_seconds, options.pace_ticks));
+    }
+    PrintScale(model, runs, options.pace_ticks);
+    std::printf("Load average at end: %s\n", LoadAverage().c_str());
+    return 0;
+  }
   if (options.law_only) {
     std::printf("Load average at start: %s (%u CPUs)\n", LoadAverage().c_str(),
                 std::thread::hardware_concurrency());

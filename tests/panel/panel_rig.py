@@ -112,7 +112,12 @@ class Rig:
                   f"--window-size={width},{height}", "--disable-gpu-sandbox"):
             o.add_argument(a)
         o.set_capability("goog:loggingPrefs", {"browser": "ALL"})
-        d = webdriver.Chrome(service=Service("/usr/bin/chromedriver"), options=o)
+        # Chromium puts its singleton folder (org.chromium.Chromium.*) in TMPDIR and leaves it
+        # behind: in the test's own folder it goes with the test (stop()).
+        tmp = os.path.join(self.work, "chromium")
+        os.makedirs(tmp, exist_ok=True)
+        service = Service("/usr/bin/chromedriver", env=dict(os.environ, TMPDIR=tmp))
+        d = webdriver.Chrome(service=service, options=o)
         self.drivers.append(d)
         return d
 
@@ -122,6 +127,7 @@ class Rig:
                 d.quit()
             except Exception:
                 pass
+        shutil.rmtree(os.path.join(self.work, "chromium"), ignore_errors=True)
         for name, p in reversed(self.procs):
             if p.poll() is None:
                 p.send_signal(signal.SIGTERM)
