@@ -352,6 +352,28 @@ int RunPong(const std::string& url, bool setpoint, bool direct, const RobotModel
   return 0;
 }
 
+// The ping side on `bus`: `answered` follows the newest tick answered on SIM_ARM_COMMAND (read
+// directly, as sirupp-sim does, with `direct`), and a first exchange is made with `ping` at tick 0,
+// sent again until answered: it may race with the sockets joining the group.
+void StartPinging(sirupp::core::Bus& bus, sirupp::arm_state_t& ping, int64_t& answered,
+                  bool direct) {
+  const sirupp::core::Channels channels;
+  bus.Subscribe<sirupp::arm_command_t>(
+      channels.sim_arm_command,
+      [&answered](const sirupp::arm_command_t& message, const sirupp::core::ReceiveInfo&) {
+        answered = std::max(answered, message.tick);
+      },
+      1000);
+  if (direct) bus.ReadDirectly({bus.FullName(channels.sim_arm_command)}, "sirupp-sim");
+  ping.tick = 0;
+  for (int attempt = 0; answered < 0; ++attempt) {
+    if (attempt == 50) throw std::runtime_error("the pong process never answered on " + bus.url());
+    bus.Publish(channels.sim_arm_state, ping);
+    while (bus.Handle(100) > 0 && answered < 0) {
+    }
+  }
+}
+
 struct RoundTrips {
   std::vector<double> us;  // one per timed round trip
   double median_us = 0;
@@ -371,21 +393,8 @@ RoundTrips MeasureRoundTrips(const std::string& url, const std::string& model_fi
   {
     sirupp::core::Bus bus(url);
     int64_t answered = -1;
-    bus.Subscribe<sirupp::arm_command_t>(
-        channels.sim_arm_command,
-        [&answered](const sirupp::arm_command_t& message, const sirupp::core::ReceiveInfo&) {
-          answered = std::max(answered, message.tick);
-        },
-        1000);
     sirupp::arm_state_t ping = sirupp::core::ToMessage(SampleState(model), 0);
-    // The first exchange may race with the sockets joining the group: send again until answered.
-    ping.tick = 0;
-    for (int attempt = 0; answered < 0; ++attempt) {
-      if (attempt == 50) throw std::runtime_error("the pong process never answered on " + url);
-      bus.Publish(channels.sim_arm_state, ping);
-      while (bus.Handle(100) > 0 && answered < 0) {
-      }
-    }
+    StartPinging(bus, ping, answered, false);
     result.us.reserve(static_cast<size_t>(count));
     for (int64_t k = 1; k <= warmup + count; ++k) {
       ping.tick = k;
@@ -698,21 +707,8 @@ int RunPacedPing(const std::string& url, double seconds, int pace, const RobotMo
   const sirupp::core::Channels channels;
   sirupp::core::Bus bus(url);
   int64_t answered = -1;
-  bus.Subscribe<sirupp::arm_command_t>(
-      channels.sim_arm_command,
-      [&answered](const sirupp::arm_command_t& message, const sirupp::core::ReceiveInfo&) {
-        answered = std::max(answered, message.tick);
-      },
-      1000);
-  bus.ReadDirectly({bus.FullName(channels.sim_arm_command)}, "sirupp-sim");
   sirupp::arm_state_t state = sirupp::core::ToMessage(SampleState(model), 0);
-  state.tick = 0;
-  for (int attempt = 0; answered < 0; ++attempt) {
-    if (attempt == 50) throw std::runtime_error("the pong process never answered on " + url);
-    bus.Publish(channels.sim_arm_state, state);
-    while (bus.Handle(100) > 0 && answered < 0) {
-    }
-  }
+  StartPinging(bus, state, answered, true);
   std::printf("ping ready\n");
   std::fflush(stdout);
   const double step = model.servo_tick_s;
