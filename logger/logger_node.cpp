@@ -30,8 +30,6 @@
 namespace sirupp::logger {
 
 namespace {
-// The longest wait of the bus thread between two drains of the per-tick channels (DrainTicks).
-constexpr int kMaxDrainWaitMs = 20;
 
 int64_t WallMicros() {
   return std::chrono::duration_cast<std::chrono::microseconds>(
@@ -371,19 +369,11 @@ void LoggerNode::DrainTicks() {
     }
     bus_.DeliverRecorded(channel, data, size, recv_utime);
   });
-  // The next wait is as long as the buffer allows: until about an eighth of what it holds (~1 KiB
-  // a datagram in the kernel's accounting) would arrive at the rate this drain found, 1 to 20 ms.
-  // So a busy machine that delays this thread does not fill it, and a large buffer (root's 32 MiB)
-  // lets the logger wake 50 times a second rather than 200 (a class server runs one per rig).
-  const auto now = std::chrono::steady_clock::now();
-  const double elapsed_ms =
-      std::max(1.0, std::chrono::duration<double, std::milli>(now - last_drain_).count());
-  last_drain_ = now;
+  // A drain that found more than a quarter of what the buffer holds (~1 KiB a datagram in the
+  // kernel's accounting) makes the next wait short, so a busy machine that delays this thread does
+  // not fill it.
   const int holds = std::max(64, reader.buffer_bytes() / 1024);
-  const double per_ms = static_cast<double>(read) / elapsed_ms;
-  drain_wait_ms_ = per_ms <= 0 ? kMaxDrainWaitMs
-                               : static_cast<int>(std::clamp(std::floor(holds / 8.0 / per_ms), 1.0,
-                                                             double{kMaxDrainWaitMs}));
+  drain_wait_ms_ = read > holds / 4 ? 1 : 5;
   if (reader.dropped() > 0) {
     std::lock_guard<std::mutex> lock(mutex_);
     stats_.kernel_dropped = reader.dropped();

@@ -17,7 +17,6 @@
 
 #include <array>
 #include <atomic>
-#include <chrono>
 #include <condition_variable>
 #include <cstdint>
 #include <deque>
@@ -156,7 +155,6 @@ class LoggerNode {
   // replay.
   std::unique_ptr<core::TickFeed> ticks_;
   int drain_wait_ms_ = 5;  // the bus thread's wait between two drains (Service)
-  std::chrono::steady_clock::time_point last_drain_{};  // when DrainTicks last read
   // Inside Service() (bus thread only): Push() collects here, HandOver() queues them together.
   bool collecting_ = false;
   std::vector<std::pair<Input, Stream>> round_;
