@@ -169,47 +169,31 @@ void PanelHub::Run() {
       continue;
     }
     const auto now = Clock::now();
-    if (now >= next_ticks) {
-      {
-        const std::lock_guard<std::mutex> lock(mutex_);
-        ticks_->DeliverNewest();
-      }
-      next_ticks = std::max(next_ticks + kTickPeriod, now);
-    }
-    const auto wait = std::chrono::ceil<std::chrono::milliseconds>(next_ticks - Clock::now());
-    ServiceLcm(static_cast<int>(std::clamp<int64_t>(wait.count(), 1, 50)));
+    const bool due = now >= next_ticks;
+    if (due) next_ticks = std::max(next_ticks + kTickPeriod, now);
+    const auto wait = std::chrono::ceil<std::chrono::milliseconds>(next_ticks - now);
+    Service(due ? 0 : static_cast<int>(std::clamp<int64_t>(wait.count(), 1, 50)), due);
   }
   const std::lock_guard<std::mutex> lock(mutex_);
   heartbeat_.Publish(core::ProcessState::kStopping, "");
 }
 
-void PanelHub::ServiceLcm(int timeout_ms) {
-  pollfd fd{};
-  {
-    const std::lock_guard<std::mutex> lock(mutex_);
-    fd.fd = bus_.Fileno();
-  }
-  fd.events = POLLIN;
-  ::poll(&fd, 1, timeout_ms);  // without the lock, so HTTP threads can publish meanwhile
-  const std::lock_guard<std::mutex> lock(mutex_);
-  bus_.HandleAvailable(2000);
-  heartbeat_.PublishIfDue(core::ProcessState::kRunning, model_ ? "model " + model_->name : "");
-}
+void PanelHub::ServiceOnce(int timeout_ms) { Service(timeout_ms, true); }
 
-void PanelHub::ServiceOnce(int timeout_ms) {
+void PanelHub::Service(int timeout_ms, bool ticks) {
   pollfd fds[2]{};
   {
     const std::lock_guard<std::mutex> lock(mutex_);
     fds[0].fd = bus_.Fileno();
   }
   fds[0].events = POLLIN;
-  fds[1].fd = ticks_ ? ticks_->reader().fd() : -1;  // poll() skips a negative fd
+  fds[1].fd = ticks && ticks_ ? ticks_->reader().fd() : -1;  // poll() skips a negative fd
   fds[1].events = POLLIN;
   ::poll(fds, 2, timeout_ms);  // waits without the lock, so HTTP threads can publish meanwhile
   const std::lock_guard<std::mutex> lock(mutex_);
   bus_.HandleAvailable(2000);
   // Only each channel's newest message of the round is decoded and handled.
-  if (ticks_) ticks_->DeliverNewest();
+  if (ticks && ticks_) ticks_->DeliverNewest();
   heartbeat_.PublishIfDue(core::ProcessState::kRunning, model_ ? "model " + model_->name : "");
 }
 

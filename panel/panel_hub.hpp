@@ -66,8 +66,6 @@ class PanelHub {
   void Stop();
   // Handles what is waiting on the bus, waiting up to timeout_ms for the first message.
   void ServiceOnce(int timeout_ms);
-  // The same for LCM's messages only (the tick reader's wait in its socket for the next round).
-  void ServiceLcm(int timeout_ms);
 
   // Runs fn(client) under the hub's lock and returns what it returns: every command the panel
   // sends goes through here. While the client waits for a reply it lets go of the lock (polling
@@ -117,6 +115,9 @@ class PanelHub {
   bool batching_ticks() const;
 
  private:
+  // ServiceOnce, with the per-tick channels (`ticks`) or LCM's messages alone: the tick reader
+  // waits in its socket between two rounds (Run).
+  void Service(int timeout_ms, bool ticks);
   void Subscribe();
   void StartTickReader();
   void Run();
