@@ -1,18 +1,24 @@
 #!/usr/bin/env bash
 # Installs every Debian 12 package SIRUPP-LCM needs to build, test and run.
 # Idempotent: when everything is present it only runs dpkg-query (well under a second).
-# Usage: scripts/install-deps.sh [--check] [--peers]
-#   --check  list what is missing, install nothing
-#   --peers  also install the peers (KDL, MuJoCo; compared against in bench/, MuJoCo also the oracle
-#            of the MJCF export's tests, which skip without it); never needed to build
+# Usage: scripts/install-deps.sh [--check] [--peers] [--cluster]
+#   --check    list what is missing, install nothing
+#   --peers    also install the peers (KDL, MuJoCo; compared against in bench/, MuJoCo also the oracle
+#              of the MJCF export's tests, which skip without it); never needed to build
+#   --cluster  also install Slurm and munge (slurmctld, slurmd, slurm-client, munge): the class
+#              server's rigs and grading as Slurm jobs are tested on a one-node cluster the tests
+#              start in a folder of their own (tests/cluster/); never needed to build. Not by
+#              default: on a machine with systemd the packages enable their daemons' services
 set -euo pipefail
 check=0
 peers=0
+cluster=0
 for arg in "$@"; do
   case "$arg" in
     --check) check=1 ;;
     --peers) peers=1 ;;
-    *) echo "install-deps: unknown option '$arg'; allowed: --check, --peers" >&2; exit 2 ;;
+    --cluster) cluster=1 ;;
+    *) echo "install-deps: unknown option '$arg'; allowed: --check, --peers, --cluster" >&2; exit 2 ;;
   esac
 done
 
@@ -59,6 +65,9 @@ packages=(
 )
 if [[ $peers -eq 1 ]]; then
   packages+=(liborocos-kdl-dev libmujoco-dev)
+fi
+if [[ $cluster -eq 1 ]]; then
+  packages+=(slurmctld slurmd slurm-client munge)
 fi
 
 missing=()
