@@ -5,18 +5,30 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <fstream>
+#include <functional>
 #include <iostream>
+#include <map>
 #include <memory>
+#include <sirupp/command_reply_t.hpp>
+#include <sirupp/estop_t.hpp>
+#include <sirupp/hardware_command_t.hpp>
 #include <sirupp/hardware_status_t.hpp>
+#include <sirupp/servo_move_t.hpp>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
 #include "client/client.hpp"
 #include "control/control_node.hpp"
 #include "core/bus.hpp"
+#include "core/command_reply.hpp"
+#include "core/messages.hpp"
 #include "core/model_loader.hpp"
+#include "core/translate.hpp"
 #include "sim/sim_node.hpp"
 #include "tests/emulated_bridge.hpp"
 #include "turns/turn_manager.hpp"
@@ -123,6 +135,202 @@ struct Class {
   std::optional<Status> hardware;
   std::optional<sirupp::arm_state_t> real;
   std::vector<std::string> events;
+};
+
+// The bridge as the turn manager meets it, on a clock the test gives: the states (connected,
+// armed, linked, fault, e-stopped) and their commands as sirupp-hardware takes them (a move is
+// mirrored only while linked; a refused command is answered on HARDWARE_REPLY with the reason and
+// shown in last_error), HARDWARE_STATUS at 10 Hz with each module's MOVE_DONE bit, REAL_ARM_STATE
+// at 100 Hz. Its joints move at a move's speed, each stopping `short_of_goal_rad` short of the
+// goal as static friction holds a PD-driven joint. What it cannot do is scripted: `refuse` (a
+// command refused with a reason), Trip() (a joint's position error), Mute() (it goes silent).
+// The real bridge on the emulated boards, with the turns, is tested by test_class_turns and
+// tests/cli/turns_serve.sh; this one lets a turn and its handover run on simulated time.
+class ScriptedBridge {
+ public:
+  using TimePoint = std::chrono::steady_clock::time_point;
+
+  ScriptedBridge(core::Bus& bus, const core::RobotModel& model, std::function<TimePoint()> clock)
+      : bus_(bus),
+        model_(model),
+        clock_(std::move(clock)),
+        replier_(bus, core::Channels{}.hardware_reply, "sirupp-hardware"),
+        position_({0, -90 * kDeg, 90 * kDeg, 0, 45 * kDeg, 0}),  // ready, as the boards start
+        goal_(position_),
+        speed_(position_.size(), 0.0),
+        last_(clock_()) {
+    const core::Channels c;
+    bus_.Subscribe<sirupp::hardware_command_t>(
+        c.hardware_command,
+        [this](const sirupp::hardware_command_t& m, const core::ReceiveInfo& info) {
+          replier_.Answer(
+              m, info, [&] { OnCommand(core::HardwareCommandFromMessage(m, info.channel)); },
+              [this] {
+                return core::ReplyFacts{-1, status_seq_};
+              });
+        },
+        100);
+    bus_.Subscribe<sirupp::servo_move_t>(
+        c.arm_move,
+        [this](const sirupp::servo_move_t& m, const core::ReceiveInfo& info) {
+          replier_.Answer(
+              m, info, [&] { OnMove(core::ServoMoveFromMessage(m, info.channel)); },
+              [this] {
+                return core::ReplyFacts{-1, status_seq_};
+              });
+        },
+        100);
+    bus_.Subscribe<sirupp::estop_t>(
+        c.estop, [this](const sirupp::estop_t& m, const core::ReceiveInfo& info) {
+          const core::EStop estop = core::EStopFromMessage(m, info.channel);
+          estopped_ = estop.engaged;
+          if (estop.engaged) {
+            linked_ = false;
+            goal_ = position_;
+            last_error_ = "emergency stop from '" + estop.sender + "': " + estop.reason;
+          } else {
+            armed_ = false;  // armed again explicitly after a release
+            last_error_.clear();
+          }
+          PublishStatus();
+        });
+  }
+
+  // Moves the joints to the clock's time and publishes what is due.
+  void Service() {
+    const TimePoint now = clock_();
+    const double dt = std::chrono::duration<double>(now - last_).count();
+    last_ = now;
+    if (armed_ && !estopped_ && !faulted_) {
+      for (size_t j = 0; j < position_.size(); ++j) {
+        const double step = std::clamp(goal_[j] - position_[j], -speed_[j] * dt, speed_[j] * dt);
+        position_[j] += step;
+      }
+    }
+    if (muted_) return;
+    if (now >= next_state_) {
+      next_state_ = now + std::chrono::milliseconds(10);
+      core::ArmState state;
+      state.utime = core::WallMicros();
+      state.source = core::StateSource::kEmulated;
+      state.position = position_;
+      bus_.Publish(core::Channels{}.real_arm_state, core::ToMessage(state, state_seq_++));
+    }
+    if (now >= next_status_) PublishStatus();
+  }
+
+  void Trip(int joint) {  // 1-based, as the boards' fault names it
+    faulted_ = true;
+    linked_ = false;
+    goal_ = position_;
+    fault_ = "joint " + std::to_string(joint) + ": position error limit exceeded";
+    last_error_ = fault_;
+    PublishStatus();
+  }
+  void Mute() { muted_ = true; }
+
+  std::map<core::HardwareAction, std::string> refuse;  // command -> the reason it is refused
+  std::vector<double> short_of_goal_rad;               // per joint; empty = none
+  std::vector<int64_t> mirrored_moves;                 // the move ids taken while linked
+  std::vector<core::HardwareAction> commands;          // every command, in order
+
+  int8_t State() const {
+    using S = sirupp::hardware_status_t;
+    if (faulted_) return S::STATE_FAULT;
+    if (estopped_) return S::STATE_ESTOPPED;
+    if (linked_) return S::STATE_LINKED;
+    return armed_ ? S::STATE_ARMED : S::STATE_CONNECTED;
+  }
+  const std::vector<double>& position() const { return position_; }
+
+ private:
+  void OnCommand(const core::HardwareCommand& command) {
+    commands.push_back(command.command);
+    try {
+      if (auto it = refuse.find(command.command); it != refuse.end()) {
+        throw std::runtime_error(it->second);
+      }
+      switch (command.command) {
+        case core::HardwareAction::kArm:
+          if (estopped_) throw std::runtime_error("arm: the emergency stop is engaged");
+          if (faulted_) throw std::runtime_error("arm: clear the fault first (" + fault_ + ")");
+          armed_ = true;
+          goal_ = position_;
+          break;
+        case core::HardwareAction::kDisarm:
+          linked_ = false;
+          armed_ = false;
+          break;
+        case core::HardwareAction::kLink:
+          if (estopped_) throw std::runtime_error("link: the emergency stop is engaged");
+          if (faulted_) throw std::runtime_error("link: clear the fault first (" + fault_ + ")");
+          if (!armed_) throw std::runtime_error("link: arm first");
+          linked_ = true;
+          break;
+        case core::HardwareAction::kUnlink:
+          linked_ = false;
+          break;
+        case core::HardwareAction::kClearFaults:
+          faulted_ = false;
+          armed_ = false;
+          break;
+        default:
+          break;
+      }
+    } catch (const std::exception& e) {
+      last_error_ = e.what();
+      PublishStatus();
+      throw;
+    }
+    last_error_.clear();
+    PublishStatus();
+  }
+
+  void OnMove(const core::ServoMove& move) {
+    if (!linked_) return;  // the virtual arm's moves: mirrored only while linked
+    if (estopped_) throw std::runtime_error("move: emergency stop engaged");
+    if (faulted_) throw std::runtime_error("move: fault: " + fault_);
+    mirrored_moves.push_back(move.move_id);
+    for (size_t j = 0; j < move.joints.size() && j < position_.size(); ++j) {
+      const core::JointMove& m = move.joints[j];
+      if ((m.flags & sirupp::servo_move_t::FLAG_ACTIVE) == 0) continue;
+      if (move.command != core::MoveCommand::kMove) {
+        goal_[j] = position_[j];
+        continue;
+      }
+      const double distance = m.goal - position_[j];
+      const double short_by = j < short_of_goal_rad.size() ? short_of_goal_rad[j] : 0.0;
+      goal_[j] = std::abs(distance) <= short_by ? position_[j]
+                                                : m.goal - std::copysign(short_by, distance);
+      speed_[j] = m.max_velocity > 0 ? m.max_velocity : model_.joints[j].servo.default_velocity;
+    }
+  }
+
+  void PublishStatus() {
+    next_status_ = clock_() + std::chrono::milliseconds(100);
+    core::HardwareStatus status;
+    status.utime = core::WallMicros();
+    status.seq = ++status_seq_;
+    status.state = static_cast<core::BridgeState>(State());
+    status.calibrated = true;
+    status.port = "scripted";
+    for (size_t j = 0; j < position_.size(); ++j) {
+      const bool done = !armed_ || std::abs(goal_[j] - position_[j]) < 1e-9;
+      status.modules.push_back({static_cast<int16_t>(0x08 | (done ? 0x01 : 0)), 0, 0, 0});
+    }
+    status.last_error = last_error_;
+    bus_.Publish(core::Channels{}.hardware_status, core::ToMessage(status));
+  }
+
+  core::Bus& bus_;
+  const core::RobotModel& model_;
+  std::function<TimePoint()> clock_;
+  core::Replier replier_;
+  std::vector<double> position_, goal_, speed_;
+  bool armed_ = false, linked_ = false, estopped_ = false, faulted_ = false, muted_ = false;
+  std::string fault_, last_error_;
+  int64_t status_seq_ = 0, state_seq_ = 0;
+  TimePoint last_, next_state_{}, next_status_{};
 };
 
 TurnOptions ShortTurns() {
@@ -279,6 +487,53 @@ TEST(Turns, OnlyAnAdmittedStudentGetsTheArm) {
             std::string::npos)
       << c.manager->status().last_event;
   for (int8_t state : c.states) EXPECT_NE(state, Status::STATE_ARMED);
+}
+
+// Defect 3 (issue 41): a bridge that refuses UNLINK during the handover after a turn. The handover
+// must stop there with the bridge's reason, in the status and the turn log, and not go on to
+// disarm as if the rig were unlinked.
+TEST(Turns, ABridgeThatRefusesUnlinkStopsTheHandover) {
+  core::Bus arm_bus{"memq://"};
+  ScriptedBridge bridge(arm_bus, Puma(), [] { return std::chrono::steady_clock::now(); });
+  bridge.refuse[core::HardwareAction::kUnlink] = "unlink: refused by the test's bridge";
+  TurnOptions options = ShortTurns();
+  options.turn_s = 0.5;
+  options.log_path = ::testing::TempDir() + "/sirupp_turns_unlink.jsonl";
+  std::remove(options.log_path.c_str());
+  TurnManager manager(arm_bus, Puma(), options);
+  StudentRig alice;
+  manager.AddRig("alice", [&alice] {
+    return std::shared_ptr<core::Bus>(std::shared_ptr<void>(), &alice.bus);
+  });
+  manager.Join("alice");
+  const auto end = std::chrono::steady_clock::now() +
+                   std::chrono::duration_cast<std::chrono::steady_clock::duration>(
+                       std::chrono::duration<double>(kLongWaitS));
+  while (std::chrono::steady_clock::now() < end && manager.status().phase != Phase::kStopped &&
+         (manager.history().empty() || manager.history().back().handover_result.empty())) {
+    alice.sim.Service(0);
+    alice.control.Service(0);
+    bridge.Service();
+    manager.Service();
+  }
+  const TurnStatus status = manager.status();
+  ASSERT_EQ(status.phase, Phase::kStopped) << status.last_event;
+  EXPECT_NE(status.stopped_reason.find("handover after alice's turn failed at 'unlink the bridge'"),
+            std::string::npos)
+      << status.stopped_reason;
+  EXPECT_NE(status.stopped_reason.find("unlink: refused by the test's bridge"), std::string::npos)
+      << status.stopped_reason;
+  ASSERT_EQ(manager.history().size(), 1u);
+  EXPECT_EQ(manager.history()[0].handover_result, status.stopped_reason);
+  // It did not go on to disarm a bridge that may still be linked.
+  EXPECT_EQ(
+      std::count(bridge.commands.begin(), bridge.commands.end(), core::HardwareAction::kDisarm), 0);
+  std::ifstream log(options.log_path);
+  std::string line, last_turn;
+  while (std::getline(log, line)) {
+    if (line.rfind("{\"turn\": ", 0) == 0) last_turn = line;
+  }
+  EXPECT_NE(last_turn.find("unlink: refused by the test's bridge"), std::string::npos) << last_turn;
 }
 
 }  // namespace

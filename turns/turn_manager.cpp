@@ -666,16 +666,23 @@ void TurnManager::StartHandoverOut() {
          return false;
        },
        options_.step_timeout_s + 10, true});
-  steps.push_back({"unlink and disarm",
-                   [this] {
-                     Command(sirupp::hardware_command_t::COMMAND_UNLINK);
-                     Command(sirupp::hardware_command_t::COMMAND_DISARM);
-                   },
+  // One command per step, each waited for: a refused UNLINK (the bridge may still be linked to
+  // the rig) stops the queue with the bridge's reason instead of going on to disarm.
+  steps.push_back({"unlink the bridge",
+                   [this] { Command(sirupp::hardware_command_t::COMMAND_UNLINK); },
                    [this] {
                      if (const std::string trouble = BridgeTrouble(); !trouble.empty()) {
                        throw TurnError(trouble);
                      }
-                     return hardware_->state == Status::STATE_CONNECTED;
+                     return MoveTaken() && hardware_->state == Status::STATE_ARMED;
+                   },
+                   options_.step_timeout_s, true});
+  steps.push_back({"disarm", [this] { Command(sirupp::hardware_command_t::COMMAND_DISARM); },
+                   [this] {
+                     if (const std::string trouble = BridgeTrouble(); !trouble.empty()) {
+                       throw TurnError(trouble);
+                     }
+                     return MoveTaken() && hardware_->state == Status::STATE_CONNECTED;
                    },
                    options_.step_timeout_s, true});
   steps_ = std::move(steps);

@@ -21,7 +21,7 @@
 //   1. the relay goes off (the rig is unlinked) and the real arm is held (STOP_SMOOTH);
 //   2. the arm is homed at reduced speed;
 //   3. its pose is checked: every joint within home_tolerance_deg of home;
-//   4. the bridge is unlinked and disarmed.
+//   4. the bridge is unlinked (its reply checked: a refusal stops the queue), then disarmed.
 // Only then does the next turn start. If a handover-out step does not finish in time, the bridge
 // faults or is e-stopped, or the pose is off home, the queue stops with the reason
 // (status().stopped_reason). The next student never gets a faulted arm. The teacher clears it with
@@ -186,9 +186,9 @@ class TurnManager {
   std::string BridgeTrouble() const;
   // Its last HARDWARE_STATUS is older than kBridgeSilentS: what it said may be stale.
   bool BridgeSilent() const;
-  // Our last ARM_MOVE was accepted by the bridge and two HARDWARE_STATUS came after it, so the
-  // modules' MOVE_DONE bits are about that move, not the one before (a busy machine may delay
-  // the bridge past any fixed time).
+  // Our last request (ARM_MOVE or HARDWARE_COMMAND) was accepted by the bridge and two
+  // HARDWARE_STATUS came after it, so the modules' MOVE_DONE bits and the state are about that
+  // request, not the one before (a busy machine may delay the bridge past any fixed time).
   bool MoveTaken() const;
   bool AllMovesDone() const;
   // The largest |real - goal| in degrees and its joint (1-based), from REAL_ARM_STATE.
