@@ -160,9 +160,23 @@ class ClientHandle {
     return AnswerDict(answer);
   }
 
-  bool WaitForController(double timeout_s) {
-    return Sliced(
-        timeout_s, [this](double s) { return client_->WaitForController(s); }, false);
+  // Waits until the rig's status, gains and state were all heard (CONTROLLER_STATUS,
+  // CONTROLLER_GAINS, SIM_ARM_STATE; the controller sends its gains once a second), at most
+  // timeout_s. Returns the channels still not heard: empty when the rig is all there.
+  py::list WaitForRig(double timeout_s) {
+    const client::Snapshot& seen = client_->snapshot();
+    const auto all_heard = [&seen] {
+      return seen.controller.has_value() && seen.virtual_gains.has_value() &&
+             seen.sim_arm.has_value();
+    };
+    Sliced(
+        timeout_s, [&](double s) { return client_->Until(all_heard, s); }, false);
+    const core::Channels& channels = client_->channels();
+    py::list missing;
+    if (!seen.controller) missing.append(client_->bus().FullName(channels.controller_status));
+    if (!seen.virtual_gains) missing.append(client_->bus().FullName(channels.controller_gains));
+    if (!seen.sim_arm) missing.append(client_->bus().FullName(channels.sim_arm_state));
+    return missing;
   }
 
   void Listen(double seconds) {
@@ -489,7 +503,7 @@ void BindRig(py::module_& m) {
                            "the client library (client/client.hpp); use sirupp.connect")
       .def(py::init<const std::string&, const std::string&, const std::string&, double>(),
            py::arg("lcm_url"), py::arg("prefix"), py::arg("sender"), py::arg("answer_timeout_s"))
-      .def("wait_for_controller", &ClientHandle::WaitForController, py::arg("timeout_s"))
+      .def("wait_for_rig", &ClientHandle::WaitForRig, py::arg("timeout_s"))
       .def("listen", &ClientHandle::Listen, py::arg("seconds"))
       .def("watch_joints", &ClientHandle::WatchJoints, py::arg("on"))
       .def("move_joints", &ClientHandle::MoveJoints, py::arg("q"), py::arg("qd_max"),

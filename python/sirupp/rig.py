@@ -114,30 +114,30 @@ class Rig:
         try:
             self._client = _Client(self.lcm_url, prefix, _sender(), 2.0)
             self._client.watch_joints(True)
-            if not self._client.wait_for_controller(timeout):
-                raise RigError(
-                    "no CONTROLLER_STATUS on %s%s within %g s: is sirupp-control running on this "
-                    "bus? (sirupp.start_rig() starts a private rig)" % (
-                        prefix, self.lcm_url or "LCM's default URL", timeout) +
+            # Status, gains and state are all there before the rig is handed out, so state(),
+            # gains() and status() never answer None (sirupp-control sends its gains once a
+            # second: a fresh client waits up to that long for them).
+            missing = self._client.wait_for_rig(timeout)
+            if missing:
+                where = self.lcm_url or "LCM's default URL"
+                raise RigError("no %s on %s within %g s: %s" % (
+                    ", ".join(missing), where, timeout, _why_missing(missing)) +
                     self._process_logs())
         except BaseException:
             self.close()
             raise
 
-    # --- reading
+    # --- reading (connect() and start_rig() return only once status, gains and state came)
     def state(self):
         """The newest state: dict with tick, q, qd, effort (virtual arm) and q_setpoint,
-        qd_setpoint, goal when the controller sends set-points. None before the sim's first."""
+        qd_setpoint, goal when the controller sends set-points."""
         self._client.listen(0.02)
         return self._client.arm_state()
 
     @property
     def q(self):
         """The virtual arm's joint positions (rad or m)."""
-        s = self.state()
-        if s is None:
-            raise RigError("no SIM_ARM_STATE heard: is sirupp-sim running on this bus?")
-        return s["q"]
+        return self.state()["q"]
 
     def status(self):
         """sirupp-control's status (mode, state, move_id, plan_name, plan_step, last_error...),
@@ -149,17 +149,11 @@ class Rig:
         """The servo gains in the chip's units: dict of arrays (kp, kd, ki, integration_limit,
         output_limit, ...). real=True: the real boards' (None without a bridge)."""
         self._client.listen(0.02)
-        g = self._client.gains(real)
-        if g is None and not real:
-            self._client.listen(1.1)  # sirupp-control sends its gains at 1 Hz
-            g = self._client.gains(real)
-        return g
+        return self._client.gains(real)
 
     def set_gains(self, **gains):
         """set_gains(kp=[...], kd=[...]): changes the named gains (one value per joint, chip
         units); the others stay. RigError when the controller refuses, with its reason."""
-        if self.gains() is None:
-            raise RigError("no CONTROLLER_GAINS heard: is sirupp-control running on this bus?")
         return self._check(self._client.set_gains(gains), "set_gains")
 
     # --- moving
@@ -275,6 +269,16 @@ class Rig:
             if not child.running():
                 text += "; %s" % child.log_tail(3)
         return text
+
+
+def _why_missing(channels):
+    """What to check when the rig did not send these channels (full names)."""
+    if any(c.endswith("CONTROLLER_STATUS") for c in channels):
+        return ("is sirupp-control running on this bus? (sirupp.start_rig() starts a private "
+                "rig)")
+    if any(c.endswith("SIM_ARM_STATE") for c in channels):
+        return "is sirupp-sim running on this bus?"
+    return "sirupp-control sends its gains once a second: is it stuck?"
 
 
 def connect(lcm_url=None, prefix="", model=None, timeout=5.0):
