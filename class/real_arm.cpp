@@ -1,5 +1,6 @@
 #include "class/real_arm.hpp"
 
+#include <cctype>
 #include <chrono>
 #include <stdexcept>
 
@@ -11,6 +12,25 @@ namespace {
 using Json = nlohmann::json;
 constexpr size_t kEventsKept = 30;
 constexpr auto kServicePeriod = std::chrono::milliseconds(2);
+
+// A character of a student's name (class_config.cpp: letters, digits, '-', '_', '.').
+bool NameChar(char c) {
+  return std::isalnum(static_cast<unsigned char>(c)) != 0 || c == '-' || c == '_' || c == '.';
+}
+
+// Whether an event's line names `student`: the whole name, not part of a longer one ("bob" is not
+// named in "bobby joined the queue"; it is in "bob's turn ends" and "... by bob.").
+bool NamesStudent(const std::string& line, const std::string& student) {
+  if (student.empty()) return false;
+  for (size_t at = line.find(student); at != std::string::npos; at = line.find(student, at + 1)) {
+    const size_t end = at + student.size();
+    const bool starts = at == 0 || !NameChar(line[at - 1]);
+    const bool ends = end == line.size() || !NameChar(line[end]) ||
+                      (line[end] == '.' && (end + 1 == line.size() || !NameChar(line[end + 1])));
+    if (starts && ends) return true;
+  }
+  return false;
+}
 
 }  // namespace
 
@@ -100,7 +120,7 @@ Json RealArm::StudentJson(const std::string& student) const {
   // The events about this student, newest last (warnings before the end, the handovers).
   Json mine = Json::array();
   for (const std::string& line : events_) {
-    if (line.find(student) != std::string::npos) mine.push_back(line);
+    if (NamesStudent(line, student)) mine.push_back(line);
   }
   while (mine.size() > 5) mine.erase(mine.begin());
   return Json{{"enabled", true},

@@ -18,6 +18,7 @@
 
 #include "class/class_config.hpp"
 #include "class/class_server.hpp"
+#include "class/real_arm.hpp"
 #include "class/tokens.hpp"
 #include "core/errors.hpp"
 #include "panel/httplib_include.hpp"
@@ -387,6 +388,33 @@ TEST_F(ClassServerTest, AStudentsRigStartsOnTheFirstVisitAndIsTheirsAlone) {
   EXPECT_EQ(status["state"], "running");
   EXPECT_EQ(status["starts"], 2);
   EXPECT_EQ(status["last_stop"], "stopped by the teacher");
+}
+
+// A student's page lists the real arm's events about them: bob's does not list bobby's (issue 41:
+// the events were picked by a substring of the name).
+TEST(RealArmTest, AStudentSeesTheirEventsNotThoseOfALongerNameBeginningLikeTheirs) {
+  const std::string dir = TempDir("sirupp-class-real-arm");
+  ClassConfig config;
+  config.robot = fs::absolute("config/robots/puma260.yaml").string();
+  config.students = {"bob", "bobby"};
+  config.real_arm = RealArmConfig{};
+  config.real_arm->lcm_url = "memq://";
+  {
+    RealArm arm(config, dir + "/turns.jsonl", [](const std::string&) { return std::string(); });
+    arm.StudentCommand("bobby", "join");
+    arm.RigStopped("bobby", "stopped by the teacher");
+    const Json bobby = arm.StudentJson("bobby")["events"];
+    ASSERT_GE(bobby.size(), 2u) << bobby.dump();
+    EXPECT_TRUE(arm.StudentJson("bob")["events"].empty()) << arm.StudentJson("bob").dump();
+    arm.StudentCommand("bob", "join");
+    const Json bob = arm.StudentJson("bob")["events"];
+    ASSERT_FALSE(bob.empty());
+    for (const Json& line : bob) {
+      EXPECT_EQ(line.get<std::string>().find("bobby"), std::string::npos) << bob.dump();
+    }
+    EXPECT_EQ(arm.StudentJson("bobby")["events"], bobby) << "bob's events are not bobby's";
+  }
+  fs::remove_all(dir);
 }
 
 }  // namespace
