@@ -26,6 +26,7 @@
 #include "grade/port_lease.hpp"
 #include "panel/http_glue.hpp"
 #include "panel/rig_commands.hpp"
+#include "proc/udpm_listen.hpp"
 #include "runtime/data_path.hpp"
 
 namespace sirupp::classroom {
@@ -37,6 +38,9 @@ using Json = nlohmann::json;
 
 constexpr const char* kStudentCookie = "sirupp_student";
 constexpr const char* kTeacherCookie = "sirupp_teacher";
+// How long a rig's port must be silent before a rig starts on it: every SIRUPP process sends a
+// heartbeat each second.
+constexpr double kQuietListenS = 1.2;
 
 int64_t NowNs() {
   return std::chrono::duration_cast<std::chrono::nanoseconds>(Clock::now().time_since_epoch())
@@ -412,8 +416,7 @@ struct ClassServer::Impl {
       seat.on_cpu = PickCpu();
     }
     try {
-      seat.lease = grade::PortLease::Acquire(config.first_port, config.port_count,
-                                             static_cast<int>(NowNs() % config.port_count));
+      seat.lease = LeaseQuietPort();
       const std::string folder = StudentFolder(config, seat.name);
       RigSpec spec;
       spec.robot = PrepareFolder(folder);
@@ -458,6 +461,36 @@ struct ClassServer::Impl {
       Log(seat.name + "'s rig could not start: " + e.what());
       return seat.last_stop;
     }
+  }
+
+  // A port of the rigs' range that no other class server or grader holds (grade::PortLease) and
+  // on which nothing is heard: LCM shares its port, so another program on it (a lab's `sirupp
+  // launch`, a test's rig, a rig that did not end) would talk on the student's bus. Ports where
+  // something talks are held while the next is tried, then given back; at most kQuietTries.
+  grade::PortLease LeaseQuietPort() {
+    constexpr int kQuietTries = 8;
+    std::vector<grade::PortLease> busy;
+    std::string heard;
+    const int offset = static_cast<int>(NowNs() % config.port_count);
+    for (int k = 0; k < std::min(kQuietTries, config.port_count); ++k) {
+      grade::PortLease lease;
+      try {
+        lease = grade::PortLease::Acquire(config.first_port, config.port_count, offset + k);
+      } catch (const std::exception&) {
+        if (busy.empty()) throw;
+        break;  // the rest are held by others
+      }
+      const std::string talk = proc::HeardOnUdpm(proc::kRigGroup, lease.port(), kQuietListenS);
+      if (talk.empty()) return lease;
+      Log("udpm port " + std::to_string(lease.port()) + " skipped: something else talks on it (" +
+          talk + ")");
+      heard = talk;
+      busy.push_back(std::move(lease));
+    }
+    throw std::runtime_error(
+        "no quiet udpm port for a rig in " + std::to_string(config.first_port) + ".." +
+        std::to_string(config.first_port + config.port_count - 1) + ": " +
+        std::to_string(busy.size()) + " tried, something else talks on each (" + heard + ")");
   }
 
   // Stops the seat's rig (if any), saying why. `locked`: the caller holds seat.mutex.

@@ -262,6 +262,13 @@ void Rig::Stop() {
         child.ended = true;
       }
     }
+    // What the rig's processes started in their group ends too, before the port is given back:
+    // nothing of this rig may talk on it when the next rig starts there.
+    const auto killed = Clock::now();
+    while (::kill(-pgid_, 0) == 0 && Since(killed) < spec_.stop_grace_s) {
+      ::kill(-pgid_, SIGKILL);
+      std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
     pgid_ = 0;
   }
   children_.clear();

@@ -4,10 +4,14 @@
 // opens that student's rig and no other, the teacher's opens every rig read-only, bad requests
 // are 4xx with a message, the rig's processes end when it stops.
 
+#include <arpa/inet.h>
 #include <gtest/gtest.h>
+#include <netinet/in.h>
 #include <signal.h>
+#include <sys/socket.h>
 #include <unistd.h>
 
+#include <atomic>
 #include <chrono>
 #include <filesystem>
 #include <fstream>
@@ -413,6 +417,88 @@ TEST(RealArmTest, AStudentSeesTheirEventsNotThoseOfALongerNameBeginningLikeTheir
       EXPECT_EQ(line.get<std::string>().find("bobby"), std::string::npos) << bob.dump();
     }
     EXPECT_EQ(arm.StudentJson("bobby")["events"], bobby) << "bob's events are not bobby's";
+  }
+  fs::remove_all(dir);
+}
+
+// Another program talking on a port of the rigs' range (a lab's `sirupp launch` there, a test's
+// rig, a rig that did not end): LCM shares its port, so a rig started on it would share a bus
+// with it (issue 41: a sim's tick "went back" when two sims met on one bus). The server listens
+// before it starts a rig and takes a quiet port, or refuses with what it heard.
+class Talker {
+ public:
+  explicit Talker(int port) : port_(port), thread_([this] { Run(); }) {}
+  ~Talker() {
+    stop_ = true;
+    thread_.join();
+  }
+
+ private:
+  void Run() {
+    const int fd = ::socket(AF_INET, SOCK_DGRAM, 0);
+    const unsigned char ttl = 0;
+    ::setsockopt(fd, IPPROTO_IP, IP_MULTICAST_TTL, &ttl, sizeof ttl);
+    sockaddr_in to{};
+    to.sin_family = AF_INET;
+    to.sin_port = htons(static_cast<uint16_t>(port_));
+    ::inet_pton(AF_INET, "239.255.76.67", &to.sin_addr);
+    // An LCM short message's header (magic "LC02", sequence number, channel) and a payload.
+    const char datagram[] = "LC02\0\0\0\1HEARTBEAT\0another program";
+    while (!stop_) {
+      ::sendto(fd, datagram, sizeof datagram, 0, reinterpret_cast<const sockaddr*>(&to), sizeof to);
+      std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    }
+    ::close(fd);
+  }
+  int port_;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
+
+TEST(ClassServerPortTest, ARigDoesNotStartOnAPortWhereAnotherProgramTalks) {
+  const char* bin = std::getenv("SIRUPP_BIN_DIR");
+  if (bin == nullptr) GTEST_SKIP() << "SIRUPP_BIN_DIR not set (ctest sets it)";
+  const std::string dir = TempDir("sirupp-class-port");
+  const int first = 60000 + 2 * (::getpid() % 2500);  // two ports no other test uses
+  const Talker talker(first);
+  const auto post = [](testing::TestClassServer& server, const std::string& path,
+                       const std::string& token) {
+    return server.client->Post(
+        path.c_str(), httplib::Headers{{"X-Sirupp-Client", "test"}, {"X-Sirupp-Token", token}},
+        "{}", "application/json");
+  };
+  {
+    // Two ports, one talked on: every start takes the other.
+    const ClassConfig config = ParseClassConfig(
+        std::string(kGood) + "rigs: {first_port: " + std::to_string(first) + ", port_count: 2}\n",
+        "class.yaml", dir);
+    testing::TestClassServer server(config, bin, 30);
+    for (int i = 0; i < 4; ++i) {
+      auto r = post(server, "/s/alice/class/start", server.tokens["alice"]);
+      ASSERT_TRUE(r);
+      ASSERT_EQ(r->status, 200) << r->body;
+      r = server.client->Get("/s/alice/class/status", {{"X-Sirupp-Token", server.tokens["alice"]}});
+      ASSERT_TRUE(r);
+      EXPECT_EQ(Json::parse(r->body)["port"], first + 1) << "start " << i << ": " << r->body;
+      r = post(server, "/teacher/api/rigs/alice/stop", server.tokens["teacher"]);
+      ASSERT_TRUE(r);
+      EXPECT_EQ(r->status, 200) << r->body;
+    }
+  }
+  {
+    // The only port talked on: refused, naming what was heard.
+    fs::create_directories(dir + "/one-port");
+    ClassConfig config = ParseClassConfig(
+        std::string(kGood) + "rigs: {first_port: " + std::to_string(first) + ", port_count: 2}\n",
+        "class.yaml", dir + "/one-port");
+    config.port_count = 1;
+    config.max_rigs = 1;
+    testing::TestClassServer server(config, bin, 30);
+    const auto r = post(server, "/s/alice/class/start", server.tokens["alice"]);
+    ASSERT_TRUE(r);
+    EXPECT_EQ(r->status, 503) << r->body;
+    EXPECT_NE(r->body.find("something else talks"), std::string::npos) << r->body;
+    EXPECT_NE(r->body.find("HEARTBEAT"), std::string::npos) << r->body;
   }
   fs::remove_all(dir);
 }
