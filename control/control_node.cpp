@@ -7,6 +7,7 @@
 #include <sirupp/controller_status_t.hpp>
 #include <sirupp/servo_move_t.hpp>
 #include <sirupp/servo_setpoint_t.hpp>
+#include <stdexcept>
 #include <type_traits>
 #include <utility>
 #include <variant>
@@ -54,6 +55,11 @@ ControlNode::ControlNode(core::Bus& bus, const core::RobotModel& model, ControlO
       heartbeat_(bus, options_.name, options_.channels.heartbeat),
       replier_(bus, options_.channels.controller_reply, options_.name),
       chip_gains_(servo::ChipGainsFromModel(model)) {
+  if (!options_.clock) {
+    throw std::invalid_argument(
+        "sirupp-control: ControlOptions::clock is empty; leave it at the "
+        "steady clock or give a clock that returns the time");
+  }
   const core::Channels& channels = options_.channels;
   using Info = core::ReceiveInfo;
   bus_.Subscribe<sirupp::arm_state_t>(
@@ -68,7 +74,7 @@ ControlNode::ControlNode(core::Bus& bus, const core::RobotModel& model, ControlO
         Answer(message, info, true, [&] {
           const std::vector<core::JointGoal> joints =
               Decoded(core::JointTargetFromMessage, message, info.channel).joints;
-          model_switch_.RequireNone(info.channel, Clock::now());
+          model_switch_.RequireNone(info.channel, Now());
           sequencer_.Target({info.channel, joints});
         });
       });
@@ -77,7 +83,7 @@ ControlNode::ControlNode(core::Bus& bus, const core::RobotModel& model, ControlO
         Answer(message, info, true, [&] {
           const core::PoseTarget target =
               Decoded(core::PoseTargetFromMessage, message, info.channel);
-          model_switch_.RequireNone(info.channel, Clock::now());
+          model_switch_.RequireNone(info.channel, Now());
           sequencer_.PoseTarget({info.channel, target});
         });
       });
@@ -88,11 +94,11 @@ ControlNode::ControlNode(core::Bus& bus, const core::RobotModel& model, ControlO
               Decoded(core::PlanCommandFromMessage, message, info.channel);
           if (plan.command == core::PlanAction::kLoadModel) {
             if (!plan.text.empty()) sequencer_.RequireModelChangeAllowed(info.channel);
-            model_switch_.Request(info.channel, plan.name, plan.text, model_, Clock::now());
+            model_switch_.Request(info.channel, plan.name, plan.text, model_, Now());
             return;
           }
           if (plan.command == core::PlanAction::kRun) {
-            model_switch_.RequireNone(info.channel, Clock::now());
+            model_switch_.RequireNone(info.channel, Now());
           }
           sequencer_.Plan({info.channel, plan.command, plan.name, plan.text});
         });
@@ -157,7 +163,7 @@ void ControlNode::Answer(const Msg& message, const core::ReceiveInfo& info, bool
 
 void ControlNode::OnModel(const sirupp::robot_model_t& message, const core::ReceiveInfo& info) {
   if (!model_checked_.empty() && message.source_hash == model_checked_) return;
-  if (std::optional<core::RobotModel> announced = model_switch_.Take(message, Clock::now())) {
+  if (std::optional<core::RobotModel> announced = model_switch_.Take(message, Now())) {
     // The model this controller agreed to take (ARM_PLAN COMMAND_LOAD_MODEL), now the sim's.
     core::RobotModelFromMessage(message, info.channel);
     model_ = std::move(*announced);
@@ -212,14 +218,14 @@ void ControlNode::OnBridgeReply(const sirupp::command_reply_t& message,
 
 void ControlNode::CheckSimAlive() {
   if (sequencer_.sim_lost() || !sequencer_.has_state()) return;
-  const double silent_s = std::chrono::duration<double>(Clock::now() - last_state_wall_).count();
+  const double silent_s = std::chrono::duration<double>(Now() - last_state_wall_).count();
   if (silent_s < options_.sim_timeout_s) return;
   sequencer_.SimLost(options_.sim_timeout_s);
   Flush();
 }
 
 void ControlNode::OnBridgeStatus(const sirupp::hardware_status_t& message) {
-  last_bridge_status_ = Clock::now();
+  last_bridge_status_ = Now();
   bridge_linked_ = message.state == sirupp::hardware_status_t::STATE_LINKED;
   if (bridge_lost_) {
     bridge_lost_ = false;
@@ -231,7 +237,7 @@ void ControlNode::OnBridgeStatus(const sirupp::hardware_status_t& message) {
 
 void ControlNode::CheckBridgeAlive() {
   if (!bridge_linked_ || bridge_lost_) return;
-  const double silent_s = std::chrono::duration<double>(Clock::now() - last_bridge_status_).count();
+  const double silent_s = std::chrono::duration<double>(Now() - last_bridge_status_).count();
   if (silent_s < options_.bridge_timeout_s) return;
   bridge_lost_ = true;
   bridge_linked_ = false;
@@ -248,7 +254,7 @@ void ControlNode::CheckBridgeAlive() {
 void ControlNode::OnState(const sirupp::arm_state_t& message, const core::ReceiveInfo& info) {
   const core::ArmState state =
       core::ArmStateFromMessage(message, info.channel, model_.num_joints());
-  last_state_wall_ = Clock::now();
+  last_state_wall_ = Now();
   const std::optional<core::ArmCommand> command = sequencer_.OnState(state);
   Flush();
   if (!command) {
@@ -265,7 +271,7 @@ void ControlNode::OnState(const sirupp::arm_state_t& message, const core::Receiv
   ++states_answered_;
   // The sim's next state waits for this answer: its silence counts from here, so a controller
   // library that took long (up to its call limit) does not make the sim look lost.
-  last_state_wall_ = Clock::now();
+  last_state_wall_ = Now();
   if (options_.publish_setpoints) PublishSetpoint(state, command->effort);
 }
 
@@ -338,12 +344,12 @@ void ControlNode::PublishStatus(const StatusReport& report) {
   status.last_error = report.last_error;
   bus_.Publish(options_.channels.controller_status, core::ToMessage(status));
   last_reported_state_ = static_cast<int8_t>(report.state);
-  last_status_ = Clock::now();
+  last_status_ = Now();
 }
 
 void ControlNode::PublishStatusIfDue() {
   if (state() == last_reported_state_ &&
-      std::chrono::duration<double>(Clock::now() - last_status_).count() < kStatusPeriodS) {
+      std::chrono::duration<double>(Now() - last_status_).count() < kStatusPeriodS) {
     return;
   }
   PublishStatus(sequencer_.Status());
@@ -357,7 +363,7 @@ core::ReplyFacts ControlNode::Facts(bool moves) const {
 }
 
 void ControlNode::PublishGains(bool force) {
-  const Clock::time_point now = Clock::now();
+  const Clock::time_point now = Now();
   if (!force && !gains_changed_ && std::chrono::duration<double>(now - last_gains_).count() < 1.0) {
     return;
   }

@@ -15,13 +15,17 @@
 //      answer per ARM_TARGET, ARM_POSE_TARGET, ARM_PLAN and ARM_GAINS, naming the request),
 //      HEARTBEAT.
 //
-// What the node itself decides: the wall-clock watchdog on SIM_ARM_STATE (silent for
-// sim_timeout_s = the sim is lost), the rates of the periodic messages, matching the bridge's
-// reply to our latest ARM_MOVE, and whether the sim's robot is ours. Anything refused is counted
+// What the node itself decides: the watchdogs on SIM_ARM_STATE (silent for sim_timeout_s = the sim
+// is lost) and on a linked bridge's HARDWARE_STATUS (silent for bridge_timeout_s = the real arm is
+// lost), the rates of the periodic messages, matching the bridge's reply to our latest ARM_MOVE,
+// and whether the sim's robot is ours. The watchdogs and rates read ControlOptions::clock, the
+// wall clock in every timing mode (docs/hardware.md, "A lost bridge is named"); a test moves its
+// own. Anything refused is counted
 // as rejected on its channel and named in the reply and last_error; nothing moves then.
 
 #include <chrono>
 #include <cstdint>
+#include <functional>
 #include <memory>
 #include <sirupp/arm_command_t.hpp>
 #include <sirupp/arm_state_t.hpp>
@@ -60,11 +64,18 @@ struct ControlOptions {
   // No SIM_ARM_STATE for this long (wall clock) = the sim is lost: a plan is aborted, the real
   // arm stopped (STOP_SMOOTH on ARM_MOVE), the status says so until states come again.
   double sim_timeout_s = 0.5;
-  // No HARDWARE_STATUS (sent at 10 Hz) for this long while the bridge was linked = the bridge is
-  // lost: the virtual arm goes on, last_error names the loss ("real arm: sirupp-hardware lost at
-  // t = ..."), the client marks the plan incomplete for the real arm and the logger's end line
-  // names it, until the bridge is heard again.
+  // No HARDWARE_STATUS (sent at 10 Hz) for this long (wall clock, in lockstep too: the bridge and
+  // its boards run on the wall clock, not on the sim's time) while the bridge was linked = the
+  // bridge is lost: the virtual arm goes on, last_error names the loss ("real arm: sirupp-hardware
+  // lost at t = ...", t in sim time), the client marks the move or plan that was under way
+  // incomplete for the real arm and the logger's end line names it, until the bridge is heard
+  // again.
   double bridge_timeout_s = 0.6;
+  // The clock of the node's own timing: both watchdogs above, the rates of CONTROLLER_STATUS and
+  // CONTROLLER_GAINS, a model switch's time limit. The wall clock; a test gives one it moves.
+  std::function<std::chrono::steady_clock::time_point()> clock = [] {
+    return std::chrono::steady_clock::now();
+  };
 };
 
 class ControlNode {
@@ -105,6 +116,7 @@ class ControlNode {
   template <class Value, class Msg>
   Value Decoded(Value (*from_message)(const Msg&, const std::string&), const Msg& message,
                 const std::string& channel);
+  std::chrono::steady_clock::time_point Now() const { return options_.clock(); }
   void CheckSimAlive();
   void OnBridgeStatus(const sirupp::hardware_status_t& message);
   void CheckBridgeAlive();

@@ -43,7 +43,9 @@ constexpr const char* kAbout =
     "--sim-timeout S: no SIM_ARM_STATE for S wall seconds (default 0.5) aborts a plan (sirupp\n"
     "grade gives more: another participant may hold the lockstep sim that long).\n"
     "--bridge-timeout S: no HARDWARE_STATUS for S wall seconds (default 0.6) while the bridge was\n"
-    "linked = the real arm's half of the run is lost: named in last_error and the plan's result.\n";
+    "linked = the real arm's half of the run is lost: named in last_error and the plan's result.\n"
+    "Wall seconds in every timing mode, lockstep too: the bridge and its boards run on the wall\n"
+    "clock (docs/hardware.md, \"A lost bridge is named\").\n";
 
 // --controller LIB.so with its arguments, in its host process (or in this one with
 // --controller-in-process). Loaded before joining the bus: a library that cannot be used stops

@@ -6,6 +6,7 @@
 #include <gtest/gtest.h>
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <iostream>
 #include <sirupp/arm_command_t.hpp>
@@ -14,6 +15,7 @@
 #include <sirupp/hardware_status_t.hpp>
 #include <sirupp/servo_move_t.hpp>
 #include <sirupp/servo_setpoint_t.hpp>
+#include <stdexcept>
 
 #include "control/control_node.hpp"
 #include "core/command_reply.hpp"
@@ -470,12 +472,25 @@ TEST(ControlNode, GainsChangeLiveAndBadGainsAreRefused) {
   EXPECT_LT(std::abs(rig.Degrees(1)), std::abs(soft.Degrees(1)));
 }
 
+// A clock the test moves: the node's watchdogs and rates read it (ControlOptions::clock), so no
+// pause of this thread on a loaded machine makes the sim look lost between two hand-fed states.
+struct TestClock {
+  std::chrono::steady_clock::time_point now{std::chrono::hours(1)};
+  void Advance(std::chrono::milliseconds by) { now += by; }
+  ControlOptions Options() {
+    ControlOptions options;
+    options.clock = [this] { return now; };
+    return options;
+  }
+};
+
 // sirupp-control alone on a bus, fed by hand-made states: for what a real sim rarely does (restart,
-// send a state twice, brake the arm on its own, run another robot).
+// send a state twice, brake the arm on its own, run another robot, fall silent).
 struct HandFedControl {
   core::RobotModel model = core::LoadRobotModel("config/robots/puma260.yaml");
   core::Bus bus{"memq://"};
-  ControlNode control{bus, model, ControlOptions{}};
+  TestClock clock;
+  ControlNode control{bus, model, clock.Options()};
   std::vector<sirupp::arm_command_t> answers;
   std::vector<sirupp::servo_move_t> moves;
   std::vector<sirupp::servo_setpoint_t> setpoints;
@@ -509,7 +524,75 @@ struct HandFedControl {
     bus.Publish("ARM_TARGET", target);
     control.Service(0);
   }
+  void BridgeSays(int8_t state) {
+    sirupp::hardware_status_t status{};
+    status.state = state;
+    bus.Publish("HARDWARE_STATUS", status);
+    control.Service(0);
+  }
 };
+
+// Issue 41: the watchdogs measure silence on the node's clock (the wall clock in a process,
+// docs/hardware.md), to the millisecond here. A linked bridge silent for bridge_timeout_s is
+// lost: named in the last error, not a fault, cleared when it is heard again. A bridge that is
+// not linked is never lost.
+TEST(ControlNode, ALinkedBridgeSilentForItsTimeoutOnTheNodesClockIsLost) {
+  using std::chrono::milliseconds;
+  HandFedControl rig;
+  for (int64_t k = 0; k < 5; ++k) rig.State(k);
+  rig.BridgeSays(sirupp::hardware_status_t::STATE_ARMED);
+  rig.clock.Advance(milliseconds(5000));
+  rig.State(5);
+  EXPECT_TRUE(rig.control.last_error().empty()) << "not linked: " << rig.control.last_error();
+  rig.BridgeSays(sirupp::hardware_status_t::STATE_LINKED);
+  rig.clock.Advance(milliseconds(599));  // the default limit is 0.6 s
+  rig.State(6);
+  EXPECT_TRUE(rig.control.last_error().empty()) << rig.control.last_error();
+  rig.clock.Advance(milliseconds(1));
+  rig.State(7);
+  EXPECT_EQ(rig.control.last_error().rfind("real arm: sirupp-hardware lost at t = 0.004 s (no "
+                                           "HARDWARE_STATUS for 0.6 s while linked)",
+                                           0),
+            0u)
+      << rig.control.last_error();
+  EXPECT_NE(rig.control.state(), Status::STATE_FAULT);
+  EXPECT_TRUE(rig.control.fault().empty()) << rig.control.fault();
+  rig.BridgeSays(sirupp::hardware_status_t::STATE_LINKED);
+  EXPECT_TRUE(rig.control.last_error().empty()) << rig.control.last_error();
+}
+
+// The same clock for the sim: silent for sim_timeout_s (0.5 s) on it = lost, states again = back.
+TEST(ControlNode, ASimSilentForItsTimeoutOnTheNodesClockIsLost) {
+  using std::chrono::milliseconds;
+  HandFedControl rig;
+  for (int64_t k = 0; k < 5; ++k) rig.State(k);
+  rig.clock.Advance(milliseconds(499));
+  rig.control.Service(0);
+  EXPECT_FALSE(rig.control.sequencer().sim_lost());
+  rig.clock.Advance(milliseconds(1));
+  rig.control.Service(0);
+  EXPECT_TRUE(rig.control.sequencer().sim_lost());
+  EXPECT_EQ(
+      rig.control.last_error().rfind("no state from sirupp-sim on SIM_ARM_STATE for 0.5 s", 0), 0u)
+      << rig.control.last_error();
+  rig.State(5);
+  EXPECT_FALSE(rig.control.sequencer().sim_lost());
+  EXPECT_TRUE(rig.control.last_error().empty()) << rig.control.last_error();
+}
+
+TEST(ControlNode, AnEmptyClockIsRefusedNamingIt) {
+  const core::RobotModel model = core::LoadRobotModel("config/robots/puma260.yaml");
+  core::Bus bus("memq://");
+  ControlOptions options;
+  options.clock = nullptr;
+  try {
+    ControlNode control(bus, model, options);
+    ADD_FAILURE() << "an empty clock was taken";
+  } catch (const std::invalid_argument& error) {
+    EXPECT_NE(std::string(error.what()).find("ControlOptions::clock is empty"), std::string::npos)
+        << error.what();
+  }
+}
 
 TEST(ControlNode, AStateSentAgainIsAnsweredAgainWithTheSameCommand) {
   HandFedControl rig;
