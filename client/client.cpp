@@ -34,6 +34,15 @@ int64_t SteadyMicros() {
       .count();
 }
 
+// Keeps `reply` in `replies`, which holds only the newest: a long-lived client (the turn manager on
+// the bridge's bus) hears every rig's replies, most of them to other clients' requests.
+void KeepReply(std::vector<sirupp::command_reply_t>& replies,
+               const sirupp::command_reply_t& reply) {
+  constexpr size_t kKept = 256;
+  if (replies.size() >= kKept) replies.erase(replies.begin(), replies.begin() + kKept / 2);
+  replies.push_back(reply);
+}
+
 // Keeps the first real-arm loss a status names (core::kRealArmLost) in `lost`.
 void NoteRealArmLost(const sirupp::controller_status_t& status, std::string& lost) {
   if (lost.empty() && status.last_error.rfind(core::kRealArmLost, 0) == 0) {
@@ -150,20 +159,20 @@ void Client::Subscribe() {
   bus_.Subscribe<sirupp::command_reply_t>(
       channels_.controller_reply,
       [this](const sirupp::command_reply_t& message, const core::ReceiveInfo&) {
-        controller_replies_.push_back(message);
+        KeepReply(controller_replies_, message);
       });
   bus_.Subscribe<sirupp::command_reply_t>(
       channels_.hardware_reply,
       [this](const sirupp::command_reply_t& message, const core::ReceiveInfo&) {
-        hardware_replies_.push_back(message);
+        KeepReply(hardware_replies_, message);
       });
   bus_.Subscribe<sirupp::command_reply_t>(
       channels_.sim_reply, [this](const sirupp::command_reply_t& message,
-                                  const core::ReceiveInfo&) { sim_replies_.push_back(message); });
+                                  const core::ReceiveInfo&) { KeepReply(sim_replies_, message); });
   bus_.Subscribe<sirupp::command_reply_t>(
       channels_.logger_reply,
       [this](const sirupp::command_reply_t& message, const core::ReceiveInfo&) {
-        logger_replies_.push_back(message);
+        KeepReply(logger_replies_, message);
       });
   bus_.Subscribe<sirupp::sim_status_t>(
       channels_.sim_status, [this](const sirupp::sim_status_t& message, const core::ReceiveInfo&) {
@@ -529,6 +538,38 @@ bool Client::WaitEstopShown(bool engaged, double timeout_s) {
                (snapshot_.hardware->state == hardware_status_t::STATE_ESTOPPED) == engaged;
       },
       timeout_s);
+}
+
+bool HardwareMovesDone(const hardware_status_t& status) {
+  return !status.module_status.empty() &&
+         std::all_of(status.module_status.begin(), status.module_status.end(),
+                     [](int16_t module) { return (module & kModuleMoveDone) != 0; });
+}
+
+RequestId Client::SendHardware(HardwareCommand command) {
+  const core::HardwareCommand message{0, 0, static_cast<core::HardwareAction>(Verb(command).wire),
+                                      options_.sender};
+  return Send(channels_.hardware_command, core::ToMessage(message));
+}
+
+RequestId Client::SendServoMove(const core::ServoMove& move) {
+  return Send(channels_.arm_move, core::ToMessage(move));
+}
+
+std::optional<Answer> Client::HeardHardwareAnswer(const RequestId& request) {
+  for (auto it = hardware_replies_.begin(); it != hardware_replies_.end(); ++it) {
+    if (!core::RepliesTo(*it, request.channel, request.utime, request.seq)) continue;
+    Answer answer;
+    answer.request = request;
+    answer.result = it->result == sirupp::command_reply_t::RESULT_ACCEPTED ? Result::kAccepted
+                                                                           : Result::kRefused;
+    answer.error = it->error;
+    answer.move_id = it->move_id;
+    answer.status_seq = it->status_seq;
+    hardware_replies_.erase(it);
+    return answer;
+  }
+  return std::nullopt;
 }
 
 std::optional<Outcome> Client::Follow(const std::function<bool(const Status&)>& ended,

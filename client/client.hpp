@@ -35,6 +35,7 @@
 
 #include "core/bus.hpp"
 #include "core/channels.hpp"
+#include "core/messages.hpp"
 
 namespace sirupp::client {
 
@@ -117,6 +118,10 @@ const char* HardwareCommandName(HardwareCommand command);
 std::optional<HardwareCommand> HardwareCommandFromName(const std::string& name);
 // Whether a bridge status shows the command carried out (e.g. kArm: STATE_ARMED).
 bool HardwareCommandDone(HardwareCommand command, const sirupp::hardware_status_t& status);
+// The MOVE_DONE bit of a PIC-SERVO module's status byte (hardware_status_t.module_status).
+constexpr int16_t kModuleMoveDone = 0x01;
+// Whether every module in a bridge status has its move done (false without modules).
+bool HardwareMovesDone(const sirupp::hardware_status_t& status);
 
 // "manual" or "automatic"; "idle", "moving", "waiting", "paused", "fault", "off" ("unknown" else).
 const char* ControllerModeName(int8_t mode);
@@ -239,6 +244,17 @@ class Client {
   RequestId Estop(bool engage, const std::string& reason);
   // True when a bridge status shows the stop engaged (or released) within timeout_s.
   bool WaitEstopShown(bool engaged, double timeout_s);
+
+  // --- without waiting, for a caller that services the bus in a loop of its own
+  // (turns::TurnManager): a request goes out at once, and its answer is looked up later among the
+  // replies heard by then (whoever handles the bus hears them). None of these handles messages.
+  RequestId SendHardware(HardwareCommand command);
+  // ARM_MOVE, as a controller sends it: sirupp-hardware mirrors it while linked and answers it on
+  // HARDWARE_REPLY either way.
+  RequestId SendServoMove(const core::ServoMove& move);
+  // The answer to `request` once its reply on HARDWARE_REPLY was heard (status_seq: the bridge's
+  // status that shows the command's effect), else nullopt.
+  std::optional<Answer> HeardHardwareAnswer(const RequestId& request);
 
   // --- answers
   // Waits for the reply to `request` on CONTROLLER_REPLY (or HARDWARE_REPLY), then for the status

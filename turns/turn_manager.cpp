@@ -5,9 +5,7 @@
 #include <fstream>
 #include <limits>
 #include <set>
-#include <sirupp/command_reply_t.hpp>
 #include <sirupp/estop_t.hpp>
-#include <sirupp/hardware_command_t.hpp>
 #include <sirupp/heartbeat_t.hpp>
 #include <sirupp/joint_target_t.hpp>
 #include <sirupp/plan_command_t.hpp>
@@ -35,10 +33,6 @@ constexpr int kHomeCorrections = 3;       // the pose check's correction moves, 
 // move alone, so the wait costs only time.
 constexpr double kBridgeSilentS = 3.0;
 constexpr double kMaxCorrectionDeg = 5.0;  // larger errors are not friction: no correction
-
-double Since(Clock::time_point t) {
-  return std::chrono::duration<double>(Clock::now() - t).count();
-}
 
 std::string Fixed1(double value) {
   char text[32];
@@ -118,6 +112,10 @@ struct TurnManager::Rig {
 
 TurnManager::TurnManager(core::Bus& arm_bus, const core::RobotModel& model, TurnOptions options)
     : arm_bus_(arm_bus), model_(model), options_(std::move(options)) {
+  if (!options_.clock) throw std::invalid_argument("TurnOptions::clock is empty");
+  client::Options client_options;
+  client_options.sender = options_.sender;
+  arm_client_ = std::make_unique<client::Client>(arm_bus_, client_options);
   const core::Channels& c = channels_;
   // The bridge's side, always: what it says is kept, and passed to the holder while relayed.
   auto to_holder = [this](const auto& channel) {
@@ -149,25 +147,12 @@ TurnManager::TurnManager(core::Bus& arm_bus, const core::RobotModel& model, Turn
       [this](const Status& status, const core::ReceiveInfo& info) {
         core::HardwareStatusFromMessage(status, info.channel);  // a bad one is refused, counted
         hardware_ = status;
-        hardware_at_ = Clock::now();
-        ++statuses_since_accept_;
+        hardware_at_ = Now();
       },
       100));
   arm_subscriptions_.push_back(&arm_bus_.Subscribe<sirupp::arm_state_t>(
       c.real_arm_state,
       [this](const sirupp::arm_state_t& state, const core::ReceiveInfo&) { real_ = state; }, 2));
-  arm_subscriptions_.push_back(&arm_bus_.Subscribe<sirupp::command_reply_t>(
-      c.hardware_reply,
-      [this](const sirupp::command_reply_t& reply, const core::ReceiveInfo&) {
-        if (reply.request_utime <= 0 || reply.request_utime != last_request_utime_) return;
-        if (reply.result == sirupp::command_reply_t::RESULT_REFUSED) {
-          manager_refusal_ = reply.error;
-        } else {
-          accepted_utime_ = reply.request_utime;
-          statuses_since_accept_ = 0;
-        }
-      },
-      100));
 }
 
 TurnManager::~TurnManager() {
@@ -216,6 +201,12 @@ void TurnManager::LogJson(const std::string& json_line) {
   if (options_.log_path.empty()) return;
   std::ofstream log(options_.log_path, std::ios::app);
   log << json_line << "\n";
+}
+
+Clock::time_point TurnManager::Now() const { return options_.clock(); }
+
+double TurnManager::Since(Clock::time_point t) const {
+  return std::chrono::duration<double>(Now() - t).count();
 }
 
 // --- students and the teacher
@@ -276,8 +267,7 @@ std::string TurnManager::MayCommand(const std::string& student) const {
   const auto place = std::find(queue_.begin(), queue_.end(), student);
   std::string text = "the real arm is in " + holder_->student + "'s turn (" + PhaseName(phase_);
   if (phase_ == Phase::kTurn) {
-    text += ", " +
-            Fixed1(std::max(0.0, std::chrono::duration<double>(turn_end_ - Clock::now()).count())) +
+    text += ", " + Fixed1(std::max(0.0, std::chrono::duration<double>(turn_end_ - Now()).count())) +
             " s left";
   }
   text += ")";
@@ -393,25 +383,13 @@ void TurnManager::Detach(Rig& rig) {
 
 // --- the arm
 
-void TurnManager::Command(int8_t hardware_command) {
-  core::HardwareCommand command;
-  command.utime = core::WallMicros();
-  if (command.utime <= last_request_utime_) command.utime = last_request_utime_ + 1;
-  last_request_utime_ = command.utime;
-  command.seq = seq_++;
-  command.command = static_cast<core::HardwareAction>(hardware_command);
-  command.sender = options_.sender;
-  manager_refusal_.clear();
-  accepted_utime_ = 0;
-  arm_bus_.Publish(channels_.hardware_command, core::ToMessage(command));
+void TurnManager::Command(client::HardwareCommand command) {
+  request_ = arm_client_->SendHardware(command);
+  answer_.reset();
 }
 
 void TurnManager::Move(bool stop, const std::vector<double>& goal, double speed_fraction) {
   core::ServoMove move;
-  move.utime = core::WallMicros();
-  if (move.utime <= last_request_utime_) move.utime = last_request_utime_ + 1;
-  last_request_utime_ = move.utime;
-  move.seq = seq_++;
   move.move_id = ++move_id_;
   move.command = stop ? core::MoveCommand::kStopSmooth : core::MoveCommand::kMove;
   for (size_t j = 0; j < model_.joints.size(); ++j) {
@@ -419,9 +397,8 @@ void TurnManager::Move(bool stop, const std::vector<double>& goal, double speed_
     move.joints.push_back({stop ? 0.0 : goal[j], p.default_velocity * speed_fraction,
                            p.default_acceleration, sirupp::servo_move_t::FLAG_ACTIVE});
   }
-  manager_refusal_.clear();
-  accepted_utime_ = 0;
-  arm_bus_.Publish(channels_.arm_move, core::ToMessage(move));
+  request_ = arm_client_->SendServoMove(move);
+  answer_.reset();
 }
 
 std::string TurnManager::BridgeTrouble() const {
@@ -431,21 +408,23 @@ std::string TurnManager::BridgeTrouble() const {
   if (hardware_->state == Status::STATE_ESTOPPED) {
     return "the real arm is e-stopped: " + hardware_->last_error;
   }
-  if (!manager_refusal_.empty()) return "the bridge refused: " + manager_refusal_;
+  if (answer_ && !answer_->accepted()) return "the bridge refused: " + answer_->error;
   return "";
 }
 
 bool TurnManager::BridgeSilent() const { return hardware_ && Since(hardware_at_) > kBridgeSilentS; }
 
-bool TurnManager::MoveTaken() const {
-  return accepted_utime_ != 0 && accepted_utime_ == last_request_utime_ &&
-         statuses_since_accept_ >= 2;
+bool TurnManager::MoveDone() const {
+  // The reply names the bridge's last status before the move; the modules' MOVE_DONE bits are
+  // about the move only in a status polled after it: the second one after the reply.
+  return answer_ && answer_->accepted() && hardware_ && hardware_->seq >= answer_->status_seq + 2 &&
+         client::HardwareMovesDone(*hardware_);
 }
 
-bool TurnManager::AllMovesDone() const {
-  if (!hardware_ || hardware_->module_status.empty()) return false;
-  return std::all_of(hardware_->module_status.begin(), hardware_->module_status.end(),
-                     [](int16_t s) { return (s & 0x01) != 0; });  // MOVE_DONE
+bool TurnManager::CommandDone(client::HardwareCommand command) const {
+  // The status the reply names shows the command's effect.
+  return answer_ && answer_->accepted() && hardware_ && hardware_->seq >= answer_->status_seq &&
+         client::HardwareCommandDone(command, *hardware_);
 }
 
 std::pair<double, int> TurnManager::RealOffset(const std::vector<double>& goal) const {
@@ -491,7 +470,7 @@ void TurnManager::StartHandoverIn(const std::string& student) {
   }
   holder_ = &rig;
   phase_ = Phase::kHandoverIn;
-  handover_started_ = Clock::now();
+  handover_started_ = Now();
   Event("handover to " + student + " begins");
   std::vector<Step> steps;
   steps.push_back({"the bridge is ready", nullptr,
@@ -538,12 +517,12 @@ void TurnManager::StartHandoverIn(const std::string& student) {
                      return true;
                    },
                    options_.step_timeout_s + 10, false});
-  steps.push_back({"arm the real arm", [this] { Command(sirupp::hardware_command_t::COMMAND_ARM); },
+  steps.push_back({"arm the real arm", [this] { Command(client::HardwareCommand::kArm); },
                    [this] {
                      if (const std::string trouble = BridgeTrouble(); !trouble.empty()) {
                        throw TurnError(trouble);
                      }
-                     return hardware_->state == Status::STATE_ARMED;
+                     return CommandDone(client::HardwareCommand::kArm);
                    },
                    options_.step_timeout_s, true});
   steps.push_back({"link the rig",
@@ -557,13 +536,13 @@ void TurnManager::StartHandoverIn(const std::string& student) {
                            subs.end());
                        holder_->virtual_subscription = nullptr;
                      }
-                     Command(sirupp::hardware_command_t::COMMAND_LINK);
+                     Command(client::HardwareCommand::kLink);
                    },
                    [this] {
                      if (const std::string trouble = BridgeTrouble(); !trouble.empty()) {
                        throw TurnError(trouble);
                      }
-                     return hardware_->state == Status::STATE_LINKED;
+                     return CommandDone(client::HardwareCommand::kLink);
                    },
                    options_.step_timeout_s, true});
   steps_ = std::move(steps);
@@ -576,8 +555,8 @@ void TurnManager::StartTurn() {
   steps_.clear();
   const double handover_s = Since(handover_started_);
   handover_durations_s_.push_back(handover_s);
-  turn_end_ = Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                                 std::chrono::duration<double>(options_.turn_s));
+  turn_end_ = Now() + std::chrono::duration_cast<Clock::duration>(
+                          std::chrono::duration<double>(options_.turn_s));
   warned_.assign(options_.warn_before_s.size(), false);
   TurnRecord record;
   record.student = holder_->student;
@@ -599,7 +578,7 @@ void TurnManager::EndTurnNow(const std::string& why) {
 
 void TurnManager::StartHandoverOut() {
   phase_ = Phase::kHandoverOut;
-  handover_started_ = Clock::now();
+  handover_started_ = Now();
   const std::vector<double> home = HomePose();
   std::vector<Step> steps;
   steps.push_back({"unlink the rig and hold the arm",
@@ -611,7 +590,7 @@ void TurnManager::StartHandoverOut() {
                      if (const std::string trouble = BridgeTrouble(); !trouble.empty()) {
                        throw TurnError(trouble);
                      }
-                     return MoveTaken() && Since(step_started_) > 0.3 && AllMovesDone();
+                     return MoveDone() && Since(step_started_) > 0.3;
                    },
                    options_.step_timeout_s, true});
   // The farthest joint's travel at the reduced speed, as the step's extra time.
@@ -628,7 +607,7 @@ void TurnManager::StartHandoverOut() {
                      if (const std::string trouble = BridgeTrouble(); !trouble.empty()) {
                        throw TurnError(trouble);
                      }
-                     return MoveTaken() && Since(step_started_) > 0.3 && AllMovesDone();
+                     return MoveDone() && Since(step_started_) > 0.3;
                    },
                    options_.step_timeout_s + travel_s, true});
   // The check: every joint within home_tolerance_deg of home. A joint held short of home by its
@@ -639,11 +618,13 @@ void TurnManager::StartHandoverOut() {
   steps.push_back(
       {"check the pose", [this] { corrections_ = 0; },
        [this, home] {
+         // A correction under way is judged once done: passing within the tolerance on its way
+         // is not arriving (the arm would be disarmed mid-move).
+         if (corrections_ > 0 && !MoveDone()) return false;
          const auto [offset, joint] = RealOffset(home);
          if (offset <= options_.home_tolerance_deg) return true;
          const double since = corrections_ == 0 ? Since(step_started_) : Since(correction_at_);
          if (since < 1.0) return false;  // let it settle
-         if (corrections_ > 0 && !(MoveTaken() && AllMovesDone())) return false;
          const std::string off = "joint " + std::to_string(joint) + " is " + Fixed1(offset) +
                                  " deg away (allowed " + Fixed1(options_.home_tolerance_deg) +
                                  " deg)";
@@ -662,27 +643,26 @@ void TurnManager::StartHandoverOut() {
                ": a slow move to home plus that error (held short by friction)");
          Move(false, goal, options_.home_speed_fraction * 0.5);
          ++corrections_;
-         correction_at_ = Clock::now();
+         correction_at_ = Now();
          return false;
        },
        options_.step_timeout_s + 10, true});
   // One command per step, each waited for: a refused UNLINK (the bridge may still be linked to
   // the rig) stops the queue with the bridge's reason instead of going on to disarm.
-  steps.push_back({"unlink the bridge",
-                   [this] { Command(sirupp::hardware_command_t::COMMAND_UNLINK); },
+  steps.push_back({"unlink the bridge", [this] { Command(client::HardwareCommand::kUnlink); },
                    [this] {
                      if (const std::string trouble = BridgeTrouble(); !trouble.empty()) {
                        throw TurnError(trouble);
                      }
-                     return MoveTaken() && hardware_->state == Status::STATE_ARMED;
+                     return CommandDone(client::HardwareCommand::kUnlink);
                    },
                    options_.step_timeout_s, true});
-  steps.push_back({"disarm", [this] { Command(sirupp::hardware_command_t::COMMAND_DISARM); },
+  steps.push_back({"disarm", [this] { Command(client::HardwareCommand::kDisarm); },
                    [this] {
                      if (const std::string trouble = BridgeTrouble(); !trouble.empty()) {
                        throw TurnError(trouble);
                      }
-                     return MoveTaken() && hardware_->state == Status::STATE_CONNECTED;
+                     return CommandDone(client::HardwareCommand::kDisarm);
                    },
                    options_.step_timeout_s, true});
   steps_ = std::move(steps);
@@ -765,7 +745,7 @@ void TurnManager::StepHandover() {
     try {
       if (!step_entered_) {
         step_entered_ = true;
-        step_started_ = Clock::now();
+        step_started_ = Now();
         if (step.enter) step.enter();
       }
       // A bridge silent for a while (a command that takes it long on a loaded machine, or a
@@ -811,6 +791,8 @@ void TurnManager::Service() {
   for (auto& [name, rig] : rigs_) {
     if (rig->estop_bus) rig->estop_bus->HandleAvailable();
   }
+  // The answer to our latest request, once the bridge's reply was heard.
+  if (request_ && !answer_) answer_ = arm_client_->HeardHardwareAnswer(*request_);
   // While we drive the arm ourselves (hold, home), the bridge's command expiry hears from us.
   if (phase_ == Phase::kHandoverOut && !relay_on_ && Since(last_liveness_) >= kLivenessPeriodS) {
     sirupp::controller_status_t alive{};
@@ -818,7 +800,7 @@ void TurnManager::Service() {
     alive.seq = seq_++;
     alive.last_error = "";
     arm_bus_.Publish(channels_.controller_status, alive);
-    last_liveness_ = Clock::now();
+    last_liveness_ = Now();
   }
   switch (phase_) {
     case Phase::kIdle:
@@ -834,7 +816,7 @@ void TurnManager::Service() {
       StepHandover();
       break;
     case Phase::kTurn: {
-      const double left = std::chrono::duration<double>(turn_end_ - Clock::now()).count();
+      const double left = std::chrono::duration<double>(turn_end_ - Now()).count();
       for (size_t i = 0; i < options_.warn_before_s.size(); ++i) {
         if (!warned_[i] && left <= options_.warn_before_s[i] && left > 0) {
           warned_[i] = true;
@@ -855,7 +837,7 @@ TurnStatus TurnManager::status() const {
   s.phase = phase_;
   s.holder = holder_ != nullptr ? holder_->student : "";
   if (phase_ == Phase::kTurn) {
-    s.turn_left_s = std::max(0.0, std::chrono::duration<double>(turn_end_ - Clock::now()).count());
+    s.turn_left_s = std::max(0.0, std::chrono::duration<double>(turn_end_ - Now()).count());
   }
   if ((phase_ == Phase::kHandoverIn || phase_ == Phase::kHandoverOut) && step_ < steps_.size()) {
     s.step = steps_[step_].name;

@@ -30,6 +30,12 @@
 //
 // Single-threaded, like core::Bus: call Service() often. Everything happens inside Service() and
 // the commands.
+//
+// Built on client/: the bridge is commanded through a client::Client on the arm bus (requests
+// with ids, each step waits for the reply that names its request and for the status that reply
+// names; client::HardwareCommandDone and client::HardwareMovesDone say when it is carried out).
+// Every time the manager reads (a turn's end, warnings, a step's timeout, the bridge's silence,
+// its liveness messages) is TurnOptions::clock: the steady clock, or a test's simulated one.
 
 #include <chrono>
 #include <cstdint>
@@ -44,6 +50,7 @@
 #include <string>
 #include <vector>
 
+#include "client/client.hpp"
 #include "core/bus.hpp"
 #include "core/channels.hpp"
 #include "core/robot_model.hpp"
@@ -74,6 +81,11 @@ struct TurnOptions {
   // rig is a submission that has not passed the class's safety tasks). Asked on Join and again
   // when their turn comes (then their turn is skipped with the reason). None: everyone may.
   std::function<std::string(const std::string& student)> admit;
+  // Where the manager reads the time. The steady clock by default; a test gives a clock it moves
+  // itself, so turns and handovers run on simulated time through the same steps.
+  std::function<std::chrono::steady_clock::time_point()> clock = [] {
+    return std::chrono::steady_clock::now();
+  };
 };
 
 enum class Phase { kIdle, kHandoverIn, kTurn, kHandoverOut, kStopped };
@@ -116,7 +128,8 @@ class TurnManager {
   using BusFactory = std::function<std::shared_ptr<core::Bus>()>;
 
   // `arm_bus` is the bridge's bus; `model` the robot (home pose, default speeds). Both must
-  // outlive the manager.
+  // outlive the manager, and `arm_bus` is not handled after it (client::Client, which the manager
+  // commands the bridge through, does not unsubscribe when it ends).
   TurnManager(core::Bus& arm_bus, const core::RobotModel& model, TurnOptions options = {});
   ~TurnManager();
   TurnManager(const TurnManager&) = delete;
@@ -180,17 +193,21 @@ class TurnManager {
   void RelayOff();
   void Attach(Rig& rig);
   void Detach(Rig& rig);
-  void Command(int8_t hardware_command);
+  Clock::time_point Now() const;
+  double Since(Clock::time_point t) const;  // seconds on the manager's clock
+  // Our requests to the bridge, through arm_client_: the latest is request_, answer_ its answer
+  // once heard.
+  void Command(client::HardwareCommand command);
   void Move(bool stop, const std::vector<double>& goal, double speed_fraction);
   // Why the bridge cannot go on (fault, e-stop, refusal), or "".
   std::string BridgeTrouble() const;
   // Its last HARDWARE_STATUS is older than kBridgeSilentS: what it said may be stale.
   bool BridgeSilent() const;
-  // Our last request (ARM_MOVE or HARDWARE_COMMAND) was accepted by the bridge and two
-  // HARDWARE_STATUS came after it, so the modules' MOVE_DONE bits and the state are about that
-  // request, not the one before (a busy machine may delay the bridge past any fixed time).
-  bool MoveTaken() const;
-  bool AllMovesDone() const;
+  // Our last ARM_MOVE was accepted by the bridge and a status polled after it shows every
+  // module's MOVE_DONE (no fixed time: a busy machine may delay the bridge past any).
+  bool MoveDone() const;
+  // Our last HARDWARE_COMMAND was accepted and the status its reply names shows it carried out.
+  bool CommandDone(client::HardwareCommand command) const;
   // The largest |real - goal| in degrees and its joint (1-based), from REAL_ARM_STATE.
   std::pair<double, int> RealOffset(const std::vector<double>& goal) const;
   std::vector<double> HomePose() const;
@@ -225,11 +242,10 @@ class TurnManager {
   std::optional<sirupp::hardware_status_t> hardware_;
   Clock::time_point hardware_at_;
   std::optional<sirupp::arm_state_t> real_;
-  std::string manager_refusal_;     // the bridge refused one of our commands
-  int64_t last_request_utime_ = 0;  // of our latest HARDWARE_COMMAND or ARM_MOVE
-  int64_t accepted_utime_ = 0;      // the bridge accepted that request
-  int statuses_since_accept_ = 0;
-  int corrections_ = 0;  // the pose check's correction moves so far
+  std::unique_ptr<client::Client> arm_client_;
+  std::optional<client::RequestId> request_;  // our latest HARDWARE_COMMAND or ARM_MOVE
+  std::optional<client::Answer> answer_;      // its answer, once heard
+  int corrections_ = 0;                       // the pose check's correction moves so far
   Clock::time_point correction_at_;
   int64_t seq_ = 0;
   int64_t move_id_ = 1000000;
