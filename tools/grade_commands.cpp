@@ -67,7 +67,14 @@ std::string LoadProblem(const grade::ControllerResult& result) {
   return "does not load: " + result.tasks.front().ended.substr(prefix.size());
 }
 
-std::string IncludeDir() { return std::string(SIRUPP_SOURCE_DIR) + "/include"; }
+// The folder holding sirupp/controller.h: the source tree's include/ from a build tree, the data
+// folder's when installed (runtime/data_path.hpp).
+std::string IncludeDir() {
+  return fs::path(runtime::ResolveDataPath("include/sirupp/controller.h"))
+      .parent_path()
+      .parent_path()
+      .string();
+}
 
 std::string Seconds(double seconds) {
   char text[32];

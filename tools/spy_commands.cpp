@@ -11,6 +11,7 @@
 #include "core/errors.hpp"
 #include "launch/supervisor.hpp"
 #include "runtime/args.hpp"
+#include "runtime/data_path.hpp"
 #include "tools/launch_commands.hpp"
 
 namespace sirupp::tools {
@@ -145,7 +146,9 @@ int RunSpy(const std::vector<std::string>& args, std::ostream& out, std::ostream
        runtime::Flag("print-command", "print the Java command line instead of running it")
            .Switch()},
       kSpyAbout);
+  // The build's jar beside its bin/, else the installed one (<prefix>/share/sirupp/java).
   std::string jar = (fs::path(ProgramDir()) / ".." / "java" / "sirupp_lcmtypes.jar").string();
+  if (!fs::exists(jar)) jar = runtime::ResolveDataPath("java/sirupp_lcmtypes.jar");
   if (parsed.Has("jar")) jar = parsed.String("jar");
   const bool check = parsed.Switch("check");
   const bool print = parsed.Switch("print-command");
