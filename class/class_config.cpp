@@ -14,8 +14,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const std::vector<std::string> kTopKeys = {"class",  "description", "robot", "students", "data",
-                                           "limits", "server",      "rigs",  "real_arm", "grading"};
+const std::vector<std::string> kTopKeys = {"class",    "description", "robot",  "students",
+                                           "data",     "limits",      "server", "rigs",
+                                           "real_arm", "grading",     "cluster"};
 const std::vector<std::string> kLimitKeys = {"max_rigs", "idle_timeout_s", "rig_memory_mb",
                                              "rig_nice", "pin_rigs"};
 const std::vector<std::string> kServerKeys = {"listen", "port", "public_url", "tls_cert",
@@ -223,6 +224,7 @@ ClassConfig Read(const core::YamlDocument& document, const std::string& base_dir
                          "; each rig needs a port of its own");
   }
   if (const auto arm = top.Find("real_arm")) config.real_arm = ReadRealArm(*arm, config);
+  if (const auto jobs = top.Find("cluster")) config.cluster = cluster::ReadClusterConfig(*jobs);
   return config;
 }
 

@@ -26,10 +26,14 @@
 //     safety_tasks: [set1, step_j2]           # tasks of the suite a controller must pass before
 //                                             # the real arm (default: every task)
 //     max_source_kb: 256                      # largest source accepted (1..900)
+//   cluster: {engine: slurm, ...}     # optional: rigs and grading as jobs on a cluster
+//                                     # (cluster/cluster_config.hpp, docs/cluster.md)
 
 #include <optional>
 #include <string>
 #include <vector>
+
+#include "cluster/cluster_config.hpp"
 
 namespace sirupp::classroom {
 
@@ -68,6 +72,8 @@ struct ClassConfig {
   std::string grading_suite;              // absolute; "" = no grading
   std::vector<std::string> safety_tasks;  // names of the suite's tasks; all of them by default
   int max_source_kb = 256;
+  // cluster: rigs and grading as jobs on a cluster; none: the server's own processes.
+  std::optional<cluster::ClusterConfig> cluster;
 };
 
 // The reserved name of the teacher's token.

@@ -13,6 +13,7 @@
 #include <utility>
 #include <vector>
 
+#include "class/class_config.hpp"
 #include "cluster/cluster_config.hpp"
 #include "cluster/command_runner.hpp"
 #include "cluster/slurm_engine.hpp"
@@ -314,6 +315,27 @@ TEST(ClusterConfigTest, AMistakeIsOneErrorAtItsPlace) {
          "not an absolute path");
   expect("cluster:\n  engine: slurm\n  report_url: web01:8800\n", "c.yaml:3:15", "not an address");
   expect("cluster:\n  engine: slurm\n  poll_s: 0\n", "c.yaml:3:11", "poll_s");
+}
+
+TEST(ClusterConfigTest, TheClassFileTakesItStrictlyAndWithoutItNothingChanges) {
+  const std::string base =
+      "class: a\nrobot: config/robots/puma260.yaml\nstudents: [alice, bob]\ndata: d\n";
+  EXPECT_FALSE(classroom::ParseClassConfig(base, "c.yaml", "/tmp/x").cluster.has_value());
+  const classroom::ClassConfig jobs = classroom::ParseClassConfig(
+      base + "cluster: {engine: slurm, partition: class, grading: {jobs: 3}}\n", "c.yaml",
+      "/tmp/x");
+  ASSERT_TRUE(jobs.cluster.has_value());
+  EXPECT_EQ(jobs.cluster->partition, "class");
+  EXPECT_EQ(jobs.cluster->grading_jobs, 3);
+  try {
+    classroom::ParseClassConfig(base + "cluster:\n  engine: slurm\n  rig: {cpu: 2}\n", "c.yaml",
+                                "/tmp/x");
+    ADD_FAILURE() << "an unknown key was taken";
+  } catch (const core::ConfigError& e) {
+    const std::string text = e.what();
+    EXPECT_NE(text.find("c.yaml:7:"), std::string::npos) << text;
+    EXPECT_NE(text.find("cpu"), std::string::npos) << text;
+  }
 }
 
 }  // namespace
