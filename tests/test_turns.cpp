@@ -251,22 +251,21 @@ class ScriptedBridge {
   TimePoint last_, next_state_{}, next_status_{};
 };
 
-// A student's rig: physics and controller in lockstep on a bus of its own, the sim on the test's
-// clock. The controller's watchdogs (the sim lost, a linked bridge lost) read the wall clock, which
-// says nothing about this test's simulated time: they are set out of reach.
+// A student's rig: physics and controller in lockstep on a bus of its own, both on the test's
+// clock (the controller's watchdogs and status rate too, as the bridge's silence is on it).
 struct StudentRig {
   explicit StudentRig(const std::function<TimePoint()>& clock)
-      : sim(bus, world, core::Environment{}, SimOptions(clock)), control(bus, Puma(), Control()) {}
+      : sim(bus, world, core::Environment{}, SimOptions(clock)),
+        control(bus, Puma(), Control(clock)) {}
   static sim::NodeOptions SimOptions(const std::function<TimePoint()>& clock) {
     sim::NodeOptions options;
     options.clock.now = clock;
     options.clock.sleep_until = [](TimePoint) {};  // the test moves the clock
     return options;
   }
-  static control::ControlOptions Control() {
+  static control::ControlOptions Control(const std::function<TimePoint()>& clock) {
     control::ControlOptions options;
-    options.sim_timeout_s = 1e6;
-    options.bridge_timeout_s = 1e6;
+    options.clock = clock;
     return options;
   }
   core::Bus bus{"memq://"};
