@@ -18,7 +18,6 @@
 #include <unistd.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cerrno>
 #include <chrono>
 #include <cmath>
@@ -51,6 +50,11 @@ namespace {
 constexpr int kFirstUid = 2000000;  // as root: sandboxes run as uids from here
 constexpr int kUids = 1000000;
 constexpr const char* kHelperName = "sirupp-sandbox-exec";
+// As root: the table of held uids, in a folder of root's alone (the first that can be made).
+constexpr const char* kUidLockFolders[] = {"/run/sirupp-sandbox", "/tmp/sirupp-sandbox-uids"};
+constexpr const char* kUidLockName = "uids";
+// The inner helper's --user until the outer step puts the uid it holds there.
+constexpr const char* kUidWord = "UID";
 
 #if defined(__x86_64__)
 constexpr uint32_t kAuditArch = AUDIT_ARCH_X86_64;
@@ -119,15 +123,10 @@ std::string Number(double value) {
   return text;
 }
 
-// The uid a sandbox started as root runs as: one of its own per sandbox (the process limit counts
-// a uid's processes machine-wide when there is no user namespace).
-int SandboxUid() {
-  static std::atomic<int> counter{0};
-  return kFirstUid + static_cast<int>((static_cast<long>(::getpid()) * 64 + counter++) % kUids);
-}
-
+// The bubblewrap part of the command; as root the inner helper's uid is kUidWord, which the outer
+// step (sirupp-sandbox-exec --hold-uid) replaces with the uid it holds.
 std::vector<std::string> BuildArgv(const Probe& probe, const Policy& policy,
-                                   const std::vector<std::string>& argv, int uid) {
+                                   const std::vector<std::string>& argv) {
   std::vector<std::string> out = {probe.bwrap};
   if (probe.as_root) {
     // Privileged bubblewrap: no user namespace (root's would not count processes); the helper
@@ -210,7 +209,7 @@ std::vector<std::string> BuildArgv(const Probe& probe, const Policy& policy,
   }
   const Limits& limits = policy.limits;
   out.insert(out.end(), {"--", probe.helper});
-  if (probe.as_root) out.insert(out.end(), {"--user", std::to_string(uid)});
+  if (probe.as_root) out.insert(out.end(), {"--user", kUidWord});
   out.insert(
       out.end(),
       {"--cpu", Number(limits.cpu_s), "--memory", std::to_string(limits.memory_mb), "--processes",
@@ -218,7 +217,18 @@ std::vector<std::string> BuildArgv(const Probe& probe, const Policy& policy,
   if (policy.sanitized_target) out.emplace_back("--sanitized");
   out.insert(out.end(), {"--no-network", "--"});
   out.insert(out.end(), argv.begin(), argv.end());
-  return out;
+  if (!probe.as_root) return out;
+  // As root, first the outer step: it takes a uid no living sandbox has, gives it the read-write
+  // paths and holds it for as long as bubblewrap lives.
+  const auto word = std::find(out.begin(), out.end(), kUidWord);
+  std::vector<std::string> outer = {probe.helper, "--hold-uid", "--uid-at",
+                                    std::to_string(word - out.begin())};
+  for (const std::string& path : policy.read_write) {
+    outer.insert(outer.end(), {"--give", Absolute(path)});
+  }
+  outer.emplace_back("--");
+  outer.insert(outer.end(), out.begin(), out.end());
+  return outer;
 }
 
 // Runs `argv` with its output into a pipe; the exit status and the output (for the probe).
@@ -288,8 +298,7 @@ Probe MakeProbe() {
   Policy policy;
   policy.sanitized_target = false;
   std::string output;
-  const int status =
-      RunCapturing(BuildArgv(probe, policy, {"/usr/bin/true"}, SandboxUid()), &output);
+  const int status = RunCapturing(BuildArgv(probe, policy, {"/usr/bin/true"}), &output);
   while (!output.empty() && (output.back() == '\n' || output.back() == ' ')) output.pop_back();
   if (status != 0) {
     probe.problem = "bubblewrap cannot make its sandbox here" +
@@ -316,7 +325,6 @@ std::vector<std::string> Wrap(const Policy& policy, const std::vector<std::strin
     throw std::runtime_error("the sandbox cannot be had on this machine: " + probe.problem);
   }
   if (argv.empty()) throw std::runtime_error("the sandbox got no command");
-  const int uid = SandboxUid();
   if (probe.as_root) {
     std::vector<std::string> paths = policy.read_only;
     paths.push_back(argv.front());
@@ -329,14 +337,88 @@ std::vector<std::string> Wrap(const Policy& policy, const std::vector<std::strin
             problem);
       }
     }
+    // The outer step gives them to the sandbox's uid; a missing one is named here already.
     for (const std::string& path : policy.read_write) {
-      if (::chown(Absolute(path).c_str(), static_cast<uid_t>(uid), static_cast<gid_t>(uid)) != 0) {
-        throw std::runtime_error("the sandbox cannot give " + Absolute(path) + " to uid " +
-                                 std::to_string(uid) + ": " + std::strerror(errno));
+      struct stat info {};
+      if (::stat(Absolute(path).c_str(), &info) != 0) {
+        throw std::runtime_error("the sandbox cannot give " + Absolute(path) +
+                                 " to its user: " + std::strerror(errno));
       }
     }
   }
-  return BuildArgv(probe, policy, argv, uid);
+  return BuildArgv(probe, policy, argv);
+}
+
+HeldUid HoldFreeUid() {
+  HeldUid held;
+  std::string folder;
+  for (const char* candidate : kUidLockFolders) {
+    if (::mkdir(candidate, 0700) != 0 && errno != EEXIST) {
+      held.problem += std::string(held.problem.empty() ? "" : "; ") + "cannot make " + candidate +
+                      ": " + std::strerror(errno);
+      continue;  // /run may be read-only or missing: the next one
+    }
+    struct stat info {};
+    if (::lstat(candidate, &info) != 0 || !S_ISDIR(info.st_mode) || info.st_uid != 0 ||
+        (info.st_mode & 077) != 0) {
+      // Someone else's folder would let them take or hold uids: refuse it.
+      held.problem = std::string(candidate) +
+                     " must be a folder of root's that no one else may open (mode 0700); "
+                     "remove it and it is made again";
+      return held;
+    }
+    folder = candidate;
+    held.problem.clear();  // an earlier candidate's, if any
+    break;
+  }
+  if (folder.empty()) return held;
+  const std::string file = folder + "/" + kUidLockName;
+  // Without O_CLOEXEC: the descriptor is bubblewrap's --sync-fd.
+  held.fd = ::open(file.c_str(), O_RDWR | O_CREAT | O_NOFOLLOW, 0600);
+  if (held.fd < 0) {
+    held.problem = "cannot open " + file + ": " + std::strerror(errno);
+    return held;
+  }
+  auto lock = [&held](short type, off_t at, int command) {
+    struct flock range {};
+    range.l_type = type;
+    range.l_whence = SEEK_SET;
+    range.l_start = at;
+    range.l_len = 1;
+    int result = 0;
+    do {
+      result = ::fcntl(held.fd, command, &range);
+    } while (result != 0 && errno == EINTR);
+    return result == 0;
+  };
+  auto fail = [&held, &file](const std::string& what) {
+    held.problem = what + " (" + file + "): " + std::strerror(errno);
+    ::close(held.fd);
+    held.fd = -1;
+    return held;
+  };
+  // Byte kUids locked: a sandbox is choosing (and reads and writes the next index to try).
+  if (!lock(F_WRLCK, kUids, F_OFD_SETLKW)) return fail("cannot lock the uid table");
+  char text[24] = {};
+  const ssize_t got = ::pread(held.fd, text, sizeof text - 1, 0);
+  long next = got > 0 ? std::strtol(text, nullptr, 10) : 0;
+  if (next < 0 || next >= kUids) next = 0;
+  for (long tried = 0; tried < kUids; ++tried) {
+    const long index = (next + tried) % kUids;
+    if (lock(F_WRLCK, index, F_OFD_SETLK)) {
+      const std::string after = std::to_string((index + 1) % kUids) + "\n";
+      if (::ftruncate(held.fd, 0) != 0 ||
+          ::pwrite(held.fd, after.data(), after.size(), 0) != static_cast<ssize_t>(after.size())) {
+        return fail("cannot write the uid table");
+      }
+      lock(F_UNLCK, kUids, F_OFD_SETLK);
+      held.uid = kFirstUid + static_cast<int>(index);
+      return held;
+    }
+    if (errno != EAGAIN && errno != EACCES) return fail("cannot lock a uid");
+  }
+  errno = EAGAIN;
+  return fail("all " + std::to_string(kUids) + " sandbox uids are held by living sandboxes");
 }
 
 int UnwrapStatus(int status) {

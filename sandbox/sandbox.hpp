@@ -1,10 +1,16 @@
 #pragma once
 // The sandbox a student's code runs in (issue 34): the controller host of sirupp-control
-// --controller and of `sirupp grade`, the compiler building a submitted .cpp, and later the class
-// server's submissions. docs/sandbox.md says what holds and what stopped which hostile action.
+// --controller, of `sirupp grade` and of the class server's submissions, and the compiler
+// building a submitted .cpp. docs/sandbox.md says what holds and what stopped which hostile
+// action.
 //
 // A sandbox is an argv prefix, so any spawn (posix_spawn, grade::Child) can use it unchanged:
 //
+//   (as root) sirupp-sandbox-exec --hold-uid --uid-at K [--give PATH]... --
+//                                               outside: takes a uid no living sandbox on the
+//                                               machine has, gives it the read-write paths, puts
+//                                               it in word K below, and execs bubblewrap holding
+//                                               it (HoldFreeUid)
 //   bwrap --unshare-all --die-with-parent ...  Debian's bubblewrap: new user, network (only a
 //                                               loopback of its own), pid, ipc, uts and cgroup
 //                                               namespaces; a file system of /usr (read-only),
@@ -17,8 +23,11 @@
 //
 // Started by root, bubblewrap runs privileged without a user namespace (the kernel does not count
 // root's processes, so RLIMIT_NPROC needs another uid) and the helper drops to a uid of its own.
+// RLIMIT_NPROC then counts that uid's processes machine-wide, so no two living sandboxes may share
+// it, whoever started them: the uid is held by a lock that bubblewrap's init (the sandbox's pid 1,
+// whose end ends every process in it) keeps open as its --sync-fd, and the code never has.
 // Descriptors the parent passes (the controller host's socket pair and memfd) stay open across
-// both. The policy's paths appear at their own paths inside.
+// all three. The policy's paths appear at their own paths inside.
 
 #include <cstdint>
 #include <string>
@@ -30,6 +39,7 @@ struct Limits {
   double cpu_s = 60;           // RLIMIT_CPU: SIGXCPU at this, SIGKILL a second later
   uint64_t memory_mb = 1024;   // RLIMIT_AS (address space); see Policy::sanitized_target
   int processes = 32;          // RLIMIT_NPROC, counted in the sandbox's own user namespace
+                               // (as root: for the sandbox's own uid)
   uint64_t file_size_mb = 64;  // RLIMIT_FSIZE: SIGXFSZ on a write past it
   uint64_t tmp_mb = 64;        // the private /tmp (a tmpfs) holds at most this
 };
@@ -60,7 +70,8 @@ struct Probe {
   std::string bwrap;    // the bubblewrap found
   std::string helper;   // sirupp-sandbox-exec
   // Running as root: bubblewrap runs privileged (no user namespace) and the code runs as a uid of
-  // its own (from 2000000), so that the process limit counts its processes only.
+  // its own (from 2000000, held while the sandbox lives), so that the process limit counts its
+  // processes only.
   bool as_root = false;
   bool seccomp = false;  // the socket filter is installed on this architecture
 };
@@ -81,6 +92,20 @@ std::string ApplyLimits(const Limits& limits, bool sanitized_target);
 // RLIMIT_AS (unless sanitized_target), last before exec: the helper itself may be an ASan build.
 std::string ApplyMemoryLimit(const Limits& limits, bool sanitized_target);
 std::string ForbidNetworkSockets();
+// Started as root, the outer step (sirupp-sandbox-exec --hold-uid), before bubblewrap: a uid from
+// 2000000 up that no living sandbox on this machine holds, held while `fd` (and every copy of it)
+// stays open. The table is one file, /run/sirupp-sandbox/uids (or /tmp/sirupp-sandbox-uids when
+// /run cannot be written), in a folder of root's (mode 0700): byte i locked (an open file
+// description lock, fcntl F_OFD_SETLK) is uid 2000000 + i held; its text is the next i to try, so
+// a uid comes back only after the other 999999 were handed out. `problem` says why not, with
+// uid -1 and fd -1.
+struct HeldUid {
+  int uid = -1;
+  int fd = -1;  // not close-on-exec: bubblewrap's --sync-fd
+  std::string problem;
+};
+HeldUid HoldFreeUid();
+
 // Started as root, after the limits: become uid/gid `id` with no supplementary groups (which drops
 // every capability), keeping the parent-death signal SIGKILL. Returns "" or what failed.
 std::string DropTo(int id);

@@ -4,20 +4,30 @@
 // run with a named reason and leaves the machine as it was: no datagram reaches another rig's
 // port, another student's file is not read, a fork bomb stays under the process limit and leaves
 // no process behind, endless allocation and an endless file are stopped by their limits, a
-// constructor that spins is ended by the load limit (and by the CPU limit). net_publish and
-// read_other also run unsandboxed, where they succeed: the checks can fail.
+// constructor that spins is ended by the load limit (and by the CPU limit); two sandboxes started
+// as root at once never share a process limit. net_publish and read_other also run unsandboxed,
+// where they succeed: the checks can fail.
 
 #include <arpa/inet.h>
 #include <dirent.h>
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <netinet/in.h>
 #include <poll.h>
+#include <sched.h>
+#include <signal.h>
+#include <sys/mount.h>
+#include <sys/prctl.h>
 #include <sys/socket.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <cerrno>
+#include <chrono>
 #include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -172,7 +182,8 @@ class Listener {
 };
 
 TEST_F(Sandbox, NoDatagramReachesAnotherRigsPort) {
-  grade::PortLease lease = grade::PortLease::Acquire(grade::kPortBase, grade::kPortCount, ::getpid() % 9000);
+  grade::PortLease lease =
+      grade::PortLease::Acquire(grade::kPortBase, grade::kPortCount, ::getpid() % 9000);
   Listener listener(lease.port());
   ASSERT_TRUE(listener.ready());
   const std::string args = std::to_string(lease.port());
@@ -197,7 +208,8 @@ TEST_F(Sandbox, AnotherStudentsFileIsNotThere) {
   ::chmod(secret.c_str(), 0644);
   const std::string sandboxed = Outcome(Hostile("read_other"), secret.string(), Sandboxed(true));
   Report("read_other", sandboxed);
-  EXPECT_TRUE(Contains(sandboxed, "cannot open " + secret.string() + ": No such file")) << sandboxed;
+  EXPECT_TRUE(Contains(sandboxed, "cannot open " + secret.string() + ": No such file"))
+      << sandboxed;
   EXPECT_FALSE(Contains(sandboxed, "secret gains")) << sandboxed;
   const std::string plain = Outcome(Hostile("read_other"), secret.string(), Sandboxed(false));
   Report("read_other --no-sandbox", plain);
@@ -261,6 +273,167 @@ TEST_F(Sandbox, AConstructorThatSpinsIsEndedByTheLoadLimitOrTheCpuLimit) {
   const std::string by_cpu = Outcome(Hostile("spin_constructor"), "", options);
   Report("spin_constructor (CPU limit 1 s)", by_cpu);
   EXPECT_TRUE(Contains(by_cpu, "crashed with SIGXCPU")) << by_cpu;
+}
+
+// Two sandboxes started as root at once (issue 41): each runs as a uid of its own, and without a
+// user namespace RLIMIT_NPROC counts that uid's processes machine-wide, so two living sandboxes
+// must never share a uid, whichever processes started them. The launchers get chosen pids in a
+// pid namespace of the test's own: N and N + 15625 (15625 * 64 = 1000000), which the uid once
+// derived from the launcher's pid (kFirstUid + (pid * 64 + counter) % 1000000) made one uid.
+constexpr pid_t kFirstLauncher = 2000;
+constexpr pid_t kSecondLauncher = kFirstLauncher + 15625;
+constexpr int kProcessLimit = 8;
+// A: fills its process limit with sleeping children and holds them.
+const char* const kFillTheLimit =
+    "$| = 1; my $n = 0;"
+    "while ($n < 100) { my $p = fork; last unless defined $p; if ($p == 0) { sleep 120; exit 0 }"
+    "  $n++ }"
+    "print \"uid $<: full after $n forks: $!\\n\"; sleep 120;";
+// B: starts three children, which must all start.
+const char* const kStartThree =
+    "$| = 1; my $n = 0;"
+    "my $e = ''; for (1 .. 3) { my $p = fork; unless (defined $p) { $e = \": $!\"; last }"
+    "  if ($p == 0) { exit 0 } $n++ }"
+    "1 while wait != -1;"
+    "print \"uid $<: started $n of 3 children$e\\n\";";
+
+void Say(int fd, const std::string& text) {
+  if (::write(fd, text.data(), text.size()) < 0) return;  // the reader names what is missing
+}
+
+// In the pid namespace's init: the next fork gets `pid`; that child calls sandbox::Wrap and runs
+// `script` under perl in the sandbox with its output into `out`. The child, or -1.
+pid_t LaunchAt(pid_t pid, int out, const char* script) {
+  const std::string last = std::to_string(pid - 1);
+  const int fd = ::open("/proc/sys/kernel/ns_last_pid", O_WRONLY | O_CLOEXEC);
+  if (fd < 0 || ::write(fd, last.data(), last.size()) != static_cast<ssize_t>(last.size())) {
+    Say(out,
+        "cannot write /proc/sys/kernel/ns_last_pid: " + std::string(std::strerror(errno)) + "\n");
+    if (fd >= 0) ::close(fd);
+    return -1;
+  }
+  ::close(fd);
+  const pid_t child = ::fork();
+  if (child != 0) return child;
+  if (::getpid() != pid) {
+    Say(out, "the launcher got pid " + std::to_string(::getpid()) + ", not " + std::to_string(pid) +
+                 "\n");
+    ::_exit(1);
+  }
+  ::dup2(out, 1);
+  ::dup2(out, 2);
+  sandbox::Policy policy;
+  policy.limits.processes = kProcessLimit;
+  policy.sanitized_target = false;  // Debian's perl
+  try {
+    const std::vector<std::string> argv = sandbox::Wrap(policy, {"/usr/bin/perl", "-e", script});
+    std::vector<char*> raw;
+    for (const std::string& word : argv) raw.push_back(const_cast<char*>(word.c_str()));
+    raw.push_back(nullptr);
+    ::execv(raw[0], raw.data());
+    Say(1, "cannot start " + argv.front() + ": " + std::strerror(errno) + "\n");
+  } catch (const std::exception& error) {
+    Say(1, std::string("sandbox::Wrap: ") + error.what() + "\n");
+  }
+  ::_exit(1);
+}
+
+// What `fd` gives within `seconds`: until `until` is in a complete line, or to its end ("" = to
+// the end).
+std::string ReadFor(int fd, double seconds, const std::string& until) {
+  std::string text;
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::duration<double>(seconds);
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (!until.empty()) {
+      const size_t at = text.find(until);
+      if (at != std::string::npos && text.find('\n', at) != std::string::npos) break;
+    }
+    pollfd wait_for{fd, POLLIN, 0};
+    if (::poll(&wait_for, 1, 100) <= 0) continue;
+    char buffer[512];
+    const ssize_t got = ::read(fd, buffer, sizeof buffer);
+    if (got <= 0) break;
+    text.append(buffer, static_cast<size_t>(got));
+  }
+  return text;
+}
+
+// The uid a line "uid N: ..." names, or -1.
+long UidIn(const std::string& text) {
+  const size_t at = text.find("uid ");
+  return at == std::string::npos ? -1 : std::strtol(text.c_str() + at + 4, nullptr, 10);
+}
+
+TEST_F(Sandbox, TwoRootStartedSandboxesNeverShareAProcessLimit) {
+  if (::geteuid() != 0) {
+    GTEST_SKIP() << "not root: each sandbox counts its processes in a user namespace of its own "
+                    "and no uid is handed out";
+  }
+  int fill[2], start[2], go[2], stop[2];
+  ASSERT_EQ(::pipe2(fill, O_CLOEXEC), 0);
+  ASSERT_EQ(::pipe2(start, O_CLOEXEC), 0);
+  ASSERT_EQ(::pipe2(go, O_CLOEXEC), 0);
+  ASSERT_EQ(::pipe2(stop, O_CLOEXEC), 0);
+  // The keeper makes the pid namespace and ends it (every sandbox in it) when `stop` closes,
+  // also when this test dies.
+  const pid_t keeper = ::fork();
+  ASSERT_GE(keeper, 0) << std::strerror(errno);
+  if (keeper == 0) {
+    ::close(stop[1]);
+    ::close(go[1]);
+    ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+    // A mount namespace too, for a /proc of the new pid namespace (bubblewrap reads its child's
+    // /proc/PID/ns by the pid it sees); nothing mounted here is seen outside.
+    if (::unshare(CLONE_NEWPID | CLONE_NEWNS) != 0 ||
+        ::mount(nullptr, "/", nullptr, MS_REC | MS_PRIVATE, nullptr) != 0) {
+      Say(fill[1],
+          "unshare(CLONE_NEWPID | CLONE_NEWNS): " + std::string(std::strerror(errno)) + "\n");
+      ::_exit(1);
+    }
+    const pid_t init = ::fork();
+    if (init == 0) {  // pid 1 of the new namespace
+      ::close(stop[0]);
+      if (::mount("proc", "/proc", "proc", MS_NOSUID | MS_NODEV | MS_NOEXEC, nullptr) != 0) {
+        Say(fill[1], "mount /proc: " + std::string(std::strerror(errno)) + "\n");
+        ::_exit(1);
+      }
+      const bool first = LaunchAt(kFirstLauncher, fill[1], kFillTheLimit) > 0;
+      ::close(fill[1]);
+      char byte = 0;
+      if (first && ::read(go[0], &byte, 1) == 1) LaunchAt(kSecondLauncher, start[1], kStartThree);
+      ::close(start[1]);
+      for (;;) {
+        if (::wait(nullptr) < 0 && errno == ECHILD) ::pause();
+      }
+    }
+    ::close(fill[1]);
+    ::close(start[1]);
+    char byte = 0;
+    while (::read(stop[0], &byte, 1) != 0 && errno == EINTR) {
+    }
+    if (init > 0) {
+      ::kill(init, SIGKILL);  // the kernel ends every process of its namespace
+      ::waitpid(init, nullptr, 0);
+    }
+    ::_exit(0);
+  }
+  ::close(fill[1]);
+  ::close(start[1]);
+  ::close(go[0]);
+  ::close(stop[0]);
+  const std::string full = ReadFor(fill[0], 60, "full after");
+  Say(go[1], "g");
+  const std::string started = ReadFor(start[0], 60, "");
+  ::close(stop[1]);
+  ::waitpid(keeper, nullptr, 0);
+  for (int fd : {fill[0], start[0], go[1]}) ::close(fd);
+  Report("sandbox A (launched as pid " + std::to_string(kFirstLauncher) + ")", full);
+  Report("sandbox B (launched as pid " + std::to_string(kSecondLauncher) + ")", started);
+  EXPECT_TRUE(Contains(full, "full after " + std::to_string(kProcessLimit - 1) +
+                                 " forks: Resource temporarily unavailable"))
+      << full;
+  EXPECT_TRUE(Contains(started, "started 3 of 3 children")) << started;
+  EXPECT_NE(UidIn(full), UidIn(started)) << full << started;
 }
 
 TEST(SandboxStatus, BwrapsExitCodeOfASignalIsTheSignal) {
