@@ -442,8 +442,9 @@ struct LinkedRig {
     node->Link();
     control::ControlOptions control_options;
     control_options.bridge_timeout_s = kBridgeTimeoutS;
-    // The sim is serviced in this thread beside the controller: it cannot be lost here, also not
-    // when Silence() moves the controller's clock ahead.
+    // The sim is serviced in this thread beside the controller, so it cannot be lost here: neither
+    // a bridge poll that a loaded machine holds up (the emulator's thread can lag by a second) nor
+    // Silence() moving the controller's clock ahead may make it look so.
     control_options.sim_timeout_s = 10 * kBridgeTimeoutS;
     control_options.clock = [this] { return std::chrono::steady_clock::now() + clock_ahead; };
     control = std::make_unique<control::ControlNode>(bus, Puma(), control_options);
