@@ -543,6 +543,28 @@ IkResult SolveNumericIk(const RobotModel& model, const Eigen::Isometry3d& target
   return result;
 }
 
+IkSolverChoice ChooseIkSolver(const RobotModel& model, const IkRequest& request) {
+  IkSolverChoice choice;
+  if (request.numeric) {
+    choice.not_closed_form = "numeric solver asked for";
+  } else if (request.position_only) {
+    choice.not_closed_form = "position-only target";
+  } else if (const std::optional<std::string> why = PumaIkNotApplicable(model)) {
+    choice.not_closed_form = *why;
+  } else {
+    choice.closed_form = true;
+  }
+  return choice;
+}
+
+IkResult SolveIk(const RobotModel& model, const Eigen::Isometry3d& target,
+                 const JointVector& reference, const IkRequest& request) {
+  if (ChooseIkSolver(model, request).closed_form) return SolvePumaIk(model, target, reference);
+  NumericIkOptions options;
+  options.position_only = request.position_only;
+  return SolveNumericIk(model, target, reference, options);
+}
+
 std::vector<std::string> Singularities(const RobotModel& model, const JointVector& q,
                                        double tolerance) {
   const KinematicChain chain(model);

@@ -93,6 +93,24 @@ struct NumericIkOptions {
 IkResult SolveNumericIk(const RobotModel& model, const Eigen::Isometry3d& target,
                         const JointVector& reference, const NumericIkOptions& options = {});
 
+// Which solver an IK request takes, the one choice of `sirupp ik` and the Python module's
+// Model.ikine: the closed form when it applies to the arm (PumaIkNotApplicable) and neither the
+// numeric solver nor a position-only target is asked for; the numeric solver otherwise.
+struct IkRequest {
+  bool numeric = false;        // the numeric solver even where the closed form applies
+  bool position_only = false;  // the orientation left free (numeric solver)
+};
+struct IkSolverChoice {
+  bool closed_form = false;
+  // Why not the closed form, for messages ("" when closed_form): "numeric solver asked for",
+  // "position-only target", or PumaIkNotApplicable's reason.
+  std::string not_closed_form;
+};
+IkSolverChoice ChooseIkSolver(const RobotModel& model, const IkRequest& request);
+// Solves with ChooseIkSolver's choice: SolvePumaIk, or SolveNumericIk from `reference`.
+IkResult SolveIk(const RobotModel& model, const Eigen::Isometry3d& target,
+                 const JointVector& reference, const IkRequest& request);
+
 // Named singularities of the configuration q. PUMA-type arms: "wrist" (joint 5 at 0 or 180 deg),
 // "elbow" (arm fully stretched or folded), "shoulder" (wrist centre on the cylinder where the two
 // shoulder solutions meet, or on the waist axis). Other arms: "rank-deficient Jacobian".

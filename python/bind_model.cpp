@@ -79,24 +79,18 @@ class Model {
     }
     Eigen::VectorXd reference(n());
     for (int i = 0; i < n(); ++i) reference[i] = model_->joints[static_cast<size_t>(i)].home;
-    const bool numeric = !q0.is_none() || position_only;
     if (!q0.is_none()) reference = Joints(q0, "q0");
-    const std::optional<std::string> closed_form_problem = core::PumaIkNotApplicable(*model_);
-    if (wanted && (numeric || closed_form_problem)) {
-      throw py::value_error(
-          "config: " + *config + " needs the closed-form solver, which does not apply here (" +
-          (numeric ? std::string("q0 or position_only given") : *closed_form_problem) + ")");
+    const core::IkRequest request{!q0.is_none(), position_only};  // q0: numeric, from there
+    const core::IkSolverChoice choice = core::ChooseIkSolver(*model_, request);
+    if (wanted && !choice.closed_form) {
+      throw py::value_error("config: " + *config +
+                            " needs the closed-form solver, which does not apply here (" +
+                            choice.not_closed_form + ")");
     }
     core::IkResult result;
     {
       py::gil_scoped_release release;
-      if (!numeric && !closed_form_problem) {
-        result = core::SolvePumaIk(*model_, pose, reference);
-      } else {
-        core::NumericIkOptions options;
-        options.position_only = position_only;
-        result = core::SolveNumericIk(*model_, pose, reference, options);
-      }
+      result = core::SolveIk(*model_, pose, reference, request);
     }
     py::list solutions;
     for (const core::IkSolution& s : result.solutions) {

@@ -73,6 +73,26 @@ TEST_F(PumaIk, AppliesToThePumaButNotToOtherArms) {
   EXPECT_EQ(result.failure, IkFailure::kNotApplicable);
 }
 
+TEST_F(PumaIk, OneSolverChoiceForEveryCaller) {
+  // The closed form where it applies and nothing else is asked; the numeric solver, with the
+  // reason, otherwise. SolveIk takes the same choice.
+  EXPECT_TRUE(ChooseIkSolver(puma, {}).closed_form);
+  EXPECT_EQ(ChooseIkSolver(puma, {true, false}).not_closed_form, "numeric solver asked for");
+  EXPECT_EQ(ChooseIkSolver(puma, {false, true}).not_closed_form, "position-only target");
+  const RobotModel planar = LoadRobotModel("config/robots/planar3.yaml");
+  EXPECT_FALSE(ChooseIkSolver(planar, {}).closed_form);
+  EXPECT_EQ(ChooseIkSolver(planar, {}).not_closed_form, "it uses modified DH");
+  const JointVector q = (JointVector(6) << 0.3, -0.6, 1.1, 0.2, 0.7, -0.4).finished();
+  const Eigen::Isometry3d target = ToolPose(puma, q);
+  const IkResult closed = SolveIk(puma, target, q, {});
+  ASSERT_TRUE(closed.ok()) << closed.reason;
+  EXPECT_TRUE(closed.solutions.front().config.has_value());  // labelled: the closed form's
+  const IkResult numeric = SolveIk(puma, target, q, {true, false});
+  ASSERT_TRUE(numeric.ok()) << numeric.reason;
+  EXPECT_FALSE(numeric.solutions.front().config.has_value());
+  EXPECT_LT(numeric.solutions.front().error.position_m, 1e-6);
+}
+
 TEST_F(PumaIk, RandomPosesRoundTripOnAllEightBranches) {
   // Thousands of poses reached by random joints (fixed seed): every returned solution reproduces
   // the pose to 1e-9, the 8 configurations are distinct, and the original joints are among them.

@@ -293,22 +293,15 @@ int RunIk(const std::vector<std::string>& raw, std::ostream& out) {
   const Eigen::Isometry3d target = PoseTarget(pose);
 
   IkAnswer answer;
-  answer.closed_form = !numeric && !position_only && !core::PumaIkNotApplicable(model);
+  const core::IkRequest request{numeric, position_only};
+  const core::IkSolverChoice choice = core::ChooseIkSolver(model, request);
+  answer.closed_form = choice.closed_form;
   if (wanted && !answer.closed_form) {
     throw core::UsageError("ik: --config " + config_text +
                            " needs the closed-form solver, which does not apply here (" +
-                           (numeric || position_only
-                                ? std::string("--numeric/--position-only given")
-                                : *core::PumaIkNotApplicable(model)) +
-                           "); use all or nearest");
+                           choice.not_closed_form + "); use all or nearest");
   }
-  if (answer.closed_form) {
-    answer.result = core::SolvePumaIk(model, target, reference);
-  } else {
-    core::NumericIkOptions options;
-    options.position_only = position_only;
-    answer.result = core::SolveNumericIk(model, target, reference, options);
-  }
+  answer.result = core::SolveIk(model, target, reference, request);
   answer.shown = ShownSolutions(answer.result, wanted, config_text);
   answer.failure = answer.result.ok() ? "" : answer.result.reason;
   if (answer.result.ok() && answer.shown.empty() && wanted) {
