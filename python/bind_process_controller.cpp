@@ -14,11 +14,11 @@
 #include <deque>
 #include <memory>
 #include <optional>
-#include <sirupp/arm_command_t.hpp>
 #include <sirupp/arm_state_t.hpp>
 #include <sirupp/robot_model_t.hpp>
 #include <string>
 
+#include "core/arm_state.hpp"
 #include "core/bus.hpp"
 #include "core/channels.hpp"
 #include "core/dynamics.hpp"
@@ -72,16 +72,15 @@ py::dict RunProcessController(const py::object& make, const std::string& name,
   Clock::time_point last_state = Clock::now();
   bool heard = false;
 
-  auto publish = [&](int64_t tick, int64_t utime, bool hold, const std::vector<double>& effort) {
-    sirupp::arm_command_t command{};
-    command.utime = utime;
-    command.seq = seq++;
-    command.tick = tick;
+  // The answer to a state: its efforts, or HOLD (brakes on) with zero efforts.
+  auto publish = [&](const core::ArmState& state, bool hold, const std::vector<double>& effort) {
+    core::ArmCommand command;
+    command.utime = state.utime;
+    command.tick = state.tick;
     command.sender = name;
-    command.mode = hold ? sirupp::arm_command_t::MODE_HOLD : sirupp::arm_command_t::MODE_EFFORT;
-    command.num_joints = n;
+    command.mode = hold ? core::CommandMode::kHold : core::CommandMode::kEffort;
     command.effort = hold ? std::vector<double>(static_cast<size_t>(n), 0.0) : effort;
-    bus->Publish(channels.sim_arm_command, command);
+    bus->Publish(channels.sim_arm_command, core::ToMessage(command, seq++));
   };
 
   for (;;) {
@@ -116,13 +115,15 @@ py::dict RunProcessController(const py::object& make, const std::string& name,
     }
     // Without the model no state is answered: in lockstep the sim waits and sends it again.
     while (dynamics && !states.empty()) {
-      const sirupp::arm_state_t state = states.front();
+      const sirupp::arm_state_t message = states.front();
       states.pop_front();
       heard = true;
       last_state = Clock::now();
-      if (state.num_joints != n) {
-        throw RigError("SIM_ARM_STATE: num_joints " + std::to_string(state.num_joints) +
-                       "; the model on ROBOT_MODEL has " + std::to_string(n));
+      core::ArmState state;
+      try {  // counts, finiteness, and the joint count against the model on ROBOT_MODEL
+        state = core::ArmStateFromMessage(message, bus->FullName(channels.sim_arm_state), n);
+      } catch (const core::MessageError& error) {
+        throw RigError(error.what());
       }
       const Eigen::VectorXd q = Eigen::Map<const Eigen::VectorXd>(state.position.data(), n);
       const Eigen::VectorXd qd = Eigen::Map<const Eigen::VectorXd>(state.velocity.data(), n);
@@ -135,10 +136,10 @@ py::dict RunProcessController(const py::object& make, const std::string& name,
         const Eigen::VectorXd e = VectorArg(answer, n, "update's efforts", "one per joint");
         effort.assign(e.data(), e.data() + n);
       } catch (...) {
-        publish(state.tick, state.utime, true, {});
+        publish(state, true, {});
         throw;
       }
-      publish(state.tick, state.utime, false, effort);
+      publish(state, false, effort);
       ++ticks;
       last_q = state.position;
     }
