@@ -30,5 +30,6 @@ class RigError : public std::runtime_error {
 void BindModel(py::module_& m);              // bind_model.cpp
 void BindRig(py::module_& m);                // bind_rig.cpp: client, recorder, local processes
 void BindProcessController(py::module_& m);  // bind_process_controller.cpp
+void BindData(py::module_& m);               // bind_data.cpp: the logger's data file reader
 
 }  // namespace sirupp::python

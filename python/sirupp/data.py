@@ -1,6 +1,7 @@
-"""The project's text files as numpy arrays: the logger's data files (docs/logging.md), the Table II
-report of `sirupp report` (report_errors.csv, report_response.csv) and the reference files of
-`sirupp grade` (its {reference_csv}). Bad files raise ValueError naming FILE:LINE."""
+"""The project's text files as numpy arrays: the logger's data files (docs/logging.md, read by
+logger/'s reader), the Table II report of `sirupp report` (report_errors.csv, report_response.csv)
+and the reference files of `sirupp grade` (its {reference_csv}). Bad files raise ValueError naming
+FILE:LINE."""
 import csv
 import math
 import os
@@ -29,59 +30,25 @@ def _scale(column):
 
 
 class DataFile:
-    """One data file of sirupp-logger: header (dict of the '# key: value' lines), columns (dict
-    name -> array as written, empty cells NaN), and in SI: t (time_s), q_set, q_virt, q_real
-    (rows x joints, rad or m; NaN where a stream had no sample)."""
+    """One data file of sirupp-logger, read by the logger's own reader (logger/data_file.hpp, the
+    one `sirupp report` uses): t (time_s), q_set, q_virt, q_real (rows x joints, rad or m; NaN
+    where a stream had no sample), move_id, joint_names, label (the movement set), plan_name,
+    closed (the logger's "# end" line is there), gains (the "# gains:" lines), notes."""
 
-    def __init__(self, path, header, names, rows):
-        self.path, self.header = path, header
-        table = np.array(rows, dtype=float).reshape(len(rows), len(names))
-        self.columns = {name: table[:, i] for i, name in enumerate(names)}
-        self.t = self.columns.get("time_s", np.zeros(len(rows)))
-        joints = 0
-        while any(c.startswith("j%d_set_" % (joints + 1)) for c in names):
-            joints += 1
-        self.n = joints
-
-        def stream(kind):
-            out = np.full((len(rows), joints), np.nan)
-            for j in range(joints):
-                for unit in ("deg", "mm"):
-                    name = "j%d_%s_%s" % (j + 1, kind, unit)
-                    if name in self.columns:
-                        out[:, j] = self.columns[name] * _scale(name)
-            return out
-
-        self.q_set, self.q_virt, self.q_real = stream("set"), stream("virt"), stream("real")
+    def __init__(self, path, table):
+        self.path = path
+        self.__dict__.update(table)
+        self.n = len(self.joint_names)
 
     def __repr__(self):
         return "<DataFile %s: %d rows, %d joints>" % (os.path.basename(self.path), len(self.t), self.n)
 
 
 def read_data(path):
-    """Reads one data file of sirupp-logger (`logs/NAME-NN-SET.csv`) into a DataFile."""
-    header, names, rows = {}, None, []
-    with open(path, encoding="utf-8", errors="replace") as f:
-        for number, line in enumerate(f, 1):
-            line = line.rstrip("\r\n")
-            where = "%s:%d" % (path, number)
-            if line.startswith("#"):
-                key, sep, value = line[1:].strip().partition(":")
-                if sep and names is None:
-                    header.setdefault(key.strip(), value.strip())
-                continue
-            if not line:
-                continue
-            cells = line.split(",")
-            if names is None:
-                names = cells
-                continue
-            if len(cells) != len(names):
-                raise ValueError("%s: %d fields; the column line has %d" % (where, len(cells), len(names)))
-            rows.append([_number(c, where) for c in cells])
-    if names is None:
-        raise ValueError("%s: no column line (is it a sirupp-logger data file?)" % path)
-    return DataFile(path, header, names, rows)
+    """Reads one data file of sirupp-logger (`logs/NAME-NN-SET.csv`) into a DataFile; ValueError
+    naming FILE:LINE for anything that is not the logger's format."""
+    from ._sirupp import _read_data_file
+    return DataFile(path, _read_data_file(path))
 
 
 def read_reference(path):
