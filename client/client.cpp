@@ -73,6 +73,28 @@ constexpr HardwareVerb kHardwareVerbs[] = {
     {HardwareCommand::kClearFaults, "clear-faults", hardware_command_t::COMMAND_CLEAR_FAULTS},
 };
 
+struct PlanVerb {
+  PlanCommand command;
+  const char* name;
+  core::PlanAction action;
+};
+
+constexpr PlanVerb kPlanVerbs[] = {
+    {PlanCommand::kPause, "pause", core::PlanAction::kPause},
+    {PlanCommand::kResume, "resume", core::PlanAction::kResume},
+    {PlanCommand::kAbort, "abort", core::PlanAction::kAbort},
+    {PlanCommand::kManual, "manual", core::PlanAction::kManual},
+    {PlanCommand::kAutomatic, "automatic", core::PlanAction::kAutomatic},
+    {PlanCommand::kClearFault, "clear-fault", core::PlanAction::kClearFault},
+};
+
+const PlanVerb& Verb(PlanCommand command) {
+  for (const PlanVerb& verb : kPlanVerbs) {
+    if (verb.command == command) return verb;
+  }
+  return kPlanVerbs[0];  // unreachable: every enumerator is in the table
+}
+
 const HardwareVerb& Verb(HardwareCommand command) {
   for (const HardwareVerb& verb : kHardwareVerbs) {
     if (verb.command == command) return verb;
@@ -103,6 +125,15 @@ const char* ControllerStateName(int8_t state) {
 
 const char* ControllerModeName(int8_t mode) {
   return mode == Status::MODE_AUTOMATIC ? "automatic" : "manual";
+}
+
+const char* PlanCommandName(PlanCommand command) { return Verb(command).name; }
+
+std::optional<PlanCommand> PlanCommandFromName(const std::string& name) {
+  for (const PlanVerb& verb : kPlanVerbs) {
+    if (name == verb.name) return verb.command;
+  }
+  return std::nullopt;
 }
 
 const char* HardwareCommandName(HardwareCommand command) { return Verb(command).name; }
@@ -442,26 +473,7 @@ Answer Client::RunPlan(const std::string& name, const std::string& text) {
 
 Answer Client::Plan(PlanCommand command) {
   core::PlanCommand message;
-  switch (command) {
-    case PlanCommand::kPause:
-      message.command = core::PlanAction::kPause;
-      break;
-    case PlanCommand::kResume:
-      message.command = core::PlanAction::kResume;
-      break;
-    case PlanCommand::kAbort:
-      message.command = core::PlanAction::kAbort;
-      break;
-    case PlanCommand::kManual:
-      message.command = core::PlanAction::kManual;
-      break;
-    case PlanCommand::kAutomatic:
-      message.command = core::PlanAction::kAutomatic;
-      break;
-    case PlanCommand::kClearFault:
-      message.command = core::PlanAction::kClearFault;
-      break;
-  }
+  message.command = Verb(command).action;
   return AwaitControllerAnswer(Send(channels_.arm_plan, core::ToMessage(message)),
                                options_.answer_timeout_s);
 }
@@ -474,6 +486,15 @@ RequestId Client::ResetSim(const std::vector<double>& position, bool reset_objec
                            const std::vector<double>& velocity) {
   const core::SimReset message{0, 0, options_.sender, position, velocity, reset_objects};
   return Send(channels_.sim_reset, core::ToMessage(message));
+}
+
+bool Client::GainsShown(const sirupp::servo_gains_t& gains, bool with_real) const {
+  return snapshot_.virtual_gains && SameFilterGains(*snapshot_.virtual_gains, gains) &&
+         (!with_real || (snapshot_.real_gains && SameFilterGains(*snapshot_.real_gains, gains)));
+}
+
+bool Client::WaitGainsShown(const sirupp::servo_gains_t& gains, bool with_real, double timeout_s) {
+  return Until([&] { return GainsShown(gains, with_real); }, timeout_s);
 }
 
 Answer Client::LoadEnvironment(const std::string& name, const std::string& xml) {

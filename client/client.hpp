@@ -102,6 +102,14 @@ struct PoseTarget {
 };
 
 enum class PlanCommand { kPause, kResume, kAbort, kManual, kAutomatic, kClearFault };
+// Every plan command, in the order of PlanCommand.
+inline constexpr PlanCommand kPlanCommands[] = {PlanCommand::kPause,     PlanCommand::kResume,
+                                                PlanCommand::kAbort,     PlanCommand::kManual,
+                                                PlanCommand::kAutomatic, PlanCommand::kClearFault};
+// "pause", "resume", "abort", "manual", "automatic", "clear-fault"; and back (nullopt for an
+// unknown word).
+const char* PlanCommandName(PlanCommand command);
+std::optional<PlanCommand> PlanCommandFromName(const std::string& name);
 
 enum class HardwareCommand {
   kConnect,
@@ -214,6 +222,14 @@ class Client {
   Answer SetGains(const sirupp::servo_gains_t& gains);
 
   // --- sirupp-sim: SIM_RESET has no reply (the sim counts a refusal in SIM_STATUS).
+  // Whether the rig shows `gains` running: CONTROLLER_GAINS and, when `with_real` (a bridge's
+  // REAL_ARM_GAINS was heard before the change), REAL_ARM_GAINS the same as `gains` in
+  // SameFilterGains. After an accepted SetGains, `sirupp gains` and the Python module wait for it
+  // (WaitGainsShown, kGainsShownS).
+  bool GainsShown(const sirupp::servo_gains_t& gains, bool with_real) const;
+  // Handles messages until GainsShown or timeout_s passed; returns GainsShown.
+  bool WaitGainsShown(const sirupp::servo_gains_t& gains, bool with_real, double timeout_s);
+  static constexpr double kGainsShownS = 2.5;
   RequestId ResetSim(const std::vector<double>& position, bool reset_objects = false,
                      const std::vector<double>& velocity = {});
 

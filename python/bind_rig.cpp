@@ -138,9 +138,10 @@ class ClientHandle {
   }
 
   // Runs a client command without the GIL (it waits up to the answer timeout for the reply);
-  // after a Ctrl-C meanwhile the arm is stopped and KeyboardInterrupt raised.
+  // after a Ctrl-C meanwhile the arm is stopped and KeyboardInterrupt raised. Unlocked: the
+  // answer as a dict for Python.
   template <class Command>
-  py::dict Unlocked(Command command) {
+  client::Answer Call(Command command) {
     client::Answer answer;
     std::string failure;
     {
@@ -157,7 +158,11 @@ class ClientHandle {
       throw pending;
     }
     if (!failure.empty()) throw RigError(failure);
-    return AnswerDict(answer);
+    return answer;
+  }
+  template <class Command>
+  py::dict Unlocked(Command command) {
+    return AnswerDict(Call(command));
   }
 
   // Waits until the rig's status, gains and state were all heard (CONTROLLER_STATUS,
@@ -225,24 +230,15 @@ class ClientHandle {
   }
 
   py::dict PlanCommand(const std::string& word) {
-    client::PlanCommand command;
-    if (word == "pause")
-      command = client::PlanCommand::kPause;
-    else if (word == "resume")
-      command = client::PlanCommand::kResume;
-    else if (word == "abort")
-      command = client::PlanCommand::kAbort;
-    else if (word == "manual")
-      command = client::PlanCommand::kManual;
-    else if (word == "automatic")
-      command = client::PlanCommand::kAutomatic;
-    else if (word == "clear-fault")
-      command = client::PlanCommand::kClearFault;
-    else {
-      throw py::value_error("plan command '" + word +
-                            "'; expected pause, resume, abort, manual, automatic or clear-fault");
+    const std::optional<client::PlanCommand> command = client::PlanCommandFromName(word);
+    if (!command) {
+      std::string allowed;
+      for (const client::PlanCommand c : client::kPlanCommands) {
+        allowed += std::string(allowed.empty() ? "" : ", ") + client::PlanCommandName(c);
+      }
+      throw py::value_error("plan command '" + word + "'; expected one of " + allowed);
     }
-    return Unlocked([&] { return client_->Plan(command); });
+    return Unlocked([&] { return client_->Plan(*command); });
   }
 
   py::dict SetGains(const py::dict& gains) {
@@ -279,7 +275,30 @@ class ClientHandle {
       const Eigen::VectorXd v = VectorArg(item.second, n, key, "one per joint, chip units");
       field->values->assign(v.data(), v.data() + n);
     }
-    return Unlocked([&] { return client_->SetGains(message); });
+    // As `sirupp gains` does: the controller's answer, the bridge's when one was heard, then
+    // the rig's gains showing the new ones.
+    const bool with_real = snap.real_gains.has_value();
+    const client::Answer answer = Call([&] { return client_->SetGains(message); });
+    if (!answer.accepted()) return AnswerDict(answer);
+    if (with_real) {
+      const client::Answer bridge = Call([&] {
+        return client_->AwaitHardwareAnswer(answer.request, client_->options().answer_timeout_s);
+      });
+      if (bridge.result == client::Result::kRefused) {
+        throw RigError("set_gains: refused by sirupp-hardware: " + bridge.error);
+      }
+    }
+    const bool shown = Sliced(
+        client::Client::kGainsShownS,
+        [&](double s) { return client_->WaitGainsShown(message, with_real, s); }, false);
+    if (!shown) {
+      throw RigError(
+          std::string("set_gains: accepted, but ") +
+          (with_real ? "CONTROLLER_GAINS and REAL_ARM_GAINS do" : "CONTROLLER_GAINS does") +
+          " not show the new gains within " + core::FormatApprox(client::Client::kGainsShownS) +
+          " s");
+    }
+    return AnswerDict(answer);
   }
 
   void Estop(bool engage, const std::string& reason) { client_->Estop(engage, reason); }

@@ -9,6 +9,7 @@
 #include <chrono>
 #include <cmath>
 #include <memory>
+#include <set>
 #include <sirupp/command_reply_t.hpp>
 #include <sirupp/controller_status_t.hpp>
 #include <sirupp/estop_t.hpp>
@@ -551,6 +552,17 @@ TEST(Client, HardwareCommandNamesGoBothWays) {
     EXPECT_EQ(HardwareCommandFromName(HardwareCommandName(command)), command);
   }
   EXPECT_FALSE(HardwareCommandFromName("launch").has_value());
+}
+
+TEST(Client, PlanCommandNamesGoBothWays) {
+  std::set<std::string> names;
+  for (PlanCommand command : kPlanCommands) {
+    EXPECT_EQ(PlanCommandFromName(PlanCommandName(command)), command);
+    names.insert(PlanCommandName(command));
+  }
+  EXPECT_EQ(names, (std::set<std::string>{"pause", "resume", "abort", "manual", "automatic",
+                                          "clear-fault"}));
+  EXPECT_FALSE(PlanCommandFromName("run").has_value());
 }
 
 }  // namespace

@@ -404,12 +404,9 @@ int RunPlan(const std::vector<std::string>& args, std::ostream& out) {
   using Command = client::PlanCommand;
   if (word == "check") return PlanCheck(rest, out);
   if (word == "run") return PlanRun(rest, out);
-  if (word == "pause") return PlanControl(Command::kPause, word, rest, out);
-  if (word == "resume") return PlanControl(Command::kResume, word, rest, out);
-  if (word == "abort") return PlanControl(Command::kAbort, word, rest, out);
-  if (word == "manual") return PlanControl(Command::kManual, word, rest, out);
-  if (word == "automatic") return PlanControl(Command::kAutomatic, word, rest, out);
-  if (word == "clear-fault") return PlanControl(Command::kClearFault, word, rest, out);
+  if (const std::optional<Command> command = client::PlanCommandFromName(word)) {
+    return PlanControl(*command, word, rest, out);
+  }
   throw core::UsageError("plan: unknown subcommand '" + word +
                          "'; allowed: check, run, pause, resume, abort, manual, automatic");
 }
@@ -508,13 +505,7 @@ int PrintLiveGains(const client::Client& rig, const core::Bus& bus, std::ostream
 int ConfirmGains(client::Client& rig, const sirupp::servo_gains_t& message, bool had_real,
                  std::ostream& out) {
   const client::Snapshot& seen = rig.snapshot();
-  const bool taken = rig.Until(
-      [&] {
-        return seen.virtual_gains &&
-               client::Client::SameFilterGains(*seen.virtual_gains, message) &&
-               (!had_real || client::Client::SameFilterGains(*seen.real_gains, message));
-      },
-      2.5);
+  const bool taken = rig.WaitGainsShown(message, had_real, client::Client::kGainsShownS);
   out << "virtual servos: "
       << (seen.virtual_gains && client::Client::SameFilterGains(*seen.virtual_gains, message)
               ? "running the new gains"

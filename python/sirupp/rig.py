@@ -153,7 +153,9 @@ class Rig:
 
     def set_gains(self, **gains):
         """set_gains(kp=[...], kd=[...]): changes the named gains (one value per joint, chip
-        units); the others stay. RigError when the controller refuses, with its reason."""
+        units); the others stay. Waits, as `sirupp gains` does, until the rig shows the new
+        gains. RigError when the controller (or a bridge) refuses, with its reason, or when the
+        new gains do not show within 2.5 s."""
         return self._check(self._client.set_gains(gains), "set_gains")
 
     # --- moving
