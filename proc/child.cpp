@@ -225,15 +225,6 @@ Child& Child::operator=(Child&& other) noexcept {
   return *this;
 }
 
-void Child::Start(const std::vector<std::string>& argv, const std::string& log_file) {
-  ProcessSpec spec;
-  spec.argv = argv;
-  spec.log_path = log_file;
-  spec.death_signal = SIGKILL;  // nothing outlives a killed grader
-  spec.group_ends_with_it = true;
-  Start(spec);
-}
-
 void Child::Start(const ProcessSpec& spec, pid_t group, Launcher* launcher) {
   if (spec.argv.empty()) throw std::runtime_error("no program to start");
   if (pid_ > 0 && !ended_) throw std::runtime_error("already running: " + spec.argv[0]);

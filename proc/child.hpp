@@ -88,9 +88,6 @@ class Child {
   // or fork fails; a program that cannot be run ends at once with exit code 127 (the reason in
   // its log).
   void Start(const ProcessSpec& spec, pid_t group = 0, Launcher* launcher = nullptr);
-  // The grader's way: `argv` in a group of its own, output appended to `log_file`, SIGKILL when
-  // the parent dies, the group ended with it.
-  void Start(const std::vector<std::string>& argv, const std::string& log_file);
 
   // True while the process runs; reaps it (once) when it has ended.
   bool Running();

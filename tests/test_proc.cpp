@@ -169,7 +169,9 @@ TEST_F(ProcTest, StopEndsTheWholeGroupGrandchildrenToo) {
 TEST_F(ProcTest, AGroupLeaderThatEndsTakesItsGroupWhenAsked) {
   // The grader's children: what is left of the group ends with the leader.
   Child leader;
-  leader.Start({"sh", "-c", "sleep 300 & echo $! > " + dir_ + "/left; exit 0"}, dir_ + "/log.txt");
+  ProcessSpec spec = Shell("sleep 300 & echo $! > " + dir_ + "/left; exit 0");
+  spec.group_ends_with_it = true;
+  leader.Start(spec);
   const pid_t left = std::atoi(WaitLine(dir_ + "/left").c_str());
   ASSERT_GT(left, 0);
   ASSERT_TRUE(WaitEnd(leader));
