@@ -3,25 +3,21 @@
 // processes on a udpm port of their own (ttl=0), and the panel's hub and API for that bus hosted in
 // the class server's process (panel/: the same page and API as sirupp-panel).
 //
-// Supervision: every child is started by one long-lived thread (ProcessLauncher), so the
-// PR_SET_PDEATHSIG it sets (SIGTERM when the server dies, even by SIGKILL) never fires early
-// because the forking thread ended; a child whose parent died before the call exits at once. A
-// rig's children share one process group, stopped with SIGINT, then SIGKILL after a grace period.
-// Each child runs niced and, where the build allows it, with an address-space limit (RLIMIT_AS;
-// not under AddressSanitizer, which reserves terabytes of address space).
+// The processes and their flags are the private rig of proc/rig.hpp, started as proc::Child: by
+// one long-lived thread (ProcessLauncher), so the PR_SET_PDEATHSIG they get (SIGTERM when the
+// server dies, even by SIGKILL) never fires early because the forking thread ended. A rig's
+// children share one process group, stopped with SIGINT, then SIGKILL after a grace period, and
+// the port is given back only once nothing of the group is left. Each child runs niced and, where
+// the build allows it, with an address-space limit (RLIMIT_AS; not under AddressSanitizer).
 
 #include <sys/types.h>
 
 #include <chrono>
-#include <condition_variable>
-#include <deque>
-#include <functional>
-#include <future>
 #include <memory>
-#include <mutex>
 #include <string>
-#include <thread>
 #include <vector>
+
+#include "proc/child.hpp"
 
 namespace sirupp::core {
 class Bus;
@@ -33,36 +29,10 @@ class PanelApi;
 
 namespace sirupp::classroom {
 
-struct ChildLimits {
-  int nice = 0;
-  int memory_mb = 0;  // 0 = no limit
-  // The one CPU the child (and what it starts) runs on; -1 = wherever the scheduler puts it. A
-  // rig's sim and controller answer each other every tick: on one CPU each wake-up is a switch on
-  // that CPU instead of a cross-CPU wake (docs/class.md, "How many rigs a server holds").
-  int cpu = -1;
-};
-
-// Starts child processes from one thread that lives as long as the launcher.
-class ProcessLauncher {
- public:
-  ProcessLauncher();
-  ~ProcessLauncher();
-  ProcessLauncher(const ProcessLauncher&) = delete;
-  ProcessLauncher& operator=(const ProcessLauncher&) = delete;
-
-  // Forks and execs argv[0] with its output appended to `log_file`, in process group `pgid` (0: a
-  // new group led by the child). Returns the pid; throws std::runtime_error when fork fails.
-  pid_t Spawn(const std::vector<std::string>& argv, const std::string& log_file, pid_t pgid,
-              const ChildLimits& limits);
-
- private:
-  void Loop();
-  std::mutex mutex_;
-  std::condition_variable wake_;
-  std::deque<std::packaged_task<pid_t()>> tasks_;
-  bool stop_ = false;
-  std::thread thread_;
-};
+// A rig process's niceness, memory limit and CPU (proc/child.hpp).
+using ChildLimits = proc::Limits;
+// Starts the rigs' processes from one thread that lives as long as the server (proc/child.hpp).
+using ProcessLauncher = proc::Launcher;
 
 struct RigSpec {
   std::string student;
@@ -117,12 +87,9 @@ class Rig {
  private:
   struct Child {
     std::string name;
-    pid_t pid = 0;
-    bool ended = false;
-    int status = 0;
+    proc::Child process;
   };
-  void Launch(const std::string& name, std::vector<std::string> argv);
-  std::string LogTail(const std::string& name) const;
+  void Launch(const std::string& name, const proc::ProcessSpec& process);
 
   RigSpec spec_;
   ProcessLauncher& launcher_;
@@ -134,7 +101,7 @@ class Rig {
   std::chrono::steady_clock::time_point cpu_at_{};
 };
 
-// The udpm URL of a rig's port.
+// The udpm URL of a rig's port (proc::RigUrl).
 std::string RigUrl(int port);
 
 }  // namespace sirupp::classroom

@@ -388,16 +388,22 @@ void SubmissionService::Grade(const std::string& student, int id) {
   const auto start = Clock::now();
   const std::string log_file = folder + "/grade.log";
   fs::remove(log_file);
-  const pid_t pid = launcher_.Spawn(argv, log_file, 0, ChildLimits{options_.grade_nice, 0});
+  proc::ProcessSpec grading;
+  grading.argv = argv;
+  grading.log_path = log_file;
+  grading.limits.nice = options_.grade_nice;
+  grading.death_signal = SIGTERM;
+  proc::Child grader;
+  grader.Start(grading, 0, &launcher_);
+  const pid_t pid = grader.pid();
   {
     const std::lock_guard<std::mutex> lock(mutex_);
     grading_pid_ = pid;
     if (stop_) ::kill(-pid, SIGKILL);
   }
   log_(student + ": grading submission " + std::to_string(id));
-  int status = 0;
   bool timed_out = false;
-  while (::waitpid(pid, &status, WNOHANG) != pid) {
+  while (grader.Running()) {
     if (!timed_out &&
         std::chrono::duration<double>(Clock::now() - start).count() > options_.grade_time_limit_s) {
       ::kill(-pid, SIGKILL);
@@ -405,7 +411,8 @@ void SubmissionService::Grade(const std::string& student, int id) {
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
   }
-  ::kill(-pid, SIGKILL);  // anything of its group left behind
+  proc::KillGroup(grader.group());  // anything of its group left behind
+  const int status = grader.status();
   const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
   const std::lock_guard<std::mutex> lock(mutex_);
   grading_pid_ = 0;

@@ -36,10 +36,11 @@
 #include "grade/build_controller.hpp"
 #include "grade/suite.hpp"
 #include "panel/panel_api.hpp"
+#include "proc/child.hpp"
 
 namespace sirupp::classroom {
 
-class ProcessLauncher;
+using ProcessLauncher = proc::Launcher;  // as in class/rig.hpp
 
 // The compiler's errors as the page gets them: [{file, line, column, message}, ...].
 nlohmann::json CompilerErrorsJson(const std::vector<grade::CompilerError>& errors);

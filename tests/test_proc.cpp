@@ -16,6 +16,7 @@
 #include <thread>
 
 #include "proc/child.hpp"
+#include "proc/rig.hpp"
 
 namespace sirupp::proc {
 namespace {
@@ -294,6 +295,75 @@ TEST(ProcCommandLineTest, WritesTheSpecAsOneLineOfSh) {
             "LCM_DEFAULT_URL='udpm://239.255.76.67:7901?ttl=0' /opt/sirupp/bin/sirupp-sim "
             "--lcm-url 'udpm://239.255.76.67:7901?ttl=0' 'it'\\''s' >> '/data/alice logs/sim.log' "
             "2>&1");
+}
+
+// proc/rig.hpp: a private rig's processes and address, as plain data.
+TEST(ProcRigTest, ARigIsItsProcessesWithTheirFlagsOnOneAddress) {
+  EXPECT_EQ(RigUrl(7901), "udpm://239.255.76.67:7901?ttl=0");
+  EXPECT_EQ(RigUrl(7901, "recv_buf_size=4194304"),
+            "udpm://239.255.76.67:7901?ttl=0&recv_buf_size=4194304");
+  RigSpec rig;
+  rig.port = 7901;
+  rig.bin_dir = "/b";
+  rig.model = "m.yaml";
+  rig.pace_ticks = 4;
+  rig.controller = "c.so";
+  rig.results_dir = "/r";
+  rig.log_dir = "/l";
+  rig.limits.nice = 5;
+  const std::vector<RigProcess> processes = RigProcesses(rig);
+  ASSERT_EQ(processes.size(), 3u);
+  const std::string url = "udpm://239.255.76.67:7901?ttl=0";
+  EXPECT_EQ(processes[0].name, "sirupp-sim");
+  EXPECT_EQ(processes[0].spec.argv,
+            (std::vector<std::string>{"/b/sirupp-sim", "--mode", "realtime", "--pace-ticks", "4",
+                                      "--model", "m.yaml", "--lcm-url", url}));
+  EXPECT_EQ(processes[0].spec.log_path, "/l/sirupp-sim.log");
+  EXPECT_EQ(processes[0].spec.limits.nice, 5);
+  EXPECT_EQ(processes[0].spec.death_signal, SIGTERM);
+  EXPECT_EQ(processes[1].spec.argv,
+            (std::vector<std::string>{"/b/sirupp-control", "--model", "m.yaml", "--lcm-url", url,
+                                      "--controller", "c.so"}));
+  EXPECT_EQ(processes[2].spec.argv,
+            (std::vector<std::string>{"/b/sirupp-logger", "--out", "/r", "--model", "m.yaml",
+                                      "--lcm-url", url}));
+  // Lockstep with its participants and more flags; no logger, no logs, programs on PATH.
+  RigSpec lockstep;
+  lockstep.port = 20001;
+  lockstep.model = "m.yaml";
+  lockstep.sim_mode = "lockstep";
+  lockstep.participants = {"sirupp-control", "grader"};
+  lockstep.sim_args = {"--duration", "2"};
+  lockstep.control_args = {"--sim-timeout", "5"};
+  const std::vector<RigProcess> two = RigProcesses(lockstep);
+  ASSERT_EQ(two.size(), 2u);
+  EXPECT_EQ(CommandLine(two[0].spec),
+            "sirupp-sim --mode lockstep --participants sirupp-control grader --model m.yaml "
+            "--lcm-url 'udpm://239.255.76.67:20001?ttl=0' --duration 2");
+  EXPECT_EQ(CommandLine(two[1].spec),
+            "sirupp-control --model m.yaml --lcm-url 'udpm://239.255.76.67:20001?ttl=0' "
+            "--sim-timeout 5");
+  // Bad fields: named, with what is allowed.
+  const auto error = [](RigSpec bad) {
+    try {
+      RigProcesses(bad);
+    } catch (const std::invalid_argument& e) {
+      return std::string(e.what());
+    }
+    return std::string();
+  };
+  RigSpec bad = lockstep;
+  bad.port = 70000;
+  EXPECT_EQ(error(bad), "rig port 70000: allowed 1..65535");
+  bad = lockstep;
+  bad.sim_mode = "slow";
+  EXPECT_EQ(error(bad), "rig sim_mode 'slow': allowed realtime, lockstep or fast");
+  bad = lockstep;
+  bad.pace_ticks = 0;
+  EXPECT_EQ(error(bad), "rig pace_ticks 0: allowed a whole number >= 1");
+  bad = lockstep;
+  bad.model.clear();
+  EXPECT_EQ(error(bad), "rig model: none given; a model file needed");
 }
 
 }  // namespace
