@@ -179,57 +179,63 @@ Client::Client(core::Bus& bus, Options options) : options_(std::move(options)), 
   Subscribe();
 }
 
+Client::~Client() {
+  // A client on a bus it does not own (a rig's, the bridge's) leaves nothing subscribed there.
+  for (core::Subscription* subscription : subscriptions_) subscription->Unsubscribe();
+  for (core::Subscription* subscription : joint_subscriptions_) subscription->Unsubscribe();
+}
+
 void Client::Subscribe() {
   if (options_.sender.empty()) options_.sender = DefaultSender();
-  bus_.Subscribe<Status>(channels_.controller_status,
-                         [this](const Status& message, const core::ReceiveInfo&) {
-                           snapshot_.controller = message;
-                           ++snapshot_.controller_statuses;
-                           last_status_wall_us_ = SteadyMicros();
-                         });
-  bus_.Subscribe<sirupp::command_reply_t>(
+  subscriptions_.push_back(&bus_.Subscribe<Status>(
+      channels_.controller_status, [this](const Status& message, const core::ReceiveInfo&) {
+        snapshot_.controller = message;
+        ++snapshot_.controller_statuses;
+        last_status_wall_us_ = SteadyMicros();
+      }));
+  subscriptions_.push_back(&bus_.Subscribe<sirupp::command_reply_t>(
       channels_.controller_reply,
       [this](const sirupp::command_reply_t& message, const core::ReceiveInfo&) {
         KeepReply(controller_replies_, message);
-      });
-  bus_.Subscribe<sirupp::command_reply_t>(
+      }));
+  subscriptions_.push_back(&bus_.Subscribe<sirupp::command_reply_t>(
       channels_.hardware_reply,
       [this](const sirupp::command_reply_t& message, const core::ReceiveInfo&) {
         KeepReply(hardware_replies_, message);
-      });
-  bus_.Subscribe<sirupp::command_reply_t>(
+      }));
+  subscriptions_.push_back(&bus_.Subscribe<sirupp::command_reply_t>(
       channels_.sim_reply, [this](const sirupp::command_reply_t& message,
-                                  const core::ReceiveInfo&) { KeepReply(sim_replies_, message); });
-  bus_.Subscribe<sirupp::command_reply_t>(
+                                  const core::ReceiveInfo&) { KeepReply(sim_replies_, message); }));
+  subscriptions_.push_back(&bus_.Subscribe<sirupp::command_reply_t>(
       channels_.logger_reply,
       [this](const sirupp::command_reply_t& message, const core::ReceiveInfo&) {
         KeepReply(logger_replies_, message);
-      });
-  bus_.Subscribe<sirupp::sim_status_t>(
+      }));
+  subscriptions_.push_back(&bus_.Subscribe<sirupp::sim_status_t>(
       channels_.sim_status, [this](const sirupp::sim_status_t& message, const core::ReceiveInfo&) {
         snapshot_.sim = message;
-      });
-  bus_.Subscribe<hardware_status_t>(
+      }));
+  subscriptions_.push_back(&bus_.Subscribe<hardware_status_t>(
       channels_.hardware_status,
       [this](const hardware_status_t& message, const core::ReceiveInfo&) {
         snapshot_.hardware = message;
-      });
-  bus_.Subscribe<sirupp::servo_gains_t>(
+      }));
+  subscriptions_.push_back(&bus_.Subscribe<sirupp::servo_gains_t>(
       channels_.controller_gains,
       [this](const sirupp::servo_gains_t& message, const core::ReceiveInfo&) {
         snapshot_.virtual_gains = message;
-      });
-  bus_.Subscribe<sirupp::servo_gains_t>(
+      }));
+  subscriptions_.push_back(&bus_.Subscribe<sirupp::servo_gains_t>(
       channels_.real_arm_gains,
       [this](const sirupp::servo_gains_t& message, const core::ReceiveInfo&) {
         snapshot_.real_gains = message;
-      });
-  bus_.Subscribe<sirupp::heartbeat_t>(
+      }));
+  subscriptions_.push_back(&bus_.Subscribe<sirupp::heartbeat_t>(
       channels_.heartbeat, [this](const sirupp::heartbeat_t& message, const core::ReceiveInfo&) {
         const std::string key = message.process + "@" + message.host;
         snapshot_.heartbeats[key] = message;
         heartbeat_heard_us_[key] = SteadyMicros();
-      });
+      }));
   created_us_ = SteadyMicros();
   if (options_.watch_joints) WatchJoints(true);
 }
@@ -577,8 +583,25 @@ RequestId Client::SendServoMove(const core::ServoMove& move) {
   return Send(channels_.arm_move, core::ToMessage(move));
 }
 
+RequestId Client::SendJointTarget(const core::JointTarget& target) {
+  return Send(channels_.arm_target, core::ToMessage(target));
+}
+
+RequestId Client::SendPlanCommand(const core::PlanCommand& command) {
+  return Send(channels_.arm_plan, core::ToMessage(command));
+}
+
 std::optional<Answer> Client::HeardHardwareAnswer(const RequestId& request) {
-  for (auto it = hardware_replies_.begin(); it != hardware_replies_.end(); ++it) {
+  return Heard(hardware_replies_, request);
+}
+
+std::optional<Answer> Client::HeardControllerAnswer(const RequestId& request) {
+  return Heard(controller_replies_, request);
+}
+
+std::optional<Answer> Client::Heard(std::vector<sirupp::command_reply_t>& replies,
+                                    const RequestId& request) {
+  for (auto it = replies.begin(); it != replies.end(); ++it) {
     if (!core::RepliesTo(*it, request.channel, request.utime, request.seq)) continue;
     Answer answer;
     answer.request = request;
@@ -587,7 +610,7 @@ std::optional<Answer> Client::HeardHardwareAnswer(const RequestId& request) {
     answer.error = it->error;
     answer.move_id = it->move_id;
     answer.status_seq = it->status_seq;
-    hardware_replies_.erase(it);
+    replies.erase(it);
     return answer;
   }
   return std::nullopt;

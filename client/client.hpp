@@ -174,6 +174,8 @@ class Client {
   // options.prefix are ignored): for a process that already has one, and for in-process tests
   // on memq://, where only one Bus sees the messages.
   Client(core::Bus& bus, Options options);
+  // Unsubscribes everything it subscribed (the bus may live on).
+  ~Client();
   Client(const Client&) = delete;
   Client& operator=(const Client&) = delete;
 
@@ -268,9 +270,14 @@ class Client {
   // ARM_MOVE, as a controller sends it: sirupp-hardware mirrors it while linked and answers it on
   // HARDWARE_REPLY either way.
   RequestId SendServoMove(const core::ServoMove& move);
-  // The answer to `request` once its reply on HARDWARE_REPLY was heard (status_seq: the bridge's
-  // status that shows the command's effect), else nullopt.
+  // ARM_TARGET and ARM_PLAN from core's values (utime and seq are the client's), answered by
+  // sirupp-control on CONTROLLER_REPLY.
+  RequestId SendJointTarget(const core::JointTarget& target);
+  RequestId SendPlanCommand(const core::PlanCommand& command);
+  // The answer to `request` once its reply on HARDWARE_REPLY (CONTROLLER_REPLY) was heard
+  // (status_seq: the replier's status that shows the command's effect), else nullopt.
   std::optional<Answer> HeardHardwareAnswer(const RequestId& request);
+  std::optional<Answer> HeardControllerAnswer(const RequestId& request);
 
   // --- answers
   // Waits for the reply to `request` on CONTROLLER_REPLY (or HARDWARE_REPLY), then for the status
@@ -304,6 +311,9 @@ class Client {
   // Who answers a request: its reply list, reply channel and process name.
   enum class Replier { kController, kHardware, kSim, kLogger };
   Answer Await(const RequestId& request, double timeout_s, Replier replier);
+  // The answer in `replies` to `request`, taken out of the list; nullopt if none.
+  static std::optional<Answer> Heard(std::vector<sirupp::command_reply_t>& replies,
+                                     const RequestId& request);
   // Handles messages until ended() holds for a status with seq >= from_status_seq. Returns the
   // outcome when the wait was cut short (no controller, silent, timeout), nullopt when it ended.
   std::optional<Outcome> Follow(
@@ -326,6 +336,7 @@ class Client {
   std::vector<sirupp::command_reply_t> sim_replies_;
   std::vector<sirupp::command_reply_t> logger_replies_;
   std::vector<core::Subscription*> joint_subscriptions_;
+  std::vector<core::Subscription*> subscriptions_;  // Subscribe()'s
 };
 
 }  // namespace sirupp::client

@@ -370,8 +370,9 @@ struct Class {
   std::string log_path = ::testing::TempDir() + "/sirupp_turns_test.jsonl";
   core::Bus arm_bus{"memq://"};
   ScriptedBridge bridge{arm_bus, Puma(), [this] { return now; }};
-  std::unique_ptr<TurnManager> manager;
+  // Before the manager: it is destroyed first, while the rig it may hold still has its bus.
   std::map<std::string, std::unique_ptr<StudentRig>> rigs;
+  std::unique_ptr<TurnManager> manager;
   std::vector<int8_t> states;  // the bridge's states, each change
   std::optional<Status> hardware;
   std::vector<std::pair<double, std::string>> events;  // simulated time, line
@@ -559,6 +560,39 @@ TEST(Turns, OnlyAnAdmittedStudentGetsTheArm) {
             std::string::npos)
       << c.manager->status().last_event;
   for (int8_t state : c.states) EXPECT_NE(state, Status::STATE_ARMED);
+}
+
+// A rig whose controller refuses the move to the real arm's pose (here: locked in automatic mode)
+// is skipped at once with the controller's words, and the arm is never armed for it; the next
+// student's turn follows.
+TEST(Turns, ARigThatRefusesTheMoveToTheRealPoseIsSkippedWithItsReason) {
+  Class c(ShortTurns(), {"alice", "bob"});
+  ASSERT_TRUE(c.rigs["alice"]->client->Plan(client::PlanCommand::kAutomatic).accepted());
+  c.manager->Join("alice");
+  c.manager->Join("bob");
+  const double from = c.Elapsed();
+  ASSERT_TRUE(c.RunUntil([&] { return c.EventAt("handover to alice failed") >= 0; }, 1.0))
+      << c.manager->status().last_event;
+  EXPECT_LT(c.EventAt("handover to alice failed") - from, 0.05);  // at the reply, not a timeout
+  const std::string& skipped =
+      c.events[static_cast<size_t>(std::find_if(c.events.begin(), c.events.end(),
+                                                [](const auto& e) {
+                                                  return e.second.find(
+                                                             "handover to alice failed") !=
+                                                         std::string::npos;
+                                                }) -
+                                   c.events.begin())]
+          .second;
+  EXPECT_NE(
+      skipped.find("at 'the virtual arm to the real arm's pose': alice's rig refused the move "
+                   "to the real arm's pose"),
+      std::string::npos)
+      << skipped;
+  EXPECT_NE(skipped.find("locked in automatic mode"), std::string::npos) << skipped;
+  EXPECT_NE(skipped.find("their turn is skipped"), std::string::npos) << skipped;
+  ASSERT_TRUE(c.TurnOf("bob")) << c.manager->status().last_event;
+  ASSERT_EQ(c.manager->history().size(), 1u);
+  EXPECT_EQ(c.manager->history()[0].student, "bob");
 }
 
 // Defect 3 (issue 41): a bridge that refuses UNLINK during the handover after a turn. The handover

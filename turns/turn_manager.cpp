@@ -102,7 +102,10 @@ struct TurnManager::Rig {
   BusFactory factory;
   std::shared_ptr<core::Bus> bus;  // while attached
   std::vector<core::Subscription*> subscriptions;
-  std::optional<sirupp::controller_status_t> controller;
+  // Commands to the rig's controller (requests with ids) and its status: client/ on the rig's bus.
+  std::unique_ptr<client::Client> client;
+  std::optional<client::RequestId> request;        // the move to the real arm's pose
+  std::optional<client::Answer> answer;            // its answer, once heard
   std::optional<sirupp::arm_state_t> virtual_arm;  // handover in only (per tick)
   core::Subscription* virtual_subscription = nullptr;
   std::set<std::string> plans;  // plan names run during the turn
@@ -338,7 +341,11 @@ void TurnManager::Attach(Rig& rig) {
   if (rig.bus) return;
   rig.bus = rig.factory();
   rig.plans.clear();
-  rig.controller.reset();
+  client::Options client_options;
+  client_options.sender = options_.sender;
+  rig.client = std::make_unique<client::Client>(*rig.bus, client_options);
+  rig.request.reset();
+  rig.answer.reset();
   const core::Channels& c = channels_;
   auto to_arm = [this, &rig](const auto& channel, bool always) {
     using Msg = typename std::decay_t<decltype(channel)>::Message;
@@ -358,7 +365,6 @@ void TurnManager::Attach(Rig& rig) {
   rig.subscriptions.push_back(&rig.bus->Subscribe<sirupp::controller_status_t>(
       c.controller_status,
       [this, &rig](const sirupp::controller_status_t& status, const core::ReceiveInfo&) {
-        rig.controller = status;
         if (phase_ == Phase::kTurn && !status.plan_name.empty() && status.plan_step >= 0) {
           rig.plans.insert(status.plan_name);
         }
@@ -378,6 +384,7 @@ void TurnManager::Detach(Rig& rig) {
   rig.subscriptions.clear();
   rig.virtual_subscription = nullptr;
   rig.virtual_arm.reset();
+  rig.client.reset();  // unsubscribes from the rig's bus
   rig.bus.reset();
 }
 
@@ -485,38 +492,46 @@ void TurnManager::StartHandoverIn(const std::string& student) {
                             hardware_->state == Status::STATE_ARMED;
                    },
                    options_.step_timeout_s, false});
-  steps.push_back({"the virtual arm to the real arm's pose",
-                   [this] {
-                     if (!real_) throw TurnError("no REAL_ARM_STATE from sirupp-hardware");
-                     core::PlanCommand abort;
-                     abort.utime = core::WallMicros();
-                     abort.seq = seq_++;
-                     abort.command = core::PlanAction::kAbort;
-                     holder_->bus->Publish(channels_.arm_plan, core::ToMessage(abort));
-                     core::JointTarget target;
-                     target.utime = core::WallMicros() + 1;
-                     target.seq = seq_++;
-                     for (double q : real_->position) target.joints.push_back({q, 0, 0, true});
-                     holder_->bus->Publish(channels_.arm_target, core::ToMessage(target));
-                   },
-                   [this] {
-                     const auto& c = holder_->controller;
-                     if (c && c->state == sirupp::controller_status_t::STATE_FAULT) {
-                       throw TurnError(holder_->student + "'s rig is faulted: " + c->last_error);
-                     }
-                     const auto& v = holder_->virtual_arm;
-                     if (!c || !v || !real_ || v->position.size() != real_->position.size())
-                       return false;
-                     if (c->state != sirupp::controller_status_t::STATE_IDLE) return false;
-                     for (size_t j = 0; j < v->position.size(); ++j) {
-                       if (std::abs(v->position[j] - real_->position[j]) >
-                           options_.pose_tolerance_deg * kDeg) {
-                         return false;
-                       }
-                     }
-                     return true;
-                   },
-                   options_.step_timeout_s + 10, false});
+  steps.push_back(
+      {"the virtual arm to the real arm's pose",
+       [this] {
+         if (!real_) throw TurnError("no REAL_ARM_STATE from sirupp-hardware");
+         Rig& holder = *holder_;
+         core::PlanCommand abort;  // refused when no plan runs: nothing to abort
+         abort.command = core::PlanAction::kAbort;
+         holder.client->SendPlanCommand(abort);
+         core::JointTarget target;
+         for (double q : real_->position) target.joints.push_back({q, 0, 0, true});
+         holder.request = holder.client->SendJointTarget(target);
+         holder.answer.reset();
+       },
+       [this] {
+         Rig& holder = *holder_;
+         const auto& c = holder.client->snapshot().controller;
+         if (c && c->state == sirupp::controller_status_t::STATE_FAULT) {
+           throw TurnError(holder.student + "'s rig is faulted: " + c->last_error);
+         }
+         if (!holder.answer) holder.answer = holder.client->HeardControllerAnswer(*holder.request);
+         if (!holder.answer) return false;
+         if (!holder.answer->accepted()) {
+           throw TurnError(holder.student + "'s rig refused the move to the real arm's pose: " +
+                           holder.answer->error);
+         }
+         const auto& v = holder.virtual_arm;
+         if (!c || !v || !real_ || v->position.size() != real_->position.size()) return false;
+         // A status sent after the move was taken, showing it ended.
+         if (c->seq < holder.answer->status_seq ||
+             c->state != sirupp::controller_status_t::STATE_IDLE) {
+           return false;
+         }
+         for (size_t j = 0; j < v->position.size(); ++j) {
+           if (std::abs(v->position[j] - real_->position[j]) > options_.pose_tolerance_deg * kDeg) {
+             return false;
+           }
+         }
+         return true;
+       },
+       options_.step_timeout_s + 10, false});
   steps.push_back({"arm the real arm", [this] { Command(client::HardwareCommand::kArm); },
                    [this] {
                      if (const std::string trouble = BridgeTrouble(); !trouble.empty()) {

@@ -31,9 +31,10 @@
 // Single-threaded, like core::Bus: call Service() often. Everything happens inside Service() and
 // the commands.
 //
-// Built on client/: the bridge is commanded through a client::Client on the arm bus (requests
-// with ids, each step waits for the reply that names its request and for the status that reply
-// names; client::HardwareCommandDone and client::HardwareMovesDone say when it is carried out).
+// Built on client/: the bridge is commanded through a client::Client on the arm bus, the holder's
+// controller through one on the rig's bus (requests with ids, each step waits for the reply that
+// names its request and for the status that reply names; client::HardwareCommandDone and
+// client::HardwareMovesDone say when it is carried out; a refusal ends the step with its words).
 // Every time the manager reads (a turn's end, warnings, a step's timeout, the bridge's silence,
 // its liveness messages) is TurnOptions::clock: the steady clock, or a test's simulated one.
 
@@ -128,8 +129,7 @@ class TurnManager {
   using BusFactory = std::function<std::shared_ptr<core::Bus>()>;
 
   // `arm_bus` is the bridge's bus; `model` the robot (home pose, default speeds). Both must
-  // outlive the manager, and `arm_bus` is not handled after it (client::Client, which the manager
-  // commands the bridge through, does not unsubscribe when it ends).
+  // outlive the manager.
   TurnManager(core::Bus& arm_bus, const core::RobotModel& model, TurnOptions options = {});
   ~TurnManager();
   TurnManager(const TurnManager&) = delete;
