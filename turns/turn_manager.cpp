@@ -419,9 +419,20 @@ std::string TurnManager::BridgeTrouble() const {
   return "";
 }
 
+void TurnManager::ThrowOnBridgeTrouble() const {
+  if (const std::string trouble = BridgeTrouble(); !trouble.empty()) throw TurnError(trouble);
+}
+
+TurnManager::Step TurnManager::CommandStep(const std::string& name,
+                                           client::HardwareCommand command) {
+  return {name, [this, command] { Command(command); },
+          [this, command] { return CommandDone(command); }, options_.step_timeout_s, true};
+}
+
 bool TurnManager::BridgeSilent() const { return hardware_ && Since(hardware_at_) > kBridgeSilentS; }
 
 bool TurnManager::MoveDone() const {
+  ThrowOnBridgeTrouble();
   // The reply names the bridge's last status before the move; the modules' MOVE_DONE bits are
   // about the move only in a status polled after it: the second one after the reply.
   return answer_ && answer_->accepted() && hardware_ && hardware_->seq >= answer_->status_seq + 2 &&
@@ -429,6 +440,7 @@ bool TurnManager::MoveDone() const {
 }
 
 bool TurnManager::CommandDone(client::HardwareCommand command) const {
+  ThrowOnBridgeTrouble();
   // The status the reply names shows the command's effect.
   return answer_ && answer_->accepted() && hardware_ && hardware_->seq >= answer_->status_seq &&
          client::HardwareCommandDone(command, *hardware_);
@@ -532,14 +544,7 @@ void TurnManager::StartHandoverIn(const std::string& student) {
          return true;
        },
        options_.step_timeout_s + 10, false});
-  steps.push_back({"arm the real arm", [this] { Command(client::HardwareCommand::kArm); },
-                   [this] {
-                     if (const std::string trouble = BridgeTrouble(); !trouble.empty()) {
-                       throw TurnError(trouble);
-                     }
-                     return CommandDone(client::HardwareCommand::kArm);
-                   },
-                   options_.step_timeout_s, true});
+  steps.push_back(CommandStep("arm the real arm", client::HardwareCommand::kArm));
   steps.push_back({"link the rig",
                    [this] {
                      relay_on_ = true;
@@ -553,12 +558,7 @@ void TurnManager::StartHandoverIn(const std::string& student) {
                      }
                      Command(client::HardwareCommand::kLink);
                    },
-                   [this] {
-                     if (const std::string trouble = BridgeTrouble(); !trouble.empty()) {
-                       throw TurnError(trouble);
-                     }
-                     return CommandDone(client::HardwareCommand::kLink);
-                   },
+                   [this] { return CommandDone(client::HardwareCommand::kLink); },
                    options_.step_timeout_s, true});
   steps_ = std::move(steps);
   step_ = 0;
@@ -601,12 +601,7 @@ void TurnManager::StartHandoverOut() {
                      RelayOff();
                      Move(true, {}, 1.0);
                    },
-                   [this] {
-                     if (const std::string trouble = BridgeTrouble(); !trouble.empty()) {
-                       throw TurnError(trouble);
-                     }
-                     return MoveDone() && Since(step_started_) > 0.3;
-                   },
+                   [this] { return MoveDone() && Since(step_started_) > 0.3; },
                    options_.step_timeout_s, true});
   // The farthest joint's travel at the reduced speed, as the step's extra time.
   double travel_s = 0;
@@ -618,12 +613,7 @@ void TurnManager::StartHandoverOut() {
   }
   steps.push_back({"home at reduced speed",
                    [this, home] { Move(false, home, options_.home_speed_fraction); },
-                   [this] {
-                     if (const std::string trouble = BridgeTrouble(); !trouble.empty()) {
-                       throw TurnError(trouble);
-                     }
-                     return MoveDone() && Since(step_started_) > 0.3;
-                   },
+                   [this] { return MoveDone() && Since(step_started_) > 0.3; },
                    options_.step_timeout_s + travel_s, true});
   // The check: every joint within home_tolerance_deg of home. A joint held short of home by its
   // static friction (the PD law has no integral by default, so it stops where its torque no longer
@@ -664,22 +654,8 @@ void TurnManager::StartHandoverOut() {
        options_.step_timeout_s + 10, true});
   // One command per step, each waited for: a refused UNLINK (the bridge may still be linked to
   // the rig) stops the queue with the bridge's reason instead of going on to disarm.
-  steps.push_back({"unlink the bridge", [this] { Command(client::HardwareCommand::kUnlink); },
-                   [this] {
-                     if (const std::string trouble = BridgeTrouble(); !trouble.empty()) {
-                       throw TurnError(trouble);
-                     }
-                     return CommandDone(client::HardwareCommand::kUnlink);
-                   },
-                   options_.step_timeout_s, true});
-  steps.push_back({"disarm", [this] { Command(client::HardwareCommand::kDisarm); },
-                   [this] {
-                     if (const std::string trouble = BridgeTrouble(); !trouble.empty()) {
-                       throw TurnError(trouble);
-                     }
-                     return CommandDone(client::HardwareCommand::kDisarm);
-                   },
-                   options_.step_timeout_s, true});
+  steps.push_back(CommandStep("unlink the bridge", client::HardwareCommand::kUnlink));
+  steps.push_back(CommandStep("disarm", client::HardwareCommand::kDisarm));
   steps_ = std::move(steps);
   step_ = 0;
   step_entered_ = false;

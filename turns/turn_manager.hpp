@@ -203,11 +203,16 @@ class TurnManager {
   std::string BridgeTrouble() const;
   // Its last HARDWARE_STATUS is older than kBridgeSilentS: what it said may be stale.
   bool BridgeSilent() const;
+  void ThrowOnBridgeTrouble() const;  // TurnError(BridgeTrouble()), if any
   // Our last ARM_MOVE was accepted by the bridge and a status polled after it shows every
-  // module's MOVE_DONE (no fixed time: a busy machine may delay the bridge past any).
+  // module's MOVE_DONE (no fixed time: a busy machine may delay the bridge past any). Throws
+  // TurnError on BridgeTrouble(), as CommandDone does.
   bool MoveDone() const;
   // Our last HARDWARE_COMMAND was accepted and the status its reply names shows it carried out.
   bool CommandDone(client::HardwareCommand command) const;
+  // A step that sends `command` to the bridge and waits until CommandDone (a failure touches the
+  // arm: the queue stops).
+  Step CommandStep(const std::string& name, client::HardwareCommand command);
   // The largest |real - goal| in degrees and its joint (1-based), from REAL_ARM_STATE.
   std::pair<double, int> RealOffset(const std::vector<double>& goal) const;
   std::vector<double> HomePose() const;
