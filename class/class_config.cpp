@@ -180,7 +180,10 @@ ClassConfig Read(const core::YamlDocument& document, const std::string& base_dir
     if (const auto v = map.Find("pin_rigs")) config.pin_rigs = v->Bool();
   }
   if (const auto server = top.Find("server")) {
-    const core::YamlMap map = server->Map(kServerKeys);
+    std::vector<std::string> server_keys = kServerKeys;
+    server_keys.insert(server_keys.end(), FrontConfigKeys().begin(), FrontConfigKeys().end());
+    const core::YamlMap map = server->Map(server_keys);
+    config.front = ReadFrontConfig(map, base_dir);
     config.listen = map.StringOr("listen", config.listen);
     if (const auto v = map.Find("port")) config.port = static_cast<int>(v->Integer(0, 65535));
     if (const auto v = map.Find("public_url")) {

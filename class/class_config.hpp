@@ -12,7 +12,9 @@
 //   limits: {max_rigs: 12, idle_timeout_s: 900, rig_memory_mb: 2048, rig_nice: 5,
 //            pin_rigs: false}
 //   server: {listen: 127.0.0.1, port: 8800, public_url: "https://lab.example.edu",
-//            tls_cert: cert.pem, tls_key: key.pem}
+//            tls_cert: cert.pem, tls_key: key.pem,
+//            trusted_proxy: 127.0.0.1, proxy_user_header: X-Remote-User,   # a front's sign-in
+//            proxy_secret_file: front.secret, proxy_teachers: [jsmith]}    # (front_auth.hpp)
 //   rigs: {first_port: 7900, port_count: 200,   # the udpm ports rigs lease (ttl=0)
 //          pace_ticks: 4}                       # each sim sleeps once per 4 ticks (2 ms)
 //   real_arm:                         # optional: the one real PUMA, shared by turns
@@ -33,6 +35,7 @@
 #include <string>
 #include <vector>
 
+#include "class/front_auth.hpp"
 #include "cluster/cluster_config.hpp"
 
 namespace sirupp::classroom {
@@ -63,6 +66,9 @@ struct ClassConfig {
   std::string public_url;  // the address in the tokens file; "" = http(s)://listen:port
   std::string tls_cert;    // both or neither; absolute
   std::string tls_key;
+  // server.trusted_proxy and proxy_*: sign-in by the university's front (front_auth.hpp); none:
+  // tokens only.
+  std::optional<FrontConfig> front;
   int first_port = 7900;  // udpm ports leased by the rigs
   int port_count = 200;
   int pace_ticks = 4;                     // sirupp-sim --pace-ticks of every rig (1..64)

@@ -17,6 +17,7 @@
 #include <sstream>
 #include <thread>
 
+#include "class/front_auth.hpp"
 #include "class/real_arm.hpp"
 #include "class/rig.hpp"
 #include "class/submissions.hpp"
@@ -224,6 +225,7 @@ struct ClassServer::Impl {
   ServeOptions options;
   TokenStore tokens;
   BadTokenThrottle throttle;
+  FrontAuth front;  // server.trusted_proxy: sign-in by the university's front (front_auth.hpp)
   ProcessLauncher launcher;  // outlives the rigs
   // Students' controllers from the browser: store, builds, the grading worker (after the launcher,
   // so it ends first).
@@ -251,6 +253,7 @@ struct ClassServer::Impl {
 
   Impl(ClassConfig c, ServeOptions o)
       : config(std::move(c)), options(std::move(o)), tokens(TokensFile(config)) {
+    if (config.front) front = FrontAuth(*config.front);
     if (config.tls_cert.empty()) {
       server = std::make_unique<httplib::Server>();
     } else {
@@ -322,14 +325,22 @@ struct ClassServer::Impl {
   // (student_name empty). Fills `res` (403 or 429) and returns kNone when nobody.
   Role Authorize(const httplib::Request& req, const std::string& student_name,
                  httplib::Response& res) {
-    const double wait = throttle.WaitFor(req.remote_addr, Clock::now());
+    // Behind the class's front, the throttle and the log name the client the front saw.
+    const std::string client =
+        front.ClientAddress(req.remote_addr, req.get_header_value("X-Forwarded-For"));
+    const double wait = throttle.WaitFor(client, Clock::now());
     if (wait > 0) {
       const int seconds = static_cast<int>(wait) + 1;
       res.set_header("Retry-After", std::to_string(seconds));
       SendError(res, 429,
-                "too many bad tokens from " + req.remote_addr + "; try again in " +
-                    std::to_string(seconds) + " s");
+                "too many bad tokens from " + client + "; try again in " + std::to_string(seconds) +
+                    " s");
       return Role::kNone;
+    }
+    const FrontVerdict verdict = front.Judge(
+        req.remote_addr, [&req](const std::string& name) { return req.get_header_value(name); });
+    if (verdict.kind != FrontVerdict::Kind::kNoFront) {
+      return AuthorizeFront(verdict, client, student_name, res);
     }
     std::vector<std::string> offered;
     for (const std::string& token :
@@ -341,11 +352,11 @@ struct ClassServer::Impl {
     for (const std::string& token : offered) {
       if (!student_name.empty() && Find(student_name) != nullptr &&
           tokens.Check(student_name, token)) {
-        throttle.Succeeded(req.remote_addr);
+        throttle.Succeeded(client);
         return Role::kStudent;
       }
       if (tokens.Check(kTeacher, token)) {
-        throttle.Succeeded(req.remote_addr);
+        throttle.Succeeded(client);
         return Role::kTeacher;
       }
     }
@@ -356,10 +367,37 @@ struct ClassServer::Impl {
           res, 403,
           "no token: open the address with ?token=... that your teacher gave you (" + where + ")");
     } else {
-      throttle.Failed(req.remote_addr, Clock::now());
-      Log("refused a bad token for " + where + " from " + req.remote_addr);
+      throttle.Failed(client, Clock::now());
+      Log("refused a bad token for " + where + " from " + client);
       SendError(res, 403, "this token does not open " + where);
     }
+    return Role::kNone;
+  }
+
+  // A request the class's front signed in (front_auth.hpp): a student's own page, any page for a
+  // teacher; else 403 naming who the front says they are.
+  Role AuthorizeFront(const FrontVerdict& verdict, const std::string& client,
+                      const std::string& student_name, httplib::Response& res) {
+    if (verdict.kind == FrontVerdict::Kind::kRefused) {
+      Log("refused a request from " + client + ": " + verdict.reason);
+      SendError(res, 403, verdict.reason);
+      return Role::kNone;
+    }
+    const std::string who = core::Printable(verdict.user, 60);
+    const std::string role = front.RoleOf(verdict.user, config.students);
+    if (role == "teacher") return Role::kTeacher;
+    if (role == "student" && verdict.user == student_name) return Role::kStudent;
+    if (role.empty()) {
+      SendError(res, 403,
+                "you are signed in as '" + who + "', who is not in the class " + config.name +
+                    " (neither a student nor in server.proxy_teachers); ask your teacher");
+      return Role::kNone;
+    }
+    const std::string where =
+        student_name.empty() ? "/teacher/" : "/s/" + core::Printable(student_name, 40) + "/";
+    SendError(
+        res, 403,
+        "you are signed in as '" + who + "': " + where + " is not yours (yours: /s/" + who + "/)");
     return Role::kNone;
   }
 

@@ -60,6 +60,9 @@ packages=(
   libssl-dev openssl
   # sandboxes for students' controllers (namespaces without root), the class server's limits
   bubblewrap
+  # the Debian package (scripts/package.sh: dpkg-shlibdeps, lintian) and its tests (tests/package/:
+  # Apache as the sign-in front with mod_proxy_http, mod_headers, mod_auth_basic; htpasswd)
+  dpkg-dev lintian apache2 apache2-utils
   # an X server without a screen, for the test that starts lcm-spy (sirupp spy)
   xvfb xauth
 )
