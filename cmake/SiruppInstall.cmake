@@ -22,6 +22,9 @@ set(sirupp_installed_programs
 if(SIRUPP_PYTHON_MODULE)
   list(APPEND sirupp_installed_programs sirupp-python-controller-host)
 endif()
+if(TARGET sirupp-rig-job)  # a rig as a cluster job (class/rig_job.hpp)
+  list(APPEND sirupp_installed_programs sirupp-rig-job)
+endif()
 install(TARGETS ${sirupp_installed_programs} RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 
 # ---- Shipped files (read-only data) ------------------------------------------------------------
