@@ -1,8 +1,6 @@
 #include "launch/supervisor.hpp"
 
-#include <fcntl.h>
 #include <signal.h>
-#include <sys/prctl.h>
 #include <sys/stat.h>
 #include <sys/wait.h>
 #include <unistd.h>
@@ -23,6 +21,7 @@
 #include "core/channels.hpp"
 #include "core/errors.hpp"
 #include "core/signal_name.hpp"
+#include "proc/child.hpp"
 #include "runtime/log_prefix.hpp"
 
 namespace sirupp::launch {
@@ -33,7 +32,8 @@ struct Supervisor::Child {
   ProcessSpec spec;
   std::vector<std::string> command;  // expanded, LCM flags added, program resolved
   std::string log_file;
-  pid_t pid = 0;
+  proc::Child process;
+  pid_t pid = 0;                  // process.pid() while it runs, else 0
   std::string state = "waiting";  // waiting, starting, running, done, failed, stopped, restarting
   Clock::time_point started{};
   Clock::time_point restart_at{};
@@ -198,51 +198,22 @@ std::string Supervisor::LogTail(const Child& child) const {
 }
 
 bool Supervisor::Spawn(Child& child) {
-  std::error_code ec;
-  fs::create_directories(fs::path(child.log_file).parent_path(), ec);
-  const int log = ::open(child.log_file.c_str(), O_WRONLY | O_CREAT | O_APPEND | O_CLOEXEC, 0644);
-  if (log < 0) {
-    failures_.push_back(child.spec.name + ": cannot open " + child.log_file + ": " +
-                        std::strerror(errno));
-    Event(failures_.back());
-    return false;
-  }
-  std::vector<char*> argv;
-  for (std::string& word : child.command) argv.push_back(word.data());
-  argv.push_back(nullptr);
   std::string command_line;
   for (const std::string& w : child.command) command_line += (command_line.empty() ? "" : " ") + w;
-  // Made before the fork: the child may only make async-signal-safe calls until exec.
-  const std::string exec_failed = LaunchLogLine("error: exec failed: " + command_line) + "\n";
+  proc::ProcessSpec spec;
+  spec.argv = child.command;
+  spec.log_path = child.log_file;
+  spec.death_signal = SIGTERM;  // no process outlives its launcher
+  spec.exec_failed_line = LaunchLogLine("error: exec failed: " + command_line);
   NoteInLog(child, "starting " + child.spec.name + ": " + command_line);
-  const pid_t parent = ::getpid();
-  const pid_t pid = ::fork();
-  if (pid == 0) {
-    // In the child: only async-signal-safe calls until exec.
-    ::setpgid(0, 0);  // its own group: the terminal's Ctrl-C reaches the launcher only
-    ::prctl(PR_SET_PDEATHSIG, SIGTERM);
-    if (::getppid() != parent) ::_exit(126);  // the launcher died before prctl took effect
-    const int null = ::open("/dev/null", O_RDONLY);
-    if (null >= 0) ::dup2(null, STDIN_FILENO);
-    ::dup2(log, STDOUT_FILENO);
-    ::dup2(log, STDERR_FILENO);
-    ::close_range(3, ~0U, 0);  // the launcher's LCM sockets and files stay with the launcher
-    sigset_t none;
-    sigemptyset(&none);
-    ::sigprocmask(SIG_SETMASK, &none, nullptr);
-    ::signal(SIGINT, SIG_DFL);
-    ::signal(SIGTERM, SIG_DFL);
-    ::execv(argv[0], argv.data());
-    ssize_t ignored = ::write(STDERR_FILENO, exec_failed.data(), exec_failed.size());
-    (void)ignored;
-    ::_exit(127);
-  }
-  ::close(log);
-  if (pid < 0) {
-    failures_.push_back(child.spec.name + ": fork failed: " + std::strerror(errno));
+  try {
+    child.process.Start(spec);  // its own group: the terminal's Ctrl-C reaches the launcher only
+  } catch (const std::exception& e) {
+    failures_.push_back(child.spec.name + ": " + e.what());
     Event(failures_.back());
     return false;
   }
+  const pid_t pid = child.process.pid();
   child.pid = pid;
   child.pids.push_back(pid);
   child.started = Clock::now();
@@ -381,9 +352,7 @@ void Supervisor::Ended(Child& child, int status) {
 void Supervisor::Reap() {
   for (auto& child : children_) {
     if (child->pid == 0) continue;
-    int status = 0;
-    const pid_t r = ::waitpid(child->pid, &status, WNOHANG);
-    if (r == child->pid) Ended(*child, status);
+    if (!child->process.Running()) Ended(*child, child->process.status());
   }
 }
 
@@ -428,17 +397,10 @@ void Supervisor::Stop() {
   for (auto it = children_.rbegin(); it != children_.rend(); ++it) {
     Child& child = **it;
     if (child.pid == 0) continue;
-    ::kill(-child.pid, SIGINT);
     child.state = "stopping";
-    const auto deadline =
-        Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                           std::chrono::duration<double>(child.spec.stop_timeout_s));
-    int status = 0;
-    bool ended = false;
-    while (!(ended = ::waitpid(child.pid, &status, WNOHANG) == child.pid) &&
-           Clock::now() < deadline) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(10));
-    }
+    // SIGINT to its group, SIGKILL after the timeout; back when nothing of the group is left.
+    const bool ended = child.process.Stop(child.spec.stop_timeout_s, SIGINT);
+    const int status = child.process.status();
     if (ended) {
       const std::string how = DescribeStatus(status);
       const bool fine = CleanExit(status) || (WIFSIGNALED(status) && WTERMSIG(status) == SIGINT);
@@ -448,8 +410,6 @@ void Supervisor::Stop() {
       Event("stopped " + child.spec.name + " (" + how + ")");
       child.state = "stopped";
     } else {
-      ::kill(-child.pid, SIGKILL);
-      ::waitpid(child.pid, &status, 0);
       NoteInLog(child, "error: " + child.spec.name + " (pid " + std::to_string(child.pid) +
                            ") ended: did not stop within " +
                            core::FormatNumber(child.spec.stop_timeout_s) + " s of SIGINT; killed");
