@@ -19,23 +19,18 @@ bool PoseRequest::Matches(const core::IkConfiguration& config) const {
 PoseGoal SolvePoseGoal(const core::RobotModel& model, const PoseRequest& request,
                        const core::JointVector& reference) {
   PoseGoal goal;
-  const std::optional<std::string> not_closed_form = core::PumaIkNotApplicable(model);
-  const bool closed_form = !request.position_only && !not_closed_form;
-  if (request.HasConfig() && !closed_form) {
+  // The library's one solver choice; its reason is "position-only target" or the arm's.
+  core::IkRequest ik_request;
+  ik_request.position_only = request.position_only;
+  const core::IkSolverChoice choice = core::ChooseIkSolver(model, ik_request);
+  if (request.HasConfig() && !choice.closed_form) {
     goal.reason = "configuration " + request.ConfigName() +
                   " needs the closed-form PUMA solver, which does not apply here (" +
-                  (request.position_only ? std::string("position-only target") : *not_closed_form) +
+                  choice.not_closed_form +
                   "); leave the configuration free to take the nearest solution";
     return goal;
   }
-  core::IkResult result;
-  if (closed_form) {
-    result = core::SolvePumaIk(model, request.target, reference);
-  } else {
-    core::NumericIkOptions options;
-    options.position_only = request.position_only;
-    result = core::SolveNumericIk(model, request.target, reference, options);
-  }
+  const core::IkResult result = core::SolveIk(model, request.target, reference, ik_request);
   if (!result.ok()) {
     goal.reason = std::string(core::IkFailureName(result.failure)) + ": " + result.reason;
     return goal;

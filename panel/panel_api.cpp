@@ -382,9 +382,10 @@ Response PanelApi::SolveIk(const Json& body) {
   const core::JointVector reference = core::ToJointVector(
       present && present->size() == model->joints.size() ? *present
                                                          : control::HomePositions(*model));
-  const bool closed_form = !core::PumaIkNotApplicable(*model).has_value();
-  const core::IkResult result = closed_form ? core::SolvePumaIk(*model, target, reference)
-                                            : core::SolveNumericIk(*model, target, reference);
+  // The library's one solver choice (the panel asks for neither numeric nor position-only).
+  const core::IkRequest request;
+  const bool closed_form = core::ChooseIkSolver(*model, request).closed_form;
+  const core::IkResult result = core::SolveIk(*model, target, reference, request);
   Json solutions = Json::array();
   for (const core::IkSolution& solution : result.solutions) {
     Json q = Json::array();

@@ -176,19 +176,18 @@ CommandResult RigCommands::RunPlan(const std::string& name, const std::string& t
 }
 
 CommandResult RigCommands::PlanControl(const std::string& verb) {
-  using P = client::PlanCommand;
-  static const std::pair<const char*, P> kVerbs[] = {
-      {"pause", P::kPause},   {"resume", P::kResume},       {"abort", P::kAbort},
-      {"manual", P::kManual}, {"automatic", P::kAutomatic}, {"clear-fault", P::kClearFault}};
-  for (const auto& [word, command] : kVerbs) {
-    if (verb != word) continue;
-    const P plan_command = command;
-    return FromAnswer(hub_.WithClient([&](client::Client& rig) { return rig.Plan(plan_command); }),
-                      std::string("plan ") + word);
+  // The words are client's (PlanCommandName / PlanCommandFromName), as for `sirupp plan WORD`.
+  const std::optional<client::PlanCommand> command = client::PlanCommandFromName(verb);
+  if (!command) {
+    std::string allowed;
+    for (const client::PlanCommand known : client::kPlanCommands) {
+      allowed += (allowed.empty() ? "" : ", ") + std::string(client::PlanCommandName(known));
+    }
+    return CommandResult::Fail(
+        404, "plan command '" + core::Printable(verb) + "' is unknown; allowed: " + allowed);
   }
-  return CommandResult::Fail(
-      404, "plan command '" + core::Printable(verb) +
-               "' is unknown; allowed: pause, resume, abort, manual, automatic, clear-fault");
+  return FromAnswer(hub_.WithClient([&](client::Client& rig) { return rig.Plan(*command); }),
+                    "plan " + verb);
 }
 
 CommandResult RigCommands::SetGains(int joint,

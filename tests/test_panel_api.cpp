@@ -158,7 +158,11 @@ TEST_F(PanelApiTest, BadRequestsGet4xxWithAMessage) {
   EXPECT_EQ(Post("/api/move/pose", R"({"pose": [0, 0]})").status, 400);
   EXPECT_EQ(Post("/api/gains", R"({"joint": 1.5, "values": {"kp": 1}})").status, 400);
   EXPECT_EQ(Post("/api/hardware/explode", "{}").status, 404);
-  EXPECT_EQ(Post("/api/plan/jump", "{}").status, 404);
+  Response jump = Post("/api/plan/jump", "{}");
+  EXPECT_EQ(jump.status, 404);
+  EXPECT_EQ(Body(jump)["error"],
+            "plan command 'jump' is unknown; allowed: pause, resume, abort, manual, automatic, "
+            "clear-fault");
   EXPECT_EQ(Get("/api/files", {{"dir", "/etc"}}).status, 400);
   EXPECT_TRUE(targets_.empty());
   EXPECT_TRUE(plans_.empty());
@@ -273,6 +277,28 @@ TEST_F(PanelApiTest, GainsChangeOneJointWithinRange) {
   EXPECT_EQ(gains_[0].kp[0], model_.joints[0].servo.kp);
 }
 
+TEST_F(PanelApiTest, EveryPlanWordSendsItsCommand) {
+  // The words are client::PlanCommandFromName's, the same as `sirupp plan WORD`; the wire command
+  // of each is written out here so that a wrong table in either place shows.
+  PublishRig();
+  ASSERT_EQ(Post("/api/lock", R"({"name": "ann"})").status, 200);
+  const std::pair<const char*, int8_t> kExpected[] = {
+      {"pause", sirupp::plan_command_t::COMMAND_PAUSE},
+      {"resume", sirupp::plan_command_t::COMMAND_RESUME},
+      {"abort", sirupp::plan_command_t::COMMAND_ABORT},
+      {"manual", sirupp::plan_command_t::COMMAND_MANUAL},
+      {"automatic", sirupp::plan_command_t::COMMAND_AUTOMATIC},
+      {"clear-fault", sirupp::plan_command_t::COMMAND_CLEAR_FAULT}};
+  for (const auto& [word, command] : kExpected) {
+    plans_.clear();
+    Response r = Post(std::string("/api/plan/") + word, "{}");
+    ASSERT_EQ(r.status, 200) << word << ": " << r.body;
+    EXPECT_EQ(Body(r)["message"], std::string("ARM_PLAN: plan ") + word + " accepted");
+    ASSERT_EQ(plans_.size(), 1U) << word;
+    EXPECT_EQ(plans_[0].command, command) << word;
+  }
+}
+
 TEST_F(PanelApiTest, IkListsTheConfigurationsAndPoseTargetIsSent) {
   PublishRig();
   // The tool where a reachable joint pose puts it.
@@ -286,6 +312,7 @@ TEST_F(PanelApiTest, IkListsTheConfigurationsAndPoseTargetIsSent) {
   ASSERT_EQ(ik.status, 200) << ik.body;
   const Json answer = Body(ik);
   EXPECT_TRUE(answer["ok"].get<bool>());
+  EXPECT_EQ(answer["solver"], "closed-form");  // core::ChooseIkSolver on a PUMA-type arm
   ASSERT_EQ(answer["configurations"].size(), 8U);
   int within = 0;
   for (const Json& c : answer["configurations"]) within += c["within_limits"].get<bool>() ? 1 : 0;
