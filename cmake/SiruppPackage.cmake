@@ -29,6 +29,19 @@ if(SIRUPP_GZIP)
   endif()
 endif()
 
+# A manual page per program, from its --help (the programs as built; cmake/SiruppManPages.cmake).
+install(CODE "execute_process(COMMAND \"${CMAKE_COMMAND}\"
+    -DSIRUPP_BIN_DIR=${CMAKE_BINARY_DIR}/bin
+    \"-DSIRUPP_PROGRAMS=${sirupp_installed_programs}\"
+    \"-DSIRUPP_MAN_DIR=\$ENV{DESTDIR}\${CMAKE_INSTALL_PREFIX}/${CMAKE_INSTALL_MANDIR}/man1\"
+    -DSIRUPP_VERSION=${PROJECT_VERSION}
+    -P ${PROJECT_SOURCE_DIR}/cmake/SiruppManPages.cmake
+  RESULT_VARIABLE sirupp_man_result)
+  if(NOT sirupp_man_result EQUAL 0)
+    message(FATAL_ERROR \"manual pages: cmake/SiruppManPages.cmake failed\")
+  endif()"
+  COMPONENT debian EXCLUDE_FROM_ALL)
+
 set(CPACK_GENERATOR DEB)
 set(CPACK_PACKAGE_NAME ${SIRUPP_DEB_NAME})
 set(CPACK_PACKAGE_VERSION ${PROJECT_VERSION})

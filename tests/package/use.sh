@@ -3,8 +3,9 @@
 # tree in it) is hidden under an empty read-only folder in a mount namespace of its own, and the
 # commands run with a clean environment (PATH=/usr/bin:/bin, no PYTHONPATH): `sirupp demo` runs
 # its 7 movement sets, `sirupp class check` accepts a class file naming installed data only,
-# /usr/bin/python3 imports the module, a course notebook runs, and g++ builds the installed
-# example controller against /usr/include/sirupp/controller.h.
+# /usr/bin/python3 imports the module, a course notebook runs, and the installed example
+# controller builds with g++ against /usr/include/sirupp/controller.h and with `sirupp controller
+# build` in the sandbox.
 set -u
 source "$(dirname "$0")/lib.sh"
 root=$(cd "$(dirname "$0")/../.." && pwd)
@@ -59,6 +60,11 @@ PY
 
 g++ -std=c++17 -O2 -shared -fPIC /usr/share/sirupp/examples/02_pd_gravity/pd_gravity.cpp -o pd_gravity.so ||
   { echo "FAIL g++ on the installed example"; fail=1; }
+# The same source through `sirupp controller build`: the header from /usr/share/sirupp, g++ in the
+# sandbox (its own uid as root: the folder must be readable).
+cp /usr/share/sirupp/examples/02_pd_gravity/pd_gravity.cpp student.cpp
+sirupp controller build student.cpp --out built >build.out 2>&1 && [[ -s built/student.so ]] ||
+  { echo "FAIL sirupp controller build"; cat build.out; fail=1; }
 exit $fail
 STEPS
 
