@@ -135,6 +135,13 @@ void Subscription::NoteSequenceNumber(const ReceiveInfo& info, int64_t seq,
 
 void Subscription::OnLcmMessage(const lcm::ReceiveBuffer* rbuf, const std::string& channel,
                                 Subscription* self) noexcept {
+  // A channel taken off LCM comes through its own socket (ReadDirectly, a tick reader): what LCM
+  // still hands over of it was queued before the filter went on, older than what the other socket
+  // has delivered since, and would go back in time (a controller saw its sim's tick go from 321
+  // back to 296 right after its start and took it for a restarted sim; issue 41).
+  const auto& taken = self->bus_.socket_->elsewhere;
+  const auto found = taken.find(channel);
+  if (found != taken.end() && found->second > 0) return;
   self->Dispatch(*rbuf, channel);
 }
 

@@ -8,6 +8,7 @@
 #include <gtest/gtest.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
 #include <map>
 #include <sirupp/arm_command_t.hpp>
@@ -284,6 +285,39 @@ TEST(BusUdpm, AChannelReadDirectlyComesThroughHandleInOrderBesideLcmsChannels) {
   later.join();
   EXPECT_EQ(handled, 1);
   EXPECT_EQ(commands.size(), 41U);
+}
+
+// A channel LCM was already receiving when it is taken off LCM (a controller subscribes to the
+// sim's states, then reads them directly): what LCM had queued of it is older than what the direct
+// socket delivers, and must not come after it (issue 41: a controller took its sim's tick going
+// from 321 back to 296 for a restarted sim).
+TEST(BusUdpm, NothingOlderComesThroughLcmOnceAChannelIsReadDirectly) {
+  const std::string url = PrivateUrl(25000);
+  Bus publisher(url);
+  Bus bus(url);
+  std::vector<int64_t> ticks;
+  int heartbeats = 0;
+  bus.Subscribe<sirupp::arm_state_t>(
+      "SIM_ARM_STATE",
+      [&](const sirupp::arm_state_t& state, const ReceiveInfo&) { ticks.push_back(state.tick); });
+  bus.Subscribe<sirupp::heartbeat_t>(
+      "HEARTBEAT", [&](const sirupp::heartbeat_t&, const ReceiveInfo&) { ++heartbeats; });
+  // Received by LCM's thread and queued there, not handled yet.
+  for (int64_t tick = 1; tick <= 20; ++tick) publisher.Publish("SIM_ARM_STATE", State(tick));
+  publisher.Publish("HEARTBEAT", sirupp::heartbeat_t{});
+  std::this_thread::sleep_for(std::chrono::milliseconds(200));
+  ASSERT_TRUE(bus.ReadDirectly({"SIM_ARM_STATE"}, "test"));
+  for (int64_t tick = 21; tick <= 40; ++tick) publisher.Publish("SIM_ARM_STATE", State(tick));
+  publisher.Publish("HEARTBEAT", sirupp::heartbeat_t{});
+  ASSERT_TRUE(HandleUntil(
+      bus,
+      [&] { return heartbeats == 2 && std::find(ticks.begin(), ticks.end(), 40) != ticks.end(); },
+      5.0));
+  bus.HandleAvailable();  // anything LCM still holds
+  for (size_t i = 1; i < ticks.size(); ++i) {
+    EXPECT_GT(ticks[i], ticks[i - 1]) << "tick " << ticks[i] << " came after " << ticks[i - 1];
+  }
+  EXPECT_GE(ticks.size(), 20U);
 }
 
 TEST(BusUdpm, OtherProvidersHaveNothingToMute) {
