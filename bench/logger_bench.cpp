@@ -30,6 +30,7 @@
 
 #include "core/bus.hpp"
 #include "logger/data_file.hpp"
+#include "proc/rig.hpp"
 
 #ifndef SIRUPP_LOGGER_PATH
 #define SIRUPP_LOGGER_PATH "sirupp-logger"
@@ -164,7 +165,7 @@ int Run(int argc, char** argv) {
   const std::optional<Options> options = ParseOptions(argc, argv);
   if (!options) return 2;
   const double seconds = options->seconds;
-  const std::string url = "udpm://239.255.76.67:" + std::to_string(options->port) + "?ttl=0";
+  const std::string url = sirupp::proc::RigUrl(options->port);
   char pattern[] = "/tmp/sirupp_bench_logger_XXXXXX";
   const std::filesystem::path dir = mkdtemp(pattern);
   const std::string err_path = (dir / "logger.err").string();

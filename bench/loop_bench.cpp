@@ -83,6 +83,7 @@
 #include "core/errors.hpp"
 #include "core/model_loader.hpp"
 #include "core/translate.hpp"
+#include "proc/rig.hpp"
 #include "sim/arm_world.hpp"
 
 namespace {
@@ -758,13 +759,13 @@ ScaleRun MeasureScale(const std::string& model_file, const RobotModel& model, in
                       double seconds, int pace) {
   std::vector<std::unique_ptr<Child>> pongs, pings;
   for (int k = 0; k < pairs; ++k) {
-    const std::string url = "udpm://239.255.76.67:" + std::to_string(port + k) + "?ttl=0";
+    const std::string url = sirupp::proc::RigUrl(port + k);
     pongs.push_back(std::make_unique<Child>(std::vector<std::string>{
         SelfPath(), "--pong", url, "--setpoint", "--direct", "--model", model_file}));
     pongs.back()->WaitForLine(kPongReady, 10);
   }
   for (int k = 0; k < pairs; ++k) {
-    const std::string url = "udpm://239.255.76.67:" + std::to_string(port + k) + "?ttl=0";
+    const std::string url = sirupp::proc::RigUrl(port + k);
     pings.push_back(std::make_unique<Child>(std::vector<std::string>{
         SelfPath(), "--ping", url, "--scale-seconds", std::to_string(seconds), "--pace-ticks",
         std::to_string(pace), "--model", model_file}));
@@ -966,7 +967,7 @@ LoopSetup MakeSetup(const Options& options, const std::string& model_file,
   LoopSetup setup;
   setup.bin_dir = options.bin_dir.empty() ? std::filesystem::path(SelfPath()).parent_path().string()
                                           : options.bin_dir;
-  setup.url = "udpm://239.255.76.67:" + std::to_string(options.port) + "?ttl=0";
+  setup.url = sirupp::proc::RigUrl(options.port);
   setup.model_file = model_file;
   setup.joints = model.num_joints();
   for (const char* program : {"sirupp-sim", "sirupp-control"}) {

@@ -29,6 +29,7 @@
 #include "sim/arm_world.hpp"
 #ifdef SIRUPP_HAVE_MUJOCO
 #include "bench/mujoco_arm.hpp"
+#include "proc/rig.hpp"
 #endif
 
 namespace {
@@ -234,7 +235,7 @@ std::optional<Options> ParseOptions(int argc, char** argv) {
 // LCM: multicast on this machine only (ttl=0); memq:// if multicast cannot be used here. Sets
 // `url` to the one used.
 std::unique_ptr<sirupp::core::Bus> OpenBus(std::string& url) {
-  url = "udpm://239.255.76.67:7799?ttl=0";
+  url = sirupp::proc::RigUrl(7799);
   std::unique_ptr<sirupp::core::Bus> bus;
   try {
     bus = std::make_unique<sirupp::core::Bus>(url);

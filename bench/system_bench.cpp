@@ -34,6 +34,7 @@
 #include "core/channels.hpp"
 #include "launch/layout.hpp"
 #include "launch/supervisor.hpp"
+#include "proc/rig.hpp"
 
 namespace {
 
@@ -295,8 +296,7 @@ int main(int argc, char** argv) {
     }
   }
   const std::string bin = fs::canonical("/proc/self/exe").parent_path().string();
-  const std::string url =
-      "udpm://239.255.76.67:" + std::to_string(20000 + ::getpid() % 20000) + "?ttl=0";
+  const std::string url = sirupp::proc::RigUrl(20000 + ::getpid() % 20000);
   const fs::path dir = fs::temp_directory_path() / ("bench-system-" + std::to_string(::getpid()));
   std::cout << "bench_system: the whole system on this machine (" << ::sysconf(_SC_NPROCESSORS_ONLN)
             << " cores), bus " << url << "\n";
