@@ -20,8 +20,12 @@
 #include "class/front_auth.hpp"
 #include "class/real_arm.hpp"
 #include "class/rig.hpp"
+#include "class/rig_job.hpp"
+#include "class/rig_proxy.hpp"
+#include "class/rig_spawner.hpp"
 #include "class/submissions.hpp"
 #include "class/tokens.hpp"
+#include "cluster/slurm_engine.hpp"
 #include "core/errors.hpp"
 #include "core/printable.hpp"
 #include "grade/port_lease.hpp"
@@ -196,13 +200,22 @@ std::pair<std::string, std::string> ReissueToken(const ClassConfig& config, int 
 struct Seat {
   std::string name;
   std::mutex mutex;  // held while the rig starts or stops
-  std::unique_ptr<Rig> rig;
-  grade::PortLease lease;
+  // Where the rig runs (class/rig_spawner.hpp): the server's own processes, or a cluster job.
+  std::unique_ptr<RigSpawner> rig;
   // Read by the pages; written under `mutex` and `info_mutex`.
   mutable std::mutex info_mutex;
-  std::string state = "stopped";  // stopped, starting, running, failed
-  std::string last_stop;          // why the rig last stopped ("" = never ran in this server)
-  std::shared_ptr<RigPanel> panel;
+  // stopped, starting, running, failed; a cluster job also pending (waiting for the cluster or
+  // starting on its node) and unknown (the cluster did not say; never read as stopped)
+  std::string state = "stopped";
+  std::string last_stop;                // why the rig last stopped ("" = never ran in this server)
+  std::string waiting;                  // pending or unknown: why
+  std::string where;                    // "udpm port 7910", "Slurm job 12 on node07"
+  std::shared_ptr<RigPanel> panel;      // a local rig's panel
+  std::optional<RigEndpoint> endpoint;  // a job's endpoint, once it reported
+  Json remote_state;                    // a job's live state, fetched by the monitor
+  std::string lcm_url;                  // a local rig's bus ("" for a job)
+  std::chrono::steady_clock::time_point submitted{};
+  std::chrono::steady_clock::time_point next_poll{};
   int starts = 0;
   double start_s = 0;
   double cpu = 0;
@@ -231,6 +244,12 @@ struct ClassServer::Impl {
   // so it ends first).
   std::unique_ptr<SubmissionService> submissions;
   std::map<std::string, std::unique_ptr<Seat>> seats;
+  // cluster: the engine the rigs run on as jobs (class/rig_spawner.hpp), the jobs whose scancel
+  // got no answer (tried again each second), and the file a restarted server finds them in.
+  cluster::SystemRunner cluster_runner;
+  std::unique_ptr<cluster::SlurmEngine> engine;
+  std::mutex jobs_mutex;
+  std::vector<std::string> cancel_later;
   std::atomic<int> running{0};
   std::mutex start_mutex;  // counts rigs against max_rigs
   // limits.pin_rigs: the CPUs this server may use (its affinity when it starts) and how many
@@ -288,6 +307,12 @@ struct ClassServer::Impl {
       seat->Touch();
       seats[name] = std::move(seat);
     }
+    if (config.cluster) {
+      cluster::SlurmOptions slurm;
+      slurm.command_timeout_s = config.cluster->command_timeout_s;
+      engine = std::make_unique<cluster::SlurmEngine>(cluster_runner, slurm);
+      Reattach();
+    }
     if (config.real_arm) {
       fs::create_directories(config.data_dir);
       real_arm = std::make_unique<RealArm>(
@@ -296,7 +321,7 @@ struct ClassServer::Impl {
             const Seat* seat = Find(student);
             if (seat == nullptr) return "";
             const std::lock_guard<std::mutex> info(seat->info_mutex);
-            return seat->state == "running" ? RigUrl(seat->port) : "";
+            return seat->state == "running" ? seat->lcm_url : "";
           },
           [this](const std::string& line) { Log("real arm: " + line); });
       // Only a controller that passed the class's safety tasks in simulation drives the real arm
@@ -439,6 +464,7 @@ struct ClassServer::Impl {
   std::string EnsureRig(Seat& seat) {
     const std::lock_guard<std::mutex> lock(seat.mutex);
     if (seat.rig) return "";
+    if (config.cluster) return StartJob(seat);
     {
       const std::lock_guard<std::mutex> stop_lock(monitor_mutex);
       if (stopping) return "the class server is stopping";
@@ -454,14 +480,14 @@ struct ClassServer::Impl {
       seat.on_cpu = PickCpu();
     }
     try {
-      seat.lease = LeaseQuietPort();
+      grade::PortLease lease = LeaseQuietPort();
       const std::string folder = StudentFolder(config, seat.name);
       RigSpec spec;
       spec.robot = PrepareFolder(folder);
       spec.student = seat.name;
       spec.bin_dir = options.bin_dir;
       spec.folder = folder;
-      spec.port = seat.lease.port();
+      spec.port = lease.port();
       spec.limits = ChildLimits{config.rig_nice, config.rig_memory_mb, seat.on_cpu.load()};
       spec.pace_ticks = config.pace_ticks;
       spec.controller = submissions->RigController(seat.name);
@@ -469,20 +495,17 @@ struct ClassServer::Impl {
         const std::lock_guard<std::mutex> info(seat.info_mutex);
         seat.state = "starting";
       }
-      auto rig = std::make_unique<Rig>(spec, launcher);
+      auto rig = std::make_unique<LocalRigSpawner>(spec, launcher, std::move(lease));
       rig->Start();
       const std::lock_guard<std::mutex> info(seat.info_mutex);
       seat.panel = rig->panel();
+      seat.lcm_url = rig->lcm_url();
+      seat.where = rig->Where();
       seat.start_s = rig->start_seconds();
       seat.port = spec.port;
       seat.state = "running";
       ++seat.starts;
-      const std::time_t now = std::time(nullptr);
-      std::tm local{};
-      localtime_r(&now, &local);
-      char text[16];
-      std::strftime(text, sizeof text, "%H:%M:%S", &local);
-      seat.started_at = text;
+      seat.started_at = WallClock();
       seat.rig = std::move(rig);
       seat.Touch();
       Log("started " + seat.name + "'s rig on " + RigUrl(spec.port) +
@@ -492,7 +515,6 @@ struct ClassServer::Impl {
     } catch (const std::exception& e) {
       ReleaseCpu(seat);
       --running;
-      seat.lease.Release();
       const std::lock_guard<std::mutex> info(seat.info_mutex);
       seat.state = "failed";
       seat.last_stop = std::string("could not start: ") + e.what();
@@ -533,23 +555,225 @@ struct ClassServer::Impl {
 
   // Stops the seat's rig (if any), saying why. `locked`: the caller holds seat.mutex.
   void StopRig(Seat& seat, const std::string& why, bool failed = false) {
-    std::unique_ptr<Rig> rig;
+    std::unique_ptr<RigSpawner> rig;
     {
       const std::lock_guard<std::mutex> info(seat.info_mutex);
       if (!seat.rig) return;
       rig = std::move(seat.rig);
       seat.panel.reset();
+      seat.endpoint.reset();
+      seat.remote_state = nullptr;
+      seat.lcm_url.clear();
+      seat.waiting.clear();
       seat.state = failed ? "failed" : "stopped";
       seat.last_stop = why;
       seat.cpu = 0;
     }
     if (real_arm) real_arm->RigStopped(seat.name, why);
-    rig->Stop();
+    const std::string not_stopped = rig->Stop();
+    if (!not_stopped.empty()) {
+      // The engine did not answer: the job may still run. Cancelled again each second (and
+      // after a restart: the list is saved) until the engine takes it.
+      const nlohmann::json state = rig->State();
+      const std::lock_guard<std::mutex> jobs(jobs_mutex);
+      const auto job = state.is_object() ? state.find("job") : state.end();
+      if (job != state.end() && job->is_string()) cancel_later.push_back(job->get<std::string>());
+      Log(seat.name + "'s rig job: " + not_stopped + "; cancelled again until it is taken");
+    }
     rig.reset();
-    seat.lease.Release();
     ReleaseCpu(seat);
     --running;
+    SaveJobs();
     Log("stopped " + seat.name + "'s rig: " + why);
+  }
+
+  // --- rigs as cluster jobs (class file cluster:) -----------------------------------------------
+
+  static std::string WallClock() {
+    const std::time_t now = std::time(nullptr);
+    std::tm local{};
+    localtime_r(&now, &local);
+    char text[16];
+    std::strftime(text, sizeof text, "%H:%M:%S", &local);
+    return text;
+  }
+
+  std::string JobsFile() const { return config.data_dir + "/cluster/rigs.json"; }
+
+  // The class's data folder as the nodes see it.
+  std::string NodeData() const {
+    return config.cluster->node_data.empty() ? config.data_dir : config.cluster->node_data;
+  }
+  // A path under the data folder, as the nodes see it.
+  std::string OnNodes(const std::string& path) const {
+    if (path.rfind(config.data_dir + "/", 0) != 0) return path;
+    return NodeData() + path.substr(config.data_dir.size());
+  }
+
+  // Saves every job's state (and the cancels still owed), so a restarted server reattaches.
+  void SaveJobs() {
+    if (!config.cluster) return;
+    SavedRigJobs saved;
+    for (auto& [name, seat] : seats) {
+      const std::lock_guard<std::mutex> info(seat->info_mutex);
+      if (!seat->rig) continue;
+      const nlohmann::json state = seat->rig->State();
+      if (!state.is_null()) saved.rigs.push_back(state);
+    }
+    {
+      const std::lock_guard<std::mutex> jobs(jobs_mutex);
+      saved.cancel = cancel_later;
+    }
+    try {
+      SaveRigJobs(JobsFile(), saved);
+    } catch (const std::exception& e) {
+      Log(std::string("cannot save the rig jobs: ") + e.what());
+    }
+  }
+
+  // Submits the seat's rig as a job; it is pending until the job reports its endpoint. Holds
+  // seat.mutex. Returns "" or why it cannot.
+  std::string StartJob(Seat& seat) {
+    {
+      const std::lock_guard<std::mutex> stop_lock(monitor_mutex);
+      if (stopping) return "the class server is stopping";
+    }
+    {
+      const std::lock_guard<std::mutex> count_lock(start_mutex);
+      if (running >= config.max_rigs) {
+        return "the class already runs its limit of " + std::to_string(config.max_rigs) +
+               " rigs; try again in a few minutes (idle rigs stop after " +
+               std::to_string(static_cast<int>(config.idle_timeout_s)) + " s)";
+      }
+      ++running;
+    }
+    try {
+      const std::string folder = StudentFolder(config, seat.name);
+      const std::string model = PrepareFolder(folder);
+      fs::create_directories(folder + "/logs");
+      fs::create_directories(folder + "/results");
+      RigJobSpec spec;
+      spec.student = seat.name;
+      spec.folder = OnNodes(folder);
+      spec.robot = OnNodes(model);
+      spec.bin_dir = options.bin_dir;
+      const std::string secret_file = config.data_dir + "/cluster/secrets/" + seat.name;
+      spec.secret_file = OnNodes(secret_file);
+      spec.report_url =
+          config.cluster->report_url.empty() ? BaseUrl(config, port) : config.cluster->report_url;
+      spec.controller = OnNodes(submissions->RigController(seat.name));
+      spec.pace_ticks = config.pace_ticks;
+      spec.memory_mb = config.rig_memory_mb;
+      auto rig =
+          std::make_unique<SlurmRigSpawner>(*engine, *config.cluster, spec, secret_file, folder);
+      {
+        const std::lock_guard<std::mutex> info(seat.info_mutex);
+        seat.state = "starting";
+      }
+      rig->Start();
+      {
+        const std::lock_guard<std::mutex> info(seat.info_mutex);
+        seat.state = "pending";
+        seat.waiting = "submitted to the cluster";
+        seat.where = rig->Where();
+        seat.submitted = Clock::now();
+        seat.next_poll = Clock::now();
+        seat.rig = std::move(rig);
+      }
+      seat.Touch();
+      SaveJobs();
+      Log("submitted " + seat.name + "'s rig as " + seat.where);
+      return "";
+    } catch (const std::exception& e) {
+      --running;
+      const std::lock_guard<std::mutex> info(seat.info_mutex);
+      seat.state = "failed";
+      seat.last_stop = std::string("could not start: ") + e.what();
+      Log(seat.name + "'s rig could not start: " + e.what());
+      return seat.last_stop;
+    }
+  }
+
+  // The rig jobs a previous server left (DATA/cluster/rigs.json): each seat takes its job back
+  // as it was (running at its endpoint, or pending); the monitor's first poll says what became of
+  // it. No job is started twice, none is left without a seat.
+  void Reattach() {
+    SavedRigJobs saved;
+    try {
+      saved = LoadRigJobs(JobsFile());
+    } catch (const std::exception& e) {
+      Log(std::string("the saved rig jobs are not readable (") + e.what() + "); none reattached");
+      return;
+    }
+    cancel_later = saved.cancel;
+    for (const nlohmann::json& state : saved.rigs) {
+      const auto named = state.is_object() ? state.find("student") : state.end();
+      const std::string student =
+          named != state.end() && named->is_string() ? named->get<std::string>() : "";
+      Seat* seat = Find(student);
+      std::unique_ptr<SlurmRigSpawner> rig;
+      try {
+        rig = std::make_unique<SlurmRigSpawner>(*engine, *config.cluster, state,
+                                                StudentFolder(config, student));
+      } catch (const std::exception& e) {
+        Log(std::string("a saved rig job is not readable: ") + e.what());
+        continue;
+      }
+      if (seat == nullptr || seat->rig) {  // no longer in the class, or twice: end it
+        cancel_later.push_back(rig->job_id());
+        continue;
+      }
+      ++running;
+      seat->endpoint = rig->endpoint();
+      seat->state = seat->endpoint ? "running" : "pending";
+      seat->waiting = seat->endpoint ? "" : "reattached after a restart of the class server";
+      seat->where = rig->Where();
+      seat->started_at = WallClock();
+      seat->next_poll = Clock::now();
+      seat->rig = std::move(rig);
+      Log("reattached " + student + "'s rig, " + seat->where);
+    }
+  }
+
+  // POST /cluster/report from a rig job: its endpoint, with its secret (not a student's token).
+  void Report(const httplib::Request& req, httplib::Response& res) {
+    Json body = Json::parse(req.body, nullptr, false);
+    if (!body.is_object() || !body.contains("student") || !body["student"].is_string() ||
+        !body.contains("host") || !body["host"].is_string() || !body.contains("port") ||
+        !body["port"].is_number_integer()) {
+      SendError(res, 400, "expected {\"student\", \"job\", \"host\", \"port\"}");
+      return;
+    }
+    Seat* seat = config.cluster ? Find(body["student"].get<std::string>()) : nullptr;
+    bool taken = false;
+    if (seat != nullptr) {
+      const std::lock_guard<std::mutex> lock(seat->mutex);
+      auto* job = dynamic_cast<SlurmRigSpawner*>(seat->rig.get());
+      const std::string job_id =
+          body.contains("job") && body["job"].is_string() ? body["job"].get<std::string>() : "";
+      if (job != nullptr &&
+          job->Reported(req.get_header_value(kRigSecretHeader), job_id,
+                        body["host"].get<std::string>(), body["port"].get<int>())) {
+        const std::lock_guard<std::mutex> info(seat->info_mutex);
+        seat->endpoint = job->endpoint();
+        seat->state = "running";
+        seat->waiting.clear();
+        seat->where = job->Where();
+        seat->start_s = std::chrono::duration<double>(Clock::now() - seat->submitted).count();
+        seat->started_at = WallClock();
+        ++seat->starts;
+        taken = true;
+      }
+    }
+    if (!taken) {
+      Log("refused a rig report from " + req.remote_addr);
+      SendError(res, 403, "not a rig of this class waiting for its report");
+      return;
+    }
+    SaveJobs();
+    Log(seat->name + "'s rig job is ready at " + seat->endpoint->Address() + ", " +
+        std::to_string(seat->start_s).substr(0, 4) + " s after it was submitted");
+    SendJson(res, 200, Json{{"ok", true}});
   }
 
   // The allowed CPU with the fewest rigs (the lowest of equals), counted for the seat; -1 when
@@ -576,19 +800,18 @@ struct ClassServer::Impl {
       monitor_wake.wait_for(lock, std::chrono::seconds(1));
       if (stopping) break;
       lock.unlock();
+      RetryCancels();
       for (auto& [name, seat] : seats) {
         std::unique_lock<std::mutex> seat_lock(seat->mutex, std::try_to_lock);
         if (!seat_lock.owns_lock() || !seat->rig) continue;
-        const std::string ended = seat->rig->CheckProcesses();
-        if (!ended.empty()) {
-          StopRig(*seat, ended, true);
-          continue;
-        }
-        const double cpu = seat->rig->CpuPercent();
-        {
+        const bool runs = PollRig(*seat);
+        if (!seat->rig) continue;  // it ended
+        if (runs) {
+          const double cpu = seat->rig->CpuPercent();
           const std::lock_guard<std::mutex> info(seat->info_mutex);
           seat->cpu = cpu;
         }
+        // A job waiting for the cluster is idle too when nobody asks for it (its place goes).
         if (seat->IdleSeconds() > config.idle_timeout_s &&
             !(real_arm && real_arm->Involved(name))) {  // waiting for the real arm is not idle
           StopRig(*seat, "stopped after " +
@@ -600,16 +823,80 @@ struct ClassServer::Impl {
     }
   }
 
+  // Asks the seat's rig where it is (a job: at most every cluster.poll_s) and acts on it: ended ->
+  // stopped with the reason; pending or unknown -> shown with why. False when it is not running.
+  // A running job's live state is fetched for the teacher's page. Holds seat.mutex.
+  bool PollRig(Seat& seat) {
+    const bool job = seat.rig->panel() == nullptr;
+    if (job && Clock::now() < seat.next_poll) {
+      if (seat.endpoint) FetchRemoteState(seat);
+      return seat.endpoint.has_value();
+    }
+    if (job) {
+      seat.next_poll =
+          Clock::now() + std::chrono::milliseconds(static_cast<int>(config.cluster->poll_s * 1000));
+    }
+    const RigStatus status = seat.rig->Poll();
+    if (status.phase == RigPhase::kEnded) {
+      StopRig(seat, status.reason, true);
+      return false;
+    }
+    {
+      const std::lock_guard<std::mutex> info(seat.info_mutex);
+      if (status.phase == RigPhase::kPending || status.phase == RigPhase::kUnknown) {
+        seat.state = status.phase == RigPhase::kPending && !seat.endpoint ? "pending" : "unknown";
+        if (status.phase == RigPhase::kPending && seat.endpoint) seat.state = "running";
+        seat.waiting = status.reason;
+      } else if (seat.state != "running" && (!job || seat.endpoint)) {
+        seat.state = "running";
+        seat.waiting.clear();
+      }
+      seat.where = seat.rig->Where();
+    }
+    if (job && seat.endpoint) FetchRemoteState(seat);
+    return status.phase == RigPhase::kRunning;
+  }
+
+  void FetchRemoteState(Seat& seat) {
+    const std::optional<Json> state = FetchJson(*seat.endpoint, "/api/state", 1.0);
+    const std::lock_guard<std::mutex> info(seat.info_mutex);
+    seat.remote_state = state ? *state : Json();
+  }
+
+  // Cancels whose engine did not answer before, again.
+  void RetryCancels() {
+    std::vector<std::string> owed;
+    {
+      const std::lock_guard<std::mutex> jobs(jobs_mutex);
+      owed.swap(cancel_later);
+    }
+    if (owed.empty() || !engine) return;
+    std::vector<std::string> still;
+    for (const std::string& id : owed) {
+      const std::string error = engine->Cancel(id);
+      if (!error.empty()) still.push_back(id);
+    }
+    {
+      const std::lock_guard<std::mutex> jobs(jobs_mutex);
+      cancel_later.insert(cancel_later.end(), still.begin(), still.end());
+    }
+    if (still.size() != owed.size()) SaveJobs();
+  }
+
   // --- what the pages are told -----------------------------------------------------------------
 
   Json SeatJson(const Seat& seat, bool live) const {
     std::shared_ptr<RigPanel> rig_panel;
     Json out;
+    Json remote;
     {
       const std::lock_guard<std::mutex> info(seat.info_mutex);
       rig_panel = seat.panel;
+      remote = seat.remote_state;
       out = Json{{"name", seat.name},
                  {"state", seat.state},
+                 {"waiting", seat.waiting},
+                 {"where", seat.where},
                  {"starts", seat.starts},
                  {"start_s", seat.start_s},
                  {"last_stop", seat.last_stop},
@@ -627,6 +914,14 @@ struct ClassServer::Impl {
       if (state.contains("estop")) out["estop"] = state["estop"];
       if (state.contains("virtual")) out["q"] = state["virtual"]["q"];
       out["lock"] = rig_panel->api->LockHolder();
+    }
+    if (live && !rig_panel && remote.is_object()) {  // a job's, as the monitor last fetched it
+      for (const char* key : {"controller", "sim", "estop"}) {
+        if (remote.contains(key)) out[key] = remote[key];
+      }
+      if (remote.contains("virtual") && remote["virtual"].contains("q")) {
+        out["q"] = remote["virtual"]["q"];
+      }
     }
     return out;
   }
@@ -850,17 +1145,36 @@ struct ClassServer::Impl {
       return;
     }
     std::shared_ptr<RigPanel> rig_panel;
+    std::optional<RigEndpoint> endpoint;
     std::string last_stop;
+    std::string state;
+    std::string waiting;
     {
       const std::lock_guard<std::mutex> info(seat.info_mutex);
       rig_panel = seat.panel;
+      endpoint = seat.endpoint;
       last_stop = seat.last_stop;
+      state = seat.state;
+      waiting = seat.waiting;
     }
-    if (!rig_panel) {
+    if (!rig_panel && !endpoint && (state == "pending" || state == "unknown")) {
+      SendError(res, 503,
+                seat.name + "'s rig is " +
+                    (state == "pending" ? "on its way"
+                                        : "not "
+                                          "known to be running") +
+                    ": " + waiting);
+      return;
+    }
+    if (!rig_panel && !endpoint) {
       SendError(res, 503,
                 seat.name + "'s rig is not running" +
                     (last_stop.empty() ? "" : " (" + last_stop + ")") +
                     "; reload the page to start it again (your files are kept)");
+      return;
+    }
+    if (endpoint) {
+      ProxyApi(seat, role, *endpoint, rest, req, res);
       return;
     }
     if (rest == "api/events") {
@@ -894,6 +1208,48 @@ struct ClassServer::Impl {
     panel::Request request = panel::ToRequest(req);
     request.path = "/" + rest;
     panel::Send(rig_panel->api->Handle(request), res);
+  }
+
+  // A job's API through its endpoint: the same refusals as a local rig's, the stream passed on as
+  // it comes.
+  void ProxyApi(Seat& seat, Role role, const RigEndpoint& endpoint, const std::string& rest,
+                const httplib::Request& req, httplib::Response& res) {
+    if (rest == "api/events") {
+      std::string query;
+      for (const auto& [key, value] : req.params) {
+        query += (query.empty() ? "?" : "&") + httplib::detail::encode_query_param(key) + "=" +
+                 httplib::detail::encode_query_param(value);
+      }
+      std::shared_ptr<void> guard;
+      if (role == Role::kStudent) {
+        ++seat.streams;
+        guard = std::shared_ptr<void>(nullptr, [&seat](void*) {
+          --seat.streams;
+          seat.Touch();
+        });
+      }
+      ProxyStream(endpoint, "/api/events" + query, res, guard, [this, &seat, endpoint] {
+        const std::lock_guard<std::mutex> info(seat.info_mutex);
+        return seat.endpoint && seat.endpoint->port == endpoint.port &&
+               seat.endpoint->host == endpoint.host && !StoppingNow();
+      });
+      return;
+    }
+    if (IsChange(req) && rest.rfind("api/hardware/", 0) == 0) {
+      const std::string why = real_arm ? real_arm->MayCommand(seat.name)
+                                       : "this class has no real arm (no real_arm: in the class "
+                                         "file)";
+      if (!why.empty()) {
+        SendError(res, 409, "the real arm: " + why);
+        return;
+      }
+    }
+    ProxyRequest(endpoint, "/" + rest, req, res);
+  }
+
+  bool StoppingNow() {
+    const std::lock_guard<std::mutex> lock(monitor_mutex);
+    return stopping;
   }
 
   void Teacher(const httplib::Request& req, httplib::Response& res) {
@@ -946,9 +1302,21 @@ struct ClassServer::Impl {
       Json sent = Json::array();
       for (auto& [name, seat] : seats) {
         std::shared_ptr<RigPanel> rig_panel;
+        std::optional<RigEndpoint> endpoint;
         {
           const std::lock_guard<std::mutex> info(seat->info_mutex);
           rig_panel = seat->panel;
+          endpoint = seat->endpoint;
+        }
+        if (!rig_panel && endpoint) {
+          const int status =
+              PostJson(*endpoint, "/api/estop",
+                       Json{{"engaged", engage},
+                            {"who", "teacher"},
+                            {"reason", engage ? "class e-stop" : "class e-stop released"}},
+                       5);
+          if (status == 200) sent.push_back(name);
+          continue;
         }
         if (!rig_panel) continue;
         panel::RigCommands commands(*rig_panel->hub);
@@ -1056,6 +1424,8 @@ struct ClassServer::Impl {
     const auto teacher = [this](const httplib::Request& req, httplib::Response& res) {
       Teacher(req, res);
     };
+    server->Post(kRigReportPath,
+                 [this](const httplib::Request& req, httplib::Response& res) { Report(req, res); });
     server->Get(R"(/teacher/(.*))", teacher);
     server->Post(R"(/teacher/(.*))", teacher);
     server->set_error_handler([](const httplib::Request& req, httplib::Response& res) {

@@ -7,6 +7,7 @@
   const status = document.getElementById('class-status');
   const clientId = 'class-' + Math.random().toString(36).slice(2);
   let shownStarts = null;
+  let waited = false;
   const text = (s) => String(s).replace(/[&<>"]/g, (c) => ({'&': '&amp;', '<': '&lt;', '>': '&gt;', '"': '&quot;'}[c]));
   async function startAgain() {
     status.textContent = 'starting your rig...';
@@ -31,6 +32,11 @@
       } else if (s.files > 0) {
         rig += ` <span id="class-restarted" class="warn">a new rig on your folder: ${s.files} file(s) from earlier sessions kept.</span>`;
       }
+    } else if (s.state === 'pending' || s.state === 'unknown' || s.state === 'starting') {
+      // A rig that runs as a job on the class's cluster (docs/cluster.md) waits for a node.
+      const what = s.state === 'unknown' ? 'state unknown' : 'waiting for the cluster';
+      rig = `<span id="class-rig-state" class="warn">${what}</span> (${text(s.waiting || s.state)})`;
+      waited = true;
     } else {
       rig = `<span id="class-rig-state" class="warn">${text(s.state)}</span> (${text(s.last_stop || 'not started')}); your files are kept.`;
       if (s.role === 'student') rig += ' <button id="class-start">Start my rig again</button>';
@@ -39,6 +45,7 @@
     const button = document.getElementById('class-start');
     if (button) button.onclick = startAgain;
     if (shownStarts !== null && s.state === 'running' && s.starts !== shownStarts) location.reload();
+    if (waited && s.state === 'running') location.reload();  // the page connects to the ready rig
     shownStarts = s.state === 'running' ? s.starts : shownStarts;
   }
   refresh();

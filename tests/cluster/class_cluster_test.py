@@ -1,0 +1,241 @@
+"""A class whose rigs are Slurm jobs (class file cluster:), on the one-node cluster of
+with_cluster.sh (SLURM_CONF exported): `sirupp class serve` submits one sirupp-rig-job per
+student on their first visit and proxies their API and live stream to it.
+
+- a class of three: each student's page, API and live stream through the proxy; movement set VII
+  on each rig to within 0.5 deg; a student's token refused (403) on another's rig through the
+  proxy; the teacher's page lists the three as Slurm jobs with their live joints;
+- a job cancelled from outside (scancel) is shown on both pages with Slurm's reason;
+- kill -9 of the class server, then a restart that reattaches: the same jobs, the pages work
+  through the proxy again, no job or rig process more than before;
+- an idle rig's job is cancelled (and nothing of it is left on the node);
+- the class server's own stop cancels every job.
+
+Run: tests/cluster/with_cluster.sh /usr/bin/python3 -m pytest -q tests/cluster/class_cluster_test.py
+(env SIRUPP_BIN_DIR: the build's bin/).
+"""
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+import urllib.request
+
+import pytest
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.abspath(os.path.join(HERE, "..", ".."))
+sys.path.insert(0, os.path.join(ROOT, "tests", "class"))
+from class_run import ClassRun  # noqa: E402
+
+BIN = os.environ.get("SIRUPP_BIN_DIR", os.path.join(ROOT, "build", "bin"))
+CLUSTER_YAML = ("cluster:\n"
+                "  engine: slurm\n"
+                "  rig: {time_limit_min: 30, cpus: 1, memory_mb: 2048}\n"
+                "  poll_s: 1\n")
+
+
+def wait_for(what, seconds, probe):
+    end = time.time() + seconds
+    last = None
+    while time.time() < end:
+        last = probe()
+        if last:
+            return last
+        time.sleep(0.2)
+    pytest.fail("%s: not within %s s (last: %r)" % (what, seconds, last))
+
+
+def jobs(name_prefix="sirupp-rig-"):
+    """{job id: (state, name)} of the cluster's jobs, running or pending."""
+    out = subprocess.run(["squeue", "-h", "-o", "%i|%T|%j"], capture_output=True, text=True,
+                         timeout=20).stdout
+    rows = [l.split("|") for l in out.splitlines() if l.strip()]
+    return {r[0]: (r[1], r[2]) for r in rows if r[2].startswith(name_prefix)}
+
+
+def rig_processes(run):
+    out = subprocess.run(["pgrep", "-af", run.data("students")], capture_output=True,
+                         text=True).stdout
+    return [l for l in out.splitlines() if "sirupp-" in l and "pgrep" not in l]
+
+
+def status(run, name):
+    code, body = run.http("GET", "/s/%s/class/status" % name, run.token(name))
+    assert code == 200, body
+    return body
+
+
+def running(run, name):
+    s = status(run, name)
+    return s if s["state"] == "running" else None
+
+
+def stream_frames(run, name, count, hz=10):
+    request = urllib.request.Request(run.base + "/s/%s/api/events?hz=%d" % (name, hz),
+                                     headers={"X-Sirupp-Token": run.token(name)})
+    frames = []
+    with urllib.request.urlopen(request, timeout=15) as stream:
+        assert stream.headers.get_content_type() == "text/event-stream"
+        while len(frames) < count:
+            line = stream.readline()
+            assert line, "the stream ended after %d frame(s)" % len(frames)
+            if line.startswith(b"data: "):
+                frames.append((time.time(), json.loads(line[6:])))
+    return frames
+
+
+def start_class(students, idle_timeout_s=900, extra=""):
+    run = ClassRun(BIN, ROOT, students, idle_timeout_s=idle_timeout_s,
+                   extra_yaml=CLUSTER_YAML + extra)
+    run.start()
+    return run
+
+
+def jobs_of(run):
+    return {i: v for i, v in jobs().items() if v[1] in ["sirupp-rig-" + n for n in run.students]}
+
+
+def finish(run):
+    run.stop()
+    try:
+        wait_for("every rig job cancelled after the server's stop", 30, lambda: not jobs_of(run))
+        wait_for("no rig process left", 15, lambda: not rig_processes(run))
+    finally:
+        print(run.server_log()[-4000:])
+        run.clean()
+
+
+@pytest.fixture(scope="module")
+def klass():
+    run = start_class(["alice", "bob", "carol"])
+    yield run
+    finish(run)
+
+
+def test_pages_api_and_stream_through_the_proxy(klass):
+    run = klass
+    started = time.time()
+    for name in ("alice", "bob", "carol"):
+        code, page = run.http("GET", "/s/%s/" % name, run.token(name))
+        assert code == 200 and b"class-bar" in page, page[:200]
+    for name in ("alice", "bob", "carol"):
+        s = wait_for(name + "'s rig job running", 90, lambda: running(run, name))
+        assert s["where"].startswith("Slurm job "), s
+    print("three rig jobs ready %.1f s after the three pages were asked for" %
+          (time.time() - started))
+    assert len(jobs()) == 3, jobs()
+    for name in ("alice", "bob", "carol"):
+        code, state = run.http("GET", "/s/%s/api/state" % name, run.token(name))
+        assert code == 200, state
+        assert len(state["virtual"]["q"]) == 6
+        frames = stream_frames(run, name, 5)
+        span = frames[-1][0] - frames[0][0]
+        assert span < 3, "5 frames at 10 Hz took %.2f s: the stream is held up" % span
+    code, rigs = run.http("GET", "/teacher/api/rigs", run.token("teacher"))
+    assert code == 200, rigs
+    for rig in rigs["rigs"]:
+        assert rig["state"] == "running" and rig["where"].startswith("Slurm job"), rig
+        assert "q" in wait_for("the teacher sees " + rig["name"] + "'s joints", 10, lambda: next(
+            r for r in run.http("GET", "/teacher/api/rigs", run.token("teacher"))[1]["rigs"]
+            if r["name"] == rig["name"] and "q" in r)), rig
+
+
+def test_set_seven_on_each_rig(klass):
+    run = klass
+    with open(os.path.join(ROOT, "config", "plans", "set7.plan")) as f:
+        plan = f.read()
+    for name in ("alice", "bob", "carol"):
+        wait_for(name + " running", 90, lambda: running(run, name))
+        code, body = run.http("POST", "/s/%s/api/lock" % name, run.token(name), {"name": name})
+        assert code == 200, body
+        code, body = run.http("POST", "/s/%s/api/plan/run" % name, run.token(name),
+                              {"name": "set7.plan", "text": plan})
+        assert code == 200, body
+    goal = (90, 90, 90, 0, 0, 0)  # the page's state is in degrees
+
+    def at_goal(name):
+        code, state = run.http("GET", "/s/%s/api/state" % name, run.token(name))
+        if code != 200:
+            return None
+        if state["controller"]["state"] != "idle":
+            return None  # the plan still runs
+        error = max(abs(a - b) for a, b in zip(state["virtual"]["q"], goal))
+        return error if error < 0.5 else None
+
+    for name in ("alice", "bob", "carol"):
+        error = wait_for(name + " at set VII's goal within 0.5 deg", 90, lambda: at_goal(name))
+        print("%s: set VII ends %.3f deg from the goal" % (name, error))
+
+
+def test_a_token_opens_its_own_rig_only(klass):
+    run = klass
+    for path in ("/s/bob/api/state", "/s/bob/api/events", "/s/bob/class/status"):
+        code, body = run.http("GET", path, run.token("alice"))
+        assert code == 403, (path, code, body)
+    code, body = run.http("POST", "/s/bob/api/lock", run.token("alice"), {"name": "alice"})
+    assert code == 403, body
+    # The report route takes no student's token in place of the rig's secret.
+    request = urllib.request.Request(run.base + "/cluster/report", method="POST",
+                                     data=json.dumps({"student": "bob", "job": "1",
+                                                      "host": "127.0.0.1", "port": 1}).encode(),
+                                     headers={"X-Sirupp-Rig-Secret": run.token("bob")})
+    with pytest.raises(urllib.error.HTTPError) as refused:
+        urllib.request.urlopen(request, timeout=10)
+    assert refused.value.code == 403
+
+
+def test_kill_9_and_a_restart_reattach_to_the_same_jobs(klass):
+    run = klass
+    for name in ("alice", "bob", "carol"):
+        wait_for(name + " running", 90, lambda: running(run, name))
+    before = jobs()
+    processes = len(rig_processes(run))
+    assert len(before) == 3 and processes >= 9, (before, processes)
+    run.proc.send_signal(signal.SIGKILL)
+    run.proc.wait()
+    time.sleep(2)
+    assert jobs() == before, "the jobs changed while the server was down"
+    run.start()
+    for name in ("alice", "bob", "carol"):
+        wait_for(name + " running again through the proxy", 30, lambda: running(run, name))
+        code, state = run.http("GET", "/s/%s/api/state" % name, run.token(name))
+        assert code == 200, state
+        assert stream_frames(run, name, 3)
+    time.sleep(3)  # a few polls: nothing new may be started
+    assert jobs() == before, "after the restart: %s, before: %s" % (jobs(), before)
+    assert len(rig_processes(run)) == processes, rig_processes(run)
+    assert "reattached" in run.server_log()
+
+
+def test_a_job_cancelled_from_outside_shows_slurms_reason(klass):
+    run = klass
+    wait_for("bob running", 90, lambda: running(run, "bob"))
+    job = next(i for i, (_, n) in jobs().items() if n == "sirupp-rig-bob")
+    subprocess.run(["scancel", job], check=True, timeout=20)
+    s = wait_for("bob's page shows the end", 30,
+                 lambda: (lambda s: s if s["state"] != "running" else None)(status(run, "bob")))
+    assert "cancelled" in s["last_stop"], s
+    rigs = run.http("GET", "/teacher/api/rigs", run.token("teacher"))[1]["rigs"]
+    bob = next(r for r in rigs if r["name"] == "bob")
+    assert bob["state"] == s["state"] and "cancelled" in bob["last_stop"], bob
+    code, body = run.http("GET", "/s/bob/api/state", run.token("bob"))
+    assert code == 503 and "cancelled" in body["error"], body
+    assert all(s == "RUNNING" for s, n in jobs().values()), jobs()
+
+
+def test_an_idle_rigs_job_is_cancelled():
+    run = start_class(["dave"], idle_timeout_s=6)
+    try:
+        code, _ = run.http("GET", "/s/dave/", run.token("dave"))
+        assert code == 200
+        wait_for("dave's rig job running", 90, lambda: running(run, "dave"))
+        assert len(jobs_of(run)) == 1
+        # Nobody visits: the job goes after the idle timeout.
+        wait_for("dave's job cancelled", 40, lambda: not jobs_of(run))
+        wait_for("nothing of it left", 15, lambda: not rig_processes(run))
+        s = status(run, "dave")
+        assert s["state"] == "stopped" and "idle" in s["last_stop"], s
+    finally:
+        finish(run)
