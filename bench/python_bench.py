@@ -75,7 +75,7 @@ def main():
     print("load average at start: %.2f %.2f %.2f" % os.getloadavg())
 
     lease = sirupp._sirupp._PortLease.acquire(20000, 10000, os.getpid())
-    url = "udpm://239.255.76.67:%d?ttl=0" % lease.port
+    url = sirupp._sirupp._rig_url(lease.port)
     cpp, python = [], []
     for _ in range(args.rounds):  # alternating, so both see the same machine
         cpp.append(lockstep_rate(args.bin_dir, url, "cpp-pid",

@@ -10,7 +10,8 @@ import weakref
 import numpy as np
 
 from . import _paths
-from ._sirupp import Model, RigError, _Child, _Client, _PortLease, _Recorder, _pose_parts
+from ._sirupp import (Model, RigError, _Child, _Client, _PortLease, _Recorder, _pose_parts,
+                      _rig_url)
 
 DEFAULT_MODEL = os.path.join(_paths.SOURCE_DIR, "config/robots/puma260.yaml")
 # Private rigs take their port from the range `sirupp grade` uses, with the same lock files
@@ -312,7 +313,7 @@ def start_rig(model=None, mode="realtime", environment=None, panel=False, logger
     model_file = model or DEFAULT_MODEL
     m = Model(model_file)  # a bad model fails here, with its file:line, before anything starts
     lease = _PortLease.acquire(_PORT_BASE, _PORT_COUNT, os.getpid())
-    url = "udpm://239.255.76.67:%d?ttl=0" % lease.port
+    url = _rig_url(lease.port)
     log_dir = log_dir or tempfile.mkdtemp(prefix="sirupp-rig-")
     os.makedirs(log_dir, exist_ok=True)
     bin_dir = _paths.BIN_DIR
