@@ -23,7 +23,9 @@ sirupp demo --out demo >demo.out 2>&1
 rc=$?
 n=$(grep -c "done in" demo.out)
 if [[ $rc -ne 0 || $n -ne 7 ]] || ! grep -q "(7/7)" demo.out || ! grep -q "^demo: done" demo.out; then
-  echo "FAIL sirupp demo: exit $rc, $n of 7 sets done"; tail -40 demo.out; fail=1
+  echo "FAIL sirupp demo: exit $rc, $n of 7 sets done"; fail=1
+  sed -n '/running 7 movement sets/,/Table II/p' demo.out | head -60
+  tail -3 demo.out; uptime
 else
   echo "sirupp demo: 7/7 sets in $(( $(date +%s) - t )) s"
 fi
