@@ -9,6 +9,8 @@ student on their first visit and proxies their API and live stream to it.
 - kill -9 of the class server, then a restart that reattaches: the same jobs, the pages work
   through the proxy again, no job or rig process more than before;
 - an idle rig's job is cancelled (and nothing of it is left on the node);
+- a job the cluster holds back is shown as waiting for the cluster with Slurm's reason, and the
+  page's API says so, until the job runs;
 - the class server's own stop cancels every job.
 
 Run: tests/cluster/with_cluster.sh /usr/bin/python3 -m pytest -q tests/cluster/class_cluster_test.py
@@ -237,5 +239,28 @@ def test_an_idle_rigs_job_is_cancelled():
         wait_for("nothing of it left", 15, lambda: not rig_processes(run))
         s = status(run, "dave")
         assert s["state"] == "stopped" and "idle" in s["last_stop"], s
+    finally:
+        finish(run)
+
+
+def test_a_waiting_job_shows_slurms_reason_until_it_runs():
+    # --hold keeps the job pending (Slurm's reason JobHeldUser) until `scontrol release`.
+    run = start_class(["erin"], extra="  sbatch_args: [--hold]\n")
+    try:
+        code, page = run.http("GET", "/s/erin/", run.token("erin"))
+        assert code == 200 and b"class-bar" in page
+        s = wait_for("erin's rig waiting with Slurm's reason", 20, lambda: (
+            lambda s: s if s["state"] == "pending" and "JobHeldUser" in s["waiting"] else None)(
+                status(run, "erin")))
+        assert "waiting for the cluster" in s["waiting"], s
+        code, body = run.http("GET", "/s/erin/api/state", run.token("erin"))
+        assert code == 503 and "JobHeldUser" in body["error"], body
+        rigs = run.http("GET", "/teacher/api/rigs", run.token("teacher"))[1]["rigs"]
+        assert rigs[0]["state"] == "pending" and "JobHeldUser" in rigs[0]["waiting"], rigs
+        job = next(iter(jobs_of(run)))
+        subprocess.run(["scontrol", "release", job], check=True, timeout=20)
+        wait_for("erin's rig running once released", 60, lambda: running(run, "erin"))
+        code, state = run.http("GET", "/s/erin/api/state", run.token("erin"))
+        assert code == 200, state
     finally:
         finish(run)
