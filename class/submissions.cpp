@@ -16,6 +16,7 @@
 #include "core/printable.hpp"
 #include "grade/grade.hpp"
 #include "grade/report.hpp"
+#include "proc/child.hpp"
 #include "runtime/data_path.hpp"
 #include "sandbox/sandbox.hpp"
 
@@ -263,7 +264,15 @@ SubmissionService::SubmissionService(const ClassConfig& config, SubmissionOption
       if (state == "queued" || state == "grading") queue_.emplace_back(student, id);
     }
   }
-  worker_ = std::thread([this] { Worker(); });
+  int workers = 1;
+  if (config_.cluster) {
+    runner_ = std::make_unique<cluster::SystemRunner>();
+    cluster::SlurmOptions slurm;
+    slurm.command_timeout_s = config_.cluster->command_timeout_s;
+    engine_ = std::make_unique<cluster::SlurmEngine>(*runner_, slurm);
+    workers = config_.cluster->grading_jobs;
+  }
+  for (int i = 0; i < workers; ++i) workers_.emplace_back([this] { Worker(); });
 }
 
 SubmissionService::~SubmissionService() { Stop(); }
@@ -273,9 +282,14 @@ void SubmissionService::Stop() {
     const std::lock_guard<std::mutex> lock(mutex_);
     stop_ = true;
     if (grading_pid_ > 0) ::kill(-grading_pid_, SIGKILL);
+    if (engine_) {
+      for (const std::string& job : grading_jobs_) engine_->Cancel(job);
+    }
   }
   wake_.notify_all();
-  if (worker_.joinable()) worker_.join();
+  for (std::thread& worker : workers_) {
+    if (worker.joinable()) worker.join();
+  }
 }
 
 panel::Response SubmissionService::Submit(const std::string& student, const std::string& language,
@@ -340,7 +354,7 @@ void SubmissionService::Worker() {
     if (stop_) return;
     const auto [student, id] = queue_.front();
     queue_.pop_front();
-    busy_ = true;
+    ++busy_;
     lock.unlock();
     try {
       Grade(student, id);
@@ -354,7 +368,7 @@ void SubmissionService::Worker() {
       }
     }
     lock.lock();
-    busy_ = false;
+    --busy_;
     wake_.notify_all();
   }
 }
@@ -388,35 +402,12 @@ void SubmissionService::Grade(const std::string& student, int id) {
   const auto start = Clock::now();
   const std::string log_file = folder + "/grade.log";
   fs::remove(log_file);
-  proc::ProcessSpec grading;
-  grading.argv = argv;
-  grading.log_path = log_file;
-  grading.limits.nice = options_.grade_nice;
-  grading.death_signal = SIGTERM;
-  proc::Child grader;
-  grader.Start(grading, 0, &launcher_);
-  const pid_t pid = grader.pid();
-  {
-    const std::lock_guard<std::mutex> lock(mutex_);
-    grading_pid_ = pid;
-    if (stop_) ::kill(-pid, SIGKILL);
-  }
   log_(student + ": grading submission " + std::to_string(id));
-  bool timed_out = false;
-  while (grader.Running()) {
-    if (!timed_out &&
-        std::chrono::duration<double>(Clock::now() - start).count() > options_.grade_time_limit_s) {
-      ::kill(-pid, SIGKILL);
-      timed_out = true;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  }
-  proc::KillGroup(grader.group());  // anything of its group left behind
-  const int status = grader.status();
+  const GradeRun run =
+      engine_ ? GradeAsJob(student, id, argv, log_file) : GradeHere(argv, log_file);
   const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
   const std::lock_guard<std::mutex> lock(mutex_);
-  grading_pid_ = 0;
-  if (stop_) return;  // killed by Stop(): stays "grading", graded again at the next start
+  if (stop_ || run.stopped) return;  // killed by Stop(): stays "grading", graded again next start
   meta = store_.Read(student, id);
   meta["grade_seconds"] = seconds;
   const Json results = Json::parse(ReadAll(out + "/results.json"), nullptr, false);
@@ -427,13 +418,9 @@ void SubmissionService::Grade(const std::string& student, int id) {
       if (!line.empty()) summary = line;
     }
   }
-  if (timed_out || !WIFEXITED(status) || WEXITSTATUS(status) != 0 || results.is_discarded()) {
+  if (!run.ok || results.is_discarded()) {
     meta["state"] = "grade failed";
-    meta["problem"] = timed_out
-                          ? "grading took longer than " +
-                                std::to_string(static_cast<int>(options_.grade_time_limit_s)) +
-                                " s and was stopped"
-                          : "sirupp grade: " + summary;
+    meta["problem"] = !run.problem.empty() ? run.problem : "sirupp grade: " + summary;
     store_.Write(student, id, meta);
     log_(student + ": submission " + std::to_string(id) +
          " not graded: " + meta["problem"].get<std::string>());
@@ -474,10 +461,133 @@ void SubmissionService::Grade(const std::string& student, int id) {
        std::to_string(static_cast<int>(seconds)) + " s: " + summary);
 }
 
+// sirupp grade as this server's child: niced below the rigs, its own process group, killed at
+// the time limit.
+SubmissionService::GradeRun SubmissionService::GradeHere(const std::vector<std::string>& argv,
+                                                         const std::string& log_file) {
+  const auto start = Clock::now();
+  proc::ProcessSpec grading;
+  grading.argv = argv;
+  grading.log_path = log_file;
+  grading.limits.nice = options_.grade_nice;
+  grading.death_signal = SIGTERM;
+  proc::Child grader;
+  grader.Start(grading, 0, &launcher_);
+  const pid_t pid = grader.pid();
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    grading_pid_ = pid;
+    if (stop_) ::kill(-pid, SIGKILL);
+  }
+  bool timed_out = false;
+  while (grader.Running()) {
+    if (!timed_out &&
+        std::chrono::duration<double>(Clock::now() - start).count() > options_.grade_time_limit_s) {
+      ::kill(-pid, SIGKILL);
+      timed_out = true;
+    }
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  }
+  proc::KillGroup(grader.group());  // anything of its group left behind
+  const int status = grader.status();
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    grading_pid_ = 0;
+  }
+  GradeRun run;
+  run.ok = !timed_out && WIFEXITED(status) && WEXITSTATUS(status) == 0;
+  if (timed_out) {
+    run.problem = "grading took longer than " +
+                  std::to_string(static_cast<int>(options_.grade_time_limit_s)) +
+                  " s and was stopped";
+  }
+  return run;
+}
+
+// sirupp grade as one Slurm job (cluster.grading's time, CPUs and memory), writing into the
+// submission's folder on the shared filesystem. A job lost with its node (or preempted) is
+// submitted once more, then the submission is marked failed with Slurm's reason. An unknown
+// state is waited out (it is not an end).
+SubmissionService::GradeRun SubmissionService::GradeAsJob(const std::string& student, int id,
+                                                          const std::vector<std::string>& argv,
+                                                          const std::string& log_file) {
+  const cluster::ClusterConfig& jobs = *config_.cluster;
+  const std::string node_data = jobs.node_data.empty() ? config_.data_dir : jobs.node_data;
+  const auto on_nodes = [&](const std::string& path) {
+    if (path.rfind(config_.data_dir + "/", 0) != 0) return path;
+    return node_data + path.substr(config_.data_dir.size());
+  };
+  proc::ProcessSpec grading;
+  for (const std::string& word : argv) grading.argv.push_back(on_nodes(word));
+  grading.log_path = on_nodes(log_file);
+  cluster::JobRequest request;
+  request.name = "sirupp-grade-" + student + "-" + std::to_string(id);
+  request.script = "#!/bin/sh\n# " + student + "'s submission " + std::to_string(id) +
+                   " (sirupp class serve, cluster:)\n" + proc::CommandLine(grading) + "\n";
+  request.output_file = on_nodes(log_file) + ".job";
+  request.partition = jobs.partition;
+  request.account = jobs.account;
+  request.time_limit_min = jobs.grading.time_limit_min;
+  request.cpus = jobs.grading.cpus;
+  request.memory_mb = jobs.grading.memory_mb;
+  request.extra_args = jobs.sbatch_args;
+  GradeRun run;
+  for (int attempt = 1; attempt <= 2; ++attempt) {
+    const cluster::SubmitResult submitted = engine_->Submit(request);
+    if (!submitted.ok()) {
+      run.problem = "the cluster refused the grading job: " + submitted.error;
+      return run;
+    }
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      grading_jobs_.push_back(submitted.job_id);
+      if (stop_) engine_->Cancel(submitted.job_id);
+    }
+    log_(student + ": submission " + std::to_string(id) + " grading as Slurm job " +
+         submitted.job_id);
+    cluster::JobStatus status;
+    while (true) {
+      std::this_thread::sleep_for(std::chrono::milliseconds(500));
+      {
+        const std::lock_guard<std::mutex> lock(mutex_);
+        if (stop_) break;  // Stop() cancelled the job
+      }
+      status = engine_->Poll(submitted.job_id);
+      if (status.state == cluster::JobState::kEnded) break;
+    }
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      grading_jobs_.erase(std::remove(grading_jobs_.begin(), grading_jobs_.end(), submitted.job_id),
+                          grading_jobs_.end());
+      if (stop_) {
+        run.stopped = true;
+        return run;
+      }
+    }
+    if (status.slurm_state == "COMPLETED") {
+      run.ok = true;
+      return run;
+    }
+    const bool lost = status.slurm_state == "NODE_FAIL" || status.slurm_state == "BOOT_FAIL" ||
+                      status.slurm_state == "PREEMPTED";
+    if (lost && attempt == 1) {
+      log_(student + ": submission " + std::to_string(id) + ": " + status.reason +
+           "; submitted once more");
+      continue;
+    }
+    // FAILED: sirupp grade's own last line says why (the caller reads it); anything else: Slurm's.
+    if (status.slurm_state != "FAILED") {
+      run.problem = "the grading job ended: " + status.reason + (lost ? " (twice)" : "");
+    }
+    return run;
+  }
+  return run;
+}
+
 bool SubmissionService::WaitIdle(double timeout_s) {
   std::unique_lock<std::mutex> lock(mutex_);
   return wake_.wait_for(lock, std::chrono::duration<double>(timeout_s),
-                        [this] { return queue_.empty() && !busy_; });
+                        [this] { return queue_.empty() && busy_ == 0; });
 }
 
 Json SubmissionService::Public(const std::string& student, int id) const {

@@ -33,6 +33,8 @@
 #include <vector>
 
 #include "class/class_config.hpp"
+#include "cluster/command_runner.hpp"
+#include "cluster/slurm_engine.hpp"
 #include "grade/build_controller.hpp"
 #include "grade/suite.hpp"
 #include "panel/panel_api.hpp"
@@ -133,6 +135,15 @@ class SubmissionService {
  private:
   void Worker();
   void Grade(const std::string& student, int id);
+  // How one grading run ended: ok (sirupp grade exited 0), or the problem in words.
+  struct GradeRun {
+    bool ok = false;
+    bool stopped = false;  // by Stop(): graded again at the next start
+    std::string problem;
+  };
+  GradeRun GradeHere(const std::vector<std::string>& argv, const std::string& log_file);
+  GradeRun GradeAsJob(const std::string& student, int id, const std::vector<std::string>& argv,
+                      const std::string& log_file);
   nlohmann::json Public(const std::string& student, int id) const;
   nlohmann::json ListJson(const std::string& student) const;
   panel::Response Run(const std::string& student, const std::string& body,
@@ -149,10 +160,15 @@ class SubmissionService {
   std::mutex table_mutex_;
   std::condition_variable wake_;
   std::deque<std::pair<std::string, int>> queue_;
-  bool busy_ = false;
+  int busy_ = 0;  // grades in progress
   bool stop_ = false;
   pid_t grading_pid_ = 0;
-  std::thread worker_;
+  // With the class file's cluster:, each grade is one Slurm job (cluster.grading: time, CPUs,
+  // memory), cluster.grading.jobs at once; the jobs in progress are cancelled by Stop().
+  std::unique_ptr<cluster::SystemRunner> runner_;
+  std::unique_ptr<cluster::SlurmEngine> engine_;
+  std::vector<std::string> grading_jobs_;
+  std::vector<std::thread> workers_;
 };
 
 }  // namespace sirupp::classroom

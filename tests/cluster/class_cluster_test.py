@@ -11,7 +11,9 @@ student on their first visit and proxies their API and live stream to it.
 - an idle rig's job is cancelled (and nothing of it is left on the node);
 - a job the cluster holds back is shown as waiting for the cluster with Slurm's reason, and the
   page's API says so, until the job runs;
-- the class server's own stop cancels every job.
+- the class server's own stop cancels every job;
+- a burst of 6 submissions graded as jobs 2 at a time takes less than 0.6 of the time one job at a
+  time takes.
 
 Run: tests/cluster/with_cluster.sh /usr/bin/python3 -m pytest -q tests/cluster/class_cluster_test.py
 (env SIRUPP_BIN_DIR: the build's bin/).
@@ -264,3 +266,62 @@ def test_a_waiting_job_shows_slurms_reason_until_it_runs():
         assert code == 200, state
     finally:
         finish(run)
+
+
+SUITE = """format: sirupp-grade-suite-1
+name: quick
+description: One short step, for timing the grading queue.
+model: %s/config/robots/puma260.yaml
+limits: {tick_s: 2, start_s: 30, task_s: 120}
+pass: {settling_s: 1.0, overshoot_percent: 10, steady_state_deg: 1.5, saturated_s: 0.5}
+tasks:
+  - {name: step_j2, step: {joint: 2, to_deg: 30}, duration_s: 2}
+""" % ROOT
+
+
+def grade_burst(jobs_at_once):
+    """Seconds from 6 submissions (one per student) to all 6 graded, grading as Slurm jobs."""
+    names = ["g%d" % i for i in range(6)]
+    run = ClassRun(BIN, ROOT, names, extra_yaml=CLUSTER_YAML + "  grading: {jobs: %d}\n" %
+                   jobs_at_once)
+    suite = os.path.join(run.work, "quick.yaml")
+    with open(suite, "w") as f:
+        f.write(SUITE)
+    with open(run.class_file, "a") as f:
+        f.write("grading: {suite: quick.yaml}\n")
+    run.start()
+    try:
+        with open(os.path.join(ROOT, "examples", "07_python_controller",
+                               "computed_torque_pid.py")) as f:
+            source = f.read()
+        start = time.time()
+        for name in names:
+            code, body = run.http("POST", "/s/%s/class/submissions" % name, run.token(name),
+                                  {"language": "python", "source": source})
+            assert code == 200, body
+
+        def states():
+            out = []
+            for name in names:
+                code, body = run.http("GET", "/s/%s/class/submissions" % name, run.token(name))
+                assert code == 200, body
+                out.append(body["submissions"][0]["state"])
+            return out
+
+        wait_for("6 submissions graded", 600, lambda: all(
+            s in ("graded", "grade failed") for s in states()))
+        took = time.time() - start
+        code, body = run.http("GET", "/s/g0/class/submissions", run.token("g0"))
+        assert set(states()) == {"graded"}, [body["submissions"][0].get("problem"), states()]
+        assert "grading as Slurm job" in run.server_log()
+        return took
+    finally:
+        finish(run)
+
+
+def test_grading_as_jobs_two_at_a_time():
+    one = grade_burst(1)
+    two = grade_burst(2)
+    print("6 submissions graded as Slurm jobs: %.1f s one at a time, %.1f s two at a time "
+          "(%.2f)" % (one, two, two / one))
+    assert two < 0.6 * one, (one, two)
