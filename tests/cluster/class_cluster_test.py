@@ -159,8 +159,12 @@ def test_set_seven_on_each_rig(klass):
         assert code == 200, body
     goal = (90, 90, 90, 0, 0, 0)  # the page's state is in degrees
 
+    seen = {}
+
     def at_goal(name):
         code, state = run.http("GET", "/s/%s/api/state" % name, run.token(name))
+        seen[name] = (code, state if code != 200 else (state.get("controller"), state.get("sim"),
+                                                       state.get("virtual", {}).get("q")))
         if code != 200:
             return None
         if state["controller"]["state"] != "idle":
@@ -169,7 +173,11 @@ def test_set_seven_on_each_rig(klass):
         return error if error < 0.5 else None
 
     for name in ("alice", "bob", "carol"):
-        error = wait_for(name + " at set VII's goal within 0.5 deg", 90, lambda: at_goal(name))
+        try:
+            error = wait_for(name + " at set VII's goal within 0.5 deg", 90, lambda: at_goal(name))
+        except BaseException:
+            print("%s's last state: %r" % (name, seen.get(name)))
+            raise
         print("%s: set VII ends %.3f deg from the goal" % (name, error))
 
 
