@@ -488,12 +488,6 @@ Answer Client::SetGains(const sirupp::servo_gains_t& gains) {
   return AwaitControllerAnswer(Send(channels_.arm_gains, gains), options_.answer_timeout_s);
 }
 
-RequestId Client::ResetSim(const std::vector<double>& position, bool reset_objects,
-                           const std::vector<double>& velocity) {
-  const core::SimReset message{0, 0, options_.sender, position, velocity, reset_objects};
-  return Send(channels_.sim_reset, core::ToMessage(message));
-}
-
 bool Client::GainsShown(const sirupp::servo_gains_t& gains, bool with_real) const {
   return snapshot_.virtual_gains && SameFilterGains(*snapshot_.virtual_gains, gains) &&
          (!with_real || (snapshot_.real_gains && SameFilterGains(*snapshot_.real_gains, gains)));
@@ -501,6 +495,12 @@ bool Client::GainsShown(const sirupp::servo_gains_t& gains, bool with_real) cons
 
 bool Client::WaitGainsShown(const sirupp::servo_gains_t& gains, bool with_real, double timeout_s) {
   return Until([&] { return GainsShown(gains, with_real); }, timeout_s);
+}
+
+RequestId Client::ResetSim(const std::vector<double>& position, bool reset_objects,
+                           const std::vector<double>& velocity) {
+  const core::SimReset message{0, 0, options_.sender, position, velocity, reset_objects};
+  return Send(channels_.sim_reset, core::ToMessage(message));
 }
 
 Answer Client::LoadEnvironment(const std::string& name, const std::string& xml) {

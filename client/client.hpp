@@ -222,8 +222,6 @@ class Client {
   // ARM_GAINS goes to sirupp-control and, when one runs, sirupp-hardware; the answer is the
   // controller's. The bridge's answer: AwaitHardwareAnswer(answer.request).
   Answer SetGains(const sirupp::servo_gains_t& gains);
-
-  // --- sirupp-sim: SIM_RESET has no reply (the sim counts a refusal in SIM_STATUS).
   // Whether the rig shows `gains` running: CONTROLLER_GAINS and, when `with_real` (a bridge's
   // REAL_ARM_GAINS was heard before the change), REAL_ARM_GAINS the same as `gains` in
   // SameFilterGains. After an accepted SetGains, `sirupp gains` and the Python module wait for it
@@ -232,6 +230,8 @@ class Client {
   // Handles messages until GainsShown or timeout_s passed; returns GainsShown.
   bool WaitGainsShown(const sirupp::servo_gains_t& gains, bool with_real, double timeout_s);
   static constexpr double kGainsShownS = 2.5;
+
+  // --- sirupp-sim: SIM_RESET has no reply (the sim counts a refusal in SIM_STATUS).
   RequestId ResetSim(const std::vector<double>& position, bool reset_objects = false,
                      const std::vector<double>& velocity = {});
 
