@@ -1,24 +1,28 @@
 #!/usr/bin/env bash
 # Installs every Debian 12 package SIRUPP-LCM needs to build, test and run.
 # Idempotent: when everything is present it only runs dpkg-query (well under a second).
-# Usage: scripts/install-deps.sh [--check] [--peers] [--cluster]
-#   --check    list what is missing, install nothing
-#   --peers    also install the peers (KDL, MuJoCo; compared against in bench/, MuJoCo also the oracle
-#              of the MJCF export's tests, which skip without it); never needed to build
-#   --cluster  also install Slurm and munge (slurmctld, slurmd, slurm-client, munge): the class
-#              server's rigs and grading as Slurm jobs are tested on a one-node cluster the tests
-#              start in a folder of their own (tests/cluster/); never needed to build. Not by
-#              default: on a machine with systemd the packages enable their daemons' services
+# Usage: scripts/install-deps.sh [--check] [--peers] [--services]
+#   --check     list what is missing, install nothing
+#   --peers     also install the peers (KDL, MuJoCo; compared against in bench/, MuJoCo also the
+#               oracle of the MJCF export's tests, which skip without it); never needed to build
+#   --services  also install the services the tests start themselves, in folders of their own on
+#               127.0.0.1 (scripts/test.sh asks for it): Slurm and munge (slurmctld, slurmd,
+#               slurm-client, munge: the class on a one-node cluster, tests/cluster/) and Apache
+#               (apache2, apache2-utils: the sign-in front, tests/package/), and lintian. Never
+#               needed to build or run. They are installed with their daemons NOT started (a
+#               policy-rc.d refuses it during the install) and, on a machine run by systemd, their
+#               services disabled afterwards, so no daemon of theirs listens unless a test starts it.
+#   --cluster   the same as --services (its earlier name)
 set -euo pipefail
 check=0
 peers=0
-cluster=0
+services=0
 for arg in "$@"; do
   case "$arg" in
     --check) check=1 ;;
     --peers) peers=1 ;;
-    --cluster) cluster=1 ;;
-    *) echo "install-deps: unknown option '$arg'; allowed: --check, --peers, --cluster" >&2; exit 2 ;;
+    --services|--cluster) services=1 ;;
+    *) echo "install-deps: unknown option '$arg'; allowed: --check, --peers, --services" >&2; exit 2 ;;
   esac
 done
 
@@ -60,17 +64,19 @@ packages=(
   libssl-dev openssl
   # sandboxes for students' controllers (namespaces without root), the class server's limits
   bubblewrap
-  # the Debian package (scripts/package.sh: dpkg-shlibdeps, lintian) and its tests (tests/package/:
-  # Apache as the sign-in front with mod_proxy_http, mod_headers, mod_auth_basic; htpasswd)
-  dpkg-dev lintian apache2 apache2-utils
+  # the Debian package (scripts/package.sh: dpkg-shlibdeps)
+  dpkg-dev
   # an X server without a screen, for the test that starts lcm-spy (sirupp spy)
   xvfb xauth
 )
 if [[ $peers -eq 1 ]]; then
   packages+=(liborocos-kdl-dev libmujoco-dev)
 fi
-if [[ $cluster -eq 1 ]]; then
-  packages+=(slurmctld slurmd slurm-client munge)
+# Packages with daemons, for the tests that start them (--services).
+service_packages=(slurmctld slurmd slurm-client munge apache2 apache2-utils)
+service_units=(slurmctld slurmd munge apache2)
+if [[ $services -eq 1 ]]; then
+  packages+=("${service_packages[@]}" lintian)
 fi
 
 missing=()
@@ -95,5 +101,26 @@ if [[ $(id -u) -ne 0 ]]; then
 fi
 export DEBIAN_FRONTEND=noninteractive
 $SUDO apt-get update -qq
+# A daemon installed for the tests is not started by its package (policy-rc.d answers 101,
+# "action forbidden", to invoke-rc.d and deb-systemd-invoke) unless the machine has a policy of its own.
+policy=/usr/sbin/policy-rc.d
+own_policy=0
+if [[ $services -eq 1 && ! -e $policy ]]; then
+  printf '#!/bin/sh\n# scripts/install-deps.sh --services: no daemon started while it installs\nexit 101\n' |
+    $SUDO tee "$policy" >/dev/null
+  $SUDO chmod 755 "$policy"
+  own_policy=1
+  trap '$SUDO rm -f "$policy"' EXIT
+fi
 $SUDO apt-get install -y -qq --no-install-recommends "${missing[@]}" >/dev/null
+if [[ $own_policy -eq 1 ]]; then
+  $SUDO rm -f "$policy"
+  trap - EXIT
+  # Under systemd the packages enable their services for the next boot: not for these.
+  if [[ -d /run/systemd/system ]]; then
+    for unit in "${service_units[@]}"; do
+      if [[ " ${missing[*]} " == *" $unit "* ]]; then $SUDO systemctl disable --now "$unit" >/dev/null 2>&1 || true; fi
+    done
+  fi
+fi
 echo "install-deps: done"

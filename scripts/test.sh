@@ -19,6 +19,9 @@ while [[ $# -gt 0 ]]; do
     *) break ;;
   esac
 done
+# The tests start services of their own (Slurm, Apache: scripts/install-deps.sh --services installs
+# them with no daemon started); the build installs the rest.
+"$root/scripts/install-deps.sh" --services >&2
 build=$("$root/scripts/build.sh" "${build_args[@]}" | tail -n 1)
 export ASAN_OPTIONS=${ASAN_OPTIONS:-detect_leaks=1:abort_on_error=0}
 export UBSAN_OPTIONS=${UBSAN_OPTIONS:-print_stacktrace=1:halt_on_error=1}

@@ -8,7 +8,7 @@ require_slurm() {
     command -v "$tool" >/dev/null || missing+=("$tool")
   done
   local why=""
-  [[ ${#missing[@]} -eq 0 ]] || why="not installed: ${missing[*]} (scripts/install-deps.sh --cluster)"
+  [[ ${#missing[@]} -eq 0 ]] || why="not installed: ${missing[*]} (scripts/install-deps.sh --services)"
   [[ -n "$why" || $(id -u) -eq 0 ]] || why="needs root (slurmd starts jobs as their users)"
   [[ -z "$why" ]] && return 0
   if [[ "${CI:-}" == true ]]; then
