@@ -27,8 +27,13 @@ function row(rig) {
                   rig.state === 'failed' ? rig.last_stop : ''].filter((x) => x).join('; ');
   const plan = c.plan_name ? `${c.plan_name} ${c.plan_step}/${c.plan_steps}` : '-';
   const rtf = rig.sim ? rig.sim.realtime_factor.toFixed(3) : '-';
-  const state = rig.state === 'running' ? 'running' : `${rig.state}${rig.last_stop ? ' (' + rig.last_stop + ')' : ''}`;
-  const verb = rig.state === 'running' ? 'stop' : 'start';
+  // A rig that runs as a cluster job (docs/cluster.md) may be pending (waiting for the cluster,
+  // Slurm's reason in `waiting`) or unknown (the cluster did not answer); it can be stopped then.
+  const waits = rig.state === 'pending' || rig.state === 'unknown' || rig.state === 'starting';
+  const state = rig.state === 'running' ? 'running'
+      : waits ? `${rig.state === 'unknown' ? 'state unknown' : 'waiting for the cluster'}${rig.waiting ? ' (' + rig.waiting + ')' : ''}`
+      : `${rig.state}${rig.last_stop ? ' (' + rig.last_stop + ')' : ''}`;
+  const verb = rig.state === 'running' || waits ? 'stop' : 'start';
   return `<tr id="rig-${text(rig.name)}" data-state="${text(rig.state)}">
     <td>${text(rig.name)}</td><td class="${text(rig.state)}">${text(state)}</td>
     <td>${text(c.state || '-')}</td><td>${text(plan)}</td><td>${text(faults || '-')}</td>
