@@ -108,10 +108,11 @@ do_stop() {
   stop_daemon slurmctld "$dir/slurmctld.pid"
   stop_daemon munged "$dir/munged.pid"
   left=$(cluster_processes)
-  if [[ -n "$left" ]]; then
-    sleep 1  # what was signalled may still be ending
+  for _ in $(seq 20); do  # what was signalled may still be ending (slowly on a loaded machine)
+    [[ -z "$left" ]] && break
+    sleep 0.5
     left=$(cluster_processes)
-  fi
+  done
   if [[ -n "$left" ]]; then
     say "left behind, killed now:"
     echo "$left" | sed 's/^/  /' >&2
