@@ -407,11 +407,8 @@ int RunPlan(const std::vector<std::string>& args, std::ostream& out) {
   if (const std::optional<Command> command = client::PlanCommandFromName(word)) {
     return PlanControl(*command, word, rest, out);
   }
-  std::string allowed = "check, run";
-  for (const Command command : client::kPlanCommands) {
-    allowed += std::string(", ") + client::PlanCommandName(command);
-  }
-  throw core::UsageError("plan: unknown subcommand '" + word + "'; allowed: " + allowed);
+  throw core::UsageError("plan: unknown subcommand '" + word +
+                         "'; allowed: check, run, pause, resume, abort, manual, automatic");
 }
 
 namespace {
