@@ -98,6 +98,8 @@ class _RecordContext:
         return getattr(self.data, name)
 
 
+_ANSWER_TIMEOUT_S = 5.0  # how long a command waits for sirupp-control's reply (none: RigError)
+
 class Rig:
     """A running rig: its sirupp-control and sirupp-sim, reached over LCM (client/client.hpp).
 
@@ -113,7 +115,10 @@ class Rig:
         self._closed = False
         self.model = model if isinstance(model, Model) else Model(model or DEFAULT_MODEL)
         try:
-            self._client = _Client(self.lcm_url, prefix, _sender(), 2.0)
+            # A command's reply may wait: sirupp-control answers from its loop, which a loaded
+            # laptop (a build, a browser beside it) can hold up for seconds; a reply that comes
+            # is matched to its request however late, so this bounds only the wait for none.
+            self._client = _Client(self.lcm_url, prefix, _sender(), _ANSWER_TIMEOUT_S)
             self._client.watch_joints(True)
             # Status, gains and state are all there before the rig is handed out, so state(),
             # gains() and status() never answer None (sirupp-control sends its gains once a

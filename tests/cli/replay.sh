@@ -20,7 +20,17 @@ done
 # Record: sirupp-sim for 0.4 s of real time, states at 1/8 of the servo rate.
 lcm-logger --lcm-url="$URL" -f -q "$work/run.lcm" 2>"$work/rec.err" &
 rec=$!; pids+=("$rec")
-sleep 0.5
+# A recorder listens once its socket is bound (a fixed sleep was too short on a loaded machine:
+# the replay's recorder once heard 1 message of 105).
+port=${URL##*:}; port=${port%%\?*}
+wait_bound() {
+  for _ in $(seq 200); do
+    ss -Hulnp "sport = :$port" 2>/dev/null | grep -q "pid=$1," && { sleep 0.2; return 0; }
+    sleep 0.05
+  done
+  echo "FAIL: lcm-logger (pid $1) did not bind udp port $port within 10 s"; fail=1
+}
+wait_bound "$rec"
 "$SIRUPP_SIM" --lcm-url "$URL" --mode realtime --idle limp --duration 0.4 --state-every 8 \
   2>"$work/sim.err" || { echo "FAIL sim"; cat "$work/sim.err"; fail=1; }
 sleep 0.3  # lcm-logger 1.3.1 flushes every 100 ms and not on exit
@@ -29,7 +39,7 @@ kill -INT "$rec"; wait "$rec" 2>/dev/null
 # Replay at speed 2 to a second recorder.
 lcm-logger --lcm-url="$URL" -f -q "$work/replayed.lcm" 2>"$work/rep.err" &
 rep=$!; pids+=("$rep")
-sleep 0.5
+wait_bound "$rep"
 run replay 0 replay "$work/run.lcm" --lcm-url "$URL" --speed 2
 cat "$out"
 has replay "$out" "replay: "
