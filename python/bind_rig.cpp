@@ -561,8 +561,9 @@ void BindRig(py::module_& m) {
       .def("log_tail", &grade::Child::LogTail, py::arg("lines") = 3)
       .def_property_readonly("pid", &grade::Child::pid);
 
-  m.def("_rig_url", [](int port) { return proc::RigUrl(port); }, py::arg("port"),
-        "a private rig's LCM address on a udpm port (proc/rig.hpp)");
+  m.def(
+      "_rig_url", [](int port) { return proc::RigUrl(port); }, py::arg("port"),
+      "a private rig's LCM address on a udpm port (proc/rig.hpp)");
   py::class_<grade::PortLease>(m, "_PortLease", "a private udpm port (grade/port_lease.hpp)")
       .def_static("acquire", &grade::PortLease::Acquire, py::arg("first"), py::arg("count"),
                   py::arg("start_offset"), py::arg("directory") = "")
