@@ -37,7 +37,9 @@ class PortLease {
   int fd_ = -1;
 };
 
-// The default folder of the lock files.
+// The default folder of the lock files: /tmp/sirupp-grade-ports for every process, whatever its
+// TMPDIR (a udpm port is the machine's). A service with PrivateTmp has a /tmp of its own: its
+// class rigs also check that a port is quiet before they take it (proc/udpm_listen.hpp).
 std::string DefaultPortLockDirectory();
 
 }  // namespace sirupp::grade
