@@ -460,25 +460,31 @@ struct ClassServer::Impl {
     return model;
   }
 
+  // Counts a rig in against max_rigs (and, for a `local` seat, picks its CPU), or says why not: the
+  // server is stopping or the class runs its limit. The caller gives the place back (--running)
+  // when the start fails.
+  std::string TakeRigPlace(Seat* local) {
+    {
+      const std::lock_guard<std::mutex> stop_lock(monitor_mutex);
+      if (stopping) return "the class server is stopping";
+    }
+    const std::lock_guard<std::mutex> count_lock(start_mutex);
+    if (running >= config.max_rigs) {
+      return "the class server already runs its limit of " + std::to_string(config.max_rigs) +
+             " rigs; try again in a few minutes (idle rigs stop after " +
+             std::to_string(static_cast<int>(config.idle_timeout_s)) + " s)";
+    }
+    ++running;
+    if (local != nullptr) local->on_cpu = PickCpu();
+    return "";
+  }
+
   // Starts the seat's rig unless it runs. Returns "" or why it cannot (for a 503).
   std::string EnsureRig(Seat& seat) {
     const std::lock_guard<std::mutex> lock(seat.mutex);
     if (seat.rig) return "";
     if (config.cluster) return StartJob(seat);
-    {
-      const std::lock_guard<std::mutex> stop_lock(monitor_mutex);
-      if (stopping) return "the class server is stopping";
-    }
-    {
-      const std::lock_guard<std::mutex> count_lock(start_mutex);
-      if (running >= config.max_rigs) {
-        return "the class server already runs its limit of " + std::to_string(config.max_rigs) +
-               " rigs; try again in a few minutes (idle rigs stop after " +
-               std::to_string(static_cast<int>(config.idle_timeout_s)) + " s)";
-      }
-      ++running;
-      seat.on_cpu = PickCpu();
-    }
+    if (std::string why = TakeRigPlace(&seat); !why.empty()) return why;
     try {
       grade::PortLease lease = LeaseQuietPort();
       const std::string folder = StudentFolder(config, seat.name);
@@ -634,19 +640,7 @@ struct ClassServer::Impl {
   // Submits the seat's rig as a job; it is pending until the job reports its endpoint. Holds
   // seat.mutex. Returns "" or why it cannot.
   std::string StartJob(Seat& seat) {
-    {
-      const std::lock_guard<std::mutex> stop_lock(monitor_mutex);
-      if (stopping) return "the class server is stopping";
-    }
-    {
-      const std::lock_guard<std::mutex> count_lock(start_mutex);
-      if (running >= config.max_rigs) {
-        return "the class already runs its limit of " + std::to_string(config.max_rigs) +
-               " rigs; try again in a few minutes (idle rigs stop after " +
-               std::to_string(static_cast<int>(config.idle_timeout_s)) + " s)";
-      }
-      ++running;
-    }
+    if (std::string why = TakeRigPlace(nullptr); !why.empty()) return why;
     try {
       const std::string folder = StudentFolder(config, seat.name);
       const std::string model = PrepareFolder(folder);

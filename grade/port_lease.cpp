@@ -14,8 +14,9 @@
 namespace sirupp::grade {
 
 // A udpm port is the machine's, so its locks are too: one folder for every process, whatever its
-// TMPDIR (the Python tests give each test a TMPDIR of its own; with the locks under it, a notebook's
-// rig and another test's rig leased the same port at once, and the notebook's move got no reply).
+// TMPDIR (the Python tests give each test a TMPDIR of its own; with the locks under it, a
+// notebook's rig and another test's rig leased the same port at once, and the notebook's move got
+// no reply).
 std::string DefaultPortLockDirectory() { return "/tmp/sirupp-grade-ports"; }
 
 PortLease PortLease::Acquire(int first, int count, int start_offset, const std::string& directory) {
