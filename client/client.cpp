@@ -28,11 +28,7 @@ using Status = sirupp::controller_status_t;
 using sirupp::hardware_command_t;
 using sirupp::hardware_status_t;
 
-int64_t SteadyMicros() {
-  return std::chrono::duration_cast<std::chrono::microseconds>(
-             std::chrono::steady_clock::now().time_since_epoch())
-      .count();
-}
+using core::SteadyMicros;
 
 // Keeps `reply` in `replies`, which holds only the newest: a long-lived client (the turn manager on
 // the bridge's bus) hears every rig's replies, most of them to other clients' requests.
@@ -324,7 +320,11 @@ RequestId Client::Send(const std::string& channel, Msg message) {
   message.utime = last_utime_;
   message.seq = seq_[channel]++;
   bus_.Publish(channel, message);
-  return RequestId{bus_.FullName(channel), message.utime, message.seq};
+  RequestId id{bus_.FullName(channel), message.utime, message.seq};
+  constexpr size_t kKept = 16;
+  if (sent_.size() >= kKept) sent_.erase(sent_.begin());
+  sent_.push_back(Sent{id, [this, channel, message] { bus_.Publish(channel, message); }});
+  return id;
 }
 
 Answer Client::Await(const RequestId& request, double timeout_s, Replier replier) {
@@ -337,18 +337,38 @@ Answer Client::Await(const RequestId& request, double timeout_s, Replier replier
   Answer answer;
   answer.request = request;
   std::optional<sirupp::command_reply_t> reply;
-  Until(
-      [&] {
-        for (auto it = replies.begin(); it != replies.end(); ++it) {
-          if (core::RepliesTo(*it, request.channel, request.utime, request.seq)) {
-            reply = *it;
-            replies.erase(it);
-            return true;
-          }
-        }
-        return false;
-      },
-      timeout_s);
+  const auto heard = [&] {
+    for (auto it = replies.begin(); it != replies.end(); ++it) {
+      if (core::RepliesTo(*it, request.channel, request.utime, request.seq)) {
+        reply = *it;
+        replies.erase(it);
+        return true;
+      }
+    }
+    return false;
+  };
+  const auto same = [&](const Sent& s) {
+    return s.id.channel == request.channel && s.id.utime == request.utime &&
+           s.id.seq == request.seq;
+  };
+  std::function<void()> publish_again;
+  const auto sent = std::find_if(sent_.begin(), sent_.end(), same);
+  if (sent != sent_.end()) publish_again = sent->publish_again;
+  // Until() may return before its timeout (nothing to wait on): send again only once a whole
+  // kResendAfterS has passed since the last copy.
+  const int64_t end_us = SteadyMicros() + static_cast<int64_t>(timeout_s * 1e6);
+  const auto resend_us = static_cast<int64_t>(kResendAfterS * 1e6);
+  int64_t next_copy_us = SteadyMicros() + resend_us;
+  while (
+      !Until(heard, 1e-6 * static_cast<double>(std::min(end_us, next_copy_us) - SteadyMicros()))) {
+    const int64_t now = SteadyMicros();
+    if (now >= end_us) break;
+    if (publish_again && now >= next_copy_us) {
+      publish_again();
+      next_copy_us = now + resend_us;
+    }
+  }
+  sent_.erase(std::remove_if(sent_.begin(), sent_.end(), same), sent_.end());
   // Replies to requests of other clients are of no use here; keep the list short.
   if (replies.size() > 64) replies.erase(replies.begin(), replies.end() - 64);
   if (!reply) {

@@ -303,6 +303,8 @@ class Client {
 
   // How long sirupp-control may be silent before a wait gives up (it sends at 10 Hz).
   static constexpr double kControllerSilentS = 1.5;
+  // How long a command waits for its reply before it sends the same request again.
+  static constexpr double kResendAfterS = 0.5;
 
  private:
   void Subscribe();
@@ -331,6 +333,14 @@ class Client {
   std::map<std::string, int64_t> heartbeat_heard_us_;  // steady clock, by snapshot_.heartbeats key
   int64_t last_utime_ = 0;              // utime of the last request (each request gets a new one)
   std::map<std::string, int64_t> seq_;  // per channel
+  // The last requests sent, to send again while their answer is awaited and not heard: UDP
+  // multicast drops a request or its reply when a process falls behind, and the replier answers
+  // a repeated request with its first reply (core::Replier), without carrying it out again.
+  struct Sent {
+    RequestId id;
+    std::function<void()> publish_again;
+  };
+  std::vector<Sent> sent_;
   std::vector<sirupp::command_reply_t> controller_replies_;
   std::vector<sirupp::command_reply_t> hardware_replies_;
   std::vector<sirupp::command_reply_t> sim_replies_;

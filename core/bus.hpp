@@ -431,5 +431,7 @@ bool HandleUntil(Bus& bus, const std::function<bool()>& done, double timeout_s);
 
 // Microseconds since the Unix epoch: the utime of messages people and tools send.
 int64_t WallMicros();
+// Microseconds of the steady clock: for intervals, never for message fields.
+int64_t SteadyMicros();
 
 }  // namespace sirupp::core

@@ -4,6 +4,7 @@
 // the answer to its request (client/ does) instead of reading the replier's status text.
 
 #include <cstdint>
+#include <deque>
 #include <exception>
 #include <sirupp/command_reply_t.hpp>
 #include <string>
@@ -33,6 +34,12 @@ bool RepliesTo(const sirupp::command_reply_t& reply, const std::string& request_
                int64_t request_utime, int64_t request_seq);
 
 // Sends one reply per handled command on one channel, with its own seq counter.
+//
+// A request that repeats the channel, utime and seq of one answered in the last kResendWindowS
+// (and of the last kRemembered) is a resend: a client that heard no reply sends the same message
+// again (UDP multicast drops datagrams when a receiver falls behind). It gets the first reply
+// again, and the command is not carried out twice. Requests with utime 0 (hand-made messages
+// that leave the field unset) are always carried out.
 class Replier {
  public:
   // `channel`: without the rig prefix (Channels::controller_reply, ...). `sender`: the process.
@@ -44,6 +51,7 @@ class Replier {
   // after handle(), so it sees the move started and the status sent.
   template <class Msg, class Handle, class Facts>
   void Answer(const Msg& request, const ReceiveInfo& info, Handle&& handle, Facts&& facts) {
+    if (AnswerAgain(info.channel, request.utime, request.seq)) return;
     try {
       handle();
     } catch (const std::exception& error) {
@@ -56,11 +64,22 @@ class Replier {
   void Send(const std::string& request_channel, int64_t request_utime, int64_t request_seq,
             const std::string& error, const ReplyFacts& facts);
 
+  static constexpr double kResendWindowS = 30.0;
+  static constexpr size_t kRemembered = 64;
+
  private:
+  // Sends the reply again when this request was answered already; false when it was not.
+  bool AnswerAgain(const std::string& request_channel, int64_t request_utime, int64_t request_seq);
+
+  struct Sent {
+    sirupp::command_reply_t reply;
+    int64_t steady_us = 0;
+  };
   Bus& bus_;
   std::string channel_;
   std::string sender_;
   int64_t seq_ = 0;
+  std::deque<Sent> sent_;  // the last kRemembered replies, oldest first
 };
 
 }  // namespace sirupp::core

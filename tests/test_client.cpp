@@ -28,6 +28,7 @@
 #include "client/client.hpp"
 #include "control/control_node.hpp"
 #include "core/bus.hpp"
+#include "core/command_reply.hpp"
 #include "core/model_loader.hpp"
 #include "hardware/arm_link.hpp"
 #include "hardware/bridge_node.hpp"
@@ -249,6 +250,86 @@ TEST(Client, WithNoControllerACommandHasNoAnswerAndSaysWhere) {
   EXPECT_EQ(answer.result, Result::kNoAnswer);
   EXPECT_NE(answer.error.find("no reply on CONTROLLER_REPLY"), std::string::npos) << answer.error;
   EXPECT_EQ(client.WaitForMove(1, 0.1).end, End::kControllerSilent);
+}
+
+// UDP multicast drops a datagram when a receiver falls behind (a loaded machine, a lockstep rig's
+// traffic). A command whose request or reply was lost is sent again, and answered again.
+TEST(Client, ACommandWhoseRequestWasLostIsSentAgainAndAnsweredOnce) {
+  core::Bus bus("memq://");
+  Options options;
+  options.answer_timeout_s = 5;
+  Client client(bus, options);
+  core::Replier replier(bus, "CONTROLLER_REPLY", "stand-in sirupp-control");
+  std::vector<sirupp::joint_target_t> heard;
+  int carried_out = 0;
+  bus.Subscribe<sirupp::joint_target_t>(
+      "ARM_TARGET", [&](const sirupp::joint_target_t& m, const core::ReceiveInfo& info) {
+        heard.push_back(m);
+        if (heard.size() == 1) return;  // the first copy "lost"
+        replier.Answer(
+            m, info, [&] { ++carried_out; },
+            [] {
+              return core::ReplyFacts{7, -1};
+            });
+      });
+  const auto start = std::chrono::steady_clock::now();
+  const Answer answer = client.MoveJoints(Degrees({10, 0, 0, 0, 0, 0}));
+  const double waited =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+  ASSERT_EQ(answer.result, Result::kAccepted) << answer.error;
+  EXPECT_EQ(answer.move_id, 7);
+  ASSERT_EQ(heard.size(), 2u);
+  EXPECT_EQ(heard[1].utime, heard[0].utime);  // the same request, not a new one
+  EXPECT_EQ(heard[1].seq, heard[0].seq);
+  EXPECT_EQ(carried_out, 1);
+  EXPECT_GE(waited, Client::kResendAfterS * 0.9);
+}
+
+// The other half: a replier answers a repeated request (its reply was lost) with its first reply
+// and does not carry the command out twice; requests with utime 0 (hand-made ones that leave the
+// field unset) are carried out each time.
+TEST(Client, TheControllerAnswersARepeatedRequestAgainWithoutMovingTwice) {
+  ControlRig rig;
+  std::vector<sirupp::command_reply_t> replies;
+  rig.bus.Subscribe<sirupp::command_reply_t>(
+      "CONTROLLER_REPLY",
+      [&](const sirupp::command_reply_t& m, const core::ReceiveInfo&) { replies.push_back(m); });
+  sirupp::joint_target_t target{};
+  target.num_joints = 6;
+  target.position = {0.2, 0, 0, 0, 0, 0};
+  target.max_velocity.assign(6, 0);
+  target.acceleration.assign(6, 0);
+  target.active.assign(6, 1);
+  target.utime = core::WallMicros();
+  target.seq = 3;
+  auto send_and_wait = [&](size_t replies_before) {
+    rig.bus.Publish("ARM_TARGET", target);
+    rig.client.Until([&] { return replies.size() > replies_before; }, kLongWaitS);
+  };
+  send_and_wait(0);
+  ASSERT_EQ(replies.size(), 1u);
+  ASSERT_EQ(replies[0].result, sirupp::command_reply_t::RESULT_ACCEPTED) << replies[0].error;
+  const int64_t move = replies[0].move_id;
+  send_and_wait(1);
+  ASSERT_EQ(replies.size(), 2u);
+  EXPECT_EQ(replies[1].result, sirupp::command_reply_t::RESULT_ACCEPTED);
+  EXPECT_EQ(replies[1].move_id, move);
+  EXPECT_EQ(replies[1].request_utime, target.utime);
+  EXPECT_NE(replies[1].seq, replies[0].seq);
+  rig.client.Listen(0.05);
+  EXPECT_EQ(rig.client.snapshot().controller->move_id, move);  // no second move
+  // Another seq is another request.
+  target.seq = 4;
+  send_and_wait(2);
+  ASSERT_EQ(replies.size(), 3u);
+  EXPECT_EQ(replies[2].move_id, move + 1);
+  // utime 0: each copy is a command of its own.
+  target.utime = 0;
+  send_and_wait(3);
+  send_and_wait(4);
+  ASSERT_EQ(replies.size(), 5u);
+  EXPECT_EQ(replies[3].move_id, move + 2);
+  EXPECT_EQ(replies[4].move_id, move + 3);
 }
 
 // Each request as it goes on the wire (core/translate.hpp builds it): no process answers here, so
