@@ -47,10 +47,7 @@
 // Internal: bench_loop --pong URL [--setpoint] [--direct] answers round trips (see RunPong);
 // bench_loop --ping URL --scale-seconds S --pace-ticks P is a paced ping of (e) (RunPacedPing).
 
-#include <fcntl.h>
-#include <poll.h>
 #include <signal.h>
-#include <sys/prctl.h>
 #include <sys/wait.h>
 #include <time.h>
 #include <unistd.h>
@@ -83,6 +80,7 @@
 #include "core/errors.hpp"
 #include "core/model_loader.hpp"
 #include "core/translate.hpp"
+#include "proc/child.hpp"
 #include "proc/rig.hpp"
 #include "sim/arm_world.hpp"
 
@@ -129,37 +127,24 @@ std::string FindModel(const std::string& path) {
 // A program started with fork + exec, its stdout and stderr into one pipe read here. The child gets
 // SIGKILL if this process dies, and the destructor ends it (SIGTERM, then SIGKILL), so no path out
 // of main leaves a process behind.
+// A process started with proc::Child, its output in a log file of this run's own folder, read for
+// the lines it prints.
 class Child {
  public:
-  explicit Child(const std::vector<std::string>& argv) : name_(argv.at(0)) {
-    int fds[2];
-    if (pipe2(fds, O_CLOEXEC) != 0) throw std::runtime_error("pipe2 failed");
-    std::vector<char*> args;
-    args.reserve(argv.size() + 1);
-    for (const std::string& arg : argv) args.push_back(const_cast<char*>(arg.c_str()));
-    args.push_back(nullptr);
-    const pid_t parent = getpid();
-    pid_ = fork();
-    if (pid_ < 0) {
-      close(fds[0]);
-      close(fds[1]);
-      throw std::runtime_error("fork failed");
-    }
-    if (pid_ == 0) {
-      // Only async-signal-safe calls between fork and exec.
-      prctl(PR_SET_PDEATHSIG, SIGKILL);
-      if (getppid() != parent) _exit(127);
-      dup2(fds[1], STDOUT_FILENO);
-      dup2(fds[1], STDERR_FILENO);
-      execv(args[0], args.data());
-      _exit(127);
-    }
-    close(fds[1]);
-    fd_ = fds[0];
+  explicit Child(const std::vector<std::string>& argv) : Child(Spec(argv)) {}
+  explicit Child(sirupp::proc::ProcessSpec spec) : name_(spec.argv.at(0)) {
+    static int count = 0;
+    spec.log_path = LogFolder() + "/" + std::to_string(++count) + "-" +
+                    std::filesystem::path(name_).filename().string() + ".log";
+    spec.death_signal = SIGKILL;
+    spec.group_ends_with_it = true;
+    log_path_ = spec.log_path;
+    child_.Start(spec);
   }
   ~Child() {
     Terminate();
-    if (fd_ >= 0) close(fd_);
+    std::error_code ignored;
+    std::filesystem::remove(log_path_, ignored);
   }
   Child(const Child&) = delete;
   Child& operator=(const Child&) = delete;
@@ -167,32 +152,33 @@ class Child {
   // Reads output until a line containing `needle` is complete; returns that line. Throws naming
   // the program and what it printed if it ends first or timeout_s passes.
   std::string WaitForLine(const std::string& needle, double timeout_s) {
-    const Clock::time_point deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                                                          std::chrono::duration<double>(timeout_s));
-    size_t searched = 0;
+    const Clock::time_point deadline = Deadline(timeout_s);
     while (true) {
-      const size_t found = output_.find(needle, searched);
+      const bool ended = !child_.Running();  // before the read: nothing comes after it
+      Read();
+      const size_t found = output_.find(needle);
       if (found != std::string::npos) {
         const size_t end = output_.find('\n', found);
         if (end != std::string::npos) {
           const size_t begin = output_.rfind('\n', found);
-          return output_.substr(begin == std::string::npos ? 0 : begin + 1,
-                                end - (begin == std::string::npos ? 0 : begin + 1));
+          const size_t from = begin == std::string::npos ? 0 : begin + 1;
+          return output_.substr(from, end - from);
         }
       }
-      if (!ReadSome(deadline)) {
+      if (ended || Clock::now() > deadline) {
         throw std::runtime_error(name_ + " did not print '" + needle + "' (" +
-                                 (eof_ ? "it ended" : "timed out") + "); its output:\n" + output_);
+                                 (ended ? "it ended" : "timed out") + "); its output:\n" + output_);
       }
+      usleep(1000);
     }
   }
 
-  // Reads until the child closes its output (normally: it exited). False on timeout.
-  bool ReadToEnd(double timeout_s) {
-    const Clock::time_point deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                                                          std::chrono::duration<double>(timeout_s));
-    while (!eof_) {
-      if (!ReadSome(deadline) && !eof_) return false;
+  // Waits for the child to end by itself. False on timeout.
+  bool WaitForEnd(double timeout_s) {
+    const Clock::time_point deadline = Deadline(timeout_s);
+    while (child_.Running()) {
+      if (Clock::now() > deadline) return false;
+      usleep(500);
     }
     return true;
   }
@@ -200,70 +186,73 @@ class Child {
   // Waits for the child to exit by itself within timeout_s; returns its exit status, or -1 (and
   // ends it) if it did not.
   int Wait(double timeout_s) {
-    const Clock::time_point deadline = Clock::now() + std::chrono::duration_cast<Clock::duration>(
-                                                          std::chrono::duration<double>(timeout_s));
-    while (pid_ > 0) {
-      int status = 0;
-      const pid_t done = waitpid(pid_, &status, WNOHANG);
-      if (done == pid_) {
-        pid_ = -1;
-        return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
-      }
-      if (Clock::now() > deadline) {
-        Terminate();
-        return -1;
-      }
-      usleep(1000);
+    if (!WaitForEnd(timeout_s)) {
+      Terminate();
+      return -1;
     }
-    return -1;
+    const int status = child_.status();
+    return WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
   }
 
   // SIGTERM, up to 2 s to exit (the processes print their summary then), then SIGKILL.
   void Terminate() {
-    if (pid_ <= 0) return;
-    kill(pid_, SIGTERM);
-    for (int i = 0; i < 2000; ++i) {
-      if (waitpid(pid_, nullptr, WNOHANG) == pid_) {
-        pid_ = -1;
-        return;
-      }
-      usleep(1000);
-    }
-    kill(pid_, SIGKILL);
-    waitpid(pid_, nullptr, 0);
-    pid_ = -1;
+    if (child_.started() && !child_.ended()) child_.Stop(2.0);
   }
 
-  // Collects what is left in the pipe without waiting (after Terminate or Wait).
-  void Drain() {
-    while (!eof_ && ReadSome(Clock::now())) {
-    }
+  // Everything it printed so far.
+  const std::string& output() {
+    Read();
+    return output_;
   }
-
-  const std::string& output() const { return output_; }
 
  private:
-  // One poll + read; false on timeout or end of output.
-  bool ReadSome(Clock::time_point deadline) {
-    if (eof_) return false;
-    const double left_ms = std::max(0.0, Seconds(deadline - Clock::now()) * 1e3);
-    pollfd poll_fd{fd_, POLLIN, 0};
-    const int ready = poll(&poll_fd, 1, static_cast<int>(std::ceil(left_ms)));
-    if (ready <= 0) return false;
-    char buffer[4096];
-    const ssize_t got = read(fd_, buffer, sizeof buffer);
-    if (got <= 0) {
-      eof_ = true;
-      return false;
+  static sirupp::proc::ProcessSpec Spec(const std::vector<std::string>& argv) {
+    sirupp::proc::ProcessSpec spec;
+    spec.argv = argv;
+    return spec;
+  }
+  static Clock::time_point Deadline(double timeout_s) {
+    return Clock::now() +
+           std::chrono::duration_cast<Clock::duration>(std::chrono::duration<double>(timeout_s));
+  }
+  // This run's folder for the logs (removed when the bench ends).
+  static const std::string& LogFolder() {
+    struct Folder {
+      Folder() {
+        std::string pattern = (std::filesystem::temp_directory_path() / "sirupp-loop-bench-XXXXXX");
+        if (mkdtemp(pattern.data()) == nullptr) {
+          throw std::runtime_error("cannot make a folder for the processes' logs: " + pattern);
+        }
+        path = pattern;
+      }
+      ~Folder() {
+        std::error_code ignored;
+        std::filesystem::remove_all(path, ignored);
+      }
+      std::string path;
+    };
+    static const Folder folder;
+    return folder.path;
+  }
+  // Appends what the log gained since the last read.
+  void Read() {
+    std::FILE* file = std::fopen(log_path_.c_str(), "rb");
+    if (file == nullptr) return;
+    if (std::fseek(file, static_cast<long>(read_), SEEK_SET) == 0) {
+      char buffer[4096];
+      size_t got = 0;
+      while ((got = std::fread(buffer, 1, sizeof buffer, file)) > 0) {
+        output_.append(buffer, got);
+        read_ += got;
+      }
     }
-    output_.append(buffer, static_cast<size_t>(got));
-    return true;
+    std::fclose(file);
   }
 
   std::string name_;
-  pid_t pid_ = -1;
-  int fd_ = -1;
-  bool eof_ = false;
+  std::string log_path_;
+  sirupp::proc::Child child_;
+  size_t read_ = 0;
   std::string output_;
 };
 
@@ -416,7 +405,6 @@ RoundTrips MeasureRoundTrips(const std::string& url, const std::string& model_fi
     bus.Publish(channels.sim_arm_state, ping);
   }
   if (pong.Wait(5) != 0) {
-    pong.Drain();
     throw std::runtime_error("the pong process failed; its output:\n" + pong.output());
   }
   result.median_us = Median(result.us);
@@ -549,17 +537,27 @@ long NumberBefore(const std::string& text, const std::string& label) {
 
 struct LoopSetup {
   std::string bin_dir;
-  std::string url;
+  int port = 0;
+  std::string url;  // proc::RigUrl(port)
   std::string model_file;
   int joints = 0;
 };
 
 LoopRun RunLoop(const LoopSetup& setup, const Scenario& scenario, bool setpoints,
                 double duration_s) {
-  std::vector<std::string> control_argv = {setup.bin_dir + "/sirupp-control", "--model",
-                                           setup.model_file, "--lcm-url", setup.url};
-  if (!setpoints) control_argv.push_back("--no-setpoints");
-  Child control(control_argv);
+  // The private rig as proc/rig.hpp describes it (no logger): the controller first, then the sim.
+  sirupp::proc::RigSpec rig;
+  rig.port = setup.port;
+  rig.bin_dir = setup.bin_dir;
+  rig.model = setup.model_file;
+  rig.sim_mode = "lockstep";
+  rig.participants = {kParticipant};
+  char duration[32];
+  std::snprintf(duration, sizeof duration, "%.9g", duration_s);
+  rig.sim_args = {"--duration", duration};
+  if (!setpoints) rig.control_args.push_back("--no-setpoints");
+  const std::vector<sirupp::proc::RigProcess> processes = sirupp::proc::RigProcesses(rig);
+  Child control(processes.at(1).spec);
   control.WaitForLine("participant", 10);
   if (!scenario.moves.empty()) {
     // Kept by sirupp-control and loaded with the first state, as `sirupp move joints` does. This
@@ -573,16 +571,12 @@ LoopRun RunLoop(const LoopSetup& setup, const Scenario& scenario, bool setpoints
     target.active.assign(scenario.goal.size(), 1);
     bus.Publish(sirupp::core::Channels{}.arm_target, target);
   }
-  char duration[32];
-  std::snprintf(duration, sizeof duration, "%.9g", duration_s);
-  Child sim({setup.bin_dir + "/sirupp-sim", "--model", setup.model_file, "--mode", "lockstep",
-             "--participants", kParticipant, "--duration", duration, "--lcm-url", setup.url});
+  Child sim(processes.at(0).spec);
   sim.WaitForLine(" mode, step ", 20);
   const Clock::time_point start = Clock::now();
   const double deadline_s = 30 + 20 * duration_s;
-  if (!sim.ReadToEnd(deadline_s)) {
+  if (!sim.WaitForEnd(deadline_s)) {
     sim.Terminate();
-    sim.Drain();
     throw std::runtime_error("sirupp-sim did not finish within " + std::to_string(deadline_s) +
                              " s; its output:\n" + sim.output());
   }
@@ -590,7 +584,6 @@ LoopRun RunLoop(const LoopSetup& setup, const Scenario& scenario, bool setpoints
   run.wall_s = Seconds(Clock::now() - start);
   const int status = sim.Wait(10);
   control.Terminate();
-  control.Drain();
   const std::string& text = sim.output();
   const size_t summary = text.find("stopped at tick");
   if (status != 0 || summary == std::string::npos) {
@@ -967,6 +960,7 @@ LoopSetup MakeSetup(const Options& options, const std::string& model_file,
   LoopSetup setup;
   setup.bin_dir = options.bin_dir.empty() ? std::filesystem::path(SelfPath()).parent_path().string()
                                           : options.bin_dir;
+  setup.port = options.port;
   setup.url = sirupp::proc::RigUrl(options.port);
   setup.model_file = model_file;
   setup.joints = model.num_joints();

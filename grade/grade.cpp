@@ -9,7 +9,6 @@
 #include <thread>
 
 #include "grade/port_lease.hpp"
-#include "proc/rig.hpp"
 
 namespace sirupp::grade {
 
@@ -111,7 +110,7 @@ std::vector<ControllerResult> RunControllers(const Suite& suite, const core::Rob
       // LCM's 1.4 KB fragments) even when sirupp-control is slow to read: the kernel's default
       // (208 KiB of buffer, counted with each datagram's overhead) lost a 164 KB ARM_PLAN on a
       // loaded machine. The kernel caps it at net.core.rmem_max.
-      run.lcm_url = proc::RigUrl(lease.port(), "recv_buf_size=4194304");
+      run.port = lease.port();
       TaskRecord record = RunTask(suite, model, task, controllers[job.controller], run);
       lease.Release();
       if (!record.completed) {

@@ -10,15 +10,18 @@
 #include "core/bus.hpp"
 #include "core/channels.hpp"
 #include "core/errors.hpp"
-#include "grade/child.hpp"
 #include "grade/driver.hpp"
 #include "grade/reference.hpp"
+#include "proc/child.hpp"
+#include "proc/rig.hpp"
 
 namespace sirupp::grade {
 namespace {
 
 using Clock = std::chrono::steady_clock;
 constexpr const char* kGraderName = "sirupp-grade";
+// A task's rig: a large receive buffer (the grader hears every tick of a lockstep run).
+constexpr const char* kTaskUrlOptions = "recv_buf_size=4194304";
 constexpr double kPi = 3.14159265358979323846;
 
 double Since(Clock::time_point start) {
@@ -96,59 +99,45 @@ sirupp::arm_command_t GraderAnswer(const core::RobotModel& model, const Task& ta
   return command;
 }
 
-// sirupp-control's command line for a library controller or the baseline.
-std::vector<std::string> ControlArgv(const Suite& suite, const ControllerSpec& controller,
-                                     const std::string& bin_dir, const std::string& url) {
-  std::vector<std::string> control_argv = {bin_dir + "/sirupp-control",
-                                           "--model",
-                                           suite.model_file,
-                                           "--lcm-url",
-                                           url,
-                                           "--sim-timeout",
-                                           "3600"};
-  if (controller.kind == ControllerSpec::Kind::kLibrary) {
-    control_argv.insert(control_argv.end(),
-                        {"--controller", controller.library, "--controller-tick-limit",
-                         core::FormatNumber(suite.limits.tick_s)});
-    if (!controller.args.empty()) {
-      control_argv.insert(control_argv.end(), {"--controller-args", controller.args});
-    }
-    if (!controller.sandbox) control_argv.emplace_back("--no-sandbox");
+// The task's private rig (proc/rig.hpp): sirupp-sim in lockstep with the participant and the
+// grader, at the task's start pose and arm, and sirupp-control with the library controller or the
+// baseline (unused when the participant is the student's own process). Logs: work_dir/NAME.log.
+proc::RigSpec TaskRig(const Suite& suite, const core::RobotModel& model, const Task& task,
+                      const ControllerSpec& controller, const RunOptions& options,
+                      const std::string& participant) {
+  proc::RigSpec rig;
+  rig.port = options.port;
+  rig.url_options = kTaskUrlOptions;
+  rig.bin_dir = options.bin_dir;
+  rig.model = suite.model_file;
+  rig.sim_mode = "lockstep";
+  rig.participants = {participant, kGraderName};
+  rig.log_dir = options.work_dir;
+  rig.sim_args = {"--duration", core::FormatNumber(task.duration_s), "--lockstep-timeout", "1",
+                  "--rad"};  // SI: revolute rad, prismatic m
+  for (size_t j = 0; j < static_cast<size_t>(model.num_joints()); ++j) {
+    rig.sim_args.push_back(core::FormatNumber(task.start[j]));
   }
-  return control_argv;
-}
-
-// sirupp-sim's command line: lockstep with the participant and the grader, the task's start
-// pose and arm.
-std::vector<std::string> SimArgv(const Suite& suite, const core::RobotModel& model,
-                                 const Task& task, const std::string& bin_dir,
-                                 const std::string& url, const std::string& participant) {
-  const auto n = static_cast<size_t>(model.num_joints());
-  std::vector<std::string> sim_argv = {bin_dir + "/sirupp-sim",
-                                       "--model",
-                                       suite.model_file,
-                                       "--lcm-url",
-                                       url,
-                                       "--mode",
-                                       "lockstep",
-                                       "--participants",
-                                       participant,
-                                       kGraderName,
-                                       "--duration",
-                                       core::FormatNumber(task.duration_s),
-                                       "--lockstep-timeout",
-                                       "1",
-                                       "--rad"};  // SI: revolute rad, prismatic m
-  for (size_t j = 0; j < n; ++j) sim_argv.push_back(core::FormatNumber(task.start[j]));
   if (task.arm.payload_kg > 0) {
-    sim_argv.insert(sim_argv.end(), {"--payload-kg", core::FormatNumber(task.arm.payload_kg)});
+    rig.sim_args.insert(rig.sim_args.end(),
+                        {"--payload-kg", core::FormatNumber(task.arm.payload_kg)});
   }
   if (task.arm.friction_scale != 1) {
-    sim_argv.insert(sim_argv.end(),
-                    {"--friction-scale", core::FormatNumber(task.arm.friction_scale)});
+    rig.sim_args.insert(rig.sim_args.end(),
+                        {"--friction-scale", core::FormatNumber(task.arm.friction_scale)});
   }
-  if (task.arm.gravity_off) sim_argv.push_back("--gravity-off");
-  return sim_argv;
+  if (task.arm.gravity_off) rig.sim_args.push_back("--gravity-off");
+  rig.control_args = {"--sim-timeout", "3600"};
+  if (controller.kind == ControllerSpec::Kind::kLibrary) {
+    rig.controller = controller.library;
+    rig.control_args.insert(rig.control_args.end(),
+                            {"--controller-tick-limit", core::FormatNumber(suite.limits.tick_s)});
+    if (!controller.args.empty()) {
+      rig.control_args.insert(rig.control_args.end(), {"--controller-args", controller.args});
+    }
+    if (!controller.sandbox) rig.control_args.emplace_back("--no-sandbox");
+  }
+  return rig;
 }
 
 // Why the task is given up while its processes run, or "" to go on: no answer to the first
@@ -249,7 +238,7 @@ class TaskRun {
         expected_(static_cast<size_t>(std::ceil(task.duration_s / model.servo_tick_s)) + 4),
         rows_(expected_, n_),
         progress_(Clock::now()),
-        bus_(options.lcm_url),
+        bus_(RigUrl()),
         driver_(bus_, suite.limits.start_s),
         offered_(0, n_) {
     Listen();
@@ -267,16 +256,29 @@ class TaskRun {
     return "";
   }
 
+  // The task's LCM address (its private port).
+  std::string RigUrl() const { return proc::RigUrl(options_.port, kTaskUrlOptions); }
+
   // The controller first (it must hear the first state), then the sim. "" or why not.
   std::string StartProcesses() {
-    std::vector<std::string> control_argv;
-    const std::string& url = options_.lcm_url;
-    if (via_control_) {
-      control_argv = ControlArgv(suite_, controller_, options_.bin_dir, url);
-    } else {
+    std::vector<proc::RigProcess> rig;
+    try {
+      rig = proc::RigProcesses(TaskRig(suite_, model_, task_, controller_, options_, participant_));
+    } catch (const std::exception& error) {
+      return std::string("could not describe the task's processes: ") + error.what();
+    }
+    // Nothing outlives a killed grader, and what a controller starts ends with it.
+    for (proc::RigProcess& process : rig) {
+      process.spec.death_signal = SIGKILL;
+      process.spec.group_ends_with_it = true;
+    }
+    proc::ProcessSpec sim = rig[0].spec;
+    proc::ProcessSpec control = rig[1].spec;
+    if (!via_control_) {
       const std::string reference_file = options_.work_dir + "/reference.csv";
-      control_argv =
-          ExpandCommand(controller_.command, model_, task_, url, participant_, reference_file);
+      control.argv =
+          ExpandCommand(controller_.command, model_, task_, RigUrl(), participant_, reference_file);
+      control.log_path = options_.work_dir + "/controller.log";
       const bool wants_reference = std::any_of(
           controller_.command.begin(), controller_.command.end(), [](const std::string& word) {
             return word.find("{reference_csv}") != std::string::npos;
@@ -289,12 +291,10 @@ class TaskRun {
         }
       }
     }
-    const std::vector<std::string> sim_argv =
-        SimArgv(suite_, model_, task_, options_.bin_dir, url, participant_);
     start_ = Clock::now();
     try {
-      control_.Start(control_argv, options_.work_dir + "/controller.log");
-      sim_.Start(sim_argv, options_.work_dir + "/sim.log");
+      control_.Start(control);  // the controller first: it must hear the first state
+      sim_.Start(sim);
     } catch (const std::exception& error) {
       return std::string("could not start the task's processes: ") + error.what();
     }
@@ -437,7 +437,7 @@ class TaskRun {
   PlanDriver driver_;
   const core::Channels channels_;
   ReferenceTable offered_;
-  Child control_, sim_;
+  proc::Child control_, sim_;
 };
 
 }  // namespace

@@ -44,7 +44,7 @@ std::vector<std::string> ExpandCommand(const std::vector<std::string>& command,
 struct RunOptions {
   std::string bin_dir;   // sirupp-sim, sirupp-control
   std::string work_dir;  // logs of this task's processes go here
-  std::string lcm_url;   // private to this task
+  int port = 0;          // the task's private udpm port (a PortLease's): proc::RigUrl
 };
 
 // One task as recorded: row k is tick k. Positions and references in rad (m), efforts N*m (N).

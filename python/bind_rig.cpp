@@ -18,6 +18,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <tuple>
 #include <thread>
 #include <vector>
 
@@ -564,6 +565,33 @@ void BindRig(py::module_& m) {
   m.def(
       "_rig_url", [](int port) { return proc::RigUrl(port); }, py::arg("port"),
       "a private rig's LCM address on a udpm port (proc/rig.hpp)");
+  m.def(
+      "_rig_processes",
+      [](int port, const std::string& bin_dir, const std::string& model, const std::string& mode,
+         const std::vector<std::string>& participants, const std::vector<std::string>& sim_args,
+         const std::string& controller, const std::vector<std::string>& control_args,
+         const std::string& results_dir, const std::string& log_dir) {
+        proc::RigSpec rig;
+        rig.port = port;
+        rig.bin_dir = bin_dir;
+        rig.model = model;
+        rig.sim_mode = mode;
+        rig.participants = participants;
+        rig.sim_args = sim_args;
+        rig.controller = controller;
+        rig.control_args = control_args;
+        rig.results_dir = results_dir;
+        rig.log_dir = log_dir;
+        std::vector<std::tuple<std::string, std::vector<std::string>, std::string>> processes;
+        for (const proc::RigProcess& process : proc::RigProcesses(rig)) {
+          processes.emplace_back(process.name, process.spec.argv, process.spec.log_path);
+        }
+        return processes;
+      },
+      py::arg("port"), py::arg("bin_dir"), py::arg("model"), py::arg("mode"),
+      py::arg("participants"), py::arg("sim_args"), py::arg("controller"),
+      py::arg("control_args"), py::arg("results_dir"), py::arg("log_dir"),
+      "a private rig's processes in start order (proc::RigProcesses): (name, argv, log file)");
   py::class_<grade::PortLease>(m, "_PortLease", "a private udpm port (grade/port_lease.hpp)")
       .def_static("acquire", &grade::PortLease::Acquire, py::arg("first"), py::arg("count"),
                   py::arg("start_offset"), py::arg("directory") = "")

@@ -200,7 +200,7 @@ struct TaskRun {
     lease = PortLease::Acquire(kPortBase, kPortCount, static_cast<int>(::getpid() % 9000));
     options.bin_dir = BinDir();
     options.work_dir = work;
-    options.lcm_url = "udpm://239.255.76.67:" + std::to_string(lease.port()) + "?ttl=0";
+    options.port = lease.port();
   }
   ~TaskRun() { fs::remove_all(work); }
   std::string work;

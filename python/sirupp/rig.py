@@ -11,7 +11,7 @@ import numpy as np
 
 from . import _paths
 from ._sirupp import (Model, RigError, _Child, _Client, _PortLease, _Recorder, _pose_parts,
-                      _rig_url)
+                      _rig_processes, _rig_url)
 
 DEFAULT_MODEL = os.path.join(_paths.SOURCE_DIR, "config/robots/puma260.yaml")
 # Private rigs take their port from the range `sirupp grade` uses, with the same lock files
@@ -317,44 +317,45 @@ def start_rig(model=None, mode="realtime", environment=None, panel=False, logger
         raise ValueError("mode: %r; expected 'realtime' or 'lockstep'" % (mode,))
     model_file = model or DEFAULT_MODEL
     m = Model(model_file)  # a bad model fails here, with its file:line, before anything starts
-    lease = _PortLease.acquire(_PORT_BASE, _PORT_COUNT, os.getpid())
-    url = _rig_url(lease.port)
+    if controller and not os.path.isfile(controller):
+        raise ValueError("controller: %s: no such file" % controller)
+    control_args = ["--sim-timeout", "%g" % sim_timeout]
+    if controller and controller_args:
+        control_args += ["--controller-args", controller_args]
+    sim_args = (["--environment", environment] if environment else []) + \
+        ([] if friction else ["--no-friction"])
     log_dir = log_dir or tempfile.mkdtemp(prefix="sirupp-rig-")
     os.makedirs(log_dir, exist_ok=True)
-    bin_dir = _paths.BIN_DIR
-    control_args = ["--lcm-url", url, "--model", model_file, "--sim-timeout", "%g" % sim_timeout]
-    if controller:
-        if not os.path.isfile(controller):
-            raise ValueError("controller: %s: no such file" % controller)
-        control_args += ["--controller", os.path.abspath(controller)]
-        if controller_args:
-            control_args += ["--controller-args", controller_args]
-    commands = [
-        ("sirupp-control", control_args),
-        ("sirupp-sim", ["--lcm-url", url, "--model", model_file, "--mode", mode,
-                        "--participants", "sirupp-control"] +
-         (["--environment", environment] if environment else []) +
-         ([] if friction else ["--no-friction"])),
-    ]
-    if logger:
-        commands.append(("sirupp-logger", ["--lcm-url", url, "--out",
-                                           os.path.join(log_dir, "data")]))
+    lease = _PortLease.acquire(_PORT_BASE, _PORT_COUNT, os.getpid())
+    url = _rig_url(lease.port)
+    try:
+        # The rig as proc::RigProcesses describes it: sirupp-sim, sirupp-control, sirupp-logger.
+        commands = [(argv, log) for _, argv, log in _rig_processes(
+            port=lease.port, bin_dir=_paths.BIN_DIR, model=model_file, mode=mode,
+            participants=["sirupp-control"], sim_args=sim_args,
+            controller=os.path.abspath(controller) if controller else "",
+            control_args=control_args,
+            results_dir=os.path.join(log_dir, "data") if logger else "", log_dir=log_dir)]
+    except BaseException:
+        lease.release()
+        raise
     panel_port = None
     if panel:
         with socket.socket() as s:  # a free TCP port for the panel's web server
             s.bind(("127.0.0.1", 0))
             panel_port = s.getsockname()[1]
-        commands.append(("sirupp-panel", ["--lcm-url", url, "--port", str(panel_port)]))
+        commands.append(([os.path.join(_paths.BIN_DIR, "sirupp-panel"), "--lcm-url", url,
+                          "--port", str(panel_port)], os.path.join(log_dir, "sirupp-panel.log")))
     children = []
     try:
-        for program, args in commands:
+        for argv, log in commands:
             child = _Child()
-            child.start([os.path.join(bin_dir, program)] + args,
-                        os.path.join(log_dir, program + ".log"))
+            child.start(argv, log)
             children.append(child)
             time.sleep(0.05)
             if not child.running():
-                raise RigError("%s %s: %s" % (program, child.how_ended(), child.log_tail(3)))
+                raise RigError("%s %s: %s" % (os.path.basename(argv[0]), child.how_ended(),
+                                              child.log_tail(3)))
     except BaseException:
         for child in reversed(children):
             child.stop(1.0)
