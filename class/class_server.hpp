@@ -1,7 +1,8 @@
 #pragma once
 // The class server behind `sirupp class serve`: one HTTP server in front of a private rig per
-// student (class/rig.hpp). It owns the tokens, the rigs' lifetimes (started on a student's first
-// visit, stopped after the idle timeout, at most max_rigs at once) and the teacher's view.
+// student. It owns the tokens, the routes and the teacher's view; the rigs' lifetimes (started on a
+// student's first visit, stopped after the idle timeout, at most max_rigs at once, local processes
+// or cluster jobs) are the rig pool's (class/rig_pool.hpp).
 //
 //   /s/NAME/...    the panel's page and API (panel/web, panel::PanelApi) for NAME's rig; NAME's
 //                  token opens it, the teacher's token opens it read-only, anything else is 403
@@ -35,7 +36,7 @@ struct ServeOptions {
 // The class's files in its data folder.
 std::string TokensFile(const ClassConfig& config);   // DATA/tokens.json (hashes)
 std::string HandoutFile(const ClassConfig& config);  // DATA/tokens.csv (addresses, for the teacher)
-std::string StudentFolder(const ClassConfig& config, const std::string& name);
+std::string StudentFolder(const ClassConfig& config, const std::string& name);  // rig_pool.cpp
 std::string TurnsLogFile(const ClassConfig& config);  // DATA/turns.jsonl (the real arm's turns)
 
 // The address that opens `name`'s page (or the teacher's) with `token`.
