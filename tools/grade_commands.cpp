@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <optional>
 #include <ostream>
 
 #include "core/errors.hpp"
@@ -12,11 +13,13 @@
 #include "grade/build_controller.hpp"
 #include "grade/grade.hpp"
 #include "grade/report.hpp"
+#include "grade/result_file.hpp"
 #include "grade/submission.hpp"
 #include "runtime/args.hpp"
 #include "runtime/data_path.hpp"
 #include "sandbox/sandbox.hpp"
 #include "tools/cli.hpp"
+#include "tools/grade_cluster.hpp"
 
 namespace sirupp::tools {
 namespace fs = std::filesystem;
@@ -40,6 +43,12 @@ const char* const kGradeAbout =
     "read-only, CPU, memory, process and file-size limits; where this machine cannot give it,\n"
     "grading a library is refused with the reason. --no-sandbox: unconfined (your own code\n"
     "only). Process controllers (-- COMMAND) use the network and run unconfined.\n"
+    "--batch DIR --cluster FILE: each submission graded as one Slurm job (and the baseline as\n"
+    "one more) with FILE's cluster: key (a class file, or a file with that one key): its\n"
+    "grading time, CPUs and memory, grading.jobs at once, -j tasks at a time in each job; the\n"
+    "same reports; DIR, OUT, the suite and the programs at the same paths on the nodes\n"
+    "(docs/cluster.md). Exit 1 when the baseline could not be graded or on SIGINT/SIGTERM\n"
+    "(every job cancelled).\n"
     "docs/grading.md.\n";
 
 const char* const kControllerBuildAbout =
@@ -177,6 +186,35 @@ void ReportBatch(const std::string& out_dir, const grade::Suite& suite,
       << " submissions)\n";
 }
 
+// What one job of `--batch DIR --cluster FILE` runs on its node (tools/grade_cluster.hpp): the
+// submission's folder found and built as a local batch does (into OUT/build/NAME), or the
+// baseline, graded; the whole result written to `result_file` for the batch's reports.
+int RunClusterPart(const std::string& part, const std::string& result_file,
+                   const std::string& out_dir, bool sandbox, const grade::Suite& suite,
+                   const core::RobotModel& model, grade::GradeOptions options, std::ostream& out) {
+  options.work_dir = (fs::absolute(result_file).parent_path() / "logs").string();
+  grade::ControllerSpec spec;
+  if (part == "baseline") {
+    spec.kind = grade::ControllerSpec::Kind::kBaseline;
+    spec.label = grade::kBaselineLabel;
+  } else {
+    const grade::FoundController found = grade::FindSubmission(
+        part, IncludeDir(), (fs::absolute(out_dir) / "build").string(), sandbox);
+    if (!found.problem.empty()) {
+      grade::WriteResultFile(result_file, grade::ControllerResult{}, found.problem);
+      out << "grade: " << part << ": " << found.problem << "\n";
+      return 0;
+    }
+    spec = found.spec;
+  }
+  const std::vector<grade::ControllerResult> results =
+      grade::RunControllers(suite, model, {spec}, options);
+  grade::WriteResultFile(result_file, results.front(), "");
+  out << "grade: " << spec.label << " on " << suite.name << ": " << results.front().passed() << "/"
+      << results.front().tasks.size() << " tasks passed; result " << result_file << "\n";
+  return 0;
+}
+
 }  // namespace
 
 int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
@@ -193,7 +231,12 @@ int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostre
        runtime::Flag("batch", "one controller per sub-folder").Takes("DIR"),
        runtime::Flag("no-baseline", "do not grade the baseline").Switch(),
        runtime::Flag("jobs", "tasks at a time").Short('j').Takes("N").Integer(1, 64),
-       runtime::Flag("no-sandbox", "build and run libraries unconfined").Switch()},
+       runtime::Flag("no-sandbox", "build and run libraries unconfined").Switch(),
+       runtime::Flag("cluster", "--batch: each submission one Slurm job (a class file)")
+           .Takes("FILE"),
+       runtime::Flag("cluster-part", "what one --cluster job grades (written by --cluster)")
+           .Takes("FOLDER|baseline"),
+       runtime::Flag("cluster-result", "where that job writes its result").Takes("FILE")},
       kGradeAbout);
   const std::vector<std::string> libraries =
       parsed.Has("library") ? parsed.Values("library", -1) : std::vector<std::string>{};
@@ -209,11 +252,31 @@ int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostre
   const int jobs = static_cast<int>(parsed.Integer("jobs", 1));
   const bool baseline = !parsed.Switch("no-baseline");
   const bool sandbox = !parsed.Switch("no-sandbox");
+  const std::string cluster_file = parsed.Has("cluster") ? parsed.String("cluster") : "";
+  const std::string part = parsed.Has("cluster-part") ? parsed.String("cluster-part") : "";
+  const std::string part_result =
+      parsed.Has("cluster-result") ? parsed.String("cluster-result") : "";
   if (suite_file.empty()) throw core::UsageError("grade: missing --suite FILE");
-  const int given = (library.empty() ? 0 : 1) + (command.empty() ? 0 : 1) + (batch.empty() ? 0 : 1);
+  const int given = (library.empty() ? 0 : 1) + (command.empty() ? 0 : 1) +
+                    (batch.empty() ? 0 : 1) + (part.empty() ? 0 : 1);
   if (given != 1) {
     throw core::UsageError("grade: give one controller: LIB.so, -- COMMAND ..., or --batch DIR");
   }
+  if (!cluster_file.empty() && batch.empty()) {
+    throw core::UsageError("grade: --cluster " + cluster_file +
+                           ": allowed with --batch DIR only (one controller is one grade here)");
+  }
+  if (part.empty() != part_result.empty()) {
+    throw core::UsageError(
+        "grade: --cluster-part and --cluster-result go together (what a --cluster job runs)");
+  }
+  if (!part.empty() && part != "baseline" && !fs::is_directory(part)) {
+    throw core::UsageError("grade: --cluster-part '" + part +
+                           "': allowed a submission's folder or the word baseline");
+  }
+  const std::optional<cluster::ClusterConfig> on_cluster =
+      cluster_file.empty() ? std::nullopt
+                           : std::optional<cluster::ClusterConfig>(ReadGradeCluster(cluster_file));
   if (!library.empty() && !fs::is_regular_file(library)) {
     throw core::UsageError("grade: controller library '" + library + "' is not a file");
   }
@@ -228,7 +291,8 @@ int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostre
   }
   // Libraries (and sources) are someone else's code: without the sandbox they are refused here,
   // with the reason, rather than run unconfined (a process controller runs unconfined anyway).
-  if (sandbox && command.empty() && !sandbox::ProbeMachine().usable) {
+  // With --cluster, the jobs check it on their nodes.
+  if (sandbox && command.empty() && !on_cluster && !sandbox::ProbeMachine().usable) {
     throw core::UsageError(
         "grade: the sandbox cannot be had on this machine: " + sandbox::ProbeMachine().problem +
         " (docs/sandbox.md; --no-sandbox grades unconfined, for your own code)");
@@ -239,6 +303,31 @@ int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostre
   options.jobs = jobs;
   options.bin_dir = BinDir();
   options.work_dir = (fs::absolute(out_dir) / "logs").string();
+  if (!part.empty())
+    return RunClusterPart(part, part_result, out_dir, sandbox, suite, model, options, out);
+  if (on_cluster) {
+    ClusterBatch jobs_batch;
+    jobs_batch.cluster = *on_cluster;
+    jobs_batch.bin_dir = options.bin_dir;
+    jobs_batch.batch_dir = fs::absolute(batch).string();
+    jobs_batch.out_dir = fs::absolute(out_dir).string();
+    jobs_batch.suite_file = fs::absolute(Resolve(suite_file)).string();
+    jobs_batch.jobs = jobs;
+    jobs_batch.sandbox = sandbox;
+    jobs_batch.baseline = baseline;
+    ClusterBatchResult graded_jobs = GradeBatchOnCluster(jobs_batch, suite, model, err);
+    if (graded_jobs.stopped) return 1;
+    const grade::ControllerResult* base =
+        graded_jobs.has_baseline ? &graded_jobs.results.back() : nullptr;
+    ReportBatch(out_dir, suite, model, graded_jobs.results, base, graded_jobs.graded,
+                graded_jobs.submissions, out, err);
+    if (!graded_jobs.baseline_problem.empty()) {
+      err << "grade: the baseline was not graded (" << graded_jobs.baseline_problem
+          << "); the reports have no baseline\n";
+      return 1;
+    }
+    return 0;
+  }
 
   std::vector<grade::ControllerSpec> controllers;
   std::vector<grade::Submission> submissions;
