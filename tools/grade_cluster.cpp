@@ -213,7 +213,8 @@ class Batch {
 cluster::ClusterConfig ReadGradeCluster(const std::string& file) {
   const core::YamlDocument document = core::YamlDocument::Load(file);
   const core::YamlValue root = document.Root();
-  if (root.node().IsMap() && root.node()["class"]) {  // a class file: read whole, as the class server would
+  if (root.node().IsMap() &&
+      root.node()["class"]) {  // a class file: read whole, as the class server would
     const classroom::ClassConfig config = classroom::LoadClassConfig(file);
     if (!config.cluster) {
       throw core::UsageError("grade: --cluster " + file +

@@ -12,6 +12,8 @@ student on their first visit and proxies their API and live stream to it.
 - a job the cluster holds back is shown as waiting for the cluster with Slurm's reason, and the
   page's API says so, until the job runs;
 - the class server's own stop cancels every job;
+- "Run on my rig" with a Python and a C++ submission: the rig job is submitted again with the
+  controller, which is loaded on the node and runs set VII to its goal;
 - a burst of 6 submissions graded as jobs 2 at a time takes less than 0.6 of the time one job at a
   time takes.
 
@@ -272,6 +274,69 @@ def test_a_waiting_job_shows_slurms_reason_until_it_runs():
         wait_for("erin's rig running once released", 60, lambda: running(run, "erin"))
         code, state = run.http("GET", "/s/erin/api/state", run.token("erin"))
         assert code == 200, state
+    finally:
+        finish(run)
+
+
+def test_run_on_my_rig_on_a_node():
+    """A submitted controller (Python and C++) runs on the student's rig job: "Run on my rig"
+    cancels the job and submits a new one whose sirupp-control loads the submission from the
+    student's folder (as the node sees it); set VII ends at its goal under it; back to the
+    built-in law the same way."""
+    run = start_class(["fay"])
+    try:
+        code, _ = run.http("GET", "/s/fay/", run.token("fay"))
+        assert code == 200
+        wait_for("fay's rig job running", 90, lambda: running(run, "fay"))
+        first = set(jobs_of(run))
+        sources = {"python": os.path.join(ROOT, "examples", "07_python_controller",
+                                          "computed_torque_pid.py"),
+                   "cpp": os.path.join(ROOT, "examples", "02_pd_gravity", "pd_gravity.cpp")}
+        with open(os.path.join(ROOT, "config", "plans", "set7.plan")) as f:
+            plan = f.read()
+        for language, source in sorted(sources.items(), reverse=True):  # python, then cpp
+            with open(source) as f:
+                code, body = run.http("POST", "/s/fay/class/submissions", run.token("fay"),
+                                      {"language": language, "source": f.read()})
+            assert code == 200, body
+            sub = body["id"]
+            wait_for("submission %d built" % sub, 120, lambda: next(
+                s for s in run.http("GET", "/s/fay/class/submissions", run.token("fay"))[1][
+                    "submissions"] if s["id"] == sub)["state"] == "ready")
+            code, body = run.http("POST", "/s/fay/class/run", run.token("fay"), {"id": sub})
+            assert code == 200 and body["running"] == sub and not body["rig_problem"], body
+            s = wait_for("fay's rig job running with submission %d" % sub, 90,
+                         lambda: (lambda s: s if s["starts"] >= 1 and set(jobs_of(run)) != first
+                                  else None)(running(run, "fay") or {"starts": 0}))
+            assert len(jobs_of(run)) == 1, jobs_of(run)
+            first = set(jobs_of(run))
+            # The job's sirupp-control loads the submission (its path under the student's folder).
+            control = [p for p in rig_processes(run) if "sirupp-control" in p]
+            wanted = "submissions/%d/" % sub
+            assert any("--controller" in p and wanted in p for p in control), control
+            code, body = run.http("POST", "/s/fay/api/lock", run.token("fay"), {"name": "fay"})
+            assert code == 200, body
+            code, body = run.http("POST", "/s/fay/api/plan/run", run.token("fay"),
+                                  {"name": "set7.plan", "text": plan})
+            assert code == 200, body
+            goal = (90, 90, 90, 0, 0, 0)
+
+            def at_goal():
+                code, state = run.http("GET", "/s/fay/api/state", run.token("fay"))
+                if code != 200 or state["controller"]["state"] != "idle":
+                    return None
+                error = max(abs(a - b) for a, b in zip(state["virtual"]["q"], goal))
+                return error if error < 0.5 else None
+
+            error = wait_for("set VII's goal under submission %d (%s)" % (sub, language), 120,
+                             at_goal)
+            print("fay's %s submission on her rig job (%s): set VII ends %.3f deg from the goal"
+                  % (language, s["where"], error))
+        code, body = run.http("POST", "/s/fay/class/run", run.token("fay"), {"id": None})
+        assert code == 200 and body["running"] is None, body
+        wait_for("fay's rig job running with the built-in law", 90, lambda: running(run, "fay")
+                 and set(jobs_of(run)) != first and not any(
+                     "--controller" in p for p in rig_processes(run) if "sirupp-control" in p))
     finally:
         finish(run)
 
