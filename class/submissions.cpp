@@ -335,16 +335,20 @@ panel::Response SubmissionService::Submit(const std::string& student, const std:
       return JsonResponse(200, Public(student, id));
     }
   }
+  Json answer;
   {
     const std::lock_guard<std::mutex> lock(mutex_);
     meta["state"] = suite_ ? "queued" : "ready";
     store_.Write(student, id, meta);
     if (suite_) queue_.emplace_back(student, id);
+    // The answer is the submission as it was taken (queued), not whatever an idle grading worker
+    // made of it by the time the answer is read.
+    answer = Public(student, id);
   }
   wake_.notify_all();
   log_(student + ": submission " + std::to_string(id) + " (" + language + ") " +
        (suite_ ? "queued for grading" : "ready"));
-  return JsonResponse(200, Public(student, id));
+  return JsonResponse(200, answer);
 }
 
 void SubmissionService::Worker() {
