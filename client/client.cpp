@@ -647,7 +647,7 @@ std::optional<Outcome> Client::Follow(const std::function<bool(const Status&)>& 
   bool silent = false;
   const bool done = Until(
       [&] {
-        if ((silent = ControllerSilent(kControllerSilentS))) return true;
+        if ((silent = ControllerSilent(options_.controller_silent_s))) return true;
         const Status& s = *snapshot_.controller;
         return s.seq >= from_status_seq && ended(s);
       },

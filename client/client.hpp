@@ -44,6 +44,10 @@ struct Options {
   std::string prefix;   // the rig's channel prefix, "" for none
   std::string sender;   // who sends (estop_t.sender, hardware_command_t.sender); "" = pid@host
   double answer_timeout_s = 2.0;  // how long a command waits for its reply
+  // How long sirupp-control may send no CONTROLLER_STATUS (10 Hz) before a wait for a move or a
+  // plan gives up on it (Client::kControllerSilentS by default). Wall clock: a loaded PC can stall
+  // a process longer than that (`sirupp demo` gives it room).
+  double controller_silent_s = 1.5;
   // Also follow the per-tick channels SIM_ARM_STATE and ARM_SETPOINT (newest only). Costs CPU
   // while waiting; WatchJoints() switches it later.
   bool watch_joints = false;
@@ -301,7 +305,8 @@ class Client {
   // Gains a status must show as sent: Kp, Kd, Ki, IL, OL, EL, DB (not CL, SR).
   static bool SameFilterGains(const sirupp::servo_gains_t& a, const sirupp::servo_gains_t& b);
 
-  // How long sirupp-control may be silent before a wait gives up (it sends at 10 Hz).
+  // How long sirupp-control may be silent before a wait gives up (it sends at 10 Hz): the default
+  // of Options::controller_silent_s.
   static constexpr double kControllerSilentS = 1.5;
   // How long a command waits for its reply before it sends the same request again.
   static constexpr double kResendAfterS = 0.5;

@@ -133,10 +133,18 @@ bool WaitLinked(const std::string& url, const std::string& prefix, double timeou
 // Sim time the demo lets pass after each set's plan has ended (see the set loop).
 constexpr double kAfterSetS = 0.8;
 
+// How long a process of the demo may be silent (wall clock) before the demo's client takes it as
+// gone: a PC loaded far beyond its cores stalls a process for seconds (2.4 s measured on the 2-core
+// VM at a load average of 14 to 29), and in realtime mode such a stall only costs time (the sim
+// waits for every answer). The layout gives the sim's and the controller's watchdogs the same
+// room (config/labs/demo.yaml). A process that really stopped is still named: by the watchdogs
+// 10 s later, and by the launcher after the set.
+constexpr double kStallS = 10.0;
+
 // Waits until `seconds` of sim time have passed on SIM_ARM_STATE (at most 30 s of wall clock).
 void WaitSimSeconds(client::Client& rig, double seconds) {
   rig.WatchJoints(true);
-  if (rig.Until([&] { return rig.snapshot().sim_arm.has_value(); }, 2.0)) {
+  if (rig.Until([&] { return rig.snapshot().sim_arm.has_value(); }, 30.0)) {
     const int64_t until = rig.snapshot().sim_arm->utime + static_cast<int64_t>(seconds * 1e6);
     rig.Until([&] { return rig.snapshot().sim_arm->utime >= until; }, 30.0);
   }
@@ -196,6 +204,8 @@ std::vector<std::string> RunSets(const launch::Layout& layout, const core::Robot
   rig_options.lcm_url = layout.lcm_url;
   rig_options.prefix = layout.prefix;
   rig_options.sender = "sirupp demo";
+  rig_options.answer_timeout_s = kStallS;
+  rig_options.controller_silent_s = kStallS;
   client::Client rig(rig_options);
   for (size_t i = 0; i < sets.size() && !runtime::StopRequested(); ++i) {
     const auto t0 = Clock::now();

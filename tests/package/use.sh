@@ -26,6 +26,8 @@ if [[ $rc -ne 0 || $n -ne 7 ]] || ! grep -q "(7/7)" demo.out || ! grep -q "^demo
   echo "FAIL sirupp demo: exit $rc, $n of 7 sets done"; fail=1
   sed -n '/running 7 movement sets/,/Table II/p' demo.out | head -60
   tail -3 demo.out; uptime
+  # What the processes said about stalls and losses (docs/timing.md, "The demo on a loaded PC").
+  grep -h "lost\|no answer\|behind the wall\|stopped at tick" demo/logs/*.log | tail -12
 else
   echo "sirupp demo: 7/7 sets in $(( $(date +%s) - t )) s"
 fi
