@@ -14,6 +14,7 @@ Run: tests/cluster/with_cluster.sh /usr/bin/python3 -m pytest -q tests/cluster/g
 (env SIRUPP_BIN_DIR: the build's bin/; LIB_DIR: its lib/; TEST_CONTROLLERS: tests/controllers).
 """
 import filecmp
+import json
 import os
 import shutil
 import signal
@@ -120,6 +121,33 @@ def make_class(work, names):
     return folder
 
 
+def json_differences(a, b, path=""):
+    """Where two JSON values differ: ["tasks[0].controller.rms_deg: 0.1 != 0.2", ...]."""
+    if isinstance(a, dict) and isinstance(b, dict):
+        out = []
+        for key in sorted(set(a) | set(b)):
+            out += json_differences(a.get(key), b.get(key), "%s.%s" % (path, key))
+        return out
+    if isinstance(a, list) and isinstance(b, list) and len(a) == len(b):
+        out = []
+        for i, (x, y) in enumerate(zip(a, b)):
+            out += json_differences(x, y, "%s[%d]" % (path, i))
+        return out
+    return [] if a == b else ["%s: %r != %r" % (path, a, b)]
+
+
+def explain(local_out, jobs_out):
+    """What differs between the two batches' results.json files (printed when a test fails)."""
+    for name in sorted(os.listdir(local_out)):
+        here = os.path.join(local_out, name, "results.json")
+        there = os.path.join(jobs_out, name, "results.json")
+        if os.path.isfile(here) and os.path.isfile(there):
+            with open(here) as f, open(there) as g:
+                found = json_differences(json.load(f), json.load(g))
+            print("%s/results.json, local != cluster: %d difference(s)%s" % (
+                name, len(found), "".join("\n  " + d for d in found[:20])))
+
+
 def summary(text, out):
     """The summary lines (stdout), with the output folder's path made neutral."""
     return text.replace(out, "OUT")
@@ -143,6 +171,8 @@ def test_a_batch_on_the_cluster_gives_the_local_batchs_results(work):
     print("7 grading jobs (6 submissions and the baseline) 2 at a time: %.1f s; at most %d "
           "running at once" % (time.time() - started, watch.most))
     assert on.returncode == 0, on.stdout + on.stderr
+    if summary(on.stdout, jobs_out) != summary(here.stdout, local_out):
+        explain(local_out, jobs_out)
     assert summary(on.stdout, jobs_out) == summary(here.stdout, local_out), (on.stdout,
                                                                               here.stdout)
     assert "graded as Slurm job" in on.stderr
