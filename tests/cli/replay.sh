@@ -17,8 +17,11 @@ for tool in lcm-logger python3; do
   command -v "$tool" >/dev/null || { echo "FAIL: $tool not found (scripts/install-deps.sh)"; exit 1; }
 done
 
+# The recorders' sockets take a 4 MiB buffer (as far as net.core.rmem_max allows): on a loaded
+# machine a recorder with the default 208 KiB lost a datagram of the replay.
+REC_URL="$URL&recv_buf_size=4194304"
 # Record: sirupp-sim for 0.4 s of real time, states at 1/8 of the servo rate.
-lcm-logger --lcm-url="$URL" -f -q "$work/run.lcm" 2>"$work/rec.err" &
+lcm-logger --lcm-url="$REC_URL" -f -q "$work/run.lcm" 2>"$work/rec.err" &
 rec=$!; pids+=("$rec")
 # A recorder listens once its socket is bound (a fixed sleep was too short on a loaded machine:
 # the replay's recorder once heard 1 message of 105).
@@ -37,7 +40,7 @@ sleep 0.3  # lcm-logger 1.3.1 flushes every 100 ms and not on exit
 kill -INT "$rec"; wait "$rec" 2>/dev/null
 
 # Replay at speed 2 to a second recorder.
-lcm-logger --lcm-url="$URL" -f -q "$work/replayed.lcm" 2>"$work/rep.err" &
+lcm-logger --lcm-url="$REC_URL" -f -q "$work/replayed.lcm" 2>"$work/rep.err" &
 rep=$!; pids+=("$rep")
 wait_bound "$rep"
 run replay 0 replay "$work/run.lcm" --lcm-url "$URL" --speed 2
