@@ -534,7 +534,10 @@ SubmissionService::GradeRun SubmissionService::GradeAsJob(const std::string& stu
   request.time_limit_min = jobs.grading.time_limit_min;
   request.cpus = jobs.grading.cpus;
   request.memory_mb = jobs.grading.memory_mb;
-  request.extra_args = jobs.sbatch_args;
+  // Lost with its node, the job ends NODE_FAIL (not run again by Slurm): submitted once more here.
+  request.extra_args = {"--no-requeue"};
+  request.extra_args.insert(request.extra_args.end(), jobs.sbatch_args.begin(),
+                            jobs.sbatch_args.end());
   GradeRun run;
   for (int attempt = 1; attempt <= 2; ++attempt) {
     const cluster::SubmitResult submitted = engine_->Submit(request);
@@ -572,8 +575,7 @@ SubmissionService::GradeRun SubmissionService::GradeAsJob(const std::string& stu
       run.ok = true;
       return run;
     }
-    const bool lost = status.slurm_state == "NODE_FAIL" || status.slurm_state == "BOOT_FAIL" ||
-                      status.slurm_state == "PREEMPTED";
+    const bool lost = cluster::LostWithItsNode(status);
     if (lost && attempt == 1) {
       log_(student + ": submission " + std::to_string(id) + ": " + status.reason +
            "; submitted once more");

@@ -30,6 +30,8 @@ const std::vector<Owned> kOwned = {
     {{"--mem", "--mem-per-cpu", "--mem-per-gpu"},
      "cluster.rig.memory_mb and cluster.grading.memory_mb"},
     {{"--nodes", "-N", "--ntasks", "-n"}, "the class server (one task on one node per job)"},
+    {{"--requeue", "--no-requeue"},
+     "the class server (a grading job lost with its node is submitted once more by it)"},
     {{"--parsable", "--wrap", "--array", "-a", "--wait", "-W"},
      "the class server (one plain job, its id read back at once)"}};
 

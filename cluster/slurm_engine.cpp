@@ -45,6 +45,12 @@ const char* JobStateName(JobState state) {
   return "unknown";
 }
 
+bool LostWithItsNode(const JobStatus& status) {
+  return status.state == JobState::kEnded &&
+         (status.slurm_state == "NODE_FAIL" || status.slurm_state == "BOOT_FAIL" ||
+          status.slurm_state == "PREEMPTED");
+}
+
 bool IsJobId(const std::string& text) {
   return !text.empty() && text.size() <= 20 &&
          std::all_of(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; });

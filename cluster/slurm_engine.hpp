@@ -80,6 +80,11 @@ class SlurmEngine {
 // Exposed for tests.
 JobStatus ParseSqueueLine(const std::string& line);
 
+// A job that ended because its node went (NODE_FAIL, BOOT_FAIL) or another job took its place
+// (PREEMPTED): not its own doing, so worth one more submission. Submitted with --no-requeue, such
+// a job ends in one of these states instead of being run again by Slurm (JobRequeue).
+bool LostWithItsNode(const JobStatus& status);
+
 // What a final Slurm state means for a student or a teacher ("the job reached its time limit").
 std::string EndedReason(const std::string& slurm_state, const std::string& slurm_reason);
 

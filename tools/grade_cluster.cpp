@@ -182,8 +182,7 @@ class Batch {
       }
       return true;
     }
-    const bool lost = status.slurm_state == "NODE_FAIL" || status.slurm_state == "BOOT_FAIL" ||
-                      status.slurm_state == "PREEMPTED";
+    const bool lost = cluster::LostWithItsNode(status);
     if (lost && part.attempt == 1) {
       err_ << "grade: " << part.name << ": Slurm job " << part.job_id << ": " << status.reason
            << "; submitted once more\n";
