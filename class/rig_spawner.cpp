@@ -174,7 +174,11 @@ void SlurmRigSpawner::Start() {
   request.time_limit_min = config_.rig.time_limit_min;
   request.cpus = config_.rig.cpus;
   request.memory_mb = config_.rig.memory_mb;
-  request.extra_args = config_.sbatch_args;
+  // Lost with its node, the job ends NODE_FAIL and the pages say so; Slurm does not quietly run
+  // it again elsewhere (JobRequeue), where it would report to a rig the server saw end.
+  request.extra_args = {"--no-requeue"};
+  request.extra_args.insert(request.extra_args.end(), config_.sbatch_args.begin(),
+                            config_.sbatch_args.end());
   const cluster::SubmitResult submitted = engine_.Submit(request);
   if (!submitted.ok())
     throw std::runtime_error("the cluster refused the rig's job: " + submitted.error);

@@ -6,6 +6,8 @@ student on their first visit and proxies their API and live stream to it.
   on each rig to within 0.5 deg; a student's token refused (403) on another's rig through the
   proxy; the teacher's page lists the three as Slurm jobs with their live joints;
 - a job cancelled from outside (scancel) is shown on both pages with Slurm's reason;
+- a job lost with its node (the node set DOWN under it) is shown on both pages with Slurm's
+  NODE_FAIL, and Slurm does not run it again;
 - kill -9 of the class server, then a restart that reattaches: the same jobs, the pages work
   through the proxy again, no job or rig process more than before;
 - an idle rig's job is cancelled (and nothing of it is left on the node);
@@ -23,6 +25,7 @@ Run: tests/cluster/with_cluster.sh /usr/bin/python3 -m pytest -q tests/cluster/c
 import json
 import os
 import signal
+import socket
 import subprocess
 import sys
 import time
@@ -275,6 +278,39 @@ def test_a_waiting_job_shows_slurms_reason_until_it_runs():
         code, state = run.http("GET", "/s/erin/api/state", run.token("erin"))
         assert code == 200, state
     finally:
+        finish(run)
+
+
+def node_state():
+    node = socket.gethostname().split(".")[0]
+    return node, subprocess.run(["sinfo", "-h", "-N", "-n", node, "-o", "%T"],
+                                capture_output=True, text=True, timeout=20).stdout.strip()
+
+
+def test_a_rig_job_lost_with_its_node_shows_slurms_reason():
+    run = start_class(["gus"])
+    node, _ = node_state()
+    try:
+        code, _ = run.http("GET", "/s/gus/", run.token("gus"))
+        assert code == 200
+        wait_for("gus's rig job running", 90, lambda: running(run, "gus"))
+        subprocess.run(["scontrol", "update", "NodeName=" + node, "State=DOWN",
+                        "Reason=class_cluster test"], check=True, timeout=20)
+        s = wait_for("gus's page shows the node's failure", 30,
+                     lambda: (lambda s: s if s["state"] != "running" else None)(
+                         status(run, "gus")))
+        assert s["state"] == "failed" and "NODE_FAIL" in s["last_stop"], s
+        assert "the node the job ran on failed" in s["last_stop"], s
+        rigs = run.http("GET", "/teacher/api/rigs", run.token("teacher"))[1]["rigs"]
+        assert rigs[0]["state"] == "failed" and "NODE_FAIL" in rigs[0]["last_stop"], rigs
+        # Not run again by Slurm behind the server's back (--no-requeue).
+        assert not jobs_of(run), jobs_of(run)
+    finally:
+        # The test cluster takes its node back by itself (ReturnToService=2); else resume it.
+        if node_state()[1] not in ("idle", "mixed", "allocated"):
+            subprocess.run(["scontrol", "update", "NodeName=" + node, "State=RESUME"],
+                           timeout=20)
+        wait_for("the node back", 30, lambda: node_state()[1] in ("idle", "mixed", "allocated"))
         finish(run)
 
 
