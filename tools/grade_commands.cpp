@@ -215,6 +215,41 @@ int RunClusterPart(const std::string& part, const std::string& result_file,
   return 0;
 }
 
+// --cluster FILE, --cluster-part P and --cluster-result R: each only where it means something.
+void CheckClusterFlags(const std::string& cluster_file, const std::string& batch,
+                       const std::string& part, const std::string& part_result) {
+  if (!cluster_file.empty() && batch.empty()) {
+    throw core::UsageError("grade: --cluster " + cluster_file +
+                           ": allowed with --batch DIR only (one controller is one grade here)");
+  }
+  if (part.empty() != part_result.empty()) {
+    throw core::UsageError(
+        "grade: --cluster-part and --cluster-result go together (what a --cluster job runs)");
+  }
+  if (!part.empty() && part != "baseline" && !fs::is_directory(part)) {
+    throw core::UsageError("grade: --cluster-part '" + part +
+                           "': allowed a submission's folder or the word baseline");
+  }
+}
+
+// --batch DIR --cluster FILE: the jobs (tools/grade_cluster.hpp), then the batch's reports as a
+// local batch writes them. 1 when stopped or when the baseline gave no result.
+int GradeBatchAsJobs(const ClusterBatch& batch, const std::string& out_dir,
+                     const grade::Suite& suite, const core::RobotModel& model, std::ostream& out,
+                     std::ostream& err) {
+  const ClusterBatchResult graded = GradeBatchOnCluster(batch, suite, model, err);
+  if (graded.stopped) return 1;
+  const grade::ControllerResult* base = graded.has_baseline ? &graded.results.back() : nullptr;
+  std::vector<grade::Submission> submissions = graded.submissions;
+  ReportBatch(out_dir, suite, model, graded.results, base, graded.graded, submissions, out, err);
+  if (!graded.baseline_problem.empty()) {
+    err << "grade: the baseline was not graded (" << graded.baseline_problem
+        << "); the reports have no baseline\n";
+    return 1;
+  }
+  return 0;
+}
+
 }  // namespace
 
 int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
@@ -262,18 +297,7 @@ int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostre
   if (given != 1) {
     throw core::UsageError("grade: give one controller: LIB.so, -- COMMAND ..., or --batch DIR");
   }
-  if (!cluster_file.empty() && batch.empty()) {
-    throw core::UsageError("grade: --cluster " + cluster_file +
-                           ": allowed with --batch DIR only (one controller is one grade here)");
-  }
-  if (part.empty() != part_result.empty()) {
-    throw core::UsageError(
-        "grade: --cluster-part and --cluster-result go together (what a --cluster job runs)");
-  }
-  if (!part.empty() && part != "baseline" && !fs::is_directory(part)) {
-    throw core::UsageError("grade: --cluster-part '" + part +
-                           "': allowed a submission's folder or the word baseline");
-  }
+  CheckClusterFlags(cluster_file, batch, part, part_result);
   const std::optional<cluster::ClusterConfig> on_cluster =
       cluster_file.empty() ? std::nullopt
                            : std::optional<cluster::ClusterConfig>(ReadGradeCluster(cluster_file));
@@ -315,18 +339,7 @@ int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostre
     jobs_batch.jobs = jobs;
     jobs_batch.sandbox = sandbox;
     jobs_batch.baseline = baseline;
-    ClusterBatchResult graded_jobs = GradeBatchOnCluster(jobs_batch, suite, model, err);
-    if (graded_jobs.stopped) return 1;
-    const grade::ControllerResult* base =
-        graded_jobs.has_baseline ? &graded_jobs.results.back() : nullptr;
-    ReportBatch(out_dir, suite, model, graded_jobs.results, base, graded_jobs.graded,
-                graded_jobs.submissions, out, err);
-    if (!graded_jobs.baseline_problem.empty()) {
-      err << "grade: the baseline was not graded (" << graded_jobs.baseline_problem
-          << "); the reports have no baseline\n";
-      return 1;
-    }
-    return 0;
+    return GradeBatchAsJobs(jobs_batch, out_dir, suite, model, out, err);
   }
 
   std::vector<grade::ControllerSpec> controllers;
