@@ -26,10 +26,10 @@
 #include "core/bus.hpp"
 #include "core/model_loader.hpp"
 #include "core/translate.hpp"
+#include "proc/rig.hpp"
 #include "sim/arm_world.hpp"
 #ifdef SIRUPP_HAVE_MUJOCO
 #include "bench/mujoco_arm.hpp"
-#include "proc/rig.hpp"
 #endif
 
 namespace {
