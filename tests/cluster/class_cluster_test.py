@@ -16,6 +16,8 @@ student on their first visit and proxies their API and live stream to it.
 - the class server's own stop cancels every job;
 - "Run on my rig" with a Python and a C++ submission: the rig job is submitted again with the
   controller, which is loaded on the node and runs set VII to its goal;
+- a grading job lost with its node (the node set DOWN under it) is submitted once more and
+  graded; lost twice, the submission fails with Slurm's NODE_FAIL;
 - a burst of 6 submissions graded as jobs 2 at a time takes less than 0.6 of the time one job at a
   time takes.
 
@@ -28,6 +30,7 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 import urllib.request
 
@@ -448,3 +451,62 @@ def test_grading_as_jobs_two_at_a_time():
     # queue's turns). The test only checks that two at a time is clearly faster, which a
     # loaded CI machine still shows, and not a timing at the edge of what two cores give.
     assert two < 0.85 * one, (one, two)
+
+
+def test_a_grading_job_lost_with_its_node_is_submitted_once_more_then_failed():
+    # One grading job at a time, so setting the one node DOWN ends only the job being watched.
+    names = ["once", "twice"]
+    run = ClassRun(BIN, ROOT, names, extra_yaml=CLUSTER_YAML + "  grading: {jobs: 1}\n")
+    with open(os.path.join(run.work, "quick.yaml"), "w") as f:
+        f.write(SUITE)
+    with open(run.class_file, "a") as f:
+        f.write("grading: {suite: quick.yaml}\n")
+    run.start()
+    node, _ = node_state()
+    downed = {}  # job id -> student, for every grading job this test set the node DOWN under
+    stop = threading.Event()
+
+    def fail_node():
+        while not stop.is_set():
+            for job, (state, name) in jobs("sirupp-grade-").items():
+                who = name.split("-")[2]
+                times = sum(1 for w in downed.values() if w == who)
+                if state == "RUNNING" and job not in downed and times < names.index(who) + 1:
+                    downed[job] = who
+                    subprocess.run(["scontrol", "update", "NodeName=" + node, "State=DOWN",
+                                    "Reason=class_cluster test"], check=True, timeout=20)
+            time.sleep(0.2)
+
+    watcher = threading.Thread(target=fail_node, daemon=True)
+    watcher.start()
+    try:
+        with open(os.path.join(ROOT, "examples", "07_python_controller",
+                               "computed_torque_pid.py")) as f:
+            source = f.read()
+        for name in names:
+            code, body = run.http("POST", "/s/%s/class/submissions" % name, run.token(name),
+                                  {"language": "python", "source": source})
+            assert code == 200, body
+
+        def latest(name):
+            return run.http("GET", "/s/%s/class/submissions" % name,
+                            run.token(name))[1]["submissions"][0]
+
+        wait_for("both submissions in a final state", 300, lambda: all(
+            latest(n)["state"] in ("graded", "grade failed") for n in names))
+        stop.set()
+        watcher.join(30)
+        assert sorted(downed.values()) == ["once", "twice", "twice"], downed
+        assert latest("once")["state"] == "graded", latest("once")
+        failed = latest("twice")
+        print("lost twice: %s" % failed.get("problem"))
+        assert failed["state"] == "grade failed", failed
+        assert "NODE_FAIL" in failed["problem"] and "(twice)" in failed["problem"], failed
+        assert run.server_log().count("submitted once more") == 2, run.server_log()
+    finally:
+        stop.set()
+        if node_state()[1] not in ("idle", "mixed", "allocated"):
+            subprocess.run(["scontrol", "update", "NodeName=" + node, "State=RESUME"],
+                           timeout=20)
+        wait_for("the node back", 30, lambda: node_state()[1] in ("idle", "mixed", "allocated"))
+        finish(run)
