@@ -237,7 +237,13 @@ struct ClassServer::Impl {
       real_arm = std::make_unique<RealArm>(
           config, TurnsLogFile(config),
           [this](const std::string& student) { return rigs->LcmUrl(student); },
-          [this](const std::string& line) { Log("real arm: " + line); });
+          [this](const std::string& line) { Log("real arm: " + line); },
+          // A rig job's bus is on its node: relayed through the job's endpoint.
+          [this](const std::string& student) -> std::optional<RigEndpoint> {
+            const RigAccess access = rigs->Access(student);
+            if (access.state != "running") return std::nullopt;
+            return access.endpoint;
+          });
       // Only a controller that passed the class's safety tasks in simulation drives the real arm
       // (a rig that switches controller restarts, which ends its place in the queue).
       real_arm->SetAdmit([this](const std::string& student) {

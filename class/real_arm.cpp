@@ -35,7 +35,7 @@ bool NamesStudent(const std::string& line, const std::string& student) {
 }  // namespace
 
 RealArm::RealArm(const ClassConfig& config, const std::string& log_path, RigUrlOf rig_url_of,
-                 std::function<void(const std::string&)> on_event)
+                 std::function<void(const std::string&)> on_event, RigEndpointOf endpoint_of)
     : model_(core::LoadRobotModel(config.robot)),
       arm_bus_(config.real_arm.value().lcm_url, ""),
       on_event_(std::move(on_event)) {
@@ -54,10 +54,16 @@ RealArm::RealArm(const ClassConfig& config, const std::string& log_path, RigUrlO
   };
   manager_ = std::make_unique<turns::TurnManager>(arm_bus_, model_, options);
   for (const std::string& student : config.students) {
-    manager_->AddRig(student, [rig_url_of, student] {
+    // Called by the manager, so with mutex_ held.
+    manager_->AddRig(student, [this, rig_url_of, endpoint_of, student] {
       const std::string url = rig_url_of(student);
-      if (url.empty()) throw turns::TurnError(student + "'s rig is not running");
-      return std::make_shared<core::Bus>(url, "");
+      if (!url.empty()) return std::make_shared<core::Bus>(url, "");
+      const std::optional<RigEndpoint> endpoint = endpoint_of ? endpoint_of(student) : std::nullopt;
+      if (!endpoint) throw turns::TurnError(student + "'s rig is not running");
+      remote_.push_back(std::make_unique<RemoteRigBus>(student, *endpoint));
+      Event(student + "'s rig runs on " + endpoint->host +
+            ": its bus is relayed through its rig job's endpoint " + endpoint->Address());
+      return remote_.back()->bus();
     });
   }
   service_ = std::thread([this] { Serve(); });
@@ -79,13 +85,25 @@ void RealArm::Serve() {
       const std::lock_guard<std::mutex> lock(mutex_);
       if (stopping_) return;
       try {
+        for (const auto& remote : remote_) remote->Pump();  // the nodes' messages, then handled
         manager_->Service();
+        ServiceRemote();
       } catch (const std::exception& e) {
         // A bad message or a rig's bus that failed: said, and serviced again next time.
         Event(std::string("real arm: ") + e.what());
       }
     }
     std::this_thread::sleep_for(kServicePeriod);
+  }
+}
+
+void RealArm::ServiceRemote() {
+  for (auto it = remote_.begin(); it != remote_.end();) {
+    RemoteRigBus& remote = **it;
+    const std::string news = remote.TakeNewError();
+    if (!news.empty()) Event(news);
+    if (remote.Released()) remote.Close();  // the manager let go: its last messages sent
+    it = remote.Finished() ? remote_.erase(it) : it + 1;
   }
 }
 

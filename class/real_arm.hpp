@@ -5,9 +5,11 @@
 //
 // The bridge (sirupp-hardware) runs on the bus `real_arm.lcm_url`, started by the teacher (or by
 // `sirupp launch`); each student's rig is on its own leased port. The manager opens a rig's bus
-// only for that student's handover and turn (turn_manager.hpp). Only the holder's hardware
-// commands reach the arm (the server refuses the others with the reason, RealArm::MayCommand);
-// anyone's "e-stop the real arm" does.
+// only for that student's handover and turn (turn_manager.hpp). A rig that runs as a job on a
+// cluster node (class file cluster:) has its bus on the node: the manager gets a bus in this
+// process instead, relayed to the node through the rig job's endpoint (class/bus_relay.hpp). Only
+// the holder's hardware commands reach the arm (the server refuses the others with the reason,
+// RealArm::MayCommand); anyone's "e-stop the real arm" does.
 //
 // Thread-safe: every method may be called from any request thread.
 
@@ -16,9 +18,12 @@
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <thread>
+#include <vector>
 
+#include "class/bus_relay.hpp"
 #include "class/class_config.hpp"
 #include "core/bus.hpp"
 #include "core/robot_model.hpp"
@@ -30,11 +35,14 @@ class RealArm {
  public:
   // The LCM address of `student`'s rig now; "" when it is not running.
   using RigUrlOf = std::function<std::string(const std::string& student)>;
+  // The endpoint of `student`'s rig job (a rig on a cluster node) while it runs; none otherwise.
+  using RigEndpointOf = std::function<std::optional<RigEndpoint>(const std::string& student)>;
 
   // Opens the bridge's bus (throws core::BusError naming the address when it cannot) and starts
-  // the service thread. `log_path`: the turns' log (one JSON line per event and per turn).
+  // the service thread. `log_path`: the turns' log (one JSON line per event and per turn). A rig
+  // without an LCM address here but with an endpoint (`endpoint_of`) is relayed through it.
   RealArm(const ClassConfig& config, const std::string& log_path, RigUrlOf rig_url_of,
-          std::function<void(const std::string&)> on_event = {});
+          std::function<void(const std::string&)> on_event = {}, RigEndpointOf endpoint_of = {});
   ~RealArm();
   RealArm(const RealArm&) = delete;
   RealArm& operator=(const RealArm&) = delete;
@@ -66,11 +74,15 @@ class RealArm {
 
  private:
   void Serve();
+  void ServiceRemote();  // with mutex_ held
   void Event(const std::string& line);
 
   core::RobotModel model_;
   core::Bus arm_bus_;
   mutable std::mutex mutex_;  // the manager and everything below
+  // Relays to rigs on nodes, from the manager's opening of such a rig's bus until the relay's last
+  // exchange after the manager let go of it. Before manager_: destroyed after it.
+  std::vector<std::unique_ptr<RemoteRigBus>> remote_;
   std::unique_ptr<turns::TurnManager> manager_;
   std::function<std::string(const std::string&)> admit_;
   std::deque<std::string> events_;  // the latest, newest last

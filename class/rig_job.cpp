@@ -16,6 +16,7 @@
 #include <thread>
 #include <vector>
 
+#include "class/bus_relay.hpp"
 #include "grade/port_lease.hpp"
 #include "panel/http_glue.hpp"
 #include "proc/udpm_listen.hpp"
@@ -95,6 +96,11 @@ struct RigJob::Impl {
   ProcessLauncher launcher;  // outlives the rig
   grade::PortLease lease;
   std::unique_ptr<Rig> rig;
+  // The real arm's relay for this rig (class/bus_relay.hpp): listens on the rig's bus only while
+  // the class server exchanges with it (a handover or a turn of this student's).
+  std::unique_ptr<RelayTap> tap;
+  std::mutex tap_mutex;  // one exchange at a time
+  int bus_port = 0;      // the rig's udpm port (leased or given)
   std::unique_ptr<httplib::Server> server;
   panel::ListenGate gate;
   std::thread serving;
@@ -162,6 +168,16 @@ struct RigJob::Impl {
                                       .dump()},
                   res);
     });
+    server->Post(kRelayPath, [this](const httplib::Request& req, httplib::Response& res) {
+      if (!Authorized(req, res)) return;
+      const std::lock_guard<std::mutex> lock(tap_mutex);
+      if (!tap) tap = std::make_unique<RelayTap>(RigUrl(bus_port));
+      try {
+        res.set_content(tap->Exchange(req.body), "application/octet-stream");
+      } catch (const std::invalid_argument& e) {
+        panel::Send(panel::ErrorResponse(400, e.what()), res);
+      }
+    });
     panel::AnswerExceptionsWith500(*server);
   }
 };
@@ -185,6 +201,7 @@ void RigJob::Start() {
     impl.LeaseQuietPort();
     spec.port = impl.lease.port();
   }
+  impl.bus_port = spec.port;
   impl.rig = std::make_unique<Rig>(spec, impl.launcher);
   impl.rig->Start();
   impl.Routes();
@@ -245,6 +262,7 @@ void RigJob::Stop(const std::string& why) {
   }
   if (impl.server) impl.gate.Stop(*impl.server);
   if (impl.serving.joinable()) impl.serving.join();
+  impl.tap.reset();  // its listener off the rig's bus
   if (impl.rig) impl.rig->Stop();
   impl.lease.Release();
   const std::string folder = impl.options.spec.folder;
