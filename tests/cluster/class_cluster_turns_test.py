@@ -15,6 +15,8 @@ relay goes through the rig job's endpoint (class/bus_relay.hpp, POST /relay with
 - Alice ends her turn: the handover homes, unlinks and disarms the arm (the teacher's table: ok),
   her panel is told it is unlinked; then Bob's turn runs the same way through his own job, and
   ends; the queue is idle;
+- Alice's rig job cancelled from outside (scancel) in her next turn, the real arm away from home:
+  her turn ends, the handover homes and disarms the arm without her node, the queue is idle;
 - the class server's stop cancels both jobs; the bridge and the boards are ended by the test,
   also when it fails.
 
@@ -216,3 +218,38 @@ def test_turns_for_rigs_on_a_node(lab):
     assert not t["stopped"], t
     relay_errors = [e for e in t["events"] if "did not answer" in e or "answered HTTP" in e]
     assert not relay_errors, relay_errors
+
+
+def test_the_holders_job_cancelled_in_a_turn(lab):
+    """scancel of the holder's rig job from outside, in her turn, with the real arm away from
+    home: the turn ends, the handover homes and disarms the arm on the bridge's bus alone, and
+    the queue goes on."""
+    run, arm_url = lab
+    wait_for("alice's rig job running", 90, lambda: running(run, "alice"))
+    code, body = run.http("POST", "/s/alice/class/turns/join", run.token("alice"))
+    assert code == 200, body
+    wait_for("alice's second turn", 120, lambda: in_turn(run, "alice"))
+    wait_for("the bridge linked to alice's rig", 30, lambda: (
+        (panel_state(run, "alice") or {}).get("hardware", {}).get("state") == "linked"))
+    move(run, "alice", [15, -90, 90, 0, 45, 0])
+    wait_for("the real arm on its way to alice's goal", 30, lambda: (
+        lambda real: real is not None and real[0] > 8)(real_arm_deg(arm_url, 0.5)))
+    job = [i for i, (state, name) in jobs_of(run).items() if name == "sirupp-rig-alice"]
+    assert len(job) == 1, jobs_of(run)
+    started = time.time()
+    subprocess.run(["scancel", job[0]], check=True, timeout=20)
+
+    def handed_back():
+        ended = [h for h in teacher(run)["history"] if h["student"] == "alice"]
+        return ended[-1] if len(ended) == 2 and ended[-1]["handover"] else None
+
+    record = wait_for("the handover after alice's cancelled turn", 90, handed_back)
+    assert record["handover"] == "ok", record
+    t = wait_for("the queue idle", 20, lambda: (lambda t: t if t["phase"] == "idle" else None)(
+        teacher(run)))
+    events = " | ".join(t["events"])
+    assert "alice's rig stopped" in events, events
+    print("alice's job cancelled in her turn: the handover ended ok %.1f s later (%s)" %
+          (time.time() - started, record["ended"]))
+    real = real_arm_deg(arm_url)
+    assert real is not None and abs(real[0]) < 2, real  # home (joint 1 at 0 deg)
