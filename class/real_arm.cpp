@@ -103,7 +103,12 @@ void RealArm::ServiceRemote() {
     const std::string news = remote.TakeNewError();
     if (!news.empty()) Event(news);
     if (remote.Released()) remote.Close();  // the manager let go: its last messages sent
-    it = remote.Finished() ? remote_.erase(it) : it + 1;
+    if (!remote.Finished()) {
+      ++it;
+      continue;
+    }
+    Event("relay to " + remote.student() + "'s rig closed: " + remote.RoundTrips());
+    it = remote_.erase(it);
   }
 }
 

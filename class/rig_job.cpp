@@ -142,6 +142,7 @@ struct RigJob::Impl {
     server = std::make_unique<httplib::Server>();
     server->new_task_queue = [] { return new httplib::ThreadPool(16); };
     server->set_payload_max_length(1024 * 1024);
+    server->set_tcp_nodelay(true);  // the real arm's relay: an answer per exchange, at once
     const auto api = [this](const httplib::Request& req, httplib::Response& res) {
       if (!Authorized(req, res)) return;
       const std::shared_ptr<RigPanel> rig_panel = rig ? rig->panel() : nullptr;

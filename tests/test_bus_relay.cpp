@@ -198,6 +198,9 @@ TEST(RemoteRigBusTest, BothWaysThroughTheEndpointAndTheLastMessageAfterRelease) 
       },
       5));
   EXPECT_EQ(remote->TakeNewError(), "");
+  const std::string round_trips = remote->RoundTrips();
+  EXPECT_NE(round_trips.rfind("0 exchanges", 0), 0u) << round_trips;  // not none
+  EXPECT_NE(round_trips.find("round trip p50 "), std::string::npos) << round_trips;
 
   // The manager publishes its last message (the "unlinked" status) and lets go at once.
   bus->Publish(c.real_arm_state, State(12));

@@ -13,8 +13,8 @@ relay goes through the rig job's endpoint (class/bus_relay.hpp, POST /relay with
   (emulated) arm, seen on the bridge's bus by arm_watch and in her panel (REAL_ARM_STATE relayed
   back to the node);
 - Alice ends her turn: the handover homes, unlinks and disarms the arm (the teacher's table: ok),
-  her panel is told it is unlinked; then Bob's turn runs the same way through his own job, and
-  ends; the queue is idle;
+  her panel is told it is unlinked, and the relay's round trips are printed when it closes; then
+  Bob's turn runs the same way through his own job, and ends; the queue is idle;
 - Alice's rig job cancelled from outside (scancel) in her next turn, the real arm away from home:
   her turn ends, the handover homes and disarms the arm without her node, the queue is idle;
 - the class server's stop cancels both jobs; the bridge and the boards are ended by the test,
@@ -177,6 +177,10 @@ def end_turn(run, name):
     assert hardware["state"] != "linked", hardware
     print("handover after %s's turn: ok in %.1f s (%.1f s by the manager)" %
           (name, time.time() - started, record["handover_out_s"]))
+    closed = wait_for("the relay to " + name + "'s rig closed", 15, lambda: [
+        e for e in teacher(run)["events"] if e.startswith("relay to %s's rig closed" % name)])
+    print(closed[-1])
+    assert " 0 exchanges" not in closed[-1], closed
 
 
 def test_turns_for_rigs_on_a_node(lab):
