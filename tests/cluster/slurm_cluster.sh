@@ -97,10 +97,13 @@ do_stop() {
         done
         [[ -z "$left" ]] || say "jobs still listed 30 s after scancel: $left"
       fi
-      # The job steps end a little after the jobs leave the queue.
-      for _ in $(seq 100); do
-        [[ -n "$(cluster_processes | grep -E 'slurmstepd|slurm_script' || true)" ]] || break
-        sleep 0.05
+      # The job steps, and what the jobs started, end a little after the jobs leave the queue
+      # (seconds on a loaded machine: a soak run found a cancelled job's `sleep 300` still there
+      # after 5 s, once slurmd had been stopped under its step). Wait for every process of the
+      # cluster but its daemons (munged, slurmctld with its slurmscriptd, slurmd).
+      for _ in $(seq 300); do
+        [[ -n "$(cluster_processes | grep -vE '^[0-9]+ [^ ]*(munged|slurmctld|slurmd) |slurmscriptd' || true)" ]] || break
+        sleep 0.1
       done
     fi
   fi
