@@ -614,17 +614,7 @@ struct ClassServer::Impl {
       }
       return;
     }
-    // Commands for the bridge (arm, link, ...) from anyone but the real arm's holder in their
-    // turn: refused here with the reason (they would reach no bridge anyway).
-    if (IsChange(req) && rest.rfind("api/hardware/", 0) == 0) {
-      const std::string why = real_arm ? real_arm->MayCommand(name)
-                                       : "this class has no real arm (no real_arm: in the class "
-                                         "file)";
-      if (!why.empty()) {
-        SendError(res, 409, "the real arm: " + why);
-        return;
-      }
-    }
+    if (RefuseHardwareCommand(name, rest, req, res)) return;
     panel::Request request = panel::ToRequest(req);
     request.path = "/" + rest;
     panel::Send(rig_panel->api->Handle(request), res);
@@ -646,16 +636,22 @@ struct ClassServer::Impl {
                   [this, name, endpoint] { return rigs->StillAt(name, endpoint); });
       return;
     }
-    if (IsChange(req) && rest.rfind("api/hardware/", 0) == 0) {
-      const std::string why = real_arm ? real_arm->MayCommand(name)
-                                       : "this class has no real arm (no real_arm: in the class "
-                                         "file)";
-      if (!why.empty()) {
-        SendError(res, 409, "the real arm: " + why);
-        return;
-      }
-    }
+    if (RefuseHardwareCommand(name, rest, req, res)) return;
     ProxyRequest(endpoint, "/" + rest, req, res);
+  }
+
+  // Commands for the bridge (arm, link, ...) from anyone but the real arm's holder in their
+  // turn, to a local rig or a job's: refused with the reason (they would reach no bridge anyway).
+  // True when refused (the answer is sent).
+  bool RefuseHardwareCommand(const std::string& name, const std::string& rest,
+                             const httplib::Request& req, httplib::Response& res) {
+    if (!IsChange(req) || rest.rfind("api/hardware/", 0) != 0) return false;
+    const std::string why = real_arm ? real_arm->MayCommand(name)
+                                     : "this class has no real arm (no real_arm: in the class "
+                                       "file)";
+    if (why.empty()) return false;
+    SendError(res, 409, "the real arm: " + why);
+    return true;
   }
 
   void Teacher(const httplib::Request& req, httplib::Response& res) {

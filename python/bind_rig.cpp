@@ -18,8 +18,8 @@
 #include <mutex>
 #include <optional>
 #include <string>
-#include <tuple>
 #include <thread>
+#include <tuple>
 #include <vector>
 
 #include "client/client.hpp"
@@ -589,8 +589,8 @@ void BindRig(py::module_& m) {
         return processes;
       },
       py::arg("port"), py::arg("bin_dir"), py::arg("model"), py::arg("mode"),
-      py::arg("participants"), py::arg("sim_args"), py::arg("controller"),
-      py::arg("control_args"), py::arg("results_dir"), py::arg("log_dir"),
+      py::arg("participants"), py::arg("sim_args"), py::arg("controller"), py::arg("control_args"),
+      py::arg("results_dir"), py::arg("log_dir"),
       "a private rig's processes in start order (proc::RigProcesses): (name, argv, log file)");
   py::class_<grade::PortLease>(m, "_PortLease", "a private udpm port (grade/port_lease.hpp)")
       .def_static("acquire", &grade::PortLease::Acquire, py::arg("first"), py::arg("count"),
