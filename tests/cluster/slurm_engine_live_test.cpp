@@ -41,6 +41,10 @@ JobStatus PollUntil(SlurmEngine& engine, const std::string& id, double seconds,
   }
 }
 
+// The sleepers `exec` their command: the job's process is the sleep itself. As a child of the
+// batch shell, a cancelled job's `sleep 300` was twice left behind (on an idle machine too): the
+// harness's proctrack/linuxproc finds a job's processes by descent, and a child whose shell died
+// first is no one's descendant any more.
 JobRequest Sleeper(const std::string& name, const std::string& body) {
   JobRequest request;
   request.name = name;
@@ -62,7 +66,7 @@ class SlurmLive : public ::testing::Test {
 };
 
 TEST_F(SlurmLive, ARunningJobIsCancelledWithItsReason) {
-  const SubmitResult submitted = engine.Submit(Sleeper("live-run", "sleep 300"));
+  const SubmitResult submitted = engine.Submit(Sleeper("live-run", "exec sleep 300"));
   ASSERT_TRUE(submitted.ok()) << submitted.error;
   const JobStatus running = PollUntil(engine, submitted.job_id, 30, [](const JobStatus& s) {
     return s.state == JobState::kRunning;
@@ -81,7 +85,7 @@ TEST_F(SlurmLive, ARunningJobIsCancelledWithItsReason) {
 }
 
 TEST_F(SlurmLive, AHeldJobIsPendingWithSlurmsReason) {
-  JobRequest request = Sleeper("live-held", "sleep 300");
+  JobRequest request = Sleeper("live-held", "exec sleep 300");
   request.extra_args = {"--hold"};
   const SubmitResult submitted = engine.Submit(request);
   ASSERT_TRUE(submitted.ok()) << submitted.error;
@@ -110,7 +114,7 @@ TEST_F(SlurmLive, AJobSlurmNeverHadHasEnded) {
 }
 
 TEST_F(SlurmLive, AControllerThatDoesNotAnswerIsUnknownNotEnded) {
-  const SubmitResult submitted = engine.Submit(Sleeper("live-unknown", "sleep 300"));
+  const SubmitResult submitted = engine.Submit(Sleeper("live-unknown", "exec sleep 300"));
   ASSERT_TRUE(submitted.ok()) << submitted.error;
   ASSERT_EQ(PollUntil(engine, submitted.job_id, 30,
                       [](const JobStatus& s) { return s.state == JobState::kRunning; })
