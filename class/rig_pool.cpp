@@ -237,12 +237,7 @@ std::string RigPool::StartLocal(Seat& seat) {
     return "";
   } catch (const std::exception& e) {
     ReleaseCpu(seat);
-    --running_;
-    const std::lock_guard<std::mutex> info(seat.info_mutex);
-    seat.state = "failed";
-    seat.last_stop = std::string("could not start: ") + e.what();
-    Log(seat.name + "'s rig could not start: " + e.what());
-    return seat.last_stop;
+    return StartFailed(seat, e.what());
   }
 }
 
@@ -403,13 +398,17 @@ std::string RigPool::StartJob(Seat& seat) {
     Log("submitted " + seat.name + "'s rig as " + seat.where);
     return "";
   } catch (const std::exception& e) {
-    --running_;
-    const std::lock_guard<std::mutex> info(seat.info_mutex);
-    seat.state = "failed";
-    seat.last_stop = std::string("could not start: ") + e.what();
-    Log(seat.name + "'s rig could not start: " + e.what());
-    return seat.last_stop;
+    return StartFailed(seat, e.what());
   }
+}
+
+std::string RigPool::StartFailed(Seat& seat, const std::string& why) {
+  --running_;
+  const std::lock_guard<std::mutex> info(seat.info_mutex);
+  seat.state = "failed";
+  seat.last_stop = "could not start: " + why;
+  Log(seat.name + "'s rig could not start: " + why);
+  return seat.last_stop;
 }
 
 // The rig jobs a previous server left (DATA/cluster/rigs.json): each seat takes its job back

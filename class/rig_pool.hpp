@@ -124,6 +124,8 @@ class RigPool {
   std::string EnsureRig(Seat& seat);
   std::string StartLocal(Seat& seat);
   std::string StartJob(Seat& seat);
+  // A start that threw (local or job): the seat failed with `why`, counted out; returns the reason.
+  std::string StartFailed(Seat& seat, const std::string& why);
   grade::PortLease LeaseQuietPort();
   void StopRig(Seat& seat, const std::string& why, bool failed = false);
   int PickCpu();
