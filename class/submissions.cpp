@@ -524,20 +524,10 @@ SubmissionService::GradeRun SubmissionService::GradeAsJob(const std::string& stu
   proc::ProcessSpec grading;
   for (const std::string& word : argv) grading.argv.push_back(on_nodes(word));
   grading.log_path = on_nodes(log_file);
-  cluster::JobRequest request;
-  request.name = "sirupp-grade-" + student + "-" + std::to_string(id);
-  request.script = "#!/bin/sh\n# " + student + "'s submission " + std::to_string(id) +
-                   " (sirupp class serve, cluster:)\n" + proc::CommandLine(grading) + "\n";
-  request.output_file = on_nodes(log_file) + ".job";
-  request.partition = jobs.partition;
-  request.account = jobs.account;
-  request.time_limit_min = jobs.grading.time_limit_min;
-  request.cpus = jobs.grading.cpus;
-  request.memory_mb = jobs.grading.memory_mb;
-  // Lost with its node, the job ends NODE_FAIL (not run again by Slurm): submitted once more here.
-  request.extra_args = {"--no-requeue"};
-  request.extra_args.insert(request.extra_args.end(), jobs.sbatch_args.begin(),
-                            jobs.sbatch_args.end());
+  const cluster::JobRequest request = cluster::GradingJobRequest(
+      jobs, "sirupp-grade-" + student + "-" + std::to_string(id),
+      student + "'s submission " + std::to_string(id) + " (sirupp class serve, cluster:)",
+      proc::ExecLine(grading), on_nodes(log_file) + ".job");
   GradeRun run;
   for (int attempt = 1; attempt <= 2; ++attempt) {
     const cluster::SubmitResult submitted = engine_->Submit(request);
@@ -571,20 +561,14 @@ SubmissionService::GradeRun SubmissionService::GradeAsJob(const std::string& stu
         return run;
       }
     }
-    if (status.slurm_state == "COMPLETED") {
-      run.ok = true;
-      return run;
-    }
-    const bool lost = cluster::LostWithItsNode(status);
-    if (lost && attempt == 1) {
+    const cluster::GradingEnd end = cluster::AfterGradingJob(status, attempt);
+    if (end.next == cluster::GradingNext::kAgain) {
       log_(student + ": submission " + std::to_string(id) + ": " + status.reason +
            "; submitted once more");
       continue;
     }
-    // FAILED: sirupp grade's own last line says why (the caller reads it); anything else: Slurm's.
-    if (status.slurm_state != "FAILED") {
-      run.problem = "the grading job ended: " + status.reason + (lost ? " (twice)" : "");
-    }
+    run.ok = end.next == cluster::GradingNext::kGraded;
+    run.problem = end.problem;  // "" for FAILED: sirupp grade's own last line says why
     return run;
   }
   return run;

@@ -156,7 +156,9 @@ bool LiveMemberInProc(pid_t group) {
 
 }  // namespace
 
-std::string CommandLine(const ProcessSpec& spec) {
+namespace {
+
+std::string ShellLine(const ProcessSpec& spec, bool exec) {
   std::string line;
   for (const std::string& e : spec.env) {
     const size_t equals = e.find('=');  // NAME=VALUE: the name bare, or sh takes it for a command
@@ -164,10 +166,17 @@ std::string CommandLine(const ProcessSpec& spec) {
             (equals == std::string::npos ? Quoted(e)
                                          : e.substr(0, equals + 1) + Quoted(e.substr(equals + 1)));
   }
+  if (exec) line += line.empty() ? "exec" : " exec";  // after the NAME=VALUE words: sh exports them
   for (const std::string& w : spec.argv) line += (line.empty() ? "" : " ") + Quoted(w);
   if (!spec.log_path.empty()) line += " >> " + Quoted(spec.log_path) + " 2>&1";
   return line;
 }
+
+}  // namespace
+
+std::string CommandLine(const ProcessSpec& spec) { return ShellLine(spec, false); }
+
+std::string ExecLine(const ProcessSpec& spec) { return ShellLine(spec, true); }
 
 Launcher::Launcher() : thread_([this] { Loop(); }) {}
 

@@ -54,6 +54,9 @@ struct ProcessSpec {
 // The spec as one line of sh: NAME=VALUE words first, then argv, each quoted when it needs to be,
 // and " >> LOG 2>&1" when it has a log.
 std::string CommandLine(const ProcessSpec& spec);
+// The same line with `exec` after the NAME=VALUE words, as a job script's last line: the program
+// replaces the script's shell, so a signal to the job (scancel) reaches the program itself.
+std::string ExecLine(const ProcessSpec& spec);
 
 // Forks from one thread that lives as long as the Launcher (see above).
 class Launcher {

@@ -16,6 +16,7 @@
 #include "class/class_config.hpp"
 #include "cluster/cluster_config.hpp"
 #include "cluster/command_runner.hpp"
+#include "cluster/grading_job.hpp"
 #include "cluster/slurm_engine.hpp"
 #include "core/errors.hpp"
 #include "core/yaml_reader.hpp"
@@ -160,6 +161,48 @@ TEST(SlurmEngineTest, SqueueStatesMapToPendingRunningAndEndedWithTheirReasons) {
   EXPECT_EQ(engine.Poll("42").reason,
             "the job was cancelled (scancel: the class server, or the cluster's staff) (Slurm: "
             "CANCELLED)");
+}
+
+TEST(GradingJobTest, TheRequestTakesTheGradingLimitsAndTheScriptExecsTheGrader) {
+  ClusterConfig config;
+  config.partition = "class";
+  config.account = "robotics";
+  config.grading = {20, 2, 1024};
+  config.sbatch_args = {"--qos=class"};
+  const JobRequest request =
+      GradingJobRequest(config, "sirupp-grade-alice-3", "alice's submission 3",
+                        "exec /opt/sirupp/bin/sirupp grade x", "/d/job.log");
+  EXPECT_EQ(request.script,
+            "#!/bin/sh\n# alice's submission 3\nexec /opt/sirupp/bin/sirupp grade x\n");
+  EXPECT_EQ(request.name, "sirupp-grade-alice-3");
+  EXPECT_EQ(request.output_file, "/d/job.log");
+  EXPECT_EQ(request.partition, "class");
+  EXPECT_EQ(request.account, "robotics");
+  EXPECT_EQ(request.time_limit_min, 20);
+  EXPECT_EQ(request.cpus, 2);
+  EXPECT_EQ(request.memory_mb, 1024);
+  EXPECT_EQ(request.extra_args, (std::vector<std::string>{"--no-requeue", "--qos=class"}));
+}
+
+TEST(GradingJobTest, ALostJobGoesOnceMoreThenFailsWithSlurmsReason) {
+  const auto ended = [](const std::string& line) { return ParseSqueueLine(line); };
+  EXPECT_EQ(AfterGradingJob(ended("COMPLETED|None|n1"), 1).next, GradingNext::kGraded);
+  EXPECT_EQ(AfterGradingJob(ended("COMPLETED|None|n1"), 2).next, GradingNext::kGraded);
+  EXPECT_EQ(AfterGradingJob(ended("NODE_FAIL|NodeDown|n1"), 1).next, GradingNext::kAgain);
+  EXPECT_EQ(AfterGradingJob(ended("PREEMPTED|None|n1"), 1).next, GradingNext::kAgain);
+  const GradingEnd twice = AfterGradingJob(ended("NODE_FAIL|NodeDown|n1"), 2);
+  EXPECT_EQ(twice.next, GradingNext::kFailed);
+  EXPECT_NE(twice.problem.find("the grading job ended: the node the job ran on failed"),
+            std::string::npos)
+      << twice.problem;
+  EXPECT_EQ(twice.problem.substr(twice.problem.size() - 8), " (twice)");
+  const GradingEnd failed = AfterGradingJob(ended("FAILED|NonZeroExitCode|n1"), 1);
+  EXPECT_EQ(failed.next, GradingNext::kFailed);
+  EXPECT_EQ(failed.problem, "");  // the grader's own last line says why
+  const GradingEnd timeout = AfterGradingJob(ended("TIMEOUT|TimeLimit|n1"), 1);
+  EXPECT_EQ(timeout.next, GradingNext::kFailed);
+  EXPECT_EQ(timeout.problem,
+            "the grading job ended: the job reached its time limit (Slurm: TIMEOUT, TimeLimit)");
 }
 
 TEST(SlurmEngineTest, AFailingOrSilentSqueueIsUnknownNeverEnded) {

@@ -297,6 +297,24 @@ TEST(ProcCommandLineTest, WritesTheSpecAsOneLineOfSh) {
             "2>&1");
 }
 
+TEST_F(ProcTest, AnExecLineReplacesTheScriptsShellAndKeepsItsEnvironment) {
+  // As a job script's last line (cluster/grading_job.cpp): the program takes the shell's pid, so
+  // scancel's signal reaches it, and sees the spec's NAME=VALUE words.
+  ProcessSpec spec;
+  spec.argv = {"/bin/sh", "-c", "echo $$ $GREETING"};
+  spec.env = {"GREETING=hello there"};
+  spec.log_path = dir_ + "/inner.log";
+  EXPECT_EQ(ExecLine(spec), "GREETING='hello there' exec /bin/sh -c 'echo $$ $GREETING' >> " +
+                                dir_ + "/inner.log 2>&1");
+  const std::string script = "echo $$ > '" + dir_ + "/outer.log'\n" + ExecLine(spec) + "\n";
+  ProcessSpec job;  // the job's shell running the script
+  job.argv = {"/bin/sh", "-c", script};
+  ASSERT_EQ(std::system(CommandLine(job).c_str()), 0);
+  const std::string outer = WaitLine(dir_ + "/outer.log");
+  ASSERT_FALSE(outer.empty());
+  EXPECT_EQ(WaitLine(dir_ + "/inner.log"), outer + " hello there");
+}
+
 // proc/rig.hpp: a private rig's processes and address, as plain data.
 TEST(ProcRigTest, ARigIsItsProcessesWithTheirFlagsOnOneAddress) {
   EXPECT_EQ(RigUrl(7901), "udpm://239.255.76.67:7901?ttl=0");

@@ -11,6 +11,7 @@
 
 #include "class/class_config.hpp"
 #include "cluster/command_runner.hpp"
+#include "cluster/grading_job.hpp"
 #include "cluster/slurm_engine.hpp"
 #include "core/errors.hpp"
 #include "core/yaml_reader.hpp"
@@ -122,22 +123,11 @@ class Batch {
                     "-j",
                     std::to_string(batch_.jobs)};
     if (!batch_.sandbox) grading.argv.push_back("--no-sandbox");
-    cluster::JobRequest request;
-    request.name = "sirupp-grade-batch-" + part.name;
-    request.script = "#!/bin/sh\n# sirupp grade --batch " + batch_.batch_dir +
-                     " --cluster: " + (part.baseline ? "the baseline" : "submission " + part.name) +
-                     "\n" + proc::CommandLine(grading) + "\n";
-    request.output_file = log_file;
-    request.partition = batch_.cluster.partition;
-    request.account = batch_.cluster.account;
-    request.time_limit_min = batch_.cluster.grading.time_limit_min;
-    request.cpus = batch_.cluster.grading.cpus;
-    request.memory_mb = batch_.cluster.grading.memory_mb;
-    // A job lost with its node comes back as NODE_FAIL (not requeued by Slurm), so the rule
-    // "once more, then failed" is this program's whatever the cluster's JobRequeue.
-    request.extra_args = {"--no-requeue"};
-    request.extra_args.insert(request.extra_args.end(), batch_.cluster.sbatch_args.begin(),
-                              batch_.cluster.sbatch_args.end());
+    const cluster::JobRequest request = cluster::GradingJobRequest(
+        batch_.cluster, "sirupp-grade-batch-" + part.name,
+        "sirupp grade --batch " + batch_.batch_dir +
+            " --cluster: " + (part.baseline ? "the baseline" : "submission " + part.name),
+        proc::ExecLine(grading), log_file);
     const cluster::SubmitResult submitted = engine_.Submit(request);
     if (!submitted.ok()) {
       part.problem = "the cluster refused the grading job: " + submitted.error;
@@ -171,7 +161,8 @@ class Batch {
     if (status.state != cluster::JobState::kEnded) return false;
     const double seconds = std::chrono::duration<double>(Clock::now() - part.submitted).count();
     const std::string log_file = part.dir + "/job.log";
-    if (status.slurm_state == "COMPLETED") {
+    const cluster::GradingEnd end = cluster::AfterGradingJob(status, part.attempt);
+    if (end.next == cluster::GradingNext::kGraded) {
       try {
         part.read = grade::ReadResultFile(part.dir + "/result", suite_, model_);
         err_ << "grade: " << part.name << ": graded as Slurm job " << part.job_id << " in "
@@ -182,18 +173,16 @@ class Batch {
       }
       return true;
     }
-    const bool lost = cluster::LostWithItsNode(status);
-    if (lost && part.attempt == 1) {
+    if (end.next == cluster::GradingNext::kAgain) {
       err_ << "grade: " << part.name << ": Slurm job " << part.job_id << ": " << status.reason
            << "; submitted once more\n";
       Cancel(part);  // gone with its node already; nothing of it may write on
       return !Submit(part);
     }
-    if (status.slurm_state == "FAILED") {  // sirupp grade's own last line says why
+    part.problem = end.problem;
+    if (part.problem.empty()) {  // FAILED: sirupp grade's own last line says why
       const std::string last = LastLine(log_file);
       part.problem = "the grading job failed: " + (last.empty() ? status.reason : last);
-    } else {
-      part.problem = "the grading job ended: " + status.reason + (lost ? " (twice)" : "");
     }
     err_ << "grade: " << part.name << ": " << part.problem << " (its log: " << log_file << ")\n";
     return true;

@@ -1,0 +1,39 @@
+#pragma once
+// One grading job as both graders submit it: the class server (a student's submission,
+// class/submissions.cpp) and `sirupp grade --batch DIR --cluster FILE` (tools/grade_cluster.cpp).
+// The request takes the class file's `cluster.grading` limits and is submitted with --no-requeue,
+// so a job lost with its node ends NODE_FAIL instead of being run again by Slurm; the rule is
+// then the graders' own: submitted once more, and failed when lost twice (AfterGradingJob).
+
+#include <string>
+
+#include "cluster/cluster_config.hpp"
+#include "cluster/slurm_engine.hpp"
+
+namespace sirupp::cluster {
+
+// The request for one grading job. `exec_line` is the script's command, one line of sh that execs
+// the grader (proc::ExecLine), so the job's process is the grader itself and scancel's signal
+// reaches it (a shell in between would die first and leave the grader to the process tracking).
+// `comment` is the script's second line, for whoever reads the job (scontrol write batch_script).
+JobRequest GradingJobRequest(const ClusterConfig& config, const std::string& name,
+                             const std::string& comment, const std::string& exec_line,
+                             const std::string& output_file);
+
+enum class GradingNext {
+  kGraded,  // COMPLETED: the job wrote its result
+  kAgain,   // lost with its node on the first try: submit it once more
+  kFailed,  // anything else: `problem` says why
+};
+
+struct GradingEnd {
+  GradingNext next = GradingNext::kFailed;
+  // kFailed: "the grading job ended: <Slurm's reason>" (" (twice)" when lost both times); empty
+  // for FAILED, where the grader's own last line says why (the caller reads the job's log).
+  std::string problem;
+};
+
+// What to do about a grading job that ended (status.state == kEnded) on try `attempt` (1, 2).
+GradingEnd AfterGradingJob(const JobStatus& status, int attempt);
+
+}  // namespace sirupp::cluster
