@@ -8,7 +8,6 @@
 #include <linux/seccomp.h>
 #include <poll.h>
 #include <signal.h>
-#include <spawn.h>
 #include <sys/prctl.h>
 #include <sys/resource.h>
 #include <sys/socket.h>
@@ -231,24 +230,33 @@ std::vector<std::string> BuildArgv(const Probe& probe, const Policy& policy,
   return outer;
 }
 
-// Runs `argv` with its output into a pipe; the exit status and the output (for the probe).
+// Runs `argv` with its output into a pipe; the exit status and the output (for the probe). The
+// child dies with this process (SIGKILL): a grading job cancelled while it probes (scancel's
+// SIGTERM reaching this process first) must leave no sandbox behind, which process tracking
+// by descent (Slurm's proctrack/linuxproc) would no longer find once its parent is gone.
 int RunCapturing(const std::vector<std::string>& argv, std::string* output) {
   int pipe_fds[2];
   if (::pipe2(pipe_fds, O_CLOEXEC) != 0) return -1;
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_adddup2(&actions, pipe_fds[1], 1);
-  posix_spawn_file_actions_adddup2(&actions, pipe_fds[1], 2);
   std::vector<char*> raw;
   for (const std::string& word : argv) raw.push_back(const_cast<char*>(word.c_str()));
   raw.push_back(nullptr);
-  pid_t pid = -1;
-  const int spawned = ::posix_spawn(&pid, raw[0], &actions, nullptr, raw.data(), environ);
-  posix_spawn_file_actions_destroy(&actions);
+  const std::string cannot_start = "cannot start " + argv[0];
+  const pid_t parent = ::getpid();
+  const pid_t pid = ::fork();
+  if (pid == 0) {  // only async-signal-safe calls until exec
+    ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+    if (::getppid() != parent) ::_exit(127);  // the parent died before the line above
+    ::dup2(pipe_fds[1], 1);
+    ::dup2(pipe_fds[1], 2);
+    ::execve(raw[0], raw.data(), environ);
+    [[maybe_unused]] const ssize_t said = ::write(2, cannot_start.data(), cannot_start.size());
+    ::_exit(127);
+  }
+  const int fork_error = errno;
   ::close(pipe_fds[1]);
-  if (spawned != 0) {
+  if (pid < 0) {
     ::close(pipe_fds[0]);
-    *output = std::string("cannot start ") + argv[0] + ": " + std::strerror(spawned);
+    *output = cannot_start + ": " + std::strerror(fork_error);
     return -1;
   }
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(20);

@@ -117,8 +117,12 @@ do_stop() {
     left=$(cluster_processes)
   done
   if [[ -n "$left" ]]; then
-    say "left behind, killed now:"
-    echo "$left" | sed 's/^/  /' >&2
+    say "left behind, killed now (pid, state, parent, what it waits in, command):"
+    local pid
+    for pid in $(echo "$left" | awk '{print $1}'); do
+      echo "  $pid $(awk '{print $3, "parent", $4}' "/proc/$pid/stat" 2>/dev/null)" \
+        "$(cat "/proc/$pid/wchan" 2>/dev/null) $(grep "^$pid " <<<"$left" | cut -d' ' -f2-)" >&2
+    done
     echo "$left" | awk '{print $1}' | xargs -r kill -KILL 2>/dev/null || true
     status=1
   fi
