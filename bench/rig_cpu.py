@@ -32,20 +32,7 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from class_bench import Driver, Stream, bench_class, end_rigs  # noqa: E402
-
-
-TICKS = os.sysconf("SC_CLK_TCK")
-
-
-def cpu_seconds(pid):
-    """user + system CPU seconds of every thread of pid; None once it is gone."""
-    try:
-        with open(f"/proc/{pid}/stat") as f:
-            fields = f.read().rsplit(")", 1)[1].split()
-    except OSError:
-        return None
-    return (int(fields[11]) + int(fields[12])) / TICKS  # utime, stime (fields 14, 15)
+from class_bench import Driver, Stream, bench_class, cpu_seconds, end_rigs  # noqa: E402
 
 
 def comm(pid):
