@@ -165,20 +165,9 @@ void SlurmRigSpawner::Start() {
   }
   fs::permissions(secret_path_, fs::perms::owner_read | fs::perms::owner_write,
                   fs::perm_options::replace);
-  cluster::JobRequest request;
-  request.name = "sirupp-rig-" + spec_.student;
-  request.script = RigJobScript(spec_);
-  request.output_file = spec_.folder + "/logs/rig-job-%j.log";
-  request.partition = config_.partition;
-  request.account = config_.account;
-  request.time_limit_min = config_.rig.time_limit_min;
-  request.cpus = config_.rig.cpus;
-  request.memory_mb = config_.rig.memory_mb;
-  // Lost with its node, the job ends NODE_FAIL and the pages say so; Slurm does not quietly run
-  // it again elsewhere (JobRequeue), where it would report to a rig the server saw end.
-  request.extra_args = {"--no-requeue"};
-  request.extra_args.insert(request.extra_args.end(), config_.sbatch_args.begin(),
-                            config_.sbatch_args.end());
+  const cluster::JobRequest request =
+      cluster::ClassJobRequest(config_, config_.rig, "sirupp-rig-" + spec_.student,
+                               RigJobScript(spec_), spec_.folder + "/logs/rig-job-%j.log");
   const cluster::SubmitResult submitted = engine_.Submit(request);
   if (!submitted.ok())
     throw std::runtime_error("the cluster refused the rig's job: " + submitted.error);

@@ -22,6 +22,7 @@
 
 #include "class/rig.hpp"
 #include "class/rig_proxy.hpp"
+#include "cluster/class_job.hpp"
 #include "cluster/cluster_config.hpp"
 #include "cluster/slurm_engine.hpp"
 #include "grade/port_lease.hpp"

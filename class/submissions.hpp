@@ -34,7 +34,7 @@
 
 #include "class/class_config.hpp"
 #include "cluster/command_runner.hpp"
-#include "cluster/grading_job.hpp"
+#include "cluster/class_job.hpp"
 #include "cluster/slurm_engine.hpp"
 #include "grade/build_controller.hpp"
 #include "grade/suite.hpp"

@@ -16,7 +16,7 @@
 #include "class/class_config.hpp"
 #include "cluster/cluster_config.hpp"
 #include "cluster/command_runner.hpp"
-#include "cluster/grading_job.hpp"
+#include "cluster/class_job.hpp"
 #include "cluster/slurm_engine.hpp"
 #include "core/errors.hpp"
 #include "core/yaml_reader.hpp"

@@ -298,7 +298,7 @@ TEST(ProcCommandLineTest, WritesTheSpecAsOneLineOfSh) {
 }
 
 TEST_F(ProcTest, AnExecLineReplacesTheScriptsShellAndKeepsItsEnvironment) {
-  // As a job script's last line (cluster/grading_job.cpp): the program takes the shell's pid, so
+  // As a job script's last line (cluster/class_job.cpp): the program takes the shell's pid, so
   // scancel's signal reaches it, and sees the spec's NAME=VALUE words.
   ProcessSpec spec;
   spec.argv = {"/bin/sh", "-c", "echo $$ $GREETING"};
