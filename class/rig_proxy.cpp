@@ -76,7 +76,9 @@ void ProxyStream(const RigEndpoint& endpoint, const std::string& path_and_query,
         // One call serves the whole stream: the node's chunks are written on as they come.
         httplib::Client client(endpoint.host, endpoint.port);
         client.set_connection_timeout(std::chrono::seconds(5));
-        client.set_read_timeout(std::chrono::seconds(5));  // the node sends ": idle" each second
+        // The node sends ": idle" each second; 15 s without a byte is a node gone, not one
+        // stalled by its load (a busy 2-core machine stalled a node's stream past 5 s).
+        client.set_read_timeout(std::chrono::seconds(15));
         client.set_keep_alive(false);
         const httplib::Headers headers = {{kRigSecretHeader, endpoint.secret}};
         bool browser_gone = false;
