@@ -33,8 +33,8 @@
 #include <vector>
 
 #include "class/class_config.hpp"
-#include "cluster/command_runner.hpp"
 #include "cluster/class_job.hpp"
+#include "cluster/command_runner.hpp"
 #include "cluster/slurm_engine.hpp"
 #include "grade/build_controller.hpp"
 #include "grade/suite.hpp"

@@ -14,9 +14,9 @@
 #include <vector>
 
 #include "class/class_config.hpp"
+#include "cluster/class_job.hpp"
 #include "cluster/cluster_config.hpp"
 #include "cluster/command_runner.hpp"
-#include "cluster/class_job.hpp"
 #include "cluster/slurm_engine.hpp"
 #include "core/errors.hpp"
 #include "core/yaml_reader.hpp"

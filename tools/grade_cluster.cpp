@@ -10,8 +10,8 @@
 #include <thread>
 
 #include "class/class_config.hpp"
-#include "cluster/command_runner.hpp"
 #include "cluster/class_job.hpp"
+#include "cluster/command_runner.hpp"
 #include "cluster/slurm_engine.hpp"
 #include "core/errors.hpp"
 #include "core/yaml_reader.hpp"
