@@ -1,6 +1,6 @@
 #!/bin/bash
 # The linked rig as processes (the paper's "virtual and real move together"): sirupp-sim (realtime),
-# sirupp-control, sirupp-picservo-emu on a pseudo-terminal and sirupp-hardware talking to it, over
+# sirupp-control, sirupp-picservo-emu on a Unix socket and sirupp-hardware talking to it, over
 # UDP multicast in a private network namespace (or ttl=0). `sirupp hardware` calibrates, arms and
 # links; a joint target then moves the virtual arm and, mirrored, the emulated one; `sirupp estop`
 # stops it, arming is refused until released; SIGTERM ends the bridge with the motors off. Bad
@@ -32,9 +32,9 @@ has order "$err" "--link needs --arm"
 run no_bridge 1 hardware status --lcm-url "$URL" --timeout 0.3
 has no_bridge "$out" "is sirupp-hardware running"
 
-"$SIRUPP_EMU" --link "$work/bus" --start-pose ready >"$work/emu.out" 2>"$work/emu.err" &
+"$SIRUPP_EMU" --socket "$work/bus" --start-pose ready >"$work/emu.out" 2>"$work/emu.err" &
 emu=$!
-for _ in $(seq 100); do [[ -L "$work/bus" ]] && break; sleep 0.05; done
+for _ in $(seq 100); do [[ -S "$work/bus" ]] && break; sleep 0.05; done
 # Realtime, as with a real arm: the sim keeps the wall clock, so the emulator gets its share of CPU.
 "$SIRUPP_SIM" --lcm-url "$URL" --mode realtime 2>"$work/sim.err" &
 "$SIRUPP_CONTROL" --lcm-url "$URL" 2>"$work/control.err" &

@@ -1,7 +1,7 @@
 #!/bin/bash
 # The lab on three "PCs": network namespaces on one bridge (netns.sh), LCM over UDP multicast with
 # ttl=1, as across a real lab subnet.
-#   robot-pc:   sirupp-picservo-emu (the arm's boards on a pseudo-terminal) and sirupp-hardware
+#   robot-pc:   sirupp-picservo-emu (the arm's boards on a Unix socket) and sirupp-hardware
 #               (calibrated, armed and linked at start-up);
 #   server:     sirupp-sim (realtime, upright), sirupp-logger, and sirupp-viewer when it is built;
 #   student-pc: sirupp-control, and the CLI that runs the paper's movement set I.

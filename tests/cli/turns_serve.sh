@@ -26,8 +26,8 @@ port=${base##*:}
 alice="$group:$((port + 1))?ttl=0"
 bob="$group:$((port + 2))?ttl=0"
 
-"$SIRUPP_EMU" --link "$work/bus" --start-pose ready >"$work/emu.out" 2>"$work/emu.err" &
-for _ in $(seq 100); do [[ -L "$work/bus" ]] && break; sleep 0.05; done
+"$SIRUPP_EMU" --socket "$work/bus" --start-pose ready >"$work/emu.out" 2>"$work/emu.err" &
+for _ in $(seq 100); do [[ -S "$work/bus" ]] && break; sleep 0.05; done
 "$SIRUPP_HARDWARE" --port "$work/bus" --emulated --calibrate --lcm-url "$URL" \
   --settings tests/data/hardware/quick_guard.yaml 2>"$work/hw.err" &
 for rig in "$alice" "$bob"; do
@@ -69,5 +69,6 @@ has log_ok "$work/turns.jsonl" '"handover": "ok"'
 if [[ $fail -ne 0 ]]; then
   echo "--- turns.out"; cat "$work/turns.out"; echo "--- turns.err"; cat "$work/turns.err"
   echo "--- hw.err (end)"; tail -5 "$work/hw.err"
+  echo "--- emu.err (end)"; tail -8 "$work/emu.err"
 fi
 finish turns_serve "$(grep -o 'handover after alice.s turn done in [0-9.]* s' "$work/turns.out")"

@@ -80,7 +80,7 @@ class Rig:
         pose = ["--pose", "ready"] if self.hardware else []
         if self.hardware:
             link = os.path.join(self.work, "puma-bus")
-            self._start("emulator", ["sirupp-picservo-emu", "--link", link, "--start-pose", "ready"])
+            self._start("emulator", ["sirupp-picservo-emu", "--socket", link, "--start-pose", "ready"])
             wait_for("the emulator's device", lambda: os.path.exists(link), 10)
         self._start("sim", ["sirupp-sim", "--lcm-url", self.url, "--mode", "realtime"] + pose)
         self._start("control", ["sirupp-control", "--lcm-url", self.url])
