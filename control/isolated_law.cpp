@@ -147,17 +147,63 @@ std::string DefaultHostProgram(const std::string& library) {
   return (error ? std::filesystem::path(".") : self.parent_path()) / HostProgramName(library);
 }
 
-// Gives `pid` and its descendants (the sandbox's processes and the host) the scheduling policy.
+// `pid` and its descendants (the sandbox's processes and the host), from /proc's children lists.
+std::vector<pid_t> ProcessTree(pid_t pid) {
+  std::vector<pid_t> tree = {pid};
+  for (size_t i = 0; i < tree.size(); ++i) {
+    const std::string tasks = "/proc/" + std::to_string(tree[i]) + "/task";
+    std::error_code error;
+    for (const auto& task : std::filesystem::directory_iterator(tasks, error)) {
+      std::FILE* file = std::fopen((task.path() / "children").c_str(), "r");
+      if (file == nullptr) continue;
+      for (int child = 0; std::fscanf(file, "%d", &child) == 1;) tree.push_back(child);
+      std::fclose(file);
+    }
+  }
+  return tree;
+}
+
+// Gives `pid` and its descendants the scheduling policy.
 void SetSchedulerOfTree(pid_t pid, int policy, const sched_param& param) {
-  ::sched_setscheduler(pid, policy, &param);
-  const std::string children =
-      "/proc/" + std::to_string(pid) + "/task/" + std::to_string(pid) + "/children";
-  std::FILE* file = std::fopen(children.c_str(), "r");
-  if (file == nullptr) return;
-  std::vector<pid_t> found;
-  for (int child = 0; std::fscanf(file, "%d", &child) == 1;) found.push_back(child);
-  std::fclose(file);
-  for (pid_t child : found) SetSchedulerOfTree(child, policy, param);
+  for (pid_t member : ProcessTree(pid)) ::sched_setscheduler(member, policy, &param);
+}
+
+// What the host's process tree is doing: its CPU time so far and whether one of its threads is
+// runnable (on a CPU, or waiting for one on a loaded machine) rather than asleep.
+struct TreeActivity {
+  double cpu_s = 0;
+  bool runnable = false;
+};
+
+TreeActivity ActivityOfTree(pid_t pid) {
+  TreeActivity activity;
+  const double ticks_per_s = static_cast<double>(::sysconf(_SC_CLK_TCK));
+  for (pid_t member : ProcessTree(pid)) {
+    const std::string tasks = "/proc/" + std::to_string(member) + "/task";
+    std::error_code error;
+    for (const auto& task : std::filesystem::directory_iterator(tasks, error)) {
+      std::FILE* file = std::fopen((task.path() / "stat").c_str(), "r");
+      if (file == nullptr) continue;
+      char line[1024];
+      const size_t n = std::fread(line, 1, sizeof line - 1, file);
+      std::fclose(file);
+      line[n] = '\0';
+      // "pid (name) state ppid pgrp session tty tpgid flags minflt cminflt majflt cmajflt utime
+      // stime ...": the name may hold spaces and parentheses, so the fields count from the last
+      // ')'.
+      const char* after_name = std::strrchr(line, ')');
+      char state = 0;
+      unsigned long utime = 0, stime = 0;
+      if (after_name == nullptr ||
+          std::sscanf(after_name + 1, " %c %*d %*d %*d %*d %*d %*u %*u %*u %*u %*u %lu %lu", &state,
+                      &utime, &stime) != 3) {
+        continue;
+      }
+      activity.cpu_s += static_cast<double>(utime + stime) / ticks_per_s;
+      if (state == 'R') activity.runnable = true;
+    }
+  }
+  return activity;
 }
 
 }  // namespace
@@ -422,6 +468,36 @@ int IsolatedEffortLaw::WaitForHost(double limit_s, char* byte) {
   }
 }
 
+int IsolatedEffortLaw::WaitWhileStarved(double limit_s, char* byte) {
+  past_limit_.clear();
+  const TreeActivity at_limit = ActivityOfTree(pid_);
+  if (!at_limit.runnable) return WaitForHost(kLastLookS, byte);  // asleep: a blocking call
+  const Clock::time_point limit_passed = Clock::now();
+  const double patience_s = std::max(kStarvedPatienceS, 10 * limit_s);
+  const Clock::time_point give_up = limit_passed + std::chrono::duration_cast<Clock::duration>(
+                                                       std::chrono::duration<double>(patience_s));
+  for (;;) {
+    const int answer = WaitForHost(std::min(kStarvedLookS, limit_s), byte);
+    if (answer != 0) return answer;
+    const TreeActivity now = ActivityOfTree(pid_);
+    const double computed_s = now.cpu_s - at_limit.cpu_s;
+    const Clock::time_point at = Clock::now();
+    // Computing for a whole limit more (an endless loop), asleep (a blocking call), or starved
+    // past all patience: one last look for an answer that came as it went to sleep, then fail.
+    if (!now.runnable || computed_s >= limit_s || at >= give_up) {
+      const double waited_s = std::chrono::duration<double>(at - limit_passed).count();
+      char text[160];
+      std::snprintf(text, sizeof text,
+                    "; it was waiting for a CPU at the limit and was given %.2f s more, in which "
+                    "it computed for %.2f s%s",
+                    waited_s, computed_s,
+                    now.runnable && computed_s < limit_s ? " (the machine is overloaded)" : "");
+      past_limit_ = text;
+      return WaitForHost(kLastLookS, byte);
+    }
+  }
+}
+
 void IsolatedEffortLaw::Call(int32_t op, const ControlInput& input, const char* what) {
   if (pid_ <= 0) throw std::runtime_error(std::string("no host process to run ") + what);
   fresh_ = false;
@@ -447,7 +523,8 @@ void IsolatedEffortLaw::Call(int32_t op, const ControlInput& input, const char* 
     throw std::runtime_error(ReapHost(false, std::string("before ") + what));
   }
   char byte = 0;
-  const int answer = WaitForHost(options_.tick_limit_s, &byte);
+  int answer = WaitForHost(options_.tick_limit_s, &byte);
+  if (answer == 0) answer = WaitWhileStarved(options_.tick_limit_s, &byte);
   if (answer == 0) {
     const pid_t pid = pid_;
     ReapHost(true, "");
@@ -455,7 +532,7 @@ void IsolatedEffortLaw::Call(int32_t op, const ControlInput& input, const char* 
                              core::FormatNumber(options_.tick_limit_s) +
                              " s (the per-tick limit, --controller-tick-limit; an endless loop or "
                              "a blocking call?): its host process " +
-                             std::to_string(pid) + " was killed");
+                             std::to_string(pid) + " was killed" + past_limit_);
   }
   if (answer < 0) throw std::runtime_error(ReapHost(false, std::string("in ") + what));
   if (byte != kDone || header->reply_seq != seq_) {

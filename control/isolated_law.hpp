@@ -41,7 +41,8 @@ struct IsolationOptions {
   std::string host_program;
   // Wall time one Reset or Update may take. A host still busy then is killed and the call fails
   // ("did not answer ... within"): in lockstep the sim waits for sirupp-control, so this limit is
-  // what turns a hanging controller into a fault.
+  // what turns a hanging controller into a fault. A host that at the limit is only waiting for a
+  // CPU (a loaded machine) is given more time while it waits (WaitWhileStarved).
   double tick_limit_s = 0.5;
   // Wall time for loading the library and running its constructor.
   double load_limit_s = 10;
@@ -95,6 +96,15 @@ class IsolatedEffortLaw : public EffortLaw {
   // Waits for the host's byte until `limit_s` passes. 1: a byte (in *byte); 0: time is up;
   // -1: end of file (the host ended).
   int WaitForHost(double limit_s, char* byte);
+  // After the per-tick limit passed without an answer: a host that is runnable, and has not used
+  // a whole limit of CPU time since, is waiting for a CPU on a loaded machine (not looping, not
+  // blocked), so the wait goes on, for at most max(kStarvedPatienceS, 10 limits). A host asleep
+  // at the limit (a blocking call) or computing for a whole limit more (an endless loop) fails
+  // at once. Returns as WaitForHost.
+  int WaitWhileStarved(double limit_s, char* byte);
+  static constexpr double kStarvedPatienceS = 10;  // at most this long past the limit, starved
+  static constexpr double kStarvedLookS = 0.05;    // how often the host's state is read then
+  static constexpr double kLastLookS = 0.01;       // a last look for an answer before failing
   // Reaps the ended (or killed) host; returns how it ended `where` (e.g. "in Update"):
   // "crashed with SIGSEGV (Segmentation fault) in Update".
   std::string ReapHost(bool kill_first, const std::string& where);
@@ -108,7 +118,8 @@ class IsolatedEffortLaw : public EffortLaw {
   void* shared_ = nullptr;
   size_t shared_size_ = 0;
   uint64_t seq_ = 0;
-  bool fresh_ = false;  // the host has not been called yet
+  std::string past_limit_;  // what WaitWhileStarved saw past the limit, for the fault's text
+  bool fresh_ = false;      // the host has not been called yet
   int hosts_started_ = 0;
 };
 

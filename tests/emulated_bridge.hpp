@@ -57,7 +57,8 @@ struct EmulatedBridge {
 
   static std::string MakeFolder() {
     char path[] = "/tmp/sirupp-emulated-bridge.XXXXXX";
-    if (::mkdtemp(path) == nullptr) throw std::runtime_error("mkdtemp failed for the emulator's line");
+    if (::mkdtemp(path) == nullptr)
+      throw std::runtime_error("mkdtemp failed for the emulator's line");
     return path;
   }
 

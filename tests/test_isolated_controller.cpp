@@ -171,6 +171,10 @@ TEST(IsolatedController, AFailingLibraryIsAFaultNamingItAndClearFaultStartsItAfr
        "did not return from Update within 0.2 s (the per-tick limit, --controller-tick-limit; "
        "an endless loop or a blocking call?): its host process ",
        true},
+      {"spins.so",  // computes forever: killed after the limit and one limit more of CPU
+       "did not return from Update within 0.2 s (the per-tick limit, --controller-tick-limit; "
+       "an endless loop or a blocking call?): its host process ",
+       true},
       {"aborts.so",
        "crashed with SIGABRT (Aborted) in Update: abort(), a failed assert() or std::terminate",
        true},
@@ -198,6 +202,18 @@ TEST(IsolatedController, AFailingLibraryIsAFaultNamingItAndClearFaultStartsItAfr
     EXPECT_EQ(rig.control.fault().rfind(expected, 0), 0u) << rig.control.fault();
     EXPECT_EQ(rig.last_status.state, Status::STATE_FAULT);
     EXPECT_EQ(rig.last_status.last_error, rig.control.fault());
+    if (failure.library == "spins.so") {
+      // Runnable at the limit, so it was given more time, and it computed for a limit more.
+      EXPECT_NE(rig.control.fault().find("; it was waiting for a CPU at the limit and was given "),
+                std::string::npos)
+          << rig.control.fault();
+      EXPECT_NE(rig.control.fault().find(" s more, in which it computed for 0."), std::string::npos)
+          << rig.control.fault();
+    }
+    if (failure.library == "hang.so") {  // asleep at the limit: a blocking call, no more time
+      EXPECT_EQ(rig.control.fault().find("waiting for a CPU"), std::string::npos)
+          << rig.control.fault();
+    }
     EXPECT_EQ(rig.control.states_answered(), rig.world.tick());
     EXPECT_EQ(rig.holds, rig.control.states_answered() - 300);
     const core::ArmState braked = rig.world.State();

@@ -1,7 +1,7 @@
-// What the misbehaving test controllers share (segfault.cpp, hang.cpp, aborts.cpp, throws.cpp,
-// nan_effort.cpp): a well-behaved law until a trigger given as the controller's argument, then
-// each library's own misbehaviour. Built against include/sirupp/controller.h alone, like a
-// student's library.
+// What the misbehaving test controllers share (segfault.cpp, hang.cpp, spins.cpp, aborts.cpp,
+// throws.cpp, nan_effort.cpp): a well-behaved law until a trigger given as the controller's
+// argument, then each library's own misbehaviour. Built against include/sirupp/controller.h
+// alone, like a student's library.
 //
 // Arguments (--controller-args):
 //   ""  or "N"    misbehave in the Update of tick N (default 200), that tick only
