@@ -18,10 +18,12 @@
 #include <cerrno>
 #include <chrono>
 #include <cstdio>
+#include <cstdlib>
 #include <cstring>
 #include <filesystem>
 #include <memory>
 #include <sirupp/robot_model_t.hpp>
+#include <sstream>
 #include <stdexcept>
 #include <thread>
 
@@ -147,16 +149,47 @@ std::string DefaultHostProgram(const std::string& library) {
   return (error ? std::filesystem::path(".") : self.parent_path()) / HostProgramName(library);
 }
 
-// `pid` and its descendants (the sandbox's processes and the host), from /proc's children lists.
+// The numbers of /proc/PID/stat (or a task's) after the name, which may hold spaces and
+// parentheses: field 3 (state) is fields[0], field 14 (utime) fields[11]. Empty when it is gone.
+std::vector<std::string> StatFields(const std::string& path) {
+  std::FILE* file = std::fopen(path.c_str(), "r");
+  if (file == nullptr) return {};
+  char line[1024];
+  const size_t n = std::fread(line, 1, sizeof line - 1, file);
+  std::fclose(file);
+  line[n] = '\0';
+  const char* after_name = std::strrchr(line, ')');
+  std::vector<std::string> fields;
+  if (after_name == nullptr) return fields;
+  std::istringstream words(after_name + 1);
+  for (std::string word; words >> word;) fields.push_back(word);
+  return fields;
+}
+
+// The tasks (threads) of a process, by number; empty when it is gone.
+std::vector<std::string> TasksOf(pid_t pid) {
+  std::vector<std::string> tasks;
+  std::error_code error;
+  std::filesystem::directory_iterator it("/proc/" + std::to_string(pid) + "/task", error);
+  for (; !error && it != std::filesystem::directory_iterator(); it.increment(error)) {
+    tasks.push_back(it->path().filename().string());
+  }
+  return tasks;
+}
+
+// `pid` and its descendants (the sandbox's processes and the host), from the tasks' children
+// lists; each once, at most kMaxTree (a fork bomb inside is the sandbox's limit to stop).
 std::vector<pid_t> ProcessTree(pid_t pid) {
+  constexpr size_t kMaxTree = 256;
   std::vector<pid_t> tree = {pid};
-  for (size_t i = 0; i < tree.size(); ++i) {
-    const std::string tasks = "/proc/" + std::to_string(tree[i]) + "/task";
-    std::error_code error;
-    for (const auto& task : std::filesystem::directory_iterator(tasks, error)) {
-      std::FILE* file = std::fopen((task.path() / "children").c_str(), "r");
+  for (size_t i = 0; i < tree.size() && tree.size() < kMaxTree; ++i) {
+    for (const std::string& task : TasksOf(tree[i])) {
+      std::FILE* file = std::fopen(
+          ("/proc/" + std::to_string(tree[i]) + "/task/" + task + "/children").c_str(), "r");
       if (file == nullptr) continue;
-      for (int child = 0; std::fscanf(file, "%d", &child) == 1;) tree.push_back(child);
+      for (int child = 0; std::fscanf(file, "%d", &child) == 1 && tree.size() < kMaxTree;) {
+        if (std::find(tree.begin(), tree.end(), child) == tree.end()) tree.push_back(child);
+      }
       std::fclose(file);
     }
   }
@@ -168,8 +201,10 @@ void SetSchedulerOfTree(pid_t pid, int policy, const sched_param& param) {
   for (pid_t member : ProcessTree(pid)) ::sched_setscheduler(member, policy, &param);
 }
 
-// What the host's process tree is doing: its CPU time so far and whether one of its threads is
-// runnable (on a CPU, or waiting for one on a loaded machine) rather than asleep.
+// What the host's process tree is doing: its CPU time so far (each process's own, with the
+// threads that ended and the children it waited for) and whether one of its threads is running,
+// waiting for a CPU (R) or in a short uninterruptible wait such as a page-in (D), rather than
+// asleep.
 struct TreeActivity {
   double cpu_s = 0;
   bool runnable = false;
@@ -179,28 +214,18 @@ TreeActivity ActivityOfTree(pid_t pid) {
   TreeActivity activity;
   const double ticks_per_s = static_cast<double>(::sysconf(_SC_CLK_TCK));
   for (pid_t member : ProcessTree(pid)) {
-    const std::string tasks = "/proc/" + std::to_string(member) + "/task";
-    std::error_code error;
-    for (const auto& task : std::filesystem::directory_iterator(tasks, error)) {
-      std::FILE* file = std::fopen((task.path() / "stat").c_str(), "r");
-      if (file == nullptr) continue;
-      char line[1024];
-      const size_t n = std::fread(line, 1, sizeof line - 1, file);
-      std::fclose(file);
-      line[n] = '\0';
-      // "pid (name) state ppid pgrp session tty tpgid flags minflt cminflt majflt cmajflt utime
-      // stime ...": the name may hold spaces and parentheses, so the fields count from the last
-      // ')'.
-      const char* after_name = std::strrchr(line, ')');
-      char state = 0;
-      unsigned long utime = 0, stime = 0;
-      if (after_name == nullptr ||
-          std::sscanf(after_name + 1, " %c %*d %*d %*d %*d %*d %*u %*u %*u %*u %*u %lu %lu", &state,
-                      &utime, &stime) != 3) {
-        continue;
+    const std::string proc = "/proc/" + std::to_string(member);
+    const std::vector<std::string> fields = StatFields(proc + "/stat");
+    if (fields.size() > 14) {  // utime stime cutime cstime
+      double ticks = 0;
+      for (size_t f = 11; f <= 14; ++f) ticks += std::strtod(fields[f].c_str(), nullptr);
+      activity.cpu_s += ticks / ticks_per_s;
+    }
+    for (const std::string& task : TasksOf(member)) {
+      const std::vector<std::string> task_fields = StatFields(proc + "/task/" + task + "/stat");
+      if (!task_fields.empty() && (task_fields[0] == "R" || task_fields[0] == "D")) {
+        activity.runnable = true;
       }
-      activity.cpu_s += static_cast<double>(utime + stime) / ticks_per_s;
-      if (state == 'R') activity.runnable = true;
     }
   }
   return activity;
@@ -470,31 +495,41 @@ int IsolatedEffortLaw::WaitForHost(double limit_s, char* byte) {
 
 int IsolatedEffortLaw::WaitWhileStarved(double limit_s, char* byte) {
   past_limit_.clear();
-  const TreeActivity at_limit = ActivityOfTree(pid_);
-  if (!at_limit.runnable) return WaitForHost(kLastLookS, byte);  // asleep: a blocking call
   const Clock::time_point limit_passed = Clock::now();
   const double patience_s = std::max(kStarvedPatienceS, 10 * limit_s);
   const Clock::time_point give_up = limit_passed + std::chrono::duration_cast<Clock::duration>(
                                                        std::chrono::duration<double>(patience_s));
+  const TreeActivity at_limit = ActivityOfTree(pid_);
+  bool asleep_before = !at_limit.runnable;
   for (;;) {
     const int answer = WaitForHost(std::min(kStarvedLookS, limit_s), byte);
     if (answer != 0) return answer;
     const TreeActivity now = ActivityOfTree(pid_);
-    const double computed_s = now.cpu_s - at_limit.cpu_s;
     const Clock::time_point at = Clock::now();
-    // Computing for a whole limit more (an endless loop), asleep (a blocking call), or starved
-    // past all patience: one last look for an answer that came as it went to sleep, then fail.
-    if (!now.runnable || computed_s >= limit_s || at >= give_up) {
-      const double waited_s = std::chrono::duration<double>(at - limit_passed).count();
-      char text[160];
-      std::snprintf(text, sizeof text,
-                    "; it was waiting for a CPU at the limit and was given %.2f s more, in which "
-                    "it computed for %.2f s%s",
-                    waited_s, computed_s,
-                    now.runnable && computed_s < limit_s ? " (the machine is overloaded)" : "");
-      past_limit_ = text;
-      return WaitForHost(kLastLookS, byte);
+    const double waited_s = std::chrono::duration<double>(at - limit_passed).count();
+    const double computed_s = now.cpu_s - at_limit.cpu_s;
+    // Why it is not waited for any longer: asleep at two looks in a row (a blocking call); given
+    // half a CPU or more and still no answer, or a whole limit of CPU time more (computing, an
+    // endless loop); runnable and starved past all patience. Else it waits for a CPU: wait on.
+    const char* why = nullptr;
+    if (!now.runnable && asleep_before) {
+      why = "it was asleep (a blocking call?)";
+    } else if (computed_s >= limit_s || (now.runnable && computed_s >= 0.5 * waited_s)) {
+      why = "it was computing (an endless loop?)";
+    } else if (at >= give_up) {
+      why = "it was still waiting for a CPU (the machine is overloaded)";
     }
+    asleep_before = !now.runnable;
+    if (why == nullptr) continue;
+    if (waited_s >= kStarvedLookS * 2) {  // it was given more time: say what it did with it
+      char text[200];
+      std::snprintf(text, sizeof text,
+                    "; past the limit it was waited for %.2f s more, in which it computed for "
+                    "%.2f s: %s",
+                    waited_s, computed_s, why);
+      past_limit_ = text;
+    }
+    return WaitForHost(kLastLookS, byte);  // one last look: an answer as it went to sleep
   }
 }
 

@@ -96,13 +96,13 @@ class IsolatedEffortLaw : public EffortLaw {
   // Waits for the host's byte until `limit_s` passes. 1: a byte (in *byte); 0: time is up;
   // -1: end of file (the host ended).
   int WaitForHost(double limit_s, char* byte);
-  // After the per-tick limit passed without an answer: a host that is runnable, and has not used
-  // a whole limit of CPU time since, is waiting for a CPU on a loaded machine (not looping, not
-  // blocked), so the wait goes on, for at most max(kStarvedPatienceS, 10 limits). A host asleep
-  // at the limit (a blocking call) or computing for a whole limit more (an endless loop) fails
-  // at once. Returns as WaitForHost.
+  // After the per-tick limit passed without an answer: a host that is runnable but given less
+  // than half a CPU is waiting for a CPU on a loaded machine, not looping and not blocked, so the
+  // wait goes on, for at most max(kStarvedPatienceS, 10 limits). A host asleep at two looks in a
+  // row (a blocking call), or given half a CPU or more without answering, or computing for a
+  // whole limit more (an endless loop) fails within a look or two. Returns as WaitForHost.
   int WaitWhileStarved(double limit_s, char* byte);
-  static constexpr double kStarvedPatienceS = 10;  // at most this long past the limit, starved
+  static constexpr double kStarvedPatienceS = 10;  // at least this long past the limit, starved
   static constexpr double kStarvedLookS = 0.05;    // how often the host's state is read then
   static constexpr double kLastLookS = 0.01;       // a last look for an answer before failing
   // Reaps the ended (or killed) host; returns how it ended `where` (e.g. "in Update"):
