@@ -1,13 +1,18 @@
 // sirupp-sandbox-exec: the steps of the sandbox that bubblewrap does not take
-// (sandbox/sandbox.hpp). Started by the sandbox's argv prefix, never by hand. Outside bubblewrap,
-// started as root:
+// (sandbox/sandbox.hpp). Started by the sandbox's argv prefix, never by hand. Outside bubblewrap:
 //
-//   sirupp-sandbox-exec --hold-uid --uid-at K [--give PATH]... -- BWRAP ARGS...
+//   sirupp-sandbox-exec --supervise -- BWRAP ARGS...
+//   sirupp-sandbox-exec --hold-uid --uid-at K [--give PATH]... -- BWRAP ARGS...     (as root)
 //
-// takes a uid no living sandbox holds (sandbox::HoldFreeUid), gives each PATH to it (chown),
-// puts it in word K of BWRAP ARGS (0 = BWRAP; the inner --user's value) and execs bubblewrap with
-// the lock's descriptor as its --sync-fd: bubblewrap's init keeps it while the sandbox lives, and
-// the program it runs does not get it. Inside bubblewrap:
+// runs bubblewrap as its child and stays its parent, a subreaper: bubblewrap killed while it sets
+// the sandbox up leaves its own child (the sandbox's init) waiting forever for a word that never
+// comes, or running without its --die-with-parent; as a subreaper this process gets that orphan
+// and kills it. It ends with bubblewrap's status once nothing it reaps is left; SIGTERM, SIGINT or
+// SIGHUP (and the death of its own parent, as SIGTERM) go on to bubblewrap. --hold-uid first takes
+// a uid no living sandbox holds (sandbox::HoldFreeUid), gives each PATH to it (chown), puts it in
+// word K of BWRAP ARGS (0 = BWRAP; the inner --user's value) and gives bubblewrap the lock's
+// descriptor as its --sync-fd: bubblewrap's init keeps it while the sandbox lives, and the program
+// it runs does not get it. Inside bubblewrap:
 //
 //   sirupp-sandbox-exec [--cpu S] [--memory MB] [--processes N] [--file-size MB] [--sanitized]
 //                       [--user UID] [--no-network] -- PROGRAM ARGS...
@@ -17,6 +22,10 @@
 //
 // Descriptors stay open across it. Exit 126 with one line when a step fails (nothing runs).
 
+#include <dirent.h>
+#include <signal.h>
+#include <sys/prctl.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -24,6 +33,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
+#include <fstream>
 #include <string>
 #include <vector>
 
@@ -40,6 +50,97 @@ bool ParseNumber(const char* text, double* value) {
   char* end = nullptr;
   *value = std::strtod(text, &end);
   return end != text && *end == '\0' && *value >= 0;
+}
+
+// The processes whose parent is this one (what is left to reap), by /proc.
+std::vector<pid_t> OwnChildren() {
+  std::vector<pid_t> children;
+  const std::string self = std::to_string(::getpid());
+  DIR* proc = ::opendir("/proc");
+  if (proc == nullptr) return children;
+  while (const dirent* entry = ::readdir(proc)) {
+    char* end = nullptr;
+    const long pid = std::strtol(entry->d_name, &end, 10);
+    if (pid <= 0 || *end != '\0') continue;
+    std::ifstream stat(std::string("/proc/") + entry->d_name + "/stat");
+    std::string text;
+    if (!std::getline(stat, text)) continue;
+    const size_t close = text.rfind(')');  // "pid (name) state ppid ..."
+    if (close == std::string::npos || close + 4 > text.size()) continue;
+    const size_t ppid_at = text.find(' ', close + 3);
+    if (ppid_at == std::string::npos) continue;
+    if (text.compare(ppid_at + 1, self.size() + 1, self + " ") == 0) {
+      children.push_back(static_cast<pid_t>(pid));
+    }
+  }
+  ::closedir(proc);
+  return children;
+}
+
+// Runs `command` (bubblewrap) as a child and supervises it (see the top of this file). `held_fd`
+// (or -1) is given to bubblewrap and closed here.
+int Supervise(const std::vector<std::string>& command, int held_fd) {
+  sigset_t watched;
+  sigemptyset(&watched);
+  for (const int sig : {SIGCHLD, SIGTERM, SIGINT, SIGHUP}) sigaddset(&watched, sig);
+  sigset_t before;
+  ::sigprocmask(SIG_BLOCK, &watched, &before);
+  if (::prctl(PR_SET_CHILD_SUBREAPER, 1) != 0) {
+    return Fail(std::string("prctl(PR_SET_CHILD_SUBREAPER): ") + std::strerror(errno));
+  }
+  // Its starter's end is a SIGTERM here. (Its starters set SIGKILL before the exec, checking
+  // that the starter lived on; the signal only changes here.)
+  ::prctl(PR_SET_PDEATHSIG, SIGTERM);
+  std::vector<std::string> words = command;
+  std::vector<char*> raw;
+  for (std::string& word : words) raw.push_back(word.data());
+  raw.push_back(nullptr);
+  const std::string cannot_run = "sirupp-sandbox-exec: cannot run " + command.front() + "\n";
+  const pid_t self = ::getpid();
+  const pid_t bwrap = ::fork();
+  if (bwrap < 0) return Fail("cannot start " + command.front() + ": " + std::strerror(errno));
+  if (bwrap == 0) {  // only async-signal-safe calls until exec
+    ::prctl(PR_SET_PDEATHSIG, SIGKILL);
+    if (::getppid() != self) ::_exit(126);
+    ::sigprocmask(SIG_SETMASK, &before, nullptr);
+    ::execv(raw[0], raw.data());
+    [[maybe_unused]] const ssize_t said = ::write(2, cannot_run.data(), cannot_run.size());
+    ::_exit(126);
+  }
+  if (held_fd >= 0) ::close(held_fd);  // bubblewrap's init holds the uid now
+  int status = 0;
+  bool bwrap_ended = false;
+  for (;;) {
+    // Reap what ended; once bubblewrap has, what it left behind is killed.
+    for (;;) {
+      int reaped_status = 0;
+      const pid_t reaped = ::waitpid(-1, &reaped_status, WNOHANG);
+      if (reaped < 0 && errno == EINTR) continue;
+      if (reaped <= 0) break;
+      if (reaped == bwrap) {
+        status = reaped_status;
+        bwrap_ended = true;
+      }
+    }
+    if (bwrap_ended) {
+      const std::vector<pid_t> left = OwnChildren();
+      if (left.empty()) break;
+      for (const pid_t pid : left) ::kill(pid, SIGKILL);
+    }
+    siginfo_t info{};
+    const int sig = ::sigwaitinfo(&watched, &info);
+    if (sig < 0) continue;  // EINTR
+    if (sig != SIGCHLD && !bwrap_ended) ::kill(bwrap, sig);
+  }
+  if (WIFEXITED(status)) return WEXITSTATUS(status);
+  if (WIFSIGNALED(status)) {  // ends the same way
+    ::prctl(PR_SET_PDEATHSIG, 0);
+    ::signal(WTERMSIG(status), SIG_DFL);
+    ::sigprocmask(SIG_UNBLOCK, &watched, nullptr);
+    ::raise(WTERMSIG(status));
+    return 128 + WTERMSIG(status);
+  }
+  return 126;
 }
 
 // --hold-uid: outside bubblewrap, as root (see above).
@@ -82,17 +183,19 @@ int HoldUidAndStart(int argc, char** argv) {
   }
   command[static_cast<size_t>(uid_at)] = std::to_string(held.uid);
   command.insert(command.begin() + 1, {"--sync-fd", std::to_string(held.fd)});
-  std::vector<char*> raw;
-  for (std::string& word : command) raw.push_back(word.data());
-  raw.push_back(nullptr);
-  ::execv(raw[0], raw.data());
-  return Fail("cannot run " + command.front() + ": " + std::strerror(errno));
+  return Supervise(command, held.fd);
 }
 
 }  // namespace
 
 int main(int argc, char** argv) {
   if (argc > 1 && std::string(argv[1]) == "--hold-uid") return HoldUidAndStart(argc, argv);
+  if (argc > 1 && std::string(argv[1]) == "--supervise") {
+    if (argc < 4 || std::string(argv[2]) != "--") {
+      return Fail("--supervise: usage: --supervise -- BWRAP ARGS...");
+    }
+    return Supervise(std::vector<std::string>(argv + 3, argv + argc), -1);
+  }
   sirupp::sandbox::Limits limits;
   bool apply_limits = false, sanitized = false, no_network = false;
   int user = -1;

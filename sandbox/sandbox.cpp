@@ -216,9 +216,13 @@ std::vector<std::string> BuildArgv(const Probe& probe, const Policy& policy,
   if (policy.sanitized_target) out.emplace_back("--sanitized");
   out.insert(out.end(), {"--no-network", "--"});
   out.insert(out.end(), argv.begin(), argv.end());
-  if (!probe.as_root) return out;
-  // As root, first the outer step: it takes a uid no living sandbox has, gives it the read-write
-  // paths and holds it for as long as bubblewrap lives.
+  // Outside, bubblewrap runs under sirupp-sandbox-exec, which stays its parent and kills what a
+  // bubblewrap killed during its set-up leaves behind. As root it first takes a uid no living
+  // sandbox has, gives it the read-write paths and holds it for as long as bubblewrap lives.
+  if (!probe.as_root) {
+    out.insert(out.begin(), {probe.helper, "--supervise", "--"});
+    return out;
+  }
   const auto word = std::find(out.begin(), out.end(), kUidWord);
   std::vector<std::string> outer = {probe.helper, "--hold-uid", "--uid-at",
                                     std::to_string(word - out.begin())};

@@ -6,11 +6,14 @@
 //
 // A sandbox is an argv prefix, so any spawn (posix_spawn, grade::Child) can use it unchanged:
 //
-//   (as root) sirupp-sandbox-exec --hold-uid --uid-at K [--give PATH]... --
-//                                               outside: takes a uid no living sandbox on the
-//                                               machine has, gives it the read-write paths, puts
-//                                               it in word K below, and execs bubblewrap holding
-//                                               it (HoldFreeUid)
+//   sirupp-sandbox-exec --supervise --         outside: runs bubblewrap as its child, a
+//                                               subreaper that kills what a bubblewrap killed
+//                                               during its set-up leaves behind, and ends with it
+//   (as root, instead) sirupp-sandbox-exec --hold-uid --uid-at K [--give PATH]... --
+//                                               the same, and first takes a uid no living sandbox
+//                                               on the machine has, gives it the read-write
+//                                               paths, puts it in word K below, and hands it to
+//                                               bubblewrap, which holds it (HoldFreeUid)
 //   bwrap --unshare-all --die-with-parent ...  Debian's bubblewrap: new user, network (only a
 //                                               loopback of its own), pid, ipc, uts and cgroup
 //                                               namespaces; a file system of /usr (read-only),
@@ -27,7 +30,7 @@
 // it, whoever started them: the uid is held by a lock that bubblewrap's init (the sandbox's pid 1,
 // whose end ends every process in it) keeps open as its --sync-fd, and the code never has.
 // Descriptors the parent passes (the controller host's socket pair and memfd) stay open across
-// all three. The policy's paths appear at their own paths inside.
+// all of them. The policy's paths appear at their own paths inside.
 
 #include <cstdint>
 #include <string>

@@ -2,9 +2,13 @@
 // Helpers shared by the unit tests.
 
 #include <gtest/gtest.h>
+#include <sys/types.h>
 
+#include <chrono>
 #include <cstdint>
+#include <fstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 namespace sirupp::testing {
@@ -31,6 +35,25 @@ std::string ErrorText(Body body) {
     return error.what();
   }
   return "";
+}
+
+// A process that exists and is not a zombie.
+inline bool Alive(pid_t pid) {
+  std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
+  std::string text;
+  if (!std::getline(in, text)) return false;
+  const size_t close = text.rfind(')');
+  return close != std::string::npos && close + 2 < text.size() && text[close + 2] != 'Z';
+}
+
+// Whether `pid` is gone (or a zombie) within `timeout_s` of wall time.
+inline bool GoneWithin(pid_t pid, double timeout_s) {
+  const auto until = std::chrono::steady_clock::now() + std::chrono::duration<double>(timeout_s);
+  while (Alive(pid)) {
+    if (std::chrono::steady_clock::now() > until) return false;
+    std::this_thread::sleep_for(std::chrono::milliseconds(5));
+  }
+  return true;
 }
 
 }  // namespace sirupp::testing

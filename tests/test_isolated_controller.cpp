@@ -5,15 +5,18 @@
 // library afresh in a new host process. Load problems are reported at construction as before.
 // sirupp-sim's and sirupp-control's logic in lockstep on one in-process memq:// bus.
 
+#include <fcntl.h>
 #include <gtest/gtest.h>
 #include <pthread.h>
 #include <sched.h>
 #include <signal.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <memory>
 #include <sirupp/arm_command_t.hpp>
 #include <sirupp/arm_state_t.hpp>
@@ -299,6 +302,50 @@ TEST(IsolatedController, AHostWaitingForACpuAtTheLimitIsWaitedForNotKilled) {
   EXPECT_GT(longest_tick_s, 0.2) << "the host was not starved past the limit";
   EXPECT_EQ(rig.control.states_answered(), rig.world.tick());
   EXPECT_EQ(law->hosts_started(), 1);
+}
+
+// A sirupp-control killed without a word (a cancelled cluster job's SIGKILL) leaves no sandbox
+// behind, also when its host is busy in a call and so does not see its socket close: the host's
+// bubblewrap gets the parent-death signal. Before, it waited on with parent 1, which process
+// tracking by descent (Slurm's proctrack/linuxproc) no longer finds. Here a forked process starts
+// hang.so's host, calls the Update in which it sleeps forever and is killed.
+TEST(IsolatedController, TheHostsSandboxEndsWhenTheProcessThatStartedItIsKilled) {
+  int report[2];
+  ASSERT_EQ(::pipe2(report, O_CLOEXEC), 0);
+  const pid_t starter = ::fork();
+  ASSERT_GE(starter, 0);
+  if (starter == 0) {
+    ::close(report[0]);
+    pid_t host = -1;
+    try {
+      IsolatedEffortLaw law(kTestControllers + "/hang.so", "1", Puma(), Isolation(600));
+      host = law.host_pid();
+      [[maybe_unused]] const ssize_t said = ::write(report[1], &host, sizeof host);
+      const std::vector<double> zero(6, 0.0);
+      EffortAt(law, 1, zero, zero, zero);  // the host sleeps in it until this process is killed
+    } catch (const std::exception& error) {
+      std::fprintf(stderr, "%s\n", error.what());
+      [[maybe_unused]] const ssize_t said = ::write(report[1], &host, sizeof host);
+    }
+    ::_exit(1);
+  }
+  ::close(report[1]);
+  pid_t host = -1;
+  const bool heard = ::read(report[0], &host, sizeof host) == sizeof host;
+  ::close(report[0]);
+  if (!heard || host <= 0) {
+    ::kill(starter, SIGKILL);
+    ::waitpid(starter, nullptr, 0);
+    FAIL() << "the starter did not start the host (its error above)";
+  }
+  std::this_thread::sleep_for(std::chrono::milliseconds(300));  // the call is under way
+  EXPECT_TRUE(sirupp::testing::Alive(host)) << "the host ended before its starter was killed";
+  ::kill(starter, SIGKILL);
+  ::waitpid(starter, nullptr, 0);
+  const bool gone = sirupp::testing::GoneWithin(host, 10);
+  if (!gone) ::kill(host, SIGKILL);  // bubblewrap's --die-with-parent takes the sandbox with it
+  EXPECT_TRUE(gone) << "the host's sandbox (pid " << host
+                    << ") outlived the process that started it";
 }
 
 TEST(IsolatedController, LoadProblemsAreReportedAsBeforeAndACrashWhileLoadingIsNamed) {

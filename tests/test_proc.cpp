@@ -17,12 +17,15 @@
 
 #include "proc/child.hpp"
 #include "proc/rig.hpp"
+#include "tests/helpers.hpp"
 
 namespace sirupp::proc {
 namespace {
 
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
+using sirupp::testing::Alive;
+using sirupp::testing::GoneWithin;
 
 class ProcTest : public ::testing::Test {
  protected:
@@ -57,22 +60,6 @@ class ProcTest : public ::testing::Test {
       std::this_thread::sleep_for(std::chrono::milliseconds(5));
     }
     return "";
-  }
-  // A process that exists and is not a zombie.
-  static bool Alive(pid_t pid) {
-    std::ifstream in("/proc/" + std::to_string(pid) + "/stat");
-    std::string text;
-    if (!std::getline(in, text)) return false;
-    const size_t close = text.rfind(')');
-    return close != std::string::npos && close + 2 < text.size() && text[close + 2] != 'Z';
-  }
-  static bool GoneWithin(pid_t pid, double timeout_s) {
-    const auto until = Clock::now() + std::chrono::milliseconds(static_cast<int>(timeout_s * 1000));
-    while (Alive(pid)) {
-      if (Clock::now() > until) return false;
-      std::this_thread::sleep_for(std::chrono::milliseconds(5));
-    }
-    return true;
   }
   ProcessSpec Shell(const std::string& script, const std::string& log = "log.txt") const {
     ProcessSpec spec;
