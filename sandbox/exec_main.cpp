@@ -52,10 +52,14 @@ bool ParseNumber(const char* text, double* value) {
   return end != text && *end == '\0' && *value >= 0;
 }
 
-// The processes whose parent is this one (what is left to reap), by /proc.
+// The processes whose parent is this one (what is left to reap), by /proc; none when /proc is
+// another pid namespace's (its numbers would name other processes).
 std::vector<pid_t> OwnChildren() {
   std::vector<pid_t> children;
   const std::string self = std::to_string(::getpid());
+  std::ifstream own("/proc/self/stat");
+  std::string own_pid;
+  if (!(own >> own_pid) || own_pid != self) return children;
   DIR* proc = ::opendir("/proc");
   if (proc == nullptr) return children;
   while (const dirent* entry = ::readdir(proc)) {
@@ -88,8 +92,8 @@ int Supervise(const std::vector<std::string>& command, int held_fd) {
   if (::prctl(PR_SET_CHILD_SUBREAPER, 1) != 0) {
     return Fail(std::string("prctl(PR_SET_CHILD_SUBREAPER): ") + std::strerror(errno));
   }
-  // Its starter's end is a SIGTERM here. (Its starters set SIGKILL before the exec, checking
-  // that the starter lived on; the signal only changes here.)
+  // Its starter's end is a SIGTERM here. (proc::Child sets SIGKILL before the exec, so the time
+  // before this line is covered too; a posix_spawn's child has none until here.)
   ::prctl(PR_SET_PDEATHSIG, SIGTERM);
   std::vector<std::string> words = command;
   std::vector<char*> raw;
