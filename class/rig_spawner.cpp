@@ -10,28 +10,12 @@
 #include <stdexcept>
 
 #include "class/rig_job.hpp"
+#include "proc/child.hpp"
 
 namespace sirupp::classroom {
 namespace {
 
 namespace fs = std::filesystem;
-
-// One word for sh: as it is when it is plain, else in single quotes.
-std::string ShellWord(const std::string& word) {
-  const bool plain = !word.empty() && word.find_first_not_of(
-                                          "abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ"
-                                          "0123456789_-./:=@%+,") == std::string::npos;
-  if (plain) return word;
-  std::string out = "'";
-  for (const char c : word) {
-    if (c == '\'') {
-      out += "'\\''";
-    } else {
-      out += c;
-    }
-  }
-  return out + "'";
-}
 
 std::string ReadAll(const std::string& file) {
   std::ifstream in(file);
@@ -100,28 +84,28 @@ std::string LocalRigSpawner::Where() const {
 // --- Slurm ---------------------------------------------------------------------------------------
 
 std::string RigJobScript(const RigJobSpec& spec) {
-  std::vector<std::string> words = {spec.bin_dir + "/sirupp-rig-job",
-                                    "--student",
-                                    spec.student,
-                                    "--folder",
-                                    spec.folder,
-                                    "--robot",
-                                    spec.robot,
-                                    "--secret-file",
-                                    spec.secret_file,
-                                    "--report-url",
-                                    spec.report_url,
-                                    "--pace-ticks",
-                                    std::to_string(spec.pace_ticks),
-                                    "--memory-mb",
-                                    std::to_string(spec.memory_mb)};
+  proc::ProcessSpec job;
+  job.argv = {spec.bin_dir + "/sirupp-rig-job",
+              "--student",
+              spec.student,
+              "--folder",
+              spec.folder,
+              "--robot",
+              spec.robot,
+              "--secret-file",
+              spec.secret_file,
+              "--report-url",
+              spec.report_url,
+              "--pace-ticks",
+              std::to_string(spec.pace_ticks),
+              "--memory-mb",
+              std::to_string(spec.memory_mb)};
   if (!spec.controller.empty()) {
-    words.push_back("--controller");
-    words.push_back(spec.controller);
+    job.argv.push_back("--controller");
+    job.argv.push_back(spec.controller);
   }
-  std::string line = "exec";
-  for (const std::string& word : words) line += " " + ShellWord(word);
-  return "#!/bin/sh\n# " + spec.student + "'s rig (sirupp class serve, cluster:)\n" + line + "\n";
+  return "#!/bin/sh\n# " + spec.student + "'s rig (sirupp class serve, cluster:)\n" +
+         proc::ExecLine(job) + "\n";
 }
 
 SlurmRigSpawner::SlurmRigSpawner(cluster::SlurmEngine& engine, const cluster::ClusterConfig& config,

@@ -23,6 +23,7 @@
 #include "class/class_config.hpp"
 #include "class/class_server.hpp"
 #include "class/real_arm.hpp"
+#include "class/rig_spawner.hpp"
 #include "class/tokens.hpp"
 #include "core/errors.hpp"
 #include "panel/httplib_include.hpp"
@@ -579,6 +580,44 @@ TEST(ClassServerTlsTest, ServesHttpsWithTheGivenCertificate) {
   } catch (const std::runtime_error& e) {
     EXPECT_NE(std::string(e.what()).find("other.pem"), std::string::npos) << e.what();
   }
+  fs::remove_all(dir);
+}
+
+// The rig job's script, run by sh as Slurm runs it: sirupp-rig-job gets each word as it was, also
+// a folder with a space and a quote in it (here a stand-in that prints its arguments).
+TEST(RigJobScriptTest, ShExecsTheRigJobWithEachWordAsItWas) {
+  const fs::path dir =
+      fs::temp_directory_path() / ("sirupp-rig-script-" + std::to_string(::getpid()));
+  fs::create_directories(dir);
+  {
+    std::ofstream stand_in(dir / "sirupp-rig-job");
+    stand_in << "#!/bin/sh\nfor word in \"$@\"; do printf '[%s]\\n' \"$word\"; done\n";
+  }
+  fs::permissions(dir / "sirupp-rig-job", fs::perms::owner_all);
+  RigJobSpec spec;
+  spec.student = "alice";
+  spec.folder = "/srv/class one/alice's";
+  spec.robot = "/srv/robots/puma260.yaml";
+  spec.bin_dir = dir.string();
+  spec.secret_file = "/srv/class one/.secrets/alice";
+  spec.report_url = "http://10.0.0.1:8080/cluster/report";
+  spec.controller = "ctl.so";
+  spec.memory_mb = 512;
+  const std::string script = RigJobScript(spec);
+  EXPECT_EQ(script.rfind("#!/bin/sh\n# alice's rig (sirupp class serve, cluster:)\nexec ", 0), 0u)
+      << script;
+  const fs::path script_file = dir / "job.sh";
+  std::ofstream(script_file) << script;
+  const fs::path out_file = dir / "out.txt";
+  ASSERT_EQ(std::system(("sh " + script_file.string() + " > " + out_file.string()).c_str()), 0);
+  std::ifstream out(out_file);
+  std::stringstream words;
+  words << out.rdbuf();
+  EXPECT_EQ(words.str(),
+            "[--student]\n[alice]\n[--folder]\n[/srv/class one/alice's]\n[--robot]\n"
+            "[/srv/robots/puma260.yaml]\n[--secret-file]\n[/srv/class one/.secrets/alice]\n"
+            "[--report-url]\n[http://10.0.0.1:8080/cluster/report]\n[--pace-ticks]\n[4]\n"
+            "[--memory-mb]\n[512]\n[--controller]\n[ctl.so]\n");
   fs::remove_all(dir);
 }
 
