@@ -83,7 +83,7 @@ std::vector<pid_t> OwnChildren() {
 
 // Runs `command` (bubblewrap) as a child and supervises it (see the top of this file). `held_fd`
 // (or -1) is given to bubblewrap and closed here.
-int Supervise(const std::vector<std::string>& command, int held_fd) {
+int Supervise(std::vector<std::string> command, int held_fd) {
   sigset_t watched;
   sigemptyset(&watched);
   for (const int sig : {SIGCHLD, SIGTERM, SIGINT, SIGHUP}) sigaddset(&watched, sig);
@@ -95,9 +95,8 @@ int Supervise(const std::vector<std::string>& command, int held_fd) {
   // Its starter's end is a SIGTERM here. (proc::Child sets SIGKILL before the exec, so the time
   // before this line is covered too; a posix_spawn's child has none until here.)
   ::prctl(PR_SET_PDEATHSIG, SIGTERM);
-  std::vector<std::string> words = command;
   std::vector<char*> raw;
-  for (std::string& word : words) raw.push_back(word.data());
+  for (std::string& word : command) raw.push_back(word.data());
   raw.push_back(nullptr);
   const std::string cannot_run = "sirupp-sandbox-exec: cannot run " + command.front() + "\n";
   const pid_t self = ::getpid();
