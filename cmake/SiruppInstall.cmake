@@ -26,6 +26,10 @@ if(TARGET sirupp-rig-job)  # a rig as a cluster job (class/rig_job.hpp)
   list(APPEND sirupp_installed_programs sirupp-rig-job)
 endif()
 install(TARGETS ${sirupp_installed_programs} RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+# `cmake --build build --target sirupp_programs`: the programs alone, without the tests, benchmarks,
+# examples and the Python module (what scripts/demo.sh builds: the demo runs nothing else).
+add_custom_target(sirupp_programs)
+add_dependencies(sirupp_programs ${sirupp_installed_programs})
 
 # ---- Shipped files (read-only data) ------------------------------------------------------------
 install(DIRECTORY config DESTINATION ${SIRUPP_INSTALL_DATADIR})
@@ -70,9 +74,12 @@ _PREFIX = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__
                                         '${sirupp_python_to_prefix}'))
 BIN_DIR = os.path.join(_PREFIX, '${CMAKE_INSTALL_BINDIR}')
 SOURCE_DIR = os.path.join(_PREFIX, '${SIRUPP_INSTALL_DATADIR}')
+VERSION = '${PROJECT_VERSION}'
 ")
   install(FILES ${CMAKE_BINARY_DIR}/packaging/_paths.py
           DESTINATION ${SIRUPP_INSTALL_PYTHONDIR}/sirupp)
+  install(FILES ${CMAKE_BINARY_DIR}/python/${SIRUPP_PYTHON_DIST_INFO}/METADATA
+          DESTINATION ${SIRUPP_INSTALL_PYTHONDIR}/${SIRUPP_PYTHON_DIST_INFO})
 endif()
 
 # ---- Documentation -------------------------------------------------------------------------------

@@ -1,14 +1,17 @@
 #include "runtime/app_format.hpp"
 
+#include <sys/ioctl.h>
+#include <unistd.h>
+
 #include <algorithm>
+#include <cstdlib>
 #include <memory>
 #include <sstream>
 
 namespace sirupp::runtime {
 namespace {
 
-constexpr size_t kWidth = 80;
-constexpr size_t kColumn = 26;  // flag names; descriptions start here
+constexpr size_t kColumn = 26;  // flag names; descriptions start here (on 60 columns or more)
 
 // Where the text of a table row starts: after its first gap of two or more spaces past the
 // indentation ("  --rate HZ     text"), else after the indentation.
@@ -22,8 +25,8 @@ size_t TextColumn(const std::string& line) {
 
 class Formatter : public CLI::Formatter {
  public:
-  Formatter() {
-    column_width(kColumn);
+  Formatter() : width_(HelpWidth()), column_(width_ >= 60 ? kColumn : width_ / 3) {
+    column_width(column_);
     label("Usage", "usage");
     label("OPTIONS", "options");
     label("SUBCOMMAND", "COMMAND");
@@ -44,27 +47,43 @@ class Formatter : public CLI::Formatter {
 
   std::string make_description(const CLI::App* app) const override {
     const std::string description = app->get_description();
-    return description.empty() ? "" : Wrap(description, kWidth) + "\n";
+    return description.empty() ? "" : Wrap(description, width_) + "\n";
   }
 
   std::string make_footer(const CLI::App* app) const override {
     const std::string footer = app->get_footer();
-    return footer.empty() ? "" : Wrap(footer, kWidth) + "\n";
+    return footer.empty() ? "" : Wrap(footer, width_) + "\n";
   }
 
   std::string make_option_desc(const CLI::Option* option) const override {
-    return Wrap(option->get_description(), kWidth - kColumn);
+    return Wrap(option->get_description(), width_ - column_);
   }
 
   std::string make_subcommand(const CLI::App* sub) const override {
     std::ostringstream out;
-    CLI::detail::format_help(out, sub->get_name(), Wrap(sub->get_description(), kWidth - kColumn),
-                             kColumn);
+    CLI::detail::format_help(out, sub->get_name(), Wrap(sub->get_description(), width_ - column_),
+                             column_);
     return out.str();
   }
+
+ private:
+  size_t width_;
+  size_t column_;
 };
 
 }  // namespace
+
+size_t HelpWidth() {
+  long columns = 0;
+  winsize size{};
+  if (isatty(STDOUT_FILENO) == 1 && ioctl(STDOUT_FILENO, TIOCGWINSZ, &size) == 0) {
+    columns = size.ws_col;
+  } else if (const char* variable = std::getenv("COLUMNS")) {
+    columns = std::strtol(variable, nullptr, 10);
+  }
+  if (columns <= 0) return 80;
+  return static_cast<size_t>(std::clamp(columns, 40L, 80L));
+}
 
 std::string Wrap(const std::string& text, size_t width) { return Fill(Reflow(text), width); }
 
@@ -86,9 +105,14 @@ std::string Reflow(const std::string& text) {
     const bool item = colon != std::string::npos && colon < 14 && body.find(' ') > colon;
     const bool continuation = !first && previous_indent > 0 && indent > previous_indent &&
                               indent == TextColumn(previous) && !body.empty();
-    const bool keep = !continuation && (first || previous.empty() || body.empty() || indent > 0 ||
-                                        indent != previous_indent || body.rfind("--", 0) == 0 ||
-                                        item || previous.back() == '.' || previous.back() == ':');
+    // A row of a hand-made table ("  name   text") stays a line of its own, and so does the line
+    // after it; an indented line of prose joins the line before it at the same indentation.
+    const bool row = TextColumn(line) > indent;
+    const bool after_row = !first && TextColumn(previous) > previous_indent;
+    const bool keep =
+        !continuation && (first || previous.empty() || body.empty() || row || after_row ||
+                          indent != previous_indent || body.rfind("--", 0) == 0 || item ||
+                          previous.back() == '.' || previous.back() == ':');
     if (!first) flowed += keep ? "\n" : " ";
     flowed += keep ? line : body;
     previous = keep ? line : previous + " " + body;

@@ -4,6 +4,9 @@
 #   scripts/build.sh --werror        build/        warnings are errors (CI; or SIRUPP_WERROR=1)
 #   scripts/build.sh --asan          build-asan/   AddressSanitizer + UndefinedBehaviorSanitizer
 #   scripts/build.sh --tsan          build-tsan/   ThreadSanitizer
+#   scripts/build.sh --programs      build/        only the programs (sirupp, sirupp-sim, ...: what
+#                                    scripts/demo.sh runs), not the tests, benchmarks, examples or
+#                                    the Python module; a later full build reuses what it built
 #                                    (sanitizer builds leave out the Python module and the
 #                                    benchmarks, which no test runs there; -DSIRUPP_BUILD_PYTHON=ON
 #                                    or -DSIRUPP_BUILD_BENCH=ON after the option puts them back)
@@ -13,6 +16,7 @@ set -euo pipefail
 root=$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)
 sanitizer=""
 werror=OFF
+target=()
 case "${SIRUPP_WERROR:-}" in
   1|ON|on|yes|true) werror=ON ;;
   ""|0|OFF|off|no|false) ;;
@@ -23,6 +27,7 @@ while [[ $# -gt 0 ]]; do
     --asan) sanitizer=asan; shift ;;
     --tsan) sanitizer=tsan; shift ;;
     --werror) werror=ON; shift ;;
+    --programs) target=(--target sirupp_programs); shift ;;
     *) break ;;
   esac
 done
@@ -38,5 +43,5 @@ parts=ON
 [[ -z "$sanitizer" ]] || parts=OFF
 cmake -S "$root" -B "$build" "${generator[@]}" -DSIRUPP_WERROR="$werror" -DSIRUPP_SANITIZER="$sanitizer" \
   -DSIRUPP_BUILD_PYTHON="$parts" -DSIRUPP_BUILD_BENCH="$parts" "$@" >&2
-cmake --build "$build" -j "$(nproc)" >&2
+cmake --build "$build" -j "$(nproc)" "${target[@]}" >&2
 echo "$build"

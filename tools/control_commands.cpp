@@ -291,8 +291,9 @@ int PlanRun(const std::vector<std::string>& args, std::ostream& out) {
 
 int PlanControl(client::PlanCommand command, const std::string& word,
                 const std::vector<std::string>& args, std::ostream& out) {
-  const runtime::Args parsed(args, word == "clear-fault" ? word : "plan " + word, WithRigFlags({}),
-                             kPlanAbout);
+  const bool clear_fault = word == "clear-fault";
+  const runtime::Args parsed(args, clear_fault ? word : "plan " + word, WithRigFlags({}),
+                             clear_fault ? kClearFaultAbout : kPlanAbout);
   core::Bus bus = BusFromArgs(parsed);
   client::Client rig(bus, ClientOptions());
   if (!FirstStatus(rig, out)) return kExitFailed;
@@ -326,6 +327,12 @@ const char* const kPlanAbout =
     "  A fault (a tripped servo, a failing student controller, another robot in the sim) holds\n"
     "  the arm and refuses targets and plans, naming its first cause, until `sirupp "
     "clear-fault`.\n";
+
+const char* const kClearFaultAbout =
+    "Clears sirupp-control's latched fault (a tripped servo, a failing student controller, "
+    "another robot in the sim): the servos go on, holding the arm where it is, and targets and "
+    "plans are taken again. The fault's first cause is in `sirupp status`. Exit 0 when the "
+    "controller confirms, 1 when no controller answers or it refuses (with why).\n";
 
 const char* const kGainsAbout =
     "  Sets the servo filter gains of sirupp-control live (ARM_GAINS), in PIC-SERVO units\n"

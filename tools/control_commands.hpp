@@ -19,6 +19,7 @@ namespace sirupp::tools {
 
 extern const char* const kMoveAbout;
 extern const char* const kPlanAbout;
+extern const char* const kClearFaultAbout;
 extern const char* const kGainsAbout;
 extern const char* const kStatusAbout;
 

@@ -16,8 +16,6 @@
 
 #include <sirupp/controller.h>
 
-#include <sstream>
-#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -26,27 +24,10 @@ namespace {
 class ComputedTorque : public sirupp::Controller {
  public:
   explicit ComputedTorque(const std::string& args) {
-    std::istringstream words(args);
-    std::string word;
-    while (words >> word) {
-      const size_t equals = word.find('=');
-      const std::string key = word.substr(0, equals);
-      double value = 0;
-      try {
-        if (equals == std::string::npos) throw std::invalid_argument(word);
-        value = std::stod(word.substr(equals + 1));
-      } catch (const std::exception&) {
-        throw std::invalid_argument("'" + word + "': expected key=number");
-      }
-      if (key == "wn") {
-        wn_ = value;
-      } else if (key == "zeta") {
-        zeta_ = value;
-      } else {
-        throw std::invalid_argument("unknown argument '" + key + "' (allowed: wn, zeta)");
-      }
-    }
-    if (!(wn_ > 0) || !(zeta_ > 0)) throw std::invalid_argument("wn and zeta must be > 0");
+    sirupp::Params params(args);
+    wn_ = params.Positive("wn", 100);
+    zeta_ = params.Positive("zeta", 1);
+    params.Finish();
   }
 
   void Reset(const sirupp::ArmInfo& arm, const sirupp::State& /*state*/) override {
@@ -72,8 +53,8 @@ class ComputedTorque : public sirupp::Controller {
   }
 
  private:
-  double wn_ = 100;
-  double zeta_ = 1;
+  double wn_;
+  double zeta_;
   std::vector<double> acceleration_;  // the commanded joint acceleration a
 };
 

@@ -25,11 +25,16 @@
 #ifndef SIRUPP_CONTROLLER_H_
 #define SIRUPP_CONTROLLER_H_
 
+#include <cmath>
 #include <cstddef>
 #include <cstdint>
 #include <cstdio>
 #include <exception>
+#include <map>
+#include <sstream>
+#include <stdexcept>
 #include <string>
+#include <vector>
 
 // Changes whenever a struct, the class or a factory function below changes layout or meaning.
 // sirupp-control refuses a library built against another version.
@@ -79,6 +84,83 @@ class Controller {
   virtual void Reset(const ArmInfo& arm, const State& state) = 0;
   // Writes num_joints efforts into `effort` (which arrives filled with zeros).
   virtual void Update(const State& state, double* effort) = 0;
+};
+
+// The controller's arguments (--controller-args) as "key=number" words, for the constructor:
+//
+//   explicit MyLaw(const std::string& args) {
+//     sirupp::Params params(args);               // "wn=150 zeta=0.8"
+//     wn_ = params.Positive("wn", 100);          // the default when the key is absent
+//     zeta_ = params.Positive("zeta", 1);
+//     bias_ = params.Number("bias", 0);          // any finite number
+//     params.Finish();                           // refuses keys nobody asked for
+//   }
+//
+// Every problem is a std::invalid_argument naming the word and what is allowed, which the host
+// reports as "the controller refused its arguments '...': ..." (and sirupp-control exits 2):
+// "'wn=fast': expected key=number", "'wn=-3': wn must be > 0", "'wn=1 wn=2': wn given twice",
+// "unknown argument 'gain' (allowed: wn, zeta, bias)".
+class Params {
+ public:
+  explicit Params(const std::string& args) {
+    std::istringstream words(args);
+    std::string word;
+    while (words >> word) {
+      const std::size_t equals = word.find('=');
+      const std::string key = word.substr(0, equals);
+      double value = 0;
+      std::size_t used = 0;
+      try {
+        if (equals == std::string::npos || key.empty()) throw std::invalid_argument(word);
+        const std::string number = word.substr(equals + 1);
+        value = std::stod(number, &used);
+        if (used != number.size() || !std::isfinite(value)) throw std::invalid_argument(word);
+      } catch (const std::exception&) {
+        throw std::invalid_argument("'" + word + "': expected key=number");
+      }
+      if (values_.count(key) != 0) {
+        throw std::invalid_argument("'" + args + "': " + key + " given twice");
+      }
+      values_[key] = Given{value, word};
+    }
+  }
+
+  // The number given for `key`, or `fallback` when it is absent.
+  double Number(const std::string& key, double fallback) {
+    allowed_.push_back(key);
+    const auto found = values_.find(key);
+    return found == values_.end() ? fallback : found->second.value;
+  }
+
+  // The same, refusing zero and negative numbers.
+  double Positive(const std::string& key, double fallback) {
+    const double value = Number(key, fallback);
+    if (!(value > 0)) {
+      throw std::invalid_argument("'" + values_.at(key).word + "': " + key + " must be > 0");
+    }
+    return value;
+  }
+
+  // Call after the last Number/Positive: refuses a key that none of them asked for.
+  void Finish() const {
+    for (const auto& [key, given] : values_) {
+      bool known = false;
+      for (const std::string& allowed : allowed_) known = known || allowed == key;
+      if (known) continue;
+      std::string list;
+      for (const std::string& allowed : allowed_) list += (list.empty() ? "" : ", ") + allowed;
+      throw std::invalid_argument("unknown argument '" + key +
+                                  "' (allowed: " + (list.empty() ? "none" : list) + ")");
+    }
+  }
+
+ private:
+  struct Given {
+    double value;
+    std::string word;
+  };
+  std::map<std::string, Given> values_;
+  std::vector<std::string> allowed_;
 };
 
 }  // namespace sirupp

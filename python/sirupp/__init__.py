@@ -12,6 +12,10 @@ Units are SI (rad, m, s, N*m); joint vectors are 1-D numpy arrays. Guide: docs/p
 """
 import importlib
 
+from ._paths import VERSION as __version__  # written by CMake from the project's version
+
+__license__ = "Apache-2.0"
+
 # Names load their module on first use (PEP 562), so that `import sirupp.controllers` (what the
 # controller host does, on every start) costs numpy alone.
 _WHERE = {

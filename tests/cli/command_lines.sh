@@ -1,8 +1,9 @@
 #!/bin/bash
 # Every command line (runtime/args.hpp, on CLI11): `sirupp` and each of its commands and
-# subcommands answers --help with exit 0 and a usage text no wider than 80 columns, and refuses an
-# unknown flag with exit 2 naming it; every sirupp-* process does the same, answers --version,
-# and refuses a value outside its declared check with exit 2 naming the flag and the value.
+# subcommands answers --help with exit 0 and a usage text no wider than 80 columns and wrapped once
+# (no line starting mid-sentence after a short line), and refuses an unknown flag with exit 2
+# naming it; every sirupp-* process does the same, answers --version, and refuses a value outside
+# its declared check with exit 2 naming the flag and the value.
 # Needs $SIRUPP and $BIN (the folder of the sirupp-* programs).
 set -u
 work=$(mktemp -d)
@@ -18,10 +19,27 @@ expect() {
   local code=$?
   [[ $code -eq $want ]] || bad "$label: exit $code, expected $want: $(head -3 "$work/err")"
 }
-narrow() {  # $1 label, $2 file: no line wider than 80 columns
-  local wide
+narrow() {  # $1 label, $2 file: no line wider than 80 columns, and the text wrapped once
+  local wide ragged
   wide=$(awk 'length($0) > 80' "$2")
   [[ -z $wide ]] || bad "$1: lines wider than 80 columns: $wide"
+  # Wrapped once: no line starts mid-sentence (a lower-case word or a parenthesis, the line before
+  # not ending a sentence or a clause) when its first word would have fitted on the line before
+  # (text wrapped twice leaves such a short line: "... closed-form solver / (8 configurations").
+  # Only lines at the same indentation are compared (a flag's text under its column is another
+  # column); a row of a table ("  name   text") and the line after "usage:" start lines of their own.
+  ragged=$(awk -v width=80 '
+    function indent(s) { match(s, /^ */); return RLENGTH }
+    {
+      if (NR > 1 && prev != "" && $0 != "" && indent($0) == indent(prev) && prev !~ /^usage:/) {
+        body = substr($0, indent($0) + 1); split(body, w, " ")
+        row = (body ~ /^[^ ]+( [^ ]+)?   */)
+        if (w[1] ~ /^[a-z(]/ && prev !~ /[.:;!?]$/ && !row && length(prev) + 1 + length(w[1]) <= width)
+          printf "\n    line %d: \"%s\" after \"%s\"", NR, $0, prev
+      }
+      prev = $0
+    }' "$2")
+  [[ -z $ragged ]] || bad "$1: wrapped twice (a line starts mid-sentence after a short line):$ragged"
 }
 commands_of() {  # the names listed under "Commands:" in a help text
   awk '/^Commands:/ {on = 1; next} on && /^  [a-z]/ {print $1} on && /^$/ {on = 0}' "$1"
