@@ -71,8 +71,8 @@ struct Contact {
 // The result of checking a straight joint-space segment at a resolution.
 struct EdgeCheck {
   bool free = true;
-  double fraction = 1;           // where the first touching state lies (0..1); 1 when free
-  JointVector state;             // that state (empty when free)
+  double fraction = 1;  // where the first touching state lies (0..1); 1 when free
+  JointVector state;    // that state (empty when free)
   std::optional<Contact> contact;
   int states_checked = 0;
 };

@@ -21,7 +21,8 @@ struct Solid {
   core::ShapeType type = core::ShapeType::kBox;
   Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
   Eigen::Vector3d centre = Eigen::Vector3d::Zero();
-  Eigen::Vector3d half = Eigen::Vector3d::Zero();  // box: half sizes; cyl/capsule: (r, r, L/2); sphere: (r, r, r)
+  Eigen::Vector3d half =
+      Eigen::Vector3d::Zero();  // box: half sizes; cyl/capsule: (r, r, L/2); sphere: (r, r, r)
   static Solid From(const core::Shape& shape, const Eigen::Isometry3d& world_pose,
                     double margin = 0);
   static Solid FromGeom(dGeomID geom);  // an ODE box, cylinder, capsule or sphere geom
@@ -51,8 +52,8 @@ bool NeedsOwnTest(int ode_class_a, int ode_class_b);
 // g2 = b). Same arguments and return as dCollide (max_contacts >= 1).
 int CollideGeoms(dGeomID a, dGeomID b, int max_contacts, dContactGeom* contacts, int stride);
 
-// Boolean only (no contact points): dCollide with one contact, or SolidsOverlap for the box-cylinder
-// pair. What CollisionModel::IsFree uses.
+// Boolean only (no contact points): dCollide with one contact, or SolidsOverlap for the
+// box-cylinder pair. What CollisionModel::IsFree uses.
 bool GeomsOverlap(dGeomID a, dGeomID b);
 
 // ODE's global state, once per process, and the calling thread's collision data (ODE needs it per

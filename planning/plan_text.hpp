@@ -16,6 +16,8 @@
 
 namespace sirupp::planning {
 
+using core::JointVector;
+
 struct PlanTextOptions {
   double speed_fraction = 1.0;  // of each joint's default speed, (0, 1]
   double accel_fraction = 1.0;  // of each joint's default acceleration, (0, 4]

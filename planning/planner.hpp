@@ -34,10 +34,10 @@ struct PlanRequest {
   double time_limit_s = 1.0;    // (0, 600]
   int64_t iteration_limit = 0;  // planner iterations (termination checks), 0 = no limit
   uint32_t seed = 1;
-  bool simplify = true;     // OMPL's PathSimplifier (shortcuts, vertex reduction), re-checked
-  double range_rad = 0.0;   // the longest tree edge of tree planners; 0 = 1 rad
-  bool keep_tree = false;   // fill PlanResult::tree with the planner's graph
-  CheckFilter avoid;        // what the path must not touch (default: everything)
+  bool simplify = true;    // OMPL's PathSimplifier (shortcuts, vertex reduction), re-checked
+  double range_rad = 0.0;  // the longest tree edge of tree planners; 0 = 1 rad
+  bool keep_tree = false;  // fill PlanResult::tree with the planner's graph
+  CheckFilter avoid;       // what the path must not touch (default: everything)
 };
 
 // The planner's graph: vertices in joint space, edges as index pairs into vertices.
@@ -49,14 +49,15 @@ struct PlannerTree {
 struct PlanResult {
   bool solved = false;
   std::vector<JointVector> path;  // waypoints, start first, goal last (when solved)
-  std::string message;  // one line: "solved by rrtconnect in 3.1 ms ..." or why not and what was tried
+  std::string
+      message;  // one line: "solved by rrtconnect in 3.1 ms ..." or why not and what was tried
   std::string planner;
   double solve_s = 0;
   double simplify_s = 0;
-  uint64_t states_checked = 0;   // states the collision model checked for this call
-  double raw_length_rad = 0;     // joint-space length of the planner's path (Euclidean, rad)
-  double length_rad = 0;         // after simplification
-  PlannerTree tree;              // when keep_tree
+  uint64_t states_checked = 0;  // states the collision model checked for this call
+  double raw_length_rad = 0;    // joint-space length of the planner's path (Euclidean, rad)
+  double length_rad = 0;        // after simplification
+  PlannerTree tree;             // when keep_tree
 };
 
 // Checks the request (planner name, step, budgets), that start and goal have one finite value per
