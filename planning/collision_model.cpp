@@ -6,6 +6,8 @@
 #include <chrono>
 #include <cmath>
 #include <cstdio>
+#include <map>
+#include <mutex>
 #include <random>
 #include <stdexcept>
 
@@ -56,14 +58,6 @@ dGeomID CreateGeom(dSpaceID space, const core::Shape& shape, double margin) {
   throw std::logic_error("unknown shape type");
 }
 
-bool AabbOverlap(dGeomID a, dGeomID b) {
-  dReal x[6], y[6];
-  dGeomGetAABB(a, x);
-  dGeomGetAABB(b, y);
-  return x[0] <= y[1] && y[0] <= x[1] && x[2] <= y[3] && y[2] <= x[3] && x[4] <= y[5] &&
-         y[4] <= x[5];
-}
-
 std::string Point(const Eigen::Vector3d& p) {
   char text[96];
   std::snprintf(text, sizeof text, "(%.3f, %.3f, %.3f) m", p.x(), p.y(), p.z());
@@ -99,7 +93,8 @@ struct CollisionModel::Impl {
     int link = 0, shape = 0;
     Eigen::Isometry3d local = Eigen::Isometry3d::Identity();
     dGeomID padded = nullptr;  // in arm_space, against objects
-    dGeomID bare = nullptr;    // no space, against the arm's other links
+    Solid solid;               // unpadded, in the world at the placed state (self pairs)
+    double bound = 0;          // radius of a sphere about the centre holding the shape
   };
   std::vector<ArmShape> shapes;
   std::vector<GeomTag> shape_tags;
@@ -126,6 +121,10 @@ struct CollisionModel::Impl {
                                   " needs one link per joint plus the base");
     }
     CheckPadding(options.padding_m);
+    if (options.self_pair_samples < 0 || options.self_pair_samples > 1000000) {
+      throw std::invalid_argument("self_pair_samples " + std::to_string(options.self_pair_samples) +
+                                  ": allowed 0 to 1000000");
+    }
     EnsureOdeReady();
     for (const core::Joint& joint : model.joints) dh.push_back(core::DhLink::From(joint));
     base = model.base.ToIsometry();
@@ -141,7 +140,6 @@ struct CollisionModel::Impl {
 
   ~Impl() {
     for (ArmShape& s : shapes) {
-      if (s.bare != s.padded) dGeomDestroy(s.bare);
       dGeomDestroy(s.padded);
     }
     for (dGeomID g : object_geoms) dGeomDestroy(g);
@@ -165,6 +163,22 @@ struct CollisionModel::Impl {
         s.link = static_cast<int>(link);
         s.shape = static_cast<int>(k);
         s.local = l.shapes[k].pose.ToIsometry();
+        s.solid = Solid::From(l.shapes[k], s.local);
+        const Eigen::Vector3d& h = s.solid.half;
+        switch (l.shapes[k].type) {
+          case core::ShapeType::kBox:
+            s.bound = h.norm();
+            break;
+          case core::ShapeType::kCylinder:
+            s.bound = std::hypot(h.x(), h.z());
+            break;
+          case core::ShapeType::kCapsule:
+            s.bound = h.x() + h.z();
+            break;
+          case core::ShapeType::kSphere:
+            s.bound = h.x();
+            break;
+        }
         shapes.push_back(s);
       }
     }
@@ -179,9 +193,7 @@ struct CollisionModel::Impl {
       const core::Shape& shape =
           model.links[static_cast<size_t>(s.link)].shapes[static_cast<size_t>(s.shape)];
       s.padded = CreateGeom(arm_space, shape, options.padding_m);
-      s.bare = options.padding_m > 0 ? CreateGeom(nullptr, shape, 0) : s.padded;
       dGeomSetData(s.padded, &shape_tags[i]);
-      dGeomSetData(s.bare, &shape_tags[i]);
     }
     placed_q.resize(0);
   }
@@ -266,7 +278,8 @@ struct CollisionModel::Impl {
       if (s.link == 0 && !first) continue;  // the base never moves
       const Eigen::Isometry3d pose = frames[static_cast<size_t>(s.link)] * s.local;
       Place(s.padded, pose);
-      if (s.bare != s.padded) Place(s.bare, pose);
+      s.solid.rotation = pose.linear();
+      s.solid.centre = pose.translation();
     }
     placed_q = q;
   }
@@ -338,13 +351,28 @@ struct CollisionModel::Impl {
                    &ObjectCallback);
   }
 
+  // Whether two of the arm's shapes overlap: a bounding-sphere test, then the exact convex test
+  // (narrow_phase.hpp: GJK on the shapes themselves), for every primitive pair.
+  bool ShapesOverlap(int i, int j) const {
+    const ArmShape& a = shapes[static_cast<size_t>(i)];
+    const ArmShape& b = shapes[static_cast<size_t>(j)];
+    const double reach = a.bound + b.bound;
+    if ((a.solid.centre - b.solid.centre).squaredNorm() > reach * reach) return false;
+    return SolidsOverlap(a.solid, b.solid);
+  }
+
   void CollideSelf(Query& query) {
     for (const auto& [i, j] : self_shape_pairs) {
       if (query.found && !query.want_all) return;
-      dGeomID a = shapes[static_cast<size_t>(i)].bare;
-      dGeomID b = shapes[static_cast<size_t>(j)].bare;
-      if (!AabbOverlap(a, b) || !GeomsOverlap(a, b)) continue;
-      Contact c = MakeContact(a, b, query.want_depth, ContactKind::kSelf);
+      if (!ShapesOverlap(i, j)) continue;
+      Contact c;
+      c.kind = ContactKind::kSelf;
+      if (query.want_depth) {
+        const Penetration pen = EstimatePenetration(shapes[static_cast<size_t>(i)].solid,
+                                                    shapes[static_cast<size_t>(j)].solid);
+        c.depth_m = pen.depth_m;
+        c.point_m = pen.point;
+      }
       Fill(c, shape_tags[static_cast<size_t>(i)], &shape_tags[static_cast<size_t>(j)], -1);
       query.contacts.push_back(c);
       query.found = true;
@@ -371,16 +399,80 @@ struct CollisionModel::Impl {
       if (shapes[i].link != first) continue;
       for (size_t j = 0; j < shapes.size(); ++j) {
         if (shapes[j].link != second) continue;
-        if (AabbOverlap(shapes[i].bare, shapes[j].bare) &&
-            GeomsOverlap(shapes[i].bare, shapes[j].bare)) {
-          return true;
-        }
+        if (ShapesOverlap(static_cast<int>(i), static_cast<int>(j))) return true;
       }
     }
     return false;
   }
 
+  // What decides the self pairs: every link's shapes, every joint's DH row, limits and home, and
+  // the sample count (so a cached choice is reused only for the same arm).
+  std::string SelfPairKey() const {
+    std::string key = std::to_string(options.self_pair_samples) + "|" +
+                      std::to_string(static_cast<int>(model.dh_convention));
+    char number[40];
+    auto add = [&](double v) {
+      std::snprintf(number, sizeof number, "%.17g,", v);
+      key += number;
+    };
+    for (const core::Joint& j : model.joints) {
+      for (double v : {j.dh.a_m, j.dh.alpha_rad, j.dh.d_m, j.dh.theta_rad, j.position_min,
+                       j.position_max, j.home}) {
+        add(v);
+      }
+      key += j.type == core::JointType::kRevolute ? "r|" : "p|";
+    }
+    for (const core::Link& l : model.links) {
+      for (const core::Shape& shape : l.shapes) {
+        key += std::to_string(static_cast<int>(shape.type)) + ":";
+        for (int i = 0; i < 3; ++i) add(shape.size_m[i]);
+        for (int i = 0; i < 3; ++i) add(shape.pose.position_m[i]);
+        for (double v : shape.pose.orientation.coeffs()) add(v);
+      }
+      key += "|";
+    }
+    return key;
+  }
+
+  // The choice takes 10 000 states x the candidate pairs (about 50 ms for the PUMA 260): made once
+  // per arm and process.
   void ChooseSelfPairs() {
+    struct Choice {
+      std::vector<std::pair<int, int>> pairs;
+      std::vector<SkippedPair> skipped;
+    };
+    static std::mutex mutex;
+    static std::map<std::string, Choice> cache;
+    const std::string key = SelfPairKey();
+    {
+      std::lock_guard<std::mutex> lock(mutex);
+      const auto it = cache.find(key);
+      if (it != cache.end()) {
+        self_pairs = it->second.pairs;
+        skipped_pairs = it->second.skipped;
+        ListSelfShapePairs();
+        return;
+      }
+    }
+    SampleSelfPairs();
+    std::lock_guard<std::mutex> lock(mutex);
+    if (cache.size() < 64) cache[key] = Choice{self_pairs, skipped_pairs};
+  }
+
+  void ListSelfShapePairs() {
+    for (const auto& [first, second] : self_pairs) {
+      for (size_t i = 0; i < shapes.size(); ++i) {
+        if (shapes[i].link != first) continue;
+        for (size_t j = 0; j < shapes.size(); ++j) {
+          if (shapes[j].link == second) {
+            self_shape_pairs.emplace_back(static_cast<int>(i), static_cast<int>(j));
+          }
+        }
+      }
+    }
+  }
+
+  void SampleSelfPairs() {
     const int links = static_cast<int>(model.links.size());
     std::vector<std::pair<int, int>> candidates;
     for (int i = 0; i < links; ++i) {
@@ -404,10 +496,11 @@ struct CollisionModel::Impl {
         remaining.push_back(pair);
       }
     }
+    const int samples = options.self_pair_samples;
     std::vector<int> hits(remaining.size(), 0);
     std::mt19937 rng(20261202);
     JointVector q(n);
-    for (int sample = 0; sample < kSelfSamples; ++sample) {
+    for (int sample = 0; sample < samples; ++sample) {
       for (int j = 0; j < n; ++j) {
         const core::Joint& joint = model.joints[static_cast<size_t>(j)];
         q[j] = std::uniform_real_distribution<double>(joint.position_min, joint.position_max)(rng);
@@ -417,25 +510,20 @@ struct CollisionModel::Impl {
         if (LinksOverlap(remaining[k].first, remaining[k].second)) ++hits[k];
       }
     }
+    const std::string sampled = std::to_string(samples) + " random states within the limits";
     for (size_t k = 0; k < remaining.size(); ++k) {
-      if (hits[k] == kSelfSamples) {
+      if (samples > 0 && hits[k] == samples) {
         skipped_pairs.push_back(
-            {remaining[k].first, remaining[k].second, "overlap in every sampled state"});
+            {remaining[k].first, remaining[k].second, "overlap in every one of " + sampled});
+      } else if (samples > 0 && hits[k] == 0) {
+        skipped_pairs.push_back(
+            {remaining[k].first, remaining[k].second, "touch in none of " + sampled});
       } else {
         self_pairs.push_back(remaining[k]);
       }
     }
     std::sort(self_pairs.begin(), self_pairs.end());
-    for (const auto& [first, second] : self_pairs) {
-      for (size_t i = 0; i < shapes.size(); ++i) {
-        if (shapes[i].link != first) continue;
-        for (size_t j = 0; j < shapes.size(); ++j) {
-          if (shapes[j].link == second) {
-            self_shape_pairs.emplace_back(static_cast<int>(i), static_cast<int>(j));
-          }
-        }
-      }
-    }
+    ListSelfShapePairs();
     checked = 0;
   }
 };
@@ -470,7 +558,6 @@ void CollisionModel::SetPadding(double padding_m) {
   Impl::CheckPadding(padding_m);
   if (padding_m == impl_->options.padding_m) return;
   for (Impl::ArmShape& s : impl_->shapes) {
-    if (s.bare != s.padded) dGeomDestroy(s.bare);
     dGeomDestroy(s.padded);
   }
   impl_->options.padding_m = padding_m;

@@ -11,8 +11,9 @@
 //     padding on every side, cylinders and capsules in radius and at both ends, spheres in radius;
 //     objects as they are);
 //   - the arm against itself: every pair of links that are not adjacent (i, j >= i + 2), without
-//     padding, except the pairs that overlap at the model's home pose or in every one of a fixed
-//     sample of states (built into the links' housings: SelfPairs() lists what is checked).
+//     padding, except the pairs that overlap at the model's home pose, in every one of a fixed
+//     sample of states (built into the links' housings) or in none of them (they cannot meet
+//     within the joint limits): SelfPairs() lists what is checked, SkippedSelfPairs() the rest.
 // Primitive pairs go to ODE's own tests, except box against cylinder, where ODE 0.16 misses a
 // cylinder passing through a thin box: that pair uses this library's exact convex test
 // (narrow_phase.hpp), so nothing the shapes overlap by is missed.
@@ -38,6 +39,11 @@ using core::JointVector;
 struct CollisionOptions {
   double padding_m = 0;        // added around the arm's shapes against objects, >= 0, <= 0.1
   bool self_collision = true;  // check non-adjacent link pairs (SelfPairs)
+  // Random states (within the limits, a fixed seed) that decide which non-adjacent link pairs
+  // are checked: a pair touching in every one is built into the housings, a pair touching in none
+  // cannot meet within the limits (MoveIt's Setup Assistant rule: "never in collision"); both are
+  // left out. 0 = check every non-adjacent pair not overlapping at home. 0 to 1 000 000.
+  int self_pair_samples = 10000;
 };
 
 // What a contact is with.
