@@ -581,6 +581,15 @@ std::optional<Contact> CollisionModel::FirstContact(const JointVector& q,
   return query.contacts.front();
 }
 
+std::optional<ContactKind> CollisionModel::FirstContactKind(const JointVector& q,
+                                                            const CheckFilter& filter) {
+  impl_->CheckState(q);
+  Impl::Query query;
+  impl_->Run(q, filter, query);
+  if (query.contacts.empty()) return std::nullopt;
+  return query.contacts.front().kind;
+}
+
 std::vector<Contact> CollisionModel::Contacts(const JointVector& q, const CheckFilter& filter) {
   impl_->CheckState(q);
   Impl::Query query;
@@ -734,18 +743,18 @@ CSpaceSlice ComputeCSpaceSlice(CollisionModel& model, const JointVector& q, int 
   slice.values_a = grid(joint_a);
   slice.values_b = grid(joint_b);
   slice.cells.assign(slice.values_a.size() * slice.values_b.size(), kCellFree);
-  const CheckFilter statics{filter.static_objects, false, false};
-  const CheckFilter frees{false, filter.free_objects, false};
   JointVector state = q;
   for (size_t ib = 0; ib < slice.values_b.size(); ++ib) {
     state[joint_b] = slice.values_b[ib];
     for (size_t ia = 0; ia < slice.values_a.size(); ++ia) {
       state[joint_a] = slice.values_a[ia];
+      // One query: the first contact is looked for among statics, then free objects, then the
+      // arm itself, which is the cell's order of precedence.
       uint8_t cell = kCellFree;
-      if (!model.IsFree(state, filter)) {
-        cell = !model.IsFree(state, statics) ? kCellStatic
-               : !model.IsFree(state, frees) ? kCellFreeObject
-                                             : kCellSelf;
+      if (const std::optional<ContactKind> kind = model.FirstContactKind(state, filter)) {
+        cell = *kind == ContactKind::kStaticObject ? kCellStatic
+               : *kind == ContactKind::kFreeObject ? kCellFreeObject
+                                                   : kCellSelf;
       }
       slice.cells[ib * slice.values_a.size() + ia] = cell;
     }

@@ -111,6 +111,8 @@ class CollisionModel {
   bool IsFree(const JointVector& q, const CheckFilter& filter = {});
   // The first touching pair found (statics, then free objects, then self), or nullopt.
   std::optional<Contact> FirstContact(const JointVector& q, const CheckFilter& filter = {});
+  // The kind of the first touching pair (the order of FirstContact), without its depth: cheaper.
+  std::optional<ContactKind> FirstContactKind(const JointVector& q, const CheckFilter& filter = {});
   // Every touching shape pair, with its depth (the deepest point of the pair).
   std::vector<Contact> Contacts(const JointVector& q, const CheckFilter& filter = {});
 

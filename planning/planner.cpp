@@ -390,10 +390,17 @@ PlanResult PlanPath(CollisionModel& model, const JointVector& start, const Joint
   if (request.simplify && path->getStateCount() > 2) {
     const auto simplify_start = std::chrono::steady_clock::now();
     SeededSimplifier simplifier(si, seed + 2);
+    // Shortcuts until a round no longer shortens the path (at most 4 rounds): no smoothing, so
+    // every waypoint stays a stop of a straight segment.
     simplifier.reduceVertices(*path);
-    simplifier.shortcutPath(*path);
     simplifier.collapseCloseVertices(*path);
-    simplifier.reduceVertices(*path);
+    for (int round = 0; round < 4; ++round) {
+      const double before = path->length();
+      const auto states = static_cast<unsigned int>(path->getStateCount());
+      simplifier.shortcutPath(*path, 4 * states + 20, 2 * states + 10);
+      simplifier.reduceVertices(*path);
+      if (path->length() > before - 1e-6) break;
+    }
     result.simplify_s = Seconds(simplify_start);
     std::vector<JointVector> simplified;
     for (size_t i = 0; i < path->getStateCount(); ++i) {
