@@ -171,6 +171,15 @@ void CheckRequest(const PlanRequest& r) {
     throw std::invalid_argument("planner '" + r.planner +
                                 "' is not known; allowed: " + JoinedNames());
   }
+  if (!r.fallback_planner.empty() &&
+      std::find(names.begin(), names.end(), r.fallback_planner) == names.end()) {
+    throw std::invalid_argument("fallback planner '" + r.fallback_planner +
+                                "' is not known; allowed: none or " + JoinedNames());
+  }
+  if (!(r.fallback_after > 0 && r.fallback_after < 1)) {
+    throw std::invalid_argument("fallback_after " + FormatNumber(r.fallback_after) +
+                                ": allowed (0, 1) of the time limit");
+  }
   if (!(r.edge_step_rad > 0 && r.edge_step_rad <= 0.2)) {
     throw std::invalid_argument("edge_step_rad " + FormatNumber(r.edge_step_rad) +
                                 ": allowed (0, 0.2] rad");
@@ -333,14 +342,39 @@ PlanResult PlanPath(CollisionModel& model, const JointVector& start, const Joint
 
   ob::IterationTerminationCondition iterations(
       request.iteration_limit > 0 ? static_cast<unsigned int>(request.iteration_limit) : 0U);
+  // The fallback takes over after a share of the time when the first planner found nothing (a
+  // heavy tail of narrow passages); never with an iteration limit (that run is to be
+  // reproducible) nor when the first planner is the fallback.
+  const bool may_fall_back = !request.fallback_planner.empty() &&
+                             request.fallback_planner != request.planner &&
+                             request.iteration_limit == 0;
+  const double first_s =
+      may_fall_back ? request.time_limit_s * request.fallback_after : request.time_limit_s;
   ob::PlannerTerminationCondition ptc =
       request.iteration_limit > 0
           ? ob::plannerOrTerminationCondition(
                 ob::timedPlannerTerminationCondition(request.time_limit_s), iterations)
-          : ob::timedPlannerTerminationCondition(request.time_limit_s);
+          : ob::timedPlannerTerminationCondition(first_s);
 
   const auto solve_start = std::chrono::steady_clock::now();
-  const ob::PlannerStatus status = planner->solve(ptc);
+  ob::PlannerStatus status = planner->solve(ptc);
+  result.solved_by = request.planner;
+  if (may_fall_back && !(status == ob::PlannerStatus::EXACT_SOLUTION && pdef->hasExactSolution())) {
+    const double remaining = request.time_limit_s - Seconds(solve_start);
+    if (remaining > 0) {
+      pdef->clearSolutionPaths();
+      ob::PlannerPtr fallback = MakePlanner(request.fallback_planner, si, seed + 3, range);
+      if (auto* bit = dynamic_cast<og::BITstar*>(fallback.get())) {
+        bit->setStopOnSolnImprovement(true);  // the first solution is enough here
+      }
+      fallback->setProblemDefinition(pdef);
+      fallback->setup();
+      status = fallback->solve(ob::timedPlannerTerminationCondition(remaining));
+      result.solved_by = request.fallback_planner;
+      result.fell_back = true;
+      planner = fallback;
+    }
+  }
   result.solve_s = Seconds(solve_start);
 
   if (request.keep_tree) {
@@ -373,7 +407,8 @@ PlanResult PlanPath(CollisionModel& model, const JointVector& start, const Joint
     why << seconds << " ("
         << (by_iterations ? std::to_string(request.iteration_limit) + " iterations, the limit"
                           : "time limit " + FormatNumber(request.time_limit_s) + " s")
-        << "), " << result.states_checked << " states checked at an edge step of "
+        << (result.fell_back ? "; then " + request.fallback_planner + " for the rest" : "") << "), "
+        << result.states_checked << " states checked at an edge step of "
         << FormatNumber(request.edge_step_rad) << " rad, padding "
         << FormatNumber(model.options().padding_m * 1000) << " mm, seed " << request.seed
         << "; start and goal are free. Try a longer time, another planner or seed, or less "
@@ -420,13 +455,14 @@ PlanResult PlanPath(CollisionModel& model, const JointVector& start, const Joint
   result.length_rad = PathLength(result.path);
   result.states_checked = model.states_checked() - checked_before;
   result.solved = true;
-  char text[256];
+  const std::string after = result.fell_back ? " (after " + request.planner + " found none)" : "";
+  char text[320];
   std::snprintf(text, sizeof text,
-                "solved by %s in %.1f ms (+ %.1f ms simplifying), %zu waypoints, %.3f rad "
+                "solved by %s%s in %.1f ms (+ %.1f ms simplifying), %zu waypoints, %.3f rad "
                 "(raw %.3f rad), %llu states checked",
-                request.planner.c_str(), result.solve_s * 1000, result.simplify_s * 1000,
-                result.path.size(), result.length_rad, result.raw_length_rad,
-                static_cast<unsigned long long>(result.states_checked));
+                result.solved_by.c_str(), after.c_str(), result.solve_s * 1000,
+                result.simplify_s * 1000, result.path.size(), result.length_rad,
+                result.raw_length_rad, static_cast<unsigned long long>(result.states_checked));
   result.message = text;
   return result;
 }

@@ -38,6 +38,12 @@ struct PlanRequest {
   double range_rad = 0.0;  // the longest tree edge of tree planners; 0 = 1 rad
   bool keep_tree = false;  // fill PlanResult::tree with the planner's graph
   CheckFilter avoid;       // what the path must not touch (default: everything)
+  // When `planner` has found no path after fallback_after x time_limit_s, `fallback_planner`
+  // (BIT*, stopping at its first solution) gets the rest of the time: RRTConnect's times are
+  // heavy-tailed in narrow passages, where BIT* often finds one quickly. Clock-dependent, so never
+  // used with an iteration_limit (a reproducible run); "" = no fallback.
+  std::string fallback_planner = "bitstar";
+  double fallback_after = 0.5;  // (0, 1)
 };
 
 // The planner's graph: vertices in joint space, edges as index pairs into vertices.
@@ -51,8 +57,10 @@ struct PlanResult {
   std::vector<JointVector> path;  // waypoints, start first, goal last (when solved)
   std::string
       message;  // one line: "solved by rrtconnect in 3.1 ms ..." or why not and what was tried
-  std::string planner;
-  double solve_s = 0;
+  std::string planner;    // as asked
+  std::string solved_by;  // the planner that ran last: `planner`, or the fallback
+  bool fell_back = false;
+  double solve_s = 0;  // both planners' time
   double simplify_s = 0;
   uint64_t states_checked = 0;  // states the collision model checked for this call
   double raw_length_rad = 0;    // joint-space length of the planner's path (Euclidean, rad)

@@ -114,6 +114,13 @@ TEST_F(PlannerTest, BadRequestsAreRefusedNamingWhat) {
   request.edge_step_rad = 0;
   EXPECT_NE(message(start, goal, request).find("edge_step_rad 0"), std::string::npos);
   request = PlanRequest{};
+  request.fallback_planner = "dijkstra";
+  EXPECT_NE(message(start, goal, request).find("fallback planner 'dijkstra' is not known"),
+            std::string::npos);
+  request = PlanRequest{};
+  request.fallback_after = 1;
+  EXPECT_NE(message(start, goal, request).find("fallback_after 1"), std::string::npos);
+  request = PlanRequest{};
   request.time_limit_s = -1;
   EXPECT_NE(message(start, goal, request).find("time_limit_s -1"), std::string::npos);
   request = PlanRequest{};
