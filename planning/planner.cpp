@@ -91,7 +91,11 @@ class EdgeValidator : public ob::MotionValidator {
 
   bool checkMotion(const ob::State* s1, const ob::State* s2) const override {
     const int n = model_.num_joints();
-    const bool ok = model_.EdgeFree(ToVector(s1, n), ToVector(s2, n), step_, filter_);
+    // s1 too: the simplifier starts shortcuts at states it interpolated on a segment, which the
+    // segment's check at the step did not visit.
+    const JointVector a = ToVector(s1, n);
+    const bool ok =
+        model_.IsFree(a, filter_) && model_.EdgeFree(a, ToVector(s2, n), step_, filter_);
     (ok ? valid_ : invalid_)++;
     return ok;
   }
@@ -441,8 +445,10 @@ PlanResult PlanPath(CollisionModel& model, const JointVector& start, const Joint
     for (size_t i = 0; i < path->getStateCount(); ++i) {
       simplified.push_back(ToVector(path->getState(static_cast<unsigned int>(i)), n));
     }
-    // Every segment of what is returned is checked again, at the same step (the simplifier's
-    // own checks are the same, but what goes into a plan is checked here once more).
+    // Every segment of what is returned is checked again, at the same step: a shortcut checked
+    // piecewise samples other states than the whole segment does, so a contact narrower than the
+    // step can show in one and not the other. When the check fails, the planner's own path (whose
+    // segments were checked as they are) is kept.
     bool all_free = true;
     for (size_t i = 1; i < simplified.size() && all_free; ++i) {
       all_free = model.EdgeFree(simplified[i - 1], simplified[i], request.edge_step_rad, avoid);

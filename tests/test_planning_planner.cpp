@@ -9,6 +9,7 @@
 #include "control/plan.hpp"
 #include "control/plan_trace.hpp"
 #include "core/environment.hpp"
+#include "core/errors.hpp"
 #include "core/model_loader.hpp"
 #include "planning/plan_text.hpp"
 #include "planning/planner.hpp"
@@ -248,6 +249,32 @@ TEST(PlanTextTest, SpeedsAndAccelerationsAreInProportionWithinTheLimits) {
   EXPECT_EQ(plan.steps[4].kind, control::PlanStep::Kind::kWaitDone);
   EXPECT_THROW(PathToPlanText(model, {}), std::invalid_argument);
   EXPECT_THROW(PathToPlanText(model, {Deg({1, 2})}), std::invalid_argument);
+}
+
+// `move ... avoid`: sirupp-control's parser refuses it (it cannot plan), naming how to expand it;
+// the expanding parser marks the step and where it starts; it must follow `wait done`.
+TEST(AvoidStatementTest, ParsedOnlyWhereItIsExpanded) {
+  const core::RobotModel model = core::LoadRobotModel("config/robots/puma260.yaml");
+  const std::vector<double> home = control::HomePositions(model);
+  const std::string text = "move j1=30\nwait done\nmove j2=40 avoid\nwait done\n";
+  try {
+    (void)control::ParsePlan(text, "a.plan", model, home);
+    ADD_FAILURE() << "avoid accepted by ParsePlan";
+  } catch (const core::ConfigError& e) {
+    EXPECT_NE(std::string(e.what()).find("a.plan:3:12: move: `avoid` asks for a path planned"),
+              std::string::npos)
+        << e.what();
+    EXPECT_NE(std::string(e.what()).find("sirupp plan make --expand"), std::string::npos);
+  }
+  const control::Plan plan = control::ParsePlanWithAvoid(text, "a.plan", model, home, true);
+  ASSERT_EQ(plan.steps.size(), 4U);
+  EXPECT_FALSE(plan.steps[0].avoid);
+  EXPECT_TRUE(plan.steps[2].avoid);
+  ASSERT_EQ(plan.steps[2].from.size(), 6U);
+  EXPECT_NEAR(plan.steps[2].from[0], 30 * kDeg, 1e-12);
+  EXPECT_THROW(
+      control::ParsePlanWithAvoid("move j1=30\nmove j2=40 avoid\n", "b.plan", model, home, true),
+      core::ConfigError);
 }
 
 }  // namespace

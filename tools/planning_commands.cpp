@@ -3,8 +3,10 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <optional>
 #include <ostream>
+#include <sstream>
 #include <stdexcept>
 
 #include "control/plan_trace.hpp"
@@ -137,7 +139,9 @@ const char* const kPlanMakeAbout =
     "  gives the same plan in any process (when the planner stops on its own or on --iterations,\n"
     "  not on --time). Each segment is one synchronized trapezoid, so the controller's set-points\n"
     "  stay on the checked segment. Exit 0: written; 1: no path within the budget (nothing\n"
-    "  written); 2: bad input (a start or goal that touches, outside the limits, ...).\n";
+    "  written); 2: bad input (a start or goal that touches, outside the limits, ...).\n"
+    "  --expand FILE: every `move ... avoid` line of FILE becomes a planned path from where the\n"
+    "  plan stands to that line's goals (--from: the plan's start, default home).\n";
 
 std::vector<runtime::Flag> SweepFlags() {
   return {
@@ -211,6 +215,84 @@ bool SweepPlan(const runtime::Args& parsed, const core::RobotModel& model,
   return true;
 }
 
+namespace {
+
+// The units statement in force after the first `line - 1` lines of `lines` (angle and length).
+std::string UnitsBefore(const std::vector<std::string>& lines, int line) {
+  std::string angle = "deg", length = "m";
+  for (int i = 0; i < line - 1 && i < static_cast<int>(lines.size()); ++i) {
+    std::istringstream words(
+        lines[static_cast<size_t>(i)].substr(0, lines[static_cast<size_t>(i)].find('#')));
+    std::string word;
+    if (!(words >> word) || word != "units") continue;
+    while (words >> word) (word == "deg" || word == "rad" ? angle : length) = word;
+  }
+  return "units " + angle + " " + length;
+}
+
+// `plan make --expand FILE`: every `move ... avoid` line of FILE replaced by a planned path from
+// where the plan stands (the arm at rest) to that line's goals.
+int ExpandPlan(const runtime::Args& parsed, const core::RobotModel& model,
+               planning::CollisionModel& collision, const planning::PlanRequest& request,
+               const planning::PlanTextOptions& text_options, std::ostream& out) {
+  const std::string file = parsed.String("expand");
+  const std::string text = control::ReadPlanText(file);
+  const std::vector<double> start = CheckStart(parsed, model);
+  const control::Plan plan = control::ParsePlanWithAvoid(text, file, model, start, true);
+  std::vector<std::string> lines;
+  {
+    std::istringstream stream(text);
+    std::string line;
+    while (std::getline(stream, line)) lines.push_back(line);
+  }
+  std::map<int, std::string> replaced;
+  int planned = 0;
+  for (const control::PlanStep& step : plan.steps) {
+    if (!step.avoid) continue;
+    std::vector<double> goal = step.from;
+    for (size_t j = 0; j < step.moves.size(); ++j) {
+      if (step.moves[j].active) goal[j] = step.moves[j].goal;
+    }
+    const std::string where = file + ":" + std::to_string(step.line) + ": " + step.text + ": ";
+    planning::PlanResult result;
+    try {
+      result = planning::PlanPath(collision, core::ToJointVector(step.from),
+                                  core::ToJointVector(goal), request);
+    } catch (const std::invalid_argument& e) {
+      throw core::UsageError(where + e.what());
+    }
+    if (!result.solved) {
+      out << where << result.message << "\n";
+      return 1;
+    }
+    planning::PlanTextOptions options = text_options;
+    options.move_to_start = false;
+    options.comments = {"line " + std::to_string(step.line) + ", planned around " +
+                        collision.environment().name + ": " + step.text};
+    replaced[step.line] = "# " + lines[static_cast<size_t>(step.line - 1)] + "\n" +
+                          planning::PathToPlanText(model, result.path, options) +
+                          UnitsBefore(lines, step.line + 1);
+    out << where << result.message << "\n";
+    ++planned;
+  }
+  std::string expanded;
+  for (size_t i = 0; i < lines.size(); ++i) {
+    const auto it = replaced.find(static_cast<int>(i) + 1);
+    expanded += (it != replaced.end() ? it->second : lines[i]) + "\n";
+  }
+  // What is written is a plan sirupp-control takes: parsed once more, without `avoid`.
+  (void)control::ParsePlan(expanded, parsed.String("output"), model, start);
+  const std::string output = parsed.String("output");
+  std::ofstream stream(output, std::ios::binary | std::ios::trunc);
+  stream << expanded;
+  if (!stream.good()) throw core::UsageError("--output: cannot write '" + output + "'");
+  out << "wrote " << output << ": " << planned << " avoid move" << (planned == 1 ? "" : "s")
+      << " planned\n";
+  return 0;
+}
+
+}  // namespace
+
 int PlanMake(const std::vector<std::string>& args, std::ostream& out) {
   const runtime::Args parsed(
       args, "plan make",
@@ -241,6 +323,8 @@ int PlanMake(const std::vector<std::string>& args, std::ostream& out) {
            .Above(0, 1),
        runtime::Flag("no-simplify", "keep the planner's raw path").Switch(),
        runtime::Flag("allow-free", "free objects may be touched (pushed)").Switch(),
+       runtime::Flag("expand", "a plan whose `move ... avoid` lines are to be planned")
+           .Takes("FILE"),
        runtime::Flag("output", "the plan file to write").Short('o').Takes("FILE")},
       std::string(kPlanMakeAbout));
   const core::RobotModel model = ModelFromArgs(parsed);
@@ -263,6 +347,14 @@ int PlanMake(const std::vector<std::string>& args, std::ostream& out) {
   request.simplify = !parsed.Switch("no-simplify");
   if (parsed.Switch("allow-free")) request.avoid = planning::CheckFilter::StaticAndSelf();
 
+  planning::PlanTextOptions text_options;
+  text_options.speed_fraction = parsed.Number("speed", 1.0);
+  if (parsed.Has("expand")) {
+    if (parsed.Has("to") || parsed.Has("to-tool")) {
+      throw core::UsageError("--expand: the goals come from the plan's avoid lines; no --to");
+    }
+    return ExpandPlan(parsed, model, collision, request, text_options, out);
+  }
   core::JointVector home(model.num_joints());
   for (int j = 0; j < model.num_joints(); ++j) home[j] = model.joints[static_cast<size_t>(j)].home;
   const core::JointVector start = Endpoint(parsed, "from", model, collision, home, request.avoid);
@@ -279,8 +371,6 @@ int PlanMake(const std::vector<std::string>& args, std::ostream& out) {
     out << "plan make: " << result.message << "\n";
     return 1;
   }
-  planning::PlanTextOptions text_options;
-  text_options.speed_fraction = parsed.Number("speed", 1.0);
   text_options.comments = {
       "Planned in " + environment.name + " (" + environment.source_file + ") for " + model.name,
       "from [" + Degrees(model, start) + "] deg to [" + Degrees(model, goal) + "] deg",

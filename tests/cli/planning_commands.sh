@@ -45,6 +45,25 @@ run "push block" 0 plan check --env $env "$dir/push.plan"
 has "push note" "$out" "note: link"
 has "push free" "$out" "free object"
 
+# `move ... avoid`: refused where it cannot be planned, expanded by plan make --expand into a
+# plan that passes the check (the units in force after the line are restored).
+cat >"$dir/avoid.plan" <<'PLAN'
+move joints 54.1 43.3 39.6 0 97.1 54.1
+wait done
+move joints -9.9 43.3 39.6 0 97.1 -9.9 avoid
+wait done
+units rad
+move j1=0
+wait done
+PLAN
+run "avoid unexpanded" 2 plan check "$dir/avoid.plan"
+has "avoid unexpanded says" "$err" "avoid.plan:3:40: move: \`avoid\` asks for a path planned around the environment"
+run "avoid expand" 0 plan make --env $env --expand "$dir/avoid.plan" -o "$dir/expanded.plan"
+has "avoid expanded" "$out" "wrote $dir/expanded.plan: 1 avoid move planned"
+run "expanded check" 0 plan check "$dir/expanded.plan" --env $env
+has "expanded free" "$out" "no collision with table"
+has "expanded ends" "$out" "ends at [0 43.3 39.6 0 97.1 -9.9] deg"
+
 # Bad input: one line each, exit 2, nothing written.
 run "colliding start" 2 plan make --env $env --from 0 30 90 0 0 0 --to ready -o "$dir/x.plan"
 has "colliding start says" "$err" "--from: start [0 30 90 0 0 0] touches: link 6 (flange) touches static object 'table_top' by"
