@@ -39,6 +39,18 @@ add_library(sirupp_ode_external INTERFACE)
 target_include_directories(sirupp_ode_external SYSTEM INTERFACE ${ODE_INCLUDE_DIR})
 target_link_libraries(sirupp_ode_external INTERFACE ${ODE_LIBRARY})
 
+# OMPL 1.5 (libompl-dev): the planners of planning/. Its omplConfig.cmake names boost libraries
+# that libompl-dev does not install and its ompl.pc has a NOTFOUND link directory, so the library
+# is found by name and linked alone (docs/planning.md); its headers (and Boost's) as SYSTEM.
+find_path(OMPL_INCLUDE_DIR ompl/config.h PATH_SUFFIXES ompl-1.5 ompl)
+find_library(OMPL_LIBRARY ompl)
+if(NOT OMPL_INCLUDE_DIR OR NOT OMPL_LIBRARY)
+  message(FATAL_ERROR "OMPL not found (need libompl-dev): run scripts/install-deps.sh")
+endif()
+add_library(sirupp_ompl_external INTERFACE)
+target_include_directories(sirupp_ompl_external SYSTEM INTERFACE ${OMPL_INCLUDE_DIR})
+target_link_libraries(sirupp_ompl_external INTERFACE ${OMPL_LIBRARY})
+
 # nlohmann::json (nlohmann-json3-dev, header-only) for the commands' --json output.
 find_package(nlohmann_json 3 REQUIRED)
 

@@ -60,8 +60,12 @@ struct Units {
 
 class Parser {
  public:
-  Parser(const std::string& name, const core::RobotModel& model, const std::vector<double>& start)
-      : name_(core::Printable(name, 256)), model_(model), reached_(start) {
+  Parser(const std::string& name, const core::RobotModel& model, const std::vector<double>& start,
+         bool allow_avoid = false)
+      : name_(core::Printable(name, 256)),
+        model_(model),
+        reached_(start),
+        allow_avoid_(allow_avoid) {
     if (static_cast<int>(start.size()) != model.num_joints()) {
       throw std::invalid_argument("plan start has " + std::to_string(start.size()) +
                                   " joints; the model has " + std::to_string(model.num_joints()));
@@ -234,6 +238,7 @@ class Parser {
     std::optional<core::IkConfiguration> config;
     bool config_given = false;
     std::vector<Token> words;
+    std::optional<Token> avoid;  // the `avoid` word: a planned path to this line's goal
   };
 
   void MoveLine(Plan& plan) {
@@ -253,7 +258,24 @@ class Parser {
     if (request.config_given && (request.words.empty() || request.words.front().text != "tool")) {
       Fail(tokens_.front(), "config= applies only to `move tool`");
     }
+    if (request.avoid) {
+      if (!allow_avoid_) {
+        Fail(*request.avoid,
+             "`avoid` asks for a path planned around the environment, which is made before the "
+             "plan runs: expand it with `sirupp plan make --expand FILE --env ENV -o OUT` "
+             "(docs/planning.md)");
+      }
+      if (!plan.steps.empty() && plan.steps.back().kind != PlanStep::Kind::kWaitDone) {
+        Fail(*request.avoid,
+             "`avoid` plans from where the arm stands: put `wait done` before this line");
+      }
+    }
+    const std::vector<double> from = reached_;
     plan.steps.push_back(MoveStep(request));
+    if (request.avoid) {
+      plan.steps.back().avoid = true;
+      plan.steps.back().from = from;
+    }
   }
 
   // The KEY=VALUE tokens of a `move` line (joints, and the options speed, accel, config, which may
@@ -268,6 +290,10 @@ class Parser {
     for (size_t i = 1; i < tokens_.size(); ++i) {
       const Token& token = tokens_[i];
       const size_t equals = token.text.find('=');
+      if (token.text == "avoid") {
+        request.avoid = token;
+        continue;
+      }
       if (equals == std::string::npos) {
         request.words.push_back(token);
         continue;
@@ -419,7 +445,8 @@ class Parser {
 
   std::string name_;
   const core::RobotModel& model_;
-  std::vector<double> reached_;  // each joint's goal after the steps so far, SI
+  std::vector<double> reached_;
+  bool allow_avoid_ = false;  // each joint's goal after the steps so far, SI
   Units units_;
   Rate speed_;
   Rate accel_;
@@ -438,7 +465,13 @@ int Plan::moves() const {
 
 Plan ParsePlan(const std::string& text, const std::string& name, const core::RobotModel& model,
                const std::vector<double>& start) {
-  Parser parser(name, model, start);
+  return ParsePlanWithAvoid(text, name, model, start, false);
+}
+
+Plan ParsePlanWithAvoid(const std::string& text, const std::string& name,
+                        const core::RobotModel& model, const std::vector<double>& start,
+                        bool allow_avoid) {
+  Parser parser(name, model, start, allow_avoid);
   Plan plan = parser.Parse(text);
   // One set of motion limits: what the real arm's bridge would refuse is refused here, before
   // the virtual arm moves (core/motion_limits.hpp).

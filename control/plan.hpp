@@ -30,6 +30,11 @@ struct PlanStep {
   std::string text;              // the line as written, without its comment (core::Printable)
   std::vector<JointMove> moves;  // kMove: one entry per joint (active = takes part), SI
   double wait_s = 0;             // kWaitTime: seconds of sim time
+  // kMove with the word `avoid`: a path around the environment to this step's goals is to be
+  // planned from `from` (the goals before it, the arm at rest) before the plan runs
+  // (ParsePlanWithAvoid; `sirupp plan make --expand`). ParsePlan refuses such a line.
+  bool avoid = false;
+  std::vector<double> from;
 };
 
 struct Plan {
@@ -44,6 +49,11 @@ struct Plan {
 // nearest the joints the plan has reached, starting there.
 Plan ParsePlan(const std::string& text, const std::string& name, const core::RobotModel& model,
                const std::vector<double>& start);
+
+// ParsePlan, also accepting `move ... avoid` (allow_avoid) for the tools that expand it.
+Plan ParsePlanWithAvoid(const std::string& text, const std::string& name,
+                        const core::RobotModel& model, const std::vector<double>& start,
+                        bool allow_avoid);
 
 // The file's text; throws core::ConfigError naming the file if it cannot be read.
 std::string ReadPlanText(const std::string& path);

@@ -38,6 +38,8 @@ packages=(
   default-jdk-headless default-jre
   # physics, maths, images
   libode-dev libeigen3-dev
+  # motion planning: OMPL's planners (planning/)
+  libompl-dev
   libopencv-core-dev libopencv-imgproc-dev libopencv-imgcodecs-dev libopencv-videoio-dev libopencv-highgui-dev
   # off-screen OpenGL
   libosmesa6-dev libgl-dev libglu1-mesa-dev

@@ -14,6 +14,7 @@
 
 #include "core/errors.hpp"
 #include "core/kinematics.hpp"
+#include "planning/narrow_phase.hpp"
 
 namespace sirupp::sim {
 namespace {
@@ -40,11 +41,8 @@ void OdeMessage(int errnum, const char* msg, va_list ap) {
 // be created and destroyed at any time).
 void EnsureOdeInitialised() {
   static std::once_flag once;
-  std::call_once(once, [] {
-    dInitODE2(0);
-    dAllocateODEDataForThread(dAllocateMaskAll);
-    dSetMessageHandler(&OdeMessage);
-  });
+  std::call_once(once, [] { dSetMessageHandler(&OdeMessage); });
+  planning::EnsureOdeReady();  // ODE itself, and this thread's collision data
 }
 
 void ToOde(const Eigen::Matrix3d& r, dMatrix3 out) {
@@ -150,6 +148,7 @@ struct ArmWorld::Impl {
   std::vector<std::unique_ptr<Material>> materials;
   int last_rows = 0;
   int contact_rows = 0;
+  int arm_contacts = 0;  // contacts of the arm with objects in the last step
   std::vector<Eigen::Vector3d> scratch_points, scratch_axes;
   std::vector<char> scratch_force_row;
   // Position, orientation and velocities of every moving body, to undo a step.
@@ -450,7 +449,8 @@ struct ArmWorld::Impl {
       if (!p->found.empty()) return;
       if (dGeomGetBody(a) == nullptr && dGeomGetBody(b) == nullptr) return;
       dContactGeom contacts[kMaxContactsPerPair];
-      const int count = dCollide(a, b, kMaxContactsPerPair, contacts, sizeof(dContactGeom));
+      const int count =
+          planning::CollideGeoms(a, b, kMaxContactsPerPair, contacts, sizeof(dContactGeom));
       for (int k = 0; k < count; ++k) {
         if (contacts[k].depth <= 0.001) continue;
         for (const Object& object : p->self->objects) {
@@ -768,7 +768,10 @@ struct ArmWorld::Impl {
     dBodyID body_b = dGeomGetBody(b);
     if (body_a == nullptr && body_b == nullptr) return;  // two fixed geoms
     dContact contacts[kMaxContactsPerPair];
-    const int count = dCollide(a, b, kMaxContactsPerPair, &contacts[0].geom, sizeof(dContact));
+    // The planner's primitive tests (planning/narrow_phase.hpp): ODE's, with the box-cylinder pair
+    // made exact, so that the physics stops what the plan check finds.
+    const int count =
+        planning::CollideGeoms(a, b, kMaxContactsPerPair, &contacts[0].geom, sizeof(dContact));
     if (count == 0) return;
     const auto* material_a = static_cast<const Material*>(dGeomGetData(a));
     const auto* material_b = static_cast<const Material*>(dGeomGetData(b));
@@ -779,6 +782,7 @@ struct ArmWorld::Impl {
     double friction = std::sqrt(surface_a.friction * surface_b.friction);
     double restitution = std::max(surface_a.restitution, surface_b.restitution);
     if (surface_a.arm || surface_b.arm) {
+      self->arm_contacts += count;
       const Material& object = surface_a.arm ? surface_b : surface_a;
       friction = object.friction;
       restitution = object.restitution;
@@ -889,6 +893,7 @@ struct ArmWorld::Impl {
       for (const JointSim& sim : joints) any_explicit = any_explicit || sim.explicit_friction;
       if (any_explicit) SaveBodies();
       contact_rows = 0;
+      arm_contacts = 0;
       if (options.contacts && !objects.empty()) Collide();
       dWorldStep(world, step_s);
       dJointGroupEmpty(contact_group);
@@ -1058,6 +1063,7 @@ std::vector<ObjectPose> ArmWorld::ObjectPoses() const {
 const std::vector<std::string>& ArmWorld::Omissions() const { return impl_->omissions; }
 
 int ArmWorld::LastStepRows() const { return impl_->last_rows; }
+int ArmWorld::LastStepArmContacts() const { return impl_->arm_contacts; }
 
 bool ArmWorld::AtRest() const { return impl_->at_rest; }
 

@@ -114,6 +114,10 @@ class ArmWorld {
   // Constraint rows ODE solved in the last step (hinge rows + friction, limit and contact rows);
   // the step's cost grows with the cube of this count.
   int LastStepRows() const;
+  // Contacts between the arm and the environment's objects that the last step created (0 when
+  // the arm touches nothing). They come from the same primitive tests as the planner's collision
+  // model (planning/narrow_phase.hpp).
+  int LastStepArmContacts() const;
 
  private:
   struct Impl;

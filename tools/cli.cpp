@@ -125,6 +125,7 @@ std::vector<Command> Commands(std::ostream& out, std::ostream& err) {
       {"move", "joints", "a joint target for sirupp-control", with("joints", move)},
       {"move", "pose", "a tool target, through IK", with("pose", move)},
       {"plan", "check", "validate movement plans, naming file:line", with("check", plan)},
+      {"plan", "make", "a collision-free plan around an environment (OMPL)", with("make", plan)},
       {"plan", "run", "run a plan in sirupp-control", with("run", plan)},
       {"plan", "pause", "pause the running plan", with("pause", plan)},
       {"plan", "resume", "resume the paused plan", with("resume", plan)},
@@ -173,7 +174,7 @@ const std::map<std::string, std::string> kGroups = {
     {"env", "environment files: check, show"},
     {"class", "a class on one server: serve, tokens, check (docs/class.md)"},
     {"move", "a joint or tool target for sirupp-control"},
-    {"plan", "movement plans: check, run, pause, resume, abort, modes"},
+    {"plan", "movement plans: check, make, run, pause, resume, abort, modes"},
     {"hardware", "the bridge to the real arm (or sirupp-picservo-emu)"},
     {"turns", "the one real arm shared by several rigs, by turns: serve"},
     {"controller", "student controllers: build"}};

@@ -31,6 +31,7 @@
 #include "servo/chip_gains.hpp"
 #include "servo/picservo.hpp"
 #include "tools/cli.hpp"
+#include "tools/planning_commands.hpp"
 #include "tools/rig_args.hpp"
 
 namespace sirupp::tools {
@@ -259,19 +260,27 @@ void PrintPlan(std::ostream& out, const core::RobotModel& model, const control::
       << " moves; ends at [" << Degrees(model, plan.final_goal) << "] deg\n";
 }
 
+std::vector<runtime::Flag> WithSweepFlags(std::vector<runtime::Flag> flags) {
+  for (runtime::Flag& flag : SweepFlags()) flags.push_back(std::move(flag));
+  return flags;
+}
+
 int PlanCheck(const std::vector<std::string>& args, std::ostream& out) {
   const runtime::Args parsed(
       args, "plan check",
-      {runtime::Flag("files", "plan files").Positional("FILE", -1), runtime::ModelFlag()},
+      WithSweepFlags(
+          {runtime::Flag("files", "plan files").Positional("FILE", -1), runtime::ModelFlag()}),
       kPlanAbout);
   const std::vector<std::string>& files = parsed.Values("files", -1);
   const core::RobotModel model = ModelFromArgs(parsed);
+  const std::vector<double> start = CheckStart(parsed, model);
+  bool all_free = true;
   for (const std::string& file : files) {
-    PrintPlan(out, model,
-              control::ParsePlan(control::ReadPlanText(file), file, model,
-                                 control::HomePositions(model)));
+    const control::Plan plan = control::ParsePlan(control::ReadPlanText(file), file, model, start);
+    PrintPlan(out, model, plan);
+    if (parsed.Has("env")) all_free = SweepPlan(parsed, model, plan, start, out) && all_free;
   }
-  return 0;
+  return all_free ? 0 : kExitFailed;
 }
 
 int PlanRun(const std::vector<std::string>& args, std::ostream& out) {
@@ -319,6 +328,11 @@ const char* const kMoveAbout =
 
 const char* const kPlanAbout =
     "  check: validates plans completely (from the model's home pose); exit 2 naming file:line.\n"
+    "  With --env FILE it also sweeps every move (the set-points the controller sends, at --step\n"
+    "  rad) against the environment and the arm itself: the first touch of a static object or of\n"
+    "  the arm is named by file:line, links, object and where (exit 1); touching a free object is "
+    "a\n"
+    "  note. --from: the start (degrees or a pose name; default home).\n"
     "  run: validates from the arm's present goals, sends the plan text on ARM_PLAN and confirms\n"
     "  it started; --wait prints each step and exits 0 when the plan finished, 1 if it was\n"
     "  aborted or a servo faulted. pause finishes the present move, then waits; abort stops\n"
@@ -410,12 +424,13 @@ int RunPlan(const std::vector<std::string>& args, std::ostream& out) {
   const std::string& word = args[0];
   using Command = client::PlanCommand;
   if (word == "check") return PlanCheck(rest, out);
+  if (word == "make") return PlanMake(rest, out);
   if (word == "run") return PlanRun(rest, out);
   if (const std::optional<Command> command = client::PlanCommandFromName(word)) {
     return PlanControl(*command, word, rest, out);
   }
   throw core::UsageError("plan: unknown subcommand '" + word +
-                         "'; allowed: check, run, pause, resume, abort, manual, automatic");
+                         "'; allowed: check, make, run, pause, resume, abort, manual, automatic");
 }
 
 namespace {
