@@ -19,8 +19,11 @@ const std::vector<std::string> kTopKeys = {"class",    "description", "robot",  
                                            "real_arm", "grading",     "cluster"};
 const std::vector<std::string> kLimitKeys = {"max_rigs", "idle_timeout_s", "rig_memory_mb",
                                              "rig_nice", "pin_rigs"};
-const std::vector<std::string> kServerKeys = {"listen", "port", "public_url", "tls_cert",
-                                              "tls_key"};
+const std::vector<std::string> kServerKeys = {"listen",         "port",
+                                              "public_url",     "tls_cert",
+                                              "tls_key",        "request_timeout_s",
+                                              "keep_alive_s",   "connections_per_address",
+                                              "max_connections"};
 const std::vector<std::string> kRigKeys = {"first_port", "port_count", "pace_ticks"};
 const std::vector<std::string> kRealArmKeys = {"lcm_url", "turn_s", "warn_before_s",
                                                "home_tolerance_deg", "home_speed_fraction"};
@@ -186,6 +189,20 @@ ClassConfig Read(const core::YamlDocument& document, const std::string& base_dir
     config.front = ReadFrontConfig(map, base_dir);
     config.listen = map.StringOr("listen", config.listen);
     if (const auto v = map.Find("port")) config.port = static_cast<int>(v->Integer(0, 65535));
+    config.http.request_timeout_s = map.NumberOr("request_timeout_s", config.http.request_timeout_s,
+                                                 core::NumberInRange(1, 600, "s"));
+    config.http.keep_alive_s =
+        map.NumberOr("keep_alive_s", config.http.keep_alive_s, core::NumberInRange(1, 300, "s"));
+    if (const auto v = map.Find("max_connections")) {
+      config.http.max_connections = static_cast<int>(v->Integer(16, 900));
+    }
+    if (const auto v = map.Find("connections_per_address")) {
+      config.http.connections_per_address =
+          static_cast<int>(v->Integer(2, config.http.max_connections / 2));
+    } else {
+      config.http.connections_per_address =
+          std::min(config.http.connections_per_address, config.http.max_connections / 2);
+    }
     if (const auto v = map.Find("public_url")) {
       std::string url = v->String();
       if (url.rfind("http://", 0) != 0 && url.rfind("https://", 0) != 0) {

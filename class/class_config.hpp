@@ -40,6 +40,14 @@
 
 namespace sirupp::classroom {
 
+// What one client may hold of the class server (server: in the class file; class/http_guard.hpp).
+struct HttpLimits {
+  double request_timeout_s = 10;     // a request's headers and body, from its first byte
+  double keep_alive_s = 5;           // an idle connection between requests
+  int connections_per_address = 64;  // one TCP address; one client the front vouches for
+  int max_connections = 512;         // every connection (one thread each)
+};
+
 // The real arm's queue (turns/, docs/class.md "The real arm, by turns").
 struct RealArmConfig {
   std::string lcm_url;  // the bridge's bus (udpm://...)
@@ -69,6 +77,9 @@ struct ClassConfig {
   // server.trusted_proxy and proxy_*: sign-in by the university's front (front_auth.hpp); none:
   // tokens only.
   std::optional<FrontConfig> front;
+  // server.request_timeout_s, keep_alive_s, connections_per_address, max_connections: what one
+  // client may hold of the server (class/http_guard.hpp).
+  HttpLimits http;
   int first_port = 7900;  // udpm ports leased by the rigs
   int port_count = 200;
   int pace_ticks = 4;                     // sirupp-sim --pace-ticks of every rig (1..64)

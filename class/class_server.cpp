@@ -24,6 +24,9 @@
 #include "panel/rig_commands.hpp"
 #include "runtime/data_path.hpp"
 
+// After Eigen (through panel/): httplib brings <resolv.h>, whose _res macro breaks Eigen's headers.
+#include "class/http_guard.hpp"
+
 namespace sirupp::classroom {
 namespace {
 
@@ -131,6 +134,34 @@ void SendHtmlMessage(httplib::Response& res, int status, const std::string& titl
 
 enum class Role { kNone, kStudent, kTeacher };
 
+// A token as the class issues them (RandomHex): letters and digits only, at most 256.
+bool IsTokenText(const std::string& token) {
+  return token.size() <= 256 && std::all_of(token.begin(), token.end(), [](char c) {
+           return (c >= '0' && c <= '9') || (c >= 'a' && c <= 'z') || (c >= 'A' && c <= 'Z');
+         });
+}
+
+// ?token= as it stands in the request's target: httplib decodes query values, and a token is
+// compared as sent; a %-encoded one comes back with its '%' (and is refused by IsTokenText).
+std::string QueryToken(const httplib::Request& req) {
+  if (!req.has_param("token")) return "";
+  const std::string& target = req.target;
+  const size_t query = target.find('?');
+  if (query == std::string::npos) return req.get_param_value("token");
+  std::string found;
+  size_t at = query + 1;
+  while (at <= target.size()) {
+    const size_t end = std::min(target.find('&', at), target.size());
+    const std::string pair = target.substr(at, end - at);
+    if (pair.rfind("token=", 0) == 0) {
+      found = pair.substr(6);
+      break;
+    }
+    at = end + 1;
+  }
+  return found.empty() ? req.get_param_value("token") : found;
+}
+
 }  // namespace
 
 std::string TokensFile(const ClassConfig& config) { return config.data_dir + "/tokens.json"; }
@@ -197,24 +228,24 @@ struct ClassServer::Impl {
   // rigs' addresses, so it goes first.
   std::unique_ptr<RealArm> real_arm;
   // Last: destroyed first, so no request runs once the rigs are gone. HTTPS with a certificate
-  // (Debian's cpp-httplib is built with OpenSSL).
-  std::unique_ptr<httplib::Server> server;
+  // (OpenSSL); every connection under the limits of server: (class/http_guard.hpp).
+  std::unique_ptr<GuardedServer> server;
   panel::ListenGate gate;
 
   Impl(ClassConfig c, ServeOptions o)
       : config(std::move(c)), options(std::move(o)), tokens(TokensFile(config)) {
     if (config.front) front = FrontAuth(*config.front);
-    if (config.tls_cert.empty()) {
-      server = std::make_unique<httplib::Server>();
-    } else {
-      auto tls =
-          std::make_unique<httplib::SSLServer>(config.tls_cert.c_str(), config.tls_key.c_str());
-      if (!tls->is_valid()) {
-        throw std::runtime_error("cannot use the certificate " + config.tls_cert + " with key " +
-                                 config.tls_key + " (unreadable, or not a matching PEM pair)");
-      }
-      server = std::move(tls);
-    }
+    // HTTPS with the class file's certificate; deadlines and caps per connection (http_guard).
+    server = std::make_unique<GuardedServer>(config.http, config.tls_cert, config.tls_key,
+                                             config.front ? config.front->address : "");
+    server->SetClientOf([this](const httplib::Request& req) -> std::string {
+      const FrontAuth::HeaderOf header = [&req](const std::string& name) {
+        return req.get_header_value(name);
+      };
+      if (!front.Vouched(req.remote_addr, header)) return "";
+      const std::string client = front.ClientAddress(req.remote_addr, header);
+      return SameAddress(client, req.remote_addr) ? "" : client;
+    });
     SubmissionOptions submission_options;
     submission_options.bin_dir = options.bin_dir;
     submission_options.include_dir =
@@ -270,9 +301,12 @@ struct ClassServer::Impl {
   // (student_name empty). Fills `res` (403 or 429) and returns kNone when nobody.
   Role Authorize(const httplib::Request& req, const std::string& student_name,
                  httplib::Response& res) {
-    // Behind the class's front, the throttle and the log name the client the front saw.
-    const std::string client =
-        front.ClientAddress(req.remote_addr, req.get_header_value("X-Forwarded-For"));
+    const FrontAuth::HeaderOf header = [&req](const std::string& name) {
+      return req.get_header_value(name);
+    };
+    // Behind the class's front, the throttle and the log name the client the front saw, but only
+    // on a request with the front's secret (without it, X-Forwarded-For is anyone's).
+    const std::string client = front.ClientAddress(req.remote_addr, header);
     const double wait = throttle.WaitFor(client, Clock::now());
     if (wait > 0) {
       const int seconds = static_cast<int>(wait) + 1;
@@ -282,36 +316,48 @@ struct ClassServer::Impl {
                     " s");
       return Role::kNone;
     }
-    const FrontVerdict verdict = front.Judge(
-        req.remote_addr, [&req](const std::string& name) { return req.get_header_value(name); });
+    const FrontVerdict verdict = front.Judge(req.remote_addr, header);
     if (verdict.kind != FrontVerdict::Kind::kNoFront) {
       return AuthorizeFront(verdict, client, student_name, res);
     }
+    // The page a failure or a success counts for (BadTokenThrottle: a good token forgives only
+    // the failures on its own page).
+    const std::string page_owner = student_name.empty() ? std::string(kTeacher) : student_name;
+    const std::string where =
+        student_name.empty() ? "/teacher/" : "/s/" + core::Printable(student_name, 40) + "/";
     std::vector<std::string> offered;
-    for (const std::string& token :
-         {req.get_header_value("X-Sirupp-Token"), req.get_param_value("token"),
-          CookieValue(req.get_header_value("Cookie"), kStudentCookie),
-          CookieValue(req.get_header_value("Cookie"), kTeacherCookie)}) {
-      if (!token.empty()) offered.push_back(token);
+    for (const std::string& token : {req.get_header_value("X-Sirupp-Token"), QueryToken(req),
+                                     CookieValue(req.get_header_value("Cookie"), kStudentCookie),
+                                     CookieValue(req.get_header_value("Cookie"), kTeacherCookie)}) {
+      if (token.empty()) continue;
+      if (!IsTokenText(token)) {
+        // Compared as sent: a token is letters and digits, never %-encoded.
+        throttle.Failed(client, page_owner, Clock::now());
+        Log("refused a malformed token for " + where + " from " + client);
+        SendError(res, 403,
+                  "'" + core::Printable(token, 60) +
+                      "' is not a token; allowed: the letters and digits of the address your "
+                      "teacher gave you, as they are (no %-encoding)");
+        return Role::kNone;
+      }
+      offered.push_back(token);
     }
     for (const std::string& token : offered) {
       if (!student_name.empty() && rigs->Has(student_name) && tokens.Check(student_name, token)) {
-        throttle.Succeeded(client);
+        throttle.Succeeded(client, page_owner);
         return Role::kStudent;
       }
       if (tokens.Check(kTeacher, token)) {
-        throttle.Succeeded(client);
+        throttle.Succeeded(client, page_owner);
         return Role::kTeacher;
       }
     }
-    const std::string where =
-        student_name.empty() ? "/teacher/" : "/s/" + core::Printable(student_name, 40) + "/";
     if (offered.empty()) {
       SendError(
           res, 403,
           "no token: open the address with ?token=... that your teacher gave you (" + where + ")");
     } else {
-      throttle.Failed(client, Clock::now());
+      throttle.Failed(client, page_owner, Clock::now());
       Log("refused a bad token for " + where + " from " + client);
       SendError(res, 403, "this token does not open " + where);
     }
@@ -814,8 +860,6 @@ struct ClassServer::Impl {
   }
 
   void Routes() {
-    const size_t threads = static_cast<size_t>(std::min(512, 16 + 3 * config.max_rigs));
-    server->new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
     server->set_payload_max_length(1024 * 1024);
     server->set_keep_alive_max_count(1000);
     server->set_default_headers(
@@ -831,9 +875,9 @@ struct ClassServer::Impl {
     server->Get(student_path, student);
     server->Post(student_path, student);
     server->Get(R"(/s/([^/]+))", [](const httplib::Request& req, httplib::Response& res) {
+      const std::string token = QueryToken(req);
       res.set_redirect(
-          req.path + "/" + (req.has_param("token") ? "?token=" + req.get_param_value("token") : ""),
-          303);
+          req.path + "/" + (IsTokenText(token) && !token.empty() ? "?token=" + token : ""), 303);
     });
     const auto teacher = [this](const httplib::Request& req, httplib::Response& res) {
       Teacher(req, res);
@@ -861,6 +905,7 @@ ClassServer::~ClassServer() { Stop(); }
 
 int ClassServer::Bind() {
   impl_->port = panel::BindServer(*impl_->server, impl_->config.listen, impl_->config.port);
+  impl_->server->WidenBacklog(256);
   impl_->rigs->SetServerPort(impl_->port);
   return impl_->port;
 }

@@ -164,8 +164,16 @@ bool FrontAuth::FromFront(const std::string& peer) const {
   return config_ && SameAddress(peer, config_->address);
 }
 
-FrontVerdict FrontAuth::Judge(const std::string& peer,
-                              const std::function<std::string(const std::string&)>& header) const {
+bool FrontAuth::RightSecret(const std::string& secret) const {
+  return config_ && secret.size() == config_->secret.size() &&
+         CRYPTO_memcmp(secret.data(), config_->secret.data(), secret.size()) == 0;
+}
+
+bool FrontAuth::Vouched(const std::string& peer, const HeaderOf& header) const {
+  return FromFront(peer) && RightSecret(header(kFrontSecretHeader));
+}
+
+FrontVerdict FrontAuth::Judge(const std::string& peer, const HeaderOf& header) const {
   FrontVerdict verdict;
   if (!config_) return verdict;
   const std::string user = header(config_->user_header);
@@ -184,8 +192,7 @@ FrontVerdict FrontAuth::Judge(const std::string& peer,
                      " came without the front's secret; the front must add " + kFrontSecretHeader;
     return verdict;
   }
-  if (secret.size() != config_->secret.size() ||
-      CRYPTO_memcmp(secret.data(), config_->secret.data(), secret.size()) != 0) {
+  if (!RightSecret(secret)) {
     verdict.reason = std::string("the front's secret (") + kFrontSecretHeader +
                      ") does not match " + config_->secret_file;
     return verdict;
@@ -194,14 +201,23 @@ FrontVerdict FrontAuth::Judge(const std::string& peer,
     verdict.reason = "the front sent no user (header " + config_->user_header + ")";
     return verdict;
   }
+  if (!IsValidName(user)) {
+    // As sent (never decoded): "%61lice" is not alice.
+    verdict.reason = "the front signed you in as '" + core::Printable(user, 60) + "' (header " +
+                     config_->user_header +
+                     "), which is not a name of this class's syntax; allowed: 1 to 32 letters, "
+                     "digits, '-', '_' and '.', as the front sends it (no %-encoding)";
+    return verdict;
+  }
   verdict.kind = FrontVerdict::Kind::kUser;
   verdict.user = user;
   return verdict;
 }
 
-std::string FrontAuth::ClientAddress(const std::string& peer,
-                                     const std::string& forwarded_for) const {
-  if (!FromFront(peer) || forwarded_for.empty()) return peer;
+std::string FrontAuth::ClientAddress(const std::string& peer, const HeaderOf& header) const {
+  if (!Vouched(peer, header)) return peer;
+  const std::string forwarded_for = header("X-Forwarded-For");
+  if (forwarded_for.empty()) return peer;
   const size_t comma = forwarded_for.rfind(',');
   const std::string last =
       Trim(comma == std::string::npos ? forwarded_for : forwarded_for.substr(comma + 1));

@@ -4,7 +4,9 @@
 // with auth_request) signs the user in and passes the name in a header. The class server believes
 // that header only on a request that comes from the front's address AND carries the secret the
 // front adds (a file only the service user and the front's administrator can read), so no other
-// program on the machine can pose as the front. Without a front (no server.trusted_proxy in the
+// program on the machine can pose as the front; the same holds for X-Forwarded-For (believed only
+// with the secret: anyone can connect from the front's address). Values are compared as sent
+// (class/http_guard.hpp keeps them undecoded). Without a front (no server.trusted_proxy in the
 // class file) nothing changes: tokens, as before.
 //
 // In the class file:
@@ -65,19 +67,27 @@ class FrontAuth {
 
   bool enabled() const { return config_.has_value(); }
 
-  // Judges a request from `peer` (the TCP peer's address) with its headers (`header(name)`: the
-  // value, "" when absent). With a front: from the front's address with the right secret, the
-  // user header is the user (refused when empty); from the front with a wrong secret, or with
-  // the user header but no secret, refused; from any other address, any front header (the user
-  // header or the secret) is refused; no front header at all is kNoFront (tokens still work,
-  // e.g. for the teacher on the server itself).
-  FrontVerdict Judge(const std::string& peer,
-                     const std::function<std::string(const std::string&)>& header) const;
+  using HeaderOf = std::function<std::string(const std::string&)>;
 
-  // The client's address for the bad-token throttle and the log: the last address the front
-  // added to X-Forwarded-For when the request comes from the front, else the peer (a client's own
-  // X-Forwarded-For is never believed).
-  std::string ClientAddress(const std::string& peer, const std::string& forwarded_for) const;
+  // Judges a request from `peer` (the TCP peer's address) with its headers (`header(name)`: the
+  // value as sent, "" when absent; class/http_guard.hpp keeps them undecoded). With a front:
+  // from the front's address with the right secret (compared byte for byte), the user header is
+  // the user, refused when empty or not a name of the class's syntax (1 to 32 letters, digits,
+  // '-', '_', '.'; the 403 names the value as it came); from the front with a wrong secret, or
+  // with the user header but no secret, refused; from any other address, any front header (the
+  // user header or the secret) is refused; no front header at all is kNoFront (tokens still
+  // work, e.g. for the teacher on the server itself).
+  FrontVerdict Judge(const std::string& peer, const HeaderOf& header) const;
+
+  // True when the request comes from the front's address with the front's secret: only then is
+  // anything the front adds (the user, X-Forwarded-For) believed.
+  bool Vouched(const std::string& peer, const HeaderOf& header) const;
+
+  // The client's address for the bad-token throttle, the connection caps and the log: the last
+  // address the front added to X-Forwarded-For on a request the front vouches for (Vouched),
+  // else the peer. A client's own X-Forwarded-For is never believed, nor one from the front's
+  // address without the secret (any program on the machine can connect from there).
+  std::string ClientAddress(const std::string& peer, const HeaderOf& header) const;
 
   // The role a signed-in name has: "student" (a student of `students`), "teacher" (in
   // proxy_teachers), or "" (not in the class).
@@ -87,6 +97,7 @@ class FrontAuth {
 
  private:
   bool FromFront(const std::string& peer) const;
+  bool RightSecret(const std::string& secret) const;
   std::optional<FrontConfig> config_;
 };
 

@@ -445,10 +445,26 @@ void RigPool::Reattach() {
     seat->state = seat->endpoint ? "running" : "pending";
     seat->waiting = seat->endpoint ? "" : "reattached after a restart of the class server";
     seat->where = rig->Where();
-    seat->started_at = WallClock();
+    // Its start as the job saw it, not this server's: the submission's wall-clock time moved onto
+    // this server's steady clock (a state saved without it counts from now).
+    const auto submitted = rig->submitted();
+    const double ago = submitted ? std::max(0.0, std::chrono::duration<double>(
+                                                     std::chrono::system_clock::now() - *submitted)
+                                                     .count())
+                                 : 0.0;
+    seat->submitted = Clock::now() - std::chrono::duration_cast<Clock::duration>(
+                                         std::chrono::duration<double>(ago));
+    seat->start_s = seat->endpoint ? rig->ready_s() : 0;
+    seat->started_at = seat->endpoint && !rig->ready_at().empty() ? rig->ready_at() : "";
     seat->next_poll = Clock::now();
     seat->rig = std::move(rig);
-    Log("reattached " + student + "'s rig, " + seat->where);
+    Log("reattached " + student + "'s rig, " + seat->where +
+        (submitted ? ", submitted " + std::to_string(static_cast<int>(ago)) + " s ago"
+                   : ", its submission time unknown") +
+        (seat->endpoint && !seat->started_at.empty()
+             ? ", ready since " + seat->started_at + " (" +
+                   std::to_string(seat->start_s).substr(0, 4) + " s after it was submitted)"
+             : ""));
   }
 }
 
@@ -465,7 +481,9 @@ bool RigPool::Reported(const std::string& student, const std::string& secret,
     seat->state = "running";
     seat->waiting.clear();
     seat->where = job->Where();
-    seat->start_s = std::chrono::duration<double>(Clock::now() - seat->submitted).count();
+    seat->start_s = job->ready_s() > 0
+                        ? job->ready_s()
+                        : std::chrono::duration<double>(Clock::now() - seat->submitted).count();
     seat->started_at = WallClock();
     ++seat->starts;
   }

@@ -4,6 +4,8 @@
 #include <openssl/rand.h>
 #include <sys/stat.h>
 
+#include <algorithm>
+#include <ctime>
 #include <filesystem>
 #include <fstream>
 #include <sstream>
@@ -131,6 +133,14 @@ SlurmRigSpawner::SlurmRigSpawner(cluster::SlurmEngine& engine, const cluster::Cl
   if (!text("host").empty() && port != state.end() && port->is_number_integer()) {
     endpoint_ = RigEndpoint{text("host"), port->get<int>(), secret_};
   }
+  const auto submitted = state.find("submitted_unix_ms");
+  if (submitted != state.end() && submitted->is_number_integer()) {
+    submitted_ =
+        std::chrono::system_clock::time_point(std::chrono::milliseconds(submitted->get<int64_t>()));
+  }
+  const auto ready = state.find("ready_s");
+  if (ready != state.end() && ready->is_number()) ready_s_ = ready->get<double>();
+  ready_at_ = text("ready_at");
   if (!cluster::IsJobId(job_id_) || secret_.size() < 32) {
     throw std::invalid_argument("not a rig job's saved state (job '" + job_id_.substr(0, 20) +
                                 "')");
@@ -158,6 +168,24 @@ void SlurmRigSpawner::Start() {
   const std::lock_guard<std::mutex> lock(mutex_);
   job_id_ = submitted.job_id;
   endpoint_.reset();
+  submitted_ = std::chrono::system_clock::now();
+  ready_s_ = 0;
+  ready_at_.clear();
+}
+
+std::optional<std::chrono::system_clock::time_point> SlurmRigSpawner::submitted() const {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  return submitted_;
+}
+
+double SlurmRigSpawner::ready_s() const {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  return ready_s_;
+}
+
+std::string SlurmRigSpawner::ready_at() const {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  return ready_at_;
 }
 
 RigStatus SlurmRigSpawner::Poll() {
@@ -205,6 +233,15 @@ nlohmann::json SlurmRigSpawner::State() const {
     state["host"] = endpoint_->host;
     state["port"] = endpoint_->port;
   }
+  if (submitted_) {
+    state["submitted_unix_ms"] =
+        std::chrono::duration_cast<std::chrono::milliseconds>(submitted_->time_since_epoch())
+            .count();
+  }
+  if (!ready_at_.empty()) {
+    state["ready_s"] = ready_s_;
+    state["ready_at"] = ready_at_;
+  }
   return state;
 }
 
@@ -218,6 +255,15 @@ bool SlurmRigSpawner::Reported(const std::string& secret, const std::string& job
   if (!job.empty() && job != job_id_) return false;
   if (host.empty() || port <= 0 || port > 65535) return false;
   endpoint_ = RigEndpoint{host, port, secret_};
+  const auto now = std::chrono::system_clock::now();
+  ready_s_ =
+      submitted_ ? std::max(0.0, std::chrono::duration<double>(now - *submitted_).count()) : 0;
+  const std::time_t wall = std::chrono::system_clock::to_time_t(now);
+  std::tm local{};
+  localtime_r(&wall, &local);
+  char text[16];
+  std::strftime(text, sizeof text, "%H:%M:%S", &local);
+  ready_at_ = text;
   return true;
 }
 

@@ -13,6 +13,7 @@
 // cannot read is kUnknown, never kEnded), cancel, and save/load what a restarted server needs to
 // find the rig again (State / the constructor taking it).
 
+#include <chrono>
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -126,6 +127,13 @@ class SlurmRigSpawner : public RigSpawner {
                 int port);
   const std::string& job_id() const { return job_id_; }
   const std::string& secret() const { return secret_; }
+  // When the job was submitted (the wall clock, saved with the state, so a restarted server
+  // knows it); nullopt for a state saved before it was kept.
+  std::optional<std::chrono::system_clock::time_point> submitted() const;
+  // Seconds from the submission to the job's report, and the wall-clock time of the report
+  // ("HH:MM:SS"); 0 and "" until it reported (also kept with the state).
+  double ready_s() const;
+  std::string ready_at() const;
 
  private:
   cluster::SlurmEngine& engine_;
@@ -138,6 +146,9 @@ class SlurmRigSpawner : public RigSpawner {
   mutable std::mutex mutex_;
   std::optional<RigEndpoint> endpoint_;
   std::string node_;
+  std::optional<std::chrono::system_clock::time_point> submitted_;
+  double ready_s_ = 0;
+  std::string ready_at_;
 };
 
 // The class's rig jobs as a restarted server finds them: DATA/cluster/rigs.json (0600: it holds

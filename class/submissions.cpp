@@ -262,6 +262,18 @@ SubmissionService::SubmissionService(const ClassConfig& config, SubmissionOption
       const Json meta = store_.Read(student, id);
       const std::string state = meta.is_object() ? meta.value("state", "") : "";
       if (state == "queued" || state == "grading") queue_.emplace_back(student, id);
+      // A grading job the last server left (killed while it ran): taken back, never submitted
+      // again while it may still run.
+      if (config_.cluster && state == "grading" && meta.contains("grading_job")) {
+        const Json& job = meta["grading_job"];
+        const Json job_id = job.is_object() && job.contains("id") ? job["id"] : Json();
+        const Json attempt = job.is_object() && job.contains("attempt") ? job["attempt"] : Json(1);
+        if (job_id.is_string() && cluster::IsJobId(job_id.get<std::string>())) {
+          resume_[{student, id}] =
+              SavedJob{job_id.get<std::string>(),
+                       attempt.is_number_integer() ? std::clamp(attempt.get<int>(), 1, 2) : 1};
+        }
+      }
     }
   }
   int workers = 1;
@@ -382,17 +394,25 @@ void SubmissionService::Worker() {
 void SubmissionService::Grade(const std::string& student, int id) {
   const std::string folder = store_.Folder(student, id);
   Json meta;
+  std::optional<SavedJob> resume;
   {
     const std::lock_guard<std::mutex> lock(mutex_);
     meta = store_.Read(student, id);
     if (!meta.is_object()) return;
+    const auto saved = resume_.find({student, id});
+    if (saved != resume_.end()) {
+      resume = saved->second;
+      resume_.erase(saved);
+    }
     meta["state"] = "grading";
     meta.erase("grade");
     store_.Write(student, id, meta);
   }
   const std::string out = folder + "/grade";
-  fs::remove_all(out);
-  fs::create_directories(out);
+  if (!resume) {  // a job taken back writes where it was writing
+    fs::remove_all(out);
+    fs::create_directories(out);
+  }
   const std::vector<std::string> argv = {options_.bin_dir + "/sirupp",
                                          "grade",
                                          store_.SourceFile(student, id),
@@ -405,14 +425,15 @@ void SubmissionService::Grade(const std::string& student, int id) {
                                          std::to_string(options_.grade_jobs)};
   const auto start = Clock::now();
   const std::string log_file = folder + "/grade.log";
-  fs::remove(log_file);
+  if (!resume) fs::remove(log_file);
   log_(student + ": grading submission " + std::to_string(id));
   const GradeRun run =
-      engine_ ? GradeAsJob(student, id, argv, log_file) : GradeHere(argv, log_file);
+      engine_ ? GradeAsJob(student, id, argv, log_file, resume) : GradeHere(argv, log_file);
   const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
   const std::lock_guard<std::mutex> lock(mutex_);
   if (stop_ || run.stopped) return;  // killed by Stop(): stays "grading", graded again next start
   meta = store_.Read(student, id);
+  meta.erase("grading_job");
   meta["grade_seconds"] = seconds;
   const Json results = Json::parse(ReadAll(out + "/results.json"), nullptr, false);
   std::string summary;
@@ -514,7 +535,8 @@ SubmissionService::GradeRun SubmissionService::GradeHere(const std::vector<std::
 // state is waited out (it is not an end).
 SubmissionService::GradeRun SubmissionService::GradeAsJob(const std::string& student, int id,
                                                           const std::vector<std::string>& argv,
-                                                          const std::string& log_file) {
+                                                          const std::string& log_file,
+                                                          std::optional<SavedJob> resume) {
   const cluster::ClusterConfig& jobs = *config_.cluster;
   const std::string node_data = jobs.node_data.empty() ? config_.data_dir : jobs.node_data;
   const auto on_nodes = [&](const std::string& path) {
@@ -528,43 +550,72 @@ SubmissionService::GradeRun SubmissionService::GradeAsJob(const std::string& stu
       jobs, "sirupp-grade-" + student + "-" + std::to_string(id),
       student + "'s submission " + std::to_string(id) + " (sirupp class serve, cluster:)",
       proc::ExecLine(grading), on_nodes(log_file) + ".job");
+  const std::string which = student + ": submission " + std::to_string(id);
   GradeRun run;
-  for (int attempt = 1; attempt <= 2; ++attempt) {
-    const cluster::SubmitResult submitted = engine_->Submit(request);
-    if (!submitted.ok()) {
-      run.problem = "the cluster refused the grading job: " + submitted.error;
-      return run;
+  for (int attempt = resume ? resume->attempt : 1; attempt <= 2; ++attempt) {
+    std::string job_id;
+    const bool taken_back = resume && attempt == resume->attempt;
+    if (taken_back) {
+      job_id = resume->id;
+      log_(which + ": took back grading job " + job_id +
+           " (left running by the last class server)");
+    } else {
+      const cluster::SubmitResult submitted = engine_->Submit(request);
+      if (!submitted.ok()) {
+        run.problem = "the cluster refused the grading job: " + submitted.error;
+        return run;
+      }
+      job_id = submitted.job_id;
+      SaveGradingJob(student, id, SavedJob{job_id, attempt});
+      log_(which + " grading as Slurm job " + job_id);
     }
     {
       const std::lock_guard<std::mutex> lock(mutex_);
-      grading_jobs_.push_back(submitted.job_id);
-      if (stop_) engine_->Cancel(submitted.job_id);
+      grading_jobs_.push_back(job_id);
+      if (stop_) engine_->Cancel(job_id);
     }
-    log_(student + ": submission " + std::to_string(id) + " grading as Slurm job " +
-         submitted.job_id);
     cluster::JobStatus status;
     while (true) {
-      std::this_thread::sleep_for(std::chrono::milliseconds(500));
       {
         const std::lock_guard<std::mutex> lock(mutex_);
         if (stop_) break;  // Stop() cancelled the job
       }
-      status = engine_->Poll(submitted.job_id);
+      status = engine_->Poll(job_id);
       if (status.state == cluster::JobState::kEnded) break;
+      std::this_thread::sleep_for(std::chrono::milliseconds(500));
     }
     {
       const std::lock_guard<std::mutex> lock(mutex_);
-      grading_jobs_.erase(std::remove(grading_jobs_.begin(), grading_jobs_.end(), submitted.job_id),
+      grading_jobs_.erase(std::remove(grading_jobs_.begin(), grading_jobs_.end(), job_id),
                           grading_jobs_.end());
-      if (stop_) {
-        run.stopped = true;
-        return run;
-      }
+    }
+    bool stopping = false;
+    {
+      const std::lock_guard<std::mutex> lock(mutex_);
+      stopping = stop_;
+    }
+    if (stopping) {
+      // Cancelled by Stop(): the next start grades it again, unless the cancel was not taken
+      // (then the job is still ours to take back).
+      if (engine_->Cancel(job_id).empty()) ClearGradingJob(student, id);
+      run.stopped = true;
+      return run;
+    }
+    if (taken_back && status.slurm_state.empty() &&
+        !Json::parse(ReadAll((fs::path(log_file).parent_path() / "grade/results.json").string()),
+                     nullptr, false)
+             .is_discarded()) {
+      run.ok = true;  // ended while no server watched and Slurm has forgotten it: its result
+      return run;
+    }
+    if (taken_back && status.slurm_state == "CANCELLED" && attempt == 1) {
+      log_(which + ": grading job " + job_id +
+           " was cancelled while the class server was down; graded once more");
+      continue;
     }
     const cluster::GradingEnd end = cluster::AfterGradingJob(status, attempt);
     if (end.next == cluster::GradingNext::kAgain) {
-      log_(student + ": submission " + std::to_string(id) + ": " + status.reason +
-           "; submitted once more");
+      log_(which + ": " + status.reason + "; submitted once more");
       continue;
     }
     run.ok = end.next == cluster::GradingNext::kGraded;
@@ -572,6 +623,22 @@ SubmissionService::GradeRun SubmissionService::GradeAsJob(const std::string& stu
     return run;
   }
   return run;
+}
+
+void SubmissionService::SaveGradingJob(const std::string& student, int id, const SavedJob& job) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  Json meta = store_.Read(student, id);
+  if (!meta.is_object()) return;
+  meta["grading_job"] = Json{{"id", job.id}, {"attempt", job.attempt}};
+  store_.Write(student, id, meta);
+}
+
+void SubmissionService::ClearGradingJob(const std::string& student, int id) {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  Json meta = store_.Read(student, id);
+  if (!meta.is_object() || !meta.contains("grading_job")) return;
+  meta.erase("grading_job");
+  store_.Write(student, id, meta);
 }
 
 bool SubmissionService::WaitIdle(double timeout_s) {

@@ -143,8 +143,17 @@ class SubmissionService {
     std::string problem;
   };
   GradeRun GradeHere(const std::vector<std::string>& argv, const std::string& log_file);
+  // A grading job a previous server left running (the submission's meta.json "grading_job").
+  struct SavedJob {
+    std::string id;
+    int attempt = 1;
+  };
   GradeRun GradeAsJob(const std::string& student, int id, const std::vector<std::string>& argv,
-                      const std::string& log_file);
+                      const std::string& log_file, std::optional<SavedJob> resume);
+  // The job grading `student`'s submission `id` now, in its meta.json (so a server killed while
+  // it runs finds it again instead of grading twice); Clear when it ended or was cancelled.
+  void SaveGradingJob(const std::string& student, int id, const SavedJob& job);
+  void ClearGradingJob(const std::string& student, int id);
   nlohmann::json Public(const std::string& student, int id) const;
   nlohmann::json ListJson(const std::string& student) const;
   panel::Response Run(const std::string& student, const std::string& body,
@@ -169,6 +178,9 @@ class SubmissionService {
   std::unique_ptr<cluster::SystemRunner> runner_;
   std::unique_ptr<cluster::SlurmEngine> engine_;
   std::vector<std::string> grading_jobs_;
+  // Grading jobs found in the submissions at the start, taken back by the worker that takes the
+  // submission from the queue (under mutex_).
+  std::map<std::pair<std::string, int>, SavedJob> resume_;
   std::vector<std::thread> workers_;
 };
 

@@ -183,7 +183,8 @@ double BadTokenThrottle::WaitFor(const std::string& address, Clock::time_point n
   return std::chrono::duration<double>(found->second.locked_until - now).count();
 }
 
-void BadTokenThrottle::Failed(const std::string& address, Clock::time_point now) {
+void BadTokenThrottle::Failed(const std::string& address, const std::string& page,
+                              Clock::time_point now) {
   const std::lock_guard<std::mutex> lock(mutex_);
   if (states_.size() > 100000) states_.clear();  // bounded memory whatever the traffic
   State& state = states_[address];
@@ -191,6 +192,7 @@ void BadTokenThrottle::Failed(const std::string& address, Clock::time_point now)
   if (state.failures > 0 && now - state.last > std::chrono::hours(1)) state = State{};
   state.last = now;
   ++state.failures;
+  if (state.by_page.size() < 1000) ++state.by_page[page];
   if (state.failures >= kFreeFailures) {
     const double lockout = std::min(kMaxLockoutS, std::pow(2.0, state.failures - kFreeFailures));
     state.locked_until =
@@ -198,9 +200,19 @@ void BadTokenThrottle::Failed(const std::string& address, Clock::time_point now)
   }
 }
 
-void BadTokenThrottle::Succeeded(const std::string& address) {
+void BadTokenThrottle::Succeeded(const std::string& address, const std::string& page) {
   const std::lock_guard<std::mutex> lock(mutex_);
-  states_.erase(address);
+  const auto found = states_.find(address);
+  if (found == states_.end()) return;
+  State& state = found->second;
+  const auto mine = state.by_page.find(page);
+  if (mine != state.by_page.end()) {
+    state.failures -= mine->second;
+    state.by_page.erase(mine);
+  }
+  // The lock-out stands as it was set (a right token is looked at only after it); once the
+  // count is below the free failures, the next failure starts no lock-out.
+  if (state.failures <= 0) states_.erase(found);
 }
 
 void AppendHandout(const std::string& file,

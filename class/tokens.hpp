@@ -4,9 +4,11 @@
 // leaked copy of that file does not give them away. A token is shown once, when it is issued: the
 // server appends it to the teacher's handout (DATA/tokens.csv, mode 0600: student,address).
 //
-// Bad-token slowing (BadTokenThrottle): per remote address, after kFreeFailures wrong tokens every
+// Bad-token slowing (BadTokenThrottle): per client address, after kFreeFailures wrong tokens every
 // further request is refused without looking at its token for a lockout that doubles with each
-// further failure (1 s, 2 s, ... up to 5 min); a right token clears the count.
+// further failure (1 s, 2 s, ... up to 5 min). A right token forgives only the failures on its
+// own page (a student's /s/NAME/, or the teacher's): a student's good token does not clear the
+// count of guesses at another student's token from the same address.
 
 #include <chrono>
 #include <filesystem>
@@ -63,12 +65,18 @@ class BadTokenThrottle {
 
   // Seconds the address must still wait before its token is looked at; 0 = go ahead.
   double WaitFor(const std::string& address, Clock::time_point now);
-  void Failed(const std::string& address, Clock::time_point now);
-  void Succeeded(const std::string& address);
+  // A wrong token from `address` for `page` (the student whose page it was, or "teacher").
+  void Failed(const std::string& address, const std::string& page, Clock::time_point now);
+  // A right token from `address` for `page`: that page's failures are forgiven, no others.
+  void Succeeded(const std::string& address, const std::string& page);
+  // The same with one page for every token.
+  void Failed(const std::string& address, Clock::time_point now) { Failed(address, "", now); }
+  void Succeeded(const std::string& address) { Succeeded(address, ""); }
 
  private:
   struct State {
-    int failures = 0;
+    int failures = 0;  // every page's
+    std::map<std::string, int> by_page;
     Clock::time_point locked_until{};
     Clock::time_point last{};
   };

@@ -173,6 +173,35 @@ TEST(BadTokenThrottleTest, LocksOutAfterFiveFailuresForAGrowingTime) {
   EXPECT_EQ(throttle.WaitFor("10.0.0.1", t1), 0);
 }
 
+TEST(BadTokenThrottleTest, AGoodTokenForgivesOnlyTheFailuresOnItsOwnPage) {
+  BadTokenThrottle throttle;
+  auto t = BadTokenThrottle::Clock::time_point{} + std::chrono::hours(10);
+  // Guesses at bob's token, alice's own good token after every fourth (issue 51).
+  int guesses = 0;
+  while (throttle.WaitFor("10.0.0.1", t) == 0 && guesses < 40) {
+    throttle.Failed("10.0.0.1", "bob", t);
+    if (++guesses % 4 == 0) throttle.Succeeded("10.0.0.1", "alice");
+    t += std::chrono::milliseconds(10);
+  }
+  EXPECT_EQ(guesses, BadTokenThrottle::kFreeFailures) << "alice's token cleared bob's count";
+  EXPECT_NEAR(throttle.WaitFor("10.0.0.1", t), 1.0 - 0.01, 1e-6);
+  // The doubling stays: the next failure after the lock-out locks for 2 s.
+  t += std::chrono::seconds(1);
+  throttle.Failed("10.0.0.1", "bob", t);
+  EXPECT_NEAR(throttle.WaitFor("10.0.0.1", t), 2.0, 1e-6);
+  // Failures on alice's page are forgiven by alice's token, bob's stay.
+  throttle.Failed("10.0.0.1", "alice", t);
+  throttle.Succeeded("10.0.0.1", "alice");
+  t += std::chrono::seconds(3);
+  throttle.Failed("10.0.0.1", "bob", t);
+  EXPECT_NEAR(throttle.WaitFor("10.0.0.1", t), 4.0, 1e-6) << "seven of bob's: 4 s";
+  throttle.Succeeded("10.0.0.1", "bob");
+  t += std::chrono::seconds(5);
+  EXPECT_EQ(throttle.WaitFor("10.0.0.1", t), 0);
+  for (int i = 0; i < BadTokenThrottle::kFreeFailures - 1; ++i) throttle.Failed("10.0.0.1", "x", t);
+  EXPECT_EQ(throttle.WaitFor("10.0.0.1", t), 0) << "bob's own token cleared bob's count";
+}
+
 // The server on 127.0.0.1 with a class of two; rigs only where a test starts one.
 class ClassServerTest : public ::testing::Test {
  protected:

@@ -12,6 +12,7 @@
 #include "class/class_config.hpp"
 #include "class/front_auth.hpp"
 #include "core/errors.hpp"
+#include "core/printable.hpp"
 #include "tests/class_server_harness.hpp"
 
 namespace sirupp::classroom {
@@ -45,7 +46,10 @@ TEST(FrontAuthTest, WithoutAFrontEveryRequestIsJudgedByItsToken) {
   const FrontVerdict v =
       JudgeWith(none, "127.0.0.1", {{"X-Remote-User", "alice"}, {kFrontSecretHeader, kSecret}});
   EXPECT_EQ(v.kind, Kind::kNoFront) << "no front: the headers mean nothing, tokens decide";
-  EXPECT_EQ(none.ClientAddress("10.0.0.5", "1.2.3.4"), "10.0.0.5")
+  EXPECT_EQ(none.ClientAddress(
+                "10.0.0.5",
+                [](const std::string& name) { return name == "X-Forwarded-For" ? "1.2.3.4" : ""; }),
+            "10.0.0.5")
       << "without a front, a client's X-Forwarded-For is not believed";
 }
 
@@ -103,16 +107,70 @@ TEST(FrontAuthTest, ACustomUserHeader) {
       << "the secret alone, without the configured user header";
 }
 
+// ClientAddress() with these headers.
+std::string ClientWith(const FrontAuth& auth, const std::string& peer,
+                       const std::map<std::string, std::string>& headers) {
+  return auth.ClientAddress(peer, [&headers](const std::string& name) {
+    const auto it = headers.find(name);
+    return it == headers.end() ? std::string() : it->second;
+  });
+}
+
 TEST(FrontAuthTest, ClientAddressFromXForwardedForOnlyFromTheFront) {
   const FrontAuth auth(Front());
-  EXPECT_EQ(auth.ClientAddress("127.0.0.1", "192.0.2.7"), "192.0.2.7");
-  EXPECT_EQ(auth.ClientAddress("127.0.0.1", "6.6.6.6, 192.0.2.7"), "192.0.2.7")
+  const auto vouched = [](const std::string& forwarded_for) {
+    return std::map<std::string, std::string>{{kFrontSecretHeader, kSecret},
+                                              {"X-Forwarded-For", forwarded_for}};
+  };
+  EXPECT_EQ(ClientWith(auth, "127.0.0.1", vouched("192.0.2.7")), "192.0.2.7");
+  EXPECT_EQ(ClientWith(auth, "127.0.0.1", vouched("6.6.6.6, 192.0.2.7")), "192.0.2.7")
       << "the last entry is the one the front added; earlier ones came from the client";
-  EXPECT_EQ(auth.ClientAddress("127.0.0.1", "2001:db8::1"), "2001:db8::1");
-  EXPECT_EQ(auth.ClientAddress("127.0.0.1", ""), "127.0.0.1");
-  EXPECT_EQ(auth.ClientAddress("127.0.0.1", "not-an-address"), "127.0.0.1");
-  EXPECT_EQ(auth.ClientAddress("10.1.2.3", "192.0.2.7"), "10.1.2.3")
+  EXPECT_EQ(ClientWith(auth, "127.0.0.1", vouched("2001:db8::1")), "2001:db8::1");
+  EXPECT_EQ(ClientWith(auth, "127.0.0.1", vouched("")), "127.0.0.1");
+  EXPECT_EQ(ClientWith(auth, "127.0.0.1", vouched("not-an-address")), "127.0.0.1");
+  EXPECT_EQ(ClientWith(auth, "10.1.2.3", vouched("192.0.2.7")), "10.1.2.3")
       << "a client's own X-Forwarded-For would let it dodge the bad-token throttle";
+}
+
+TEST(FrontAuthTest, XForwardedForFromTheFrontsAddressWithoutTheSecretIsNotBelieved) {
+  // Any program on the machine can connect from the front's address (127.0.0.1).
+  const FrontAuth auth(Front());
+  EXPECT_EQ(ClientWith(auth, "127.0.0.1", {{"X-Forwarded-For", "198.51.100.1"}}), "127.0.0.1");
+  EXPECT_EQ(ClientWith(auth, "127.0.0.1",
+                       {{"X-Forwarded-For", "198.51.100.1"}, {kFrontSecretHeader, "guess"}}),
+            "127.0.0.1");
+  EXPECT_EQ(ClientWith(auth, "127.0.0.1",
+                       {{"X-Forwarded-For", "198.51.100.1"},
+                        {kFrontSecretHeader, std::string(kSecret) + " "}}),
+            "127.0.0.1")
+      << "the secret byte for byte";
+  EXPECT_FALSE(auth.Vouched("127.0.0.1", [](const std::string&) { return std::string(); }));
+  EXPECT_EQ(ClientWith(FrontAuth(), "127.0.0.1",
+                       {{"X-Forwarded-For", "198.51.100.1"}, {kFrontSecretHeader, kSecret}}),
+            "127.0.0.1")
+      << "no front: nothing of it is believed";
+}
+
+TEST(FrontAuthTest, ASignedInNameIsTakenAsSentAndMustBeOfTheClasssSyntax) {
+  const FrontAuth auth(Front());
+  for (const std::string& bad :
+       std::vector<std::string>{"%61lice", "al%69ce", "alice@example.edu", "alice bob", "",
+                                std::string(33, 'a'), ".alice", "al\tice"}) {
+    const FrontVerdict v =
+        JudgeWith(auth, "127.0.0.1", {{"X-Remote-User", bad}, {kFrontSecretHeader, kSecret}});
+    if (bad.empty()) {
+      EXPECT_EQ(v.kind, Kind::kRefused);  // no user
+      continue;
+    }
+    EXPECT_EQ(v.kind, Kind::kRefused) << bad;
+    EXPECT_NE(v.reason.find("'" + core::Printable(bad, 60) + "'"), std::string::npos)
+        << "the refusal names the value as sent: " << v.reason;
+    EXPECT_NE(v.reason.find("allowed: 1 to 32 letters"), std::string::npos) << v.reason;
+  }
+  EXPECT_EQ(
+      JudgeWith(auth, "127.0.0.1", {{"X-Remote-User", "a.b-c_9"}, {kFrontSecretHeader, kSecret}})
+          .user,
+      "a.b-c_9");
 }
 
 TEST(FrontAuthTest, RolesOfSignedInNames) {

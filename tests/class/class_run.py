@@ -21,7 +21,7 @@ from panel_rig import Rig, wait_for  # noqa: E402,F401  (wait_for re-exported fo
 
 class ClassRun:
     def __init__(self, bin_dir, source_dir, students, idle_timeout_s=900, max_rigs=None,
-                 extra_limits="", extra_yaml=""):
+                 extra_limits="", extra_yaml="", server_yaml="{port: 0}"):
         self.bin = os.path.abspath(bin_dir)
         self.src = os.path.abspath(source_dir)
         self.work = tempfile.mkdtemp(prefix="sirupp-class-test-")
@@ -38,7 +38,7 @@ class ClassRun:
                     f"students: [{', '.join(self.students)}]\n"
                     "data: data\n"
                     f"limits: {{max_rigs: {max_rigs}, idle_timeout_s: {idle_timeout_s}{extra_limits}}}\n"
-                    "server: {port: 0}\n" + extra_yaml)
+                    f"server: {server_yaml}\n" + extra_yaml)
 
     def start(self):
         self.log_file = open(os.path.join(self.work, "server.log"), "w")

@@ -7,8 +7,9 @@ and not each other's; a signed-in name not in the class gets 403 naming it; the 
 opens the teacher's page; a client's own X-Remote-User does not pass Apache; the live stream
 arrives through the proxy at the rate it arrives directly; a forged user header sent straight to
 the class server is refused, with and without a wrong secret; tokens still work; one student page
-loads in headless Chromium through Apache. Apache and everything it started end at the end, also
-on failure."""
+loads in headless Chromium through Apache; a name signed in as "%61lice" is not alice; 100 slow
+connections to Apache and 100 straight to the class server leave other students answered within a
+second (issue 51). Apache and everything it started end at the end, also on failure."""
 
 import base64
 import json
@@ -34,7 +35,8 @@ CLASS_FILE = f"/etc/sirupp/classes/{INSTANCE}.yaml"
 SECRET_FILE = f"/etc/sirupp/classes/{INSTANCE}.secret"
 DATA = f"/var/lib/sirupp/{INSTANCE}"
 MODULES = "/usr/lib/apache2/modules"
-PASSWORDS = {"alice": "alice-pw", "bob": "bob-pw", "jsmith": "jsmith-pw", "mallory": "mallory-pw"}
+PASSWORDS = {"alice": "alice-pw", "bob": "bob-pw", "jsmith": "jsmith-pw", "mallory": "mallory-pw",
+             "%61lice": "encoded-pw"}
 failures = []
 
 
@@ -306,6 +308,54 @@ def main():
                "does not match" in text, f"{status} {text[:200]}")
         expect("the server logs the refusal", "refused a request from 127.0.0.1" in service.log(),
                service.log()[-500:])
+        # A name signed in at the front is taken as sent: "%61lice" is not alice (issue 51).
+        status, text = request(front + "/s/alice/class/status", user="%61lice")
+        expect("%61lice signed in at Apache, on alice's page", status == 403 and
+               "'%61lice'" in text, f"{status} {text[:200]}")
+        # Slow clients (issue 51): 100 connections to Apache and 100 straight to the class server
+        # from the front's own address, each sending a byte every 2 s; bob through Apache and
+        # alice straight to the class server are still answered within a second.
+        stop_slow = threading.Event()
+        slow = []
+
+        def trickle(port, count):
+            socks = []
+            for _ in range(count):
+                sock = socket.create_connection(("127.0.0.1", port), timeout=10)
+                socks.append(sock)
+                slow.append(sock)
+            head = b"GET /s/bob/class/status HTTP/1.1\r\nHost: x\r\nX-Pad: " + b"a" * 200
+            for i in range(len(head)):
+                for sock in socks:
+                    try:
+                        sock.send(head[i:i + 1])
+                    except OSError:
+                        pass
+                if stop_slow.wait(2):
+                    return
+        slow_threads = [threading.Thread(target=trickle, args=(int(url.rsplit(":", 1)[1]), 100),
+                                         daemon=True) for url in (front, direct)]
+        for t in slow_threads:
+            t.start()
+        try:
+            time.sleep(3)
+            t0 = time.time()
+            status, text = request(front + "/s/bob/class/status", user="bob", timeout=15)
+            took_front = time.time() - t0
+            t0 = time.time()
+            status_direct, _ = request(direct + "/s/alice/class/status", timeout=15,
+                                       headers={"X-Sirupp-Token": service.token("alice")})
+            took_direct = time.time() - t0
+        finally:
+            stop_slow.set()
+            for sock in slow:
+                sock.close()
+        timings["bob through Apache beside 200 slow connections s"] = round(took_front, 3)
+        timings["alice direct beside them s"] = round(took_direct, 3)
+        expect("bob through Apache beside 200 slow connections", status == 200 and
+               took_front < 1.0, f"{status} in {took_front:.2f} s: {text[:200]}")
+        expect("alice straight to the class server beside them", status_direct == 200 and
+               took_direct < 1.0, f"{status_direct} in {took_direct:.2f} s")
         # Tokens still work beside the front.
         status, _ = request(direct + "/s/alice/class/status",
                             headers={"X-Sirupp-Token": service.token("alice")})
