@@ -51,7 +51,11 @@ ControlNode::ControlNode(core::Bus& bus, const core::RobotModel& model, ControlO
     : bus_(bus),
       model_(model),
       options_(std::move(options)),
-      sequencer_(model, {options_.name, options_.channels.sim_arm_state, options_.effort_law}),
+      sequencer_(model, {options_.name,
+                         options_.boards_in_sim && !options_.effort_law
+                             ? options_.channels.sim_board_status.name()
+                             : options_.channels.sim_arm_state.name(),
+                         options_.effort_law, options_.boards_in_sim}),
       heartbeat_(bus, options_.name, options_.channels.heartbeat),
       replier_(bus, options_.channels.controller_reply, options_.name),
       chip_gains_(servo::ChipGainsFromModel(model)) {
@@ -62,10 +66,19 @@ ControlNode::ControlNode(core::Bus& bus, const core::RobotModel& model, ControlO
   }
   const core::Channels& channels = options_.channels;
   using Info = core::ReceiveInfo;
-  bus_.Subscribe<sirupp::arm_state_t>(
-      channels.sim_arm_state,
-      [this](const sirupp::arm_state_t& message, const Info& info) { OnState(message, info); },
-      1000);
+  if (sequencer_.boards_remote()) {
+    bus_.Subscribe<sirupp::board_status_t>(
+        channels.sim_board_status,
+        [this](const sirupp::board_status_t& message, const Info& info) {
+          OnBoardStatus(message, info);
+        },
+        100);
+  } else {
+    bus_.Subscribe<sirupp::arm_state_t>(
+        channels.sim_arm_state,
+        [this](const sirupp::arm_state_t& message, const Info& info) { OnState(message, info); },
+        1000);
+  }
   // Each command gets one answer on CONTROLLER_REPLY naming it (core/command_reply.hpp). Each is
   // decoded by its core/translate.hpp pair; a message it refuses is the sequencer's last error too.
   // While a model is being loaded (model_switch.hpp) nothing may start a move.
@@ -128,7 +141,9 @@ ControlNode::ControlNode(core::Bus& bus, const core::RobotModel& model, ControlO
       });
   // The states are read in this thread from a socket of their own (udpm), without LCM's hand-over
   // from its receive thread: one wake-up per tick (core/bus.hpp, ReadDirectly).
-  bus_.ReadDirectly({bus_.FullName(channels.sim_arm_state)}, options_.name);
+  bus_.ReadDirectly({bus_.FullName(sequencer_.boards_remote() ? channels.sim_board_status.name()
+                                                              : channels.sim_arm_state.name())},
+                    options_.name);
   heartbeat_.Publish(core::ProcessState::kStarting, "");
 }
 
@@ -257,6 +272,22 @@ void ControlNode::OnState(const sirupp::arm_state_t& message, const core::Receiv
   last_state_wall_ = Now();
   const std::optional<core::ArmCommand> command = sequencer_.OnState(state);
   Flush();
+  SendAnswer(command);
+  if (command && options_.publish_setpoints) PublishSetpoint(state, command->effort);
+}
+
+void ControlNode::OnBoardStatus(const sirupp::board_status_t& message,
+                                const core::ReceiveInfo& info) {
+  const core::BoardStatus status =
+      core::BoardStatusFromMessage(message, info.channel, model_.num_joints());
+  last_state_wall_ = Now();
+  const std::optional<core::ArmCommand> command =
+      sequencer_.OnBoardStatus(status.arm, status.boards, status.command_seq);
+  Flush();  // the board commands of this exchange go out before the answer
+  SendAnswer(command);
+}
+
+void ControlNode::SendAnswer(const std::optional<core::ArmCommand>& command) {
   if (!command) {
     // The same state again: the sim did not get our answer (lost) or re-sent it; answer again.
     if (have_last_command_) {
@@ -272,7 +303,6 @@ void ControlNode::OnState(const sirupp::arm_state_t& message, const core::Receiv
   // The sim's next state waits for this answer: its silence counts from here, so a controller
   // library that took long (up to its call limit) does not make the sim look lost.
   last_state_wall_ = Now();
-  if (options_.publish_setpoints) PublishSetpoint(state, command->effort);
 }
 
 void ControlNode::Flush() {
@@ -289,6 +319,9 @@ void ControlNode::Flush() {
           }
         },
         output);
+  }
+  for (const core::ServoMove& command : sequencer_.TakeBoardCommands()) {
+    bus_.Publish(options_.channels.sim_board_command, core::ToMessage(command));
   }
 }
 

@@ -15,6 +15,11 @@
 //      answer per ARM_TARGET, ARM_POSE_TARGET, ARM_PLAN and ARM_GAINS, naming the request),
 //      HEARTBEAT.
 //
+// With the boards in the sim (ControlOptions::boards_in_sim, no student's law): in SIM_BOARD_STATUS
+//      (every exchange tick) in place of SIM_ARM_STATE, answered on SIM_ARM_COMMAND with
+//      MODE_BOARDS (hold on a fault); out SIM_BOARD_COMMAND (the moves, stops and servo-ons for the
+//      sim's boards, before that answer) in addition; the sim publishes ARM_SETPOINT then.
+//
 // What the node itself decides: the watchdogs on SIM_ARM_STATE (silent for sim_timeout_s = the sim
 // is lost) and on a linked bridge's HARDWARE_STATUS (silent for bridge_timeout_s = the real arm is
 // lost), the rates of the periodic messages, matching the bridge's reply to our latest ARM_MOVE,
@@ -29,6 +34,7 @@
 #include <memory>
 #include <sirupp/arm_command_t.hpp>
 #include <sirupp/arm_state_t.hpp>
+#include <sirupp/board_status_t.hpp>
 #include <sirupp/command_reply_t.hpp>
 #include <sirupp/estop_t.hpp>
 #include <sirupp/hardware_status_t.hpp>
@@ -58,7 +64,14 @@ namespace sirupp::control {
 struct ControlOptions {
   std::string name = "sirupp-control";  // arm_command_t.sender: the sim's participant name
   core::Channels channels;
-  bool publish_setpoints = true;  // ARM_SETPOINT every tick
+  bool publish_setpoints = true;  // ARM_SETPOINT every tick (when the boards run here)
+  // The virtual PIC-SERVO boards run in sirupp-sim beside the physics (sim/sim_node.hpp): this
+  // node sends them moves and reads their status every exchange tick, as sirupp-hardware does
+  // with the real boards, and no per-tick message passes between the two processes. Ignored with
+  // a student's law (effort_law), which needs the profiles here every tick: the sim's boards are
+  // then bypassed, as the chip's PWM mode bypasses its PID. sirupp-control's default
+  // (--boards sim); false here keeps the library's per-tick loop for in-process tests.
+  bool boards_in_sim = false;
   // A student's controller in place of the PID filter; null = the PIC-SERVO PID (effort_law.hpp).
   std::shared_ptr<EffortLaw> effort_law;
   // No SIM_ARM_STATE for this long (wall clock) = the sim is lost: a plan is aborted, the real
@@ -104,6 +117,9 @@ class ControlNode {
 
  private:
   void OnState(const sirupp::arm_state_t& message, const core::ReceiveInfo& info);
+  void OnBoardStatus(const sirupp::board_status_t& message, const core::ReceiveInfo& info);
+  // The answer to a state or board status (nullopt: the same tick again, sent again).
+  void SendAnswer(const std::optional<core::ArmCommand>& command);
   void OnModel(const sirupp::robot_model_t& message, const core::ReceiveInfo& info);
   void OnGains(const sirupp::servo_gains_t& message, const core::ReceiveInfo& info);
   // A refusal of our latest ARM_MOVE on HARDWARE_REPLY stops the virtual arm too.

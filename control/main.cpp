@@ -19,8 +19,13 @@ namespace {
 using sirupp::runtime::Flag;
 
 constexpr const char* kAbout =
-    "The sequencer and the virtual PIC-SERVOs: answers every SIM_ARM_STATE with joint efforts on\n"
-    "SIM_ARM_COMMAND (as participant NAME, default sirupp-control); takes joint targets\n"
+    "The sequencer of the virtual PIC-SERVOs. --boards sim (default): the boards run in "
+    "sirupp-sim\n"
+    "beside the physics; this process answers SIM_BOARD_STATUS every exchange tick (MODE_BOARDS)\n"
+    "and sends them moves on SIM_BOARD_COMMAND, as sirupp-hardware does with the real boards.\n"
+    "--boards control (and always with --controller): it runs them here and answers every\n"
+    "SIM_ARM_STATE with joint efforts on SIM_ARM_COMMAND. As participant NAME (default\n"
+    "sirupp-control). Takes joint targets\n"
     "(ARM_TARGET), tool targets through IK (ARM_POSE_TARGET), movement plans and modes (ARM_PLAN)\n"
     "and gains (ARM_GAINS), see `sirupp move|plan|gains|status --help`; publishes ARM_MOVE,\n"
     "ARM_SETPOINT, CONTROLLER_STATUS and HEARTBEAT.\n"
@@ -95,6 +100,9 @@ int Run(const std::vector<std::string>& argv) {
       argv, "sirupp-control",
       {sirupp::runtime::ModelFlag(), Flag("name", "participant name").Takes("NAME"),
        Flag("no-setpoints", "do not publish ARM_SETPOINT").Switch(),
+       Flag("boards", "where the virtual PIC-SERVO boards run")
+           .Takes("WHERE")
+           .OneOf({"sim", "control"}),
        Flag("lcm-url", "LCM URL").Takes("URL"),
        Flag("prefix", "channel prefix of the rig").Takes("PREFIX"),
        sirupp::runtime::RtPriorityFlag(),
@@ -126,6 +134,7 @@ int Run(const std::vector<std::string>& argv) {
     }
   }
   options.publish_setpoints = !args.Switch("no-setpoints");
+  options.boards_in_sim = !args.Has("boards") || args.String("boards") == "sim";
   options.sim_timeout_s = args.Number("sim-timeout", options.sim_timeout_s);
   options.bridge_timeout_s = args.Number("bridge-timeout", options.bridge_timeout_s);
   for (const char* flag :
@@ -139,8 +148,12 @@ int Run(const std::vector<std::string>& argv) {
   sirupp::core::Bus bus(args.Has("lcm-url") ? args.String("lcm-url") : "",
                         args.Has("prefix") ? args.String("prefix") : "");
   sirupp::control::ControlNode node(bus, model, options);
-  std::cerr << "sirupp-control: " << model.name << ", participant '" << options.name << "', on "
-            << bus.url() << "\n";
+  std::cerr << "sirupp-control: " << model.name << ", participant '" << options.name << "', "
+            << (node.sequencer().boards_remote()
+                    ? "the boards in sirupp-sim"
+                    : std::string("the boards here") +
+                          (options.effort_law ? " (a student's controller)" : ""))
+            << ", on " << bus.url() << "\n";
   sirupp::runtime::RequestRealtimePriority(rt_priority, "sirupp-control");
   sirupp::runtime::ServiceUntilSignal([&node] {
     node.Service(50);

@@ -40,7 +40,7 @@ PoseRequest ToPoseRequest(const core::PoseTarget& target) {
 Sequencer::Sequencer(const core::RobotModel& model, SequencerOptions options)
     : model_(model),
       options_(std::move(options)),
-      bank_(model),
+      bank_(model, options_.boards_remote && !options_.effort_law),
       motion_limits_(core::DefaultMotionLimits(model)) {}
 
 std::vector<SequencerOutput> Sequencer::TakeOutputs() {
@@ -65,6 +65,36 @@ std::optional<core::ArmCommand> Sequencer::OnState(const core::ArmState& state) 
   last_effort_ = command.effort;
   have_last_effort_ = true;
   CheckTrip(state.tick);
+  return command;
+}
+
+std::optional<core::ArmCommand> Sequencer::OnBoardStatus(const core::ArmState& state,
+                                                         const core::ServoSetpoint& boards,
+                                                         int64_t command_seq) {
+  if (!bank_.remote()) {
+    throw std::logic_error("Sequencer::OnBoardStatus: the boards run here (OnState)");
+  }
+  if (sim_lost_) {
+    sim_lost_ = false;
+    Note("states from sirupp-sim again (tick " + std::to_string(state.tick) + ")");
+    if (last_error_.rfind("no state from sirupp-sim", 0) == 0) last_error_.clear();
+  }
+  if (state.tick == last_tick_) return std::nullopt;
+  if (state.tick < last_tick_) OnSimRestart(last_tick_, state.tick);
+  bank_.TakeStatus(boards, command_seq);
+  TakeState(state);
+  core::ArmCommand command;
+  command.utime = state.utime;
+  command.tick = state.tick;
+  command.sender = options_.name;
+  command.mode = core::CommandMode::kBoards;
+  command.effort.assign(static_cast<size_t>(model_.num_joints()), 0.0);
+  // Held by the sim (a silent participant, an e-stop): the boards wait there, and the plan here.
+  const bool braked = std::any_of(state.flags.begin(), state.flags.end(),
+                                  [](int8_t flags) { return (flags & kFlagBraked) != 0; });
+  if (fault_.empty() && !braked) AdvancePlan(state.utime);
+  CheckTrip(state.tick);
+  if (!fault_.empty()) command.mode = core::CommandMode::kHold;
   return command;
 }
 
@@ -545,6 +575,7 @@ void Sequencer::EndPlan(const std::string& error) {
 // --- Moves out.
 
 void Sequencer::StartMove(const std::vector<JointMove>& moves) {
+  bank_.set_move_id(move_id_ + 1);  // the id a remote board command carries
   if (servos_on_) {
     bank_.Load(moves);
   } else {

@@ -25,6 +25,7 @@
 #include <variant>
 #include <vector>
 
+#include "control/boards.hpp"
 #include "control/effort_law.hpp"
 #include "control/plan.hpp"
 #include "control/servo_bank.hpp"
@@ -120,6 +121,11 @@ struct SequencerOptions {
   std::string state_source = "SIM_ARM_STATE";  // where states come from, in messages
   // A student's controller in place of the PID filter; null = the PIC-SERVO PID (effort_law.hpp).
   std::shared_ptr<EffortLaw> effort_law;
+  // The virtual boards run in sirupp-sim (control/boards.hpp): the sequencer takes their status
+  // at each exchange (OnBoardStatus) and sends its moves, stops and servo-ons as board commands
+  // (TakeBoardCommands) instead of ticking them itself with every state (OnState). Not with a
+  // student's law, which needs the profiles here every tick.
+  bool boards_remote = false;
 };
 
 class Sequencer {
@@ -131,6 +137,12 @@ class Sequencer {
   // not get the answer): the caller sends its previous answer again. A smaller tick than the
   // last is a new sim run: the plan is aborted, the real arm stopped, the new state taken.
   std::optional<core::ArmCommand> OnState(const core::ArmState& state);
+  // Remote boards: the arm's state and the boards' status at an exchange tick, and the last board
+  // command they applied; returns the answer (MODE_BOARDS, or hold on a fault). nullopt and a new
+  // sim run as OnState. The plan advances, faults and trips are seen once per exchange.
+  std::optional<core::ArmCommand> OnBoardStatus(const core::ArmState& state,
+                                                const core::ServoSetpoint& boards,
+                                                int64_t command_seq);
   // Commands; each throws core::MessageError naming `source` when refused.
   void Target(const JointTargetCommand& command);
   void PoseTarget(const PoseTargetCommand& command);
@@ -163,13 +175,18 @@ class Sequencer {
   // --- Out.
   // What happened since the last call, in order.
   std::vector<SequencerOutput> TakeOutputs();
+  // Remote boards: the commands for SIM_BOARD_COMMAND since the last call, in order (send them
+  // before the answer to the next exchange, after the ARM_MOVE outputs).
+  std::vector<core::ServoMove> TakeBoardCommands() { return bank_.TakeCommands(); }
   StatusReport Status() const;
   std::vector<JointSetpoint> Setpoints() const;
 
   // --- Queries.
   ControlMode mode() const;
   ControlState state() const;
-  const ServoBank& servos() const { return bank_; }
+  // The boards as this process runs them (remote boards: only the gains in force are kept here).
+  const ServoBank& servos() const { return bank_.local(); }
+  bool boards_remote() const { return bank_.remote(); }
   const std::string& fault() const { return fault_; }
   const std::string& last_error() const { return last_error_; }
   const std::string& estop() const { return estop_; }  // who engaged it and why; empty = released
@@ -228,7 +245,7 @@ class Sequencer {
 
   core::RobotModel model_;
   SequencerOptions options_;
-  ServoBank bank_;
+  Boards bank_;
   core::MotionLimits motion_limits_;  // the bridge's rule (core/motion_limits.hpp)
   std::vector<SequencerOutput> outputs_;
 

@@ -22,7 +22,9 @@ struct ArmState {
   int num_joints() const { return static_cast<int>(position.size()); }
 };
 
-enum class CommandMode : int8_t { kEffort = 0, kHold = 1, kLimp = 2 };
+// arm_command_t::MODE_*. kBoards: the virtual boards in sirupp-sim drive the arm until the
+// sender's next answer (sim/sim_node.hpp); the sim's own combined command is never kBoards.
+enum class CommandMode : int8_t { kEffort = 0, kHold = 1, kLimp = 2, kBoards = 3 };
 
 struct ArmCommand {
   int64_t utime = 0;

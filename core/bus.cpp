@@ -84,6 +84,7 @@ struct Bus::CounterTable {
 struct Bus::LcmSocket {
   std::optional<UdpmAddress> address;    // nullopt: not udpm, nothing to filter
   std::vector<std::string> per_tick;     // full names, in Channels::PerTick() order
+  std::vector<std::string> exchange;     // full names, Channels::Exchange(): muted only when taken
   std::vector<int> at_start;             // the process's sockets on the port when the Bus began
   int fd = -1;                           // LCM's receive socket, once found
   bool searched = false;                 // FindLcmSocket has run
@@ -193,6 +194,9 @@ Bus::Bus(const std::string& lcm_url, const std::string& channel_prefix)
     socket_->at_start = UdpSocketsOnPort(socket_->address->port);
     for (const std::string& name : Channels{}.PerTick()) {
       socket_->per_tick.push_back(prefix_ + name);
+    }
+    for (const std::string& name : Channels{}.Exchange()) {
+      socket_->exchange.push_back(prefix_ + name);
     }
   }
 }
@@ -429,6 +433,10 @@ void Bus::UpdateLcmFilter() {
     }
     if ((taken != s.elsewhere.end() && taken->second > 0) || !wanted) muted.push_back(name);
   }
+  for (const std::string& name : s.exchange) {
+    const auto taken = s.elsewhere.find(name);
+    if (taken != s.elsewhere.end() && taken->second > 0) muted.push_back(name);
+  }
   if (muted == s.muted) return;
   if (s.fd >= 0 && FilterChannels(s.fd, muted, false)) {
     s.muted = std::move(muted);
@@ -470,7 +478,9 @@ bool Bus::TakeOffLcm(const std::vector<std::string>& full_channels) {
   UpdateLcmFilter();
   for (const std::string& name : full_channels) {
     const bool per_tick = std::find(socket_->per_tick.begin(), socket_->per_tick.end(), name) !=
-                          socket_->per_tick.end();
+                              socket_->per_tick.end() ||
+                          std::find(socket_->exchange.begin(), socket_->exchange.end(), name) !=
+                              socket_->exchange.end();
     if (!per_tick ||
         std::find(socket_->muted.begin(), socket_->muted.end(), name) == socket_->muted.end()) {
       PutBackOnLcm(full_channels);  // the filter was refused, or not a per-tick channel

@@ -261,11 +261,12 @@ class Bus {
   int Fileno();
 
   // For the per-tick channel a process must answer at once (the sim's SIM_ARM_COMMAND, the
-  // controller's SIM_ARM_STATE; full names, 1 to 8): Handle() and HandleAvailable() read them
-  // from a socket of their own (core/tick_reader.hpp), every datagram in order with its kernel
-  // receive time, in this thread, and LCM's socket drops them. LCM 1.3.1 hands each message from
-  // its receive thread to this one through a pipe: two wake-ups and five system calls per message
-  // where this takes one wake-up (docs/timing.md, "What a tick costs"). Call once, after
+  // controller's SIM_ARM_STATE; full names, 1 to 8; also the exchange channels of
+  // Channels::Exchange() read with it, in the order they were sent): Handle() and HandleAvailable()
+  // read them from a socket of their own (core/tick_reader.hpp), every datagram in order with its
+  // kernel receive time, in this thread, and LCM's socket drops them. LCM 1.3.1 hands each message
+  // from its receive thread to this one through a pipe: two wake-ups and five system calls per
+  // message where this takes one wake-up (docs/timing.md, "What a tick costs"). Call once, after
   // subscribing. Returns false, and these channels go through LCM as before, on another provider
   // (memq://), when LCM's socket cannot be filtered (said once on stderr, naming `who`), or when
   // this bus already reads others directly (one direct socket per bus: the first caller's).

@@ -32,16 +32,38 @@ Channels Channels::WithPrefix(const std::string& prefix) {
 }
 
 std::vector<ChannelName*> Channels::Each() {
-  return {&robot_model,       &environment,      &sim_arm_state,
-          &sim_arm_command,   &sim_reset,        &sim_status,
-          &sim_command,       &sim_reply,        &arm_move,
-          &arm_setpoint,      &arm_gains,        &controller_gains,
-          &arm_target,        &arm_pose_target,  &arm_plan,
-          &controller_status, &controller_reply, &real_arm_state,
-          &real_arm_setpoint, &real_arm_gains,   &hardware_status,
-          &hardware_command,  &hardware_reply,   &logger_command,
-          &logger_reply,      &logger_pass,      &estop,
-          &heartbeat,         &viewer_image,     &viewer_camera};
+  return {&robot_model,
+          &environment,
+          &sim_arm_state,
+          &sim_arm_command,
+          &sim_reset,
+          &sim_status,
+          &sim_command,
+          &sim_reply,
+          &sim_board_status,
+          &sim_board_command,
+          &arm_move,
+          &arm_setpoint,
+          &arm_gains,
+          &controller_gains,
+          &arm_target,
+          &arm_pose_target,
+          &arm_plan,
+          &controller_status,
+          &controller_reply,
+          &real_arm_state,
+          &real_arm_setpoint,
+          &real_arm_gains,
+          &hardware_status,
+          &hardware_command,
+          &hardware_reply,
+          &logger_command,
+          &logger_reply,
+          &logger_pass,
+          &estop,
+          &heartbeat,
+          &viewer_image,
+          &viewer_camera};
 }
 
 std::vector<const ChannelName*> Channels::Each() const {
@@ -58,6 +80,10 @@ std::vector<std::string> Channels::All() const {
 std::vector<std::string> Channels::PerTick() const {
   return {sim_arm_state.name(), sim_arm_command.name(), arm_setpoint.name(), real_arm_state.name(),
           real_arm_setpoint.name()};
+}
+
+std::vector<std::string> Channels::Exchange() const {
+  return {sim_board_status.name(), sim_board_command.name(), controller_gains.name()};
 }
 
 void ValidateChannelPrefix(const std::string& prefix) {
@@ -98,11 +124,14 @@ constexpr ChannelProse kProse[] = {
      "friction, servo parameters"},
     {"ENVIRONMENT", "sirupp-sim", "sirupp-viewer", "1 Hz",
      "the objects around the robot: shape, pose, size, colour, static or dynamic"},
-    {"SIM_ARM_STATE", "sirupp-sim", "sirupp-control, sirupp-logger, sirupp-viewer",
+    {"SIM_ARM_STATE", "sirupp-sim",
+     "sirupp-control (running the boards itself), sirupp-logger, sirupp-viewer",
      "every physics tick (1953.125 Hz by default)",
      "virtual arm: tick, joint positions, velocities, applied efforts, limit and brake flags"},
     {"SIM_ARM_COMMAND", "sirupp-control (or a student's controller)", "sirupp-sim",
-     "one per SIM_ARM_STATE", "joint efforts for the tick it answers, or hold / limp"},
+     "one per SIM_ARM_STATE (sirupp-control with the sim's boards: one per SIM_BOARD_STATUS)",
+     "joint efforts for the tick it answers, or hold / limp, or MODE_BOARDS: the sim's boards "
+     "drive the arm until the next exchange tick"},
     {"SIM_RESET", "sirupp CLI, lesson scripts, tests", "sirupp-sim", "on demand",
      "teleport: joint positions (and speeds) set at once, objects optionally reset"},
     {"SIM_STATUS", "sirupp-sim", "sirupp CLI, bench_system, student controllers",
@@ -115,15 +144,25 @@ constexpr ChannelProse kProse[] = {
      "untouched"},
     {"SIM_REPLY", "sirupp-sim", "sirupp-panel (client library)", "one per SIM_COMMAND",
      "the answer to one command: its channel, utime and seq, accepted or refused and why"},
+    {"SIM_BOARD_STATUS", "sirupp-sim", "sirupp-control",
+     "every exchange tick (every 16 ticks by default, `sirupp-sim --exchange-ticks`)",
+     "the virtual PIC-SERVO boards beside the physics: the arm's state and the boards' set-points "
+     "and status at the tick sirupp-control answers, the last board command applied"},
+    {"SIM_BOARD_COMMAND", "sirupp-control", "sirupp-sim", "one per move, stop and servo-on",
+     "a command for the virtual boards (the same servo_move_t as ARM_MOVE, also servo on and "
+     "motor off): applied at the tick of the sender's next answer"},
     {"ARM_MOVE", "sirupp-control", "sirupp-hardware", "one per move",
      "per-joint goal, maximum velocity and acceleration: the PIC-SERVO LOAD_TRAJ analogue"},
-    {"ARM_SETPOINT", "sirupp-control", "sirupp-logger, sirupp-viewer", "every servo tick",
+    {"ARM_SETPOINT", "sirupp-sim (its boards) or sirupp-control (running them itself)",
+     "sirupp-logger, sirupp-viewer", "every servo tick",
      "profiled set-point position and velocity, goal, position error, effort, move-done per "
      "joint"},
     {"ARM_GAINS", "sirupp CLI or user", "sirupp-control, sirupp-hardware, sirupp-logger",
      "on change", "Kp, Kd, Ki, integration, output and error limits per joint, in chip units"},
-    {"CONTROLLER_GAINS", "sirupp-control", "sirupp CLI, sirupp-logger", "1 Hz and on change",
-     "the gains the virtual servos run with now, in chip units"},
+    {"CONTROLLER_GAINS", "sirupp-control", "sirupp-sim, sirupp CLI, sirupp-logger",
+     "1 Hz and on change",
+     "the gains the virtual servos run with now, in chip units (sirupp-sim's boards take them at "
+     "the tick of sirupp-control's next answer)"},
     {"ARM_TARGET", "sirupp CLI or user", "sirupp-control", "on demand",
      "a joint-space target with per-joint speed and acceleration"},
     {"ARM_POSE_TARGET", "sirupp CLI", "sirupp-control", "on demand",

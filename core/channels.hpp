@@ -9,6 +9,7 @@
 
 #include <sirupp/arm_command_t.hpp>
 #include <sirupp/arm_state_t.hpp>
+#include <sirupp/board_status_t.hpp>
 #include <sirupp/command_reply_t.hpp>
 #include <sirupp/controller_status_t.hpp>
 #include <sirupp/environment_t.hpp>
@@ -48,6 +49,8 @@ struct Channels {
   Channel<sirupp::sim_status_t> sim_status{"SIM_STATUS"};
   Channel<sirupp::sim_command_t> sim_command{"SIM_COMMAND"};
   Channel<sirupp::command_reply_t> sim_reply{"SIM_REPLY"};
+  Channel<sirupp::board_status_t> sim_board_status{"SIM_BOARD_STATUS"};
+  Channel<sirupp::servo_move_t> sim_board_command{"SIM_BOARD_COMMAND"};
   Channel<sirupp::servo_move_t> arm_move{"ARM_MOVE"};
   Channel<sirupp::servo_setpoint_t> arm_setpoint{"ARM_SETPOINT"};
   Channel<sirupp::servo_gains_t> arm_gains{"ARM_GAINS"};
@@ -81,6 +84,11 @@ struct Channels {
   // real arm (SIM_ARM_STATE, SIM_ARM_COMMAND, ARM_SETPOINT, REAL_ARM_STATE, REAL_ARM_SETPOINT).
   // On udpm:// a process's LCM socket drops those it does not subscribe (core/bus.hpp).
   std::vector<std::string> PerTick() const;
+  // The channels of the exchange between sirupp-sim's virtual boards and sirupp-control
+  // (SIM_BOARD_STATUS, SIM_BOARD_COMMAND, CONTROLLER_GAINS): not per tick, but read with the
+  // per-tick one from the same socket (Bus::ReadDirectly), so a command and the answer after it
+  // are taken in the order they were sent. LCM's socket drops them only when read so.
+  std::vector<std::string> Exchange() const;
   // Every channel, name and type, in the order of ChannelTable().
   std::vector<const ChannelName*> Each() const;
   std::vector<ChannelName*> Each();

@@ -10,6 +10,7 @@
 #include <utility>
 #include <vector>
 
+#include "core/arm_state.hpp"
 #include "core/bus.hpp"
 #include "core/geometry.hpp"
 #include "core/heartbeat.hpp"
@@ -37,6 +38,18 @@ struct ServoSetpoint {
   int64_t tick = 0;
   int64_t move_id = 0;
   std::vector<JointSetpoint> joints;
+};
+
+// ---- board_status_t (SIM_BOARD_STATUS): the sim's virtual boards at an exchange tick
+
+struct BoardStatus {
+  int64_t utime = 0;
+  int64_t seq = 0;
+  int64_t tick = 0;
+  int64_t next_tick = 0;
+  int64_t command_seq = -1;
+  ArmState arm;          // arm.tick == tick
+  ServoSetpoint boards;  // the boards after their last tick; one joint per arm joint
 };
 
 // ---- servo_move_t (ARM_MOVE)

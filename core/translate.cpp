@@ -317,9 +317,9 @@ ArmCommand ArmCommandFromMessage(const sirupp::arm_command_t& message, const std
                                  int expected_joints) {
   CheckJoints(channel, message.num_joints, expected_joints);
   if (message.mode < sirupp::arm_command_t::MODE_EFFORT ||
-      message.mode > sirupp::arm_command_t::MODE_LIMP) {
+      message.mode > sirupp::arm_command_t::MODE_BOARDS) {
     throw MessageError(channel, "mode",
-                       std::to_string(message.mode) + " is not allowed; expected 0..2 (MODE_*)");
+                       std::to_string(message.mode) + " is not allowed; expected 0..3 (MODE_*)");
   }
   CheckFinite(channel, "effort", message.effort);
   ArmCommand command;

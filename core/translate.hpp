@@ -14,6 +14,7 @@
 
 #include <sirupp/arm_command_t.hpp>
 #include <sirupp/arm_state_t.hpp>
+#include <sirupp/board_status_t.hpp>
 #include <sirupp/channel_stats_t.hpp>
 #include <sirupp/command_reply_t.hpp>
 #include <sirupp/controller_status_t.hpp>
@@ -93,6 +94,10 @@ Shape ShapeFromMessage(const sirupp::shape_t& message, const std::string& channe
 sirupp::servo_setpoint_t ToMessage(const ServoSetpoint& setpoint);
 ServoSetpoint ServoSetpointFromMessage(const sirupp::servo_setpoint_t& message,
                                        const std::string& channel);
+sirupp::board_status_t ToMessage(const BoardStatus& status);
+// `expected_joints` < 0 accepts any joint count (the arm's and the boards' must agree).
+BoardStatus BoardStatusFromMessage(const sirupp::board_status_t& message,
+                                   const std::string& channel, int expected_joints);
 sirupp::servo_move_t ToMessage(const ServoMove& move);
 ServoMove ServoMoveFromMessage(const sirupp::servo_move_t& message, const std::string& channel);
 sirupp::servo_gains_t ToMessage(const ServoGainsSet& gains);

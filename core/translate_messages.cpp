@@ -151,6 +151,49 @@ ServoSetpoint ServoSetpointFromMessage(const sirupp::servo_setpoint_t& m,
   return setpoint;
 }
 
+// ---- board_status_t
+
+sirupp::board_status_t ToMessage(const BoardStatus& status) {
+  sirupp::board_status_t m{};
+  m.utime = status.utime;
+  m.seq = status.seq;
+  m.tick = status.tick;
+  m.next_tick = status.next_tick;
+  m.command_seq = status.command_seq;
+  m.arm = ToMessage(status.arm, status.seq);
+  m.boards = ToMessage(status.boards);
+  return m;
+}
+
+BoardStatus BoardStatusFromMessage(const sirupp::board_status_t& m, const std::string& channel,
+                                   int expected_joints) {
+  BoardStatus status;
+  status.utime = m.utime;
+  status.seq = m.seq;
+  status.tick = m.tick;
+  status.next_tick = m.next_tick;
+  status.command_seq = m.command_seq;
+  status.arm = ArmStateFromMessage(m.arm, channel, expected_joints);
+  status.boards = ServoSetpointFromMessage(m.boards, channel);
+  CheckJointCount(channel, "boards.num_joints", status.boards.joints.size(),
+                  status.arm.num_joints());
+  if (status.arm.tick != status.tick) {
+    throw MessageError(channel, "arm.tick",
+                       std::to_string(status.arm.tick) + " is not the exchange tick " +
+                           std::to_string(status.tick));
+  }
+  if (status.next_tick <= status.tick) {
+    throw MessageError(
+        channel, "next_tick",
+        std::to_string(status.next_tick) + ": allowed after tick " + std::to_string(status.tick));
+  }
+  if (status.command_seq < -1) {
+    throw MessageError(channel, "command_seq",
+                       std::to_string(status.command_seq) + ": allowed -1 (none) or more");
+  }
+  return status;
+}
+
 // ---- servo_move_t
 
 sirupp::servo_move_t ToMessage(const ServoMove& move) {

@@ -30,6 +30,10 @@ constexpr const char* kAbout =
     "realtime = lockstep paced by the wall clock (every participant answers every tick; the sim "
     "time slips rather than the physics when the PC cannot keep up); freerun = paced, the newest "
     "command of any sender held (opt-in; stale efforts under load). docs/timing.md.\n"
+    "The virtual PIC-SERVO boards run here, beside the physics: a participant answering "
+    "MODE_BOARDS (sirupp-control without a student's controller) answers SIM_BOARD_STATUS every "
+    "--exchange-ticks ticks, and the boards run profile and PID every tick and publish "
+    "ARM_SETPOINT.\n"
     "Joint values: docs/command-line.md (--deg: revolute in degrees, prismatic in metres).";
 
 std::vector<Flag> SimFlags() {
@@ -52,6 +56,11 @@ std::vector<Flag> SimFlags() {
            "every answer); the sim time lags the wall clock by up to N ticks (1)")
           .Takes("N")
           .Integer(1, 64),
+      Flag("exchange-ticks",
+           "the virtual boards' exchange with sirupp-control: SIM_BOARD_STATUS every N ticks "
+           "(16; a multiple of --state-every)")
+          .Takes("N")
+          .Integer(1, 4096),
       Flag("duration", "simulated seconds to run (0 = until stopped)").Takes("SECONDS"),
       Flag("idle", "before the first command").Takes("MODE").OneOf({"hold", "limp"}),
       Flag("no-friction", "switch joint friction off").Switch(),
@@ -108,6 +117,13 @@ sirupp::sim::NodeOptions NodeOptionsFromArgs(const sirupp::runtime::Args& args) 
   }
   if (args.Has("duration")) options.duration_s = args.Numbers("duration", 1)[0];
   options.pace_ticks = static_cast<int>(args.Integer("pace-ticks", options.pace_ticks));
+  if (args.Has("exchange-ticks")) {
+    options.exchange_ticks = static_cast<int>(args.Integer("exchange-ticks", 16));
+  } else {
+    // The default, rounded up to a multiple of --state-every.
+    options.exchange_ticks = (options.exchange_ticks + options.state_every - 1) /
+                             options.state_every * options.state_every;
+  }
   return options;
 }
 
@@ -135,6 +151,10 @@ void CheckNodeFlags(const sirupp::runtime::Args& args, const sirupp::sim::NodeOp
              [&](auto& p) { p.lockstep_timeout_s = options.lockstep_timeout_s; });
   check_flag("watchdog", [&](auto& p) { p.watchdog_s = options.watchdog_s; });
   check_flag("duration", [&](auto& p) { p.duration_s = options.duration_s; });
+  check_flag("exchange-ticks", [&](auto& p) {
+    p.state_every = options.state_every;
+    p.exchange_ticks = options.exchange_ticks;
+  });
 }
 
 int Run(const std::vector<std::string>& argv) {

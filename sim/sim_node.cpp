@@ -11,6 +11,7 @@
 
 #include "core/errors.hpp"
 #include "core/translate.hpp"
+#include "servo/chip_gains.hpp"
 #include "sim/model_change.hpp"
 
 namespace sirupp::sim {
@@ -31,6 +32,10 @@ constexpr double kStatusMinPeriodS = 0.1;
 // lines printed per second.
 constexpr size_t kMaxRefusingSenders = 32;
 constexpr int kMaxRefusalLinesPerSecond = 10;
+// Board commands waiting for the next answer of the participant that drives the boards.
+constexpr size_t kMaxBoardQueue = 256;
+// Lockstep: ticks stepped in one Service() call while every participant's answer covers them.
+constexpr int kCoveredBatch = 64;
 // Freerun and fast: at most this many senders held, each forgotten after this long without a word.
 constexpr size_t kMaxFreeSenders = 64;
 constexpr double kForgetSenderS = 10.0;
@@ -115,6 +120,12 @@ void CheckNodeOptions(const NodeOptions& options) {
   if (options.pace_ticks < 1 || options.pace_ticks > 64) {
     bad("pace_ticks " + std::to_string(options.pace_ticks) + ": allowed 1 to 64 ticks");
   }
+  if (options.exchange_ticks < 1 || options.exchange_ticks > 4096 ||
+      (options.state_every >= 1 && options.exchange_ticks % options.state_every != 0)) {
+    bad("exchange_ticks " + std::to_string(options.exchange_ticks) +
+        ": allowed 1 to 4096 ticks, a multiple of state_every (" +
+        std::to_string(options.state_every) + ")");
+  }
   if (!(options.duration_s >= 0) || !std::isfinite(options.duration_s)) {
     bad("duration " + core::FormatNumber(options.duration_s) + " s: allowed >= 0 (0 = no end)");
   }
@@ -140,8 +151,17 @@ SimNode::SimNode(core::Bus& bus, ArmWorld& world, core::Environment environment,
       options_(std::move(options)),
       heartbeat_(bus, options_.process_name, options_.channels.heartbeat),
       replier_(bus, options_.channels.sim_reply, options_.process_name),
-      run_id_(NewRunId()) {
+      run_id_(NewRunId()),
+      boards_(world.model()) {
   CheckNodeOptions(options_);
+  const auto n = static_cast<size_t>(world_.model().num_joints());
+  board_effort_.assign(n, 0.0);
+  board_setpoint_.tick = -1;
+  for (int j = 0; j < boards_.num_joints(); ++j) {
+    core::JointSetpoint joint;
+    joint.status = static_cast<int8_t>(boards_.Status(j));
+    board_setpoint_.joints.push_back(joint);
+  }
   if (Gated()) {
     for (const std::string& name : options_.participants) {
       Participant participant;
@@ -155,6 +175,17 @@ SimNode::SimNode(core::Bus& bus, ArmWorld& world, core::Environment environment,
         OnCommand(message, info);
       },
       1000);
+  bus_.Subscribe<sirupp::servo_move_t>(
+      options_.channels.sim_board_command,
+      [this](const sirupp::servo_move_t& message, const core::ReceiveInfo& info) {
+        OnBoardCommand(message, info);
+      },
+      1000);
+  bus_.Subscribe<sirupp::servo_gains_t>(
+      options_.channels.controller_gains,
+      [this](const sirupp::servo_gains_t& message, const core::ReceiveInfo& info) {
+        OnBoardGains(message, info);
+      });
   bus_.Subscribe<sirupp::sim_reset_t>(
       options_.channels.sim_reset,
       [this](const sirupp::sim_reset_t& message, const core::ReceiveInfo& info) {
@@ -172,7 +203,12 @@ SimNode::SimNode(core::Bus& bus, ArmWorld& world, core::Environment environment,
   // The answers are read in this thread from a socket of their own (udpm): no hand-over from
   // LCM's receive thread, and in realtime no wake-up for an answer that comes before its tick
   // ends (ServiceRealtime).
-  bus_.ReadDirectly({bus_.FullName(options_.channels.sim_arm_command)}, options_.process_name);
+  // The board commands and gains come on the same socket, so each is taken before the answer
+  // its sender published after it.
+  bus_.ReadDirectly({bus_.FullName(options_.channels.sim_arm_command),
+                     bus_.FullName(options_.channels.sim_board_command),
+                     bus_.FullName(options_.channels.controller_gains)},
+                    options_.process_name);
   heartbeat_.Publish(core::ProcessState::kStarting, "");
   PublishLatched(true);
 }
@@ -300,14 +336,25 @@ void SimNode::OnCommand(const sirupp::arm_command_t& message, const core::Receiv
                 "participant '" + participant->name + "' " + (first ? "answers" : "answers again") +
                     " (tick " + std::to_string(message.tick) + ")");
   }
+  if (command.mode == core::CommandMode::kBoards) participant->drives_boards = true;
   if (message.tick < awaited_tick_ || participant->answered) {
     ++counters_.commands_late;
     bus_.NoteLate(info);
+    // A driver of the boards that joins (or comes back) between two exchange ticks is asked
+    // for the present one at once.
+    if (participant->drives_boards && !participant->answered) PublishBoardStatus();
     return;
   }
   ++counters_.commands_accepted;
   participant->answered = true;
   participant->answer = std::move(command);
+  if (participant->drives_boards) {
+    participant->answer_until = NextExchange(awaited_tick_);
+    ApplyBoardCommands();  // what its sender sent before this answer starts at this tick
+  } else {
+    participant->answer_until =
+        awaited_tick_ + options_.state_every - awaited_tick_ % options_.state_every;
+  }
   // Read directly, an answer may wait in the socket until the tick ends: its time is the
   // kernel's reception time.
   const double latency_ms = bus_.reads_directly()
@@ -339,6 +386,10 @@ void SimNode::OnSimCommand(const sirupp::sim_command_t& message, const core::Rec
   }
   if (model) {
     LoadModelText(world_, command.text, name);  // throws, the arm unchanged, when refused
+    // The boards follow the new model's joints; a joint whose encoder is unchanged keeps its
+    // servo (servo/servo_bank.hpp).
+    const bool on = boards_.num_joints() > 0 && boards_.servo(0).servo_on();
+    boards_.ReplaceModel(world_.model(), world_.State().position, on);
     std::cerr << options_.process_name << ": model '" << world_.model().name << "' from " << name
               << " loaded by '" << message.sender << "' at tick " << world_.tick() << "\n";
     PublishLatched(true);
@@ -372,7 +423,10 @@ void SimNode::OnReset(const sirupp::sim_reset_t& message, const core::ReceiveInf
             << world_.tick() << "\n";
   if (Gated()) {
     // Answers to the state before the teleport no longer apply: ask again.
-    for (Participant& participant : participants_) participant.answered = false;
+    for (Participant& participant : participants_) {
+      participant.answered = false;
+      participant.answer_until = world_.tick();
+    }
     awaited_tick_ = world_.tick();
     waiting_since_ = Now();
     waiting_since_utime_ = WallMicros();
@@ -406,7 +460,8 @@ core::ArmCommand SimNode::IdleCommand(core::CommandMode mode) const {
   return idle;
 }
 
-core::ArmCommand SimNode::Combine(const std::vector<const core::ArmCommand*>& answers) const {
+core::ArmCommand SimNode::Combine(const std::vector<const core::ArmCommand*>& answers,
+                                  bool* boards) const {
   const int n = world_.model().num_joints();
   core::ArmCommand combined = IdleCommand(core::CommandMode::kLimp);
   bool any_effort = false;
@@ -414,6 +469,9 @@ core::ArmCommand SimNode::Combine(const std::vector<const core::ArmCommand*>& an
   for (const core::ArmCommand* answer : answers) {
     if (answer->mode == core::CommandMode::kHold) {
       any_hold = true;
+    } else if (answer->mode == core::CommandMode::kBoards) {
+      any_effort = true;  // the boards' efforts are added tick by tick (StepTicks)
+      if (boards != nullptr) *boards = true;
     } else if (answer->mode == core::CommandMode::kEffort) {
       any_effort = true;
       for (int j = 0; j < n; ++j) {
@@ -428,14 +486,16 @@ core::ArmCommand SimNode::Combine(const std::vector<const core::ArmCommand*>& an
   return combined;
 }
 
-core::ArmCommand SimNode::CombineParticipants() {
+core::ArmCommand SimNode::CombineParticipants(bool* boards, bool* board_rows) {
   const core::ArmCommand hold = IdleCommand(core::CommandMode::kHold);
   const core::ArmCommand idle = IdleCommand(options_.idle);
   std::vector<const core::ArmCommand*> in_order;
   bool braked_for_silence = false;
+  *board_rows = false;
   for (const Participant& participant : participants_) {
     if (participant.answered) {
       in_order.push_back(&participant.answer);
+      if (participant.drives_boards) *board_rows = true;
     } else if (participant.presence == Presence::kNeverSeen) {
       in_order.push_back(&idle);
     } else {
@@ -444,12 +504,19 @@ core::ArmCommand SimNode::CombineParticipants() {
     }
   }
   if (braked_for_silence) ++counters_.watchdog_holds;
-  return Combine(in_order);
+  *boards = false;
+  return Combine(in_order, boards);
 }
 
-void SimNode::StepTicks(const core::ArmCommand& command, int ticks) {
+void SimNode::StepTicks(const core::ArmCommand& command, int ticks, bool boards, bool board_rows) {
   for (int k = 0; k < ticks && !Finished(); ++k) {
-    world_.Step(command);
+    if (boards || board_rows) {
+      core::ArmCommand step = command;
+      BoardTick(step, boards && command.mode == core::CommandMode::kEffort);
+      world_.Step(step);
+    } else {
+      world_.Step(command);
+    }
     ++counters_.steps;
     if (!estop_.empty()) ++counters_.estop_ticks;
     if (world_.tick() % options_.state_every == 0 || Finished()) PublishState();
@@ -459,6 +526,127 @@ void SimNode::StepTicks(const core::ArmCommand& command, int ticks) {
 void SimNode::PublishState() {
   bus_.Publish(options_.channels.sim_arm_state, core::ToMessage(world_.State(), state_seq_++));
   ++counters_.states_published;
+  if (BoardAnswerDue()) PublishBoardStatus();
+}
+
+// ---- The virtual boards
+
+int64_t SimNode::NextExchange(int64_t tick) const {
+  const int64_t every = options_.exchange_ticks;
+  return (tick / every + 1) * every;
+}
+
+bool SimNode::BoardAnswerDue() const {
+  if (world_.tick() % options_.exchange_ticks == 0) return true;
+  for (const Participant& participant : participants_) {
+    if (participant.drives_boards && !participant.answered) return true;
+  }
+  return false;
+}
+
+void SimNode::PublishBoardStatus() {
+  core::BoardStatus status;
+  status.arm = world_.State();
+  status.utime = status.arm.utime;
+  status.seq = board_status_seq_++;
+  status.tick = status.arm.tick;
+  status.next_tick = NextExchange(status.tick);
+  status.command_seq = board_command_seq_;
+  status.boards = board_setpoint_;
+  bus_.Publish(options_.channels.sim_board_status, core::ToMessage(status));
+  ++counters_.board_exchanges;
+}
+
+void SimNode::OnBoardCommand(const sirupp::servo_move_t& message, const core::ReceiveInfo& info) {
+  const core::ServoMove move = core::ServoMoveFromMessage(message, info.channel);
+  core::CheckJointCount(info.channel, "num_joints", move.joints.size(),
+                        world_.model().num_joints());
+  const core::ArmState state = world_.State();
+  try {
+    servo::ServoBank trial = boards_;  // refused whole, the boards untouched
+    servo::ApplyMove(trial, move, state.position);
+  } catch (const std::invalid_argument& error) {
+    NoteProblem("channel " + info.channel + ": " + error.what(), true);
+    throw core::MessageError(info.channel, "", error.what());
+  }
+  if (!Gated()) {
+    board_queue_.push_back(move);
+    ApplyBoardCommands();
+    return;
+  }
+  if (board_queue_.size() >= kMaxBoardQueue) {
+    throw core::MessageError(info.channel, "",
+                             "already " + std::to_string(kMaxBoardQueue) +
+                                 " board commands wait for the next answer of the participant "
+                                 "that drives the boards; allowed at most " +
+                                 std::to_string(kMaxBoardQueue));
+  }
+  board_queue_.push_back(move);
+}
+
+void SimNode::OnBoardGains(const sirupp::servo_gains_t& message, const core::ReceiveInfo& info) {
+  std::vector<servo::ServoGains> gains;
+  for (const servo::ChipGains& chip :
+       servo::ChipGainsFromMessage(message, world_.model(), info.channel)) {
+    gains.push_back(servo::ToServoGains(chip));
+  }
+  board_gains_ = std::move(gains);
+  if (!Gated()) ApplyBoardCommands();
+}
+
+void SimNode::ApplyBoardCommands() {
+  if (board_gains_) {
+    for (int j = 0; j < boards_.num_joints(); ++j) {
+      boards_.SetGains(j, (*board_gains_)[static_cast<size_t>(j)]);
+    }
+    board_gains_.reset();
+  }
+  if (board_queue_.empty()) return;
+  const core::ArmState state = world_.State();
+  for (const core::ServoMove& move : board_queue_) {
+    try {
+      servo::ApplyMove(boards_, move, state.position);
+    } catch (const std::invalid_argument& error) {  // checked when it came; a model change since
+      NoteProblem("channel " + options_.channels.sim_board_command.name() + ": command " +
+                      std::to_string(move.seq) + " not applied: " + error.what(),
+                  true);
+    }
+    board_command_seq_ = move.seq;
+    board_move_id_ = move.move_id;
+    ++counters_.board_commands;
+  }
+  board_queue_.clear();
+}
+
+void SimNode::BoardTick(core::ArmCommand& command, bool run) {
+  const core::ArmState state = world_.State();
+  const auto n = static_cast<size_t>(boards_.num_joints());
+  if (run && boards_.TrippedJoint() >= 0) {
+    // A board past its error limit: held, as sirupp-control's fault will hold it.
+    command.mode = core::CommandMode::kHold;
+    command.effort.assign(n, 0.0);
+    board_effort_.assign(n, 0.0);
+  } else if (run) {
+    board_effort_ = boards_.Tick(state.position);
+    ++counters_.board_ticks;
+    for (size_t j = 0; j < n; ++j) command.effort[j] += board_effort_[j];
+  }
+  core::ServoSetpoint& setpoint = board_setpoint_;
+  setpoint.utime = state.utime;
+  setpoint.seq = setpoint_seq_++;
+  setpoint.tick = state.tick;
+  setpoint.move_id = board_move_id_;
+  for (size_t j = 0; j < n; ++j) {
+    const int joint = static_cast<int>(j);
+    core::JointSetpoint& row = setpoint.joints[j];
+    row.position = boards_.SetpointPosition(joint);
+    row.velocity = boards_.SetpointVelocity(joint);
+    row.goal = boards_.Goal(joint);
+    row.position_error = boards_.PositionError(joint);
+    row.effort = board_effort_[j];
+    row.status = static_cast<int8_t>(boards_.Status(joint));
+  }
+  bus_.Publish(options_.channels.arm_setpoint, core::ToMessage(setpoint));
 }
 
 void SimNode::PublishLatched(bool force) {
@@ -584,10 +772,19 @@ bool SimNode::GateOpen() const {
 }
 
 void SimNode::StepGate() {
-  const core::ArmCommand combined = CombineParticipants();
-  for (Participant& participant : participants_) participant.answered = false;
-  StepTicks(combined,
-            options_.state_every - static_cast<int>(world_.tick() % options_.state_every));
+  bool boards = false;
+  bool board_rows = false;
+  const core::ArmCommand combined = CombineParticipants(&boards, &board_rows);
+  const int ticks = options_.state_every - static_cast<int>(world_.tick() % options_.state_every);
+  // The answers that cover the ticks after this segment (a driver of the boards' up to the next
+  // exchange) still count: the state published at its end asks only the others.
+  for (Participant& participant : participants_) {
+    participant.answered = participant.answer_until > world_.tick() + ticks;
+  }
+  StepTicks(combined, ticks, boards, board_rows);
+  for (Participant& participant : participants_) {
+    participant.answered = participant.answered && participant.answer_until > world_.tick();
+  }
   awaited_tick_ = world_.tick();
   waiting_since_ = Now();
   waiting_since_utime_ = WallMicros();
@@ -614,6 +811,9 @@ void SimNode::ServiceLockstep(int max_wait_ms) {
   if (!all_answered()) bus_.Handle(max_wait_ms);
   if (all_answered()) {
     StepGate();
+    // Answers that cover the next ticks too (the boards' driver between two exchanges): step
+    // them without looking at the bus in between.
+    for (int k = 1; k < kCoveredBatch && all_answered() && !Finished(); ++k) StepGate();
     return;
   }
   const TimePoint now = Now();
@@ -743,7 +943,9 @@ void SimNode::ServiceFree(int max_wait_ms) {
   Start();
   const TimePoint now = Now();
   bus_.HandleAvailable();
-  auto command_now = [this](TimePoint at) {
+  bool boards = false;
+  auto command_now = [this, &boards](TimePoint at) {
+    boards = false;
     if (newest_.empty()) {
       const core::ArmCommand idle = IdleCommand(options_.idle);
       return Combine({&idle});
@@ -765,10 +967,13 @@ void SimNode::ServiceFree(int max_wait_ms) {
       last_problem_ = at;
       return IdleCommand(core::CommandMode::kHold);
     }
-    return Combine(fresh);
+    return Combine(fresh, &boards);
   };
   if (options_.mode == TimingMode::kFast) {
-    for (int k = 0; k < kFastBatch && !Finished(); ++k) StepTicks(command_now(now), 1);
+    for (int k = 0; k < kFastBatch && !Finished(); ++k) {
+      const core::ArmCommand command = command_now(now);
+      StepTicks(command, 1, boards, boards);
+    }
     return;
   }
   ForgetOldSenders(now);
@@ -784,7 +989,8 @@ void SimNode::ServiceFree(int max_wait_ms) {
                 true);
     pace_wall_ = now;
     pace_tick_ = world_.tick();
-    StepTicks(command_now(now), 1);
+    const core::ArmCommand command = command_now(now);
+    StepTicks(command, 1, boards, boards);
     return;
   }
   if (due > 1) counters_.overruns += due - 1;
@@ -799,7 +1005,8 @@ void SimNode::ServiceFree(int max_wait_ms) {
       ++counters_.ticks_late;
       bus_.NoteLate(options_.channels.sim_arm_command);
     }
-    StepTicks(command_now(Now()), 1);
+    const core::ArmCommand command = command_now(Now());
+    StepTicks(command, 1, boards, boards);
   }
   WaitUntil(pace_wall_ + Duration(static_cast<double>(world_.tick() - pace_tick_ + 1) * step),
             max_wait_ms);
@@ -824,6 +1031,11 @@ std::string SimNode::Summary() const {
   } else if (options_.mode == TimingMode::kFreeRun) {
     line += ", " + std::to_string(c.ticks_late) + " ticks with a stale (held) command, " +
             std::to_string(c.overruns) + " overruns";
+  }
+  if (c.board_ticks > 0 || c.board_commands > 0) {
+    line += "; the virtual boards drove " + std::to_string(c.board_ticks) + " ticks (" +
+            std::to_string(c.board_commands) + " board commands, " +
+            std::to_string(c.board_exchanges) + " exchanges)";
   }
   if (c.commands_rejected > 0) {
     line += "; refused:";

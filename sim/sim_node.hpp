@@ -26,6 +26,20 @@
 // SIM_COMMAND loads another environment between two ticks (the arm untouched), answered on
 // SIM_REPLY; refused while the arm moves or when an object would overlap it.
 //
+// The virtual PIC-SERVO boards (servo::ServoBank, the chip model the hardware emulator runs too)
+// live here, beside the physics, as the real boards sit beside the motors. A participant that
+// answers MODE_BOARDS (sirupp-control running no student's controller) lets them drive the arm:
+// every tick they run profile and PID against that tick's state and their efforts are that
+// participant's share, and each tick's set-points go out on ARM_SETPOINT. Such a participant
+// answers only every exchange_ticks ticks, the board status (SIM_BOARD_STATUS: the state and the
+// boards) of an exchange tick; its answer covers the ticks up to the next one, so the sim does not
+// wait for it in between. What it sent on SIM_BOARD_COMMAND (moves, stops, servo on and off) and
+// CONTROLLER_GAINS before an answer is applied at that answer's tick, before the boards tick: a
+// move's start is a tick, the same run to run in lockstep. A tripped board brakes the arm (as
+// the controller's hold would at its next answer). Participants that answer efforts every tick
+// (a student's controller, a disturbance) work as before, and the boards then only run for
+// those that answer MODE_BOARDS.
+//
 // Single-threaded: call Service() in a loop (sirupp-sim's main does), or interleave it with other
 // work on the same Bus in tests. Time comes from NodeOptions::clock, so tests can drive the
 // pacing, the lockstep gate and the watchdog without waiting on the wall clock.
@@ -34,8 +48,11 @@
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <optional>
 #include <sirupp/arm_command_t.hpp>
 #include <sirupp/estop_t.hpp>
+#include <sirupp/servo_gains_t.hpp>
+#include <sirupp/servo_move_t.hpp>
 #include <sirupp/sim_command_t.hpp>
 #include <sirupp/sim_reset_t.hpp>
 #include <string>
@@ -48,6 +65,7 @@
 #include "core/environment.hpp"
 #include "core/heartbeat.hpp"
 #include "core/messages.hpp"
+#include "servo/servo_bank.hpp"
 #include "sim/arm_world.hpp"
 
 namespace sirupp::sim {
@@ -88,6 +106,10 @@ struct NodeOptions {
   // switch between them instead of a wake-up from idle per tick, which is most of a rig's CPU on
   // a virtual machine (docs/timing.md, "Sleeping once per few ticks").
   int pace_ticks = 1;
+  // The virtual boards' exchange (1..4096 ticks, a multiple of state_every): SIM_BOARD_STATUS
+  // goes out every this many ticks, and a MODE_BOARDS answer covers the ticks up to the next one.
+  // 16 ticks = 8.2 ms, a little faster than sirupp-hardware polls the real boards.
+  int exchange_ticks = 16;
   // Stop after this much simulated time; 0 = run until RequestStop().
   double duration_s = 0;
   // What the arm does before a participant (or, in freerun and fast, any sender) has answered:
@@ -115,7 +137,10 @@ struct NodeCounters {
   // freerun: ticks stepped before any answer to the latest state had arrived (an older command
   // held)
   int64_t ticks_late = 0;
-  double slipped_s = 0;  // realtime: wall time given up when too far behind to catch up
+  double slipped_s = 0;         // realtime: wall time given up when too far behind to catch up
+  int64_t board_ticks = 0;      // ticks the virtual boards drove the arm
+  int64_t board_commands = 0;   // SIM_BOARD_COMMAND messages applied
+  int64_t board_exchanges = 0;  // SIM_BOARD_STATUS messages sent
 };
 
 // Throws std::invalid_argument naming the bad option (the text SimNode's constructor gives).
@@ -158,6 +183,10 @@ class SimNode {
     int latency_count = 0;
     double last_mean_ms = -1;  // ... and in the second before, as published
     double last_max_ms = -1;
+    // The ticks before this one are covered by its answer: the segment it answered, or for a
+    // participant that drives the boards (it answered MODE_BOARDS), up to the next exchange.
+    int64_t answer_until = 0;
+    bool drives_boards = false;
   };
   struct Answer {  // freerun and fast: the newest command of a sender
     core::ArmCommand command;
@@ -178,6 +207,21 @@ class SimNode {
   void OnCommand(const sirupp::arm_command_t& message, const core::ReceiveInfo& info);
   void OnReset(const sirupp::sim_reset_t& message, const core::ReceiveInfo& info);
   void OnEstop(const sirupp::estop_t& message, const core::ReceiveInfo& info);
+  // SIM_BOARD_COMMAND and CONTROLLER_GAINS: checked now, applied at the next answer of a
+  // participant that drives the boards (at once in fast and freerun).
+  void OnBoardCommand(const sirupp::servo_move_t& message, const core::ReceiveInfo& info);
+  void OnBoardGains(const sirupp::servo_gains_t& message, const core::ReceiveInfo& info);
+  void ApplyBoardCommands();
+  // The first exchange tick after `tick`.
+  int64_t NextExchange(int64_t tick) const;
+  // A participant that drives the boards must answer the present tick (an exchange tick, or a
+  // tick it joins or comes back at): the board status goes out with the state.
+  bool BoardAnswerDue() const;
+  void PublishBoardStatus();
+  // One tick of the boards against the present state: their efforts are added to `command`
+  // (hold when a board tripped), and the tick's set-points go out on ARM_SETPOINT. `run`: false
+  // when the arm is held (the profiles wait) or the driver answered hold or limp.
+  void BoardTick(core::ArmCommand& command, bool run);
   // SIM_COMMAND: loads an environment between two ticks (answered on SIM_REPLY).
   void OnSimCommand(const sirupp::sim_command_t& message, const core::ReceiveInfo& info);
   // Counts a refusal of `sender`'s command, prints it the first time per sender and kind.
@@ -186,12 +230,20 @@ class SimNode {
   void SetPresence(Participant& participant, Presence presence, const std::string& why);
   // The command the world steps with, combined from the answers: efforts add up; any hold brakes
   // the arm; limp answers add nothing. An engaged e-stop brakes whatever was asked.
-  core::ArmCommand Combine(const std::vector<const core::ArmCommand*>& answers) const;
+  // `boards`, when given, is set when an answer is MODE_BOARDS (counted as an effort answer; the
+  // boards' efforts are added per tick by StepTicks).
+  core::ArmCommand Combine(const std::vector<const core::ArmCommand*>& answers,
+                           bool* boards = nullptr) const;
   core::ArmCommand IdleCommand(core::CommandMode mode) const;
   // The participants' answers (hold for a silent one, the idle command for one never seen), in
   // the order they were listed, so sums are reproducible.
-  core::ArmCommand CombineParticipants();
-  void StepTicks(const core::ArmCommand& command, int ticks);
+  // `boards`: an answer is MODE_BOARDS; `board_rows`: a participant that drives the boards
+  // answered (their set-points go out each tick).
+  core::ArmCommand CombineParticipants(bool* boards, bool* board_rows);
+  // `boards`: the virtual boards take part (a MODE_BOARDS answer); `board_rows`: a participant
+  // drives the boards, so each tick's set-points are published even while they wait.
+  void StepTicks(const core::ArmCommand& command, int ticks, bool boards = false,
+                 bool board_rows = false);
   // Steps the gate's tick(s) with the participants' answers and opens the next tick.
   void StepGate();
   bool GateOpen() const;
@@ -259,6 +311,17 @@ class SimNode {
   NodeClock::TimePoint start_wall_;
   int64_t start_tick_ = 0;
   bool started_ = false;
+
+  // The virtual boards and what waits for the next answer of the participant that drives them.
+  servo::ServoBank boards_;
+  std::vector<core::ServoMove> board_queue_;
+  std::optional<std::vector<servo::ServoGains>> board_gains_;
+  int64_t board_command_seq_ = -1;  // seq of the last SIM_BOARD_COMMAND applied
+  int64_t board_move_id_ = 0;       // move_id of the last one (the set-points' move)
+  std::vector<double> board_effort_;
+  core::ServoSetpoint board_setpoint_;  // the boards after their last tick (tick -1 before)
+  int64_t board_status_seq_ = 0;
+  int64_t setpoint_seq_ = 0;
 };
 
 }  // namespace sirupp::sim

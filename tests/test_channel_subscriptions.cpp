@@ -62,10 +62,19 @@ TEST(ChannelSubscriptions, SirupSimSubscribesWhatTheTableSays) {
   EXPECT_EQ(Subscribed(bus), FromTable("sirupp-sim"));
 }
 
+// The table's row for sirupp-control covers both places of the boards: in the sim it reads
+// SIM_BOARD_STATUS, running them itself (a student's controller, --boards control) SIM_ARM_STATE.
 TEST(ChannelSubscriptions, SirupControlSubscribesWhatTheTableSays) {
-  core::Bus bus("memq://");
-  control::ControlNode node(bus, Puma(), control::ControlOptions{});
-  EXPECT_EQ(Subscribed(bus), FromTable("sirupp-control"));
+  for (const bool boards_in_sim : {false, true}) {
+    SCOPED_TRACE(boards_in_sim ? "the boards in the sim" : "the boards in the controller");
+    core::Bus bus("memq://");
+    control::ControlOptions options;
+    options.boards_in_sim = boards_in_sim;
+    control::ControlNode node(bus, Puma(), options);
+    std::set<std::string> expected = FromTable("sirupp-control");
+    ASSERT_EQ(expected.erase(boards_in_sim ? "SIM_ARM_STATE" : "SIM_BOARD_STATUS"), 1u);
+    EXPECT_EQ(Subscribed(bus), expected);
+  }
 }
 
 TEST(ChannelSubscriptions, SirupHardwareSubscribesWhatTheTableSays) {

@@ -9,10 +9,13 @@
 #include <cmath>
 #include <cstring>
 #include <sirupp/arm_state_t.hpp>
+#include <sirupp/board_status_t.hpp>
 #include <sirupp/environment_t.hpp>
 #include <sirupp/estop_t.hpp>
 #include <sirupp/heartbeat_t.hpp>
 #include <sirupp/robot_model_t.hpp>
+#include <sirupp/servo_move_t.hpp>
+#include <sirupp/servo_setpoint_t.hpp>
 #include <sirupp/sim_status_t.hpp>
 
 #include "core/bus.hpp"
@@ -589,6 +592,146 @@ TEST(SimNode, LockstepRunsAreBitIdentical) {
   ASSERT_EQ(first.size(), second.size());
   ASSERT_GE(first.size(), 1500U * 18);
   EXPECT_EQ(std::memcmp(first.data(), second.data(), first.size() * sizeof(double)), 0);
+}
+
+// ---- The virtual boards beside the physics
+
+// A participant that drives the sim's boards, as sirupp-control does with --boards sim: answers
+// each board status with MODE_BOARDS, switching the servos on with its first answer.
+class BoardDriver {
+ public:
+  BoardDriver(core::Bus& bus, std::string name) : bus_(bus), name_(std::move(name)) {
+    bus_.Subscribe<sirupp::board_status_t>(
+        "SIM_BOARD_STATUS", [this](const sirupp::board_status_t& status, const core::ReceiveInfo&) {
+          statuses.push_back(status);
+          if (silent || status.tick == last_answered_) return;
+          if (!on_) {
+            Command(sirupp::servo_move_t::COMMAND_SERVO_ON, status.arm.position, 0);
+            on_ = true;
+          }
+          last_answered_ = status.tick;
+          sirupp::arm_command_t answer{};
+          answer.tick = status.tick;
+          answer.utime = status.utime;
+          answer.seq = answer_seq_++;
+          answer.sender = name_;
+          answer.mode = sirupp::arm_command_t::MODE_BOARDS;
+          answer.num_joints = status.arm.num_joints;
+          answer.effort.assign(static_cast<size_t>(answer.num_joints), 0.0);
+          bus_.Publish("SIM_ARM_COMMAND", answer);
+          ++answers;
+        });
+  }
+  // One board command on SIM_BOARD_COMMAND: every joint active, to `goals`.
+  void Command(int8_t command, const std::vector<double>& goals, int64_t move_id) {
+    sirupp::servo_move_t move{};
+    move.seq = command_seq_++;
+    move.move_id = move_id;
+    move.command = command;
+    move.num_joints = static_cast<int32_t>(goals.size());
+    move.goal = goals;
+    move.max_velocity.assign(goals.size(), 1.0);
+    move.acceleration.assign(goals.size(), 2.0);
+    move.flags.assign(goals.size(), sirupp::servo_move_t::FLAG_ACTIVE);
+    bus_.Publish("SIM_BOARD_COMMAND", move);
+  }
+  std::vector<sirupp::board_status_t> statuses;
+  int answers = 0;
+  bool silent = false;
+
+ private:
+  core::Bus& bus_;
+  std::string name_;
+  bool on_ = false;
+  int64_t last_answered_ = -1;
+  int64_t answer_seq_ = 0;
+  int64_t command_seq_ = 0;
+};
+
+TEST(SimNode, TheBoardsDriveTheArmAndTheirDriverAnswersOnlyTheExchangeTicks) {
+  core::Bus bus("memq://");
+  ArmWorld world(Puma(), core::Environment{});
+  // With a per-tick participant beside it (no effort of its own), the sim steps one tick at a
+  // time, so the test can send a board command between two exchanges.
+  SimNode node(bus, world, core::Environment{}, Lockstep({"ctl", "a"}));
+  BoardDriver driver(bus, "ctl");
+  Participant a(bus, "a", {0, 0, 0, 0, 0, 0});
+  a.tamper = [](sirupp::arm_command_t& command) {
+    command.effort.assign(command.effort.size(), 0.0);
+  };
+  std::vector<sirupp::servo_setpoint_t> setpoints;
+  bus.Subscribe<sirupp::servo_setpoint_t>(
+      "ARM_SETPOINT", [&](const sirupp::servo_setpoint_t& setpoint, const core::ReceiveInfo&) {
+        setpoints.push_back(setpoint);
+      });
+  ServiceUntil(node, 5, world);
+  ASSERT_EQ(world.tick(), 5);
+  // A move sent between two exchanges waits for the driver's next answer (tick 16).
+  std::vector<double> goals = world.State().position;
+  goals[0] += 0.3;
+  driver.Command(sirupp::servo_move_t::COMMAND_MOVE, goals, 1);
+  ServiceUntil(node, 400, world);
+  bus.HandleAvailable();  // what the last tick published
+  EXPECT_EQ(driver.answers, 26) << "ticks 0, 16, ..., 400";
+  EXPECT_GE(a.states.size(), 400u) << "the per-tick participant saw every state";
+  for (const sirupp::board_status_t& status : driver.statuses) EXPECT_EQ(status.tick % 16, 0);
+  ASSERT_EQ(setpoints.size(), 400u) << "a set-point every tick, from the sim";
+  for (size_t i = 0; i < setpoints.size(); ++i) {
+    ASSERT_EQ(setpoints[i].tick, static_cast<int64_t>(i));
+    EXPECT_EQ(setpoints[i].move_id, i < 16 ? 0 : 1) << "tick " << i;
+    if (i < 16) {
+      EXPECT_LT(setpoints[i].goal[0], goals[0] - 0.1) << "tick " << i;
+    }
+  }
+  // (the goal in whole encoder counts)
+  EXPECT_NEAR(setpoints[16].goal[0], goals[0], 1e-3) << "the move starts at tick 16";
+  EXPECT_GT(setpoints[16].velocity[0], 0);
+  EXPECT_EQ(setpoints[15].velocity[0], 0);
+  // 0.19 s at 2 rad/s^2: about 0.036 rad.
+  EXPECT_GT(world.State().position[0], goals[0] - 0.3 + 0.02) << "the boards moved joint 1";
+  EXPECT_EQ(node.counters().board_ticks, 400);
+  EXPECT_EQ(node.counters().board_commands, 2);
+  EXPECT_EQ(driver.statuses.back().command_seq, 1);
+  // A bad board command is refused whole and counted; the boards keep their move.
+  sirupp::servo_move_t bad{};
+  bad.num_joints = 6;
+  bad.goal.assign(6, 0.0);
+  bad.max_velocity.assign(6, -1.0);
+  bad.acceleration.assign(6, 1.0);
+  bad.flags.assign(6, sirupp::servo_move_t::FLAG_ACTIVE);
+  bus.Publish("SIM_BOARD_COMMAND", bad);
+  ServiceUntil(node, 480, world);
+  EXPECT_EQ(bus.StatsFor("SIM_BOARD_COMMAND", core::ChannelSide::kReceiving).rejected, 1);
+  EXPECT_EQ(node.counters().board_commands, 2);
+  EXPECT_NEAR(setpoints.back().goal[0], goals[0], 1e-3);
+}
+
+TEST(SimNode, RealtimeWaitsForTheBoardsDriverAtExchangeTicksAndBrakesWhenItFallsSilent) {
+  core::Bus bus("memq://");
+  ArmWorld world(Puma(), core::Environment{});
+  TestClock clock;
+  SimNode node(bus, world, core::Environment{}, Realtime(clock, {"ctl"}));
+  BoardDriver driver(bus, "ctl");
+  for (int k = 0; k < 200; ++k) node.Service(0);
+  EXPECT_EQ(world.tick(), 200) << "one tick per service, paced; the driver joined at tick 0";
+  EXPECT_EQ(node.counters().watchdog_holds, 0);
+  EXPECT_GE(node.counters().board_ticks, 190);
+  driver.silent = true;
+  // At the next exchange tick (208) the sim waits up to the watchdog (50 ms), then brakes.
+  for (int k = 0; k < 400; ++k) {
+    node.Service(0);
+    clock.Advance(0.0005);
+  }
+  EXPECT_GT(node.counters().watchdog_holds, 0);
+  EXPECT_TRUE(world.State().flags[1] & sirupp::arm_state_t::FLAG_BRAKED);
+  EXPECT_NE(node.detail().find("no answer from 'ctl'"), std::string::npos) << node.detail();
+  // It answers again (it is asked at once for the present tick): the boards drive the arm again.
+  driver.silent = false;
+  for (int k = 0; k < 100; ++k) node.Service(0);
+  const int64_t holds = node.counters().watchdog_holds;
+  for (int k = 0; k < 200; ++k) node.Service(0);
+  EXPECT_EQ(node.counters().watchdog_holds, holds);
+  EXPECT_FALSE(world.State().flags[1] & sirupp::arm_state_t::FLAG_BRAKED);
 }
 
 }  // namespace

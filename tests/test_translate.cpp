@@ -146,7 +146,7 @@ TEST(Translate, ArmCommandRoundTripAndChecks) {
   sirupp::arm_command_t message = ToMessage(command, 0);
   message.mode = 9;
   EXPECT_EQ(ErrorText<MessageError>([&] { ArmCommandFromMessage(message, "SIM_ARM_COMMAND", 2); }),
-            "channel SIM_ARM_COMMAND: mode: 9 is not allowed; expected 0..2 (MODE_*)");
+            "channel SIM_ARM_COMMAND: mode: 9 is not allowed; expected 0..3 (MODE_*)");
   message = ToMessage(command, 0);
   message.effort[0] = INFINITY;
   EXPECT_EQ(ErrorText<MessageError>([&] { ArmCommandFromMessage(message, "SIM_ARM_COMMAND", 2); }),

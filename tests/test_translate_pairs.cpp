@@ -253,6 +253,25 @@ RoundTrips AllRoundTrips() {
     ExpectRoundTrip(SampleSetpoint(),
                     [&](const auto& m) { return ServoSetpointFromMessage(m, ch); });
   });
+  Add<sirupp::board_status_t>(trips, [ch] {
+    BoardStatus status;
+    status.utime = 5;
+    status.seq = 7;
+    status.tick = 32;
+    status.next_tick = 48;
+    status.command_seq = 3;
+    status.arm.utime = 5;
+    status.arm.tick = 32;
+    status.arm.position = {0.1, 0.2};
+    status.arm.velocity = {-1, 1};
+    status.arm.effort = {0.5, 0};
+    status.arm.flags = {0, 8};
+    status.boards = SampleSetpoint();
+    status.boards.joints.resize(2);
+    const sirupp::board_status_t message = ToMessage(status);
+    const BoardStatus back = BoardStatusFromMessage(ThroughTheWire(message), ch, 2);
+    EXPECT_EQ(Bytes(ToMessage(back)), Bytes(message));
+  });
   Add<sirupp::servo_move_t>(trips, [ch] {
     ExpectRoundTrip(SampleMove(), [&](const auto& m) { return ServoMoveFromMessage(m, ch); });
   });

@@ -1,4 +1,4 @@
-#include "control/servo_bank.hpp"
+#include "servo/servo_bank.hpp"
 
 #include <cmath>
 #include <stdexcept>
@@ -6,7 +6,7 @@
 
 #include "core/errors.hpp"
 
-namespace sirupp::control {
+namespace sirupp::servo {
 
 ServoBank::ServoBank(const core::RobotModel& model) {
   for (const core::Joint& joint : model.joints) {
@@ -140,4 +140,47 @@ int ServoBank::TrippedJoint() const {
   return -1;
 }
 
-}  // namespace sirupp::control
+void ApplyMove(ServoBank& bank, const core::ServoMove& move, const std::vector<double>& positions) {
+  const auto n = static_cast<size_t>(bank.num_joints());
+  if (move.joints.size() != n) {
+    throw std::invalid_argument("the command has " + std::to_string(move.joints.size()) +
+                                " joints; the boards drive " + std::to_string(n));
+  }
+  if (positions.size() != n) {
+    throw std::invalid_argument("the arm's state has " + std::to_string(positions.size()) +
+                                " joints; the boards drive " + std::to_string(n));
+  }
+  switch (move.command) {
+    case core::MoveCommand::kMove: {
+      std::vector<JointMove> moves(n);
+      for (size_t j = 0; j < n; ++j) {
+        const core::JointMove& joint = move.joints[j];
+        if ((joint.flags & kMoveFlagActive) == 0) continue;
+        if ((joint.flags & ~kMoveFlagActive) != 0) {
+          throw std::invalid_argument("joint " + std::to_string(j + 1) + ": flags " +
+                                      std::to_string(joint.flags) +
+                                      ": the virtual boards take FLAG_ACTIVE only (absolute "
+                                      "position moves)");
+        }
+        moves[j] = {true, joint.goal, joint.max_velocity, joint.acceleration};
+      }
+      bank.Load(moves);  // throws naming the joint before it loads any
+      return;
+    }
+    case core::MoveCommand::kStopSmooth:
+      bank.StopSmooth();
+      return;
+    case core::MoveCommand::kStopAbrupt:
+    case core::MoveCommand::kServoOn:
+      bank.ServoOn(positions);
+      return;
+    case core::MoveCommand::kMotorOff:
+      bank.MotorOff();
+      return;
+  }
+  throw std::invalid_argument("command " + std::to_string(static_cast<int>(move.command)) +
+                              ": allowed COMMAND_MOVE, STOP_SMOOTH, STOP_ABRUPT, MOTOR_OFF, "
+                              "SERVO_ON");
+}
+
+}  // namespace sirupp::servo
