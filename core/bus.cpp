@@ -25,10 +25,6 @@ namespace sirupp::core {
 
 namespace {
 
-// LCM_MAX_CHANNEL_NAME_LENGTH in lcm.h. memq:// accepts longer names, udpm:// refuses them, so we
-// check ourselves to make a test on memq fail the way the lab would.
-constexpr std::size_t kMaxChannelNameLength = 63;
-
 const char kUrlHelp[] =
     "allowed: \"\" (LCM_DEFAULT_URL, else udpm://239.255.76.67:7667?ttl=0), "
     "\"udpm://239.255.76.67:7667?ttl=0\" (one PC), \"udpm://239.255.76.67:7667?ttl=1\" (lab "

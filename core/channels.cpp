@@ -8,10 +8,6 @@ namespace sirupp::core {
 
 namespace {
 
-// LCM_MAX_CHANNEL_NAME_LENGTH in lcm.h: udpm:// refuses longer names at publish time, which would
-// surface as a failure deep inside a running process instead of at start-up.
-constexpr std::size_t kMaxChannelNameLength = 63;
-
 bool IsPrefixCharacter(char c) {
   return (c >= 'A' && c <= 'Z') || (c >= 'a' && c <= 'z') || (c >= '0' && c <= '9') || c == '_';
 }

@@ -7,6 +7,7 @@
 //  - or build Channels::WithPrefix(prefix) for code that talks to LCM without a Bus (lcm-logger
 //    channel filters, scripts, listings of full names).
 
+#include <cstddef>
 #include <sirupp/arm_command_t.hpp>
 #include <sirupp/arm_state_t.hpp>
 #include <sirupp/board_status_t.hpp>
@@ -37,6 +38,11 @@
 #include "core/channel.hpp"
 
 namespace sirupp::core {
+
+// LCM_MAX_CHANNEL_NAME_LENGTH in lcm.h. udpm:// refuses longer names at publish time (a failure
+// deep inside a running process); memq:// accepts them, so the bus and the channel names check it
+// themselves, and a test on memq fails the way the lab would.
+inline constexpr std::size_t kMaxChannelNameLength = 63;
 
 // One typed channel per name (core/channel.hpp), defaults as on the wire without prefix. Names are
 // settable so that a lab layout can rename a channel without touching code; types are not.

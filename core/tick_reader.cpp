@@ -15,7 +15,7 @@
 namespace sirupp::core {
 namespace {
 
-constexpr size_t kShortHeader = 8;  // "LC02", sequence number, then the channel + '\0'
+constexpr size_t kLcmShortHeader = 8;  // "LC02", sequence number, then the channel + '\0'
 constexpr size_t kBatch = 64;
 constexpr size_t kDatagramMax = 8192;  // a per-tick message of up to ~300 joints; longer: refused
 // Per datagram: the receive time and the socket's drop count.
@@ -130,11 +130,11 @@ int TickReader::ReadBatch() {
 }
 
 int TickReader::Match(const uint8_t* datagram, size_t size) {
-  if (size < kShortHeader || std::memcmp(datagram, "LC02", 4) != 0) return -1;
+  if (size < kLcmShortHeader || std::memcmp(datagram, "LC02", 4) != 0) return -1;
   for (size_t i = 0; i < slots_.size(); ++i) {
     const std::string& header = slots_[i].header;
-    if (size >= kShortHeader + header.size() &&
-        std::memcmp(datagram + kShortHeader, header.data(), header.size()) == 0) {
+    if (size >= kLcmShortHeader + header.size() &&
+        std::memcmp(datagram + kLcmShortHeader, header.data(), header.size()) == 0) {
       return static_cast<int>(i);
     }
   }

@@ -4,11 +4,11 @@
 #include <cmath>
 
 #include "core/errors.hpp"
+#include "core/units.hpp"
 
 namespace sirupp::grade {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr double kMinStep = 0.5;      // deg (mm): a smaller step is "does not move"
 constexpr double kFinalWindow = 0.1;  // s
 constexpr double kMinBand = 0.1;      // deg (mm)

@@ -7,19 +7,18 @@
 
 #include "control/sequencer.hpp"
 #include "core/errors.hpp"
+#include "core/units.hpp"
 
 namespace sirupp::grade {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-
 // Degrees (mm for a prismatic joint) per SI unit.
-double Shown(const core::RobotModel& model, size_t joint) {
+double PerSiUnit(const core::RobotModel& model, size_t joint) {
   return model.joints[joint].type == core::JointType::kRevolute ? 180 / kPi : 1000;
 }
 
 // 9 significant digits.
-std::string Short(double value) {
+std::string NineDigits(double value) {
   char buffer[40];
   std::snprintf(buffer, sizeof buffer, "%.9g", value);
   return buffer;
@@ -110,10 +109,10 @@ void WriteReferenceCsv(const std::string& file, const core::RobotModel& model,
   for (size_t tick = 0; tick < table.ticks(); ++tick) {
     out << tick << "," << core::FormatNumber(static_cast<double>(tick) * model.servo_tick_s);
     for (size_t j = 0; j < n; ++j) {
-      const double scale = Shown(model, j);
+      const double scale = PerSiUnit(model, j);
       const ReferencePoint& point = table.At(tick, j);
-      out << "," << Short(point.position * scale) << "," << Short(point.velocity * scale) << ","
-          << Short(point.acceleration * scale);
+      out << "," << NineDigits(point.position * scale) << "," << NineDigits(point.velocity * scale)
+          << "," << NineDigits(point.acceleration * scale);
     }
     out << "\n";
   }

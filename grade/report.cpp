@@ -9,13 +9,13 @@
 
 #include "core/errors.hpp"
 #include "core/robot_model.hpp"
+#include "core/units.hpp"
 #include "logger/plot.hpp"
 
 namespace sirupp::grade {
 namespace {
 
 using Json = nlohmann::ordered_json;
-constexpr double kPi = 3.14159265358979323846;
 
 Json Optional(const std::optional<double>& value) { return value ? Json(*value) : Json(nullptr); }
 

@@ -10,6 +10,7 @@
 #include "core/bus.hpp"
 #include "core/channels.hpp"
 #include "core/errors.hpp"
+#include "core/units.hpp"
 #include "grade/driver.hpp"
 #include "grade/reference.hpp"
 #include "proc/child.hpp"
@@ -22,7 +23,6 @@ using Clock = std::chrono::steady_clock;
 constexpr const char* kGraderName = "sirupp-grade";
 // A task's rig: a large receive buffer (the grader hears every tick of a lockstep run).
 constexpr const char* kTaskUrlOptions = "recv_buf_size=4194304";
-constexpr double kPi = 3.14159265358979323846;
 
 double Since(Clock::time_point start) {
   return std::chrono::duration<double>(Clock::now() - start).count();

@@ -7,12 +7,12 @@
 #include "core/errors.hpp"
 #include "core/model_loader.hpp"
 #include "core/motion_limits.hpp"
+#include "core/units.hpp"
 #include "core/yaml_reader.hpp"
 
 namespace sirupp::grade {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr const char* kFormat = "sirupp-grade-suite-1";
 constexpr double kMaxTrackS = 30;  // s of path: its plan (a move per 16 ticks) stays < 256 KiB
 constexpr size_t kMaxWaypoints = 100;

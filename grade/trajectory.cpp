@@ -10,11 +10,11 @@
 #include "control/servo_bank.hpp"
 #include "core/errors.hpp"
 #include "core/motion_limits.hpp"
+#include "core/units.hpp"
 
 namespace sirupp::grade {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 constexpr int kDegree = 5;        // quintic pieces
 constexpr int kRootSamples = 64;  // sub-intervals searched for a sign change, per piece
 

@@ -3,13 +3,12 @@
 #include <cmath>
 #include <stdexcept>
 
+#include "core/units.hpp"
 #include "core/yaml_reader.hpp"
 #include "hardware/nmc_protocol.hpp"
 
 namespace sirupp::hardware {
 namespace {
-
-constexpr double kDeg = M_PI / 180.0;
 
 const std::vector<std::string> kKeys = {"port",
                                         "baud",

@@ -25,7 +25,7 @@ constexpr int64_t kInstantAcceleration = int64_t{1} << 40;
 
 int Sign(int64_t v) { return (v > 0) - (v < 0); }
 
-int32_t Get32(const uint8_t* p) {
+int32_t GetSigned32(const uint8_t* p) {
   return static_cast<int32_t>(static_cast<uint32_t>(p[0]) | (static_cast<uint32_t>(p[1]) << 8) |
                               (static_cast<uint32_t>(p[2]) << 16) |
                               (static_cast<uint32_t>(p[3]) << 24));
@@ -85,7 +85,7 @@ void PicServoModule::Execute(const Packet& packet, Result* result, uint8_t* repl
         counter = position_ - home_;  // REL_HOME: the home position becomes 0
         home_ = 0;
       } else if (d.size() == 5) {
-        counter = Get32(d.data() + 1);  // SET_POS
+        counter = GetSigned32(d.data() + 1);  // SET_POS
       }
       offset_ += counter - position_;
       position_ = counter;
@@ -126,7 +126,7 @@ void PicServoModule::Execute(const Packet& packet, Result* result, uint8_t* repl
       ApplyGains(*DecodeGains(d, &problem));
       break;
     case kStopMotor:
-      StopMotor(d[0], d.size() == 5 ? Get32(d.data() + 1) : 0);
+      StopMotor(d[0], d.size() == 5 ? GetSigned32(d.data() + 1) : 0);
       break;
     case kIoControl:
       io_control_ = d[0];

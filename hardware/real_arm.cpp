@@ -7,6 +7,7 @@
 #include <stdexcept>
 
 #include "core/errors.hpp"
+#include "core/units.hpp"
 #include "core/yaml_reader.hpp"
 
 namespace sirupp::hardware {
@@ -18,8 +19,6 @@ using core::YamlMap;
 using core::YamlValue;
 namespace range = real_arm_range;
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDeg = kPi / 180;
 constexpr const char* kFormat = "sirupp-real-arm-1";
 
 NumberRule Rule(ParamRange r, double scale, const std::string& unit) {

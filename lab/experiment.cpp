@@ -9,6 +9,7 @@
 #include <stdexcept>
 
 #include "control/servo_bank.hpp"
+#include "core/units.hpp"
 #include "hardware/arm_link.hpp"
 #include "hardware/emulated_arm.hpp"
 #include "hardware/picservo_module.hpp"
@@ -19,8 +20,6 @@
 namespace sirupp::lab {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDeg = kPi / 180;
 constexpr double kMaxRunS = 20;
 namespace nmc = hardware::nmc;  // a set that has not finished by then is cut off
 

@@ -11,6 +11,7 @@
 
 #include "core/dynamics.hpp"
 #include "core/errors.hpp"
+#include "core/units.hpp"
 #include "core/yaml_reader.hpp"
 #include "lab/box_search.hpp"
 #include "logger/analysis.hpp"
@@ -21,8 +22,6 @@
 namespace sirupp::lab {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
-constexpr double kDeg = kPi / 180;
 constexpr int kParams =
     6;  // static, Coulomb +/- as fractions of static, viscous, Stribeck, armature
 constexpr double kFirstSimplex = 0.1;  // the search's first simplex, in units of its box

@@ -13,6 +13,7 @@
 #include "core/geometry.hpp"
 #include "core/inverse_kinematics.hpp"
 #include "core/printable.hpp"
+#include "core/units.hpp"
 #include "logger/report.hpp"
 #include "panel/model_edit.hpp"
 
@@ -21,7 +22,6 @@ namespace {
 
 namespace fs = std::filesystem;
 using Clock = std::chrono::steady_clock;
-constexpr double kDeg = 3.14159265358979323846 / 180;
 constexpr size_t kMaxFileBytes = 1024 * 1024;
 constexpr uintmax_t kMaxDownloadBytes = uintmax_t{256} * 1024 * 1024;
 

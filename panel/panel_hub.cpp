@@ -12,11 +12,11 @@
 #include "core/environment.hpp"
 #include "core/errors.hpp"
 #include "core/translate.hpp"
+#include "core/units.hpp"
 
 namespace sirupp::panel {
 namespace {
 
-constexpr double kPi = 3.14159265358979323846;
 using Clock = std::chrono::steady_clock;
 // Through LCM (memq://, or --lcm-ticks) the hub thread pauses this long between two rounds of
 // handling; LCM's queue of one message per channel keeps each per-tick channel's newest meanwhile.

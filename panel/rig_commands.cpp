@@ -10,13 +10,12 @@
 #include "core/inverse_kinematics.hpp"
 #include "core/model_loader.hpp"
 #include "core/printable.hpp"
+#include "core/units.hpp"
 #include "logger/recorder.hpp"
 #include "servo/chip_gains.hpp"
 
 namespace sirupp::panel {
 namespace {
-
-constexpr double kDeg = 3.14159265358979323846 / 180;
 
 // The model is needed for every check; without it nothing is sent.
 struct NoModel : std::runtime_error {

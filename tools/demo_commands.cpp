@@ -60,7 +60,7 @@ double Since(Clock::time_point t) {
   return std::chrono::duration<double>(Clock::now() - t).count();
 }
 
-std::string Fixed(double value, int digits) {
+std::string Rounded(double value, int digits) {
   std::ostringstream s;
   s << std::fixed << std::setprecision(digits) << value;
   return s.str();
@@ -233,7 +233,7 @@ std::vector<std::string> RunSets(const launch::Layout& layout, const core::Robot
       if (code != 0) out << plan_out.str();
       failed_sets.push_back(lab::RomanSet(sets[i]));
     } else if (code == 0) {
-      out << " done in " << Fixed(Since(t0), 1) << " s\n";
+      out << " done in " << Rounded(Since(t0), 1) << " s\n";
     } else {
       out << " FAILED\n" << plan_out.str();
       failed_sets.push_back(lab::RomanSet(sets[i]));
@@ -374,7 +374,7 @@ int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   launch::Supervisor supervisor(layout, options);
   out << "[1/4] starting the processes ..." << std::flush;
   const bool ok = StartRig(supervisor, layout, err);
-  out << (ok ? " up" : " FAILED") << " after " << Fixed(Since(started), 1) << " s\n";
+  out << (ok ? " up" : " FAILED") << " after " << Rounded(Since(started), 1) << " s\n";
   std::vector<std::string> failed_sets;
   if (ok) {
     out << "[2/4] running " << sets.size() << " movement sets on the virtual and the emulated real "
@@ -393,7 +393,7 @@ int RunDemo(const std::vector<std::string>& args, std::ostream& out, std::ostrea
   const std::vector<std::string> data = SetDataFiles(dir);
   out << "[4/4] Table II report from " << data.size() << " data files\n\n";
   const bool reported = !data.empty() && ReportSets(data, dir, out);
-  out << "Results in " << dir.string() << " (" << Fixed(Since(started), 0) << " s in all):\n";
+  out << "Results in " << dir.string() << " (" << Rounded(Since(started), 0) << " s in all):\n";
   ListResults(dir, out);
   const bool all = ok && failed_sets.empty() && supervisor.failures().empty() && reported &&
                    !runtime::StopRequested();

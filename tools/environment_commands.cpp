@@ -23,10 +23,10 @@ const char* const kEnvAbout =
 
 namespace {
 
-constexpr int kExitOk = 0;
+constexpr int kEnvExitOk = 0;
 constexpr int kExitBadFile = 2;  // bad input, as `sirupp model check`
 
-std::string Fixed(double value, int decimals, int width = 0) {
+std::string FixedWidth(double value, int decimals, int width = 0) {
   // "-0.0000" reads as a sign that is not there.
   if (std::abs(value) < 0.5 * std::pow(10.0, -decimals)) value = 0;
   char buffer[64];
@@ -39,22 +39,22 @@ std::string Padded(const std::string& text, size_t width) {
 }
 
 std::string Triple(const Eigen::Vector3d& v, int decimals, int width) {
-  return "[" + Fixed(v.x(), decimals, width) + " " + Fixed(v.y(), decimals, width) + " " +
-         Fixed(v.z(), decimals, width) + "]";
+  return "[" + FixedWidth(v.x(), decimals, width) + " " + FixedWidth(v.y(), decimals, width) + " " +
+         FixedWidth(v.z(), decimals, width) + "]";
 }
 
 std::string SizeText(const core::Shape& shape) {
   const Eigen::Vector3d& s = shape.size_m;
   switch (shape.type) {
     case core::ShapeType::kBox:
-      return Fixed(s.x(), 4) + " x " + Fixed(s.y(), 4) + " x " + Fixed(s.z(), 4);
+      return FixedWidth(s.x(), 4) + " x " + FixedWidth(s.y(), 4) + " x " + FixedWidth(s.z(), 4);
     case core::ShapeType::kSphere:
-      return "radius " + Fixed(s.x(), 4);
+      return "radius " + FixedWidth(s.x(), 4);
     case core::ShapeType::kCylinder:
     case core::ShapeType::kCapsule:
       break;
   }
-  return "radius " + Fixed(s.x(), 4) + " length " + Fixed(s.y(), 4);
+  return "radius " + FixedWidth(s.x(), 4) + " length " + FixedWidth(s.y(), 4);
 }
 
 // "8 objects (5 static, 3 free)".
@@ -94,7 +94,7 @@ std::string Report(const core::Environment& environment) {
     const Eigen::Vector3d rpy_deg =
         core::RollPitchYaw(shape.pose.orientation.toRotationMatrix()) * 180.0 / M_PI;
     const std::string body =
-        object.is_static ? std::string("static") : "free " + Fixed(object.mass_kg, 3) + " kg";
+        object.is_static ? std::string("static") : "free " + FixedWidth(object.mass_kg, 3) + " kg";
     text += "  " + Padded(object.name, name_width) + "  " + Padded(ShapeTypeName(shape.type), 10) +
             Padded(SizeText(shape), size_width) +
             Padded(Triple(shape.pose.position_m, 4, 7), position_width) +
@@ -109,7 +109,7 @@ int Check(const std::vector<std::string>& args, std::ostream& out, std::ostream&
   const runtime::Args parsed(args, "env check",
                              {runtime::Flag("files", "environment files").Positional("FILE", -1)},
                              kEnvAbout);
-  int status = kExitOk;
+  int status = kEnvExitOk;
   for (const std::string& file : parsed.Values("files", -1)) {
     try {
       const core::Environment environment = core::LoadEnvironment(file);
@@ -132,7 +132,7 @@ int Show(const std::vector<std::string>& args, std::ostream& out, std::ostream& 
     err << "error: " << error.what() << "\n";
     return kExitBadFile;
   }
-  return kExitOk;
+  return kEnvExitOk;
 }
 
 }  // namespace
