@@ -17,6 +17,7 @@
 #include "core/errors.hpp"
 #include "core/geometry.hpp"
 #include "core/model_loader.hpp"
+#include "core/motion_limits.hpp"
 #include "core/robot_model.hpp"
 #include "planning/collision_model.hpp"
 #include "planning/plan_text.hpp"
@@ -282,14 +283,16 @@ collision queries, planning and C-space slices over planning/'s collision model 
       .def_property_readonly(
           "qlim",
           [](Scene& s) {
+            const core::MotionLimits soft = core::DefaultMotionLimits(s.model());
             Eigen::MatrixXd limits(2, s.n());
             for (int j = 0; j < s.n(); ++j) {
-              limits(0, j) = s.model().joints[static_cast<size_t>(j)].position_min;
-              limits(1, j) = s.model().joints[static_cast<size_t>(j)].position_max;
+              limits(0, j) = core::SoftMin(s.model(), soft, j);
+              limits(1, j) = core::SoftMax(s.model(), soft, j);
             }
             return ToArray(limits);
           },
-          "2 x n: the joint limits the planner samples within (row 0 lower, row 1 upper)")
+          "2 x n: the soft limits (the model's limits moved inward by sirupp-control's margin): "
+          "what the planner samples within and a plan may reach (row 0 lower, row 1 upper)")
       .def(
           "is_free",
           [](Scene& s, const py::handle& q, bool free_objects) {

@@ -59,13 +59,16 @@ def test_edges(scene):
     assert scene.edge_free(START, START + 0.5 * DEG, 0.01)
 
 
-def test_plan_is_free_finer_than_planned_and_reproducible(scene):
+def test_plan_is_free_finer_than_planned_and_reproducible(scene, puma):
     path = scene.plan(START, GOAL, seed=4, iterations=20000, tree=True)
     assert path.ndim == 2 and path.shape[1] == 6 and path.shape[0] >= 3
     np.testing.assert_allclose(path[0], START, atol=1e-9)
     np.testing.assert_allclose(path[-1], GOAL, atol=1e-9)
-    assert scene.path_free(path, step=0.002)   # planned at 0.01 rad
-    lo, hi = scene.qlim
+    # Planned at 0.01 rad with 1 cm of padding: free unpadded at 0.002 rad (the padding is the
+    # margin over the resolution).
+    exact = sirupp.Scene(puma, TABLE, padding=0.0)
+    assert exact.path_free(path, step=0.002)
+    lo, hi = scene.qlim  # the soft limits
     assert np.all(path >= lo) and np.all(path <= hi)
     info = scene.last_plan
     assert info["solved"] and info["tree_vertices"].shape[1] == 6
@@ -75,14 +78,14 @@ def test_plan_is_free_finer_than_planned_and_reproducible(scene):
     np.testing.assert_array_equal(path, again)
     for planner in ("RRT*", "BIT*", "prm", "KPIECE"):
         other = scene.plan(START, GOAL, planner=planner, time=2.0)
-        assert scene.path_free(other, step=0.002)
+        assert exact.path_free(other, step=0.002), planner
 
 
 def test_cspace_slice(scene, puma):
     qa, qb, cells = scene.cspace(1, 2, puma.pose("ready"), step_deg=2)
     assert cells.shape == (len(qb), len(qa)) and cells.dtype == np.uint8
     assert set(np.unique(cells)) <= {0, 1, 2, 3} and (cells == 0).any() and (cells == 1).any()
-    lo, hi = scene.qlim
+    lo, hi = puma.qlim  # the slice spans the model's limits
     assert qa[0] == pytest.approx(lo[1]) and qa[-1] == pytest.approx(hi[1])
     ia = np.argmin(np.abs(qa - THROUGH_TABLE[1]))
     ib = np.argmin(np.abs(qb - THROUGH_TABLE[2]))
