@@ -85,5 +85,21 @@ def test_a_suite_whose_goal_touches_the_table_is_refused(tmp_path):
     assert run.returncode == 2
     assert "bad.yaml:" in run.stderr and "to_deg" in run.stderr and "table_top" in run.stderr, \
         run.stderr
-    run = grade(os.path.join(ROOT, "config/plans/set7.plan"), tmp_path / "out")
-    assert run.returncode == 2 and "is a planning suite: give one FILE.py" in run.stderr
+    library = tmp_path / "controller.so"  # a controller is not a planner
+    library.write_text("")
+    run = grade(str(library), tmp_path / "out")
+    assert run.returncode == 2 and "is a planning suite: give one FILE.py" in run.stderr, \
+        run.stderr
+
+
+def test_the_function_runs_in_the_sandbox(tmp_path):
+    nosy = student(tmp_path, """
+        import numpy as np
+        def plan(start, goal, scene):
+            open(%r).read()   # another file of the project: not there inside the sandbox
+            return np.array([start, goal])
+    """ % os.path.join(ROOT, "config/plans/set7.plan"))
+    run = grade(nosy, tmp_path / "out")
+    assert "passed 0 of 3" in run.stdout, run.stdout + run.stderr
+    problem = results(tmp_path / "out")["ready_to_table"]["problem"]
+    assert "plan(): FileNotFoundError" in problem and "set7.plan" in problem, problem
