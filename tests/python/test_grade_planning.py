@@ -42,6 +42,8 @@ def test_the_good_solution_passes_and_runs_on_the_rig(tmp_path):
         assert r["passed"] and r["problem"] == "", (name, r)
         assert r["ran_on_rig"] and r["touching_ticks"] == 0 and r["end_error_deg"] < 2
         assert r["reference_solved"] and r["reference_length_rad"] > 0 and r["length_rad"] > 0
+    sim_log = (tmp_path / "out" / "logs" / "over_table" / "sirupp-sim.log").read_text()
+    assert "8 environment objects" in sim_log  # the run had table.xml loaded
     report = (tmp_path / "out" / "report.md").read_text()
     assert "| over_table | passed |" in report and "OMPL's" in report
 
