@@ -127,6 +127,9 @@ proc::RigSpec TaskRig(const Suite& suite, const core::RobotModel& model, const T
                         {"--friction-scale", core::FormatNumber(task.arm.friction_scale)});
   }
   if (task.arm.gravity_off) rig.sim_args.push_back("--gravity-off");
+  if (!task.environment.empty()) {
+    rig.sim_args.insert(rig.sim_args.end(), {"--environment", task.environment});
+  }
   // The harness records sirupp-control's per-tick answers and set-points (the baseline's too):
   // its boards run in it, answering every tick, as with a student's library.
   rig.control_args = {"--sim-timeout", "3600", "--boards", "control"};

@@ -59,6 +59,9 @@ struct Task {
   std::optional<Disturbance> disturbance;
   std::optional<Track> track;  // kind "track"
   Thresholds pass;
+  // sirupp-sim's --environment (a planning assignment's run, grade/planning_assignment.hpp);
+  // "" = none (every suite task).
+  std::string environment;
 };
 
 struct Limits {

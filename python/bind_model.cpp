@@ -27,6 +27,7 @@ class Model {
         dynamics_(*model_) {}
 
   const core::RobotModel& model() const { return *model_; }
+  const std::shared_ptr<const core::RobotModel>& shared_model() const { return model_; }
   int n() const { return model_->num_joints(); }
 
   Eigen::VectorXd Joints(const py::handle& q, const char* name) const {
@@ -204,6 +205,11 @@ Model LoadModel(const std::string& file) {
 }
 
 }  // namespace
+
+std::shared_ptr<const core::RobotModel> ModelOf(const py::handle& value) {
+  if (!py::isinstance<Model>(value)) return nullptr;
+  return value.cast<const Model&>().shared_model();
+}
 
 void BindModel(py::module_& m) {
   m.def(

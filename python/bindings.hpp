@@ -5,7 +5,12 @@
 
 #include <pybind11/pybind11.h>
 
+#include <memory>
 #include <stdexcept>
+
+namespace sirupp::core {
+struct RobotModel;
+}
 
 namespace sirupp::python {
 
@@ -31,5 +36,9 @@ void BindModel(py::module_& m);              // bind_model.cpp
 void BindRig(py::module_& m);                // bind_rig.cpp: client, recorder, local processes
 void BindProcessController(py::module_& m);  // bind_process_controller.cpp
 void BindData(py::module_& m);               // bind_data.cpp: the logger's data file reader
+void BindPlanning(py::module_& m);           // bind_planning.cpp: sirupp.Scene, paths as plan text
+
+// The model of a sirupp.Model object (bind_model.cpp), or nullptr when `value` is not one.
+std::shared_ptr<const core::RobotModel> ModelOf(const py::handle& value);
 
 }  // namespace sirupp::python

@@ -1,5 +1,6 @@
 // sirupp._sirupp: the compiled half of the Python module `sirupp` (python/sirupp/__init__.py
-// re-exports it). Thin: every computation is a library's (core/, client/, logger/, grade/).
+// re-exports it). Thin: every computation is a library's (core/, client/, logger/, grade/,
+// planning/).
 #include <pybind11/pybind11.h>
 
 #include "python/bindings.hpp"
@@ -14,4 +15,5 @@ PYBIND11_MODULE(_sirupp, m) {
   sirupp::python::BindRig(m);
   sirupp::python::BindProcessController(m);
   sirupp::python::BindData(m);
+  sirupp::python::BindPlanning(m);
 }

@@ -12,6 +12,7 @@
 #include "core/model_loader.hpp"
 #include "grade/build_controller.hpp"
 #include "grade/grade.hpp"
+#include "grade/planning_assignment.hpp"
 #include "grade/report.hpp"
 #include "grade/result_file.hpp"
 #include "grade/submission.hpp"
@@ -49,6 +50,10 @@ const char* const kGradeAbout =
     "same reports; DIR, OUT, the suite and the programs at the same paths on the nodes\n"
     "(docs/cluster.md). Exit 1 when the baseline could not be graded or on SIGINT/SIGTERM\n"
     "(every job cancelled).\n"
+    "A planning suite (format sirupp-grade-planning-1, config/grading/planning.yaml) grades\n"
+    "FILE.py with plan(start, goal, scene) -> path: run in the sandbox per query, the path\n"
+    "checked at the suite's finer resolution, then run on a rig with the environment, beside\n"
+    "OMPL's reference.\n"
     "docs/grading.md.\n";
 
 const char* const kControllerBuildAbout =
@@ -320,6 +325,26 @@ int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostre
     throw core::UsageError(
         "grade: the sandbox cannot be had on this machine: " + sandbox::ProbeMachine().problem +
         " (docs/sandbox.md; --no-sandbox grades unconfined, for your own code)");
+  }
+  if (grade::SuiteFormat(Resolve(suite_file)) == grade::kPlanningSuiteFormat) {
+    if (!EndsWith(library, ".py") || !batch.empty() || !command.empty() || !part.empty()) {
+      throw core::UsageError("grade: " + suite_file +
+                             " is a planning suite: give one FILE.py with plan(start, goal, "
+                             "scene) (docs/grading.md, Planning assignments)");
+    }
+    const grade::PlanningSuite planning_suite =
+        grade::LoadPlanningSuite(Resolve(suite_file), &Resolve);
+    const core::RobotModel planning_model = core::LoadRobotModel(planning_suite.model_file);
+    grade::PlanningGradeOptions planning_options;
+    planning_options.bin_dir = BinDir();
+    planning_options.work_dir = (fs::absolute(out_dir) / "logs").string();
+    planning_options.sandbox = sandbox;
+    const grade::PlanningResult result =
+        grade::GradePlanning(planning_suite, planning_model, library, planning_options);
+    const std::string hash =
+        grade::WritePlanningReport(out_dir, planning_suite, planning_model, result);
+    out << grade::PlanningSummaryLine(planning_suite, result, hash) << "\n";
+    return 0;
   }
   const grade::Suite suite = grade::LoadSuite(Resolve(suite_file), &Resolve);
   const core::RobotModel model = core::LoadRobotModel(suite.model_file);

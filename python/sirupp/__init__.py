@@ -7,6 +7,8 @@
     with sirupp.start_rig() as rig:                # a private sim + controller, stopped at the end
         rig.move_joints(m.pose("ready"))
         rig.run_plan("config/plans/set7.plan")
+    scene = sirupp.Scene(m, "config/environments/table.xml")  # collision checks, planning
+    path = scene.plan(m.pose("ready"), q_goal)     # k x n array; rig.run_path(path) runs it
 
 Units are SI (rad, m, s, N*m); joint vectors are 1-D numpy arrays. Guide: docs/python.md.
 """
@@ -25,10 +27,12 @@ _WHERE = {
     "read_data": ".data", "read_reference": ".data", "read_report": ".data",
     "State": ".controllers", "ArmInfo": ".controllers",
     "run_process_controller": ".controllers", "ControllerFault": ".controllers",
+    "Scene": ".planning", "PlanError": ".planning", "path_length": ".planning",
 }
 
 
-_SUBMODULES = ("_sirupp", "_paths", "trajectory", "rig", "data", "controllers", "plot", "notebook")
+_SUBMODULES = ("_sirupp", "_paths", "trajectory", "rig", "data", "controllers", "plot", "notebook",
+               "planning")
 
 
 def __getattr__(name):
@@ -48,7 +52,7 @@ def __dir__():
 __all__ = [
     "Model", "ModelError", "IKError", "RigError", "jtraj", "trapezoid", "Trajectory", "connect",
     "start_rig", "Rig", "read_data", "read_reference", "read_report", "State", "ArmInfo",
-    "run_process_controller", "ControllerFault", "data_path",
+    "run_process_controller", "ControllerFault", "Scene", "PlanError", "path_length", "data_path",
 ]
 
 

@@ -10,8 +10,8 @@ import weakref
 import numpy as np
 
 from . import _paths
-from ._sirupp import (Model, RigError, _Child, _Client, _PortLease, _Recorder, _pose_parts,
-                      _rig_processes, _rig_url)
+from ._sirupp import (Model, RigError, _Child, _Client, _PortLease, _Recorder,
+                      _path_to_plan_text, _pose_parts, _rig_processes, _rig_url)
 
 DEFAULT_MODEL = os.path.join(_paths.SOURCE_DIR, "config/robots/puma260.yaml")
 # Private rigs take their port from the range `sirupp grade` uses, with the same lock files
@@ -208,6 +208,16 @@ class Rig:
             if end != "done":
                 raise RigError("run_plan %s: %s" % (name, detail))
         return name
+
+    def run_path(self, path, speed_fraction=1.0, accel_fraction=1.0, wait=True, timeout=600.0):
+        """Runs a k x n joint path (e.g. Scene.plan's) as a movement plan: first a move to the
+        path's start, then each segment as one synchronized trapezoid, so the set-points stay on
+        the straight segments Scene.edge_free checked. speed_fraction (0, 1] of the joints'
+        default speeds. Returns the plan's text (what ran)."""
+        text = _path_to_plan_text(self.model, path, speed_fraction, accel_fraction, True,
+                                  ["run_path: %d waypoints" % len(path)])
+        self.run_plan(text, wait=wait, timeout=timeout)
+        return text
 
     def stop(self):
         """The stop button: the arm decelerates smoothly to rest and a running plan ends."""
