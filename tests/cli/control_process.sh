@@ -37,7 +37,7 @@ has pose_config "$err" "--config 'up' is not allowed"
 run gains_range 2 gains --lcm-url "$URL" --kp 40000
 has gains_range "$err" "kp"
 run plan_verb 2 plan start config/plans/set1.plan
-has plan_verb "$err" "allowed: check, run, pause, resume, abort, manual, automatic"
+has plan_verb "$err" "allowed: check, make, run, pause, resume, abort, manual, automatic"
 
 "$SIRUPP_SIM" --lcm-url "$URL" --mode lockstep --lockstep-timeout 5 2>"$work/sim.err" &
 "$SIRUPP_CONTROL" --lcm-url "$URL" 2>"$work/control.err" &
