@@ -218,25 +218,7 @@ struct CollisionModel::Impl {
     if (statics.size() <= 64) {
       static_space = dSimpleSpaceCreate(nullptr);
     } else {
-      double low[3] = {dInfinity, dInfinity, dInfinity},
-             high[3] = {-dInfinity, -dInfinity, -dInfinity};
-      for (dGeomID g : statics) {
-        dReal box[6];
-        dGeomGetAABB(g, box);
-        for (int axis = 0; axis < 3; ++axis) {
-          low[axis] = std::min(low[axis], static_cast<double>(box[2 * axis]));
-          high[axis] = std::max(high[axis], static_cast<double>(box[2 * axis + 1]));
-        }
-      }
-      dVector3 centre, extents;
-      for (int axis = 0; axis < 3; ++axis) {
-        centre[axis] = 0.5 * (low[axis] + high[axis]);
-        extents[axis] = 0.5 * (high[axis] - low[axis]) + 0.01;
-      }
-      centre[3] = extents[3] = 0;
-      int depth = 1;
-      while (depth < 7 && std::pow(4.0, depth) * 2 < static_cast<double>(statics.size())) ++depth;
-      static_space = dQuadTreeSpaceCreate(nullptr, centre, extents, depth);
+      static_space = QuadTreeSpaceAround(statics);
     }
     dSpaceSetCleanup(static_space, 0);
     for (dGeomID g : statics) dSpaceAdd(static_space, g);

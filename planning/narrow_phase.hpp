@@ -10,6 +10,7 @@
 #include <ode/ode.h>
 
 #include <Eigen/Geometry>
+#include <vector>
 
 #include "core/geometry.hpp"
 
@@ -55,6 +56,11 @@ int CollideGeoms(dGeomID a, dGeomID b, int max_contacts, dContactGeom* contacts,
 // Boolean only (no contact points): dCollide with one contact, or SolidsOverlap for the
 // box-cylinder pair. What CollisionModel::IsFree uses.
 bool GeomsOverlap(dGeomID a, dGeomID b);
+
+// An empty ODE quad-tree space around the geoms' bounding boxes (1 cm margin), deep enough for
+// about one smallest block per two geoms (at most 4^7): for static objects, which never move. The
+// caller adds the geoms.
+dSpaceID QuadTreeSpaceAround(const std::vector<dGeomID>& geoms);
 
 // ODE's global state, once per process, and the calling thread's collision data (ODE needs it per
 // thread). Every user of ODE collision calls it first; the sim's initialisation is the same.

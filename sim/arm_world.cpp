@@ -520,25 +520,7 @@ struct ArmWorld::Impl {
   void BuildStaticSpace(const std::vector<dGeomID>& geoms) {
     static_count = static_cast<int>(geoms.size());
     if (geoms.empty()) return;
-    double low[3] = {dInfinity, dInfinity, dInfinity};
-    double high[3] = {-dInfinity, -dInfinity, -dInfinity};
-    for (dGeomID geom : geoms) {
-      dReal box[6];
-      dGeomGetAABB(geom, box);
-      for (int axis = 0; axis < 3; ++axis) {
-        low[axis] = std::min(low[axis], static_cast<double>(box[2 * axis]));
-        high[axis] = std::max(high[axis], static_cast<double>(box[2 * axis + 1]));
-      }
-    }
-    dVector3 centre, extents;
-    for (int axis = 0; axis < 3; ++axis) {
-      centre[axis] = 0.5 * (low[axis] + high[axis]);
-      extents[axis] = 0.5 * (high[axis] - low[axis]) + 0.01;  // half sizes, with a margin
-    }
-    centre[3] = extents[3] = 0;
-    int depth = 1;  // 4^depth smallest blocks: about one per two geoms, at most 4^7
-    while (depth < 7 && std::pow(4.0, depth) * 2 < static_cast<double>(geoms.size())) ++depth;
-    static_space = dQuadTreeSpaceCreate(nullptr, centre, extents, depth);
+    static_space = planning::QuadTreeSpaceAround(geoms);
     for (dGeomID geom : geoms) dSpaceAdd(static_space, geom);
   }
 
