@@ -16,7 +16,8 @@ namespace fs = std::filesystem;
 
 const std::vector<std::string> kTopKeys = {"class",    "description", "robot",  "students",
                                            "data",     "limits",      "server", "rigs",
-                                           "real_arm", "grading",     "cluster"};
+                                           "real_arm", "grading",     "cluster",
+                                           "notebooks"};
 const std::vector<std::string> kLimitKeys = {"max_rigs", "idle_timeout_s", "rig_memory_mb",
                                              "rig_nice", "pin_rigs"};
 const std::vector<std::string> kServerKeys = {"listen",         "port",
@@ -81,6 +82,11 @@ RealArmConfig ReadRealArm(const core::YamlValue& value, const ClassConfig& confi
                                          core::NumberInRange(0.05, 1, ""));
   return arm;
 }
+const std::vector<std::string> kNotebookKeys = {"hub_url",   "hub_port",  "folder",
+                                               "idle_timeout_s", "memory_mb", "processes",
+                                               "assignments"};
+const std::vector<std::string> kAssignmentKeys = {"name", "notebook", "tests", "timeout_s",
+                                                  "memory_mb"};
 const std::vector<std::string> kGradingKeys = {"suite", "safety_tasks", "max_source_kb"};
 
 std::string CheckedName(const core::YamlValue& value, const std::string& what) {
@@ -148,6 +154,79 @@ void ReadGrading(const core::YamlValue& value, const std::string& base_dir, Clas
   if (const auto v = map.Find("max_source_kb")) {
     config.max_source_kb = static_cast<int>(v->Integer(1, 900));
   }
+}
+
+// A folder that must exist: relative to the class file's folder, else the source tree.
+std::string ExistingFolder(const core::YamlValue& value, const std::string& base_dir) {
+  const std::string text = value.String();
+  std::string path = Absolute(text, base_dir);
+  if (!fs::is_directory(path) && !fs::path(text).is_absolute()) {
+    const std::string resolved = runtime::ResolveDataPath(text);
+    if (fs::is_directory(resolved)) path = fs::absolute(resolved).lexically_normal().string();
+  }
+  if (!fs::is_directory(path)) value.Fail("'" + text + "': no such folder (looked for " + path + ")");
+  return path;
+}
+
+// notebooks: {hub_url, hub_port, folder, idle_timeout_s, memory_mb, processes, assignments}.
+NotebooksConfig ReadNotebooks(const core::YamlValue& value, const std::string& base_dir,
+                              const ClassConfig& config) {
+  const core::YamlMap map = value.Map(kNotebookKeys);
+  NotebooksConfig notebooks;
+  if (const auto v = map.Find("hub_url")) {
+    std::string url = v->String();
+    if (url.rfind("http://", 0) != 0 && url.rfind("https://", 0) != 0) {
+      v->Fail("'" + url + "' is not an address; expected http://HOST[:PORT] or https://...");
+    }
+    while (!url.empty() && url.back() == '/') url.pop_back();
+    if (!config.public_url.empty() && url == config.public_url) {
+      v->Fail("'" + url + "' is the class server's own address; the hub needs a hostname of its "
+              "own (JupyterHub 3.0, CVE-2024-28233)");
+    }
+    notebooks.hub_url = url;
+  }
+  if (const auto v = map.Find("hub_port")) {
+    notebooks.hub_port = static_cast<int>(v->Integer(1024, 65535));
+    if (notebooks.hub_port == config.port) {
+      v->Fail("port " + std::to_string(config.port) + " is the class server's own (server.port)");
+    }
+  }
+  if (const auto v = map.Find("folder")) {
+    notebooks.folder = ExistingFolder(*v, base_dir);
+  } else {
+    notebooks.folder = fs::absolute(runtime::ResolveDataPath("notebooks")).lexically_normal().string();
+  }
+  notebooks.idle_timeout_s = map.NumberOr("idle_timeout_s", notebooks.idle_timeout_s,
+                                          core::NumberInRange(60, 7 * 86400, "s"));
+  if (const auto v = map.Find("memory_mb")) {
+    notebooks.memory_mb = static_cast<int>(v->Integer(512, 1 << 20));
+  }
+  if (const auto v = map.Find("processes")) {
+    notebooks.processes = static_cast<int>(v->Integer(16, 4096));
+  }
+  if (const auto list = map.Find("assignments")) {
+    std::set<std::string> names;
+    for (const core::YamlValue& entry : list->Sequence(0, 100)) {
+      const core::YamlMap a = entry.Map(kAssignmentKeys);
+      NotebookAssignment assignment;
+      const core::YamlValue name = a.Get("name", "the assignment's name");
+      assignment.name = CheckedName(name, "assignment name");
+      if (!names.insert(assignment.name).second) {
+        name.Fail("assignment '" + assignment.name + "' is listed twice");
+      }
+      assignment.notebook =
+          ExistingFile(a.Get("notebook", "the assignment's notebook (.ipynb)"), base_dir, true);
+      assignment.tests =
+          ExistingFile(a.Get("tests", "the hidden tests (a Python file)"), base_dir, true);
+      assignment.timeout_s =
+          a.NumberOr("timeout_s", assignment.timeout_s, core::NumberInRange(5, 3600, "s"));
+      if (const auto v = a.Find("memory_mb")) {
+        assignment.memory_mb = static_cast<int>(v->Integer(512, 1 << 20));
+      }
+      notebooks.assignments.push_back(assignment);
+    }
+  }
+  return notebooks;
 }
 
 ClassConfig Read(const core::YamlDocument& document, const std::string& base_dir) {
@@ -245,6 +324,9 @@ ClassConfig Read(const core::YamlDocument& document, const std::string& base_dir
   }
   if (const auto arm = top.Find("real_arm")) config.real_arm = ReadRealArm(*arm, config);
   if (const auto jobs = top.Find("cluster")) config.cluster = cluster::ReadClusterConfig(*jobs);
+  if (const auto notebooks = top.Find("notebooks")) {
+    config.notebooks = ReadNotebooks(*notebooks, base_dir, config);
+  }
   return config;
 }
 

@@ -30,6 +30,17 @@
 //     max_source_kb: 256                      # largest source accepted (1..900)
 //   cluster: {engine: slurm, ...}     # optional: rigs and grading as jobs on a cluster
 //                                     # (cluster/cluster_config.hpp, docs/cluster.md)
+//   notebooks:                        # optional: Jupyter notebooks in the browser (docs/notebooks.md)
+//     hub_url: "https://notebooks.lab.example.edu"  # where browsers reach the hub: its own
+//                                     # hostname, never the class server's (CVE-2024-28233)
+//     hub_port: 8810                  # the hub's proxy listens on 127.0.0.1:hub_port
+//     folder: notebooks               # copied into a student's folder on their first start
+//     idle_timeout_s: 1800            # a notebook server with no activity stops
+//     memory_mb: 2048                 # each server's and kernel's address-space limit
+//     processes: 256                  # the processes a student's sandbox may hold
+//     assignments:                    # notebooks graded with the teacher's hidden tests
+//       - {name: fk3, notebook: notebooks/assignments/fk3.ipynb,
+//          tests: config/grading/notebooks/fk3_hidden.py, timeout_s: 120}
 
 #include <optional>
 #include <string>
@@ -55,6 +66,26 @@ struct RealArmConfig {
   std::vector<double> warn_before_s = {60, 10};
   double home_tolerance_deg = 1.0;
   double home_speed_fraction = 0.5;
+};
+
+// One graded notebook (notebooks.assignments in the class file).
+struct NotebookAssignment {
+  std::string name;      // as a student name: 1 to 32 of [A-Za-z0-9_.-]
+  std::string notebook;  // absolute: the notebook students get and fill in
+  std::string tests;     // absolute: the teacher's hidden tests, never copied to students
+  double timeout_s = 120;  // the whole graded run
+  int memory_mb = 2048;    // the graded kernel's address-space limit
+};
+
+// notebooks: in the class file: the hub beside the class server, and the notebook assignments.
+struct NotebooksConfig {
+  std::string hub_url;  // "" = no hub (assignments only); else http(s)://HOST[:PORT], no '/'
+  int hub_port = 8810;
+  std::string folder;  // absolute: the class's notebooks (default: the tree's notebooks/)
+  double idle_timeout_s = 1800;
+  int memory_mb = 2048;
+  int processes = 256;
+  std::vector<NotebookAssignment> assignments;
 };
 
 struct ClassConfig {
@@ -91,6 +122,8 @@ struct ClassConfig {
   int max_source_kb = 256;
   // cluster: rigs and grading as jobs on a cluster; none: the server's own processes.
   std::optional<cluster::ClusterConfig> cluster;
+  // notebooks: the hub and notebook assignments; none: neither.
+  std::optional<NotebooksConfig> notebooks;
 };
 
 // The reserved name of the teacher's token.

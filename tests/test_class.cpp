@@ -116,6 +116,48 @@ TEST(ClassConfigTest, BadFilesNameLineKeyAndWhatIsAllowed) {
                   .pin_rigs);
 }
 
+TEST(ClassConfigTest, NotebooksNameTheHubAndTheAssignments) {
+  const ClassConfig none = ParseClassConfig(kGood, "c.yaml", "/tmp/x");
+  EXPECT_FALSE(none.notebooks.has_value());
+  const ClassConfig c = ParseClassConfig(
+      std::string(kGood) +
+          "notebooks:\n"
+          "  hub_url: https://notebooks.example.edu/\n"
+          "  hub_port: 8811\n"
+          "  idle_timeout_s: 600\n"
+          "  assignments:\n"
+          "    - {name: fk3, notebook: notebooks/01_forward_kinematics.ipynb,\n"
+          "       tests: config/grading/planning_rrt.py, timeout_s: 60}\n",
+      "c.yaml", "/tmp/x");
+  ASSERT_TRUE(c.notebooks.has_value());
+  EXPECT_EQ(c.notebooks->hub_url, "https://notebooks.example.edu");
+  EXPECT_EQ(c.notebooks->hub_port, 8811);
+  EXPECT_EQ(c.notebooks->idle_timeout_s, 600);
+  EXPECT_TRUE(fs::is_directory(c.notebooks->folder)) << c.notebooks->folder;
+  ASSERT_EQ(c.notebooks->assignments.size(), 1u);
+  EXPECT_EQ(c.notebooks->assignments[0].name, "fk3");
+  EXPECT_TRUE(fs::is_regular_file(c.notebooks->assignments[0].notebook));
+  EXPECT_TRUE(fs::is_regular_file(c.notebooks->assignments[0].tests));
+  EXPECT_EQ(c.notebooks->assignments[0].timeout_s, 60);
+  {
+    const std::string e =
+        ErrorOf(std::string(kGood) + "notebooks: {hub_url: notebooks.example.edu}\n");
+    EXPECT_NE(e.find("c.yaml:7"), std::string::npos) << e;
+    EXPECT_NE(e.find("not an address"), std::string::npos) << e;
+  }
+  {
+    const std::string e = ErrorOf(std::string(kGood) +
+                                  "notebooks:\n  assignments:\n    - {name: fk3, notebook: "
+                                  "nowhere.ipynb, tests: config/grading/planning_rrt.py}\n");
+    EXPECT_NE(e.find("c.yaml:9"), std::string::npos) << e;
+    EXPECT_NE(e.find("nowhere.ipynb"), std::string::npos) << e;
+  }
+  {
+    const std::string e = ErrorOf(std::string(kGood) + "notebooks: {hub_port: 80}\n");
+    EXPECT_NE(e.find("hub_port"), std::string::npos) << e;
+  }
+}
+
 TEST(TokenStoreTest, StoresOnlySaltedHashes) {
   const std::string dir = TempDir("sirupp-class-tokens");
   const std::string file = dir + "/tokens.json";
