@@ -5,6 +5,7 @@
 #include <optional>
 #include <sirupp/arm_command_t.hpp>
 #include <sirupp/controller_status_t.hpp>
+#include <sirupp/environment_t.hpp>
 #include <sirupp/servo_move_t.hpp>
 #include <sirupp/servo_setpoint_t.hpp>
 #include <stdexcept>
@@ -12,6 +13,8 @@
 #include <utility>
 #include <variant>
 
+#include "control/plan_collision.hpp"
+#include "core/environment.hpp"
 #include "core/errors.hpp"
 #include "core/model_check.hpp"
 #include "core/real_arm_note.hpp"
@@ -66,6 +69,13 @@ ControlNode::ControlNode(core::Bus& bus, const core::RobotModel& model, ControlO
   }
   const core::Channels& channels = options_.channels;
   using Info = core::ReceiveInfo;
+  sequencer_.SetPlanCheck([this](const Plan& plan, const std::vector<double>& start) {
+    CheckPlanInEnvironment(plan, start);
+  });
+  bus_.Subscribe<sirupp::environment_t>(
+      channels.environment, [this](const sirupp::environment_t& message, const Info& info) {
+        OnEnvironment(message, info);
+      });
   if (sequencer_.boards_remote()) {
     bus_.Subscribe<sirupp::board_status_t>(
         channels.sim_board_status,
@@ -229,6 +239,36 @@ void ControlNode::OnBridgeReply(const sirupp::command_reply_t& message,
   }
   sequencer_.MoveRefused(reply.error);
   Flush();
+}
+
+void ControlNode::OnEnvironment(const sirupp::environment_t& message,
+                                const core::ReceiveInfo& info) {
+  try {
+    environment_ = core::EnvironmentFromMessage(message, info.channel);
+  } catch (const std::exception& error) {
+    // The sim checked it before sending; a message that does not decode leaves the last one.
+    std::cerr << options_.name << ": " << error.what() << " (the environment is not changed)\n";
+  }
+}
+
+void ControlNode::CheckPlanInEnvironment(const Plan& plan, const std::vector<double>& start) {
+  if (!environment_ || environment_->objects.empty()) return;
+  planning::CollisionModel collision(model_, *environment_, {});
+  const PlanCollisionReport report =
+      CheckPlanCollisions(model_, plan, start, collision, kPlanCheckStepRad);
+  if (!report.error) return;
+  const planning::SweepFinding& finding = *report.error;
+  const PlanStep* step =
+      finding.step < 0 ? nullptr : &plan.steps[static_cast<size_t>(finding.step)];
+  throw core::ConfigError(
+      {plan.name, step == nullptr ? 0 : step->line, 0}, "",
+      (step == nullptr ? "at the start" : "'" + step->text + "'") +
+          std::string(finding.contact.kind == planning::ContactKind::kSelf
+                          ? ": the arm hits itself: "
+                          : ": collision: ") +
+          FindingDetail(model_, collision, finding) + " (the sim's environment " +
+          environment_->name +
+          "; `sirupp plan check --env` shows the whole plan, `sirupp plan make` plans around it)");
 }
 
 void ControlNode::CheckSimAlive() {

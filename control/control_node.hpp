@@ -9,7 +9,9 @@
 //      (movement plans: run, pause, resume, abort; manual/automatic mode), ARM_GAINS (live gains),
 //      ESTOP, HARDWARE_REPLY (a refusal of our latest ARM_MOVE), HARDWARE_STATUS (a linked bridge
 //      that falls silent is lost: named in last_error), ROBOT_MODEL (the sim's robot;
-//      another model announced on ARM_PLAN COMMAND_LOAD_MODEL is taken in place, model_switch.hpp).
+//      another model announced on ARM_PLAN COMMAND_LOAD_MODEL is taken in place, model_switch.hpp),
+//      ENVIRONMENT (the sim's objects: a plan whose set-points pass through a static one or
+//      through the arm itself is refused before it runs, naming its line; plan_collision.hpp).
 // Out: ARM_MOVE (every move and stop, as LOAD_TRAJ), ARM_SETPOINT (every tick), CONTROLLER_STATUS
 //      (10 Hz and on every change), CONTROLLER_GAINS (1 Hz and on change), CONTROLLER_REPLY (one
 //      answer per ARM_TARGET, ARM_POSE_TARGET, ARM_PLAN and ARM_GAINS, naming the request),
@@ -32,10 +34,12 @@
 #include <cstdint>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <sirupp/arm_command_t.hpp>
 #include <sirupp/arm_state_t.hpp>
 #include <sirupp/board_status_t.hpp>
 #include <sirupp/command_reply_t.hpp>
+#include <sirupp/environment_t.hpp>
 #include <sirupp/estop_t.hpp>
 #include <sirupp/hardware_status_t.hpp>
 #include <sirupp/joint_target_t.hpp>
@@ -54,6 +58,7 @@
 #include "core/bus.hpp"
 #include "core/channels.hpp"
 #include "core/command_reply.hpp"
+#include "core/environment.hpp"
 #include "core/errors.hpp"
 #include "core/heartbeat.hpp"
 #include "core/robot_model.hpp"
@@ -121,6 +126,11 @@ class ControlNode {
   // The answer to a state or board status (nullopt: the same tick again, sent again).
   void SendAnswer(const std::optional<core::ArmCommand>& command);
   void OnModel(const sirupp::robot_model_t& message, const core::ReceiveInfo& info);
+  // ENVIRONMENT: the objects the sim has, which every plan is checked against before it runs.
+  void OnEnvironment(const sirupp::environment_t& message, const core::ReceiveInfo& info);
+  // Throws core::ConfigError at the plan's line when the plan's set-points pass through a static
+  // object of the sim's environment or the arm itself (control/plan_collision.hpp).
+  void CheckPlanInEnvironment(const Plan& plan, const std::vector<double>& start);
   void OnGains(const sirupp::servo_gains_t& message, const core::ReceiveInfo& info);
   // A refusal of our latest ARM_MOVE on HARDWARE_REPLY stops the virtual arm too.
   void OnBridgeReply(const sirupp::command_reply_t& message, const core::ReceiveInfo& info);
@@ -163,6 +173,7 @@ class ControlNode {
   std::string start_refusal_;
   std::string model_checked_;  // source hash of the sim's model once it matched ours
   ModelSwitch model_switch_;   // a model announced on ARM_PLAN, until the sim publishes it
+  std::optional<core::Environment> environment_;  // the sim's newest ENVIRONMENT
   std::chrono::steady_clock::time_point last_gains_;
   bool gains_changed_ = true;
   std::vector<servo::ChipGains> chip_gains_;  // the gains in force, as ARM_GAINS set them

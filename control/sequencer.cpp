@@ -491,7 +491,9 @@ void Sequencer::RunPlan(const PlanCommand& command) {
   std::vector<double> start(static_cast<size_t>(model_.num_joints()));
   for (int j = 0; j < model_.num_joints(); ++j) start[static_cast<size_t>(j)] = bank_.Goal(j);
   try {
-    plan_ = ParsePlan(command.text, name, model_, start);
+    control::Plan parsed = ParsePlan(command.text, name, model_, start);
+    if (plan_check_) plan_check_(parsed, start);
+    plan_ = std::move(parsed);
   } catch (const core::ConfigError& error) {
     throw core::MessageError(source, "text", error.what());
   }

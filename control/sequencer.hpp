@@ -147,6 +147,11 @@ class Sequencer {
   void Target(const JointTargetCommand& command);
   void PoseTarget(const PoseTargetCommand& command);
   void Plan(const PlanCommand& command);
+  // A check every plan passes before it runs (the sim's environment: ControlNode): it throws
+  // core::ConfigError naming the plan's line to refuse the plan. None by default.
+  using PlanCheck =
+      std::function<void(const control::Plan& plan, const std::vector<double>& start)>;
+  void SetPlanCheck(PlanCheck check) { plan_check_ = std::move(check); }
   // New gains for every joint (already checked); what changed goes to the log.
   void SetGains(const std::vector<ServoGains>& gains);
   void Estop(const EstopCommand& command);
@@ -264,6 +269,7 @@ class Sequencer {
   std::string estop_;
   bool locked_automatic_ = false;  // kAutomatic given (until kManual)
   std::optional<control::Plan> plan_;
+  PlanCheck plan_check_;
   bool plan_running_ = false;  // from kRun until its last move is done, an abort or a fault
   int plan_step_ = 0;          // next step to run; == steps.size() when the plan has ended
   bool plan_paused_ = false;

@@ -19,6 +19,7 @@
 
 #include "control/control_node.hpp"
 #include "core/command_reply.hpp"
+#include "core/environment.hpp"
 #include "core/kinematics.hpp"
 #include "core/model_loader.hpp"
 #include "core/translate.hpp"
@@ -40,11 +41,12 @@ sirupp::joint_target_t Target(const std::vector<double>& degrees, std::vector<in
 }
 
 struct Rig {
+  explicit Rig(core::Environment objects = {}) : environment(std::move(objects)) {}
   core::RobotModel model = core::LoadRobotModel("config/robots/puma260.yaml");
+  core::Environment environment;
   core::Bus bus{"memq://"};
-  sim::ArmWorld world{model, core::Environment{}};
-  sim::SimNode sim{bus, world, core::Environment{},
-                   sim::NodeOptions{}};  // lockstep, sirupp-control
+  sim::ArmWorld world{model, environment};
+  sim::SimNode sim{bus, world, environment, sim::NodeOptions{}};  // lockstep, sirupp-control
   ControlNode control{bus, model, ControlOptions{}};
 
   void RunFor(double seconds) {
@@ -178,6 +180,41 @@ TEST(ControlNode, ABadPlanIsRefusedWholeAndNothingMoves) {
   EXPECT_FALSE(rig.control.plan_running());
   EXPECT_EQ(rig.control.move_id(), 0);
   EXPECT_EQ(rig.world.State().position, quiet.world.State().position);
+}
+
+TEST(ControlNode, APlanThroughTheSimsTableIsRefusedNamingItsLineAndNothingMoves) {
+  Rig rig(core::LoadEnvironment("config/environments/table.xml"));
+  rig.RunFor(0.01);
+  // The sim sends ENVIRONMENT as it starts (before this controller subscribed, in one process)
+  // and again each second of wall time; here at once.
+  rig.bus.Publish("ENVIRONMENT", core::ToMessage(rig.environment, 0, 1));
+  rig.RunFor(0.01);
+  // The paper's set II lowers the arm into table.xml's top (as `sirupp plan check --env` says).
+  rig.Plan(Command::COMMAND_RUN, "config/plans/set2.plan",
+           ReadPlanText("config/plans/set2.plan"));
+  rig.RunFor(0.5);
+  EXPECT_EQ(rig.Rejected("ARM_PLAN"), 1);
+  const std::string error = rig.control.last_error();
+  EXPECT_NE(error.find("channel ARM_PLAN: text: config/plans/set2.plan:9: 'move j2=90': "
+                       "collision: link 6 (flange) touches static object 'table_top'"),
+            std::string::npos)
+      << error;
+  EXPECT_NE(error.find("the sim's environment table"), std::string::npos) << error;
+  EXPECT_FALSE(rig.control.plan_running());
+  EXPECT_EQ(rig.control.move_id(), 0);
+  // A plan that stays above the table runs.
+  rig.Plan(Command::COMMAND_RUN, "free.plan", "move j1=20\nwait done\n");
+  rig.RunFor(0.05);
+  EXPECT_EQ(rig.Rejected("ARM_PLAN"), 1) << rig.control.last_error();
+  EXPECT_TRUE(rig.control.plan_running());
+  // Without an environment in the sim, the same set II runs (nothing to collide with).
+  Rig open;
+  open.RunFor(0.01);
+  open.Plan(Command::COMMAND_RUN, "config/plans/set2.plan",
+            ReadPlanText("config/plans/set2.plan"));
+  open.RunFor(0.05);
+  EXPECT_EQ(open.Rejected("ARM_PLAN"), 0) << open.control.last_error();
+  EXPECT_TRUE(open.control.plan_running());
 }
 
 TEST(ControlNode, TargetsAreRefusedWhileAPlanRunsAndTakenAfterAnAbort) {

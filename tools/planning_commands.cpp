@@ -9,6 +9,7 @@
 #include <sstream>
 #include <stdexcept>
 
+#include "control/plan_collision.hpp"
 #include "control/plan_trace.hpp"
 #include "core/environment.hpp"
 #include "core/errors.hpp"
@@ -24,24 +25,12 @@ namespace sirupp::tools {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-constexpr double kDefaultCheckStep = 0.01;  // rad
 constexpr double kDefaultMakeStep = 0.01;   // rad
 constexpr double kDefaultPadding = 0.01;    // m, plan make
 
 std::string JoinNames(const std::vector<std::string>& names) {
   std::string out;
   for (const std::string& n : names) out += (out.empty() ? "" : ", ") + n;
-  return out;
-}
-
-std::string Degrees(const core::RobotModel& model, const core::JointVector& q) {
-  std::string out;
-  for (int j = 0; j < q.size(); ++j) {
-    const bool revolute = model.joints[static_cast<size_t>(j)].type == core::JointType::kRevolute;
-    char text[32];
-    std::snprintf(text, sizeof text, "%.2f", revolute ? q[j] * 180 / kPi : q[j]);
-    out += (j > 0 ? " " : "") + std::string(text);
-  }
   return out;
 }
 
@@ -164,54 +153,21 @@ bool SweepPlan(const runtime::Args& parsed, const core::RobotModel& model,
   planning::CollisionOptions options;
   options.padding_m = parsed.Number("padding", 0);
   planning::CollisionModel collision(model, environment, options);
-  const double step = parsed.Number("step", kDefaultCheckStep);
-  planning::SetpointSweep sweep(collision, step);
-  std::optional<planning::SweepFinding> error;
-  const core::JointVector start_q = core::ToJointVector(start);
-  error = sweep.Feed(start_q, 0, -1, true);
-  int previous_step = -1;
-  core::JointVector last;
-  const control::TraceSummary summary = control::TracePlanSetpoints(
-      model, plan, start, [&](int step_index, const std::vector<double>& setpoint, double time_s) {
-        const core::JointVector q = core::ToJointVector(setpoint);
-        // The end of each move (a new one started) is checked whatever the step.
-        if (step_index != previous_step && last.size() > 0) {
-          error = sweep.Feed(last, time_s, previous_step, true);
-          if (error) return false;
-        }
-        previous_step = step_index;
-        last = q;
-        error = sweep.Feed(q, time_s, step_index);
-        return !error.has_value();
-      });
-  if (!error && last.size() > 0) error = sweep.Feed(last, summary.duration_s, previous_step, true);
-
-  auto where = [&](const planning::SweepFinding& f) {
-    if (f.step < 0) return plan.name + ": at the start";
-    const control::PlanStep& s = plan.steps[static_cast<size_t>(f.step)];
-    return plan.name + ":" + std::to_string(s.line) + ": " + s.text;
-  };
-  auto detail = [&](const planning::SweepFinding& f) {
-    char time[32];
-    std::snprintf(time, sizeof time, "%.3f", f.time_s);
-    return collision.Describe(f.contact) + "; joints [" + Degrees(model, f.state) + "] deg, " +
-           time + " s into the plan";
-  };
-  for (const planning::SweepFinding& f : sweep.free_touches()) {
-    if (error && f.time_s > error->time_s) continue;
-    out << where(f) << ": note: " << detail(f) << " (a free object: the arm may push it)\n";
+  const double step = parsed.Number("step", control::kPlanCheckStepRad);
+  const control::PlanCollisionReport report =
+      control::CheckPlanCollisions(model, plan, start, collision, step);
+  for (const planning::SweepFinding& f : report.free_touches) {
+    out << control::FindingPlace(plan, f) << ": note: "
+        << control::FindingDetail(model, collision, f) << " (a free object: the arm may push it)\n";
   }
-  if (error) {
-    out << where(*error) << ": "
-        << (error->contact.kind == planning::ContactKind::kSelf ? "the arm hits itself: "
-                                                                : "collision: ")
-        << detail(*error) << "\n";
+  if (report.error) {
+    out << control::FindingError(model, plan, collision, *report.error) << "\n";
     return false;
   }
   out << plan.name << ": no collision with " << environment.name << " or the arm itself ("
-      << sweep.states_checked() << " set-points checked at " << core::FormatNumber(step)
+      << report.states_checked << " set-points checked at " << core::FormatNumber(step)
       << " rad, padding " << core::FormatNumber(options.padding_m * 1000) << " mm, "
-      << core::FormatNumber(std::round(summary.duration_s * 1000) / 1000) << " s of motion)\n";
+      << core::FormatNumber(std::round(report.duration_s * 1000) / 1000) << " s of motion)\n";
   return true;
 }
 
@@ -373,7 +329,7 @@ int PlanMake(const std::vector<std::string>& args, std::ostream& out) {
   }
   text_options.comments = {
       "Planned in " + environment.name + " (" + environment.source_file + ") for " + model.name,
-      "from [" + Degrees(model, start) + "] deg to [" + Degrees(model, goal) + "] deg",
+      "from [" + control::JointsText(model, start) + "] deg to [" + control::JointsText(model, goal) + "] deg",
       request.planner + ", seed " + std::to_string(request.seed) + ", edge step " +
           core::FormatNumber(request.edge_step_rad) + " rad, padding " +
           core::FormatNumber(options.padding_m * 1000) + " mm" +
