@@ -1,6 +1,7 @@
 #include "panel/panel_api.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -75,7 +76,8 @@ bool Inside(const fs::path& path, const fs::path& dir) {
 
 // The routes that change nothing (reads and checks): no token, no lock.
 bool ChangesNothing(const std::string& path) {
-  return path == "/api/ik" || path == "/api/plan/check" || path == "/api/environment/check" ||
+  return path == "/api/ik" || path == "/api/plan/check" || path == "/api/plan/make" ||
+         path == "/api/cspace" || path == "/api/environment/check" ||
          path == "/api/model/check" || path == "/api/lock" || path == "/api/unlock";
 }
 
@@ -225,6 +227,46 @@ Response PanelApi::Post(const Request& request, const Json& body) {
   }
   if (path == "/api/plan/check") {
     return FromResult(commands_.CheckPlan(Text(body, "name", "page.plan"), Text(body, "text")));
+  }
+  if (path == "/api/plan/make") {
+    RigCommands::PlanGoal goal;
+    if (body.contains("joints") == body.contains("tool")) {
+      throw std::invalid_argument("goal: give joints (one per joint) or tool (x y z roll pitch yaw)");
+    }
+    const auto list = [&](const std::string& field) {
+      if (!body[field].is_array() || body[field].size() > 32) {
+        throw std::invalid_argument(field + ": expected an array of numbers");
+      }
+      std::vector<double> values;
+      for (const Json& v : body[field]) {
+        if (!v.is_number()) throw std::invalid_argument(field + ": expected an array of numbers");
+        values.push_back(v.get<double>());
+      }
+      return values;
+    };
+    if (body.contains("joints")) goal.joints = list("joints");
+    if (body.contains("tool")) goal.tool = list("tool");
+    goal.config = Text(body, "config", "nearest");
+    goal.planner = Text(body, "planner", "rrtconnect");
+    const double seed = Number(body, "seed", 1.0);
+    if (!(seed >= 0 && seed <= 4294967295.0) || seed != std::floor(seed)) {
+      throw std::invalid_argument("seed: " + core::FormatNumber(seed) +
+                                  ": allowed a whole number from 0 to 4294967295");
+    }
+    goal.seed = static_cast<uint32_t>(seed);
+    return FromResult(commands_.MakePlan(goal));
+  }
+  if (path == "/api/cspace") {
+    const double a = Number(body, "joint_a", std::nullopt);  // 1-based, as the page shows them
+    const double b = Number(body, "joint_b", std::nullopt);
+    for (const auto& [name, v] : {std::pair{"joint_a", a}, std::pair{"joint_b", b}}) {
+      if (v != std::floor(v) || v < 1 || v > 32) {
+        throw std::invalid_argument(std::string(name) + ": " + core::FormatNumber(v) +
+                                    ": a joint number (1-based)");
+      }
+    }
+    return FromResult(commands_.CSpace(static_cast<int>(a) - 1, static_cast<int>(b) - 1,
+                                       Number(body, "step", 2.0)));
   }
   if (path == "/api/plan/run") {
     return FromResult(commands_.RunPlan(Text(body, "name", "page.plan"), Text(body, "text")));

@@ -286,6 +286,20 @@ std::optional<core::RobotModel> PanelHub::Model() const {
   return model_;
 }
 
+std::optional<core::Environment> PanelHub::Environment() const {
+  std::optional<sirupp::environment_t> message;
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    message = environment_;
+  }
+  if (!message) return std::nullopt;
+  try {
+    return core::EnvironmentFromMessage(*message, channels_.environment.name());
+  } catch (const std::exception&) {
+    return std::nullopt;  // the page shows the sim's own error (EnvironmentJson)
+  }
+}
+
 std::optional<std::vector<double>> PanelHub::PresentGoals() const {
   const std::lock_guard<std::mutex> lock(mutex_);
   if (!setpoint_ || !model_ || setpoint_->num_joints != model_->num_joints()) return std::nullopt;

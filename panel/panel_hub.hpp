@@ -33,6 +33,7 @@
 #include "client/client.hpp"
 #include "core/bus.hpp"
 #include "core/channels.hpp"
+#include "core/environment.hpp"
 #include "core/heartbeat.hpp"
 #include "core/kinematics.hpp"
 #include "core/robot_model.hpp"
@@ -83,6 +84,8 @@ class PanelHub {
 
   // A copy of the model in use (bus or fallback); nullopt before any.
   std::optional<core::RobotModel> Model() const;
+  // The sim's environment (ENVIRONMENT, decoded) or nullopt before any or when it does not decode.
+  std::optional<core::Environment> Environment() const;
   // The present goals (ARM_SETPOINT) or nullopt when none heard.
   std::optional<std::vector<double>> PresentGoals() const;
   // The virtual arm's joints (SIM_ARM_STATE) or nullopt.

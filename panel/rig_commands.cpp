@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "control/plan.hpp"
+#include "control/plan_collision.hpp"
 #include "control/pose_goal.hpp"
 #include "core/environment.hpp"
 #include "core/errors.hpp"
@@ -12,6 +13,9 @@
 #include "core/printable.hpp"
 #include "core/units.hpp"
 #include "logger/recorder.hpp"
+#include "planning/collision_model.hpp"
+#include "planning/plan_text.hpp"
+#include "planning/planner.hpp"
 #include "servo/chip_gains.hpp"
 
 namespace sirupp::panel {
@@ -21,6 +25,50 @@ namespace {
 struct NoModel : std::runtime_error {
   NoModel() : std::runtime_error("no robot model yet: is sirupp-sim running on this bus?") {}
 };
+
+// Joints in the page's units.
+Json DisplayJoints(const core::RobotModel& model, const core::JointVector& q) {
+  Json out = Json::array();
+  for (size_t j = 0; j < model.joints.size(); ++j) {
+    out.push_back(ToDisplay(model.joints[j], q[static_cast<Eigen::Index>(j)]));
+  }
+  return out;
+}
+
+// What a contact is, for the page: the model's sentence and the point (m).
+Json ContactJson(const planning::CollisionModel& collision, const planning::SweepFinding& f,
+                 const core::RobotModel& model) {
+  return Json{{"what", collision.Describe(f.contact)},
+              {"kind", f.contact.kind == planning::ContactKind::kSelf
+                           ? "self"
+                           : (f.contact.kind == planning::ContactKind::kFreeObject ? "free"
+                                                                                   : "static")},
+              {"joints", DisplayJoints(model, f.state)},
+              {"time_s", f.time_s}};
+}
+
+// The tool's path along straight joint-space segments between waypoints (m), for the 3D view.
+Json ToolPath(const core::RobotModel& model, const std::vector<planning::JointVector>& path) {
+  Json points = Json::array();
+  for (size_t i = 0; i + 1 < path.size(); ++i) {
+    const double span = (path[i + 1] - path[i]).cwiseAbs().maxCoeff();
+    const int pieces = std::max(1, static_cast<int>(std::ceil(span / 0.02)));
+    for (int k = 0; k < pieces + (i + 2 == path.size() ? 1 : 0); ++k) {
+      const double s = static_cast<double>(k) / pieces;
+      const Eigen::Vector3d p =
+          core::ToolPose(model, path[i] + s * (path[i + 1] - path[i])).translation();
+      points.push_back(Json::array({p.x(), p.y(), p.z()}));
+    }
+  }
+  if (path.size() == 1) {
+    const Eigen::Vector3d p = core::ToolPose(model, path[0]).translation();
+    points.push_back(Json::array({p.x(), p.y(), p.z()}));
+  }
+  return points;
+}
+
+// The most tree vertices sent to the page (the C-space view draws them).
+constexpr size_t kMaxTreeVertices = 4000;
 
 }  // namespace
 
@@ -147,22 +195,155 @@ CommandResult RigCommands::CheckPlan(const std::string& name, const std::string&
   std::optional<core::RobotModel> model = hub_.Model();
   if (!model) return CommandResult::Fail(503, NoModel().what());
   const std::optional<std::vector<double>> goals = hub_.PresentGoals();
+  const std::vector<double> start = goals ? *goals : control::HomePositions(*model);
   try {
-    const control::Plan plan =
-        control::ParsePlan(text, name, *model, goals ? *goals : control::HomePositions(*model));
+    const control::Plan plan = control::ParsePlan(text, name, *model, start);
     Json steps = Json::array();
     for (const control::PlanStep& step : plan.steps) {
       steps.push_back(Json{{"line", step.line}, {"text", step.text}});
     }
-    return CommandResult{true, 200,
-                         name + ": ok: " + std::to_string(plan.steps.size()) + " steps, " +
-                             std::to_string(plan.moves()) + " moves",
-                         Json{{"steps", steps}}};
+    std::string message = name + ": ok: " + std::to_string(plan.steps.size()) + " steps, " +
+                          std::to_string(plan.moves()) + " moves";
+    Json detail{{"steps", steps}};
+    const std::optional<core::Environment> environment = hub_.Environment();
+    if (environment && !environment->objects.empty()) {
+      planning::CollisionModel collision(*model, *environment, {});
+      const control::PlanCollisionReport report = control::CheckPlanCollisions(
+          *model, plan, start, collision, control::kPlanCheckStepRad);
+      Json notes = Json::array();
+      for (const planning::SweepFinding& f : report.free_touches) {
+        Json note = ContactJson(collision, f, *model);
+        note["line"] = f.step < 0 ? 0 : plan.steps[static_cast<size_t>(f.step)].line;
+        notes.push_back(note);
+      }
+      detail["free_touches"] = notes;
+      if (report.error) {
+        const planning::SweepFinding& f = *report.error;
+        Json contact = ContactJson(collision, f, *model);
+        const int line = f.step < 0 ? 0 : plan.steps[static_cast<size_t>(f.step)].line;
+        return CommandResult::Fail(
+            422, control::FindingError(*model, plan, collision, f),
+            Json{{"line", line}, {"column", 0}, {"problem", contact["what"]}, {"contact", contact}});
+      }
+      message += "; no collision with " + environment->name + " or the arm itself (" +
+                 std::to_string(report.states_checked) + " set-points checked)";
+    }
+    return CommandResult{true, 200, message, detail};
   } catch (const core::ConfigError& error) {
     return CommandResult::Fail(422, error.what(),
                                Json{{"line", error.where().line},
                                     {"column", error.where().column},
                                     {"problem", error.problem()}});
+  }
+}
+
+CommandResult RigCommands::MakePlan(const PlanGoal& goal) {
+  std::optional<core::RobotModel> model = hub_.Model();
+  if (!model) return CommandResult::Fail(503, NoModel().what());
+  const int n = model->num_joints();
+  const std::optional<core::Environment> environment = hub_.Environment();
+  const core::Environment world = environment ? *environment : core::Environment{};
+  const std::optional<std::vector<double>> goals = hub_.PresentGoals();
+  const planning::JointVector start =
+      core::ToJointVector(goals ? *goals : control::HomePositions(*model));
+  planning::CollisionModel collision(*model, world, {});
+  planning::JointVector target(n);
+  try {
+    if (!goal.joints.empty()) {
+      if (static_cast<int>(goal.joints.size()) != n) {
+        return CommandResult::Fail(400, "goal: " + std::to_string(goal.joints.size()) +
+                                            " joints given; the model has " + std::to_string(n));
+      }
+      for (int j = 0; j < n; ++j) {
+        const double v = goal.joints[static_cast<size_t>(j)];
+        if (!std::isfinite(v)) return CommandResult::Fail(400, "goal: values must be finite");
+        target[j] = FromDisplay(model->joints[static_cast<size_t>(j)], v);
+      }
+    } else {
+      const std::vector<double>& v = goal.tool;
+      if (v.size() != 6) return CommandResult::Fail(400, "tool: expected x y z roll pitch yaw");
+      for (double value : v) {
+        if (!std::isfinite(value)) return CommandResult::Fail(400, "tool: values must be finite");
+      }
+      Eigen::Isometry3d pose = Eigen::Isometry3d::Identity();
+      pose.translation() << v[0], v[1], v[2];
+      pose.linear() =
+          core::QuaternionFromRpy(v[3] * kDeg, v[4] * kDeg, v[5] * kDeg).toRotationMatrix();
+      target = planning::ToolGoal(collision, pose, goal.config, start);
+    }
+    planning::PlanRequest request;
+    request.planner = goal.planner;
+    request.seed = goal.seed;
+    request.keep_tree = true;
+    const planning::PlanResult result = planning::PlanPath(collision, start, target, request);
+    if (!result.solved) return CommandResult::Fail(422, result.message);
+    planning::PlanTextOptions text_options;
+    text_options.comments = {"planned by the panel: " + result.message,
+                             "around " + (world.name.empty() ? std::string("no objects")
+                                                             : "the sim's environment " +
+                                                                   world.name)};
+    const std::string text = planning::PathToPlanText(*model, result.path, text_options);
+    Json waypoints = Json::array();
+    for (const planning::JointVector& q : result.path) waypoints.push_back(DisplayJoints(*model, q));
+    Json vertices = Json::array();
+    const size_t kept = std::min(result.tree.vertices.size(), kMaxTreeVertices);
+    for (size_t i = 0; i < kept; ++i) {
+      vertices.push_back(DisplayJoints(*model, result.tree.vertices[i]));
+    }
+    Json edges = Json::array();
+    for (const auto& [a, b] : result.tree.edges) {
+      if (static_cast<size_t>(a) < kept && static_cast<size_t>(b) < kept) {
+        edges.push_back(Json::array({a, b}));
+      }
+    }
+    return CommandResult{true, 200, result.message,
+                         Json{{"text", text},
+                              {"waypoints", waypoints},
+                              {"tool_path", ToolPath(*model, result.path)},
+                              {"tree", Json{{"vertices", vertices}, {"edges", edges}}},
+                              {"length_rad", result.length_rad},
+                              {"environment", world.name}}};
+  } catch (const std::invalid_argument& error) {
+    return CommandResult::Fail(400, error.what());
+  }
+}
+
+CommandResult RigCommands::CSpace(int joint_a, int joint_b, double step_deg) {
+  std::optional<core::RobotModel> model = hub_.Model();
+  if (!model) return CommandResult::Fail(503, NoModel().what());
+  if (!(step_deg >= 0.5 && step_deg <= 10)) {
+    return CommandResult::Fail(400, "step: " + core::FormatNumber(step_deg) +
+                                        " deg: allowed 0.5 to 10 (the grid's spacing)");
+  }
+  const std::optional<core::Environment> environment = hub_.Environment();
+  planning::CollisionModel collision(*model, environment ? *environment : core::Environment{}, {});
+  const std::optional<std::vector<double>> goals = hub_.PresentGoals();
+  const planning::JointVector q =
+      core::ToJointVector(goals ? *goals : control::HomePositions(*model));
+  try {
+    const planning::CSpaceSlice slice =
+        planning::ComputeCSpaceSlice(collision, q, joint_a, joint_b, step_deg * kDeg);
+    Json a = Json::array(), b = Json::array();
+    for (double v : slice.values_a) a.push_back(ToDisplay(model->joints[static_cast<size_t>(joint_a)], v));
+    for (double v : slice.values_b) b.push_back(ToDisplay(model->joints[static_cast<size_t>(joint_b)], v));
+    std::string cells(slice.cells.size(), '0');
+    for (size_t i = 0; i < cells.size(); ++i) cells[i] = static_cast<char>('0' + slice.cells[i]);
+    char took[32];
+    std::snprintf(took, sizeof took, "%.0f ms", slice.seconds * 1000);
+    return CommandResult{true, 200,
+                         "C-space of joints " + std::to_string(joint_a + 1) + " and " +
+                             std::to_string(joint_b + 1) + ": " +
+                             std::to_string(slice.free_count()) + " of " +
+                             std::to_string(cells.size()) + " cells free (" + took + ")",
+                         Json{{"joint_a", joint_a},
+                              {"joint_b", joint_b},
+                              {"values_a", a},
+                              {"values_b", b},
+                              {"cells", cells},
+                              {"fixed", DisplayJoints(*model, q)},
+                              {"seconds", slice.seconds}}};
+  } catch (const std::invalid_argument& error) {
+    return CommandResult::Fail(400, error.what());
   }
 }
 

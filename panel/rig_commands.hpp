@@ -42,8 +42,25 @@ class RigCommands {
   // Tool target: metres and degrees (roll pitch yaw); config "nearest" or e.g. "right-up-noflip".
   CommandResult MovePose(const std::vector<double>& xyz_rpy, const std::string& config,
                          double speed_scale);
-  // Parses `text` from the present goals (or home); the error names line and column.
+  // Parses `text` from the present goals (or home); the error names line and column. With objects
+  // in the sim's environment, also sweeps its set-points through them as sirupp-control will
+  // (control/plan_collision.hpp): a contact is 422 with the line and what touches.
   CommandResult CheckPlan(const std::string& name, const std::string& text);
+  // A path around the sim's objects from the present goals (or home) to `goal`: joints in display
+  // units (deg / mm), or (tool) x y z in m and roll pitch yaw in deg with an IK `config`. The
+  // answer holds the plan text (run it with RunPlan), the waypoints (display units), the tool's
+  // path in m (for the 3D view) and the planner's tree (for the C-space view). Nothing is sent.
+  struct PlanGoal {
+    std::vector<double> joints;  // or
+    std::vector<double> tool;    // x y z roll pitch yaw
+    std::string config = "nearest";
+    std::string planner = "rrtconnect";
+    uint32_t seed = 1;
+  };
+  CommandResult MakePlan(const PlanGoal& goal);
+  // The C-space slice of joints a and b (0-based) at step_deg, the other joints at the present
+  // goals (or home), against the sim's environment. Nothing is sent.
+  CommandResult CSpace(int joint_a, int joint_b, double step_deg);
   CommandResult RunPlan(const std::string& name, const std::string& text);
   // "pause", "resume", "abort", "manual", "automatic", "clear-fault".
   CommandResult PlanControl(const std::string& verb);

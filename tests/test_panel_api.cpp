@@ -26,9 +26,11 @@
 #include "control/control_node.hpp"
 #include "core/bus.hpp"
 #include "core/command_reply.hpp"
+#include "core/environment.hpp"
 #include "core/kinematics.hpp"
 #include "core/model_loader.hpp"
 #include "core/translate.hpp"
+#include "core/units.hpp"
 #include "logger/recorder.hpp"
 #include "panel/panel_api.hpp"
 #include "panel/panel_hub.hpp"
@@ -623,6 +625,74 @@ TEST_F(PanelApiTest, ModelEditsAreCheckedByTheLoaderAndSavedAsANewFile) {
 // the new file (a wider joint 1 limit: the panel shows it, and a target beyond the old limit is
 // taken by the controller). A bad file is refused at its line and a load while a plan runs is
 // refused by the controller; the sim keeps its model then.
+TEST_F(PanelApiTest, PlansAroundTheSimsObjectsChecksThemAndShowsTheCSpace) {
+  PublishRig();
+  const core::Environment table = core::LoadEnvironment("config/environments/table.xml");
+  bus_.Publish("ENVIRONMENT", core::ToMessage(table, 0, 1));
+  Pump();
+  // The paper's set II goes into the table: the check says where, as sirupp-control would.
+  const std::string set2 = ReadText("config/plans/set2.plan");
+  Response into = Post("/api/plan/check", Json{{"name", "set2.plan"}, {"text", set2}}.dump());
+  ASSERT_EQ(into.status, 422) << into.body;
+  EXPECT_EQ(Body(into)["line"], 9);
+  EXPECT_NE(Body(into)["error"].get<std::string>().find(
+                "set2.plan:9: move j2=90: collision: link 6 (flange) touches static object "
+                "'table_top'"),
+            std::string::npos)
+      << into.body;
+  EXPECT_EQ(Body(into)["contact"]["kind"], "static");
+  // Plan around the table from home to a goal low beside it; the plan it gives checks free.
+  Response made = Post("/api/plan/make",
+                       Json{{"joints", {54.1, 43.3, 39.6, 0, 97.1, 54.1}}, {"seed", 4}}.dump());
+  ASSERT_EQ(made.status, 200) << made.body;
+  const Json plan = Body(made);
+  EXPECT_NE(plan["message"].get<std::string>().find("solved by rrtconnect"), std::string::npos);
+  ASSERT_GE(plan["waypoints"].size(), 2u);
+  EXPECT_NEAR(plan["waypoints"].back()[1].get<double>(), 43.3, 1e-6);
+  EXPECT_GE(plan["tool_path"].size(), plan["waypoints"].size());
+  EXPECT_FALSE(plan["tree"]["vertices"].empty());
+  EXPECT_EQ(plan["environment"], "table");
+  Response checked =
+      Post("/api/plan/check", Json{{"name", "around.plan"}, {"text", plan["text"]}}.dump());
+  ASSERT_EQ(checked.status, 200) << checked.body;
+  EXPECT_NE(Body(checked)["message"].get<std::string>().find("no collision with table"),
+            std::string::npos)
+      << checked.body;
+  EXPECT_TRUE(plans_.empty()) << "making and checking send nothing";
+  // The same request gives the same plan.
+  Response again = Post("/api/plan/make",
+                        Json{{"joints", {54.1, 43.3, 39.6, 0, 97.1, 54.1}}, {"seed", 4}}.dump());
+  EXPECT_EQ(Body(again)["waypoints"], plan["waypoints"]);
+  // The C-space of joints 2 and 3 at 3 degrees: a grid with the table in it.
+  Response slice = Post("/api/cspace", Json{{"joint_a", 2}, {"joint_b", 3}, {"step", 3}}.dump());
+  ASSERT_EQ(slice.status, 200) << slice.body;
+  const Json c = Body(slice);
+  const std::string cells = c["cells"];
+  EXPECT_EQ(cells.size(), c["values_a"].size() * c["values_b"].size());
+  EXPECT_NE(cells.find('1'), std::string::npos) << "the table is in the slice";
+  EXPECT_NE(cells.find('0'), std::string::npos);
+  EXPECT_NEAR(c["values_a"].front().get<double>(), model_.joints[1].position_min / sirupp::kDeg, 1e-6);
+  // Bad requests: one line naming the field; nothing sent.
+  EXPECT_EQ(Post("/api/cspace", Json{{"joint_a", 0}, {"joint_b", 3}}.dump()).status, 400);
+  EXPECT_EQ(Post("/api/cspace", Json{{"joint_a", 2}, {"joint_b", 2}}.dump()).status, 400);
+  EXPECT_EQ(Post("/api/cspace", Json{{"joint_a", 2}, {"joint_b", 3}, {"step", 0.01}}.dump()).status,
+            400);
+  EXPECT_EQ(Post("/api/plan/make", Json{{"joints", {1, 2}}}.dump()).status, 400);
+  EXPECT_EQ(Post("/api/plan/make", Json{{"joints", {0, 0, 0, 0, 0, 0}},
+                                        {"tool", {0, 0, 0, 0, 0, 0}}}.dump())
+                .status,
+            400);
+  Response planner = Post("/api/plan/make",
+                          Json{{"joints", {60, 80, 20, 0, 60, 0}}, {"planner", "astar"}}.dump());
+  EXPECT_EQ(planner.status, 400);
+  EXPECT_NE(Body(planner)["error"].get<std::string>().find("astar"), std::string::npos);
+  Response inside = Post("/api/plan/make", Json{{"joints", {0, 90, 0, 0, 0, 0}}}.dump());
+  EXPECT_EQ(inside.status, 400) << "a goal in the table: " << inside.body;
+  EXPECT_EQ(Post("/api/plan/make", Json{{"joints", {0, 0, 0, 0, 0, 0}}, {"seed", -1}}.dump()).status,
+            400);
+  EXPECT_TRUE(plans_.empty());
+}
+
 TEST(PanelModelApply, TheSimTheControllerAndThePanelTakeTheSavedModel) {
   const auto JsonOf = [](const Response& r) { return Json::parse(r.body); };
   TempDir root;
