@@ -283,8 +283,12 @@ CommandResult RigCommands::MakePlan(const PlanGoal& goal) {
                                                              : "the sim's environment " +
                                                                    world.name)};
     const std::string text = planning::PathToPlanText(*model, result.path, text_options);
-    Json waypoints = Json::array();
-    for (const planning::JointVector& q : result.path) waypoints.push_back(DisplayJoints(*model, q));
+    Json waypoints = Json::array(), marks = Json::array();
+    for (const planning::JointVector& q : result.path) {
+      waypoints.push_back(DisplayJoints(*model, q));
+      const Eigen::Vector3d p = core::ToolPose(*model, q).translation();
+      marks.push_back(Json::array({p.x(), p.y(), p.z()}));
+    }
     Json vertices = Json::array();
     const size_t kept = std::min(result.tree.vertices.size(), kMaxTreeVertices);
     for (size_t i = 0; i < kept; ++i) {
@@ -300,6 +304,7 @@ CommandResult RigCommands::MakePlan(const PlanGoal& goal) {
                          Json{{"text", text},
                               {"waypoints", waypoints},
                               {"tool_path", ToolPath(*model, result.path)},
+                              {"tool_waypoints", marks},
                               {"tree", Json{{"vertices", vertices}, {"edges", edges}}},
                               {"length_rad", result.length_rad},
                               {"environment", world.name}}};

@@ -248,6 +248,116 @@ function updatePlan(s) {
 
 // --- gains --------------------------------------------------------------------------------------
 const gainFields = ['kp', 'kd', 'ki', 'il', 'ol', 'el', 'db'];
+// --- planning around objects and the C-space view (docs/planning.md) -----------------------------
+const planning = {plan: null, cspace: null};  // the last answers (read by the browser tests)
+window.panelPlanning = planning;
+function planGoal() {
+  const values = $('pp-goal').value.trim().split(/[\s,]+/).filter((w) => w !== '').map(Number);
+  const body = {config: $('pp-config').value.trim() || 'nearest', planner: $('pp-planner').value,
+    seed: Number($('pp-seed').value)};
+  body[$('pp-kind').value] = values;
+  return body;
+}
+$('pp-make').onclick = async () => {
+  $('pp-result').textContent = 'planning ...';
+  $('pp-result').className = '';
+  const r = await post('api/plan/make', planGoal(), true);
+  if (r.status !== 200) {
+    $('pp-result').textContent = r.body.error || ('HTTP ' + r.status);
+    $('pp-result').className = 'error';
+    $('pp-run').disabled = true;
+    return;
+  }
+  planning.plan = r.body;
+  $('pp-result').textContent = `${r.body.message}; around ${r.body.environment || 'no objects'}`;
+  $('plan-name').value = 'around.plan';
+  $('plan-text').value = r.body.text;
+  planSteps = []; planError = 0; renderListing();
+  View3d.setPath(r.body.tool_path, r.body.tool_waypoints);
+  $('pp-run').disabled = false;
+  if (planning.cspace) drawCSpace();
+};
+$('pp-run').onclick = async () => {
+  if (!planning.plan) return;
+  showPlanAnswer(await post('api/plan/run', {name: 'around.plan', text: planning.plan.text}));
+};
+$('pp-clear').onclick = () => {
+  planning.plan = null;
+  View3d.setPath(null);
+  $('pp-run').disabled = true;
+  $('pp-result').textContent = '';
+  if (planning.cspace) drawCSpace();
+};
+function fillCSpaceJoints() {
+  for (const [id, chosen] of [['cs-a', 1], ['cs-b', 2]]) {
+    const select = $(id);
+    const keep = select.value;
+    select.innerHTML = model.joints.map((j, i) => `<option value="${i + 1}">${i + 1} ${j.name}</option>`).join('');
+    select.value = keep || String(chosen + 1);
+  }
+}
+const cellColours = ['#ffffff', '#8e2424', '#f0a030', '#5c7cfa'];
+function drawCSpace() {
+  const c = planning.cspace;
+  const canvas = $('cs-canvas');
+  const g = canvas.getContext('2d');
+  const na = c.values_a.length, nb = c.values_b.length;
+  const w = canvas.width, h = canvas.height;
+  const a0 = c.values_a[0], a1 = c.values_a[na - 1], b0 = c.values_b[0], b1 = c.values_b[nb - 1];
+  const x = (v) => (v - a0) / (a1 - a0) * w;
+  const y = (v) => h - (v - b0) / (b1 - b0) * h;
+  g.fillStyle = cellColours[0];
+  g.fillRect(0, 0, w, h);
+  const cw = w / na, ch = h / nb;
+  for (let ib = 0; ib < nb; ib++) {
+    for (let ia = 0; ia < na; ia++) {
+      const cell = c.cells.charCodeAt(ib * na + ia) - 48;
+      if (cell === 0) continue;
+      g.fillStyle = cellColours[cell];
+      g.fillRect(ia * cw, h - (ib + 1) * ch, cw + 0.5, ch + 0.5);
+    }
+  }
+  const p = planning.plan;
+  if (p) {
+    const ja = c.joint_a, jb = c.joint_b;
+    g.strokeStyle = 'rgba(90, 90, 90, 0.45)';
+    g.lineWidth = 1;
+    g.beginPath();
+    for (const [i, k] of p.tree.edges) {
+      const u = p.tree.vertices[i], v = p.tree.vertices[k];
+      g.moveTo(x(u[ja]), y(u[jb]));
+      g.lineTo(x(v[ja]), y(v[jb]));
+    }
+    g.stroke();
+    g.strokeStyle = '#d81b60';
+    g.lineWidth = 2.5;
+    g.beginPath();
+    p.waypoints.forEach((q, i) => (i === 0 ? g.moveTo(x(q[ja]), y(q[jb])) : g.lineTo(x(q[ja]), y(q[jb]))));
+    g.stroke();
+  }
+  const q = latest && latest.setpoint ? latest.setpoint.q : c.fixed;
+  g.fillStyle = '#2e7d32';
+  g.beginPath();
+  g.arc(x(q[c.joint_a]), y(q[c.joint_b]), 4, 0, 2 * Math.PI);
+  g.fill();
+}
+$('cs-show').onclick = async () => {
+  $('cs-result').textContent = 'computing ...';
+  const r = await post('api/cspace', {joint_a: Number($('cs-a').value), joint_b: Number($('cs-b').value),
+    step: Number($('cs-step').value)}, true);
+  if (r.status !== 200) {
+    $('cs-result').textContent = r.body.error || ('HTTP ' + r.status);
+    $('cs-result').className = 'error';
+    return;
+  }
+  planning.cspace = r.body;
+  const names = [r.body.joint_a, r.body.joint_b].map((j) => `${j + 1} ${model.joints[j].name}`);
+  $('cs-result').className = '';
+  $('cs-result').textContent = `${r.body.message}; x: joint ${names[0]}, y: joint ${names[1]}, ` +
+    `the other joints where the goals are now` + (planning.plan ? '; the last plan and its tree projected on these two joints' : '');
+  drawCSpace();
+};
+
 async function loadGains() {
   const g = await getJson('api/gains');
   const body = $('gains-table').tBodies[0];
@@ -550,6 +660,7 @@ async function loadModel() {
   buildJoints();
   buildPlots();
   showModel();
+  fillCSpaceJoints();
   loadModelFields();
   return true;
 }

@@ -6,7 +6,7 @@
 const View3d = (function () {
   let renderer, scene, camera, controls;
   const arms = {};       // virtual, setpoint, real: arrays of THREE.Group, one per frame
-  let envGroup = null, previewGroup = null, envKey = '';
+  let envGroup = null, previewGroup = null, pathGroup = null, envKey = '';
   // Drawn only when something changed (a pose, the camera, the scene): a still arm costs nothing,
   // and software rendering (SwiftShader in headless Chromium) keeps up with a moving one.
   let dirty = true;
@@ -144,6 +144,26 @@ const View3d = (function () {
     if (previewGroup) scene.add(previewGroup);
   }
 
+  // A planned path: the tool's points [[x y z] ...] as a line, the waypoints as small balls; null
+  // clears it.
+  function setPath(points, waypoints) {
+    dirty = true;
+    if (pathGroup) { scene.remove(pathGroup); dispose(pathGroup); pathGroup = null; }
+    if (!points || points.length === 0) return;
+    pathGroup = new THREE.Group();
+    const line = new THREE.BufferGeometry().setFromPoints(
+      points.map((p) => new THREE.Vector3(p[0], p[1], p[2])));
+    pathGroup.add(new THREE.Line(line, new THREE.LineBasicMaterial({color: 0xd81b60})));
+    const ball = new THREE.SphereGeometry(0.008, 10, 8);
+    const material = new THREE.MeshBasicMaterial({color: 0xd81b60});
+    for (const w of waypoints || []) {
+      const m = new THREE.Mesh(ball, material);
+      m.position.set(w[0], w[1], w[2]);
+      pathGroup.add(m);
+    }
+    scene.add(pathGroup);
+  }
+
   // part: {frames: [[x y z qw qx qy qz] ...]} or undefined (hidden)
   function pose(kind, part) {
     const groups = arms[kind] || [];
@@ -167,5 +187,5 @@ const View3d = (function () {
     return true;
   }
 
-  return {init, setModel, setEnvironment, setPreview, pose, render};
+  return {init, setModel, setEnvironment, setPreview, setPath, pose, render};
 })();

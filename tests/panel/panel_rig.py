@@ -49,7 +49,8 @@ def wait_for(what, predicate, timeout=20.0, period=0.05):
 
 
 class Rig:
-    def __init__(self, bin_dir, source_dir, hardware=False, port=None, panel_args=(), logger=False):
+    def __init__(self, bin_dir, source_dir, hardware=False, port=None, panel_args=(), logger=False,
+                 sim_args=()):
         self.bin = os.path.abspath(bin_dir)  # the panel may run in another folder (logger=True)
         self.src = os.path.abspath(source_dir)
         self.port = port or 7800 + os.getpid() % 150
@@ -59,6 +60,7 @@ class Rig:
         self.drivers = []
         self.hardware = hardware
         self.panel_args = list(panel_args)
+        self.sim_args = list(sim_args)  # e.g. ["--environment", "config/environments/table.xml"]
         # With the logger: sirupp-logger writes into work/results, which the panel lists
         # (--results), and the panel runs in work/root holding a copy of config/, so a model the
         # page saves goes there, never into the source tree.
@@ -82,7 +84,8 @@ class Rig:
             link = os.path.join(self.work, "puma-bus")
             self._start("emulator", ["sirupp-picservo-emu", "--socket", link, "--start-pose", "ready"])
             wait_for("the emulator's device", lambda: os.path.exists(link), 10)
-        self._start("sim", ["sirupp-sim", "--lcm-url", self.url, "--mode", "realtime"] + pose)
+        self._start("sim", ["sirupp-sim", "--lcm-url", self.url, "--mode", "realtime"] + pose +
+                    self.sim_args)
         self._start("control", ["sirupp-control", "--lcm-url", self.url])
         if self.hardware:
             self._start("hardware", ["sirupp-hardware", "--lcm-url", self.url, "--port", link,
