@@ -27,9 +27,13 @@ if(TARGET sirupp-rig-job)  # a rig as a cluster job (class/rig_job.hpp)
 endif()
 install(TARGETS ${sirupp_installed_programs} RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 # `cmake --build build --target sirupp_programs`: the programs alone, without the tests, benchmarks,
-# examples and the Python module (what scripts/demo.sh builds: the demo runs nothing else).
+# examples and the Python module (what scripts/demo.sh builds: the demo runs nothing else). Nor
+# sirupp-python-controller-host, which is built from the Python module's objects (about a minute
+# of CPU the demo does not use).
+set(sirupp_demo_programs ${sirupp_installed_programs})
+list(REMOVE_ITEM sirupp_demo_programs sirupp-python-controller-host)
 add_custom_target(sirupp_programs)
-add_dependencies(sirupp_programs ${sirupp_installed_programs})
+add_dependencies(sirupp_programs ${sirupp_demo_programs})
 
 # ---- Shipped files (read-only data) ------------------------------------------------------------
 install(DIRECTORY config DESTINATION ${SIRUPP_INSTALL_DATADIR})
