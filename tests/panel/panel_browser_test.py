@@ -10,7 +10,7 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from panel_rig import Rig, checker, http, open_panel, severe_errors, wait_for  # noqa: E402
+from panel_rig import Rig, checker, report, http, open_panel, severe_errors, wait_for  # noqa: E402
 
 from selenium.webdriver.common.by import By  # noqa: E402
 
@@ -353,13 +353,4 @@ try:
     check("without the token a request from another address is refused", token_from_another_address)
 finally:
     rig.stop()
-    for name in ("panel",):
-        log = rig.log(name)
-        if "Sanitizer" in log or "terminate" in log:
-            failures.append(name + " log")
-            print(log)
-
-if failures:
-    print("panel_browser: FAILED: " + ", ".join(failures))
-    sys.exit(1)
-print("panel_browser: all checks passed")
+report("panel_browser", failures, rig, ("panel",))

@@ -9,6 +9,7 @@ import re
 import signal
 import shutil
 import subprocess
+import sys
 import tempfile
 import time
 import urllib.error
@@ -144,6 +145,20 @@ class Rig:
     def log(self, name):
         with open(os.path.join(self.work, name + ".log")) as f:
             return f.read()
+
+
+def report(test, failures, rig, logs):
+    """After rig.stop(): a process log with a sanitizer report or a terminate is a failure too;
+    prints the verdict and exits 1 on any failure."""
+    for name in logs:
+        log = rig.log(name)
+        if "Sanitizer" in log or "terminate" in log:
+            failures.append(name + " log")
+            print(log)
+    if failures:
+        print(f"{test}: FAILED: " + ", ".join(failures))
+        sys.exit(1)
+    print(f"{test}: all checks passed")
 
 
 def http(method, url, body=None, headers=None):

@@ -12,7 +12,7 @@ import sys
 import time
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from panel_rig import Rig, checker, open_panel, severe_errors, wait_for  # noqa: E402
+from panel_rig import Rig, checker, report, open_panel, severe_errors, wait_for  # noqa: E402
 
 from selenium.webdriver.common.by import By  # noqa: E402
 
@@ -140,13 +140,4 @@ try:
     check("no severe browser errors but the expected refusals", no_errors)
 finally:
     rig.stop()
-    for name in ("panel", "control", "sim"):
-        log = rig.log(name)
-        if "Sanitizer" in log or "terminate" in log:
-            failures.append(name + " log")
-            print(log)
-
-if failures:
-    print("planning_browser: FAILED: " + ", ".join(failures))
-    sys.exit(1)
-print("planning_browser: all checks passed")
+report("planning_browser", failures, rig, ("panel", "control", "sim"))
