@@ -118,7 +118,8 @@ constexpr ChannelProse kProse[] = {
      "1 Hz, at start-up and at once after a model load (`SIM_COMMAND`)",
      "the robot model as the physics loaded it: DH rows, links, mass properties, limits, "
      "friction, servo parameters"},
-    {"ENVIRONMENT", "sirupp-sim", "sirupp-viewer", "1 Hz",
+    {"ENVIRONMENT", "sirupp-sim", "sirupp-control (a plan is checked against it), sirupp-viewer",
+     "1 Hz",
      "the objects around the robot: shape, pose, size, colour, static or dynamic"},
     {"SIM_ARM_STATE", "sirupp-sim",
      "sirupp-control (running the boards itself), sirupp-logger, sirupp-viewer",
