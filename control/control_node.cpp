@@ -243,12 +243,9 @@ void ControlNode::OnBridgeReply(const sirupp::command_reply_t& message,
 
 void ControlNode::OnEnvironment(const sirupp::environment_t& message,
                                 const core::ReceiveInfo& info) {
-  try {
-    environment_ = core::EnvironmentFromMessage(message, info.channel);
-  } catch (const std::exception& error) {
-    // The sim checked it before sending; a message that does not decode leaves the last one.
-    std::cerr << options_.name << ": " << error.what() << " (the environment is not changed)\n";
-  }
+  // A message that does not decode is counted as rejected on the channel (the bus names it); the
+  // last good environment stays.
+  environment_ = core::EnvironmentFromMessage(message, info.channel);
 }
 
 void ControlNode::CheckPlanInEnvironment(const Plan& plan, const std::vector<double>& start) {
