@@ -942,7 +942,14 @@ struct ClassServer::Impl {
     server->Get(R"(/teacher/(.*))", teacher);
     server->Post(R"(/teacher/(.*))", teacher);
     server->set_error_handler([](const httplib::Request& req, httplib::Response& res) {
-      if (res.body.empty()) {
+      if (res.body.empty() && res.status == 413) {
+        // httplib's own limits: 1 MiB for a body, 8 KiB for one sent as a form
+        // (application/x-www-form-urlencoded, what a client sends when it names no type).
+        SendError(res, 413,
+                  core::Printable(req.path, 100) +
+                      ": the request's body is too large: allowed at most 1 MiB (8 KiB as a form; "
+                      "send a notebook as application/json)");
+      } else if (res.body.empty()) {
         SendError(res, res.status == 200 ? 404 : res.status,
                   "no such page: " + core::Printable(req.path, 100));
       }

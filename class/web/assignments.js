@@ -57,7 +57,8 @@
       const answer = section.querySelector('.assignment-answer');
       const send = async (path, body) => {
         answer.textContent = 'sending...';
-        const r = await fetch(path, {method: 'POST', body, headers: {'X-Sirupp-Client': clientId}});
+        const r = await fetch(path, {method: 'POST', body,
+          headers: {'X-Sirupp-Client': clientId, 'Content-Type': 'application/x-ipynb+json'}});
         const reply = await r.json().catch(() => ({}));
         answer.textContent = r.ok ? `submission #${reply.id} queued` : (reply.error || r.statusText);
         refresh();
