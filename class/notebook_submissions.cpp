@@ -127,6 +127,8 @@ NotebookSubmissionService::NotebookSubmissionService(const ClassConfig& config,
       Assignment assignment;
       assignment.config = a;
       assignment.tests = grade::ReadNotebookTests(a.tests);
+      const std::string exposed = grade::HiddenTestsExposed(a.tests, options_.bin_dir);
+      if (!exposed.empty()) throw std::runtime_error(a.name + ": tests: " + exposed);
       for (const grade::NotebookTest& test : assignment.tests) assignment.max_points += test.points;
       assignments_.push_back(assignment);
     }

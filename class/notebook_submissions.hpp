@@ -56,7 +56,8 @@ std::string StudentNotebookFile(const ClassConfig& config, const std::string& st
 class NotebookSubmissionService {
  public:
   // Reads each assignment's hidden tests (names and points; throws std::runtime_error "FILE:LINE:
-  // ..." for a bad tests file), queues what a previous server left queued or grading, and starts
+  // ..." for a bad tests file, and for one a student's sandbox could read:
+  // grade::HiddenTestsExposed), queues what a previous server left queued or grading, and starts
   // the worker.
   NotebookSubmissionService(const ClassConfig& config, NotebookSubmissionOptions options,
                             proc::Launcher& launcher, std::function<void(const std::string&)> log);

@@ -150,6 +150,27 @@ std::vector<NotebookTest> ReadNotebookTests(const std::string& tests_file) {
   return tests;
 }
 
+std::string HiddenTestsExposed(const std::string& tests_file, const std::string& bin_dir) {
+  const fs::path file = fs::weakly_canonical(fs::absolute(tests_file));
+  const auto under = [&file](const fs::path& folder) {
+    const fs::path relative = file.lexically_relative(fs::weakly_canonical(folder));
+    return !relative.empty() && *relative.begin() != "..";
+  };
+  if (under("/usr")) {
+    return file.string() + " is under /usr, which every student's sandbox reads (the grader's and "
+                           "the notebook servers'): keep the hidden tests elsewhere, e.g. beside "
+                           "the class file";
+  }
+  if (!bin_dir.empty() && under(fs::path(bin_dir) / ".." / "python")) {
+    return file.string() + " is in the Python module's folder, which the grader's sandbox reads";
+  }
+  const std::string robots = runtime::ResolveDataPath("config/robots");
+  if (fs::is_directory(robots) && under(robots)) {
+    return file.string() + " is among the robot models, which the grader's sandbox reads";
+  }
+  return "";
+}
+
 NotebookResult GradeNotebook(const std::string& notebook, const std::string& tests_file,
                              const NotebookGradeOptions& options) {
   const std::vector<NotebookTest> tests = ReadNotebookTests(tests_file);

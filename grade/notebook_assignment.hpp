@@ -67,6 +67,12 @@ struct NotebookGradeOptions {
 // that cannot be read or has no test, or points that are not a number > 0.
 std::vector<NotebookTest> ReadNotebookTests(const std::string& tests_file);
 
+// "" when no sandbox of a student can read `tests_file`; else why it can, naming the place: it is
+// under /usr (every sandbox, the graders' and the notebook servers', has /usr read-only: an
+// installed package's config/ is there) or under `bin_dir`'s ../python or the robot models, which
+// the grader's sandbox also shows.
+std::string HiddenTestsExposed(const std::string& tests_file, const std::string& bin_dir);
+
 // Grades `notebook` with `tests_file` (see the top). Throws std::runtime_error only for the
 // grader's own problems (a tests file that cannot be read, a work folder that cannot be made);
 // the sandbox missing on this machine is the result's problem.

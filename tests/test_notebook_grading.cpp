@@ -115,6 +115,18 @@ TEST(NotebookTestsFileTest, BadFilesNameTheLine) {
   EXPECT_THROW(grade::ReadNotebookTests("/nonexistent/hidden.py"), std::runtime_error);
 }
 
+TEST(NotebookTestsFileTest, TestsASandboxCouldReadAreNamed) {
+  EXPECT_EQ(grade::HiddenTestsExposed(Temp("mine.py", "def test_a(): pass\n"), "build/bin"), "");
+  const std::string usr = grade::HiddenTestsExposed("/usr/share/sirupp/config/x.py", "build/bin");
+  EXPECT_NE(usr.find("is under /usr, which every student's sandbox reads"), std::string::npos)
+      << usr;
+  EXPECT_NE(grade::HiddenTestsExposed("build/python/sirupp/t.py", "build/bin")
+                .find("the Python module's folder"),
+            std::string::npos);
+  EXPECT_NE(grade::HiddenTestsExposed("config/robots/t.py", "build/bin").find("robot models"),
+            std::string::npos);
+}
+
 TEST(NotebookResultTest, JsonAndBackAndTheTable) {
   grade::NotebookResult result;
   result.tests = {{"test_a", 1, 1, true, ""}, {"test_b", 3, 0, false, "fk differs"}};

@@ -44,6 +44,11 @@ int RunClassCheck(const std::vector<std::string>& args, std::ostream& out) {
         throw core::UsageError(config.file + ": notebooks: assignments: " + assignment.name +
                                ": " + error.what());
       }
+      const std::string exposed = grade::HiddenTestsExposed(assignment.tests, ProgramDir());
+      if (!exposed.empty()) {
+        throw core::UsageError(config.file + ": notebooks: assignments: " + assignment.name +
+                               ": tests: " + exposed);
+      }
       double points = 0;
       for (const grade::NotebookTest& test : tests) points += test.points;
       notebook_lines += "  notebook assignment " + assignment.name + ": " + assignment.notebook +

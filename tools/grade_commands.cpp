@@ -277,7 +277,7 @@ int GradeBatchAsJobs(const ClusterBatch& batch, const std::string& out_dir,
 }  // namespace
 
 namespace {
-int RunGradeNotebook(const std::vector<std::string>& args, std::ostream& out) {
+int RunGradeNotebook(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   const runtime::Args parsed(
       args, "grade notebook",
       {runtime::Flag("notebook", "the student's notebook").Positional("NOTEBOOK.ipynb", 0),
@@ -313,6 +313,8 @@ int RunGradeNotebook(const std::vector<std::string>& args, std::ostream& out) {
   } catch (const std::runtime_error& error) {
     throw core::UsageError(std::string("grade notebook: ") + error.what());
   }
+  const std::string exposed = grade::HiddenTestsExposed(tests, options.bin_dir);
+  if (!exposed.empty()) err << "grade notebook: warning: " << exposed << "\n";
   fs::create_directories(options.work_dir);
   const grade::NotebookResult result = grade::GradeNotebook(notebook, tests, options);
   const std::string json = grade::NotebookResultJson(result).dump(2);
@@ -331,7 +333,7 @@ int RunGradeNotebook(const std::vector<std::string>& args, std::ostream& out) {
 
 int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
   if (!args.empty() && args.front() == "notebook") {
-    return RunGradeNotebook(std::vector<std::string>(args.begin() + 1, args.end()), out);
+    return RunGradeNotebook(std::vector<std::string>(args.begin() + 1, args.end()), out, err);
   }
   // Everything after "--" is the process controller's command line, not ours.
   const auto dash = std::find(args.begin(), args.end(), std::string("--"));
