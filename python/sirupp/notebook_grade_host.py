@@ -160,10 +160,12 @@ def grade(notebook_file, timeout_s, output_limit, source):
     code_cells = [(i, c) for i, c in enumerate(nb.cells) if c.cell_type == "code"]
     result["cells"] = len(code_cells)
     lines = []
+    current = [0]  # the code cell running, from 1; 0: the hidden tests
     try:
         with client.setup_kernel(stdin=open(os.devnull), stdout=open(os.devnull, "w"),
                                  stderr=open(os.devnull, "w")):
             for number, (index, cell) in enumerate(code_cells, 1):
+                current[0] = number
                 left = deadline - time.monotonic()
                 if left <= 0.5:
                     result["problem"] = ("the notebook did not finish within %g s (code cell %d "
@@ -184,6 +186,7 @@ def grade(notebook_file, timeout_s, output_limit, source):
                         "cell": number,
                         "error": cut("%s: %s" % (errors[0].get("ename", ""),
                                                  errors[0].get("evalue", "")), MESSAGE_LIMIT)})
+            current[0] = 0
             if not result["problem"]:
                 nonce = secrets.token_hex(16)
                 left = deadline - time.monotonic()
@@ -220,8 +223,10 @@ def grade(notebook_file, timeout_s, output_limit, source):
                                                      "loaded: " + str(scores["load_error"])[:200])
                             else:
                                 result["tests"] = scores.get("tests", [])
-    except DeadKernelError as error:
-        result["problem"] = "the kernel died: %s" % str(error)[:200]
+    except DeadKernelError:
+        result["problem"] = ("the kernel died in code cell %d of %d (a crash, a signal, or past the "
+                             "memory limit)" % (current[0], len(code_cells)) if current[0]
+                             else "the kernel died while the hidden tests ran")
     except Exception as error:  # a kernel that would not start, a broken channel
         result["problem"] = "the notebook could not be run: %s: %s" % (type(error).__name__,
                                                                       str(error)[:200])

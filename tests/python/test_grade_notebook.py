@@ -2,7 +2,7 @@
 assignment, in the sandbox: a right answer gets full marks; one that ignores the DH offsets passes
 the notebook's visible tests and the hidden tests on the notebook's own table, and fails the hidden
 table, by name; the notebook as shipped (not filled in) scores 0 with its error; an endless loop
-ends at the time limit with every test "not run"; sockets are refused and the grade goes on;
+ends at the time limit with every test "not run"; a kernel that dies is named with its cell; sockets are refused and the grade goes on;
 megabytes of output are cut, and what the notebook deletes is its own copy; the hidden tests are
 not in the sandbox; bad files and options are one clear error."""
 import json
@@ -77,6 +77,14 @@ def test_an_endless_loop_ends_at_the_time_limit(tmp_path):
     assert result["score"] == 0 and len(result["tests"]) == 3
     for test in result["tests"]:
         assert test["message"].startswith("not run: code cell 2 of 3"), test
+
+
+def test_a_kernel_that_dies_is_named_with_its_cell(tmp_path):
+    answer = fk3.RIGHT + "\nimport os, signal\nos.kill(os.getpid(), signal.SIGKILL)\n"
+    result = graded(tmp_path, answer)
+    assert result["problem"].startswith("the kernel died in code cell 2 of 3"), result
+    assert result["score"] == 0
+    assert all(t["message"].startswith("not run: the kernel died") for t in result["tests"])
 
 
 def test_the_network_is_refused_and_the_grade_goes_on(tmp_path):
