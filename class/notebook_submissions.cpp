@@ -53,7 +53,8 @@ std::string WallClock() {
 }
 
 panel::Response JsonAnswer(int status, const Json& body) {
-  return panel::Response{status, "application/json", body.dump()};
+  return panel::Response{status, "application/json",
+                         body.dump(-1, ' ', false, Json::error_handler_t::replace)};
 }
 
 bool IsFinal(const std::string& state) { return state == "graded" || state == "grade failed"; }
@@ -204,7 +205,9 @@ Json NotebookSubmissionService::Read(const std::string& student, const std::stri
 
 void NotebookSubmissionService::Write(const std::string& student, const std::string& assignment,
                                       int id, const Json& meta) const {
-  WriteWhole(Folder(student, assignment, id) + "/submission.json", meta.dump(1));
+  // Invalid UTF-8 (a log's tail in a problem) is replaced, never a throw.
+  WriteWhole(Folder(student, assignment, id) + "/submission.json",
+             meta.dump(1, ' ', false, Json::error_handler_t::replace));
 }
 
 std::optional<int> NotebookSubmissionService::Counted(const std::string& student,

@@ -317,7 +317,9 @@ int RunGradeNotebook(const std::vector<std::string>& args, std::ostream& out, st
   if (!exposed.empty()) err << "grade notebook: warning: " << exposed << "\n";
   fs::create_directories(options.work_dir);
   const grade::NotebookResult result = grade::GradeNotebook(notebook, tests, options);
-  const std::string json = grade::NotebookResultJson(result).dump(2);
+  // Invalid UTF-8 (a log's tail in a problem) replaced, never a throw.
+  const std::string json = grade::NotebookResultJson(result).dump(
+      2, ' ', false, nlohmann::json::error_handler_t::replace);
   {
     std::ofstream file(fs::path(options.work_dir) / "result.json");
     file << json << "\n";
