@@ -52,7 +52,9 @@ def __sirupp_grade(source, nonce):
               file=_sys.__stdout__, flush=True)
         return
     for name, value in list(names.items()):
-        if not name.startswith("test_") or not callable(value):
+        # Only the teacher's tests: a test_* the notebook defined itself is not run.
+        code = getattr(value, "__code__", None)
+        if not name.startswith("test_") or code is None or code.co_filename != "hidden tests":
             continue
         worth = getattr(value, "__sirupp_points__", 1)
         try:

@@ -118,6 +118,16 @@ def test_the_hidden_tests_are_not_in_the_sandbox(tmp_path):
     assert result["score"] == 6
 
 
+def test_the_notebooks_own_test_functions_are_not_run(tmp_path):
+    answer = (fk3.RIGHT + "\ndef test_of_my_own():\n    while True:\n        pass\n"
+              "def test_a_table_you_have_not_seen():\n    pass\n")
+    result = graded(tmp_path, answer, "--timeout", "30")
+    assert result["problem"] == "" and result["score"] == 6, result
+    assert [t["name"] for t in result["tests"]] == [
+        "test_returns_a_homogeneous_transform", "test_random_joints_on_the_notebooks_table",
+        "test_a_table_you_have_not_seen"]
+
+
 def test_bad_files_and_options_are_one_clear_error(tmp_path):
     text = tmp_path / "notes.ipynb"
     text.write_text("this is not JSON")
