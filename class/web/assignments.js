@@ -84,6 +84,10 @@
     clearInterval(timer);
     if (!panel.hidden) { refresh(); timer = setInterval(refresh, 3000); }
   };
-  bar.appendChild(toggle);
-  bar.insertAdjacentElement('afterend', panel);
+  // The button only in a class with notebook assignments.
+  fetch('class/assignments').then((r) => (r.ok ? r.json() : null)).then((list) => {
+    if (!list || list.assignments.length === 0) return;
+    bar.appendChild(toggle);
+    bar.insertAdjacentElement('afterend', panel);
+  }).catch(() => {});
 })();
