@@ -35,6 +35,14 @@ MESSAGE_LIMIT = 300
 HARNESS = r'''
 def __sirupp_grade(source, nonce):
     import json as _json, sys as _sys
+    # The kernel's own stdout stream (ipykernel's OutStream): its flush returns once the line is
+    # on IOPub, before the cell's end. A notebook that replaced sys.stdout leaves the file
+    # descriptor, whose capture is forwarded later (the host waits for it).
+    try:
+        from ipykernel.iostream import OutStream as _OutStream
+        out = _sys.stdout if isinstance(_sys.stdout, _OutStream) else _sys.__stdout__
+    except ImportError:
+        out = _sys.__stdout__
     def points(n):
         def mark(function):
             function.__sirupp_points__ = n
@@ -49,7 +57,7 @@ def __sirupp_grade(source, nonce):
         exec(compile(source, "hidden tests", "exec"), names)
     except BaseException as error:
         print(nonce + " " + _json.dumps({"load_error": type(error).__name__ + ": " + str(error)}),
-              file=_sys.__stdout__, flush=True)
+              file=out, flush=True)
         return
     for name, value in list(names.items()):
         # Only the teacher's tests: a test_* the notebook defined itself is not run.
@@ -66,7 +74,7 @@ def __sirupp_grade(source, nonce):
         except BaseException as error:
             results.append({"name": name, "max_points": worth, "passed": False,
                             "message": type(error).__name__ + ": " + str(error)})
-    print(nonce + " " + _json.dumps({"tests": results}), file=_sys.__stdout__, flush=True)
+    print(nonce + " " + _json.dumps({"tests": results}), file=out, flush=True)
 __sirupp_grade(%r, %r)
 del __sirupp_grade
 '''
@@ -211,6 +219,14 @@ def grade(notebook_file, timeout_s, output_limit, source):
                     except TimeoutError:
                         result["problem"] = ("the hidden tests were still running after the %g "
                                              "s the whole run may take" % timeout_s)
+                    # Output captured from the file descriptor comes after the cell's end: up to
+                    # 5 s more for the scores' line.
+                    until = time.monotonic() + 5
+                    while not result["problem"] and not found and time.monotonic() < until:
+                        try:
+                            hook(client.kc.get_iopub_msg(timeout=0.2))
+                        except Exception:  # queue.Empty: nothing yet
+                            pass
                     if not result["problem"]:
                         if not found:
                             result["problem"] = ("the hidden tests gave no scores (the kernel "

@@ -118,9 +118,12 @@ def test_the_hidden_tests_are_not_in_the_sandbox(tmp_path):
     assert result["score"] == 6
 
 
-def test_the_notebooks_own_test_functions_are_not_run(tmp_path):
+def test_the_notebooks_own_test_functions_are_not_run_nor_its_stdout_needed(tmp_path):
+    # Its own test_* functions (one loops) and sys.stdout replaced: the scores still come back
+    # (through the kernel's file descriptor capture).
     answer = (fk3.RIGHT + "\ndef test_of_my_own():\n    while True:\n        pass\n"
-              "def test_a_table_you_have_not_seen():\n    pass\n")
+              "def test_a_table_you_have_not_seen():\n    pass\n"
+              "import io, sys\nsys.stdout = io.StringIO()\n")
     result = graded(tmp_path, answer, "--timeout", "30")
     assert result["problem"] == "" and result["score"] == 6, result
     assert [t["name"] for t in result["tests"]] == [
