@@ -294,7 +294,12 @@ int RunGradeNotebook(const std::vector<std::string>& args, std::ostream& out, st
       kGradeNotebookAbout);
   if (!parsed.Has("notebook")) throw core::UsageError("grade notebook: missing NOTEBOOK.ipynb");
   if (!parsed.Has("tests")) throw core::UsageError("grade notebook: missing --tests HIDDEN.py");
-  const std::string notebook = parsed.Values("notebook", -1).front();
+  const std::vector<std::string> notebooks = parsed.Values("notebook", -1);
+  if (notebooks.size() > 1) {
+    throw core::UsageError("grade notebook: more than one notebook ('" + notebooks[0] + "', '" +
+                           notebooks[1] + "'); allowed: one");
+  }
+  const std::string notebook = notebooks.front();
   const std::string tests = parsed.String("tests");
   if (!fs::is_regular_file(notebook)) {
     throw core::UsageError("grade notebook: '" + notebook + "' is not a file");

@@ -87,9 +87,12 @@ def test_a_kernel_that_dies_is_named_with_its_cell(tmp_path):
     assert all(t["message"].startswith("not run: the kernel died") for t in result["tests"])
 
 
-def test_the_network_is_refused_and_the_grade_goes_on(tmp_path):
-    result = graded(tmp_path, fk3.NETWORK)
+def test_the_network_is_refused_the_hidden_tests_absent_and_the_grade_goes_on(tmp_path):
+    probe = ("import os\nprint('hidden tests visible:', os.path.exists(%r))\n" % fk3.HIDDEN +
+             "print('config visible:', os.path.exists(%r))\n" % os.path.dirname(fk3.HIDDEN))
+    result = graded(tmp_path, probe + fk3.NETWORK)
     output = result["output"]
+    assert "hidden tests visible: False" in output and "config visible: False" in output, output
     assert "network ('1.1.1.1', 80) refused: PermissionError" in output, output
     assert "network ('127.0.0.1', 22) refused: PermissionError" in output, output
     assert [e["cell"] for e in result["cell_errors"]] == [2]
@@ -106,16 +109,6 @@ def test_megabytes_of_output_are_cut_and_deletes_stay_in_the_copy(tmp_path):
     assert len(result["output"].encode()) < 70 * 1024
     assert result["score"] == 6, result["tests"]
     assert (tmp_path / "submission.ipynb").exists()  # the student's file, not the copy
-
-
-def test_the_hidden_tests_are_not_in_the_sandbox(tmp_path):
-    answer = ("import os\nprint('hidden tests visible:', os.path.exists(%r))\n" % fk3.HIDDEN +
-              "print('config visible:', os.path.exists(%r))\n" % os.path.dirname(fk3.HIDDEN) +
-              fk3.RIGHT)
-    result = graded(tmp_path, answer)
-    assert "hidden tests visible: False" in result["output"], result["output"]
-    assert "config visible: False" in result["output"]
-    assert result["score"] == 6
 
 
 def test_the_notebooks_own_test_functions_are_not_run_nor_its_stdout_needed(tmp_path):
