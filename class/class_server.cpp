@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <mutex>
 #include <optional>
 #include <ostream>
@@ -12,6 +13,7 @@
 #include <thread>
 
 #include "class/front_auth.hpp"
+#include "class/notebook_submissions.hpp"
 #include "class/real_arm.hpp"
 #include "class/rig_job.hpp"
 #include "class/rig_pool.hpp"
@@ -219,6 +221,8 @@ struct ClassServer::Impl {
   // Students' controllers from the browser: store, builds, the grading worker (after the launcher,
   // so it ends first).
   std::unique_ptr<SubmissionService> submissions;
+  // Notebook assignments (class/notebook_submissions.hpp): store, the grading worker.
+  std::unique_ptr<NotebookSubmissionService> notebook_submissions;
   // Every student's rig: start, stop, idle, reattach, status (after the submissions: a rig asks
   // them for its controller).
   std::unique_ptr<RigPool> rigs;
@@ -255,6 +259,7 @@ struct ClassServer::Impl {
             .string();
     submissions = std::make_unique<SubmissionService>(
         config, submission_options, launcher, [this](const std::string& line) { Log(line); });
+    notebook_submissions = MakeNotebookSubmissions();
     RigPoolOptions pool_options;
     pool_options.bin_dir = options.bin_dir;
     pool_options.config_dir = options.config_dir;
@@ -287,6 +292,36 @@ struct ClassServer::Impl {
           },
           [this](const std::string& student) { return real_arm->Involved(student); });
     }
+  }
+
+  std::unique_ptr<NotebookSubmissionService> MakeNotebookSubmissions() {
+    NotebookSubmissionOptions notebook_options;
+    notebook_options.bin_dir = options.bin_dir;
+    try {
+      return std::make_unique<NotebookSubmissionService>(
+          config, notebook_options, launcher, [this](const std::string& line) { Log(line); });
+    } catch (const std::runtime_error& error) {  // a hidden tests file that cannot be read
+      throw std::runtime_error(config.file + ": notebooks: assignments: " + error.what());
+    }
+  }
+
+  // The counted controller grade of each student (percent), for the gradebook's CSV.
+  std::function<std::optional<double>(const std::string&)> ControllerScores() {
+    const Json grades = submissions->GradesJson();
+    std::map<std::string, double> scores;
+    for (const Json& row : grades.value("rows", Json::array())) {
+      const auto grade = row.find("grade");
+      if (grade == row.end() || !grade->is_object()) continue;
+      const auto score = grade->find("score");
+      if (score != grade->end() && score->is_number()) {
+        scores[row.value("student", "")] = score->get<double>();
+      }
+    }
+    return [scores](const std::string& student) -> std::optional<double> {
+      const auto found = scores.find(student);
+      if (found == scores.end()) return std::nullopt;
+      return found->second;
+    };
   }
 
   void Log(const std::string& line) {
@@ -538,6 +573,12 @@ struct ClassServer::Impl {
       rigs->Stop(name, "restarted with another controller");
       return rigs->Ensure(name);
     };
+    // Notebook assignments (class/notebook_submissions.hpp): submit, list, one result.
+    if (auto answer = notebook_submissions->StudentRoute(name, role == Role::kStudent,
+                                                         req.method, rest, req.body)) {
+      panel::Send(*answer, res);
+      return;
+    }
     if (auto answer = submissions->StudentRoute(name, role == Role::kStudent, req.method, rest,
                                                 req.body, restart)) {
       panel::Send(*answer, res);
@@ -549,6 +590,9 @@ struct ClassServer::Impl {
     }
     if (rest == "class.js" && ServeFileUnder(options.class_web_dir, "student.js", res)) return;
     if (rest == "submit.js" && ServeFileUnder(options.class_web_dir, "submit.js", res)) return;
+    if (rest == "assignments.js" && ServeFileUnder(options.class_web_dir, "assignments.js", res)) {
+      return;
+    }
     if (rest == "class.css" && ServeFileUnder(options.class_web_dir, "class.css", res)) return;
     for (const char* library : {"three", "dygraphs"}) {
       const std::string prefix = std::string("js/") + library + "/";
@@ -714,7 +758,18 @@ struct ClassServer::Impl {
       panel::Send(*answer, res);
       return;
     }
-    if (rest == "teacher.js" || rest == "class.css" || rest == "grades.js") {
+    if (rest == "api/notebook-grades" || rest == "grades.csv") {  // notebook assignments, CSV
+      if (req.method != "GET") {
+        SendError(res, 405, "/teacher/" + rest + ": allowed: GET");
+        return;
+      }
+      if (auto answer = notebook_submissions->TeacherRoute(rest, ControllerScores())) {
+        panel::Send(*answer, res);
+        return;
+      }
+    }
+    if (rest == "teacher.js" || rest == "class.css" || rest == "grades.js" ||
+        rest == "notebook_grades.js") {
       if (!ServeFileUnder(options.class_web_dir, rest, res)) SendError(res, 404, "no " + rest);
       return;
     }
@@ -887,7 +942,14 @@ struct ClassServer::Impl {
     server->Get(R"(/teacher/(.*))", teacher);
     server->Post(R"(/teacher/(.*))", teacher);
     server->set_error_handler([](const httplib::Request& req, httplib::Response& res) {
-      if (res.body.empty()) {
+      if (res.body.empty() && res.status == 413) {
+        // httplib's own limits: 1 MiB for a body, 8 KiB for one sent as a form
+        // (application/x-www-form-urlencoded, what a client sends when it names no type).
+        SendError(res, 413,
+                  core::Printable(req.path, 100) +
+                      ": the request's body is too large: allowed at most 1 MiB (8 KiB as a form; "
+                      "send a notebook as application/json)");
+      } else if (res.body.empty()) {
         SendError(res, res.status == 200 ? 404 : res.status,
                   "no such page: " + core::Printable(req.path, 100));
       }
@@ -921,6 +983,7 @@ void ClassServer::Stop() {
   impl_->rigs->BeginStop();  // no rig starts from now on; the monitor ends
   if (impl_->real_arm) impl_->real_arm->Stop();
   impl_->submissions->Stop();
+  impl_->notebook_submissions->Stop();
   impl_->rigs->StopAll("the class server stopped");
   impl_->gate.Stop(*impl_->server);
 }

@@ -59,7 +59,8 @@ packages=(
   # multi-host tests (network namespaces), process tools
   iproute2 procps
   # the Python module `sirupp` (pybind11 over the C++ libraries, numpy arrays), its pytest tests,
-  # the course notebooks (plots, headless execution in the suite, `sirupp notebook`)
+  # the course notebooks (plots, headless execution in the suite, `sirupp notebook`); nbclient and
+  # ipykernel also run notebook assignments in the grader's sandbox (`sirupp grade notebook`)
   pybind11-dev python3-dev python3-numpy python3-matplotlib python3-pytest
   python3-nbclient python3-nbformat python3-ipykernel jupyter-nbconvert jupyter-notebook
   # the class server: token hashes and randomness, HTTPS (libssl-dev); test certificates (openssl)

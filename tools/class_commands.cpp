@@ -1,12 +1,14 @@
 #include "tools/class_commands.hpp"
 
 #include <chrono>
+#include <stdexcept>
 #include <ostream>
 #include <thread>
 
 #include "class/class_config.hpp"
 #include "class/class_server.hpp"
 #include "core/errors.hpp"
+#include "grade/notebook_assignment.hpp"
 #include "runtime/args.hpp"
 #include "runtime/data_path.hpp"
 #include "runtime/process_main.hpp"
@@ -31,6 +33,29 @@ int RunClassCheck(const std::vector<std::string>& args, std::ostream& out) {
   const runtime::Args parsed(args, "class check", {ClassFileFlag()},
                              "Checks a class file; prints what it sets up.\n");
   const classroom::ClassConfig config = classroom::LoadClassConfig(parsed.String("class-file"));
+  // Notebook assignments: each one's hidden tests read as the server will (names, points).
+  std::string notebook_lines;
+  if (config.notebooks) {
+    for (const classroom::NotebookAssignment& assignment : config.notebooks->assignments) {
+      std::vector<grade::NotebookTest> tests;
+      try {
+        tests = grade::ReadNotebookTests(assignment.tests);
+      } catch (const std::runtime_error& error) {
+        throw core::UsageError(config.file + ": notebooks: assignments: " + assignment.name +
+                               ": " + error.what());
+      }
+      const std::string exposed = grade::HiddenTestsExposed(assignment.tests, ProgramDir());
+      if (!exposed.empty()) {
+        throw core::UsageError(config.file + ": notebooks: assignments: " + assignment.name +
+                               ": tests: " + exposed);
+      }
+      double points = 0;
+      for (const grade::NotebookTest& test : tests) points += test.points;
+      notebook_lines += "  notebook assignment " + assignment.name + ": " + assignment.notebook +
+                        ", " + std::to_string(tests.size()) + " hidden tests, " +
+                        core::FormatApprox(points) + " points\n";
+    }
+  }
   out << config.file << ": ok: class " << config.name << ", " << config.students.size()
       << " students, robot " << config.robot << ", at most " << config.max_rigs << " rigs ("
       << (config.pin_rigs ? "each on one CPU, " : "") << "sims pacing " << config.pace_ticks
@@ -44,6 +69,7 @@ int RunClassCheck(const std::vector<std::string>& args, std::ostream& out) {
   if (!config.grading_suite.empty()) {
     out << "  grading: " << config.grading_suite << "\n";
   }
+  out << notebook_lines;
   return 0;
 }
 

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <optional>
 #include <ostream>
 
@@ -12,6 +13,7 @@
 #include "core/model_loader.hpp"
 #include "grade/build_controller.hpp"
 #include "grade/grade.hpp"
+#include "grade/notebook_assignment.hpp"
 #include "grade/planning_assignment.hpp"
 #include "grade/report.hpp"
 #include "grade/result_file.hpp"
@@ -54,7 +56,24 @@ const char* const kGradeAbout =
     "FILE.py with plan(start, goal, scene) -> path: run in the sandbox per query, the path\n"
     "checked at the suite's finer resolution, then run on a rig with the environment, beside\n"
     "OMPL's reference.\n"
+    "sirupp grade notebook NOTEBOOK.ipynb --tests HIDDEN.py: a notebook assignment: every cell\n"
+    "run in a fresh python3 kernel in the sandbox, then the teacher's hidden tests (test_*\n"
+    "functions, @points(N)) in the same kernel; a table of the tests' scores (--json: the\n"
+    "result as JSON), OUT/result.json (docs/notebook-assignments.md).\n"
     "docs/grading.md.\n";
+
+const char* const kGradeNotebookAbout =
+    "Grades a notebook assignment (docs/notebook-assignments.md): copies NOTEBOOK.ipynb into\n"
+    "OUT/scratch/, runs every code cell in a fresh python3 kernel (nbclient) in the sandbox (no\n"
+    "network, /usr and the module read-only, only the copy's folder writable, --memory MB per\n"
+    "process, --timeout S for the whole run), errors and all, then the hidden tests of HIDDEN.py\n"
+    "in the same kernel: each top-level test_* function (its points from @points(N) above it,\n"
+    "default 1) passes when it returns. The hidden tests reach the sandbox on stdin only.\n"
+    "Prints one line per test (points, pass or the failing assert's message), the total, the\n"
+    "cells that raised and why the tests did not all run (a cell past the time limit, the\n"
+    "memory limit); --json prints the result as JSON instead. Writes OUT/result.json (default\n"
+    "OUT: grade-out). Exit 0 once graded (whatever the score), 2 for bad options or a bad\n"
+    "tests file.\n";
 
 const char* const kControllerBuildAbout =
     "Builds a controller library from one C++ file (or a few) written against\n"
@@ -257,7 +276,72 @@ int GradeBatchAsJobs(const ClusterBatch& batch, const std::string& out_dir,
 
 }  // namespace
 
+namespace {
+int RunGradeNotebook(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  const runtime::Args parsed(
+      args, "grade notebook",
+      {runtime::Flag("notebook", "the student's notebook").Positional("NOTEBOOK.ipynb", 0),
+       runtime::Flag("tests", "the teacher's hidden tests").Takes("HIDDEN.py"),
+       runtime::Flag("out", "result folder (default grade-out)").Takes("DIR"),
+       runtime::Flag("timeout", "seconds the whole run may take (default 120)")
+           .Takes("S")
+           .Above(0, 3600),
+       runtime::Flag("memory", "MB of address space per process (default 2048)")
+           .Takes("MB")
+           .Integer(256, 65536),
+       runtime::Flag("json", "print the result as JSON").Switch(),
+       runtime::Flag("no-sandbox", "run unconfined (your own notebooks only)").Switch()},
+      kGradeNotebookAbout);
+  if (!parsed.Has("notebook")) throw core::UsageError("grade notebook: missing NOTEBOOK.ipynb");
+  if (!parsed.Has("tests")) throw core::UsageError("grade notebook: missing --tests HIDDEN.py");
+  const std::vector<std::string> notebooks = parsed.Values("notebook", -1);
+  if (notebooks.size() > 1) {
+    throw core::UsageError("grade notebook: more than one notebook ('" + notebooks[0] + "', '" +
+                           notebooks[1] + "'); allowed: one");
+  }
+  const std::string notebook = notebooks.front();
+  const std::string tests = parsed.String("tests");
+  if (!fs::is_regular_file(notebook)) {
+    throw core::UsageError("grade notebook: '" + notebook + "' is not a file");
+  }
+  if (!fs::is_regular_file(tests)) {
+    throw core::UsageError("grade notebook: --tests '" + tests + "' is not a file");
+  }
+  grade::NotebookGradeOptions options;
+  options.bin_dir = BinDir();
+  options.work_dir = parsed.Has("out") ? parsed.String("out") : "grade-out";
+  options.timeout_s = parsed.Number("timeout", options.timeout_s);
+  options.memory_mb = static_cast<int>(parsed.Integer("memory", options.memory_mb));
+  options.sandbox = !parsed.Switch("no-sandbox");
+  try {
+    grade::ReadNotebookTests(tests);
+  } catch (const std::runtime_error& error) {
+    throw core::UsageError(std::string("grade notebook: ") + error.what());
+  }
+  const std::string exposed = grade::HiddenTestsExposed(tests, options.bin_dir);
+  if (!exposed.empty()) err << "grade notebook: warning: " << exposed << "\n";
+  fs::create_directories(options.work_dir);
+  const grade::NotebookResult result = grade::GradeNotebook(notebook, tests, options);
+  // Invalid UTF-8 (a log's tail in a problem) replaced, never a throw.
+  const std::string json = grade::NotebookResultJson(result).dump(
+      2, ' ', false, nlohmann::json::error_handler_t::replace);
+  {
+    std::ofstream file(fs::path(options.work_dir) / "result.json");
+    file << json << "\n";
+  }
+  if (parsed.Switch("json")) {
+    out << json << "\n";
+  } else {
+    out << notebook << "\n" << grade::NotebookResultTable(result);
+  }
+  return 0;
+}
+}  // namespace
+
 int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostream& err) {
+  if (!args.empty() && args.front() == "notebook") {
+    return RunGradeNotebook(std::vector<std::string>(args.begin() + 1, args.end()), out, err);
+  }
   // Everything after "--" is the process controller's command line, not ours.
   const auto dash = std::find(args.begin(), args.end(), std::string("--"));
   const std::vector<std::string> command(dash == args.end() ? dash : dash + 1, args.end());

@@ -103,3 +103,5 @@
 })();
 // Controllers from the browser (class/web/submit.js: submit, errors at their lines, run, grades).
 document.body.appendChild(Object.assign(document.createElement('script'), {src: 'submit.js'}));
+// Notebook assignments (class/web/assignments.js: submit a notebook, its scores and output).
+document.body.appendChild(Object.assign(document.createElement('script'), {src: 'assignments.js'}));
