@@ -151,9 +151,10 @@ std::vector<NotebookTest> ReadNotebookTests(const std::string& tests_file) {
 }
 
 std::string HiddenTestsExposed(const std::string& tests_file, const std::string& bin_dir) {
-  const fs::path file = fs::weakly_canonical(fs::absolute(tests_file));
+  const fs::path file = fs::weakly_canonical(fs::absolute(tests_file)).lexically_normal();
   const auto under = [&file](const fs::path& folder) {
-    const fs::path relative = file.lexically_relative(fs::weakly_canonical(folder));
+    const fs::path relative =
+        file.lexically_relative(fs::weakly_canonical(folder).lexically_normal());
     return !relative.empty() && *relative.begin() != "..";
   };
   if (under("/usr")) {

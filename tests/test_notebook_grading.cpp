@@ -120,7 +120,12 @@ TEST(NotebookTestsFileTest, TestsASandboxCouldReadAreNamed) {
   const std::string usr = grade::HiddenTestsExposed("/usr/share/sirupp/config/x.py", "build/bin");
   EXPECT_NE(usr.find("is under /usr, which every student's sandbox reads"), std::string::npos)
       << usr;
-  EXPECT_NE(grade::HiddenTestsExposed("build/python/sirupp/t.py", "build/bin")
+  // A build folder of its own (the test's may be build/, build2/ or build-asan/).
+  const fs::path build = fs::path(::testing::TempDir()) / "exposed-build";
+  fs::create_directories(build / "bin");
+  fs::create_directories(build / "python" / "sirupp");
+  EXPECT_NE(grade::HiddenTestsExposed((build / "python" / "sirupp" / "t.py").string(),
+                                      (build / "bin").string())
                 .find("the Python module's folder"),
             std::string::npos);
   EXPECT_NE(grade::HiddenTestsExposed("config/robots/t.py", "build/bin").find("robot models"),
