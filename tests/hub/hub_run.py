@@ -283,17 +283,46 @@ def run_code(hub, name, token, code, timeout=60):
     async def talk():
         url = f"ws://127.0.0.1:{hub.hub_port}/user/{name}/api/kernels/{kernel['id']}/channels"
         ws = await websocket_connect(HTTPRequest(url, headers={"Authorization": f"token {token}"}))
-        msg_id = uuid.uuid4().hex
-        ws.write_message(json.dumps({
-            "header": {"msg_id": msg_id, "username": name, "session": uuid.uuid4().hex,
-                       "msg_type": "execute_request", "version": "5.3"},
-            "parent_header": {}, "metadata": {}, "channel": "shell",
-            "content": {"code": code, "silent": False, "store_history": False,
-                        "user_expressions": {}, "allow_stdin": False, "stop_on_error": True}}))
-        out, error, reply = [], [], None
+        session = uuid.uuid4().hex
+
+        def send(kind, content):
+            msg_id = uuid.uuid4().hex
+            ws.write_message(json.dumps({
+                "header": {"msg_id": msg_id, "username": name, "session": session,
+                           "msg_type": kind, "version": "5.3"},
+                "parent_header": {}, "metadata": {}, "channel": "shell", "content": content}))
+            return msg_id
+
+        # A message sent while the kernel is still starting may be lost: ask for kernel_info
+        # until it answers, then run the code.
         deadline = time.time() + timeout
+        ready = False
+        while not ready and time.time() < deadline:
+            info = send("kernel_info_request", {})
+            until = time.time() + 2
+            while time.time() < until:
+                try:
+                    text = await asyncio.wait_for(ws.read_message(), until - time.time())
+                except asyncio.TimeoutError:
+                    break
+                if text is None:
+                    raise AssertionError("the kernel's WebSocket closed")
+                message = json.loads(text)
+                if (message.get("parent_header", {}).get("msg_id") == info and
+                        message["msg_type"] == "kernel_info_reply"):
+                    ready = True
+                    break
+        assert ready, f"{name}'s kernel did not answer kernel_info in {timeout} s"
+        msg_id = send("execute_request", {"code": code, "silent": False, "store_history": False,
+                                          "user_expressions": {}, "allow_stdin": False,
+                                          "stop_on_error": True})
+        out, error, reply, idle = [], [], None, False
         while time.time() < deadline:
-            text = await asyncio.wait_for(ws.read_message(), max(0.1, deadline - time.time()))
+            try:
+                text = await asyncio.wait_for(ws.read_message(), max(0.1, deadline - time.time()))
+            except asyncio.TimeoutError:
+                error.append(f"no reply within {timeout} s")
+                break
             if text is None:
                 break
             message = json.loads(text)
@@ -306,7 +335,10 @@ def run_code(hub, name, token, code, timeout=60):
                 error.append("\n".join(message["content"]["traceback"]))
             elif kind == "execute_reply":
                 reply = message["content"]["status"]
-            elif kind == "status" and message["content"]["execution_state"] == "idle" and reply:
+            elif kind == "status" and message["content"]["execution_state"] == "idle":
+                idle = True
+            # The reply (shell) and the idle status (iopub) come in either order.
+            if reply and idle:
                 break
         ws.close()
         return reply, "".join(out), re.sub(r"\x1b\[[0-9;]*m", "", "\n".join(error))
