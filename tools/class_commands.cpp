@@ -50,6 +50,9 @@ const char* const kNotebooksAbout =
 bool PortFree(int port) {
   const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
   if (fd < 0) return false;
+  // As a server binds: a port a stopped hub left in TIME_WAIT is free.
+  const int reuse = 1;
+  ::setsockopt(fd, SOL_SOCKET, SO_REUSEADDR, &reuse, sizeof reuse);
   sockaddr_in address{};
   address.sin_family = AF_INET;
   address.sin_port = htons(static_cast<uint16_t>(port));
@@ -93,7 +96,11 @@ int RunClassNotebooks(const std::vector<std::string>& args, std::ostream& out) {
        runtime::Flag("poll-interval", "seconds between the hub's checks of each server (default: "
                                       "a quarter of notebooks.idle_timeout_s, 2 to 30)")
            .Takes("S")
-           .Range(0.5, 300)},
+           .Range(0.5, 300),
+       runtime::Flag("idle-timeout", "override notebooks.idle_timeout_s (tests: below its 60 s "
+                                     "minimum)")
+           .Takes("S")
+           .Range(1, 604800)},
       kNotebooksAbout);
   const classroom::ClassConfig config = classroom::LoadClassConfig(parsed.String("class-file"));
   if (!config.notebooks) {
@@ -101,7 +108,8 @@ int RunClassNotebooks(const std::vector<std::string>& args, std::ostream& out) {
                            ": no notebooks: key; add one with hub_url and hub_port "
                            "(docs/notebooks.md) to give the class notebooks");
   }
-  const classroom::NotebooksConfig& notebooks = *config.notebooks;
+  classroom::NotebooksConfig notebooks = *config.notebooks;
+  if (parsed.Has("idle-timeout")) notebooks.idle_timeout_s = parsed.Number("idle-timeout", 0);
   if (notebooks.hub_url.empty()) {
     throw core::UsageError(config.file +
                            ": notebooks.hub_url is not set: the hub needs the address browsers "

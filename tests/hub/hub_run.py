@@ -106,13 +106,14 @@ class HubRun:
             server_yaml=(f"{{port: {class_port}, trusted_proxy: 127.0.0.1, "
                          "proxy_secret_file: front.secret, proxy_teachers: [jsmith]}"),
             extra_yaml=(f"notebooks: {{hub_url: 'http://127.0.0.1:{self.hub_port}', "
-                        f"hub_port: {self.hub_port}, idle_timeout_s: {idle_timeout_s}"
+                        f"hub_port: {self.hub_port}, idle_timeout_s: {max(60, idle_timeout_s)}"
                         f"{folder}}}\n"))
         secret = os.path.join(self.cls.work, "front.secret")
         with open(os.open(secret, os.O_WRONLY | os.O_CREAT, 0o600), "w") as out:
             out.write(FRONT_SECRET + "\n")
         self.work = self.cls.work
         self.poll_interval_s = poll_interval_s
+        self.idle_timeout_s = idle_timeout_s
         self.hub_base = f"http://127.0.0.1:{self.hub_port}"
         self.hub = None
         self.hub_logs = []
@@ -131,6 +132,8 @@ class HubRun:
         command = [os.path.join(self.bin, "sirupp"), "class", "notebooks", self.cls.class_file]
         if self.poll_interval_s:
             command += ["--poll-interval", str(self.poll_interval_s)]
+        if self.idle_timeout_s < 60:  # below the class file's minimum: the test's override
+            command += ["--idle-timeout", str(self.idle_timeout_s)]
         with open(log, "w") as out:
             self.hub = subprocess.Popen(command, stdout=out, stderr=subprocess.STDOUT,
                                         stdin=subprocess.DEVNULL, start_new_session=True)
