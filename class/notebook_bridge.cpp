@@ -62,6 +62,8 @@ struct Side {
   static void OnMessage(const lcm_recv_buf_t* buffer, const char* channel, void* user) {
     auto* self = static_cast<Side*>(user);
     const std::string name(channel);
+    // LCM's udpm self-test of each new instance on the bus: that instance's own, never carried.
+    if (name == "LCM_SELF_TEST") return;
     const std::string data(static_cast<const char*>(buffer->data), buffer->data_size);
     if (self->echo.IsEcho(name, data, EchoFilter::Clock::now())) return;
     if (self->peer < 0 || data.size() > kMaxFrameData || name.empty() || name.size() > 255) return;

@@ -10,7 +10,8 @@
 //
 // No echo: a message a bridge publishes comes back to its own subscription (LCM loops udpm and
 // memq back to the sender); each bridge remembers what it just published (channel and bytes, for
-// 2 s) and does not send that back over the socket.
+// 2 s) and does not send that back over the socket. LCM's self-test messages (LCM_SELF_TEST,
+// each udpm instance's own) are not carried.
 //
 // Frames on the socket: "SLB1", channel length (u32, big-endian), data length (u32), channel,
 // data. A channel is 1 to 255 bytes, data at most kMaxFrameData; a bad frame ends the connection
