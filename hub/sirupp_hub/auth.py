@@ -31,6 +31,11 @@ def request_peer(request):
 
 
 class SiruppLoginHandler(BaseHandler):
+    def append_query_parameters(self, url, exclude=None):
+        # The token stays out of the addresses the browser is sent on to (and their history).
+        return super().append_query_parameters(
+            url, exclude=list(exclude or []) + ["student", "token"])
+
     async def get(self):
         data = {"student": self.get_argument("student", ""),
                 "token": self.get_argument("token", "")}

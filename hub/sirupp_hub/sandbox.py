@@ -30,7 +30,7 @@ def bwrap_arguments(home, run_dir, etc_dir, read_only, command):
     the made-up /etc files in `etc_dir` (passwd, group) and the project's `read_only` folders."""
     args = ["/usr/bin/bwrap",
             "--unshare-user", "--uid", str(INSIDE_UID), "--gid", str(INSIDE_UID),
-            "--unshare-pid", "--unshare-ipc", "--unshare-uts", "--hostname", "notebook",
+            "--unshare-pid", "--unshare-ipc", "--unshare-uts",
             "--die-with-parent", "--new-session", "--cap-drop", "ALL",
             "--ro-bind", "/usr", "/usr",
             "--symlink", "usr/bin", "/bin", "--symlink", "usr/sbin", "/sbin",
