@@ -71,7 +71,9 @@ class Session:
         Referer JupyterHub wants of cookie-authenticated API calls) or a token."""
         headers = {"Referer": self.hub.hub_base + "/hub/", "Accept": "application/json",
                    **self.headers}
-        if token:
+        if token and "Authorization" in headers:  # a front's password: the token in the query
+            path += ("&" if "?" in path else "?") + "token=" + token
+        elif token:
             headers["Authorization"] = f"token {token}"
         data = json.dumps(body).encode() if body is not None else None
         if data is not None:
@@ -273,19 +275,27 @@ class HubRun:
         self.cls.clean()
 
 
-def run_code(hub, name, token, code, timeout=60):
+def run_code(hub, name, token, code, timeout=60, authorization=None):
     """Runs `code` in a new kernel of name's server over the hub's WebSocket; returns (status of
-    the reply, the text printed, the error's text). The kernel is shut down after."""
+    the reply, the text printed, the error's text). The kernel is shut down after. With
+    `authorization` (a front's password) that is the Authorization header and the token goes in
+    the query."""
     from tornado.httpclient import HTTPRequest
     from tornado.websocket import websocket_connect
 
-    status, kernel = Session(hub).api("POST", f"/user/{name}/api/kernels", {"name": "python3"},
-                                      token=token)
+    def session():
+        return Session(hub, {"Authorization": authorization} if authorization else None)
+
+    status, kernel = session().api("POST", f"/user/{name}/api/kernels", {"name": "python3"},
+                                   token=token)
     assert status in (200, 201), f"kernel for {name}: {status} {kernel}"
 
     async def talk():
         url = f"ws://127.0.0.1:{hub.hub_port}/user/{name}/api/kernels/{kernel['id']}/channels"
-        ws = await websocket_connect(HTTPRequest(url, headers={"Authorization": f"token {token}"}))
+        if authorization:
+            url += "?token=" + token
+        ws = await websocket_connect(HTTPRequest(url, headers={
+            "Authorization": authorization or f"token {token}"}))
         session = uuid.uuid4().hex
 
         def send(kind, content):
@@ -349,4 +359,4 @@ def run_code(hub, name, token, code, timeout=60):
     try:
         return asyncio.run(talk())
     finally:
-        Session(hub).api("DELETE", f"/user/{name}/api/kernels/{kernel['id']}", token=token)
+        session().api("DELETE", f"/user/{name}/api/kernels/{kernel['id']}", token=token)
