@@ -10,7 +10,8 @@ temporary folder), all stopped at the end, also after a failure.
     a move; the class server's API for alice's rig shows the arm at the goal, bob's rig did not
     move; a private rig (sirupp.start_rig()) works inside the sandbox;
 (c) sandbox probes from inside a kernel: uid 1000, no capabilities, only `lo`, no route out, the
-    hub's ports refused, no other student's folder, no route change, a nested sandbox works.
+    hub's ports refused, no other student's folder, no route change, a nested sandbox works, and
+    the course's notebook 07 (a controller in the project's own sandbox) runs.
 
 Usage: hub_test.py BIN_DIR SOURCE_DIR"""
 
@@ -61,11 +62,21 @@ r["data_dir"] = os.path.exists(%r)
 r["bob_folder"] = os.path.exists(%r)
 p = subprocess.run(["ip", "route", "add", "10.0.0.0/8", "dev", "lo"], capture_output=True, text=True)
 r["route_add"] = [p.returncode, p.stderr.strip()]
-p = subprocess.run(["bwrap", "--unshare-user", "--unshare-net", "--ro-bind", "/usr", "/usr",
-                    "--symlink", "usr/lib", "/lib", "--symlink", "usr/lib64", "/lib64",
-                    "--symlink", "usr/bin", "/bin", "/usr/bin/true"], capture_output=True, text=True)
+p = subprocess.run(["bwrap", "--unshare-all", "--ro-bind", "/usr", "/usr", "--proc", "/proc",
+                    "--dev", "/dev", "--symlink", "usr/lib", "/lib", "--symlink", "usr/lib64",
+                    "/lib64", "--symlink", "usr/bin", "/bin", "/usr/bin/true"],
+                   capture_output=True, text=True)
 r["nested"] = [p.returncode, p.stderr.strip()]
 print("PROBES " + json.dumps(r))
+"""
+
+
+COURSE_07 = """
+import subprocess
+p = subprocess.run(["jupyter", "nbconvert", "--to", "notebook", "--execute", "--output-dir",
+                    "/tmp/out", "--ExecutePreprocessor.timeout=120",
+                    "/home/student/notebooks/07_your_controller.ipynb"], capture_output=True, text=True)
+print("07", p.returncode, p.stderr[-600:] if p.returncode else "")
 """
 
 
@@ -156,7 +167,13 @@ def main(bin_dir, source_dir):
         check(not r["data_dir"] and not r["bob_folder"] and r["home"] == ["student"],
               f"no other student's folder: /home {r['home']}, data {r['data_dir']}")
         check(r["route_add"][0] != 0, f"the route cannot be changed: {r['route_add']}")
-        check(r["nested"][0] == 0, f"a nested sandbox (bwrap) works inside: {r['nested']}")
+        check(r["nested"][0] == 0, f"a nested sandbox (bwrap --unshare-all, its own /proc) works "
+                                   f"inside: {r['nested']}")
+        # The course's notebook 07 runs a controller in the project's own sandbox, inside this one.
+        reply, out, error = run_code(hub, "alice", token, COURSE_07, timeout=150)
+        check(reply == "ok" and "07 0" in out,
+              f"notebook 07 (the project's sandbox nested) runs in alice's sandbox: {out[-600:]} "
+              f"{error[-300:]}")
         ok = True
     finally:
         if not ok:
