@@ -47,6 +47,41 @@ bool IsTokenText(const std::string& token) {
          });
 }
 
+// whoami by a student's class token (no front header came): the student it names.
+panel::Response WhoByToken(const HubApiContext& context, const std::string& client,
+                           const std::string& student, const std::string& token) {
+  using Clock = BadTokenThrottle::Clock;
+  if (student.empty() && token.empty()) {
+    return panel::ErrorResponse(
+        403, "not signed in: open Notebooks from your page on the class server (the address "
+             "with your token that your teacher gave you)");
+  }
+  const std::string who = core::Printable(student, 40);
+  const bool on_roster = std::find(context.config.students.begin(), context.config.students.end(),
+                                   student) != context.config.students.end();
+  if (!IsTokenText(token) || token.empty()) {
+    context.throttle.Failed(client, student, Clock::now());
+    return panel::ErrorResponse(403, "'" + core::Printable(token, 60) +
+                                         "' is not a token; allowed: the letters and digits of "
+                                         "the address your teacher gave you");
+  }
+  if (!on_roster) {
+    context.throttle.Failed(client, student, Clock::now());
+    return panel::ErrorResponse(403, "you are signed in as '" + who +
+                                         "', who is not on the roster of the class " +
+                                         context.config.name + "; ask your teacher");
+  }
+  if (!context.tokens.Check(student, token)) {
+    context.throttle.Failed(client, student, Clock::now());
+    context.log("hub: refused a bad token for " + student + " from " +
+                core::Printable(client, 60));
+    return panel::ErrorResponse(403, "this token does not open " + who + "'s notebooks");
+  }
+  context.throttle.Succeeded(client, student);
+  context.log("hub: " + student + " signed in (token)");
+  return JsonResponse(200, Json{{"name", student}});
+}
+
 panel::Response WhoAmI(const HubApiContext& context, const std::string& text) {
   using Clock = BadTokenThrottle::Clock;
   const Json body = Json::parse(text.empty() ? "{}" : text, nullptr, false);
@@ -117,35 +152,7 @@ panel::Response WhoAmI(const HubApiContext& context, const std::string& text) {
                                          context.config.name + "; ask your teacher");
   }
   // No front header: the student's class token, for the student it names.
-  if (student.empty() && token.empty()) {
-    return panel::ErrorResponse(
-        403, "not signed in: open Notebooks from your page on the class server (the address "
-             "with your token that your teacher gave you)");
-  }
-  const std::string who = core::Printable(student, 40);
-  const bool on_roster = std::find(context.config.students.begin(), context.config.students.end(),
-                                   student) != context.config.students.end();
-  if (!IsTokenText(token) || token.empty()) {
-    context.throttle.Failed(client, student, Clock::now());
-    return panel::ErrorResponse(403, "'" + core::Printable(token, 60) +
-                                         "' is not a token; allowed: the letters and digits of "
-                                         "the address your teacher gave you");
-  }
-  if (!on_roster) {
-    context.throttle.Failed(client, student, Clock::now());
-    return panel::ErrorResponse(403, "you are signed in as '" + who +
-                                         "', who is not on the roster of the class " +
-                                         context.config.name + "; ask your teacher");
-  }
-  if (!context.tokens.Check(student, token)) {
-    context.throttle.Failed(client, student, Clock::now());
-    context.log("hub: refused a bad token for " + student + " from " +
-                core::Printable(client, 60));
-    return panel::ErrorResponse(403, "this token does not open " + who + "'s notebooks");
-  }
-  context.throttle.Succeeded(client, student);
-  context.log("hub: " + student + " signed in (token)");
-  return JsonResponse(200, Json{{"name", student}});
+  return WhoByToken(context, client, student, token);
 }
 
 panel::Response RigRoute(const HubApiContext& context, const std::string& student,

@@ -85,6 +85,95 @@ std::string HubPackageDir() {
   return dir.string();
 }
 
+// The refusals of `sirupp class notebooks`, each one line naming what to change.
+void CheckHubCanRun(const classroom::ClassConfig& config,
+                    const classroom::NotebooksConfig& notebooks, const std::string& jupyterhub) {
+  if (notebooks.hub_url.empty()) {
+    throw core::UsageError(config.file +
+                           ": notebooks.hub_url is not set: the hub needs the address browsers "
+                           "reach it at (its own hostname, docs/notebooks.md)");
+  }
+  if (config.port == 0) {
+    throw core::UsageError(config.file +
+                           ": server.port is 0 (any free port): the hub must know the class "
+                           "server's port; give it a fixed one");
+  }
+  if (::access(jupyterhub.c_str(), X_OK) != 0) {
+    throw core::UsageError(jupyterhub +
+                           ": not installed (JupyterHub 3.0 from Debian 12: apt-get install "
+                           "jupyterhub, or scripts/install-deps.sh --services)");
+  }
+  if (::access("/usr/bin/configurable-http-proxy", X_OK) != 0) {
+    throw core::UsageError(
+        "/usr/bin/configurable-http-proxy: not installed (apt-get install "
+        "node-configurable-http-proxy)");
+  }
+  const std::pair<int, const char*> ports[] = {{notebooks.hub_port, "the hub's proxy"},
+                                               {notebooks.hub_port + 1, "the hub's API"},
+                                               {notebooks.hub_port + 2, "the proxy's API"}};
+  for (const auto& [port, what] : ports) {
+    if (port > 65535 || !PortFree(port)) {
+      throw core::UsageError(config.file + ": notebooks.hub_port " +
+                             std::to_string(notebooks.hub_port) + ": port " +
+                             std::to_string(port) + " (" + what +
+                             ") is in use on 127.0.0.1 (a hub already running, or another "
+                             "program); the hub takes hub_port, hub_port+1 and hub_port+2");
+    }
+  }
+}
+
+// DATA/hub/hub.json: what hub/sirupp_hub reads (config.py, spawner.py).
+nlohmann::json HubSettings(const classroom::ClassConfig& config,
+                           const classroom::NotebooksConfig& notebooks, const std::string& hub_dir,
+                           double poll) {
+  const std::string listen =
+      config.listen == "0.0.0.0" || config.listen == "::" ? "127.0.0.1" : config.listen;
+  const std::string host = listen.find(':') != std::string::npos ? "[" + listen + "]" : listen;
+  return nlohmann::json{
+      {"class_name", config.name},
+      {"class_url", std::string(config.tls_cert.empty() ? "http" : "https") + "://" + host + ":" +
+                        std::to_string(config.port)},
+      {"hub_secret_file", classroom::HubSecretFile(config)},
+      {"data_dir", config.data_dir},
+      {"students_dir", config.data_dir + "/students"},
+      {"run_dir", hub_dir + "/run"},
+      {"notebooks_dir", notebooks.folder},
+      {"idle_timeout_s", notebooks.idle_timeout_s},
+      {"memory_mb", notebooks.memory_mb},
+      {"processes", notebooks.processes},
+      {"hub_url", notebooks.hub_url},
+      {"hub_port", notebooks.hub_port},
+      {"hub_api_host", "127.0.0.1"},
+      {"hub_api_port", notebooks.hub_port + 1},
+      {"proxy_api_port", notebooks.hub_port + 2},
+      {"poll_interval_s", poll},
+      {"bin_dir", ProgramDir()},
+      {"python_dir", SiruppPythonDir()},
+      {"hub_dir", HubPackageDir()},
+      {"user_header", config.front ? config.front->user_header : ""}};
+}
+
+// Becomes /usr/bin/jupyterhub in DATA/hub (throws only when it cannot).
+void ExecHub(const std::string& jupyterhub, const std::string& hub_dir,
+             const std::string& config_file) {
+  // Debian's proxy finds its modules only with NODE_PATH when another node is first on PATH
+  // (NodeSource's); the classic notebook server, even when jupyter-server is installed.
+  const char* node_path = std::getenv("NODE_PATH");
+  const std::string nodes = std::string("/usr/share/nodejs:/usr/lib/nodejs") +
+                            (node_path && *node_path ? std::string(":") + node_path : "");
+  ::setenv("NODE_PATH", nodes.c_str(), 1);
+  ::setenv("JUPYTERHUB_SINGLEUSER_APP", "notebook.notebookapp.NotebookApp", 1);
+  if (::chdir(hub_dir.c_str()) != 0) {
+    throw core::UsageError(hub_dir + ": cannot enter: " + std::strerror(errno));
+  }
+  std::vector<std::string> argv_text = {jupyterhub, "-f", config_file};
+  std::vector<char*> argv;
+  for (std::string& word : argv_text) argv.push_back(word.data());
+  argv.push_back(nullptr);
+  ::execv(jupyterhub.c_str(), argv.data());
+  throw core::UsageError(jupyterhub + ": cannot run: " + std::strerror(errno));
+}
+
 }  // namespace
 
 int RunClassNotebooks(const std::vector<std::string>& args, std::ostream& out) {
@@ -110,72 +199,17 @@ int RunClassNotebooks(const std::vector<std::string>& args, std::ostream& out) {
   }
   classroom::NotebooksConfig notebooks = *config.notebooks;
   if (parsed.Has("idle-timeout")) notebooks.idle_timeout_s = parsed.Number("idle-timeout", 0);
-  if (notebooks.hub_url.empty()) {
-    throw core::UsageError(config.file +
-                           ": notebooks.hub_url is not set: the hub needs the address browsers "
-                           "reach it at (its own hostname, docs/notebooks.md)");
-  }
-  if (config.port == 0) {
-    throw core::UsageError(config.file +
-                           ": server.port is 0 (any free port): the hub must know the class "
-                           "server's port; give it a fixed one");
-  }
   const std::string jupyterhub =
       parsed.Has("jupyterhub") ? parsed.String("jupyterhub") : "/usr/bin/jupyterhub";
-  if (::access(jupyterhub.c_str(), X_OK) != 0) {
-    throw core::UsageError(jupyterhub +
-                           ": not installed (JupyterHub 3.0 from Debian 12: apt-get install "
-                           "jupyterhub, or scripts/install-deps.sh --services)");
-  }
-  if (::access("/usr/bin/configurable-http-proxy", X_OK) != 0) {
-    throw core::UsageError(
-        "/usr/bin/configurable-http-proxy: not installed (apt-get install "
-        "node-configurable-http-proxy)");
-  }
-  const std::pair<int, const char*> ports[] = {{notebooks.hub_port, "the hub's proxy"},
-                                               {notebooks.hub_port + 1, "the hub's API"},
-                                               {notebooks.hub_port + 2, "the proxy's API"}};
-  for (const auto& [port, what] : ports) {
-    if (port > 65535 || !PortFree(port)) {
-      throw core::UsageError(config.file + ": notebooks.hub_port " +
-                             std::to_string(notebooks.hub_port) + ": port " +
-                             std::to_string(port) + " (" + what +
-                             ") is in use on 127.0.0.1 (a hub already running, or another "
-                             "program); the hub takes hub_port, hub_port+1 and hub_port+2");
-    }
-  }
+  CheckHubCanRun(config, notebooks, jupyterhub);
   classroom::EnsureHubSecret(config);
   const std::string hub_dir = config.data_dir + "/hub";
   fs::create_directories(hub_dir + "/run");
   fs::permissions(hub_dir, fs::perms::owner_all, fs::perm_options::replace);
-  const std::string listen =
-      config.listen == "0.0.0.0" || config.listen == "::" ? "127.0.0.1" : config.listen;
-  const std::string host = listen.find(':') != std::string::npos ? "[" + listen + "]" : listen;
   const double poll = parsed.Has("poll-interval")
                           ? parsed.Number("poll-interval", 30)
                           : std::max(2.0, std::min(30.0, notebooks.idle_timeout_s / 4));
-  const nlohmann::json settings{
-      {"class_name", config.name},
-      {"class_url", std::string(config.tls_cert.empty() ? "http" : "https") + "://" + host + ":" +
-                        std::to_string(config.port)},
-      {"hub_secret_file", classroom::HubSecretFile(config)},
-      {"data_dir", config.data_dir},
-      {"students_dir", config.data_dir + "/students"},
-      {"run_dir", hub_dir + "/run"},
-      {"notebooks_dir", notebooks.folder},
-      {"idle_timeout_s", notebooks.idle_timeout_s},
-      {"memory_mb", notebooks.memory_mb},
-      {"processes", notebooks.processes},
-      {"hub_url", notebooks.hub_url},
-      {"hub_port", notebooks.hub_port},
-      {"hub_api_host", "127.0.0.1"},
-      {"hub_api_port", notebooks.hub_port + 1},
-      {"proxy_api_port", notebooks.hub_port + 2},
-      {"poll_interval_s", poll},
-      {"bin_dir", ProgramDir()},
-      {"python_dir", SiruppPythonDir()},
-      {"hub_dir", HubPackageDir()},
-      {"user_header", config.front ? config.front->user_header : ""}};
+  const nlohmann::json settings = HubSettings(config, notebooks, hub_dir, poll);
   const std::string settings_file = hub_dir + "/hub.json";
   std::ofstream(settings_file) << settings.dump(2) << "\n";
   const std::string config_file = hub_dir + "/jupyterhub_config.py";
@@ -189,22 +223,8 @@ int RunClassNotebooks(const std::vector<std::string>& args, std::ostream& out) {
       << notebooks.hub_port << " (browsers: " << notebooks.hub_url << "), the class server at "
       << settings["class_url"].get<std::string>() << ", configuration " << config_file
       << std::endl;
-  // Debian's proxy finds its modules only with NODE_PATH when another node is first on PATH
-  // (NodeSource's); the classic notebook server, even when jupyter-server is installed.
-  const char* node_path = std::getenv("NODE_PATH");
-  const std::string nodes = std::string("/usr/share/nodejs:/usr/lib/nodejs") +
-                            (node_path && *node_path ? std::string(":") + node_path : "");
-  ::setenv("NODE_PATH", nodes.c_str(), 1);
-  ::setenv("JUPYTERHUB_SINGLEUSER_APP", "notebook.notebookapp.NotebookApp", 1);
-  if (::chdir(hub_dir.c_str()) != 0) {
-    throw core::UsageError(hub_dir + ": cannot enter: " + std::strerror(errno));
-  }
-  std::vector<std::string> argv_text = {jupyterhub, "-f", config_file};
-  std::vector<char*> argv;
-  for (std::string& word : argv_text) argv.push_back(word.data());
-  argv.push_back(nullptr);
-  ::execv(jupyterhub.c_str(), argv.data());
-  throw core::UsageError(jupyterhub + ": cannot run: " + std::strerror(errno));
+  ExecHub(jupyterhub, hub_dir, config_file);
+  return 1;  // ExecHub returns only by throwing
 }
 
 int RunClassCheck(const std::vector<std::string>& args, std::ostream& out) {
