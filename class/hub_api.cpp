@@ -53,8 +53,9 @@ panel::Response WhoByToken(const HubApiContext& context, const std::string& clie
   using Clock = BadTokenThrottle::Clock;
   if (student.empty() && token.empty()) {
     return panel::ErrorResponse(
-        403, "not signed in: open Notebooks from your page on the class server (the address "
-             "with your token that your teacher gave you)");
+        403,
+        "not signed in: open Notebooks from your page on the class server (the address "
+        "with your token that your teacher gave you)");
   }
   const std::string who = core::Printable(student, 40);
   const bool on_roster = std::find(context.config.students.begin(), context.config.students.end(),
@@ -73,8 +74,7 @@ panel::Response WhoByToken(const HubApiContext& context, const std::string& clie
   }
   if (!context.tokens.Check(student, token)) {
     context.throttle.Failed(client, student, Clock::now());
-    context.log("hub: refused a bad token for " + student + " from " +
-                core::Printable(client, 60));
+    context.log("hub: refused a bad token for " + student + " from " + core::Printable(client, 60));
     return panel::ErrorResponse(403, "this token does not open " + who + "'s notebooks");
   }
   context.throttle.Succeeded(client, student);
@@ -103,8 +103,8 @@ panel::Response WhoAmI(const HubApiContext& context, const std::string& text) {
     if (!headers.is_object()) return panel::ErrorResponse(400, "headers: expected an object");
     for (const auto& [name, value] : headers.items()) {
       if (!value.is_string()) {
-        return panel::ErrorResponse(400, "headers." + core::Printable(name, 40) +
-                                             ": expected a string");
+        return panel::ErrorResponse(400,
+                                    "headers." + core::Printable(name, 40) + ": expected a string");
       }
     }
   }
@@ -143,8 +143,7 @@ panel::Response WhoAmI(const HubApiContext& context, const std::string& text) {
     }
     if (role == "teacher") {
       return panel::ErrorResponse(
-          403, "you are signed in as '" + who + "', a teacher of the class " +
-                   context.config.name +
+          403, "you are signed in as '" + who + "', a teacher of the class " + context.config.name +
                    ": notebook servers are for the class's students (your page: /teacher/)");
     }
     return panel::ErrorResponse(403, "you are signed in as '" + who +
@@ -156,7 +155,7 @@ panel::Response WhoAmI(const HubApiContext& context, const std::string& text) {
 }
 
 panel::Response RigRoute(const HubApiContext& context, const std::string& student,
-                    const std::string& verb) {
+                         const std::string& verb) {
   if (!context.rigs.Has(student)) {
     return panel::ErrorResponse(404, "no student '" + core::Printable(student, 40) +
                                          "' in the class " + context.config.name);
@@ -169,8 +168,9 @@ panel::Response RigRoute(const HubApiContext& context, const std::string& studen
   if (url.empty()) {
     // A rig job's bus is on its node: no bridge reaches it yet.
     return panel::ErrorResponse(
-        503, student + "'s rig is not on this server's bus (a cluster job, or not ready yet): "
-                       "notebooks drive only the class server's local rigs");
+        503, student +
+                 "'s rig is not on this server's bus (a cluster job, or not ready yet): "
+                 "notebooks drive only the class server's local rigs");
   }
   return JsonResponse(200, Json{{"name", student}, {"state", "running"}, {"lcm_url", url}});
 }

@@ -23,7 +23,8 @@ constexpr size_t kHeader = 12;
 constexpr size_t kMaxPendingOut = 16u << 20;  // a peer that does not read: drop beyond this
 
 void PutU32(std::string& out, uint32_t value) {
-  for (int shift = 24; shift >= 0; shift -= 8) out.push_back(static_cast<char>((value >> shift) & 0xff));
+  for (int shift = 24; shift >= 0; shift -= 8)
+    out.push_back(static_cast<char>((value >> shift) & 0xff));
 }
 
 uint32_t GetU32(const char* at) {

@@ -61,9 +61,9 @@ class EchoFilter {
 };
 
 struct BridgeOptions {
-  std::string lcm_url;      // the bus this side joins
-  std::string socket_path;  // the Unix socket
-  bool listen = false;      // true: bind and accept (the outer side); false: connect (inner)
+  std::string lcm_url;         // the bus this side joins
+  std::string socket_path;     // the Unix socket
+  bool listen = false;         // true: bind and accept (the outer side); false: connect (inner)
   double connect_wait_s = 10;  // connect: how long to retry while the socket is not there
   std::function<bool()> keep_running;
   std::function<void(const std::string&)> log;

@@ -23,14 +23,15 @@ constexpr const char* kAbout =
     "the sandbox's own bus inside it (--connect). What a side publishes is not sent back.\n";
 
 int Run(const std::vector<std::string>& argv) {
-  const Args args(argv, "sirupp-notebook-bridge",
-                  {Flag("lcm", "the bus this side joins (udpm://...?ttl=0 or memq://)").Takes("URL"),
-                   Flag("listen", "listen on this Unix socket (the outer side)").Takes("PATH"),
-                   Flag("connect", "connect to this Unix socket (the inner side)").Takes("PATH"),
-                   Flag("wait", "--connect: seconds to wait for the socket (default 10)")
-                       .Takes("S")
-                       .Range(0.1, 600)},
-                  kAbout);
+  const Args args(
+      argv, "sirupp-notebook-bridge",
+      {Flag("lcm", "the bus this side joins (udpm://...?ttl=0 or memq://)").Takes("URL"),
+       Flag("listen", "listen on this Unix socket (the outer side)").Takes("PATH"),
+       Flag("connect", "connect to this Unix socket (the inner side)").Takes("PATH"),
+       Flag("wait", "--connect: seconds to wait for the socket (default 10)")
+           .Takes("S")
+           .Range(0.1, 600)},
+      kAbout);
   if (!args.Has("lcm")) throw UsageError("sirupp-notebook-bridge: --lcm is required");
   if (args.Has("listen") == args.Has("connect")) {
     throw UsageError("sirupp-notebook-bridge: give one of --listen PATH and --connect PATH");

@@ -51,10 +51,8 @@ struct HubApiFixture : ::testing::Test {
     rigs = std::make_unique<RigPool>(config, options, launcher);
   }
 
-  panel::Response Ask(const std::string& rest, const Json& body,
-                      const std::string& offered = "") {
-    const HubApiContext context{config, *tokens, front, throttle, *rigs,
-                                [](const std::string&) {}};
+  panel::Response Ask(const std::string& rest, const Json& body, const std::string& offered = "") {
+    const HubApiContext context{config, *tokens, front, throttle, *rigs, [](const std::string&) {}};
     return HubApiRoute(context, secret, offered.empty() ? secret : offered, "POST", rest,
                        body.dump());
   }
@@ -89,16 +87,19 @@ TEST_F(HubApiFixture, WhoIsABrowserByTheFrontsHeader) {
   panel::Response r = Ask("whoami", {{"peer", "127.0.0.1"}, {"headers", front_headers}});
   EXPECT_EQ(r.status, 200) << r.body;
   EXPECT_EQ(Json::parse(r.body)["name"], "alice");
-  r = Ask("whoami", {{"peer", "127.0.0.1"},
-                     {"headers", {{"x-remote-user", "alice"}, {"x-sirupp-front-secret", kFrontSecret}}}});
+  r = Ask("whoami",
+          {{"peer", "127.0.0.1"},
+           {"headers", {{"x-remote-user", "alice"}, {"x-sirupp-front-secret", kFrontSecret}}}});
   EXPECT_EQ(r.status, 200) << "header names in any case: " << r.body;
-  r = Ask("whoami", {{"peer", "127.0.0.1"},
-                     {"headers", {{"X-Remote-User", "mallory"}, {kFrontSecretHeader, kFrontSecret}}}});
+  r = Ask("whoami",
+          {{"peer", "127.0.0.1"},
+           {"headers", {{"X-Remote-User", "mallory"}, {kFrontSecretHeader, kFrontSecret}}}});
   EXPECT_EQ(r.status, 403);
   EXPECT_NE(r.body.find("signed in as 'mallory'"), std::string::npos) << r.body;
   EXPECT_NE(r.body.find("not on the roster"), std::string::npos) << r.body;
-  r = Ask("whoami", {{"peer", "127.0.0.1"},
-                     {"headers", {{"X-Remote-User", "jsmith"}, {kFrontSecretHeader, kFrontSecret}}}});
+  r = Ask("whoami",
+          {{"peer", "127.0.0.1"},
+           {"headers", {{"X-Remote-User", "jsmith"}, {kFrontSecretHeader, kFrontSecret}}}});
   EXPECT_EQ(r.status, 403) << "a teacher has no notebook server: " << r.body;
   EXPECT_NE(r.body.find("teacher"), std::string::npos) << r.body;
   r = Ask("whoami", {{"peer", "127.0.0.1"},
@@ -150,8 +151,8 @@ TEST_F(HubApiFixture, TheNotebooksLink) {
 }
 
 TEST(BridgeFramesTest, FramesRoundTripInAnyPieces) {
-  const std::string bytes = EncodeBridgeFrame("ARM_STATE", std::string("\0\1\2", 3)) +
-                            EncodeBridgeFrame("X", "");
+  const std::string bytes =
+      EncodeBridgeFrame("ARM_STATE", std::string("\0\1\2", 3)) + EncodeBridgeFrame("X", "");
   BridgeFrameReader reader;
   std::vector<BridgeFrameReader::Frame> frames;
   for (char c : bytes) {
