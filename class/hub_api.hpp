@@ -12,6 +12,7 @@
 //   POST /hub/api/rigs/NAME/ensure  the student's rig started unless it runs (as their page visit
 //                                   does) -> 200 {name, state, lcm_url}; 503 with why it cannot
 //   POST /hub/api/rigs/NAME/touch   the notebook server is in use: the rig is not idle
+//                                   -> 200 {name, ok, lcm_url} (where the rig is now; "" stopped)
 //
 // Every request carries the hub's secret in X-Sirupp-Hub-Secret (DATA/hub.secret, 0600, made on
 // the first serve of a class with notebooks:, compared in constant time); anything else is 403.

@@ -258,7 +258,18 @@ std::pair<int64_t, int64_t> RunBridge(const BridgeOptions& options) {
               options.socket_path + ", bus " + options.lcm_url);
   const int lcm_fd = lcm_get_fileno(side.lcm);
   while (options.keep_running()) {
-    if (!options.listen && side.peer < 0) break;
+    if (!options.listen && side.peer < 0) {
+      // The outer side went (the spawner moved it to the rig's new bus): connect again.
+      try {
+        side.peer =
+            ConnectWithin(options.socket_path, options.connect_wait_s, options.keep_running);
+      } catch (const std::exception& e) {
+        options.log(e.what());
+        break;
+      }
+      SetNonBlocking(side.peer);
+      options.log("connected again to " + options.socket_path);
+    }
     pollfd fds[3];
     nfds_t count = 0;
     fds[count++] = pollfd{lcm_fd, POLLIN, 0};

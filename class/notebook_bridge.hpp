@@ -70,7 +70,8 @@ struct BridgeOptions {
 };
 
 // Runs the bridge until keep_running() turns false (checked every 200 ms) or, connecting, the
-// connection ends. Listening, a peer that goes is replaced by the next one. Throws
+// connection ends and cannot be made again within connect_wait_s. Listening, a peer that goes is
+// replaced by the next one. Throws
 // std::runtime_error for a bus or socket that cannot be opened. Returns the messages carried each
 // way (to the socket, from it).
 std::pair<int64_t, int64_t> RunBridge(const BridgeOptions& options);

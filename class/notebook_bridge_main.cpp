@@ -2,7 +2,8 @@
 // sandbox (class/notebook_bridge.hpp). Started by the hub's spawner (hub/sirupp_hub), one line:
 //   outside: sirupp-notebook-bridge --lcm udpm://239.255.76.67:7901?ttl=0 --listen RUN/bus.sock
 //   inside:  sirupp-notebook-bridge --lcm udpm://239.255.76.67:7667?ttl=0 --connect RUN/bus.sock
-// Ends on SIGTERM or SIGINT; the connecting side also when the connection ends.
+// Ends on SIGTERM or SIGINT; the connecting side also when the connection ends and cannot be made
+// again within --wait.
 
 #include <iostream>
 

@@ -6,8 +6,9 @@ start  asks the class server for the student's rig (started as a page visit woul
        starts the supervisor (sirupp_hub.supervise) in a session of its own; the hub's proxy
        reaches the server on 127.0.0.1:PORT, a forwarder to its Unix socket
 poll   by pid (and the process's start time, so a reused pid is not taken for it): None while
-       it runs, else its exit status; while it runs the rig is touched (at most every 30 s) so
-       the class server does not stop it as idle
+       it runs, else its exit status; while it runs the rig is touched (each poll, at most every
+       30 s) so the class server does not stop it as idle, and a rig started again on another bus
+       is followed (the supervisor moves the outer bridge, SIGHUP)
 stop   SIGTERM to the supervisor's process group, SIGKILL after 8 s
 state  pid, port, start time: JupyterHub keeps them in its database, so a restarted hub finds
        running servers again (the supervisor does not depend on the hub's process)
@@ -114,6 +115,7 @@ class SiruppSpawner(Spawner):
         self.start_ticks = None
         self.proc = None
         self.last_touch = 0.0
+        self.lcm_url = ""
 
     # --- state: JupyterHub's database keeps it across hub restarts ---------------------------
 
@@ -121,13 +123,15 @@ class SiruppSpawner(Spawner):
         super().load_state(state)
         self.pid = state.get("pid", 0)
         self.start_ticks = state.get("start_ticks")
+        self.lcm_url = state.get("lcm_url", "")
         if state.get("port"):
             self.port = state["port"]
 
     def get_state(self):
         state = super().get_state()
         if self.pid:
-            state.update(pid=self.pid, start_ticks=self.start_ticks, port=self.port)
+            state.update(pid=self.pid, start_ticks=self.start_ticks, port=self.port,
+                         lcm_url=self.lcm_url)
         return state
 
     def clear_state(self):
@@ -210,6 +214,7 @@ class SiruppSpawner(Spawner):
         log_file.close()
         self.pid = self.proc.pid
         self.start_ticks = process_start(self.pid)
+        self.lcm_url = plan["lcm_url"]
         self.log.info("%s: notebook server supervisor pid %d on 127.0.0.1:%d (rig bus %s)", name,
                       self.pid, self.port, plan["lcm_url"] or "none")
         return ("127.0.0.1", self.port)
@@ -227,16 +232,33 @@ class SiruppSpawner(Spawner):
         running, code = self._running()
         if not running:
             return code if self.pid else 0
-        if time.monotonic() - self.last_touch > TOUCH_EVERY_S:
+        if time.monotonic() - self.last_touch >= min(TOUCH_EVERY_S, self.poll_interval):
             self.last_touch = time.monotonic()
             settings = load_settings(self.settings_file)
             try:
-                await asyncio.get_running_loop().run_in_executor(
+                answer = await asyncio.get_running_loop().run_in_executor(
                     None, self._api(settings).touch_rig, self.user.name)
             except ClassApiError as error:
                 self.log.warning("%s: the rig could not be touched: %s", self.user.name,
                                  error.message)
+                return None
+            self._follow_rig(settings, answer.get("lcm_url", ""))
         return None
+
+    def _follow_rig(self, settings, url):
+        """The rig runs on another bus (the teacher restarted it, or it was started again from the
+        page): the supervisor moves the outer bridge there (SIGHUP with RUN/rig.url)."""
+        if not url or url == self.lcm_url:
+            return
+        path = os.path.join(settings["run_dir"], self.user.name, "rig.url")
+        with open(path, "w", encoding="utf-8") as out:
+            out.write(url + "\n")
+        try:
+            os.kill(self.pid, signal.SIGHUP)
+        except ProcessLookupError:
+            return
+        self.log.info("%s: the rig moved from %s to %s", self.user.name, self.lcm_url, url)
+        self.lcm_url = url
 
     async def stop(self, now=False):
         if not self.pid:

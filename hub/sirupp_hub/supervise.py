@@ -8,7 +8,8 @@ It runs, and ends together:
 - the sandbox (sirupp_hub.sandbox), in which sirupp_hub.inner starts the notebook server.
 
 It exits with the sandbox's exit status (0 when the notebook server shut itself down after its
-idle timeout), after stopping the bridge; on SIGTERM it ends the sandbox first.
+idle timeout), after stopping the bridge; on SIGTERM it ends the sandbox first. On SIGHUP (from the
+spawner) it moves the outer bridge to the bus in RUN/rig.url: the rig was started again elsewhere.
 
     python3 -m sirupp_hub.supervise RUN/launch.json
 """
@@ -30,6 +31,15 @@ def _die_with_parent():
     ctypes.CDLL("libc.so.6", use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGTERM)
 
 
+def stop_process(process):
+    process.terminate()
+    try:
+        process.wait(3)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        process.wait()
+
+
 def log(line):
     print(f"sirupp_hub.supervise: {line}", file=sys.stderr, flush=True)
 
@@ -46,11 +56,12 @@ async def run(plan):
         except FileNotFoundError:
             pass
 
-    bridge = None
-    if plan.get("lcm_url"):
-        bridge = subprocess.Popen(
-            [os.path.join(plan["bin_dir"], "sirupp-notebook-bridge"), "--lcm", plan["lcm_url"],
+    def start_bridge(url):
+        return subprocess.Popen(
+            [os.path.join(plan["bin_dir"], "sirupp-notebook-bridge"), "--lcm", url,
              "--listen", os.path.join(sock_dir, "bus.sock")], preexec_fn=_die_with_parent)
+
+    bridges = [start_bridge(plan["lcm_url"])] if plan.get("lcm_url") else []
     servers = [
         await forward.serve(("tcp", "127.0.0.1", plan["port"]),
                             ("unix", os.path.join(sock_dir, "nb.sock"))),
@@ -77,6 +88,23 @@ async def run(plan):
     loop = asyncio.get_running_loop()
     for sig in (signal.SIGTERM, signal.SIGINT):
         loop.add_signal_handler(sig, stop.set)
+
+    def follow_rig():
+        # SIGHUP from the spawner: the rig runs on another bus now (RUN/rig.url); the outer
+        # bridge moves there and the inner one connects again.
+        try:
+            with open(os.path.join(run_dir, "rig.url"), encoding="utf-8") as source:
+                url = source.read().strip()
+        except OSError:
+            return
+        if not url.startswith("udpm://"):
+            return
+        for old in bridges:
+            stop_process(old)
+        bridges[:] = [start_bridge(url)]
+        log(f"{plan['name']}: the rig's bus is now {url}")
+
+    loop.add_signal_handler(signal.SIGHUP, follow_rig)
     waiter = asyncio.ensure_future(process.wait())
     stopper = asyncio.ensure_future(stop.wait())
     await asyncio.wait([waiter, stopper], return_when=asyncio.FIRST_COMPLETED)
@@ -92,13 +120,8 @@ async def run(plan):
     code = process.returncode
     for server in servers:
         server.close()
-    if bridge is not None:
-        bridge.terminate()
-        try:
-            bridge.wait(3)
-        except subprocess.TimeoutExpired:
-            bridge.kill()
-            bridge.wait()
+    for bridge in bridges:
+        stop_process(bridge)
     log(f"{plan['name']}: the sandbox ended with {code}")
     return 0 if code is None or code < 0 and stop.is_set() else code
 

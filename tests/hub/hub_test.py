@@ -8,7 +8,8 @@ temporary folder), all stopped at the end, also after a failure.
     secret gets 403; bob's cookies get 403 on alice's /api/contents and /api/kernels;
 (b) a kernel of alice's started through the hub's REST and WebSocket API runs sirupp.connect() and
     a move; the class server's API for alice's rig shows the arm at the goal, bob's rig did not
-    move; a private rig (sirupp.start_rig()) works inside the sandbox;
+    move; after the teacher restarts alice's rig the kernel moves the new one; a private rig
+    (sirupp.start_rig()) works inside the sandbox;
 (c) sandbox probes from inside a kernel: uid 1000, no capabilities, only `lo`, no route out, the
     hub's ports refused, no other student's folder, no route change, a nested sandbox works, and
     the course's notebook 07 (a controller in the project's own sandbox) runs.
@@ -26,6 +27,7 @@ sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
 from hub_run import HubRun, Session, run_code  # noqa: E402
 
 GOAL = [0.4, -0.3, 0.5, 0.2, -0.2, 0.3]
+GOAL2 = [-0.3, 0.2, 0.3, -0.2, 0.3, -0.4]
 
 MOVE = """
 import sirupp
@@ -87,7 +89,7 @@ def check(condition, what):
 
 
 def main(bin_dir, source_dir):
-    hub = HubRun(bin_dir, source_dir, ["alice", "bob"])
+    hub = HubRun(bin_dir, source_dir, ["alice", "bob"], poll_interval_s=2)
     ok = False
     try:
         hub.start()
@@ -146,6 +148,19 @@ def main(bin_dir, source_dir):
         moved = min(abs(a - b) for a, b in zip(after_bob["virtual"]["q"], goal_deg))
         check(moved > 5 and after_bob["virtual"]["q"] == before_bob["virtual"]["q"],
               f"bob's rig did not move: {after_bob['virtual']['q']}")
+        # The teacher restarts alice's rig (its bus may change): the notebook follows it.
+        status, _ = hub.cls.http("POST", "/teacher/api/rigs/alice/restart", hub.cls.token("teacher"))
+        check(status == 200, f"the teacher restarted alice's rig: {status}")
+        time.sleep(5)  # the spawner's next polls (every 2 s here) see where the rig is now
+        reply, out, error = run_code(hub, "alice", token, MOVE.replace("goal = %r" % (GOAL,),
+                                                                       "goal = %r" % (GOAL2,)))
+        check(reply == "ok", f"after the restart, the kernel moves the new rig: {reply} {out} "
+                             f"{error[-500:]}")
+        status, state = hub.cls.http("GET", "/s/alice/api/state", hub.cls.token("alice"))
+        far = max(abs(a - math.degrees(b)) for a, b in zip(state["virtual"]["q"], GOAL2))
+        check(far < 2.0, f"the class server shows alice's restarted rig at the new goal: {far:.2f}")
+        moved = [line for line in hub.server_log("alice").splitlines() if "bus is now" in line]
+        print("the rig's bus after the restart:", moved[-1] if moved else "the same port again")
         reply, out, error = run_code(hub, "alice", token, PRIVATE)
         check(reply == "ok" and "private udpm" in out,
               f"a private rig inside the sandbox: {reply} {out.strip()} {error[-800:]}")
@@ -177,7 +192,9 @@ def main(bin_dir, source_dir):
         ok = True
     finally:
         if not ok:
-            print(hub.hub_log()[-6000:])
+            print("\n".join(line for line in hub.hub_log().splitlines()
+                            if "spawner" in line or "Traceback" in line or "Error" in line)[-6000:])
+            print(hub.hub_log()[-3000:])
             print("alice's server:\n" + hub.server_log("alice")[-4000:])
         left = hub.stop()
         if left:
