@@ -51,6 +51,12 @@ struct HubApiFixture : ::testing::Test {
     rigs = std::make_unique<RigPool>(config, options, launcher);
   }
 
+  void TearDown() override {
+    rigs.reset();
+    std::error_code error;
+    fs::remove_all(dir, error);
+  }
+
   panel::Response Ask(const std::string& rest, const Json& body, const std::string& offered = "") {
     const HubApiContext context{config, *tokens, front, throttle, *rigs, [](const std::string&) {}};
     return HubApiRoute(context, secret, offered.empty() ? secret : offered, "POST", rest,
@@ -207,7 +213,8 @@ TEST(NotebookBridgeTest, CarriesEveryMessageBothWaysOnce) {
       "udpm://239.255.76.67:" + std::to_string(outer_port.port()) + "?ttl=0";
   const std::string inner_url =
       "udpm://239.255.76.67:" + std::to_string(inner_port.port()) + "?ttl=0";
-  const std::string socket_path = testing::TempDir("sirupp-bridge") + "/bus.sock";
+  const std::string socket_dir = testing::TempDir("sirupp-bridge");
+  const std::string socket_path = socket_dir + "/bus.sock";
   std::atomic<bool> running{true};
   const auto run = [&](const std::string& url, bool listen) {
     BridgeOptions options;
@@ -257,6 +264,8 @@ TEST(NotebookBridgeTest, CarriesEveryMessageBothWaysOnce) {
   inner.join();
   lcm_destroy(outer_bus);
   lcm_destroy(inner_bus);
+  std::error_code error;
+  fs::remove_all(socket_dir, error);
   // Each bus: its own 5 (LCM loops back to the sender) and the other bus's 5, no more.
   EXPECT_EQ(on_outer.count["RIG_STATE"], 5);
   EXPECT_EQ(on_outer.count["RIG_COMMAND"], 5) << "the inside's commands reach the rig's bus once";
