@@ -13,6 +13,7 @@
 #include <thread>
 
 #include "class/front_auth.hpp"
+#include "class/hub_api.hpp"
 #include "class/notebook_submissions.hpp"
 #include "class/real_arm.hpp"
 #include "class/rig_job.hpp"
@@ -235,6 +236,8 @@ struct ClassServer::Impl {
   // (OpenSSL); every connection under the limits of server: (class/http_guard.hpp).
   std::unique_ptr<GuardedServer> server;
   panel::ListenGate gate;
+  // notebooks.hub_url: the hub's secret for its API (class/hub_api.hpp); "" = no hub.
+  std::string hub_secret;
 
   Impl(ClassConfig c, ServeOptions o)
       : config(std::move(c)), options(std::move(o)), tokens(TokensFile(config)) {
@@ -268,6 +271,9 @@ struct ClassServer::Impl {
     };
     pool_options.log = [this](const std::string& line) { Log(line); };
     rigs = std::make_unique<RigPool>(config, std::move(pool_options), launcher);
+    if (config.notebooks && !config.notebooks->hub_url.empty()) {
+      hub_secret = EnsureHubSecret(config);
+    }
     if (config.real_arm) {
       fs::create_directories(config.data_dir);
       real_arm = std::make_unique<RealArm>(
@@ -537,6 +543,11 @@ struct ClassServer::Impl {
       status["role"] = role == Role::kStudent ? "student" : "teacher";
       status["files"] = ResultFiles(name);
       status["idle_timeout_s"] = config.idle_timeout_s;
+      if (role == Role::kStudent) {
+        if (auto link = NotebooksLink(config, name, StudentToken(req, name))) {
+          status["notebooks_url"] = *link;
+        }
+      }
       SendJson(res, 200, status);
       return;
     }
@@ -605,6 +616,24 @@ struct ClassServer::Impl {
       return;
     }
     SendError(res, 404, "no such page or file: /s/" + name + "/" + core::Printable(rest, 100));
+  }
+
+  // The token that opened `name`'s page in `req` ("" when the front signed them in).
+  std::string StudentToken(const httplib::Request& req, const std::string& name) const {
+    for (const std::string& token : {req.get_header_value("X-Sirupp-Token"), QueryToken(req),
+                                     CookieValue(req.get_header_value("Cookie"), kStudentCookie)}) {
+      if (!token.empty() && IsTokenText(token) && tokens.Check(name, token)) return token;
+    }
+    return "";
+  }
+
+  // /hub/api/...: the notebooks hub's questions (class/hub_api.hpp), only with its secret.
+  void HubApi(const httplib::Request& req, httplib::Response& res) {
+    const HubApiContext context{config, tokens, front, throttle, *rigs,
+                                [this](const std::string& line) { Log(line); }};
+    panel::Send(HubApiRoute(context, hub_secret, req.get_header_value(kHubSecretHeader), req.method,
+                            req.matches[1], req.body),
+                res);
   }
 
   // Runs a command of the real arm's queue; false after answering its refusal (409 with the
@@ -939,6 +968,13 @@ struct ClassServer::Impl {
     };
     server->Post(kRigReportPath,
                  [this](const httplib::Request& req, httplib::Response& res) { Report(req, res); });
+    if (!hub_secret.empty()) {
+      const auto hub = [this](const httplib::Request& req, httplib::Response& res) {
+        HubApi(req, res);
+      };
+      server->Get(R"(/hub/api/(.*))", hub);
+      server->Post(R"(/hub/api/(.*))", hub);
+    }
     server->Get(R"(/teacher/(.*))", teacher);
     server->Post(R"(/teacher/(.*))", teacher);
     server->set_error_handler([](const httplib::Request& req, httplib::Response& res) {

@@ -25,6 +25,9 @@ endif()
 if(TARGET sirupp-rig-job)  # a rig as a cluster job (class/rig_job.hpp)
   list(APPEND sirupp_installed_programs sirupp-rig-job)
 endif()
+if(TARGET sirupp-notebook-bridge)  # a student's rig bus into their notebook sandbox (hub/)
+  list(APPEND sirupp_installed_programs sirupp-notebook-bridge)
+endif()
 install(TARGETS ${sirupp_installed_programs} RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
 # `cmake --build build --target sirupp_programs`: the programs alone, without the tests, benchmarks,
 # examples and the Python module (what scripts/demo.sh builds: the demo runs nothing else). Nor
@@ -39,6 +42,8 @@ add_dependencies(sirupp_programs ${sirupp_demo_programs})
 install(DIRECTORY config DESTINATION ${SIRUPP_INSTALL_DATADIR})
 install(DIRECTORY panel/web DESTINATION ${SIRUPP_INSTALL_DATADIR}/panel)
 install(DIRECTORY class/web DESTINATION ${SIRUPP_INSTALL_DATADIR}/class)
+# The notebooks hub's authenticator and spawner (hub/), read by `sirupp class notebooks`.
+install(DIRECTORY hub/sirupp_hub DESTINATION ${SIRUPP_INSTALL_DATADIR}/hub FILES_MATCHING PATTERN "*.py")
 # The header twice: in the data folder, where `sirupp grade`, `sirupp controller build` and the
 # class server look it up (ResolveDataPath), and in <prefix>/include for a student's own g++.
 install(FILES include/sirupp/controller.h DESTINATION ${SIRUPP_INSTALL_DATADIR}/include/sirupp)

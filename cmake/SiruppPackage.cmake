@@ -14,6 +14,9 @@ set(SIRUPP_DEB_DOCDIR ${SIRUPP_INSTALL_DOCDIR})
 # /usr/bin/sirupp and the service user the maintainer scripts make.
 install(FILES packaging/sirupp-class@.service DESTINATION lib/systemd/system
         COMPONENT debian EXCLUDE_FROM_ALL)
+# The notebooks hub beside a class server (docs/notebooks.md), as sirupp, not Debian's root unit.
+install(FILES packaging/sirupp-notebooks@.service DESTINATION lib/systemd/system
+        COMPONENT debian EXCLUDE_FROM_ALL)
 install(FILES packaging/copyright DESTINATION ${SIRUPP_DEB_DOCDIR} COMPONENT debian EXCLUDE_FROM_ALL)
 # A native package: its changelog is changelog.gz, compressed with no time stamp in it (gzip -n)
 # so that the package is reproducible.
@@ -79,8 +82,9 @@ set(CPACK_DEBIAN_PACKAGE_DEPENDS
     "adduser, bubblewrap, g++, python3 (>= 3.11~), python3 (<< 3.12), python3-numpy, libjs-three, libjs-dygraphs")
 set(CPACK_DEBIAN_PACKAGE_RECOMMENDS
     "python3-matplotlib, jupyter-notebook, python3-ipykernel")
+# jupyterhub (with its proxy): the class's notebooks hub (sirupp-notebooks@.service).
 set(CPACK_DEBIAN_PACKAGE_SUGGESTS
-    "liblcm-bin, liblcm-dev, liblcm-java, libjchart2d-java, default-jre, apache2 | nginx")
+    "liblcm-bin, liblcm-dev, liblcm-java, libjchart2d-java, default-jre, apache2 | nginx, jupyterhub, iproute2")
 set(CPACK_DEBIAN_PACKAGE_CONTROL_EXTRA
     ${PROJECT_SOURCE_DIR}/packaging/postinst ${PROJECT_SOURCE_DIR}/packaging/prerm
     ${PROJECT_SOURCE_DIR}/packaging/postrm)

@@ -76,8 +76,11 @@ if [[ $peers -eq 1 ]]; then
   packages+=(liborocos-kdl-dev libmujoco-dev)
 fi
 # Packages with daemons, for the tests that start them (--services).
-service_packages=(slurmctld slurmd slurm-client munge apache2 apache2-utils)
-service_units=(slurmctld slurmd munge apache2)
+# jupyterhub (with node-configurable-http-proxy, its proxy): the notebooks' hub (hub/, docs/notebooks.md),
+# started by `sirupp class notebooks` and by its tests as the current user, never by the package:
+# Debian's unit runs it as root with a config it never reads (hub/README.md).
+service_packages=(slurmctld slurmd slurm-client munge apache2 apache2-utils jupyterhub node-configurable-http-proxy)
+service_units=(slurmctld slurmd munge apache2 jupyterhub)
 if [[ $services -eq 1 ]]; then
   packages+=("${service_packages[@]}" lintian)
 fi

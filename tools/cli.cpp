@@ -158,6 +158,8 @@ std::vector<Command> Commands(std::ostream& out, std::ostream& err) {
        [&](const Args& a) { return RunClassTokens(a, out); }},
       {"class", "check", "validate a class file",
        [&](const Args& a) { return RunClassCheck(a, out); }},
+      {"class", "notebooks", "run the class's notebooks hub (JupyterHub, docs/notebooks.md)",
+       [&](const Args& a) { return RunClassNotebooks(a, out); }},
       {"", "panel", "the lab panel in the browser (sirupp-panel)",
        [&](const Args& a) { return RunPanel(a, err); }},
       {"", "view", "show sirupp-viewer's images in a window (needs a display)",

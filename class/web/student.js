@@ -41,7 +41,11 @@
       rig = `<span id="class-rig-state" class="warn">${text(s.state)}</span> (${text(s.last_stop || 'not started')}); your files are kept.`;
       if (s.role === 'student') rig += ' <button id="class-start">Start my rig again</button>';
     }
-    status.innerHTML = `Class ${text(s.class)} &middot; ${who} &middot; rig: ${rig}`;
+    // The class's notebooks (class file notebooks.hub_url): the hub on its own hostname.
+    const notebooks = s.notebooks_url
+      ? ` &middot; <a id="class-notebooks" href="${text(s.notebooks_url)}" target="_blank" rel="noopener">Notebooks</a>`
+      : '';
+    status.innerHTML = `Class ${text(s.class)} &middot; ${who} &middot; rig: ${rig}${notebooks}`;
     const button = document.getElementById('class-start');
     if (button) button.onclick = startAgain;
     if (shownStarts !== null && s.state === 'running' && s.starts !== shownStarts) location.reload();
