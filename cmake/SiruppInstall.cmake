@@ -43,7 +43,8 @@ install(DIRECTORY config DESTINATION ${SIRUPP_INSTALL_DATADIR})
 install(DIRECTORY panel/web DESTINATION ${SIRUPP_INSTALL_DATADIR}/panel)
 install(DIRECTORY class/web DESTINATION ${SIRUPP_INSTALL_DATADIR}/class)
 # The notebooks hub's authenticator and spawner (hub/), read by `sirupp class notebooks`.
-install(DIRECTORY hub/sirupp_hub DESTINATION ${SIRUPP_INSTALL_DATADIR}/hub FILES_MATCHING PATTERN "*.py")
+install(DIRECTORY hub/sirupp_hub DESTINATION ${SIRUPP_INSTALL_DATADIR}/hub FILES_MATCHING PATTERN "*.py"
+        PATTERN "__pycache__" EXCLUDE)  # what running the tests from the tree leaves
 # The header twice: in the data folder, where `sirupp grade`, `sirupp controller build` and the
 # class server look it up (ResolveDataPath), and in <prefix>/include for a student's own g++.
 install(FILES include/sirupp/controller.h DESTINATION ${SIRUPP_INSTALL_DATADIR}/include/sirupp)

@@ -310,7 +310,16 @@ Probe MakeProbe() {
   Policy policy;
   policy.sanitized_target = false;
   std::string output;
-  const int status = RunCapturing(BuildArgv(probe, policy, {"/usr/bin/true"}), &output);
+  // Tried up to three times: the verdict holds for the process's life, and on a loaded machine a
+  // single try has failed once in a while where the next one works (a machine that cannot make
+  // the sandbox fails all three the same way).
+  int status = 0;
+  for (int attempt = 0; attempt < 3; ++attempt) {
+    if (attempt > 0) ::usleep(attempt == 1 ? 200000 : 1000000);
+    output.clear();
+    status = RunCapturing(BuildArgv(probe, policy, {"/usr/bin/true"}), &output);
+    if (status == 0) break;
+  }
   while (!output.empty() && (output.back() == '\n' || output.back() == ' ')) output.pop_back();
   if (status != 0) {
     probe.problem = "bubblewrap cannot make its sandbox here" +

@@ -92,6 +92,12 @@ has released "$out" "bridge: connected (servos off)"
 run rearm 0 hardware arm --lcm-url "$URL"
 
 kill -TERM $hw
+# Bounded: a bridge that does not end on SIGTERM is named with its log, not left to the timeout.
+for _ in $(seq 100); do kill -0 $hw 2>/dev/null || break; sleep 0.1; done
+if kill -0 $hw 2>/dev/null; then
+  echo "FAIL the bridge did not end within 10 s of SIGTERM"; tail -20 "$work/hw.err"; fail=1
+  kill -KILL $hw
+fi
 wait $hw
 rc=$?
 [[ $rc -eq 0 ]] || { echo "FAIL bridge exit $rc"; cat "$work/hw.err"; fail=1; }
