@@ -14,10 +14,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const std::vector<std::string> kTopKeys = {"class",    "description", "robot",  "students",
-                                           "data",     "limits",      "server", "rigs",
-                                           "real_arm", "grading",     "cluster",
-                                           "notebooks"};
+const std::vector<std::string> kTopKeys = {"class",    "description", "robot",   "students",
+                                           "data",     "limits",      "server",  "rigs",
+                                           "real_arm", "grading",     "cluster", "notebooks"};
 const std::vector<std::string> kLimitKeys = {"max_rigs", "idle_timeout_s", "rig_memory_mb",
                                              "rig_nice", "pin_rigs"};
 const std::vector<std::string> kServerKeys = {"listen",         "port",
@@ -82,9 +81,8 @@ RealArmConfig ReadRealArm(const core::YamlValue& value, const ClassConfig& confi
                                          core::NumberInRange(0.05, 1, ""));
   return arm;
 }
-const std::vector<std::string> kNotebookKeys = {"hub_url",   "hub_port",  "folder",
-                                               "idle_timeout_s", "memory_mb", "processes",
-                                               "assignments"};
+const std::vector<std::string> kNotebookKeys = {
+    "hub_url", "hub_port", "folder", "idle_timeout_s", "memory_mb", "processes", "assignments"};
 const std::vector<std::string> kAssignmentKeys = {"name", "notebook", "tests", "timeout_s",
                                                   "memory_mb"};
 const std::vector<std::string> kGradingKeys = {"suite", "safety_tasks", "max_source_kb"};
@@ -164,7 +162,8 @@ std::string ExistingFolder(const core::YamlValue& value, const std::string& base
     const std::string resolved = runtime::ResolveDataPath(text);
     if (fs::is_directory(resolved)) path = fs::absolute(resolved).lexically_normal().string();
   }
-  if (!fs::is_directory(path)) value.Fail("'" + text + "': no such folder (looked for " + path + ")");
+  if (!fs::is_directory(path))
+    value.Fail("'" + text + "': no such folder (looked for " + path + ")");
   return path;
 }
 
@@ -180,7 +179,8 @@ NotebooksConfig ReadNotebooks(const core::YamlValue& value, const std::string& b
     }
     while (!url.empty() && url.back() == '/') url.pop_back();
     if (!config.public_url.empty() && url == config.public_url) {
-      v->Fail("'" + url + "' is the class server's own address; the hub needs a hostname of its "
+      v->Fail("'" + url +
+              "' is the class server's own address; the hub needs a hostname of its "
               "own (JupyterHub 3.0, CVE-2024-28233)");
     }
     notebooks.hub_url = url;
@@ -194,7 +194,8 @@ NotebooksConfig ReadNotebooks(const core::YamlValue& value, const std::string& b
   if (const auto v = map.Find("folder")) {
     notebooks.folder = ExistingFolder(*v, base_dir);
   } else {
-    notebooks.folder = fs::absolute(runtime::ResolveDataPath("notebooks")).lexically_normal().string();
+    notebooks.folder =
+        fs::absolute(runtime::ResolveDataPath("notebooks")).lexically_normal().string();
   }
   notebooks.idle_timeout_s = map.NumberOr("idle_timeout_s", notebooks.idle_timeout_s,
                                           core::NumberInRange(60, 7 * 86400, "s"));

@@ -30,7 +30,7 @@
 //     max_source_kb: 256                      # largest source accepted (1..900)
 //   cluster: {engine: slurm, ...}     # optional: rigs and grading as jobs on a cluster
 //                                     # (cluster/cluster_config.hpp, docs/cluster.md)
-//   notebooks:                        # optional: Jupyter notebooks in the browser (docs/notebooks.md)
+//   notebooks:                        # optional: notebooks in the browser (docs/notebooks.md)
 //     hub_url: "https://notebooks.lab.example.edu"  # where browsers reach the hub: its own
 //                                     # hostname, never the class server's (CVE-2024-28233)
 //     hub_port: 8810                  # the hub's proxy listens on 127.0.0.1:hub_port
@@ -70,9 +70,9 @@ struct RealArmConfig {
 
 // One graded notebook (notebooks.assignments in the class file).
 struct NotebookAssignment {
-  std::string name;      // as a student name: 1 to 32 of [A-Za-z0-9_.-]
-  std::string notebook;  // absolute: the notebook students get and fill in
-  std::string tests;     // absolute: the teacher's hidden tests, never copied to students
+  std::string name;        // as a student name: 1 to 32 of [A-Za-z0-9_.-]
+  std::string notebook;    // absolute: the notebook students get and fill in
+  std::string tests;       // absolute: the teacher's hidden tests, never copied to students
   double timeout_s = 120;  // the whole graded run
   int memory_mb = 2048;    // the graded kernel's address-space limit
 };

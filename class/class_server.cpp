@@ -585,8 +585,8 @@ struct ClassServer::Impl {
       return rigs->Ensure(name);
     };
     // Notebook assignments (class/notebook_submissions.hpp): submit, list, one result.
-    if (auto answer = notebook_submissions->StudentRoute(name, role == Role::kStudent,
-                                                         req.method, rest, req.body)) {
+    if (auto answer = notebook_submissions->StudentRoute(name, role == Role::kStudent, req.method,
+                                                         rest, req.body)) {
       panel::Send(*answer, res);
       return;
     }
@@ -629,8 +629,8 @@ struct ClassServer::Impl {
 
   // /hub/api/...: the notebooks hub's questions (class/hub_api.hpp), only with its secret.
   void HubApi(const httplib::Request& req, httplib::Response& res) {
-    const HubApiContext context{config, tokens, front, throttle, *rigs,
-                                [this](const std::string& line) { Log(line); }};
+    const HubApiContext context{config,   tokens, front,
+                                throttle, *rigs,  [this](const std::string& line) { Log(line); }};
     panel::Send(HubApiRoute(context, hub_secret, req.get_header_value(kHubSecretHeader), req.method,
                             req.matches[1], req.body),
                 res);

@@ -21,8 +21,8 @@ std::string GradeText(double grade) {
 }  // namespace
 
 std::string CsvField(const std::string& text) {
-  const bool formula = !text.empty() && (text[0] == '=' || text[0] == '+' || text[0] == '-' ||
-                                         text[0] == '@');
+  const bool formula =
+      !text.empty() && (text[0] == '=' || text[0] == '+' || text[0] == '-' || text[0] == '@');
   if (!formula && text.find_first_of(",\"\r\n") == std::string::npos) return text;
   std::string quoted = "\"";
   // A formula's leading character is kept, behind a quote mark a spreadsheet shows as text.

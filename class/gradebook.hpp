@@ -10,9 +10,9 @@
 // assignment becomes a new one): the class's name of the student goes in Student and SIS Login
 // ID, the others stay empty. Moodle's CSV import maps any column to its user field ("Identify
 // user by": SIS Login ID to username) and any other column to a grade item. A grade is a plain
-// number with a '.' and at most two decimals (no unit, no %); a cell is empty when there is nothing graded. Fields with a
-// comma, a quote or a line break are quoted (RFC 4180), and so is one starting with = + - @
-// (spreadsheets would read it as a formula).
+// number with a '.' and at most two decimals (no unit, no %); a cell is empty when there is nothing
+// graded. Fields with a comma, a quote or a line break are quoted (RFC 4180), and so is one
+// starting with = + - @ (spreadsheets would read it as a formula).
 
 #include <optional>
 #include <string>

@@ -163,8 +163,8 @@ panel::Response RigRoute(const HubApiContext& context, const std::string& studen
   context.rigs.Touch(student);
   if (verb == "touch") {
     // Where the rig is now ("" while it is stopped): a rig restarted on another bus is followed.
-    return JsonResponse(200, Json{{"name", student}, {"ok", true},
-                                  {"lcm_url", context.rigs.LcmUrl(student)}});
+    return JsonResponse(
+        200, Json{{"name", student}, {"ok", true}, {"lcm_url", context.rigs.LcmUrl(student)}});
   }
   const std::string why = context.rigs.Ensure(student);
   if (!why.empty()) return panel::ErrorResponse(503, why);

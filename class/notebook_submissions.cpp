@@ -97,11 +97,11 @@ std::optional<panel::Response> CheckNotebookBody(const std::string& body, size_t
     return panel::ErrorResponse(400, "not a notebook: no \"cells\" list");
   }
   if (format == json.end() || !format->is_number_integer() || format->get<int>() < 4) {
-    return panel::ErrorResponse(400,
-                                "not a notebook: \"nbformat\" must be 4 (Jupyter's format since "
-                                "2015); this one is " +
-                                    (format == json.end() ? std::string("missing")
-                                                          : core::Printable(format->dump(), 20)));
+    return panel::ErrorResponse(
+        400,
+        "not a notebook: \"nbformat\" must be 4 (Jupyter's format since "
+        "2015); this one is " +
+            (format == json.end() ? std::string("missing") : core::Printable(format->dump(), 20)));
   }
   return std::nullopt;
 }
@@ -259,9 +259,11 @@ Json NotebookSubmissionService::AssignmentsJson(const std::string& student) cons
   return Json{{"student", student}, {"assignments", list}};
 }
 
-std::optional<panel::Response> NotebookSubmissionService::StudentRoute(
-    const std::string& student, bool owner, const std::string& method, const std::string& rest,
-    const std::string& body) {
+std::optional<panel::Response> NotebookSubmissionService::StudentRoute(const std::string& student,
+                                                                       bool owner,
+                                                                       const std::string& method,
+                                                                       const std::string& rest,
+                                                                       const std::string& body) {
   const std::string prefix = "class/assignments";
   if (rest != prefix && rest.rfind(prefix + "/", 0) != 0) return std::nullopt;
   if (rest == prefix) {
@@ -275,11 +277,11 @@ std::optional<panel::Response> NotebookSubmissionService::StudentRoute(
   const std::string more = slash == std::string::npos ? "" : tail.substr(slash + 1);
   const Assignment* assignment = Find(name);
   if (assignment == nullptr) {
-    return panel::ErrorResponse(404, "no assignment '" + core::Printable(name, 40) +
-                                         "' in this class; its notebook assignments: " +
-                                         Names(config_.notebooks
-                                                   ? config_.notebooks->assignments
-                                                   : std::vector<NotebookAssignment>{}));
+    return panel::ErrorResponse(404,
+                                "no assignment '" + core::Printable(name, 40) +
+                                    "' in this class; its notebook assignments: " +
+                                    Names(config_.notebooks ? config_.notebooks->assignments
+                                                            : std::vector<NotebookAssignment>{}));
   }
   if (method == "POST") {
     if (!owner) {
@@ -320,15 +322,14 @@ std::optional<panel::Response> NotebookSubmissionService::StudentRoute(
   }
   const int id = IdOf(more);
   if (id <= 0) {
-    return panel::ErrorResponse(404, "class/assignments/" + name + "/" +
-                                         core::Printable(more, 40) +
+    return panel::ErrorResponse(404, "class/assignments/" + name + "/" + core::Printable(more, 40) +
                                          ": allowed: a submission's number");
   }
   const std::lock_guard<std::mutex> lock(mutex_);
   const Json meta = Read(student, name, id);
   if (!meta.is_object()) {
-    return panel::ErrorResponse(404, student + " has no submission " + std::to_string(id) +
-                                         " of " + name);
+    return panel::ErrorResponse(
+        404, student + " has no submission " + std::to_string(id) + " of " + name);
   }
   return JsonAnswer(200, meta);
 }
@@ -392,8 +393,7 @@ void NotebookSubmissionService::Worker() {
 // `sirupp grade notebook N/submission.ipynb --tests HIDDEN --out N/grade --json`: the command a
 // teacher types, niced below the rigs, its own process group, killed well after the
 // assignment's own time limit.
-void NotebookSubmissionService::Grade(const std::string& student, const std::string& name,
-                                      int id) {
+void NotebookSubmissionService::Grade(const std::string& student, const std::string& name, int id) {
   const Assignment* assignment = Find(name);
   if (assignment == nullptr) return;
   const std::string folder = Folder(student, name, id);
@@ -456,11 +456,10 @@ void NotebookSubmissionService::Grade(const std::string& student, const std::str
   const Json result = Json::parse(ReadFile(out + "/result.json"), nullptr, false);
   if (timed_out || !grader.EndedCleanly() || !result.is_object()) {
     meta["state"] = "grade failed";
-    meta["problem"] = timed_out ? "grading took longer than " +
-                                      std::to_string(static_cast<int>(limit_s)) +
-                                      " s and was stopped"
-                                : "sirupp grade notebook ended (" + grader.HowEnded() +
-                                      "): " + grader.LogTail(2);
+    meta["problem"] =
+        timed_out ? "grading took longer than " + std::to_string(static_cast<int>(limit_s)) +
+                        " s and was stopped"
+                  : "sirupp grade notebook ended (" + grader.HowEnded() + "): " + grader.LogTail(2);
     Write(student, name, id, meta);
     log_(student + ": notebook " + name + " submission " + std::to_string(id) +
          " not graded: " + meta["problem"].get<std::string>());
@@ -472,8 +471,8 @@ void NotebookSubmissionService::Grade(const std::string& student, const std::str
   meta["problem"] = result.value("problem", "");
   meta["result"] = result;
   Write(student, name, id, meta);
-  log_(student + ": notebook " + name + " submission " + std::to_string(id) + " graded: " +
-       core::FormatNumber(result.value("score", 0.0)) + " of " +
+  log_(student + ": notebook " + name + " submission " + std::to_string(id) +
+       " graded: " + core::FormatNumber(result.value("score", 0.0)) + " of " +
        core::FormatNumber(result.value("max_score", 0.0)));
 }
 

@@ -17,21 +17,22 @@ PlanCollisionReport CheckPlanCollisions(const core::RobotModel& model, const Pla
   core::JointVector last;
   double last_time = 0;
   if (!report.error) {
-    const TraceSummary summary = TracePlanSetpoints(
-        model, plan, start,
-        [&](int step_index, const std::vector<double>& setpoint, double time_s) {
-          const core::JointVector q = core::ToJointVector(setpoint);
-          // The end of each move (a new one started) is checked whatever the step.
-          if (step_index != previous_step && last.size() > 0) {
-            report.error = sweep.Feed(last, last_time, previous_step, true);
-            if (report.error) return false;
-          }
-          previous_step = step_index;
-          last = q;
-          last_time = time_s;
-          report.error = sweep.Feed(q, time_s, step_index);
-          return !report.error.has_value();
-        });
+    const TraceSummary summary =
+        TracePlanSetpoints(model, plan, start,
+                           [&](int step_index, const std::vector<double>& setpoint, double time_s) {
+                             const core::JointVector q = core::ToJointVector(setpoint);
+                             // The end of each move (a new one started) is checked whatever the
+                             // step.
+                             if (step_index != previous_step && last.size() > 0) {
+                               report.error = sweep.Feed(last, last_time, previous_step, true);
+                               if (report.error) return false;
+                             }
+                             previous_step = step_index;
+                             last = q;
+                             last_time = time_s;
+                             report.error = sweep.Feed(q, time_s, step_index);
+                             return !report.error.has_value();
+                           });
     report.duration_s = summary.duration_s;
     if (!report.error && last.size() > 0) {
       report.error = sweep.Feed(last, summary.duration_s, previous_step, true);

@@ -19,7 +19,7 @@ namespace sirupp::control {
 inline constexpr double kPlanCheckStepRad = 0.01;
 
 struct PlanCollisionReport {
-  std::optional<planning::SweepFinding> error;  // the first static-object or self contact
+  std::optional<planning::SweepFinding> error;       // the first static-object or self contact
   std::vector<planning::SweepFinding> free_touches;  // before the error (free objects: notes)
   int states_checked = 0;
   double duration_s = 0;  // of the plan's motion (up to the error)

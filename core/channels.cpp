@@ -119,8 +119,7 @@ constexpr ChannelProse kProse[] = {
      "the robot model as the physics loaded it: DH rows, links, mass properties, limits, "
      "friction, servo parameters"},
     {"ENVIRONMENT", "sirupp-sim", "sirupp-control (a plan is checked against it), sirupp-viewer",
-     "1 Hz",
-     "the objects around the robot: shape, pose, size, colour, static or dynamic"},
+     "1 Hz", "the objects around the robot: shape, pose, size, colour, static or dynamic"},
     {"SIM_ARM_STATE", "sirupp-sim",
      "sirupp-control (running the boards itself), sirupp-logger, sirupp-viewer",
      "every physics tick (1953.125 Hz by default)",
