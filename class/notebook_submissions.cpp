@@ -12,6 +12,7 @@
 #include <sstream>
 
 #include "class/gradebook.hpp"
+#include "class/store_files.hpp"
 #include "core/errors.hpp"
 #include "core/printable.hpp"
 
@@ -23,34 +24,6 @@ using Json = nlohmann::json;
 using Clock = std::chrono::steady_clock;
 
 constexpr const char* kFromNotebooks = "from-notebooks";
-
-std::string ReadFile(const std::string& file) {
-  std::ifstream in(file, std::ios::binary);
-  std::ostringstream body;
-  body << in.rdbuf();
-  return body.str();
-}
-
-// Written whole or not at all (a reader never sees half a file); mode 644.
-void WriteWhole(const std::string& file, const std::string& text) {
-  const std::string temporary = file + ".tmp";
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    out << text;
-    if (!out) throw std::runtime_error("cannot write " + temporary);
-  }
-  ::chmod(temporary.c_str(), 0644);
-  fs::rename(temporary, file);
-}
-
-std::string WallClock() {
-  const std::time_t now = std::time(nullptr);
-  std::tm local{};
-  localtime_r(&now, &local);
-  char text[32];
-  std::strftime(text, sizeof text, "%Y-%m-%d %H:%M:%S", &local);
-  return text;
-}
 
 panel::Response JsonAnswer(int status, const Json& body) {
   return panel::Response{status, "application/json",
@@ -199,15 +172,15 @@ std::vector<int> NotebookSubmissionService::Ids(const std::string& student,
 Json NotebookSubmissionService::Read(const std::string& student, const std::string& assignment,
                                      int id) const {
   const Json meta =
-      Json::parse(ReadFile(Folder(student, assignment, id) + "/submission.json"), nullptr, false);
+      Json::parse(ReadAll(Folder(student, assignment, id) + "/submission.json"), nullptr, false);
   return meta.is_object() ? meta : Json();
 }
 
 void NotebookSubmissionService::Write(const std::string& student, const std::string& assignment,
                                       int id, const Json& meta) const {
   // Invalid UTF-8 (a log's tail in a problem) is replaced, never a throw.
-  WriteWhole(Folder(student, assignment, id) + "/submission.json",
-             meta.dump(1, ' ', false, Json::error_handler_t::replace));
+  WriteAtomically(Folder(student, assignment, id) + "/submission.json",
+                  meta.dump(1, ' ', false, Json::error_handler_t::replace));
 }
 
 std::optional<int> NotebookSubmissionService::Counted(const std::string& student,
@@ -307,7 +280,7 @@ std::optional<panel::Response> NotebookSubmissionService::StudentRoute(const std
                                              std::to_string(options_.max_notebook_kb) +
                                              " KiB (clear its outputs and save it)");
       }
-      const std::string text = ReadFile(copy);
+      const std::string text = ReadAll(copy);
       if (auto refusal = CheckNotebookBody(text, options_.max_notebook_kb)) return refusal;
       return Submit(student, *assignment, text, "notebooks folder");
     }
@@ -347,7 +320,7 @@ panel::Response NotebookSubmissionService::Submit(const std::string& student,
     id = ids.empty() ? 1 : ids.back() + 1;
     const std::string folder = Folder(student, name, id);
     fs::create_directories(folder);
-    WriteWhole(folder + "/submission.ipynb", notebook);
+    WriteAtomically(folder + "/submission.ipynb", notebook);
     meta = Json{{"id", id},
                 {"assignment", name},
                 {"source", source},
@@ -453,7 +426,7 @@ void NotebookSubmissionService::Grade(const std::string& student, const std::str
   Json meta = Read(student, name, id);
   if (!meta.is_object()) return;
   meta["grade_seconds"] = seconds;
-  const Json result = Json::parse(ReadFile(out + "/result.json"), nullptr, false);
+  const Json result = Json::parse(ReadAll(out + "/result.json"), nullptr, false);
   if (timed_out || !grader.EndedCleanly() || !result.is_object()) {
     meta["state"] = "grade failed";
     meta["problem"] =

@@ -13,6 +13,7 @@
 #include <sstream>
 
 #include "class/rig.hpp"
+#include "class/store_files.hpp"
 #include "core/printable.hpp"
 #include "grade/grade.hpp"
 #include "grade/report.hpp"
@@ -31,34 +32,6 @@ const char* const kStates[] = {"graded", "build failed", "grade failed", "ready"
 
 bool IsFinal(const std::string& state) {
   return std::find(std::begin(kStates), std::end(kStates), state) != std::end(kStates);
-}
-
-std::string ReadAll(const std::string& file) {
-  std::ifstream in(file, std::ios::binary);
-  std::ostringstream body;
-  body << in.rdbuf();
-  return body.str();
-}
-
-// Written whole or not at all (a reader never sees half a file); mode 644.
-void WriteAtomically(const std::string& file, const std::string& text) {
-  const std::string temporary = file + ".tmp";
-  {
-    std::ofstream out(temporary, std::ios::binary | std::ios::trunc);
-    out << text;
-    if (!out) throw std::runtime_error("cannot write " + temporary);
-  }
-  ::chmod(temporary.c_str(), 0644);
-  fs::rename(temporary, file);
-}
-
-std::string WallClock() {
-  const std::time_t now = std::time(nullptr);
-  std::tm local{};
-  localtime_r(&now, &local);
-  char text[32];
-  std::strftime(text, sizeof text, "%Y-%m-%d %H:%M:%S", &local);
-  return text;
 }
 
 panel::Response JsonResponse(int status, const Json& body) {

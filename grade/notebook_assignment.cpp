@@ -1,9 +1,9 @@
 #include "grade/notebook_assignment.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
-#include <algorithm>
 #include <filesystem>
 #include <fstream>
 #include <map>
@@ -131,8 +131,8 @@ std::vector<NotebookTest> ReadNotebookTests(const std::string& tests_file) {
     } else if (std::regex_search(line, match, def_line)) {
       for (const NotebookTest& test : tests) {
         if (test.name == match[1].str()) {
-          throw std::runtime_error(tests_file + ":" + std::to_string(number) + ": " +
-                                   test.name + " is defined twice (only the last would run)");
+          throw std::runtime_error(tests_file + ":" + std::to_string(number) + ": " + test.name +
+                                   " is defined twice (only the last would run)");
         }
       }
       tests.push_back({match[1].str(), pending});
@@ -158,9 +158,10 @@ std::string HiddenTestsExposed(const std::string& tests_file, const std::string&
     return !relative.empty() && *relative.begin() != "..";
   };
   if (under("/usr")) {
-    return file.string() + " is under /usr, which every student's sandbox reads (the grader's and "
-                           "the notebook servers'): keep the hidden tests elsewhere, e.g. beside "
-                           "the class file";
+    return file.string() +
+           " is under /usr, which every student's sandbox reads (the grader's and "
+           "the notebook servers'): keep the hidden tests elsewhere, e.g. beside "
+           "the class file";
   }
   if (!bin_dir.empty() && under(fs::path(bin_dir) / ".." / "python")) {
     return file.string() + " is in the Python module's folder, which the grader's sandbox reads";
@@ -194,8 +195,8 @@ NotebookResult GradeNotebook(const std::string& notebook, const std::string& tes
     return result;
   }
   if (too_large) {
-    result.problem = "the notebook is larger than " +
-                     std::to_string(options.max_notebook_bytes / 1024) + " KiB";
+    result.problem =
+        "the notebook is larger than " + std::to_string(options.max_notebook_bytes / 1024) + " KiB";
     NotRun(tests, result.problem, result);
     return result;
   }
@@ -244,8 +245,12 @@ NotebookResult GradeNotebook(const std::string& notebook, const std::string& tes
   const fs::path result_file = work / "result-host.json";
   fs::remove(result_file, ignored);
   std::vector<std::string> command = {
-      "/bin/sh", "-c", "tests=$1; result=$2; shift 2; exec \"$@\" <\"$tests\" >\"$result\"", "sh",
-      fs::absolute(tests_file).string(), result_file.string()};
+      "/bin/sh",
+      "-c",
+      "tests=$1; result=$2; shift 2; exec \"$@\" <\"$tests\" >\"$result\"",
+      "sh",
+      fs::absolute(tests_file).string(),
+      result_file.string()};
   command.insert(command.end(), argv.begin(), argv.end());
   const std::string log = (work / "grade.log").string();
   fs::remove(log, ignored);
@@ -357,7 +362,8 @@ NotebookResult NotebookResultFromJson(const nlohmann::json& json) {
   }
   NotebookResult result;
   const nlohmann::json* tests = Field(json, "tests");
-  if (tests == nullptr || !tests->is_array()) throw std::runtime_error("tests: missing or not a list");
+  if (tests == nullptr || !tests->is_array())
+    throw std::runtime_error("tests: missing or not a list");
   for (const auto& test : *tests) {
     if (!test.is_object()) throw std::runtime_error("tests: an entry is not an object");
     NotebookTestResult scored;
@@ -384,7 +390,8 @@ std::string NotebookResultTable(const NotebookResult& result) {
   char line[64];
   out << "test" << std::string(width - 4, ' ') << "  points  result\n";
   for (const NotebookTestResult& test : result.tests) {
-    std::snprintf(line, sizeof line, "%6s", (Num(test.points) + "/" + Num(test.max_points)).c_str());
+    std::snprintf(line, sizeof line, "%6s",
+                  (Num(test.points) + "/" + Num(test.max_points)).c_str());
     out << test.name << std::string(width - test.name.size(), ' ') << "  " << line << "  "
         << (test.passed ? "pass" : "FAIL: " + test.message) << "\n";
   }

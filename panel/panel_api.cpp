@@ -77,8 +77,8 @@ bool Inside(const fs::path& path, const fs::path& dir) {
 // The routes that change nothing (reads and checks): no token, no lock.
 bool ChangesNothing(const std::string& path) {
   return path == "/api/ik" || path == "/api/plan/check" || path == "/api/plan/make" ||
-         path == "/api/cspace" || path == "/api/environment/check" ||
-         path == "/api/model/check" || path == "/api/lock" || path == "/api/unlock";
+         path == "/api/cspace" || path == "/api/environment/check" || path == "/api/model/check" ||
+         path == "/api/lock" || path == "/api/unlock";
 }
 
 }  // namespace
@@ -231,7 +231,8 @@ Response PanelApi::Post(const Request& request, const Json& body) {
   if (path == "/api/plan/make") {
     RigCommands::PlanGoal goal;
     if (body.contains("joints") == body.contains("tool")) {
-      throw std::invalid_argument("goal: give joints (one per joint) or tool (x y z roll pitch yaw)");
+      throw std::invalid_argument(
+          "goal: give joints (one per joint) or tool (x y z roll pitch yaw)");
     }
     const auto list = [&](const std::string& field) {
       if (!body[field].is_array() || body[field].size() > 32) {

@@ -38,13 +38,13 @@ Json DisplayJoints(const core::RobotModel& model, const core::JointVector& q) {
 // What a contact is, for the page: the model's sentence and the point (m).
 Json ContactJson(const planning::CollisionModel& collision, const planning::SweepFinding& f,
                  const core::RobotModel& model) {
-  return Json{{"what", collision.Describe(f.contact)},
-              {"kind", f.contact.kind == planning::ContactKind::kSelf
-                           ? "self"
-                           : (f.contact.kind == planning::ContactKind::kFreeObject ? "free"
-                                                                                   : "static")},
-              {"joints", DisplayJoints(model, f.state)},
-              {"time_s", f.time_s}};
+  return Json{
+      {"what", collision.Describe(f.contact)},
+      {"kind", f.contact.kind == planning::ContactKind::kSelf
+                   ? "self"
+                   : (f.contact.kind == planning::ContactKind::kFreeObject ? "free" : "static")},
+      {"joints", DisplayJoints(model, f.state)},
+      {"time_s", f.time_s}};
 }
 
 // The tool's path along straight joint-space segments between waypoints (m), for the 3D view.
@@ -208,8 +208,8 @@ CommandResult RigCommands::CheckPlan(const std::string& name, const std::string&
     const std::optional<core::Environment> environment = hub_.Environment();
     if (environment && !environment->objects.empty()) {
       planning::CollisionModel collision(*model, *environment, {});
-      const control::PlanCollisionReport report = control::CheckPlanCollisions(
-          *model, plan, start, collision, control::kPlanCheckStepRad);
+      const control::PlanCollisionReport report =
+          control::CheckPlanCollisions(*model, plan, start, collision, control::kPlanCheckStepRad);
       Json notes = Json::array();
       for (const planning::SweepFinding& f : report.free_touches) {
         Json note = ContactJson(collision, f, *model);
@@ -223,7 +223,8 @@ CommandResult RigCommands::CheckPlan(const std::string& name, const std::string&
         const int line = f.step < 0 ? 0 : plan.steps[static_cast<size_t>(f.step)].line;
         return CommandResult::Fail(
             422, control::FindingError(*model, plan, collision, f),
-            Json{{"line", line}, {"column", 0}, {"problem", contact["what"]}, {"contact", contact}});
+            Json{
+                {"line", line}, {"column", 0}, {"problem", contact["what"]}, {"contact", contact}});
       }
       message += "; no collision with " + environment->name + " or the arm itself (" +
                  std::to_string(report.states_checked) + " set-points checked)";
@@ -278,10 +279,10 @@ CommandResult RigCommands::MakePlan(const PlanGoal& goal) {
     const planning::PlanResult result = planning::PlanPath(collision, start, target, request);
     if (!result.solved) return CommandResult::Fail(422, result.message);
     planning::PlanTextOptions text_options;
-    text_options.comments = {"planned by the panel: " + result.message,
-                             "around " + (world.name.empty() ? std::string("no objects")
-                                                             : "the sim's environment " +
-                                                                   world.name)};
+    text_options.comments = {
+        "planned by the panel: " + result.message,
+        "around " + (world.name.empty() ? std::string("no objects")
+                                        : "the sim's environment " + world.name)};
     const std::string text = planning::PathToPlanText(*model, result.path, text_options);
     Json waypoints = Json::array(), marks = Json::array();
     for (const planning::JointVector& q : result.path) {
@@ -329,8 +330,10 @@ CommandResult RigCommands::CSpace(int joint_a, int joint_b, double step_deg) {
     const planning::CSpaceSlice slice =
         planning::ComputeCSpaceSlice(collision, q, joint_a, joint_b, step_deg * kDeg);
     Json a = Json::array(), b = Json::array();
-    for (double v : slice.values_a) a.push_back(ToDisplay(model->joints[static_cast<size_t>(joint_a)], v));
-    for (double v : slice.values_b) b.push_back(ToDisplay(model->joints[static_cast<size_t>(joint_b)], v));
+    for (double v : slice.values_a)
+      a.push_back(ToDisplay(model->joints[static_cast<size_t>(joint_a)], v));
+    for (double v : slice.values_b)
+      b.push_back(ToDisplay(model->joints[static_cast<size_t>(joint_b)], v));
     std::string cells(slice.cells.size(), '0');
     for (size_t i = 0; i < cells.size(); ++i) cells[i] = static_cast<char>('0' + slice.cells[i]);
     char took[32];

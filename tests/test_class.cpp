@@ -119,16 +119,16 @@ TEST(ClassConfigTest, BadFilesNameLineKeyAndWhatIsAllowed) {
 TEST(ClassConfigTest, NotebooksNameTheHubAndTheAssignments) {
   const ClassConfig none = ParseClassConfig(kGood, "c.yaml", "/tmp/x");
   EXPECT_FALSE(none.notebooks.has_value());
-  const ClassConfig c = ParseClassConfig(
-      std::string(kGood) +
-          "notebooks:\n"
-          "  hub_url: https://notebooks.example.edu/\n"
-          "  hub_port: 8811\n"
-          "  idle_timeout_s: 600\n"
-          "  assignments:\n"
-          "    - {name: fk3, notebook: notebooks/01_forward_kinematics.ipynb,\n"
-          "       tests: config/grading/planning_rrt.py, timeout_s: 60}\n",
-      "c.yaml", "/tmp/x");
+  const ClassConfig c =
+      ParseClassConfig(std::string(kGood) +
+                           "notebooks:\n"
+                           "  hub_url: https://notebooks.example.edu/\n"
+                           "  hub_port: 8811\n"
+                           "  idle_timeout_s: 600\n"
+                           "  assignments:\n"
+                           "    - {name: fk3, notebook: notebooks/01_forward_kinematics.ipynb,\n"
+                           "       tests: config/grading/planning_rrt.py, timeout_s: 60}\n",
+                       "c.yaml", "/tmp/x");
   ASSERT_TRUE(c.notebooks.has_value());
   EXPECT_EQ(c.notebooks->hub_url, "https://notebooks.example.edu");
   EXPECT_EQ(c.notebooks->hub_port, 8811);

@@ -190,8 +190,7 @@ TEST(ControlNode, APlanThroughTheSimsTableIsRefusedNamingItsLineAndNothingMoves)
   rig.bus.Publish("ENVIRONMENT", core::ToMessage(rig.environment, 0, 1));
   rig.RunFor(0.01);
   // The paper's set II lowers the arm into table.xml's top (as `sirupp plan check --env` says).
-  rig.Plan(Command::COMMAND_RUN, "config/plans/set2.plan",
-           ReadPlanText("config/plans/set2.plan"));
+  rig.Plan(Command::COMMAND_RUN, "config/plans/set2.plan", ReadPlanText("config/plans/set2.plan"));
   rig.RunFor(0.5);
   EXPECT_EQ(rig.Rejected("ARM_PLAN"), 1);
   const std::string error = rig.control.last_error();
@@ -210,8 +209,7 @@ TEST(ControlNode, APlanThroughTheSimsTableIsRefusedNamingItsLineAndNothingMoves)
   // Without an environment in the sim, the same set II runs (nothing to collide with).
   Rig open;
   open.RunFor(0.01);
-  open.Plan(Command::COMMAND_RUN, "config/plans/set2.plan",
-            ReadPlanText("config/plans/set2.plan"));
+  open.Plan(Command::COMMAND_RUN, "config/plans/set2.plan", ReadPlanText("config/plans/set2.plan"));
   open.RunFor(0.05);
   EXPECT_EQ(open.Rejected("ARM_PLAN"), 0) << open.control.last_error();
   EXPECT_TRUE(open.control.plan_running());

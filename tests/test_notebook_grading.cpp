@@ -28,9 +28,9 @@ std::string Temp(const std::string& name, const std::string& text) {
 }
 
 TEST(GradebookCsvTest, HeaderCanvasTakesThenOneRowPerStudent) {
-  const std::string csv = GradebookCsv({{"controller", 100}, {"fk3", 6}},
-                                       {{"alice", {83.333333, 3.0}}, {"bob", {std::nullopt, 6.0}},
-                                        {"carol", {0.0, std::nullopt}}});
+  const std::string csv = GradebookCsv(
+      {{"controller", 100}, {"fk3", 6}},
+      {{"alice", {83.333333, 3.0}}, {"bob", {std::nullopt, 6.0}}, {"carol", {0.0, std::nullopt}}});
   EXPECT_EQ(csv,
             "Student,ID,SIS User ID,SIS Login ID,Section,controller,fk3\r\n"
             "alice,,,alice,,83.33,3\r\n"
@@ -102,8 +102,9 @@ std::string ErrorOf(const std::string& name, const std::string& text) {
 TEST(NotebookTestsFileTest, BadFilesNameTheLine) {
   EXPECT_NE(ErrorOf("none.py", "def helper():\n    pass\n").find("none.py: no test"),
             std::string::npos);
-  EXPECT_NE(ErrorOf("neg.py", "@points(-1)\ndef test_a():\n    pass\n").find("neg.py:1: @points(-1)"),
-            std::string::npos);
+  EXPECT_NE(
+      ErrorOf("neg.py", "@points(-1)\ndef test_a():\n    pass\n").find("neg.py:1: @points(-1)"),
+      std::string::npos);
   EXPECT_NE(ErrorOf("word.py", "@points(many)\ndef test_a():\n    pass\n").find("word.py:1:"),
             std::string::npos);
   EXPECT_NE(ErrorOf("twice.py", "def test_a():\n    pass\ndef test_a():\n    pass\n")
@@ -144,7 +145,8 @@ TEST(NotebookResultTest, JsonAndBackAndTheTable) {
   EXPECT_EQ(json["format"], grade::kNotebookResultFormat);
   EXPECT_EQ(json["score"], 1.0);
   EXPECT_EQ(json["max_score"], 4.0);
-  const grade::NotebookResult back = grade::NotebookResultFromJson(nlohmann::json::parse(json.dump()));
+  const grade::NotebookResult back =
+      grade::NotebookResultFromJson(nlohmann::json::parse(json.dump()));
   ASSERT_EQ(back.tests.size(), 2u);
   EXPECT_EQ(back.tests[1].message, "fk differs");
   EXPECT_FALSE(back.tests[1].passed);

@@ -671,25 +671,27 @@ TEST_F(PanelApiTest, PlansAroundTheSimsObjectsChecksThemAndShowsTheCSpace) {
   EXPECT_EQ(cells.size(), c["values_a"].size() * c["values_b"].size());
   EXPECT_NE(cells.find('1'), std::string::npos) << "the table is in the slice";
   EXPECT_NE(cells.find('0'), std::string::npos);
-  EXPECT_NEAR(c["values_a"].front().get<double>(), model_.joints[1].position_min / sirupp::kDeg, 1e-6);
+  EXPECT_NEAR(c["values_a"].front().get<double>(), model_.joints[1].position_min / sirupp::kDeg,
+              1e-6);
   // Bad requests: one line naming the field; nothing sent.
   EXPECT_EQ(Post("/api/cspace", Json{{"joint_a", 0}, {"joint_b", 3}}.dump()).status, 400);
   EXPECT_EQ(Post("/api/cspace", Json{{"joint_a", 2}, {"joint_b", 2}}.dump()).status, 400);
   EXPECT_EQ(Post("/api/cspace", Json{{"joint_a", 2}, {"joint_b", 3}, {"step", 0.01}}.dump()).status,
             400);
   EXPECT_EQ(Post("/api/plan/make", Json{{"joints", {1, 2}}}.dump()).status, 400);
-  EXPECT_EQ(Post("/api/plan/make", Json{{"joints", {0, 0, 0, 0, 0, 0}},
-                                        {"tool", {0, 0, 0, 0, 0, 0}}}.dump())
+  EXPECT_EQ(Post("/api/plan/make",
+                 Json{{"joints", {0, 0, 0, 0, 0, 0}}, {"tool", {0, 0, 0, 0, 0, 0}}}.dump())
                 .status,
             400);
-  Response planner = Post("/api/plan/make",
-                          Json{{"joints", {60, 80, 20, 0, 60, 0}}, {"planner", "astar"}}.dump());
+  Response planner =
+      Post("/api/plan/make", Json{{"joints", {60, 80, 20, 0, 60, 0}}, {"planner", "astar"}}.dump());
   EXPECT_EQ(planner.status, 400);
   EXPECT_NE(Body(planner)["error"].get<std::string>().find("astar"), std::string::npos);
   Response inside = Post("/api/plan/make", Json{{"joints", {0, 90, 0, 0, 0, 0}}}.dump());
   EXPECT_EQ(inside.status, 400) << "a goal in the table: " << inside.body;
-  EXPECT_EQ(Post("/api/plan/make", Json{{"joints", {0, 0, 0, 0, 0, 0}}, {"seed", -1}}.dump()).status,
-            400);
+  EXPECT_EQ(
+      Post("/api/plan/make", Json{{"joints", {0, 0, 0, 0, 0, 0}}, {"seed", -1}}.dump()).status,
+      400);
   EXPECT_TRUE(plans_.empty());
 }
 

@@ -81,8 +81,9 @@ std::string HubPackageDir() {
   namespace fs = std::filesystem;
   const fs::path dir = fs::absolute(fs::path(runtime::DataDir()) / "hub").lexically_normal();
   if (!fs::exists(dir / "sirupp_hub" / "spawner.py")) {
-    throw core::UsageError(dir.string() + "/sirupp_hub is missing (the hub's authenticator and "
-                                          "spawner); reinstall the package");
+    throw core::UsageError(dir.string() +
+                           "/sirupp_hub is missing (the hub's authenticator and "
+                           "spawner); reinstall the package");
   }
   return dir.string();
 }
@@ -116,8 +117,8 @@ void CheckHubCanRun(const classroom::ClassConfig& config,
   for (const auto& [port, what] : ports) {
     if (port > 65535 || !PortFree(port)) {
       throw core::UsageError(config.file + ": notebooks.hub_port " +
-                             std::to_string(notebooks.hub_port) + ": port " +
-                             std::to_string(port) + " (" + what +
+                             std::to_string(notebooks.hub_port) + ": port " + std::to_string(port) +
+                             " (" + what +
                              ") is in use on 127.0.0.1 (a hub already running, or another "
                              "program); the hub takes hub_port, hub_port+1 and hub_port+2");
     }
@@ -131,28 +132,27 @@ nlohmann::json HubSettings(const classroom::ClassConfig& config,
   const std::string listen =
       config.listen == "0.0.0.0" || config.listen == "::" ? "127.0.0.1" : config.listen;
   const std::string host = listen.find(':') != std::string::npos ? "[" + listen + "]" : listen;
-  return nlohmann::json{
-      {"class_name", config.name},
-      {"class_url", std::string(config.tls_cert.empty() ? "http" : "https") + "://" + host + ":" +
-                        std::to_string(config.port)},
-      {"hub_secret_file", classroom::HubSecretFile(config)},
-      {"data_dir", config.data_dir},
-      {"students_dir", config.data_dir + "/students"},
-      {"run_dir", hub_dir + "/run"},
-      {"notebooks_dir", notebooks.folder},
-      {"idle_timeout_s", notebooks.idle_timeout_s},
-      {"memory_mb", notebooks.memory_mb},
-      {"processes", notebooks.processes},
-      {"hub_url", notebooks.hub_url},
-      {"hub_port", notebooks.hub_port},
-      {"hub_api_host", "127.0.0.1"},
-      {"hub_api_port", notebooks.hub_port + 1},
-      {"proxy_api_port", notebooks.hub_port + 2},
-      {"poll_interval_s", poll},
-      {"bin_dir", ProgramDir()},
-      {"python_dir", SiruppPythonDir()},
-      {"hub_dir", HubPackageDir()},
-      {"user_header", config.front ? config.front->user_header : ""}};
+  return nlohmann::json{{"class_name", config.name},
+                        {"class_url", std::string(config.tls_cert.empty() ? "http" : "https") +
+                                          "://" + host + ":" + std::to_string(config.port)},
+                        {"hub_secret_file", classroom::HubSecretFile(config)},
+                        {"data_dir", config.data_dir},
+                        {"students_dir", config.data_dir + "/students"},
+                        {"run_dir", hub_dir + "/run"},
+                        {"notebooks_dir", notebooks.folder},
+                        {"idle_timeout_s", notebooks.idle_timeout_s},
+                        {"memory_mb", notebooks.memory_mb},
+                        {"processes", notebooks.processes},
+                        {"hub_url", notebooks.hub_url},
+                        {"hub_port", notebooks.hub_port},
+                        {"hub_api_host", "127.0.0.1"},
+                        {"hub_api_port", notebooks.hub_port + 1},
+                        {"proxy_api_port", notebooks.hub_port + 2},
+                        {"poll_interval_s", poll},
+                        {"bin_dir", ProgramDir()},
+                        {"python_dir", SiruppPythonDir()},
+                        {"hub_dir", HubPackageDir()},
+                        {"user_header", config.front ? config.front->user_header : ""}};
 }
 
 // Becomes /usr/bin/jupyterhub in DATA/hub (throws only when it cannot).
@@ -184,12 +184,14 @@ int RunClassNotebooks(const std::vector<std::string>& args, std::ostream& out) {
       args, "class notebooks",
       {ClassFileFlag(),
        runtime::Flag("jupyterhub", "the hub's program (default /usr/bin/jupyterhub)").Takes("PATH"),
-       runtime::Flag("poll-interval", "seconds between the hub's checks of each server (default: "
-                                      "a quarter of notebooks.idle_timeout_s, 2 to 30)")
+       runtime::Flag("poll-interval",
+                     "seconds between the hub's checks of each server (default: "
+                     "a quarter of notebooks.idle_timeout_s, 2 to 30)")
            .Takes("S")
            .Range(0.5, 300),
-       runtime::Flag("idle-timeout", "override notebooks.idle_timeout_s (tests: below its 60 s "
-                                     "minimum)")
+       runtime::Flag("idle-timeout",
+                     "override notebooks.idle_timeout_s (tests: below its 60 s "
+                     "minimum)")
            .Takes("S")
            .Range(1, 604800)},
       kNotebooksAbout);
@@ -215,16 +217,17 @@ int RunClassNotebooks(const std::vector<std::string>& args, std::ostream& out) {
   const std::string settings_file = hub_dir + "/hub.json";
   std::ofstream(settings_file) << settings.dump(2) << "\n";
   const std::string config_file = hub_dir + "/jupyterhub_config.py";
-  std::ofstream(config_file)
-      << "# Written by `sirupp class notebooks` for the class " << config.name
-      << " (docs/notebooks.md); the settings are in hub.json beside it.\n"
-      << "import sys\nsys.path.insert(0, " << nlohmann::json(settings["hub_dir"]).dump()
-      << ")\nfrom sirupp_hub.config import configure\nconfigure(c, "
-      << nlohmann::json(settings_file).dump() << ")\n";
-  out << "sirupp class notebooks: " << config.name << ": the hub on http://127.0.0.1:"
-      << notebooks.hub_port << " (browsers: " << notebooks.hub_url << "), the class server at "
-      << settings["class_url"].get<std::string>() << ", configuration " << config_file
-      << std::endl;
+  std::ofstream(config_file) << "# Written by `sirupp class notebooks` for the class "
+                             << config.name
+                             << " (docs/notebooks.md); the settings are in hub.json beside it.\n"
+                             << "import sys\nsys.path.insert(0, "
+                             << nlohmann::json(settings["hub_dir"]).dump()
+                             << ")\nfrom sirupp_hub.config import configure\nconfigure(c, "
+                             << nlohmann::json(settings_file).dump() << ")\n";
+  out << "sirupp class notebooks: " << config.name
+      << ": the hub on http://127.0.0.1:" << notebooks.hub_port
+      << " (browsers: " << notebooks.hub_url << "), the class server at "
+      << settings["class_url"].get<std::string>() << ", configuration " << config_file << std::endl;
   ExecHub(jupyterhub, hub_dir, config_file);
   return 1;  // ExecHub returns only by throwing
 }
@@ -241,8 +244,8 @@ int RunClassCheck(const std::vector<std::string>& args, std::ostream& out) {
       try {
         tests = grade::ReadNotebookTests(assignment.tests);
       } catch (const std::runtime_error& error) {
-        throw core::UsageError(config.file + ": notebooks: assignments: " + assignment.name +
-                               ": " + error.what());
+        throw core::UsageError(config.file + ": notebooks: assignments: " + assignment.name + ": " +
+                               error.what());
       }
       const std::string exposed = grade::HiddenTestsExposed(assignment.tests, ProgramDir());
       if (!exposed.empty()) {

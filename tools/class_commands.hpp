@@ -1,5 +1,6 @@
 #pragma once
-// `sirupp class serve|tokens|check|notebooks CLASS.yaml`: the class server (class/) from the command line.
+// `sirupp class serve|tokens|check|notebooks CLASS.yaml`: the class server (class/) from the
+// command line.
 
 #include <iosfwd>
 #include <string>

@@ -25,8 +25,8 @@ namespace sirupp::tools {
 namespace {
 
 constexpr double kPi = 3.14159265358979323846;
-constexpr double kDefaultMakeStep = 0.01;   // rad
-constexpr double kDefaultPadding = 0.01;    // m, plan make
+constexpr double kDefaultMakeStep = 0.01;  // rad
+constexpr double kDefaultPadding = 0.01;   // m, plan make
 
 std::string JoinNames(const std::vector<std::string>& names) {
   std::string out;
@@ -157,8 +157,9 @@ bool SweepPlan(const runtime::Args& parsed, const core::RobotModel& model,
   const control::PlanCollisionReport report =
       control::CheckPlanCollisions(model, plan, start, collision, step);
   for (const planning::SweepFinding& f : report.free_touches) {
-    out << control::FindingPlace(plan, f) << ": note: "
-        << control::FindingDetail(model, collision, f) << " (a free object: the arm may push it)\n";
+    out << control::FindingPlace(plan, f)
+        << ": note: " << control::FindingDetail(model, collision, f)
+        << " (a free object: the arm may push it)\n";
   }
   if (report.error) {
     out << control::FindingError(model, plan, collision, *report.error) << "\n";
@@ -329,7 +330,8 @@ int PlanMake(const std::vector<std::string>& args, std::ostream& out) {
   }
   text_options.comments = {
       "Planned in " + environment.name + " (" + environment.source_file + ") for " + model.name,
-      "from [" + control::JointsText(model, start) + "] deg to [" + control::JointsText(model, goal) + "] deg",
+      "from [" + control::JointsText(model, start) + "] deg to [" +
+          control::JointsText(model, goal) + "] deg",
       request.planner + ", seed " + std::to_string(request.seed) + ", edge step " +
           core::FormatNumber(request.edge_step_rad) + " rad, padding " +
           core::FormatNumber(options.padding_m * 1000) + " mm" +
