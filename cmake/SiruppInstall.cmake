@@ -4,7 +4,8 @@
 #   <prefix>/share/sirupp                 models, environments, plans, lab layouts, grading suites
 #                                         (config/), the panel's and the class server's pages,
 #                                         the controller header, notebooks, examples, the LCM types
-#   <prefix>/include/sirupp/controller.h  the controller header where a compiler finds it
+#   <prefix>/include/sirupp/controller.h  the controller header where a compiler finds it (and
+#                                         student_planner.h, the planner header)
 #   <prefix>/lib/python3/dist-packages    the Python module, for Debian's /usr/bin/python3
 # Installed programs find the shipped files in <prefix>/share/sirupp by their own place
 # (runtime/data_path.hpp), so the same build runs from the build tree and installed.
@@ -18,7 +19,7 @@ set(SIRUPP_INSTALL_PYTHONDIR lib/python3/dist-packages CACHE STRING
 # ---- Programs ------------------------------------------------------------------------------------
 set(sirupp_installed_programs
   sirupp sirupp-sim sirupp-control sirupp-controller-host sirupp-logger sirupp-viewer sirupp-panel
-  sirupp-hardware sirupp-picservo-emu sirupp-sandbox-exec)
+  sirupp-hardware sirupp-picservo-emu sirupp-sandbox-exec sirupp-planner-host)
 if(SIRUPP_PYTHON_MODULE)
   list(APPEND sirupp_installed_programs sirupp-python-controller-host)
 endif()
@@ -47,7 +48,8 @@ install(DIRECTORY hub/sirupp_hub DESTINATION ${SIRUPP_INSTALL_DATADIR}/hub FILES
         PATTERN "__pycache__" EXCLUDE)  # what running the tests from the tree leaves
 # The header twice: in the data folder, where `sirupp grade`, `sirupp controller build` and the
 # class server look it up (ResolveDataPath), and in <prefix>/include for a student's own g++.
-install(FILES include/sirupp/controller.h DESTINATION ${SIRUPP_INSTALL_DATADIR}/include/sirupp)
+install(FILES include/sirupp/controller.h include/sirupp/student_planner.h
+        DESTINATION ${SIRUPP_INSTALL_DATADIR}/include/sirupp)
 install(DIRECTORY notebooks DESTINATION ${SIRUPP_INSTALL_DATADIR} FILES_MATCHING
         PATTERN "*.ipynb" PATTERN "README.md")
 # The examples as sources to read and copy (their CMakeLists.txt builds them in this tree only).

@@ -1,9 +1,12 @@
 #include "grade/planning_assignment.hpp"
 
+#include <sys/wait.h>
+
 #include <algorithm>
 #include <cctype>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <nlohmann/json.hpp>
@@ -14,9 +17,11 @@
 #include "core/errors.hpp"
 #include "core/model_loader.hpp"
 #include "core/motion_limits.hpp"
+#include "core/signal_name.hpp"
 #include "core/yaml_reader.hpp"
 #include "grade/child.hpp"
 #include "grade/grade.hpp"
+#include "grade/planner_host.hpp"
 #include "grade/port_lease.hpp"
 #include "grade/runner.hpp"
 #include "planning/collision_model.hpp"
@@ -29,7 +34,7 @@ namespace {
 namespace fs = std::filesystem;
 using Json = nlohmann::ordered_json;
 constexpr double kPi = 3.14159265358979323846;
-constexpr size_t kMaxWaypoints = 10000;
+constexpr size_t kMaxWaypoints = kMaxPlanWaypoints;
 
 std::string Num(double value) { return core::FormatNumber(value); }
 std::string Approx(double value) { return core::FormatApprox(value); }
@@ -66,12 +71,17 @@ double PlanDuration(const core::RobotModel& model, const std::vector<core::Joint
   return duration;
 }
 
-// The student's path as plan_host.py writes it: "# seconds S" then one line of n numbers (rad)
-// per waypoint. "" or the problem.
+bool EndsWith(const std::string& text, const std::string& end) {
+  return text.size() >= end.size() && text.compare(text.size() - end.size(), end.size(), end) == 0;
+}
+
+// The student's path as plan_host.py and sirupp-planner-host write it: "# seconds S" then one
+// line of n numbers (rad) per waypoint; nan and inf are read as such, for the check to name.
+// "" or the problem.
 std::string ReadPath(const std::string& file, int n, std::vector<core::JointVector>& path,
                      double& seconds) {
   std::ifstream in(file);
-  if (!in) return "the function wrote no path (see its log)";
+  if (!in) return "the planner wrote no path (see its log)";
   std::string line;
   int number = 0;
   while (std::getline(in, line)) {
@@ -83,44 +93,69 @@ std::string ReadPath(const std::string& file, int n, std::vector<core::JointVect
     if (line.empty() || line[0] == '#') continue;
     std::istringstream words(line);
     core::JointVector q(n);
+    std::string word;
     for (int j = 0; j < n; ++j) {
-      if (!(words >> q[j]))
+      char* end = nullptr;
+      if (words >> word) q[j] = std::strtod(word.c_str(), &end);
+      if (end == nullptr || end != word.c_str() + word.size()) {
         return "path line " + std::to_string(number) + ": not " + std::to_string(n) + " numbers";
+      }
     }
     path.push_back(q);
     if (path.size() > kMaxWaypoints) {
       return "more than " + std::to_string(kMaxWaypoints) + " waypoints";
     }
   }
-  if (path.empty()) return "the function returned an empty path";
+  if (path.empty()) return "the planner returned an empty path";
   return "";
 }
 
-// The student's function, in the sandbox unless options.sandbox is off. "" or why it failed.
+// How the planner's process ended, a crash named by its signal also through the sandbox (bwrap
+// reports it as exit code 128 + N).
+std::string HowPlannerEnded(const Child& child, bool sandboxed) {
+  const int status = sandboxed ? sandbox::UnwrapStatus(child.status()) : child.status();
+  if (WIFSIGNALED(status)) return "crashed with " + core::SignalDescription(WTERMSIG(status));
+  return child.HowEnded();
+}
+
+// The student's planner, in the sandbox unless options.sandbox is off: a Python file's plan()
+// through python/sirupp/plan_host.py, a library's sirupp_plan through sirupp-planner-host
+// (grade/planner_host.hpp). "" or why it failed.
 std::string RunStudent(const PlanningSuite& suite, const core::RobotModel& model,
                        const PlanningQuery& query, const std::string& student_file,
                        const PlanningGradeOptions& options, const std::string& dir,
                        PlanningQueryResult& result) {
-  const fs::path module_dir = fs::weakly_canonical(fs::path(options.bin_dir) / ".." / "python");
-  const std::string host = (module_dir / "sirupp" / "plan_host.py").string();
-  if (!fs::is_regular_file(host)) return "the planning host " + host + " is missing (build it)";
   const std::string out_file = (fs::path(dir) / "path.txt").string();
-  std::vector<std::string> argv = {"/usr/bin/python3",
-                                   "-I",
-                                   host,
-                                   fs::absolute(student_file).string(),
-                                   fs::absolute(suite.model_file).string(),
-                                   fs::absolute(suite.environment_file).string(),
-                                   Num(suite.student_padding_m),
-                                   out_file};
+  fs::remove(out_file);  // not an earlier grade's
+  const bool python = EndsWith(student_file, ".py");
+  const fs::path module_dir = fs::weakly_canonical(fs::path(options.bin_dir) / ".." / "python");
+  std::string host;
+  std::vector<std::string> argv;
+  if (python) {
+    host = (module_dir / "sirupp" / "plan_host.py").string();
+    argv = {"/usr/bin/python3", "-I", host};
+  } else if (EndsWith(student_file, ".so")) {
+    host = (fs::absolute(options.bin_dir) / "sirupp-planner-host").lexically_normal().string();
+    argv = {host};
+  } else {
+    return "the planner '" + student_file +
+           "': allowed a Python file (.py) or a library (.so; its C++ source is built first)";
+  }
+  if (!fs::is_regular_file(host)) return "the planning host " + host + " is missing (build it)";
+  argv.insert(argv.end(),
+              {fs::absolute(student_file).string(), fs::absolute(suite.model_file).string(),
+               fs::absolute(suite.environment_file).string(), Num(suite.student_padding_m)});
+  if (!python) argv.push_back(Num(suite.plan_s));
+  argv.push_back(out_file);
   for (int j = 0; j < query.start.size(); ++j) argv.push_back(Num(query.start[j]));
   for (int j = 0; j < query.goal.size(); ++j) argv.push_back(Num(query.goal[j]));
   if (options.sandbox) {
     sandbox::Policy policy;
     policy.limits.cpu_s = suite.plan_s + 5;
-    policy.read_only = {module_dir.string(), fs::absolute(student_file).string(),
+    policy.read_only = {fs::absolute(student_file).string(),
                         fs::absolute(suite.model_file).string(),
                         fs::absolute(suite.environment_file).string()};
+    if (python) policy.read_only.push_back(module_dir.string());
     policy.read_write = {fs::absolute(dir).string()};
     policy.chdir = fs::absolute(dir).string();
     try {
@@ -141,12 +176,16 @@ std::string RunStudent(const PlanningSuite& suite, const core::RobotModel& model
   while (child.Running()) {
     if (std::chrono::steady_clock::now() > deadline) {
       child.Stop(1.0);
-      return "the function did not return within " + Num(suite.plan_s) + " s";
+      return "the planner did not return within " + Num(suite.plan_s) + " s";
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   if (!child.EndedCleanly()) {
-    return "the function failed (" + child.HowEnded() + "): " + child.LogTail(3);
+    const std::string how = HowPlannerEnded(child, options.sandbox);
+    const std::string tail = child.LogTail(3);
+    // Exit code 1: both hosts' own line says what went wrong (after the planner's own output).
+    if (how == "exit code 1" && !tail.empty()) return tail;
+    return "the planner failed (" + how + ")" + (tail.empty() ? "" : ": " + tail);
   }
   std::vector<core::JointVector> path;
   double seconds = 0;
@@ -406,7 +445,7 @@ double PlanningResult::score() const {
 PlanningResult GradePlanning(const PlanningSuite& suite, const core::RobotModel& model,
                              const std::string& student_file, const PlanningGradeOptions& options) {
   PlanningResult result;
-  result.label = fs::path(student_file).filename().string();
+  result.label = options.label.empty() ? fs::path(student_file).filename().string() : options.label;
   const core::Environment environment = core::LoadEnvironment(suite.environment_file);
   planning::CollisionOptions check_options;
   check_options.padding_m = suite.check_padding_m;

@@ -2,11 +2,14 @@
 // A planning assignment for `sirupp grade` (docs/grading.md, "Planning assignments"): a suite of
 // format sirupp-grade-planning-1 (config/grading/planning.yaml) lists start/goal queries in one
 // environment; the student's code is a Python file with `plan(start, goal, scene) -> path` (a
-// k x n array, rad). For each query the grader
-//   1. runs the function in the sandbox (python/sirupp/plan_host.py under Debian's python3, with
-//      this build's module, the model and the environment read-only, the task folder writable),
-//      within the suite's wall-time limit; the function gets a sirupp.Scene of the suite's
-//      environment (padded by `student_padding_m`);
+// k x n array, rad), or a C++ library exporting sirupp_plan (include/sirupp/student_planner.h;
+// its source is built first by BuildController, as a controller's is). For each query the grader
+//   1. runs the planner in the sandbox, within the suite's wall-time limit, with the model and
+//      the environment read-only and the task folder writable: a Python function through
+//      python/sirupp/plan_host.py under Debian's python3 with this build's module, given a
+//      sirupp.Scene of the suite's environment (padded by `student_padding_m`); a library through
+//      sirupp-planner-host (grade/planner_host.hpp), given a sirupp_planning_scene served from
+//      the same collision model with the same padding. Both write the path to the same file;
 //   2. checks the path with its own collision model (planning/collision_model.hpp, padded by
 //      `check.padding_m`) at its own, finer resolution (`check.step_rad`): every value finite,
 //      the first waypoint at the start and the last at the goal (within `check.endpoint_deg`),
@@ -93,7 +96,8 @@ struct PlanningResult {
 };
 
 struct PlanningGradeOptions {
-  std::string bin_dir;     // sirupp-sim, sirupp-control; ../python holds the module
+  std::string bin_dir;     // sirupp-sim, sirupp-control, sirupp-planner-host; ../python: the module
+  std::string label;       // the submission's name in the reports ("": the student file's name)
   std::string work_dir;    // WORK/QUERY/: the student's path, logs
   bool sandbox = true;     // false: the function runs unconfined (own code only)
   bool run_on_rig = true;  // false: check only (tests of the check)
@@ -101,7 +105,9 @@ struct PlanningGradeOptions {
   std::string port_lock_dir;
 };
 
-// Grades `student_file` (a .py with plan(start, goal, scene)) on every query, in suite order.
+// Grades `student_file` (a .py with plan(start, goal, scene), or a .so exporting sirupp_plan)
+// on every query, in suite order. Whatever the planner does (crash, hang, garbage), a query
+// fails with one line and the grade goes on.
 PlanningResult GradePlanning(const PlanningSuite& suite, const core::RobotModel& model,
                              const std::string& student_file, const PlanningGradeOptions& options);
 

@@ -53,9 +53,10 @@ const char* const kGradeAbout =
     "(docs/cluster.md). Exit 1 when the baseline could not be graded or on SIGINT/SIGTERM\n"
     "(every job cancelled).\n"
     "A planning suite (format sirupp-grade-planning-1, config/grading/planning.yaml) grades\n"
-    "FILE.py with plan(start, goal, scene) -> path: run in the sandbox per query, the path\n"
-    "checked at the suite's finer resolution, then run on a rig with the environment, beside\n"
-    "OMPL's reference.\n"
+    "FILE.py with plan(start, goal, scene) -> path, or a C++ planner (FILE.cpp, built first,\n"
+    "or FILE.so) exporting sirupp_plan (include/sirupp/student_planner.h): run in the sandbox\n"
+    "per query, the path checked at the suite's finer resolution, then run on a rig with the\n"
+    "environment, beside OMPL's reference.\n"
     "sirupp grade notebook NOTEBOOK.ipynb --tests HIDDEN.py: a notebook assignment: every cell\n"
     "run in a fresh python3 kernel in the sandbox, then the teacher's hidden tests (test_*\n"
     "functions, @points(N)) in the same kernel; a table of the tests' scores (--json: the\n"
@@ -411,10 +412,11 @@ int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostre
         " (docs/sandbox.md; --no-sandbox grades unconfined, for your own code)");
   }
   if (grade::SuiteFormat(Resolve(suite_file)) == grade::kPlanningSuiteFormat) {
-    if (!EndsWith(library, ".py") || !batch.empty() || !command.empty() || !part.empty()) {
+    if (library.empty() || !batch.empty() || !command.empty() || !part.empty()) {
       throw core::UsageError("grade: " + suite_file +
                              " is a planning suite: give one FILE.py with plan(start, goal, "
-                             "scene) (docs/grading.md, Planning assignments)");
+                             "scene), or FILE.cpp / FILE.so exporting sirupp_plan "
+                             "(docs/grading.md, Planning assignments)");
     }
     const grade::PlanningSuite planning_suite =
         grade::LoadPlanningSuite(Resolve(suite_file), &Resolve);
@@ -423,8 +425,13 @@ int RunGrade(const std::vector<std::string>& args, std::ostream& out, std::ostre
     planning_options.bin_dir = BinDir();
     planning_options.work_dir = (fs::absolute(out_dir) / "logs").string();
     planning_options.sandbox = sandbox;
+    planning_options.label = fs::path(library).filename().string();
+    // A C++ planner's source is built as a controller's is (the same flags, in the sandbox);
+    // include/sirupp/ holds both headers.
+    const std::string planner =
+        EndsWith(library, ".cpp") ? BuildSource(library, out_dir, sandbox, err) : library;
     const grade::PlanningResult result =
-        grade::GradePlanning(planning_suite, planning_model, library, planning_options);
+        grade::GradePlanning(planning_suite, planning_model, planner, planning_options);
     const std::string hash =
         grade::WritePlanningReport(out_dir, planning_suite, planning_model, result);
     out << grade::PlanningSummaryLine(planning_suite, result, hash) << "\n";

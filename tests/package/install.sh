@@ -42,12 +42,14 @@ check "/var/lib/sirupp" test "$(stat -c '%U:%G %a' /var/lib/sirupp)" = "sirupp:s
 check "/etc/sirupp/classes" test "$(stat -c '%U:%G %a' /etc/sirupp/classes)" = "root:sirupp 750"
 check "byte-compiled module" test -d /usr/lib/python3/dist-packages/sirupp/__pycache__
 for p in sirupp sirupp-sim sirupp-control sirupp-controller-host sirupp-logger sirupp-viewer \
-         sirupp-panel sirupp-hardware sirupp-picservo-emu sirupp-sandbox-exec sirupp-python-controller-host; do
+         sirupp-panel sirupp-hardware sirupp-picservo-emu sirupp-sandbox-exec sirupp-python-controller-host \
+         sirupp-planner-host; do
   check "/usr/bin/$p" test -x "/usr/bin/$p"
 done
 for f in /usr/share/sirupp/config/robots/puma260.yaml /usr/share/sirupp/panel/web/index.html \
          /usr/share/sirupp/class/web/teacher.html /usr/share/sirupp/include/sirupp/controller.h \
-         /usr/include/sirupp/controller.h /usr/share/sirupp/notebooks/01_forward_kinematics.ipynb \
+         /usr/include/sirupp/controller.h /usr/include/sirupp/student_planner.h \
+         /usr/share/sirupp/include/sirupp/student_planner.h /usr/share/sirupp/notebooks/01_forward_kinematics.ipynb \
          /usr/share/sirupp/config/grading/basic.yaml /usr/share/doc/sirupp/copyright; do
   check "$f" test -s "$f"
 done

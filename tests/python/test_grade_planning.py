@@ -3,7 +3,9 @@ shipped good solution passes every query (run in the sandbox, checked at 0.002 r
 with table.xml, no tick touching, beside OMPL's reference); a straight-line "planner" fails the
 queries whose straight way goes through the table, naming the segment, the link and the object;
 a path that ends elsewhere, a file without plan(), and a suite whose goal touches the table are
-one clear reason each."""
+one clear reason each. A C++ planner (include/sirupp/student_planner.h) graded from its source
+is built in the sandbox and goes through the same check and run on the rig; a source that does
+not build is its errors at their lines; a library that is none is a reason per query."""
 import json
 import os
 import subprocess
@@ -15,6 +17,7 @@ from conftest import ROOT, bin_dir
 
 SUITE = os.path.join(ROOT, "config/grading/planning.yaml")
 GOOD = os.path.join(ROOT, "config/grading/planning_rrt.py")
+GOOD_CPP = os.path.join(ROOT, "config/grading/planning_rrt.cpp")
 
 
 def grade(student, out, suite=SUITE, *extra):
@@ -87,9 +90,9 @@ def test_a_suite_whose_goal_touches_the_table_is_refused(tmp_path):
     assert run.returncode == 2
     assert "bad.yaml:" in run.stderr and "to_deg" in run.stderr and "table_top" in run.stderr, \
         run.stderr
-    library = tmp_path / "controller.so"  # a controller is not a planner
-    library.write_text("")
-    run = grade(str(library), tmp_path / "out")
+    run = subprocess.run([os.path.join(bin_dir(), "sirupp"), "grade", "--batch", str(tmp_path),
+                          "--suite", SUITE, "--out", str(tmp_path / "out")],
+                         capture_output=True, text=True, timeout=60, cwd=ROOT)  # one at a time
     assert run.returncode == 2 and "is a planning suite: give one FILE.py" in run.stderr, \
         run.stderr
 
@@ -105,3 +108,32 @@ def test_the_function_runs_in_the_sandbox(tmp_path):
     assert "passed 0 of 3" in run.stdout, run.stdout + run.stderr
     problem = results(tmp_path / "out")["ready_to_table"]["problem"]
     assert "plan(): FileNotFoundError" in problem and "set7.plan" in problem, problem
+
+
+def test_the_cpp_rrt_is_built_checked_and_run_on_the_rig(tmp_path):
+    # The first query only (over_table: the straight way touches the table), to keep it short.
+    text = open(SUITE).read().replace("config/", ROOT + "/config/")
+    suite = tmp_path / "one.yaml"
+    suite.write_text(text[:text.index("  # The tool low beside the table")])
+    run = grade(GOOD_CPP, tmp_path / "out", str(suite))
+    assert run.returncode == 0, run.stdout + run.stderr
+    assert "grade: built " in run.stderr and "planning_rrt.so" in run.stderr, run.stderr
+    assert "planning: planning_rrt.cpp passed 1 of 1 queries (100 %)" in run.stdout, run.stdout
+    r = results(tmp_path / "out")["over_table"]
+    assert r["passed"] and r["ran_on_rig"] and r["touching_ticks"] == 0, r
+    assert r["waypoints"] > 2 and r["reference_solved"]
+    report = (tmp_path / "out" / "report.md").read_text()
+    assert "# planning: planning_rrt.cpp" in report and "| over_table | passed |" in report
+
+
+def test_a_cpp_planner_that_does_not_build_or_is_no_planner(tmp_path):
+    broken = tmp_path / "broken.cpp"
+    broken.write_text("#include <sirupp/student_planner.h>\nSIRUPP_PLANNER_ABI()\nint x = ;\n")
+    run = grade(str(broken), tmp_path / "a")
+    assert run.returncode == 2, run.stdout + run.stderr
+    assert "broken.cpp:3:" in run.stderr and "error:" in run.stderr, run.stderr
+    library = tmp_path / "controller.so"  # not a library at all
+    library.write_text("")
+    run = grade(str(library), tmp_path / "b")
+    assert run.returncode == 0 and "passed 0 of 3" in run.stdout, run.stdout + run.stderr
+    assert "controller.so: cannot be loaded" in results(tmp_path / "b")["over_table"]["problem"]
