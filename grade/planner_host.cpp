@@ -37,8 +37,9 @@ using VersionFunction = int (*)();
 
 constexpr const char* kUsage =
     "usage: sirupp-planner-host LIBRARY MODEL ENVIRONMENT PADDING_M TIME_S OUT START... GOAL...\n"
-    "Started by sirupp grade for a C++ planning library (include/sirupp/student_planner.h); not "
-    "for use by hand.\n";
+    "Runs a student's C++ planning library on one query for sirupp grade, in the sandbox. Started "
+    "by sirupp grade for a planning assignment (include/sirupp/student_planner.h, "
+    "docs/grading.md); not for use by hand.\n";
 
 // ---- What the signal handlers may touch (set before the library runs) ----------------------
 
@@ -248,8 +249,9 @@ int Fail(const std::string& line) {
   return 1;
 }
 
+// The usage, then the problem (last, where the grader's log tail shows it).
 int Usage(const std::string& problem) {
-  std::fprintf(stderr, "sirupp-planner-host: %s\n%s", problem.c_str(), kUsage);
+  std::fprintf(stderr, "%ssirupp-planner-host: %s\n", kUsage, problem.c_str());
   return 2;
 }
 

@@ -38,13 +38,13 @@ extern "C" {
  * grader checks with, padded by the suite's student_padding_m). Valid during sirupp_plan only.
  * Every array has num_joints entries. Not thread-safe: call it from one thread. */
 typedef struct sirupp_planning_scene {
-  int abi_version;      /* SIRUPP_PLANNER_ABI_VERSION */
-  int num_joints;       /* as sirupp_plan's num_joints */
-  const double* lower;  /* the soft limits (what sirupp-control accepts): sample within them */
+  int abi_version;     /* SIRUPP_PLANNER_ABI_VERSION */
+  int num_joints;      /* as sirupp_plan's num_joints */
+  const double* lower; /* the soft limits (what sirupp-control accepts): sample within them */
   const double* upper;
-  double padding_m;     /* around the arm's shapes against objects, in every check below */
-  double time_limit_s;  /* wall time this call may take (the suite's limits.plan_s) */
-  void* context;        /* pass it to the callbacks */
+  double padding_m;    /* around the arm's shapes against objects, in every check below */
+  double time_limit_s; /* wall time this call may take (the suite's limits.plan_s) */
+  void* context;       /* pass it to the callbacks */
   /* 1 when the arm at q touches nothing (static objects, free objects, itself), 0 when it
    * touches something, -1 for a q that is not num_joints finite numbers. */
   int (*is_free)(void* context, const double* q);

@@ -127,6 +127,7 @@ def test_the_cpp_rrt_is_built_checked_and_run_on_the_rig(tmp_path):
 
 
 def test_a_cpp_planner_that_does_not_build_or_is_no_planner(tmp_path):
+    tmp_path.chmod(0o755)  # started as root, the sandbox's own user must read the sources
     broken = tmp_path / "broken.cpp"
     broken.write_text("#include <sirupp/student_planner.h>\nSIRUPP_PLANNER_ABI()\nint x = ;\n")
     run = grade(str(broken), tmp_path / "a")
