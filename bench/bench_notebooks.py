@@ -13,7 +13,10 @@ Then memory (resident set, from /proc) per student with a kernel open: the noteb
 (supervisor, bridges, forwarders, sandbox, notebook server, kernel) and the class rig (sim,
 control, logger); the hub and its proxy once.
 
-Usage: bench_notebooks.py BIN_DIR SOURCE_DIR [--alone 5] [--together 10]
+Then the CPU each student's notebook side and rig use at rest (kernels open, arms still) over
+--idle-seconds (20).
+
+Usage: bench_notebooks.py BIN_DIR SOURCE_DIR [--alone 5] [--together 10] [--idle-seconds 20]
 Prints the figures; every process it starts is ended before it exits. The figures only mean
 something on an otherwise idle machine (the load average is printed)."""
 
@@ -61,6 +64,25 @@ def tree_rss(root, tree, rss):
     return total
 
 
+def cpu_seconds(pid):
+    """utime + stime of one process, seconds (None once it has ended)."""
+    try:
+        with open(f"/proc/{pid}/stat") as source:
+            fields = source.read().rsplit(")", 1)[1].split()
+    except OSError:
+        return None
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")
+
+
+def tree_pids(root, tree):
+    pids, stack = [], [root]
+    while stack:
+        pid = stack.pop()
+        pids.append(pid)
+        stack.extend(tree.get(pid, []))
+    return pids
+
+
 def student_to_kernel(hub, name, times, errors, tokens):
     t0 = time.monotonic()
     try:
@@ -103,6 +125,8 @@ def main():
     parser.add_argument("source_dir")
     parser.add_argument("--alone", type=int, default=5)
     parser.add_argument("--together", type=int, default=10)
+    parser.add_argument("--idle-seconds", type=float, default=20,
+                        help="how long the CPU at rest is measured")
     args = parser.parse_args()
     alone = [f"solo{i}" for i in range(args.alone)]
     together = [f"class{i}" for i in range(args.together)]
@@ -130,12 +154,14 @@ def main():
         tree, rss = children()
         rig_parent = hub.cls.proc.pid
         per_student = []
+        roots = {}  # student: (notebook side's roots, rig's roots)
         for name in tokens:
             supervisors = [p for p in hub.supervisors()
                            if os.path.exists(f"/proc/{p}") and
                            f"/run/{name}/" in open(f"/proc/{p}/cmdline").read().replace("\0", " ")]
             server = sum(tree_rss(p, tree, rss) for p in supervisors)
             rig = 0
+            rig_roots = []
             for pid in tree.get(rig_parent, []):
                 try:
                     text = open(f"/proc/{pid}/cmdline").read()
@@ -143,7 +169,9 @@ def main():
                     continue
                 if f"/students/{name}/" in text:
                     rig += tree_rss(pid, tree, rss)
+                    rig_roots.append(pid)
             per_student.append((server, rig))
+            roots[name] = (supervisors, rig_roots)
         if per_student:
             servers = [s for s, _ in per_student]
             rigs = [r for _, r in per_student]
@@ -151,6 +179,29 @@ def main():
                   f"notebook side {statistics.median(servers) / 1024:.0f} MB median "
                   f"(max {max(servers) / 1024:.0f}), class rig {statistics.median(rigs) / 1024:.0f} MB, "
                   f"together {statistics.median([s + r for s, r in per_student]) / 1024:.0f} MB")
+        # CPU at rest: each student's notebook side (server, idle kernel, bridges) and rig (the arm
+        # standing still), over --idle-seconds.
+        if roots:
+            groups = {name: ([q for r in nb for q in tree_pids(r, tree)],
+                             [q for r in rg for q in tree_pids(r, tree)])
+                      for name, (nb, rg) in roots.items()}
+            start = {pid: cpu_seconds(pid) for nb, rg in groups.values() for pid in nb + rg}
+            wall0 = time.monotonic()
+            time.sleep(args.idle_seconds)
+            wall = time.monotonic() - wall0
+            end = {pid: cpu_seconds(pid) for pid in start}
+
+            def share(pids):
+                used = sum(end[p] - start[p] for p in pids
+                           if start[p] is not None and end[p] is not None)
+                return 100.0 * used / wall
+
+            notebook = [share(nb) for nb, _ in groups.values()]
+            rig_idle = [share(rg) for _, rg in groups.values()]
+            print(f"CPU per student at rest over {wall:.0f} s ({len(groups)} students, a kernel "
+                  f"open, the arm still): notebook side {statistics.median(notebook):.2f} % of a "
+                  f"core median (max {max(notebook):.2f}), class rig "
+                  f"{statistics.median(rig_idle):.2f} % (a moving rig: bench/rig_cpu.py)")
         # The hub's own tree without the servers' supervisors (counted per student above).
         supervisors = set(hub.supervisors())
         hub_rss, stack = 0, [hub.hub.pid]

@@ -21,7 +21,8 @@ constexpr int kListenBatchMs = 2;  // the tap wakes once per this, not once per 
 // Per-tick channels: only the newest message between two exchanges is carried.
 bool PerTick(const std::string& channel) {
   const core::Channels c;
-  return channel == c.sim_arm_state.name() || channel == c.arm_setpoint.name();
+  return channel == c.sim_arm_state.name() || channel == c.arm_setpoint.name() ||
+         channel == c.sim_arm_ticks.name();
 }
 
 void PutBig32(std::string& out, uint32_t value) {
@@ -44,7 +45,8 @@ const std::vector<std::string>& UpChannels() {
                                     c.controller_status.name(), c.robot_model.name(),
                                     c.hardware_command.name(),  c.estop.name(),
                                     c.controller_reply.name(),  c.controller_gains.name(),
-                                    c.sim_arm_state.name(),     c.arm_setpoint.name()};
+                                    c.sim_arm_state.name(),     c.arm_setpoint.name(),
+                                    c.sim_arm_ticks.name()};
   }();
   return names;
 }

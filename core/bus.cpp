@@ -18,6 +18,7 @@
 #include <utility>
 
 #include "core/channels.hpp"
+#include "core/tick_batch.hpp"
 #include "core/tick_reader.hpp"
 #include "core/udpm_socket.hpp"
 
@@ -166,6 +167,87 @@ void Subscription::Dispatch(const lcm::ReceiveBuffer& rbuf, const std::string& c
   }
 }
 
+// ---- The ticks of SIM_ARM_TICKS
+// ---------------------------------------------------------------------------------------
+
+namespace bus_internal {
+
+// Subscribed to SIM_ARM_TICKS while SIM_ARM_STATE or ARM_SETPOINT is: each tick in a batch goes to
+// their subscriptions as its own message (core/tick_batch.hpp).
+class TickUnbatcher final : public Subscription {
+ public:
+  TickUnbatcher(Bus& bus, std::string full_channel) : Subscription(bus, std::move(full_channel)) {}
+
+ private:
+  void Deliver(const lcm::ReceiveBuffer& rbuf, const ReceiveInfo& info) override {
+    sirupp::arm_ticks_t batch;
+    int status = -1;
+    try {
+      status = batch.decode(rbuf.data, 0, static_cast<int>(rbuf.data_size));
+    } catch (const std::exception&) {
+      status = -1;
+    }
+    if (status < 0) {
+      NoteDecodeError(rbuf, info, sirupp::arm_ticks_t::getTypeName(),
+                      sirupp::arm_ticks_t::getHash());
+      return;
+    }
+    NoteSequenceNumber(info, batch.seq);
+    Bus& bus = this->bus();
+    core::ForEachTick(batch, info.recv_utime, info.newest_only, scratch_,
+                      [&bus, &info](core::TickKind kind, const uint8_t* data, int size,
+                                    int64_t recv_utime) {
+                        bus.DispatchNested(kind == core::TickKind::kState ? bus.states_channel_
+                                                                          : bus.setpoints_channel_,
+                                           data, size, recv_utime, info.newest_only);
+                      });
+  }
+
+  std::vector<uint8_t> scratch_;
+};
+
+}  // namespace bus_internal
+
+void Bus::FollowTickBatches(int queue_capacity) {
+  if (unbatcher_ != nullptr) return;
+  // A batch holds 16 ticks: the per-tick subscription's queue covers as much time in batches.
+  unbatcher_ = &Attach(std::make_unique<bus_internal::TickUnbatcher>(*this, ticks_channel_),
+                       std::max(kDefaultQueueCapacity, queue_capacity / 8));
+}
+
+void Bus::ForgetTickBatchesIfUnused() {
+  if (unbatcher_ == nullptr) return;
+  for (const auto& subscription : subscriptions_) {
+    if (subscription->active_ && (subscription->channel() == states_channel_ ||
+                                  subscription->channel() == setpoints_channel_)) {
+      return;
+    }
+  }
+  Subscription* unbatcher = unbatcher_;
+  unbatcher_ = nullptr;
+  Unsubscribe(*unbatcher);
+}
+
+void Bus::DispatchNested(const std::string& full_channel, const uint8_t* data, int size_bytes,
+                         int64_t recv_utime, bool newest_only) {
+  lcm::ReceiveBuffer rbuf{};
+  rbuf.data = const_cast<uint8_t*>(data);  // LCM's type; handlers only read it
+  rbuf.data_size = static_cast<uint32_t>(size_bytes);
+  rbuf.recv_utime = recv_utime;
+  std::vector<Subscription*> matching;
+  for (const auto& subscription : subscriptions_) {
+    if (subscription->active_ && subscription->channel() == full_channel) {
+      matching.push_back(subscription.get());
+    }
+  }
+  const int64_t outer = dispatch_number_;
+  dispatch_number_ = --nested_number_;
+  for (Subscription* subscription : matching) {
+    subscription->Dispatch(rbuf, full_channel, newest_only);
+  }
+  dispatch_number_ = outer;
+}
+
 // ---- Bus
 // -----------------------------------------------------------------------------------------
 
@@ -184,6 +266,10 @@ Bus::Bus(const std::string& lcm_url, const std::string& channel_prefix)
   } catch (const std::invalid_argument& error) {
     throw BusError(error.what());
   }
+  const Channels defaults;
+  ticks_channel_ = prefix_ + defaults.sim_arm_ticks.name();
+  states_channel_ = prefix_ + defaults.sim_arm_state.name();
+  setpoints_channel_ = prefix_ + defaults.arm_setpoint.name();
   socket_->address = ParseUdpmUrl(lcm_url);
   if (socket_->address) {
     // LCM 1.3.1 opens its receive socket with the first subscription, not here.
@@ -253,8 +339,10 @@ Subscription& Bus::Attach(std::unique_ptr<Subscription> subscription, int queue_
   lcm_subscription->setQueueCapacity(queue_capacity);
   subscription->lcm_subscription_ = lcm_subscription;
   subscriptions_.push_back(std::move(subscription));
+  Subscription& attached = *subscriptions_.back();
+  if (full == states_channel_ || full == setpoints_channel_) FollowTickBatches(queue_capacity);
   UpdateLcmFilter();
-  return *subscriptions_.back();
+  return attached;
 }
 
 void Bus::Unsubscribe(Subscription& subscription) {
@@ -270,11 +358,13 @@ void Bus::Unsubscribe(Subscription& subscription) {
 }
 
 void Bus::Remove(Subscription* subscription) {
+  if (subscription == unbatcher_) unbatcher_ = nullptr;
   lcm_.unsubscribe(subscription->lcm_subscription_);
   const auto owned = std::find_if(
       subscriptions_.begin(), subscriptions_.end(),
       [subscription](const std::unique_ptr<Subscription>& s) { return s.get() == subscription; });
   if (owned != subscriptions_.end()) subscriptions_.erase(owned);
+  ForgetTickBatchesIfUnused();
   UpdateLcmFilter();
 }
 

@@ -34,6 +34,9 @@
 namespace sirupp::core {
 
 class TickFeed;  // core/tick_reader.hpp
+namespace bus_internal {
+class TickUnbatcher;  // core/bus.cpp
+}
 
 // Any failure of the bus: bad URL or channel name, a message that cannot be encoded or sent, an LCM
 // error while waiting for messages.
@@ -98,6 +101,7 @@ class Subscription {
   // `sender`: the message's sender name when its type has one (arm_command_t, estop_t, ...):
   // sequence numbers are then followed per sender, so two senders' counters do not look like gaps.
   void NoteSequenceNumber(const ReceiveInfo& info, int64_t seq, const std::string& sender = "");
+  Bus& bus() { return bus_; }
 
  private:
   friend class Bus;
@@ -215,6 +219,10 @@ class Bus {
   // decode are counted as decode_errors and never reach the handler; an exception from the handler
   // is counted as rejected, its what() kept as last_error. If Msg has a `seq` member, gaps are
   // counted. queue_capacity: messages LCM holds for this subscription between Handle() calls.
+  // SIM_ARM_STATE and ARM_SETPOINT (this bus's prefix, default names) also take the ticks the sim
+  // sends several at a time on SIM_ARM_TICKS (core/tick_batch.hpp): while either is subscribed the
+  // bus subscribes that channel too and hands each tick in it to their subscriptions, counted on
+  // their channels as if it had come alone, with the receive time it would have had.
   template <class Msg>
   Subscription& Subscribe(const std::string& channel,
                           std::function<void(const Msg&, const ReceiveInfo&)> handler,
@@ -316,6 +324,7 @@ class Bus {
 
  private:
   friend class Subscription;
+  friend class bus_internal::TickUnbatcher;
   struct Counters;
   struct CounterTable;
   struct LcmSocket;
@@ -325,6 +334,13 @@ class Bus {
   Subscription& Attach(std::unique_ptr<Subscription> subscription, int queue_capacity);
   [[noreturn]] void ThrowEmptyHandler(const std::string& channel) const;
   void Remove(Subscription* subscription);
+  // SIM_ARM_TICKS taken while SIM_ARM_STATE or ARM_SETPOINT is subscribed (Subscribe).
+  void FollowTickBatches(int queue_capacity);
+  void ForgetTickBatchesIfUnused();
+  // Inside a dispatch: hands one message unpacked from a batch to the subscriptions of
+  // full_channel, counted as its own message there.
+  void DispatchNested(const std::string& full_channel, const uint8_t* data, int size_bytes,
+                      int64_t recv_utime, bool newest_only);
   // Around the call that creates LCM's receive socket (the first subscription, Fileno()): the
   // process's sockets on the port before it, then LCM's socket is the one that came with it.
   std::vector<int> SocketsBeforeLcmReceives() const;
@@ -358,6 +374,15 @@ class Bus {
   bool dispatching_ = false;
   // Numbers each dispatched message so that several subscriptions of one channel count it once.
   int64_t dispatch_number_ = 0;
+  // The messages unpacked from a batch are numbered downwards from -1, so that they never take a
+  // number an outer message has or will have.
+  int64_t nested_number_ = 0;
+  // SIM_ARM_TICKS and the two channels its ticks go to (full names), and the subscription that
+  // unpacks it while one of those is subscribed.
+  std::string ticks_channel_;
+  std::string states_channel_;
+  std::string setpoints_channel_;
+  Subscription* unbatcher_ = nullptr;
   int lcm_fd_ = -1;  // LCM's notification descriptor, with ReadDirectly
   // Last: destroyed first, while what it gives the channels back to is still there.
   std::unique_ptr<TickFeed> direct_;

@@ -31,6 +31,7 @@ std::vector<ChannelName*> Channels::Each() {
   return {&robot_model,
           &environment,
           &sim_arm_state,
+          &sim_arm_ticks,
           &sim_arm_command,
           &sim_reset,
           &sim_status,
@@ -74,8 +75,8 @@ std::vector<std::string> Channels::All() const {
 }
 
 std::vector<std::string> Channels::PerTick() const {
-  return {sim_arm_state.name(), sim_arm_command.name(), arm_setpoint.name(), real_arm_state.name(),
-          real_arm_setpoint.name()};
+  return {sim_arm_state.name(),  sim_arm_command.name(),   arm_setpoint.name(),
+          real_arm_state.name(), real_arm_setpoint.name(), sim_arm_ticks.name()};
 }
 
 std::vector<std::string> Channels::Exchange() const {
@@ -124,6 +125,13 @@ constexpr ChannelProse kProse[] = {
      "sirupp-control (running the boards itself), sirupp-logger, sirupp-viewer",
      "every physics tick (1953.125 Hz by default)",
      "virtual arm: tick, joint positions, velocities, applied efforts, limit and brake flags"},
+    {"SIM_ARM_TICKS", "sirupp-sim",
+     "sirupp-control (running the boards itself), sirupp-logger, sirupp-viewer (every reader of "
+     "SIM_ARM_STATE or ARM_SETPOINT: the Bus hands each tick to it)",
+     "every exchange tick (16 ticks, 122 Hz) while the sim's boards drive the arm, in place of "
+     "SIM_ARM_STATE and ARM_SETPOINT",
+     "several ticks' SIM_ARM_STATE and ARM_SETPOINT messages, in order, each with the wall time it "
+     "was made"},
     {"SIM_ARM_COMMAND", "sirupp-control (or a student's controller)", "sirupp-sim",
      "one per SIM_ARM_STATE (sirupp-control with the sim's boards: one per SIM_BOARD_STATUS)",
      "joint efforts for the tick it answers, or hold / limp, or MODE_BOARDS: the sim's boards "

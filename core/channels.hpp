@@ -10,6 +10,7 @@
 #include <cstddef>
 #include <sirupp/arm_command_t.hpp>
 #include <sirupp/arm_state_t.hpp>
+#include <sirupp/arm_ticks_t.hpp>
 #include <sirupp/board_status_t.hpp>
 #include <sirupp/command_reply_t.hpp>
 #include <sirupp/controller_status_t.hpp>
@@ -50,6 +51,7 @@ struct Channels {
   Channel<sirupp::robot_model_t> robot_model{"ROBOT_MODEL"};
   Channel<sirupp::environment_t> environment{"ENVIRONMENT"};
   Channel<sirupp::arm_state_t> sim_arm_state{"SIM_ARM_STATE"};
+  Channel<sirupp::arm_ticks_t> sim_arm_ticks{"SIM_ARM_TICKS"};
   Channel<sirupp::arm_command_t> sim_arm_command{"SIM_ARM_COMMAND"};
   Channel<sirupp::sim_reset_t> sim_reset{"SIM_RESET"};
   Channel<sirupp::sim_status_t> sim_status{"SIM_STATUS"};
@@ -87,7 +89,8 @@ struct Channels {
   // Every name, in the order of ChannelTable().
   std::vector<std::string> All() const;
   // The per-tick channels: one message every physics or servo tick, or every status poll of the
-  // real arm (SIM_ARM_STATE, SIM_ARM_COMMAND, ARM_SETPOINT, REAL_ARM_STATE, REAL_ARM_SETPOINT).
+  // real arm (SIM_ARM_STATE, SIM_ARM_COMMAND, ARM_SETPOINT, REAL_ARM_STATE, REAL_ARM_SETPOINT), and
+  // SIM_ARM_TICKS, which carries several of SIM_ARM_STATE's and ARM_SETPOINT's ticks at once.
   // On udpm:// a process's LCM socket drops those it does not subscribe (core/bus.hpp).
   std::vector<std::string> PerTick() const;
   // The channels of the exchange between sirupp-sim's virtual boards and sirupp-control

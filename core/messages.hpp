@@ -52,6 +52,24 @@ struct BoardStatus {
   ServoSetpoint boards;  // the boards after their last tick; one joint per arm joint
 };
 
+// ---- arm_ticks_t (SIM_ARM_TICKS): several ticks of SIM_ARM_STATE and ARM_SETPOINT at once
+
+struct TickedState {
+  ArmState state;
+  int64_t seq = 0;         // its SIM_ARM_STATE seq
+  int64_t made_utime = 0;  // wall clock when it was made, us since the epoch
+};
+struct TickedSetpoint {
+  ServoSetpoint setpoint;
+  int64_t made_utime = 0;
+};
+struct ArmTicks {
+  int64_t sent_utime = 0;
+  int64_t seq = 0;
+  std::vector<TickedState> states;  // in tick order
+  std::vector<TickedSetpoint> setpoints;
+};
+
 // ---- servo_move_t (ARM_MOVE)
 
 enum class MoveCommand : int8_t {

@@ -14,6 +14,7 @@
 
 #include <sirupp/arm_command_t.hpp>
 #include <sirupp/arm_state_t.hpp>
+#include <sirupp/arm_ticks_t.hpp>
 #include <sirupp/board_status_t.hpp>
 #include <sirupp/channel_stats_t.hpp>
 #include <sirupp/command_reply_t.hpp>
@@ -98,6 +99,11 @@ sirupp::board_status_t ToMessage(const BoardStatus& status);
 // `expected_joints` < 0 accepts any joint count (the arm's and the boards' must agree).
 BoardStatus BoardStatusFromMessage(const sirupp::board_status_t& message,
                                    const std::string& channel, int expected_joints);
+sirupp::arm_ticks_t ToMessage(const ArmTicks& ticks);
+// Every state and set-point as on its own channel (`expected_joints` < 0: any, the same for all),
+// the ticks in order (a state's tick not before the one before it).
+ArmTicks ArmTicksFromMessage(const sirupp::arm_ticks_t& message, const std::string& channel,
+                             int expected_joints);
 sirupp::servo_move_t ToMessage(const ServoMove& move);
 ServoMove ServoMoveFromMessage(const sirupp::servo_move_t& message, const std::string& channel);
 sirupp::servo_gains_t ToMessage(const ServoGainsSet& gains);

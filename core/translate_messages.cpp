@@ -151,6 +151,59 @@ ServoSetpoint ServoSetpointFromMessage(const sirupp::servo_setpoint_t& m,
   return setpoint;
 }
 
+// ---- arm_ticks_t
+
+sirupp::arm_ticks_t ToMessage(const ArmTicks& ticks) {
+  sirupp::arm_ticks_t m{};
+  m.sent_utime = ticks.sent_utime;
+  m.seq = ticks.seq;
+  m.num_states = static_cast<int32_t>(ticks.states.size());
+  for (const TickedState& state : ticks.states) {
+    m.states.push_back(ToMessage(state.state, state.seq));
+    m.state_utime.push_back(state.made_utime);
+  }
+  m.num_setpoints = static_cast<int32_t>(ticks.setpoints.size());
+  for (const TickedSetpoint& setpoint : ticks.setpoints) {
+    m.setpoints.push_back(ToMessage(setpoint.setpoint));
+    m.setpoint_utime.push_back(setpoint.made_utime);
+  }
+  return m;
+}
+
+ArmTicks ArmTicksFromMessage(const sirupp::arm_ticks_t& m, const std::string& channel,
+                             int expected_joints) {
+  CheckCount(channel, "num_states", m.num_states, m.states);
+  CheckCount(channel, "num_states", m.num_states, m.state_utime);
+  CheckCount(channel, "num_setpoints", m.num_setpoints, m.setpoints);
+  CheckCount(channel, "num_setpoints", m.num_setpoints, m.setpoint_utime);
+  ArmTicks ticks;
+  ticks.sent_utime = m.sent_utime;
+  ticks.seq = m.seq;
+  int joints = expected_joints;
+  for (size_t k = 0; k < m.states.size(); ++k) {
+    const std::string place = channel + " states[" + std::to_string(k) + "]";
+    TickedState state{ArmStateFromMessage(m.states[k], place, joints), m.states[k].seq,
+                      m.state_utime[k]};
+    joints = state.state.num_joints();
+    if (!ticks.states.empty() && state.state.tick < ticks.states.back().state.tick) {
+      throw MessageError(channel, "states[" + std::to_string(k) + "].tick",
+                         std::to_string(state.state.tick) + " comes before the tick before it (" +
+                             std::to_string(ticks.states.back().state.tick) +
+                             "): allowed in tick order");
+    }
+    ticks.states.push_back(std::move(state));
+  }
+  for (size_t k = 0; k < m.setpoints.size(); ++k) {
+    const std::string place = channel + " setpoints[" + std::to_string(k) + "]";
+    TickedSetpoint setpoint{ServoSetpointFromMessage(m.setpoints[k], place), m.setpoint_utime[k]};
+    if (joints >= 0) {
+      CheckJointCount(place, "num_joints", setpoint.setpoint.joints.size(), joints);
+    }
+    ticks.setpoints.push_back(std::move(setpoint));
+  }
+  return ticks;
+}
+
 // ---- board_status_t
 
 sirupp::board_status_t ToMessage(const BoardStatus& status) {

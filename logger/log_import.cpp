@@ -8,6 +8,7 @@
 
 #include "core/errors.hpp"
 #include "core/printable.hpp"
+#include "core/tick_batch.hpp"
 #include "logger/lcm_log.hpp"
 
 namespace sirupp::logger {
@@ -45,19 +46,25 @@ class Importer {
     while (reader.Next(event)) {
       const Channels& c = options_.channels;
       if (event.channel == c.sim_arm_state || event.channel == c.real_arm_state) {
-        const auto message = Decode<sirupp::arm_state_t>(reader, event);
-        CheckJoints(reader, event, message.num_joints);
-        const bool real = event.channel == c.real_arm_state;
-        Sample sample = SampleFromArmState(message, real ? Stream::kReal : Stream::kVirtual,
-                                           event.timestamp_us);
-        sample.lost_before = (real ? real_seq_ : virt_seq_).Next(message.seq);
-        aligner_.Add(std::move(sample));
+        AddArmState(reader, event, Decode<sirupp::arm_state_t>(reader, event),
+                    event.channel == c.real_arm_state, event.timestamp_us);
       } else if (event.channel == c.arm_setpoint) {
-        const auto message = Decode<sirupp::servo_setpoint_t>(reader, event);
-        CheckJoints(reader, event, message.num_joints);
-        Sample sample = SampleFromSetpoint(message, event.timestamp_us);
-        sample.lost_before = set_seq_.Next(message.seq);
-        aligner_.Add(std::move(sample));
+        AddSetpoint(reader, event, Decode<sirupp::servo_setpoint_t>(reader, event),
+                    event.timestamp_us);
+      } else if (event.channel == c.sim_arm_ticks) {
+        // Several ticks of SIM_ARM_STATE and ARM_SETPOINT, each at the time it would have come
+        // alone (core/tick_batch.hpp).
+        const auto batch = Decode<sirupp::arm_ticks_t>(reader, event);
+        for (size_t k = 0; k < batch.states.size(); ++k) {
+          AddArmState(reader, event, batch.states[k], false,
+                      core::TickReceiveTime(event.timestamp_us, batch.sent_utime,
+                                            batch.state_utime[k]));
+        }
+        for (size_t k = 0; k < batch.setpoints.size(); ++k) {
+          AddSetpoint(reader, event, batch.setpoints[k],
+                      core::TickReceiveTime(event.timestamp_us, batch.sent_utime,
+                                            batch.setpoint_utime[k]));
+        }
       } else if (event.channel == c.controller_status) {
         aligner_.AddStatus(StatusFromMessage(Decode<sirupp::controller_status_t>(reader, event),
                                              event.timestamp_us));
@@ -89,6 +96,23 @@ class Importer {
  private:
   using Channels = core::Channels;
 
+  void AddArmState(const LcmLogReader& reader, const LcmLogEvent& event,
+                   const sirupp::arm_state_t& message, bool real, int64_t recv_utime) {
+    CheckJoints(reader, event, message.num_joints);
+    Sample sample =
+        SampleFromArmState(message, real ? Stream::kReal : Stream::kVirtual, recv_utime);
+    sample.lost_before = (real ? real_seq_ : virt_seq_).Next(message.seq);
+    aligner_.Add(std::move(sample));
+  }
+
+  void AddSetpoint(const LcmLogReader& reader, const LcmLogEvent& event,
+                   const sirupp::servo_setpoint_t& message, int64_t recv_utime) {
+    CheckJoints(reader, event, message.num_joints);
+    Sample sample = SampleFromSetpoint(message, recv_utime);
+    sample.lost_before = set_seq_.Next(message.seq);
+    aligner_.Add(std::move(sample));
+  }
+
   // The joints from the first ROBOT_MODEL (names, prismatic or not), else revolute joints counted
   // from the first joint-state message.
   void FindJoints() {
@@ -110,6 +134,9 @@ class Importer {
         count = Decode<sirupp::arm_state_t>(reader, event).num_joints;
       } else if (count < 0 && event.channel == c.arm_setpoint) {
         count = Decode<sirupp::servo_setpoint_t>(reader, event).num_joints;
+      } else if (count < 0 && event.channel == c.sim_arm_ticks) {
+        const auto batch = Decode<sirupp::arm_ticks_t>(reader, event);
+        if (!batch.states.empty()) count = batch.states.front().num_joints;
       }
     }
     if (count > 0 && count <= 64) joints_.assign(static_cast<size_t>(count), JointInfo{});

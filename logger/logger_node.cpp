@@ -261,7 +261,8 @@ LoggerNode::LoggerNode(core::Bus& bus, const core::RobotModel& model, LoggerOpti
     // channel of the rig, so that the raw log still holds the whole bus.
     std::vector<std::string> ticks{bus_.FullName(options_.channels.arm_setpoint),
                                    bus_.FullName(options_.channels.sim_arm_state),
-                                   bus_.FullName(options_.channels.real_arm_state)};
+                                   bus_.FullName(options_.channels.real_arm_state),
+                                   bus_.FullName(options_.channels.sim_arm_ticks)};
     if (!options_.raw_log.empty()) {
       ticks.push_back(bus_.FullName(options_.channels.sim_arm_command));
       ticks.push_back(bus_.FullName(options_.channels.real_arm_setpoint));

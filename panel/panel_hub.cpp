@@ -131,7 +131,7 @@ void PanelHub::StartTickReader() {
   ticks_ = core::TickFeed::Open(
       bus_,
       {bus_.FullName(channels_.sim_arm_state), bus_.FullName(channels_.arm_setpoint),
-       bus_.FullName(channels_.real_arm_state)},
+       bus_.FullName(channels_.real_arm_state), bus_.FullName(channels_.sim_arm_ticks)},
       "sirupp-panel");
 }
 

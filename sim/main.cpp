@@ -33,7 +33,8 @@ constexpr const char* kAbout =
     "The virtual PIC-SERVO boards run here, beside the physics: a participant answering "
     "MODE_BOARDS (sirupp-control without a student's controller) answers SIM_BOARD_STATUS every "
     "--exchange-ticks ticks, and the boards run profile and PID every tick and publish "
-    "ARM_SETPOINT.\n"
+    "ARM_SETPOINT (while every participant answers MODE_BOARDS, --tick-batch ticks at a time on "
+    "SIM_ARM_TICKS).\n"
     "Joint values: docs/command-line.md (--deg: revolute in degrees, prismatic in metres).";
 
 std::vector<Flag> SimFlags() {
@@ -61,6 +62,11 @@ std::vector<Flag> SimFlags() {
            "(16; a multiple of --state-every)")
           .Takes("N")
           .Integer(1, 4096),
+      Flag("tick-batch",
+           "while every participant lets the boards drive the arm: SIM_ARM_STATE and "
+           "ARM_SETPOINT N ticks at a time on SIM_ARM_TICKS (16; 1 = each tick on its own)")
+          .Takes("N")
+          .Integer(1, 64),
       Flag("duration", "simulated seconds to run (0 = until stopped)").Takes("SECONDS"),
       Flag("idle", "before the first command").Takes("MODE").OneOf({"hold", "limp"}),
       Flag("no-friction", "switch joint friction off").Switch(),
@@ -117,6 +123,7 @@ sirupp::sim::NodeOptions NodeOptionsFromArgs(const sirupp::runtime::Args& args) 
   }
   if (args.Has("duration")) options.duration_s = args.Numbers("duration", 1)[0];
   options.pace_ticks = static_cast<int>(args.Integer("pace-ticks", options.pace_ticks));
+  options.tick_batch = static_cast<int>(args.Integer("tick-batch", options.tick_batch));
   if (args.Has("exchange-ticks")) {
     options.exchange_ticks = static_cast<int>(args.Integer("exchange-ticks", 16));
   } else {
@@ -209,6 +216,7 @@ int Run(const std::vector<std::string>& argv) {
             << sirupp::core::FormatNumber(world.step_s() * 1e3) << " ms, on " << bus.url() << "\n";
   sirupp::runtime::RequestRealtimePriority(rt_priority, "sirupp-sim");
   sirupp::runtime::ServiceUntilSignal([&node] { return node.Service(50); });
+  node.Flush();  // the last ticks of a batch reach the logger too
   std::cerr << "sirupp-sim: " << node.Summary() << "\n";
   std::cerr << "sirupp-sim: final joint positions (rad or m):";
   for (double q : world.State().position) std::cerr << " " << sirupp::core::FormatApprox(q);

@@ -126,6 +126,10 @@ void CheckNodeOptions(const NodeOptions& options) {
         ": allowed 1 to 4096 ticks, a multiple of state_every (" +
         std::to_string(options.state_every) + ")");
   }
+  if (options.tick_batch < 1 || options.tick_batch > core::kTickBatchMaxTicks) {
+    bad("tick_batch " + std::to_string(options.tick_batch) + ": allowed 1 to " +
+        std::to_string(core::kTickBatchMaxTicks) + " ticks (1 = every tick on its own)");
+  }
   if (!(options.duration_s >= 0) || !std::isfinite(options.duration_s)) {
     bad("duration " + core::FormatNumber(options.duration_s) + " s: allowed >= 0 (0 = no end)");
   }
@@ -152,7 +156,9 @@ SimNode::SimNode(core::Bus& bus, ArmWorld& world, core::Environment environment,
       heartbeat_(bus, options_.process_name, options_.channels.heartbeat),
       replier_(bus, options_.channels.sim_reply, options_.process_name),
       run_id_(NewRunId()),
-      boards_(world.model()) {
+      boards_(world.model()),
+      // Checked with the other options below; a bad value must not throw before that.
+      tick_batch_(std::clamp(options_.tick_batch, 1, core::kTickBatchMaxTicks)) {
   CheckNodeOptions(options_);
   const auto n = static_cast<size_t>(world_.model().num_joints());
   board_effort_.assign(n, 0.0);
@@ -213,7 +219,14 @@ SimNode::SimNode(core::Bus& bus, ArmWorld& world, core::Environment environment,
   PublishLatched(true);
 }
 
-SimNode::~SimNode() = default;
+SimNode::~SimNode() {
+  try {
+    Flush();
+  } catch (const std::exception& error) {  // the bus failed: nothing more can be sent anyway
+    std::cerr << options_.process_name << ": the last ticks were not sent: " << error.what()
+              << "\n";
+  }
+}
 
 SimNode::Participant* SimNode::FindParticipant(const std::string& name) {
   for (Participant& participant : participants_) {
@@ -523,10 +536,43 @@ void SimNode::StepTicks(const core::ArmCommand& command, int ticks, bool boards,
   }
 }
 
-void SimNode::PublishState() {
-  bus_.Publish(options_.channels.sim_arm_state, core::ToMessage(world_.State(), state_seq_++));
-  ++counters_.states_published;
-  if (BoardAnswerDue()) PublishBoardStatus();
+void SimNode::PublishState(bool again) {
+  const bool due = BoardAnswerDue();
+  if (Batching()) {
+    if (!again) {
+      tick_batch_.Add(core::ToMessage(world_.State(), state_seq_++), WallMicros());
+      ++counters_.states_published;
+    }
+    // Every tick up to the exchange is out before the board status that asks for an answer.
+    if (due || tick_batch_.Full() || Finished()) Flush();
+  } else {
+    Flush();  // what was gathered goes out before the next tick on its own
+    bus_.Publish(options_.channels.sim_arm_state, core::ToMessage(world_.State(), state_seq_++));
+    ++counters_.states_published;
+  }
+  if (due) PublishBoardStatus();
+}
+
+bool SimNode::Batching() const {
+  if (options_.tick_batch <= 1 || !Gated() || participants_.empty()) return false;
+  return std::all_of(participants_.begin(), participants_.end(), [](const Participant& p) {
+    return p.drives_boards && p.presence == Presence::kAnswering;
+  });
+}
+
+void SimNode::PublishSetpoint(const core::ServoSetpoint& setpoint) {
+  if (Batching()) {
+    tick_batch_.Add(core::ToMessage(setpoint), WallMicros());
+    return;
+  }
+  Flush();
+  bus_.Publish(options_.channels.arm_setpoint, core::ToMessage(setpoint));
+}
+
+void SimNode::Flush() {
+  if (tick_batch_.empty()) return;
+  bus_.Publish(options_.channels.sim_arm_ticks, tick_batch_.Take(WallMicros()));
+  ++counters_.tick_batches;
 }
 
 // ---- The virtual boards
@@ -646,7 +692,7 @@ void SimNode::BoardTick(core::ArmCommand& command, bool run) {
     row.effort = board_effort_[j];
     row.status = static_cast<int8_t>(boards_.Status(joint));
   }
-  bus_.Publish(options_.channels.arm_setpoint, core::ToMessage(setpoint));
+  PublishSetpoint(setpoint);
 }
 
 void SimNode::PublishLatched(bool force) {
@@ -821,7 +867,7 @@ void SimNode::ServiceLockstep(int max_wait_ms) {
   // sent again every 0.1 s without a report; only the full timeout is reported.
   if (Seconds(now - last_resend_) >= kResendPeriodS &&
       Seconds(now - waiting_since_) >= kResendPeriodS) {
-    PublishState();
+    PublishState(true);
     last_resend_ = now;
   }
   if (Seconds(now - waiting_since_) >= options_.lockstep_timeout_s) {
@@ -835,7 +881,7 @@ void SimNode::ServiceLockstep(int max_wait_ms) {
                     " s; waiting (state sent again)",
                 true);
     status_due_ = true;
-    PublishState();
+    PublishState(true);
     waiting_since_ = now;
     waiting_since_utime_ = WallMicros();
   }
@@ -881,7 +927,7 @@ void SimNode::ServiceRealtime(int max_wait_ms) {
       now = Now();
       if (Seconds(now - last_resend_) >= kResendPeriodS &&
           Seconds(now - waiting_since_) >= kResendPeriodS) {
-        PublishState();  // lost on the way: ask again
+        PublishState(true);  // lost on the way: ask again
         last_resend_ = now;
       }
       if (!GateOpen() && Now() < deadline) return;

@@ -65,6 +65,7 @@
 #include "core/environment.hpp"
 #include "core/heartbeat.hpp"
 #include "core/messages.hpp"
+#include "core/tick_batch.hpp"
 #include "servo/servo_bank.hpp"
 #include "sim/arm_world.hpp"
 
@@ -110,6 +111,12 @@ struct NodeOptions {
   // goes out every this many ticks, and a MODE_BOARDS answer covers the ticks up to the next one.
   // 16 ticks = 8.2 ms, a little faster than sirupp-hardware polls the real boards.
   int exchange_ticks = 16;
+  // While every participant lets the boards drive the arm (and answers only the exchange ticks),
+  // SIM_ARM_STATE and ARM_SETPOINT go out this many ticks at a time in one message on
+  // SIM_ARM_TICKS (1..64; 1 = each tick on its own channel, as a per-tick participant always gets
+  // them). Sent at each exchange tick, when full, before the sim sends per tick again and when it
+  // stops. The Bus hands each tick to the readers of the two channels (core/tick_batch.hpp).
+  int tick_batch = 16;
   // Stop after this much simulated time; 0 = run until RequestStop().
   double duration_s = 0;
   // What the arm does before a participant (or, in freerun and fast, any sender) has answered:
@@ -141,6 +148,7 @@ struct NodeCounters {
   int64_t board_ticks = 0;      // ticks the virtual boards drove the arm
   int64_t board_commands = 0;   // SIM_BOARD_COMMAND messages applied
   int64_t board_exchanges = 0;  // SIM_BOARD_STATUS messages sent
+  int64_t tick_batches = 0;     // SIM_ARM_TICKS messages sent
 };
 
 // Throws std::invalid_argument naming the bad option (the text SimNode's constructor gives).
@@ -159,6 +167,9 @@ class SimNode {
   // Returns false once the run is over (duration reached or RequestStop()).
   bool Service(int max_wait_ms);
   void RequestStop() { stop_requested_ = true; }
+  // Sends the ticks gathered for SIM_ARM_TICKS now (sirupp-sim's main when it ends; the
+  // destructor too).
+  void Flush();
 
   const NodeCounters& counters() const { return counters_; }
   const ArmWorld& world() const { return world_; }
@@ -247,7 +258,13 @@ class SimNode {
   // Steps the gate's tick(s) with the participants' answers and opens the next tick.
   void StepGate();
   bool GateOpen() const;
-  void PublishState();
+  // The state of the present tick (into the batch while Batching()); `again`: the same tick once
+  // more, to a participant that may have missed it (a batch already has it).
+  void PublishState(bool again = false);
+  // Every participant answers MODE_BOARDS (none needs a tick when it is stepped): the ticks go out
+  // in batches.
+  bool Batching() const;
+  void PublishSetpoint(const core::ServoSetpoint& setpoint);
   void PublishLatched(bool force);
   void PublishStatus(bool force);
   void Start();
@@ -322,6 +339,7 @@ class SimNode {
   core::ServoSetpoint board_setpoint_;  // the boards after their last tick (tick -1 before)
   int64_t board_status_seq_ = 0;
   int64_t setpoint_seq_ = 0;
+  core::TickBatch tick_batch_;  // SIM_ARM_TICKS: the ticks since the last one sent
 };
 
 }  // namespace sirupp::sim

@@ -46,9 +46,10 @@ sirupp::joint_target_t Target(const std::vector<double>& degrees, std::vector<in
   return target;
 }
 
-sim::NodeOptions SimOptions(std::vector<std::string> participants) {
+sim::NodeOptions SimOptions(std::vector<std::string> participants, int tick_batch) {
   sim::NodeOptions options;  // lockstep
   options.participants = std::move(participants);
+  options.tick_batch = tick_batch;
   return options;
 }
 
@@ -72,8 +73,8 @@ struct Hash {
 
 struct Rig {
   explicit Rig(bool boards_in_sim = true,
-               std::vector<std::string> participants = {"sirupp-control"})
-      : sim{bus, world, core::Environment{}, SimOptions(std::move(participants))},
+               std::vector<std::string> participants = {"sirupp-control"}, int tick_batch = 16)
+      : sim{bus, world, core::Environment{}, SimOptions(std::move(participants), tick_batch)},
         control{bus, model, Options(boards_in_sim)} {
     bus.Subscribe<sirupp::servo_setpoint_t>(
         "ARM_SETPOINT", [this](const sirupp::servo_setpoint_t& m, const core::ReceiveInfo&) {
@@ -85,6 +86,9 @@ struct Rig {
     bus.Subscribe<sirupp::arm_state_t>(
         "SIM_ARM_STATE", [this](const sirupp::arm_state_t& m, const core::ReceiveInfo&) {
           ++states;
+          ticks.push_back(m.tick);
+          state_hash.Add(m.position);
+          state_hash.Add(m.velocity);
           hash.Add(m.position);
           hash.Add(m.velocity);
         });
@@ -105,7 +109,12 @@ struct Rig {
   std::vector<sirupp::arm_command_t> answers;
   std::vector<sirupp::servo_move_t> moves;
   int64_t states = 0;
-  Hash hash;
+  std::vector<int64_t> ticks;  // of every SIM_ARM_STATE, as the subscription saw them
+  Hash hash;                   // states and set-points in the order they came
+  Hash state_hash;             // the states alone
+  int64_t Sent(const std::string& channel) const {
+    return bus.StatsFor(channel, core::ChannelSide::kPublishing).messages;
+  }
 
   void RunFor(double seconds) {
     const double until = world.time_s() + seconds;
@@ -300,6 +309,60 @@ TEST(BoardsInSim, APerTickParticipantBesideTheBoardsAnswersEveryTick) {
   EXPECT_GE(answered, rig.world.tick() - 1);
   EXPECT_EQ(rig.sim.counters().lockstep_timeouts, 0);
   EXPECT_LE(static_cast<int64_t>(rig.answers.size()), rig.world.tick() / 16 + 2);
+  EXPECT_EQ(rig.sim.counters().tick_batches, 0) << "a per-tick participant gets every tick alone";
+  EXPECT_EQ(rig.Sent("SIM_ARM_TICKS"), 0);
+}
+
+// While the controller only answers the exchanges, the ticks go out 16 at a time on SIM_ARM_TICKS:
+// a subscription of SIM_ARM_STATE and ARM_SETPOINT still gets every tick, in order, the same
+// states and set-points as when each tick is sent alone, counted on its own channel.
+TEST(BoardsInSim, TheTicksGoOutSixteenAtATimeAndEveryReaderStillGetsEachTick) {
+  auto run = [](int tick_batch, uint64_t* hash) {
+    Rig rig(true, {"sirupp-control"}, tick_batch);
+    rig.RunFor(0.01);
+    rig.bus.Publish("ARM_TARGET", Target({40, -10, 0, 0, 0, 0}, {1, 1, 0, 0, 0, 0}));
+    rig.RunFor(3.0);
+    rig.sim.Flush();
+    rig.control.Service(0);
+    // The two streams each in order (batched, a tick's set-point and state arrive in another
+    // interleaving than alone).
+    Hash streams;
+    for (const sirupp::servo_setpoint_t& m : rig.setpoints) {
+      streams.Add(&m.tick, sizeof m.tick);
+      streams.Add(m.position);
+      streams.Add(m.effort);
+    }
+    streams.Add(&rig.state_hash.value, sizeof rig.state_hash.value);
+    *hash = streams.value;
+    const int64_t ticks = rig.world.tick();
+    EXPECT_EQ(rig.states, ticks + 1) << "tick 0 and every tick after it";
+    for (size_t i = 1; i < rig.ticks.size(); ++i) {
+      EXPECT_EQ(rig.ticks[i], rig.ticks[i - 1] + 1) << "at " << i;
+      if (rig.ticks[i] != rig.ticks[i - 1] + 1) break;
+    }
+    for (size_t i = 1; i < rig.setpoints.size(); ++i) {
+      ASSERT_EQ(rig.setpoints[i].tick, rig.setpoints[i - 1].tick + 1) << "a set-point every tick";
+    }
+    EXPECT_EQ(rig.bus.StatsFor("SIM_ARM_STATE").gaps, 0);
+    EXPECT_EQ(rig.bus.StatsFor("ARM_SETPOINT").gaps, 0);
+    EXPECT_EQ(rig.bus.StatsFor("SIM_ARM_STATE").messages, rig.states);
+    if (tick_batch == 1) {
+      EXPECT_EQ(rig.Sent("SIM_ARM_TICKS"), 0);
+      EXPECT_EQ(rig.Sent("SIM_ARM_STATE"), ticks + 1);
+    } else {
+      // Alone only until the controller's first MODE_BOARDS answer (the first exchange).
+      EXPECT_LE(rig.Sent("SIM_ARM_STATE"), 17);
+      EXPECT_LE(rig.Sent("ARM_SETPOINT"), 17);
+      EXPECT_GE(rig.Sent("SIM_ARM_TICKS"), ticks / 16 - 1);
+      EXPECT_LE(rig.Sent("SIM_ARM_TICKS"), ticks / 16 + 2);
+      EXPECT_EQ(rig.sim.counters().tick_batches, rig.Sent("SIM_ARM_TICKS"));
+    }
+    EXPECT_NEAR(rig.Degrees(0), 40.0, 1.0);
+  };
+  uint64_t alone = 0, batched = 0;
+  run(1, &alone);
+  run(16, &batched);
+  EXPECT_EQ(alone, batched) << "the same states and set-points either way";
 }
 
 // A student's controller never has the boards in the sim: with one, the controller keeps its

@@ -504,7 +504,8 @@ TEST(BusTest, StatsListsPublishingAndSubscribingChannels) {
   bus.HandleAvailable();
 
   const std::vector<ChannelStats> stats = bus.Stats();
-  ASSERT_EQ(stats.size(), 3u);
+  // SIM_ARM_STATE's subscription brings the bus's own one of SIM_ARM_TICKS (core/tick_batch.hpp).
+  ASSERT_EQ(stats.size(), 4u);
   EXPECT_EQ(stats[0].channel, "RIG3_SIM_ARM_COMMAND");
   EXPECT_FALSE(stats[0].publishing);
   EXPECT_EQ(stats[0].messages, 2);
@@ -514,6 +515,8 @@ TEST(BusTest, StatsListsPublishingAndSubscribingChannels) {
   EXPECT_EQ(stats[2].channel, "RIG3_SIM_ARM_STATE");  // listed before any message arrived
   EXPECT_FALSE(stats[2].publishing);
   EXPECT_EQ(stats[2].messages, 0);
+  EXPECT_EQ(stats[3].channel, "RIG3_SIM_ARM_TICKS");
+  EXPECT_FALSE(stats[3].publishing);
 
   const ChannelStats unused = bus.StatsFor("ESTOP");
   EXPECT_EQ(unused.channel, "RIG3_ESTOP");

@@ -63,7 +63,8 @@ TEST(ChannelSubscriptions, SirupSimSubscribesWhatTheTableSays) {
 }
 
 // The table's row for sirupp-control covers both places of the boards: in the sim it reads
-// SIM_BOARD_STATUS, running them itself (a student's controller, --boards control) SIM_ARM_STATE.
+// SIM_BOARD_STATUS, running them itself (a student's controller, --boards control) SIM_ARM_STATE
+// (and SIM_ARM_TICKS, which the Bus follows for it).
 TEST(ChannelSubscriptions, SirupControlSubscribesWhatTheTableSays) {
   for (const bool boards_in_sim : {false, true}) {
     SCOPED_TRACE(boards_in_sim ? "the boards in the sim" : "the boards in the controller");
@@ -73,6 +74,10 @@ TEST(ChannelSubscriptions, SirupControlSubscribesWhatTheTableSays) {
     control::ControlNode node(bus, Puma(), options);
     std::set<std::string> expected = FromTable("sirupp-control");
     ASSERT_EQ(expected.erase(boards_in_sim ? "SIM_ARM_STATE" : "SIM_BOARD_STATUS"), 1u);
+    // The ticks SIM_ARM_TICKS carries are SIM_ARM_STATE's: followed with it.
+    if (boards_in_sim) {
+      ASSERT_EQ(expected.erase("SIM_ARM_TICKS"), 1u);
+    }
     EXPECT_EQ(Subscribed(bus), expected);
   }
 }

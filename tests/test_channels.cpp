@@ -31,7 +31,7 @@ std::string DocRow(const ChannelInfo& info) {
 TEST(ChannelsTest, DefaultsAreTheTableNamesInOrder) {
   const std::vector<std::string> names = Channels{}.All();
   const std::vector<ChannelInfo>& table = ChannelTable();
-  ASSERT_EQ(names.size(), 32u);
+  ASSERT_EQ(names.size(), 33u);
   ASSERT_EQ(table.size(), names.size());
   for (std::size_t i = 0; i < names.size(); ++i) EXPECT_EQ(names[i], table[i].name) << i;
   EXPECT_EQ(std::set<std::string>(names.begin(), names.end()).size(), names.size())

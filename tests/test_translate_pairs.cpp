@@ -272,6 +272,39 @@ RoundTrips AllRoundTrips() {
     const BoardStatus back = BoardStatusFromMessage(ThroughTheWire(message), ch, 2);
     EXPECT_EQ(Bytes(ToMessage(back)), Bytes(message));
   });
+  Add<sirupp::arm_ticks_t>(trips, [ch] {
+    ArmTicks ticks;
+    ticks.sent_utime = 900;
+    ticks.seq = 4;
+    for (int64_t k = 0; k < 3; ++k) {
+      TickedState state;
+      state.state.utime = 512 * k;
+      state.state.tick = 16 + k;
+      state.state.position = {0.1 * static_cast<double>(k), 0.2};
+      state.state.velocity = {-1, 1};
+      state.state.effort = {0.5, 0};
+      state.state.flags = {0, 8};
+      state.seq = 40 + k;
+      state.made_utime = 800 + k;
+      ticks.states.push_back(state);
+      TickedSetpoint setpoint{SampleSetpoint(), 700 + k};
+      setpoint.setpoint.joints.resize(2);
+      ticks.setpoints.push_back(setpoint);
+    }
+    const sirupp::arm_ticks_t message = ToMessage(ticks);
+    const ArmTicks back = ArmTicksFromMessage(ThroughTheWire(message), ch, 2);
+    EXPECT_EQ(Bytes(ToMessage(back)), Bytes(message));
+    sirupp::arm_ticks_t backwards = message;
+    backwards.states[2].tick = 3;
+    try {
+      ArmTicksFromMessage(backwards, ch, 2);
+      ADD_FAILURE() << "ticks out of order accepted";
+    } catch (const MessageError& error) {
+      EXPECT_NE(std::string(error.what()).find("states[2].tick"), std::string::npos)
+          << error.what();
+    }
+    EXPECT_THROW(ArmTicksFromMessage(message, ch, 3), MessageError) << "3 joints expected";
+  });
   Add<sirupp::servo_move_t>(trips, [ch] {
     ExpectRoundTrip(SampleMove(), [&](const auto& m) { return ServoMoveFromMessage(m, ch); });
   });

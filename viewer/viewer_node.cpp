@@ -141,7 +141,8 @@ ViewerNode::ViewerNode(core::Bus& bus, ViewerOptions options, std::optional<core
   ticks_ = core::TickFeed::Open(bus_,
                                 {bus_.FullName(options_.channels.sim_arm_state),
                                  bus_.FullName(options_.channels.arm_setpoint),
-                                 bus_.FullName(options_.channels.real_arm_state)},
+                                 bus_.FullName(options_.channels.real_arm_state),
+                                 bus_.FullName(options_.channels.sim_arm_ticks)},
                                 options_.process_name);
   heartbeat_.Publish(core::ProcessState::kStarting, HeartbeatDetail());
 }
