@@ -107,15 +107,18 @@ std::string Layout(const std::string& url, bool realtime, const std::string& bin
 
 struct Window {
   int64_t ticks = 0;
+  int64_t batches = 0;  // SIM_ARM_TICKS: ticks sent 16 at a time (docs/timing.md)
   int64_t late = 0;
 };
 
-// The sim's own counters from its heartbeat: states sent and late commands.
+// The sim's own counters from its heartbeat: states sent alone, batches and late commands.
 Window SimCounters(const sirupp::heartbeat_t& beat, const std::string& state_channel,
                    const std::string& command_channel) {
   Window w;
+  const std::string batch_channel = sirupp::core::Channels{}.sim_arm_ticks.name();
   for (const auto& c : beat.channels) {
     if (c.publishing && c.channel == state_channel) w.ticks = c.messages;
+    if (c.publishing && c.channel == batch_channel) w.batches = c.messages;
     if (!c.publishing && c.channel == command_channel) w.late = c.late;
   }
   return w;
@@ -245,10 +248,11 @@ int RunPhase(const char* title, bool realtime, double seconds, const std::string
       std::cout << line;
     }
     std::snprintf(line, sizeof line,
-                  "  %lld states sent; 0 ticks stepped with a stale effort (every tick waited for "
-                  "its answer); %lld answers arrived after their tick was stepped (re-sent or "
-                  "braked for)\n",
+                  "  %lld states sent alone and %lld batches of ticks; 0 ticks stepped with a "
+                  "stale effort (every tick waited for its answer); %lld answers arrived after "
+                  "their tick was stepped (re-sent or braked for)\n",
                   static_cast<long long>(ticks),
+                  static_cast<long long>(sim_after.batches - sim_before.batches),
                   static_cast<long long>(sim_after.late - sim_before.late));
     std::cout << line;
   }

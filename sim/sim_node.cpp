@@ -553,6 +553,10 @@ void SimNode::PublishState(bool again) {
   if (due) PublishBoardStatus();
 }
 
+int SimNode::PaceTicks() const {
+  return Batching() ? std::max(options_.pace_ticks, options_.tick_batch) : options_.pace_ticks;
+}
+
 bool SimNode::Batching() const {
   if (options_.tick_batch <= 1 || !Gated() || participants_.empty()) return false;
   return std::all_of(participants_.begin(), participants_.end(), [](const Participant& p) {
@@ -901,7 +905,7 @@ void SimNode::ServiceRealtime(int max_wait_ms) {
   // Ticks step in batches of pace_ticks: the sim waits until that many are due (their ends have
   // passed), then steps every due tick as soon as its answers are in; 1 = each tick at its end.
   const auto wake_at = [&] {
-    return end_of_tick() + Duration(static_cast<double>(options_.pace_ticks - 1) * step);
+    return end_of_tick() + Duration(static_cast<double>(PaceTicks() - 1) * step);
   };
   const auto may_step = [&](TimePoint at) {
     return world_.tick() < batch_end_tick_ || at >= wake_at();
@@ -912,7 +916,9 @@ void SimNode::ServiceRealtime(int max_wait_ms) {
     // Inside a batch the answer to the state just sent is seldom in yet: the wait below polls for
     // it (and LCM's messages) once, so a poll here would only find nothing (one system call of
     // the tick's few).
-    if (slept || GateOpen() || max_wait_ms <= 0) bus_.Handle(0);
+    // While the ticks go out in batches nobody answers between two exchanges: the messages
+    // (board commands, an e-stop) are taken once per sleep, and at the exchange below.
+    if (slept || (GateOpen() && !Batching()) || max_wait_ms <= 0) bus_.Handle(0);
   } else {
     bus_.HandleAvailable();
   }
@@ -973,7 +979,7 @@ void SimNode::ServiceRealtime(int max_wait_ms) {
                       Fixed(RealtimeFactor(), 3) + " since start)",
                   true);
     }
-  } else if (behind_s > static_cast<double>(options_.pace_ticks) * step) {
+  } else if (behind_s > static_cast<double>(PaceTicks()) * step) {
     ++counters_.overruns;  // later than a batch makes it
   }
   StepGate();

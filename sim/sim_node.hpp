@@ -116,6 +116,8 @@ struct NodeOptions {
   // SIM_ARM_TICKS (1..64; 1 = each tick on its own channel, as a per-tick participant always gets
   // them). Sent at each exchange tick, when full, before the sim sends per tick again and when it
   // stops. The Bus hands each tick to the readers of the two channels (core/tick_batch.hpp).
+  // Realtime then sleeps once per batch (pace_ticks if larger) and takes messages at each sleep
+  // and exchange, not every tick.
   int tick_batch = 16;
   // Stop after this much simulated time; 0 = run until RequestStop().
   double duration_s = 0;
@@ -264,6 +266,9 @@ class SimNode {
   // Every participant answers MODE_BOARDS (none needs a tick when it is stepped): the ticks go out
   // in batches.
   bool Batching() const;
+  // Realtime: the ticks stepped per sleep. While the ticks go out in batches nobody answers
+  // between two exchanges, so the sim sleeps once per batch (at least options_.pace_ticks).
+  int PaceTicks() const;
   void PublishSetpoint(const core::ServoSetpoint& setpoint);
   void PublishLatched(bool force);
   void PublishStatus(bool force);
