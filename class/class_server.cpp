@@ -256,7 +256,9 @@ struct ClassServer::Impl {
       const std::string client = front.ClientAddress(req.remote_addr, header);
       return SameAddress(client, req.remote_addr) ? "" : client;
     });
-    spawners = MakeRigSpawnerFactory(config, RigSpawnerOptions{options.bin_dir, [this](const std::string& line) { Log(line); }}, launcher);
+    spawners = MakeRigSpawnerFactory(
+        config, RigSpawnerOptions{options.bin_dir, [this](const std::string& line) { Log(line); }},
+        launcher);
     SubmissionOptions submission_options;
     submission_options.bin_dir = options.bin_dir;
     submission_options.include_dir =
@@ -709,8 +711,8 @@ struct ClassServer::Impl {
       SendError(res, 503,
                 name + "'s rig is " +
                     (phase == RigPhase::kPending ? "on its way"
-                                        : "not "
-                                          "known to be running") +
+                                                 : "not "
+                                                   "known to be running") +
                     ": " + waiting);
       return;
     }

@@ -93,8 +93,8 @@ class LocalGradePlace : public GradePlace {
 class SlurmGradePlace : public GradePlace {
  public:
   // `data_dir`: the class's data folder as this server sees it (cluster.node_data on the nodes).
-  SlurmGradePlace(cluster::SlurmEngine& engine, cluster::ClusterConfig config,
-                  std::string data_dir, GradeHooks hooks);
+  SlurmGradePlace(cluster::SlurmEngine& engine, cluster::ClusterConfig config, std::string data_dir,
+                  GradeHooks hooks);
   int Slots() const override { return config_.grading_jobs; }
   // {"id": JOB, "attempt": 1|2} as Grade saved it; nullopt when it names no job.
   std::optional<nlohmann::json> TakeBack(const nlohmann::json& record) const override;

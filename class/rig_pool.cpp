@@ -48,8 +48,8 @@ struct RigPool::Seat {
   int starts = 0;
   double start_s = 0;
   double cpu = 0;
-  int port = 0;            // the last local rig's udpm port (kept after it stopped)
-  std::string started_at;  // wall clock
+  int port = 0;                         // the last local rig's udpm port (kept after it stopped)
+  std::string started_at;               // wall clock
   std::atomic<int64_t> activity_ns{0};  // on the pool's clock
   std::atomic<int> streams{0};          // the student's open event streams (activity while open)
 

@@ -87,7 +87,7 @@ class RigPool {
   void SetServerPort(int port);
 
   bool Has(const std::string& student) const;
-  std::vector<std::string> Students() const;  // sorted
+  std::vector<std::string> Students() const;       // sorted
   int running() const { return running_.load(); }  // rigs counted against max_rigs
 
   // A request from the student: their rig is in use.

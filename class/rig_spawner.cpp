@@ -468,8 +468,7 @@ class LocalRigSpawnerFactory : public RigSpawnerFactory {
   void Save(const SavedRigs&) override {}
   std::string StopSaved(const nlohmann::json&) override { return ""; }
 
-  std::unique_ptr<GradePlace> MakeGradePlace(const LocalGradeOptions& local,
-                                             GradeHooks) override {
+  std::unique_ptr<GradePlace> MakeGradePlace(const LocalGradeOptions& local, GradeHooks) override {
     return std::make_unique<LocalGradePlace>(local, launcher_);
   }
 
@@ -539,8 +538,7 @@ class SlurmRigSpawnerFactory : public RigSpawnerFactory {
     spec.controller = OnNodes(request.controller);
     spec.pace_ticks = config_.pace_ticks;
     spec.memory_mb = config_.rig_memory_mb;
-    return std::make_unique<SlurmRigSpawner>(engine_, cluster_, spec, secret_file,
-                                             request.folder);
+    return std::make_unique<SlurmRigSpawner>(engine_, cluster_, spec, secret_file, request.folder);
   }
 
   std::unique_ptr<RigSpawner> Restore(const nlohmann::json& state) override {
@@ -575,10 +573,8 @@ class SlurmRigSpawnerFactory : public RigSpawnerFactory {
     return id.empty() ? "" : engine_.Cancel(id);
   }
 
-  std::unique_ptr<GradePlace> MakeGradePlace(const LocalGradeOptions&,
-                                             GradeHooks hooks) override {
-    return std::make_unique<SlurmGradePlace>(engine_, cluster_, config_.data_dir,
-                                             std::move(hooks));
+  std::unique_ptr<GradePlace> MakeGradePlace(const LocalGradeOptions&, GradeHooks hooks) override {
+    return std::make_unique<SlurmGradePlace>(engine_, cluster_, config_.data_dir, std::move(hooks));
   }
 
  private:
@@ -597,7 +593,8 @@ class SlurmRigSpawnerFactory : public RigSpawnerFactory {
   // A path under the data folder, as the nodes see it.
   std::string OnNodes(const std::string& path) const {
     if (path.rfind(config_.data_dir + "/", 0) != 0) return path;
-    const std::string node_data = cluster_.node_data.empty() ? config_.data_dir : cluster_.node_data;
+    const std::string node_data =
+        cluster_.node_data.empty() ? config_.data_dir : cluster_.node_data;
     return node_data + path.substr(config_.data_dir.size());
   }
 

@@ -229,7 +229,8 @@ SubmissionService::SubmissionService(const ClassConfig& config, SubmissionOption
                                      ProcessLauncher& launcher,
                                      std::function<void(const std::string&)> log)
     : config_(config), options_(std::move(options)), log_(std::move(log)), store_(config.data_dir) {
-  own_spawners_ = MakeRigSpawnerFactory(config_, RigSpawnerOptions{options_.bin_dir, log_}, launcher);
+  own_spawners_ =
+      MakeRigSpawnerFactory(config_, RigSpawnerOptions{options_.bin_dir, log_}, launcher);
   Start(*own_spawners_);
 }
 

@@ -190,18 +190,18 @@ struct RigPoolTest : ::testing::Test {
   // A pool over `factory` for a class of `students` with these limits, on the test clock.
   void MakePool(RigSpawnerFactory& factory, const std::string& students = "[alice, bob]",
                 int max_rigs = 2, int idle_timeout_s = 60) {
-    config = ParseClassConfig("class: robotics-1\n"
-                              "robot: config/robots/puma260.yaml\n"
-                              "students: " +
-                                  students +
-                                  "\n"
-                                  "data: class-data\n"
-                                  "limits: {max_rigs: " +
-                                  std::to_string(max_rigs) +
-                                  ", idle_timeout_s: " + std::to_string(idle_timeout_s) +
-                                  "}\n"
-                                  "server: {port: 0}\n",
-                              "c.yaml", dir);
+    config = ParseClassConfig(
+        "class: robotics-1\n"
+        "robot: config/robots/puma260.yaml\n"
+        "students: " +
+            students +
+            "\n"
+            "data: class-data\n"
+            "limits: {max_rigs: " +
+            std::to_string(max_rigs) + ", idle_timeout_s: " + std::to_string(idle_timeout_s) +
+            "}\n"
+            "server: {port: 0}\n",
+        "c.yaml", dir);
     RigPoolOptions options;
     options.config_dir = dir + "/config-template";
     options.log = [this](const std::string& line) { log.push_back(line); };
@@ -291,7 +291,8 @@ TEST_F(RigPoolTest, UnknownIsNeverReadAsStopped) {
     pool->MonitorPass();
   }
   EXPECT_EQ(State("alice"), "unknown");
-  EXPECT_EQ(pool->SeatJson("alice", false)["waiting"], "the cluster did not say (squeue timed out)");
+  EXPECT_EQ(pool->SeatJson("alice", false)["waiting"],
+            "the cluster did not say (squeue timed out)");
   EXPECT_EQ(rig->stops, 0) << "an unknown rig is not stopped";
   EXPECT_TRUE(rig->alive);
   EXPECT_EQ(pool->running(), 1);
@@ -341,7 +342,8 @@ TEST_F(RigPoolTest, IdleRigsStopAfterTheIdleTimeoutOnTheClock) {
   Advance(59);
   pool->MonitorPass();
   EXPECT_EQ(State("alice"), "stopped");
-  EXPECT_EQ(pool->SeatJson("alice", false)["last_stop"], "stopped after 60 s without a visit (idle)");
+  EXPECT_EQ(pool->SeatJson("alice", false)["last_stop"],
+            "stopped after 60 s without a visit (idle)");
   EXPECT_FALSE(Latest("alice")->alive);
   EXPECT_EQ(State("bob"), "running");
   EXPECT_EQ(pool->running(), 1);
@@ -483,6 +485,44 @@ TEST_F(RigPoolTest, TheLiveStateComesFromTheSpawner) {
   EXPECT_FALSE(pool->SeatJson("alice", false).contains("controller"));
   EXPECT_FALSE(pool->SeatJson("bob", true).contains("controller"));
   EXPECT_EQ(pool->Notebook("alice").lcm_url, "memq://fake-1");
+}
+
+// The class file decides the kind once: its factory says where rigs and grades run, and only the
+// kind that keeps rigs for a restarted server saves them. Nothing is started here.
+TEST_F(RigPoolTest, TheClassFileDecidesWhereRigsAndGradesRun) {
+  const std::string base =
+      "class: robotics-1\nrobot: config/robots/puma260.yaml\nstudents: [alice]\n"
+      "data: class-data\nserver: {port: 0}\n";
+  ProcessLauncher launcher;
+  const ClassConfig local_config = ParseClassConfig(base, "c.yaml", dir);
+  const auto local = MakeRigSpawnerFactory(local_config, RigSpawnerOptions{}, launcher);
+  EXPECT_EQ(local->Describe(), "this server's processes");
+  const auto here = local->MakeGradePlace(LocalGradeOptions{}, GradeHooks{});
+  EXPECT_EQ(here->Slots(), 1);
+  EXPECT_FALSE(here->TakeBack(Json{{"id", "12"}, {"attempt", 1}}))
+      << "a grade of a stopped server's own ended with it";
+  EXPECT_TRUE(local->Load().rigs.empty());
+  EXPECT_THROW(local->Restore(Json{{"student", "alice"}}), std::invalid_argument);
+
+  const ClassConfig cluster_config = ParseClassConfig(
+      base + "cluster: {engine: slurm, grading: {jobs: 3}}\n", "c.yaml", dir);
+  const auto slurm = MakeRigSpawnerFactory(cluster_config, RigSpawnerOptions{}, launcher);
+  EXPECT_EQ(slurm->Describe(), "Slurm jobs (cluster:)");
+  const auto jobs = slurm->MakeGradePlace(LocalGradeOptions{}, GradeHooks{});
+  EXPECT_EQ(jobs->Slots(), 3);
+  const std::optional<Json> back = jobs->TakeBack(Json{{"id", "12"}, {"attempt", 7}});
+  ASSERT_TRUE(back);
+  EXPECT_EQ(*back, (Json{{"id", "12"}, {"attempt", 2}}));
+  EXPECT_FALSE(jobs->TakeBack(Json{{"id", "12; rm -rf /"}}));
+  EXPECT_TRUE(slurm->Load().rigs.empty()) << "no file yet";
+  SavedRigs saved;
+  saved.stops.push_back(Json{{"student", "alice"}, {"job", "41"}, {"secret", "x"}});
+  slurm->Save(saved);
+  const SavedRigs loaded = slurm->Load();
+  ASSERT_EQ(loaded.stops.size(), 1u);
+  EXPECT_EQ(loaded.stops[0], (Json{{"job", "41"}})) << "rigs.json keeps only the job id of a stop";
+  EXPECT_THROW(slurm->Restore(Json{{"student", "alice"}, {"job", "41"}}), std::invalid_argument)
+      << "a rig without its secret is not taken back";
 }
 
 }  // namespace
