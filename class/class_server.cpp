@@ -219,6 +219,9 @@ struct ClassServer::Impl {
   BadTokenThrottle throttle;
   FrontAuth front;  // server.trusted_proxy: sign-in by the university's front (front_auth.hpp)
   ProcessLauncher launcher;  // outlives the rigs
+  // Where the rigs and the grades run (class/rig_spawner.hpp), made once from the class file;
+  // outlives the submissions and the rigs, which use it.
+  std::unique_ptr<RigSpawnerFactory> spawners;
   // Students' controllers from the browser: store, builds, the grading worker (after the launcher,
   // so it ends first).
   std::unique_ptr<SubmissionService> submissions;
@@ -253,6 +256,9 @@ struct ClassServer::Impl {
       const std::string client = front.ClientAddress(req.remote_addr, header);
       return SameAddress(client, req.remote_addr) ? "" : client;
     });
+    spawners = MakeRigSpawnerFactory(
+        config, RigSpawnerOptions{options.bin_dir, [this](const std::string& line) { Log(line); }},
+        launcher);
     SubmissionOptions submission_options;
     submission_options.bin_dir = options.bin_dir;
     submission_options.include_dir =
@@ -261,7 +267,7 @@ struct ClassServer::Impl {
             .parent_path()
             .string();
     submissions = std::make_unique<SubmissionService>(
-        config, submission_options, launcher, [this](const std::string& line) { Log(line); });
+        config, submission_options, *spawners, [this](const std::string& line) { Log(line); });
     notebook_submissions = MakeNotebookSubmissions();
     RigPoolOptions pool_options;
     pool_options.bin_dir = options.bin_dir;
@@ -270,7 +276,7 @@ struct ClassServer::Impl {
       return submissions->RigController(student);
     };
     pool_options.log = [this](const std::string& line) { Log(line); };
-    rigs = std::make_unique<RigPool>(config, std::move(pool_options), launcher);
+    rigs = std::make_unique<RigPool>(config, std::move(pool_options), *spawners);
     if (config.notebooks && !config.notebooks->hub_url.empty()) {
       hub_secret = EnsureHubSecret(config);
     }
@@ -283,7 +289,7 @@ struct ClassServer::Impl {
           // A rig job's bus is on its node: relayed through the job's endpoint.
           [this](const std::string& student) -> std::optional<RigEndpoint> {
             const RigAccess access = rigs->Access(student);
-            if (access.state != "running") return std::nullopt;
+            if (access.phase != RigPhase::kRunning) return std::nullopt;
             return access.endpoint;
           });
       // Only a controller that passed the class's safety tasks in simulation drives the real arm
@@ -699,14 +705,14 @@ struct ClassServer::Impl {
     const std::shared_ptr<RigPanel>& rig_panel = access.panel;
     const std::optional<RigEndpoint>& endpoint = access.endpoint;
     const std::string& last_stop = access.last_stop;
-    const std::string& state = access.state;
+    const RigPhase phase = access.phase;
     const std::string& waiting = access.waiting;
-    if (!rig_panel && !endpoint && (state == "pending" || state == "unknown")) {
+    if (!rig_panel && !endpoint && (phase == RigPhase::kPending || phase == RigPhase::kUnknown)) {
       SendError(res, 503,
                 name + "'s rig is " +
-                    (state == "pending" ? "on its way"
-                                        : "not "
-                                          "known to be running") +
+                    (phase == RigPhase::kPending ? "on its way"
+                                                 : "not "
+                                                   "known to be running") +
                     ": " + waiting);
       return;
     }

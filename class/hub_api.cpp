@@ -168,14 +168,10 @@ panel::Response RigRoute(const HubApiContext& context, const std::string& studen
   }
   const std::string why = context.rigs.Ensure(student);
   if (!why.empty()) return panel::ErrorResponse(503, why);
-  const std::string url = context.rigs.LcmUrl(student);
-  if (url.empty()) {
-    // A rig job's bus is on its node: no bridge reaches it yet.
-    return panel::ErrorResponse(
-        503, student +
-                 "'s rig is not on this server's bus (a cluster job, or not ready yet): "
-                 "notebooks drive only the class server's local rigs");
-  }
+  // Where the notebook server runs beside the rig is the rig's spawner's to say.
+  const NotebookSite site = context.rigs.Notebook(student);
+  if (!site.why_not.empty()) return panel::ErrorResponse(503, site.why_not);
+  const std::string& url = site.lcm_url;
   return JsonResponse(200, Json{{"name", student}, {"state", "running"}, {"lcm_url", url}});
 }
 

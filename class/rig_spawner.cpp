@@ -2,6 +2,7 @@
 
 #include <openssl/crypto.h>
 #include <openssl/rand.h>
+#include <sched.h>
 #include <sys/stat.h>
 
 #include <algorithm>
@@ -12,7 +13,10 @@
 #include <stdexcept>
 
 #include "class/rig_job.hpp"
+#include "panel/panel_api.hpp"
+#include "panel/panel_hub.hpp"
 #include "proc/child.hpp"
+#include "proc/udpm_listen.hpp"
 
 namespace sirupp::classroom {
 namespace {
@@ -26,18 +30,31 @@ std::string ReadAll(const std::string& file) {
   return text.str();
 }
 
+std::string WallClockTime(std::chrono::system_clock::time_point at) {
+  const std::time_t wall = std::chrono::system_clock::to_time_t(at);
+  std::tm local{};
+  localtime_r(&wall, &local);
+  char text[16];
+  std::strftime(text, sizeof text, "%H:%M:%S", &local);
+  return text;
+}
+
 }  // namespace
 
 const char* RigPhaseName(RigPhase phase) {
   switch (phase) {
+    case RigPhase::kStopped:
+      return "stopped";
+    case RigPhase::kStarting:
+      return "starting";
     case RigPhase::kPending:
       return "pending";
     case RigPhase::kRunning:
       return "running";
-    case RigPhase::kEnded:
-      return "ended";
     case RigPhase::kUnknown:
       return "unknown";
+    case RigPhase::kFailed:
+      return "failed";
   }
   return "unknown";
 }
@@ -56,31 +73,115 @@ std::string NewRigSecret() {
 
 // --- local ---------------------------------------------------------------------------------------
 
-LocalRigSpawner::LocalRigSpawner(RigSpec spec, ProcessLauncher& launcher, grade::PortLease lease)
-    : rig_(std::move(spec), launcher), lease_(std::move(lease)) {}
+CpuShare::CpuShare(bool pin) {
+  cpu_set_t allowed;
+  CPU_ZERO(&allowed);
+  if (pin && ::sched_getaffinity(0, sizeof allowed, &allowed) == 0) {
+    for (int cpu = 0; cpu < CPU_SETSIZE; ++cpu) {
+      if (CPU_ISSET(cpu, &allowed)) cpus_.push_back(cpu);
+    }
+    rigs_on_cpu_.assign(cpus_.size(), 0);
+  }
+}
 
-void LocalRigSpawner::Start() { rig_.Start(); }
+// The allowed CPU with the fewest rigs (the lowest of equals), counted; -1 when nothing is
+// pinned.
+int CpuShare::Take() {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  if (cpus_.size() < 2) return -1;
+  const size_t least = static_cast<size_t>(
+      std::min_element(rigs_on_cpu_.begin(), rigs_on_cpu_.end()) - rigs_on_cpu_.begin());
+  ++rigs_on_cpu_[least];
+  return cpus_[least];
+}
 
-RigStatus LocalRigSpawner::Poll() {
-  if (ended_.empty()) ended_ = rig_.CheckProcesses();
-  if (!ended_.empty()) return RigStatus{RigPhase::kEnded, ended_};
+void CpuShare::Give(int cpu) {
+  if (cpu < 0) return;
+  const std::lock_guard<std::mutex> lock(mutex_);
+  const auto at = std::find(cpus_.begin(), cpus_.end(), cpu);
+  if (at != cpus_.end()) --rigs_on_cpu_[static_cast<size_t>(at - cpus_.begin())];
+}
+
+LocalRigSpawner::LocalRigSpawner(RigSpec spec, ProcessLauncher& launcher, LeasePort lease,
+                                 std::shared_ptr<CpuShare> cpus)
+    : spec_(std::move(spec)),
+      launcher_(launcher),
+      lease_port_(std::move(lease)),
+      cpus_(std::move(cpus)) {}
+
+LocalRigSpawner::~LocalRigSpawner() { Stop(); }
+
+RigStatus LocalRigSpawner::Start() {
+  submitted_ = std::chrono::system_clock::now();
+  try {
+    cpu_ = cpus_ ? cpus_->Take() : -1;
+    lease_ = lease_port_();
+    spec_.port = lease_.port();
+    spec_.limits.cpu = cpu_;
+    rig_ = std::make_unique<Rig>(spec_, launcher_);
+    rig_->Start();
+    panel_ = rig_->panel();
+    lcm_url_ = rig_->url();
+  } catch (...) {
+    Release();
+    throw;
+  }
+  ready_at_ = WallClockTime(std::chrono::system_clock::now());
   return RigStatus{RigPhase::kRunning, ""};
 }
 
-std::string LocalRigSpawner::Stop() {
-  rig_.Stop();
+RigStatus LocalRigSpawner::Poll() {
+  if (!rig_) return RigStatus{RigPhase::kFailed, "not started"};
+  if (ended_.empty()) ended_ = rig_->CheckProcesses();
+  if (!ended_.empty()) return RigStatus{RigPhase::kFailed, ended_};
+  return RigStatus{RigPhase::kRunning, ""};
+}
+
+void LocalRigSpawner::Release() {
+  if (rig_) rig_->Stop();
   lease_.Release();
+  if (cpus_) cpus_->Give(cpu_);
+  cpu_ = -1;
+}
+
+std::string LocalRigSpawner::Stop() {
+  Release();
   return "";
 }
 
-std::shared_ptr<RigPanel> LocalRigSpawner::panel() const { return rig_.panel(); }
+RigReach LocalRigSpawner::Reach() const {
+  RigReach reach;
+  if (!panel_) return reach;
+  reach.panel = panel_;
+  reach.lcm_url = lcm_url_;
+  reach.port = spec_.port;
+  reach.cpu = cpu_;
+  return reach;
+}
 
-std::string LocalRigSpawner::lcm_url() const { return rig_.url(); }
+nlohmann::json LocalRigSpawner::LiveState() const {
+  if (!panel_) return nullptr;
+  nlohmann::json state = panel_->hub->StateJson();
+  state["lock"] = panel_->api->LockHolder();
+  return state;
+}
 
-double LocalRigSpawner::CpuPercent() { return rig_.CpuPercent(); }
+double LocalRigSpawner::CpuPercent() { return rig_ ? rig_->CpuPercent() : 0; }
 
-std::string LocalRigSpawner::Where() const {
-  return "udpm port " + std::to_string(rig_.spec().port);
+std::string LocalRigSpawner::Where() const { return "udpm port " + std::to_string(spec_.port); }
+
+std::optional<std::chrono::system_clock::time_point> LocalRigSpawner::Submitted() const {
+  return submitted_;
+}
+
+double LocalRigSpawner::ReadySeconds() const { return rig_ ? rig_->start_seconds() : 0; }
+
+// The notebook server runs on this machine, its bridge on the rig's bus (docs/notebooks.md).
+NotebookSite LocalRigSpawner::Notebook() const {
+  NotebookSite site;
+  site.lcm_url = lcm_url_;
+  if (site.lcm_url.empty()) site.why_not = spec_.student + "'s rig is not running";
+  return site;
 }
 
 // --- Slurm ---------------------------------------------------------------------------------------
@@ -147,7 +248,7 @@ SlurmRigSpawner::SlurmRigSpawner(cluster::SlurmEngine& engine, const cluster::Cl
   }
 }
 
-void SlurmRigSpawner::Start() {
+RigStatus SlurmRigSpawner::Start() {
   secret_ = NewRigSecret();
   fs::create_directories(fs::path(secret_path_).parent_path());
   {
@@ -171,19 +272,21 @@ void SlurmRigSpawner::Start() {
   submitted_ = std::chrono::system_clock::now();
   ready_s_ = 0;
   ready_at_.clear();
+  live_state_ = nullptr;
+  return RigStatus{RigPhase::kPending, "submitted to the cluster"};
 }
 
-std::optional<std::chrono::system_clock::time_point> SlurmRigSpawner::submitted() const {
+std::optional<std::chrono::system_clock::time_point> SlurmRigSpawner::Submitted() const {
   const std::lock_guard<std::mutex> lock(mutex_);
   return submitted_;
 }
 
-double SlurmRigSpawner::ready_s() const {
+double SlurmRigSpawner::ReadySeconds() const {
   const std::lock_guard<std::mutex> lock(mutex_);
   return ready_s_;
 }
 
-std::string SlurmRigSpawner::ready_at() const {
+std::string SlurmRigSpawner::ReadyAt() const {
   const std::lock_guard<std::mutex> lock(mutex_);
   return ready_at_;
 }
@@ -203,7 +306,7 @@ RigStatus SlurmRigSpawner::Poll() {
       }
       return RigStatus{RigPhase::kRunning, ""};
     case cluster::JobState::kEnded:
-      return RigStatus{RigPhase::kEnded, job.reason};
+      return RigStatus{RigPhase::kFailed, job.reason};
     case cluster::JobState::kUnknown:
       return RigStatus{RigPhase::kUnknown, "the cluster did not say (" + job.reason + ")"};
   }
@@ -215,9 +318,37 @@ std::string SlurmRigSpawner::Stop() {
   return engine_.Cancel(job_id_);
 }
 
-std::optional<RigEndpoint> SlurmRigSpawner::endpoint() const {
+RigReach SlurmRigSpawner::Reach() const {
   const std::lock_guard<std::mutex> lock(mutex_);
-  return endpoint_;
+  RigReach reach;
+  reach.endpoint = endpoint_;
+  return reach;
+}
+
+nlohmann::json SlurmRigSpawner::LiveState() const {
+  const std::lock_guard<std::mutex> lock(mutex_);
+  return live_state_;
+}
+
+void SlurmRigSpawner::Refresh() {
+  std::optional<RigEndpoint> endpoint;
+  {
+    const std::lock_guard<std::mutex> lock(mutex_);
+    endpoint = endpoint_;
+  }
+  if (!endpoint) return;
+  const std::optional<nlohmann::json> state = FetchJson(*endpoint, "/api/state", 1.0);
+  const std::lock_guard<std::mutex> lock(mutex_);
+  live_state_ = state ? *state : nlohmann::json();
+}
+
+// A rig job's bus is on its node: no notebook server runs beside it yet (docs/notebooks.md).
+NotebookSite SlurmRigSpawner::Notebook() const {
+  NotebookSite site;
+  site.why_not = spec_.student +
+                 "'s rig is not on this server's bus (a cluster job, or not ready yet): "
+                 "notebooks drive only the class server's local rigs";
+  return site;
 }
 
 std::string SlurmRigSpawner::Where() const {
@@ -245,8 +376,11 @@ nlohmann::json SlurmRigSpawner::State() const {
   return state;
 }
 
-bool SlurmRigSpawner::Reported(const std::string& secret, const std::string& job,
-                               const std::string& host, int port) {
+bool SlurmRigSpawner::Report(const RigReport& report) {
+  const std::string& secret = report.secret;
+  const std::string& job = report.job;
+  const std::string& host = report.host;
+  const int port = report.port;
   const std::lock_guard<std::mutex> lock(mutex_);
   if (secret_.empty() || secret.size() != secret_.size() ||
       CRYPTO_memcmp(secret.data(), secret_.data(), secret_.size()) != 0) {
@@ -258,12 +392,7 @@ bool SlurmRigSpawner::Reported(const std::string& secret, const std::string& job
   const auto now = std::chrono::system_clock::now();
   ready_s_ =
       submitted_ ? std::max(0.0, std::chrono::duration<double>(now - *submitted_).count()) : 0;
-  const std::time_t wall = std::chrono::system_clock::to_time_t(now);
-  std::tm local{};
-  localtime_r(&wall, &local);
-  char text[16];
-  std::strftime(text, sizeof text, "%H:%M:%S", &local);
-  ready_at_ = text;
+  ready_at_ = WallClockTime(now);
   return true;
 }
 
@@ -298,6 +427,191 @@ SavedRigJobs LoadRigJobs(const std::string& file) {
     if (id.is_string()) jobs.cancel.push_back(id.get<std::string>());
   }
   return jobs;
+}
+
+// --- the factories -------------------------------------------------------------------------------
+
+namespace {
+
+// How long a rig's port must be silent before a rig starts on it: every SIRUPP process sends a
+// heartbeat each second.
+constexpr double kQuietListenS = 1.2;
+
+class LocalRigSpawnerFactory : public RigSpawnerFactory {
+ public:
+  LocalRigSpawnerFactory(const ClassConfig& config, RigSpawnerOptions options,
+                         ProcessLauncher& launcher)
+      : config_(config),
+        options_(std::move(options)),
+        launcher_(launcher),
+        cpus_(std::make_shared<CpuShare>(config.pin_rigs)) {}
+
+  std::string Describe() const override { return "this server's processes"; }
+
+  std::unique_ptr<RigSpawner> Make(const RigRequest& request) override {
+    RigSpec spec;
+    spec.robot = request.robot;
+    spec.student = request.student;
+    spec.bin_dir = options_.bin_dir;
+    spec.folder = request.folder;
+    spec.limits = ChildLimits{config_.rig_nice, config_.rig_memory_mb, -1};
+    spec.pace_ticks = config_.pace_ticks;
+    spec.controller = request.controller;
+    return std::make_unique<LocalRigSpawner>(
+        spec, launcher_, [this] { return LeaseQuietPort(); }, cpus_);
+  }
+
+  std::unique_ptr<RigSpawner> Restore(const nlohmann::json&) override {
+    throw std::invalid_argument("a rig of this server's own processes ended with its server");
+  }
+  SavedRigs Load() override { return {}; }
+  void Save(const SavedRigs&) override {}
+  std::string StopSaved(const nlohmann::json&) override { return ""; }
+
+  std::unique_ptr<GradePlace> MakeGradePlace(const LocalGradeOptions& local, GradeHooks) override {
+    return std::make_unique<LocalGradePlace>(local, launcher_);
+  }
+
+ private:
+  void Log(const std::string& line) const {
+    if (options_.log) options_.log(line);
+  }
+
+  // A port of the rigs' range that no other class server or grader holds (grade::PortLease) and
+  // on which nothing is heard: LCM shares its port, so another program on it (a lab's `sirupp
+  // launch`, a test's rig, a rig that did not end) would talk on the student's bus. Ports where
+  // something talks are held while the next is tried, then given back; at most kQuietTries.
+  grade::PortLease LeaseQuietPort() {
+    constexpr int kQuietTries = 8;
+    std::vector<grade::PortLease> busy;
+    std::string heard;
+    const int offset = static_cast<int>(
+        std::chrono::steady_clock::now().time_since_epoch().count() % config_.port_count);
+    for (int k = 0; k < std::min(kQuietTries, config_.port_count); ++k) {
+      grade::PortLease lease;
+      try {
+        lease = grade::PortLease::Acquire(config_.first_port, config_.port_count, offset + k);
+      } catch (const std::exception&) {
+        if (busy.empty()) throw;
+        break;  // the rest are held by others
+      }
+      const std::string talk = proc::HeardOnUdpm(proc::kRigGroup, lease.port(), kQuietListenS);
+      if (talk.empty()) return lease;
+      Log("udpm port " + std::to_string(lease.port()) + " skipped: something else talks on it (" +
+          talk + ")");
+      heard = talk;
+      busy.push_back(std::move(lease));
+    }
+    throw std::runtime_error(
+        "no quiet udpm port for a rig in " + std::to_string(config_.first_port) + ".." +
+        std::to_string(config_.first_port + config_.port_count - 1) + ": " +
+        std::to_string(busy.size()) + " tried, something else talks on each (" + heard + ")");
+  }
+
+  const ClassConfig& config_;
+  RigSpawnerOptions options_;
+  ProcessLauncher& launcher_;
+  std::shared_ptr<CpuShare> cpus_;
+};
+
+class SlurmRigSpawnerFactory : public RigSpawnerFactory {
+ public:
+  SlurmRigSpawnerFactory(const ClassConfig& config, RigSpawnerOptions options)
+      : config_(config),
+        cluster_(*config.cluster),
+        options_(std::move(options)),
+        engine_(runner_, SlurmOptionsOf(cluster_)) {}
+
+  std::string Describe() const override { return "Slurm jobs (cluster:)"; }
+
+  std::unique_ptr<RigSpawner> Make(const RigRequest& request) override {
+    fs::create_directories(request.folder + "/logs");
+    fs::create_directories(request.folder + "/results");
+    RigJobSpec spec;
+    spec.student = request.student;
+    spec.folder = OnNodes(request.folder);
+    spec.robot = OnNodes(request.robot);
+    spec.bin_dir = options_.bin_dir;
+    const std::string secret_file = config_.data_dir + "/cluster/secrets/" + request.student;
+    spec.secret_file = OnNodes(secret_file);
+    spec.report_url = cluster_.report_url.empty() ? request.server_url : cluster_.report_url;
+    spec.controller = OnNodes(request.controller);
+    spec.pace_ticks = config_.pace_ticks;
+    spec.memory_mb = config_.rig_memory_mb;
+    return std::make_unique<SlurmRigSpawner>(engine_, cluster_, spec, secret_file, request.folder);
+  }
+
+  std::unique_ptr<RigSpawner> Restore(const nlohmann::json& state) override {
+    const auto named = state.is_object() ? state.find("student") : state.end();
+    const std::string student =
+        named != state.end() && named->is_string() ? named->get<std::string>() : "";
+    return std::make_unique<SlurmRigSpawner>(engine_, cluster_, state,
+                                             config_.data_dir + "/students/" + student);
+  }
+
+  // DATA/cluster/rigs.json: {"rigs": [State()...], "cancel": [job ids]}.
+  SavedRigs Load() override {
+    const SavedRigJobs jobs = LoadRigJobs(JobsFile());
+    SavedRigs saved;
+    saved.rigs = jobs.rigs;
+    for (const std::string& id : jobs.cancel) saved.stops.push_back(nlohmann::json{{"job", id}});
+    return saved;
+  }
+
+  void Save(const SavedRigs& saved) override {
+    SavedRigJobs jobs;
+    jobs.rigs = saved.rigs;
+    for (const nlohmann::json& state : saved.stops) {
+      const std::string id = JobOf(state);
+      if (!id.empty()) jobs.cancel.push_back(id);
+    }
+    SaveRigJobs(JobsFile(), jobs);
+  }
+
+  std::string StopSaved(const nlohmann::json& state) override {
+    const std::string id = JobOf(state);
+    return id.empty() ? "" : engine_.Cancel(id);
+  }
+
+  std::unique_ptr<GradePlace> MakeGradePlace(const LocalGradeOptions&, GradeHooks hooks) override {
+    return std::make_unique<SlurmGradePlace>(engine_, cluster_, config_.data_dir, std::move(hooks));
+  }
+
+ private:
+  static cluster::SlurmOptions SlurmOptionsOf(const cluster::ClusterConfig& cluster) {
+    cluster::SlurmOptions slurm;
+    slurm.command_timeout_s = cluster.command_timeout_s;
+    return slurm;
+  }
+  static std::string JobOf(const nlohmann::json& state) {
+    const auto job = state.is_object() ? state.find("job") : state.end();
+    return job != state.end() && job->is_string() && cluster::IsJobId(job->get<std::string>())
+               ? job->get<std::string>()
+               : "";
+  }
+  std::string JobsFile() const { return config_.data_dir + "/cluster/rigs.json"; }
+  // A path under the data folder, as the nodes see it.
+  std::string OnNodes(const std::string& path) const {
+    if (path.rfind(config_.data_dir + "/", 0) != 0) return path;
+    const std::string node_data =
+        cluster_.node_data.empty() ? config_.data_dir : cluster_.node_data;
+    return node_data + path.substr(config_.data_dir.size());
+  }
+
+  const ClassConfig& config_;
+  cluster::ClusterConfig cluster_;
+  RigSpawnerOptions options_;
+  cluster::SystemRunner runner_;
+  cluster::SlurmEngine engine_;  // after the runner it uses
+};
+
+}  // namespace
+
+std::unique_ptr<RigSpawnerFactory> MakeRigSpawnerFactory(const ClassConfig& config,
+                                                         RigSpawnerOptions options,
+                                                         ProcessLauncher& launcher) {
+  if (config.cluster) return std::make_unique<SlurmRigSpawnerFactory>(config, std::move(options));
+  return std::make_unique<LocalRigSpawnerFactory>(config, std::move(options), launcher);
 }
 
 }  // namespace sirupp::classroom

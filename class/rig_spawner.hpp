@@ -1,19 +1,27 @@
 #pragma once
 // Where a student's rig runs, behind one interface (JupyterHub's Spawner idea): start, poll, stop,
-// and how the class server reaches the running rig. Two implementations:
+// how the class server reaches the running rig, and what a restarted server needs to find it
+// again. The class's rig pool (class/rig_pool.hpp) and its grading (class/submissions.hpp) are a
+// hub over it that never asks which kind it has: a RigSpawnerFactory, made once from the class
+// file (MakeRigSpawnerFactory), makes a spawner per seat, takes back saved ones, and says where a
+// grade runs (class/grade_place.hpp). Two kinds:
 //
-//   LocalRigSpawner  the rig's processes are the class server's children (class/rig.hpp) and its
-//                    panel (hub, API) lives in the server's process; ready when Start returns
-//   SlurmRigSpawner  the rig is one Slurm job running sirupp-rig-job on a node (class/rig_job.hpp);
-//                    Start submits and returns at once (pending); the job reports its endpoint
-//                    (Reported) and the server proxies to it (class/rig_proxy.hpp)
+//   local  LocalRigSpawner: the rig's processes are the class server's children (class/rig.hpp)
+//          on a quiet leased udpm port, its panel (hub, API) in the server's process; running
+//          when Start returns. Grades are the server's children (LocalGradePlace).
+//   Slurm  SlurmRigSpawner (the class file's cluster: key): the rig is one Slurm job running
+//          sirupp-rig-job on a node (class/rig_job.hpp); Start submits and returns at once
+//          (pending); the job reports its endpoint (Report) and the server proxies to it
+//          (class/rig_proxy.hpp); DATA/cluster/rigs.json keeps the jobs for a restarted server.
+//          Grades are Slurm jobs (SlurmGradePlace).
 //
-// A new engine (Kubernetes, HTCondor, ...) is one more implementation: submit the same
-// sirupp-rig-job command (RigJobCommand), read the engine's state into RigStatus (anything it
-// cannot read is kUnknown, never kEnded), cancel, and save/load what a restarted server needs to
-// find the rig again (State / the constructor taking it).
+// A new engine (Kubernetes, HTCondor, ...) is one more spawner and factory: submit the same
+// sirupp-rig-job command (RigJobScript), read the engine's state into a RigStatus (anything it
+// cannot read is kUnknown, never an end), cancel, and save/restore what a restarted server needs
+// (State / Restore).
 
 #include <chrono>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
@@ -21,68 +29,202 @@
 #include <string>
 #include <vector>
 
+#include "class/class_config.hpp"
+#include "class/grade_place.hpp"
 #include "class/rig.hpp"
 #include "class/rig_proxy.hpp"
 #include "cluster/class_job.hpp"
 #include "cluster/cluster_config.hpp"
+#include "cluster/command_runner.hpp"
 #include "cluster/slurm_engine.hpp"
 #include "grade/port_lease.hpp"
 
 namespace sirupp::classroom {
 
-enum class RigPhase { kPending, kRunning, kEnded, kUnknown };
-const char* RigPhaseName(RigPhase phase);  // "pending", "running", "ended", "unknown"
+// A seat's rig as the pages show it, one enum for every kind: stopped (never started, or
+// stopped when asked), starting (Start in progress), pending (on its way: waiting for the
+// cluster, starting on its node), running, unknown (the engine did not say; never read as
+// stopped), failed (it could not start, or ended without being asked).
+enum class RigPhase { kStopped, kStarting, kPending, kRunning, kUnknown, kFailed };
+// "stopped", "starting", "pending", "running", "unknown", "failed"
+const char* RigPhaseName(RigPhase phase);
 
+// A spawner's answer. Start: kRunning (ready) or kPending (on its way, why). Poll: kRunning,
+// kPending (why it waits), kUnknown (why it is not known), kFailed (why it ended).
 struct RigStatus {
   RigPhase phase = RigPhase::kUnknown;
-  std::string reason;  // pending: why it waits; ended: why it ended; unknown: why not known
+  std::string reason;
+};
+
+// How the class server reaches a rig: its panel in this process, or its HTTP endpoint on a node
+// (once reported); at most one of the two.
+struct RigReach {
+  std::shared_ptr<RigPanel> panel;
+  std::optional<RigEndpoint> endpoint;
+  std::string lcm_url;  // its bus when this server reaches it, else ""
+  int port = 0;         // its udpm port on this machine, else 0
+  int cpu = -1;         // the CPU its processes are pinned to (limits.pin_rigs), else -1
+  bool reachable() const { return panel != nullptr || endpoint.has_value(); }
+};
+
+// Where the student's notebook server runs beside their rig (docs/notebooks.md): on this
+// machine, its bridge on the rig's bus; or nowhere yet, and why.
+struct NotebookSite {
+  std::string lcm_url;  // the bus the notebook's bridge joins ("" when none)
+  std::string why_not;  // "" when a notebook server can run beside the rig
+};
+
+// A rig job's report (POST /cluster/report).
+struct RigReport {
+  std::string secret;
+  std::string job;
+  std::string host;
+  int port = 0;
 };
 
 class RigSpawner {
  public:
   virtual ~RigSpawner() = default;
-  // Local: starts and returns when the rig is ready (throws std::runtime_error with the reason,
-  // having stopped what started). Job: submits and returns (pending); throws when refused.
-  virtual void Start() = 0;
-  // Where it is now. Local: ended when one of its processes ended. Job: the engine's answer.
+  virtual std::string student() const = 0;
+  // Local: starts and returns when the rig is ready (kRunning; throws std::runtime_error with the
+  // reason, having stopped what started). Job: submits and returns kPending; throws when refused.
+  virtual RigStatus Start() = 0;
+  // Where it is now. Local: failed when one of its processes ended. Job: the engine's answer.
   virtual RigStatus Poll() = 0;
-  // Ends it; "" when done, else why not (an engine that did not answer: the caller tries again).
+  // Seconds between two Polls (0: each pass of the pool's monitor).
+  virtual double PollIntervalS() const = 0;
+  // Ends it; "" when done, else why not (an engine that did not answer: the pool tries again).
   virtual std::string Stop() = 0;
-  // How the server reaches it: its panel in this process (local), or its endpoint (job, once
-  // reported). Exactly one of them while it runs.
-  virtual std::shared_ptr<RigPanel> panel() const = 0;
-  virtual std::optional<RigEndpoint> endpoint() const = 0;
-  // Its LCM address when this server can reach its bus (local), else "" (a rig on a node).
-  virtual std::string lcm_url() const = 0;
-  // CPU use of its processes since the last call, % of one core (local; 0 where not measured).
+  virtual RigReach Reach() const = 0;
+  // A report naming this rig: true when it is this rig's (then Reach() has the endpoint).
+  // False for a rig that does not report (local).
+  virtual bool Report(const RigReport& report) = 0;
+  // The arm's state as /api/state gives it (controller, sim, estop, virtual.q; lock when known),
+  // cheap to call from a page: read now (local) or as the last Refresh fetched it (job); null when
+  // not known.
+  virtual nlohmann::json LiveState() const = 0;
+  // Called by the pool's monitor at each pass: a job fetches its live state (1 s at most).
+  virtual void Refresh() = 0;
+  // CPU use of its processes since the last call, % of one core (0 where not measured).
   virtual double CpuPercent() = 0;
   // For the pages: "udpm port 7910", "Slurm job 12 on node07".
   virtual std::string Where() const = 0;
-  // What a restarted server needs to find it again (jobs); null for a local rig, which ends with
-  // the server.
+  // When it was started (submitted), on the wall clock; nullopt when not known.
+  virtual std::optional<std::chrono::system_clock::time_point> Submitted() const = 0;
+  // Seconds from its start to ready and the wall-clock time it became ready ("HH:MM:SS");
+  // 0 and "" until it is ready or when not known.
+  virtual double ReadySeconds() const = 0;
+  virtual std::string ReadyAt() const = 0;
+  // What a restarted server needs to find it again (RigSpawnerFactory::Restore); null for a rig
+  // that ends with the server (local).
   virtual nlohmann::json State() const = 0;
+  // Where the student's notebook server runs beside this rig.
+  virtual NotebookSite Notebook() const = 0;
 };
 
-// Today's rig: the processes of `spec` started by `launcher`, on the leased port.
-class LocalRigSpawner : public RigSpawner {
+// What a seat's new rig runs, as the pool prepared it.
+struct RigRequest {
+  std::string student;
+  std::string folder;      // the student's folder as this server sees it
+  std::string robot;       // the model file in it
+  std::string controller;  // a student's controller; "" = the built-in law
+  std::string server_url;  // this class server (BaseUrl), where a job reports
+};
+
+// What a previous server left: the States of its rigs, and of rigs whose stop it still owed.
+struct SavedRigs {
+  std::vector<nlohmann::json> rigs;
+  std::vector<nlohmann::json> stops;
+};
+
+// The kind of spawner a class has, made once from its class file.
+class RigSpawnerFactory {
  public:
-  LocalRigSpawner(RigSpec spec, ProcessLauncher& launcher, grade::PortLease lease);
-  void Start() override;
-  RigStatus Poll() override;
-  std::string Stop() override;
-  std::shared_ptr<RigPanel> panel() const override;
-  std::optional<RigEndpoint> endpoint() const override { return std::nullopt; }
-  std::string lcm_url() const override;
-  double CpuPercent() override;
-  std::string Where() const override;
-  nlohmann::json State() const override { return nullptr; }
-  double start_seconds() const { return rig_.start_seconds(); }
-  Rig& rig() { return rig_; }
+  virtual ~RigSpawnerFactory() = default;
+  // For the log: "this server's processes", "Slurm jobs (cluster:)".
+  virtual std::string Describe() const = 0;
+  // A new seat's spawner, not started.
+  virtual std::unique_ptr<RigSpawner> Make(const RigRequest& request) = 0;
+  // A spawner from a saved State(); throws std::invalid_argument when the state is not one.
+  virtual std::unique_ptr<RigSpawner> Restore(const nlohmann::json& state) = 0;
+  // What the last server saved (nothing for a kind that keeps nothing); throws std::runtime_error
+  // naming the file when it cannot be read.
+  virtual SavedRigs Load() = 0;
+  // Saves it for the next server (nothing for a kind that keeps nothing); throws on failure.
+  virtual void Save(const SavedRigs& saved) = 0;
+  // The stop a saved state's rig is owed (one whose Stop did not end it): "" when done.
+  virtual std::string StopSaved(const nlohmann::json& state) = 0;
+  // Where the class's grades run (GradePlace::Slots at once).
+  virtual std::unique_ptr<GradePlace> MakeGradePlace(const LocalGradeOptions& local,
+                                                     GradeHooks hooks) = 0;
+};
+
+struct RigSpawnerOptions {
+  std::string bin_dir;  // the rigs' programs (and sirupp-rig-job on the nodes)
+  std::function<void(const std::string& line)> log;
+};
+
+// The class file's kind: Slurm jobs with its cluster: key, else this server's processes.
+// `config` and `launcher` must outlive the factory and everything it makes.
+std::unique_ptr<RigSpawnerFactory> MakeRigSpawnerFactory(const ClassConfig& config,
+                                                         RigSpawnerOptions options,
+                                                         ProcessLauncher& launcher);
+
+// --- the two kinds ---------------------------------------------------------------------------
+
+// Shares the CPUs this server may use among the local rigs (limits.pin_rigs): each rig on the
+// CPU with the fewest. Thread-safe.
+class CpuShare {
+ public:
+  explicit CpuShare(bool pin);
+  int Take();  // -1 when nothing is pinned
+  void Give(int cpu);
 
  private:
-  Rig rig_;
+  std::mutex mutex_;
+  std::vector<int> cpus_;
+  std::vector<int> rigs_on_cpu_;
+};
+
+// Today's rig: the processes of `spec` started by `launcher` (spec.port and spec.limits.cpu are
+// filled at Start from a quiet leased port and `cpus`).
+class LocalRigSpawner : public RigSpawner {
+ public:
+  using LeasePort = std::function<grade::PortLease()>;
+  LocalRigSpawner(RigSpec spec, ProcessLauncher& launcher, LeasePort lease,
+                  std::shared_ptr<CpuShare> cpus);
+  ~LocalRigSpawner() override;
+  std::string student() const override { return spec_.student; }
+  RigStatus Start() override;
+  RigStatus Poll() override;
+  double PollIntervalS() const override { return 0; }
+  std::string Stop() override;
+  RigReach Reach() const override;
+  bool Report(const RigReport&) override { return false; }
+  nlohmann::json LiveState() const override;
+  void Refresh() override {}
+  double CpuPercent() override;
+  std::string Where() const override;
+  std::optional<std::chrono::system_clock::time_point> Submitted() const override;
+  double ReadySeconds() const override;
+  std::string ReadyAt() const override { return ready_at_; }
+  nlohmann::json State() const override { return nullptr; }
+  NotebookSite Notebook() const override;
+
+ private:
+  void Release();
+  RigSpec spec_;
+  ProcessLauncher& launcher_;
+  LeasePort lease_port_;
+  std::shared_ptr<CpuShare> cpus_;
+  std::unique_ptr<Rig> rig_;
+  std::shared_ptr<RigPanel> panel_;  // set once by Start (read by pages without a lock)
+  std::string lcm_url_;
   grade::PortLease lease_;
+  int cpu_ = -1;
   std::string ended_;
+  std::optional<std::chrono::system_clock::time_point> submitted_;
+  std::string ready_at_;
 };
 
 // What a rig job runs (paths as the nodes see them).
@@ -111,29 +253,27 @@ class SlurmRigSpawner : public RigSpawner {
   SlurmRigSpawner(cluster::SlurmEngine& engine, const cluster::ClusterConfig& config,
                   const nlohmann::json& state, std::string folder_here);
 
-  void Start() override;
+  std::string student() const override { return spec_.student; }
+  RigStatus Start() override;
   RigStatus Poll() override;
+  double PollIntervalS() const override { return config_.poll_s; }
   std::string Stop() override;
-  std::shared_ptr<RigPanel> panel() const override { return nullptr; }
-  std::optional<RigEndpoint> endpoint() const override;
-  std::string lcm_url() const override { return ""; }
+  RigReach Reach() const override;
+  // The job's report: true when its secret and job are this rig's; then the endpoint is known.
+  bool Report(const RigReport& report) override;
+  nlohmann::json LiveState() const override;
+  void Refresh() override;  // GET /api/state from the endpoint, once reported
   double CpuPercent() override { return 0; }
   std::string Where() const override;
+  // Saved with the state, so a restarted server knows them (nullopt / 0 / "" for a state saved
+  // before they were kept).
+  std::optional<std::chrono::system_clock::time_point> Submitted() const override;
+  double ReadySeconds() const override;
+  std::string ReadyAt() const override;
   nlohmann::json State() const override;
+  NotebookSite Notebook() const override;
 
-  // The job's report (POST /cluster/report): true when `secret` and `job` are this rig's, and
-  // then the endpoint is known.
-  bool Reported(const std::string& secret, const std::string& job, const std::string& host,
-                int port);
   const std::string& job_id() const { return job_id_; }
-  const std::string& secret() const { return secret_; }
-  // When the job was submitted (the wall clock, saved with the state, so a restarted server
-  // knows it); nullopt for a state saved before it was kept.
-  std::optional<std::chrono::system_clock::time_point> submitted() const;
-  // Seconds from the submission to the job's report, and the wall-clock time of the report
-  // ("HH:MM:SS"); 0 and "" until it reported (also kept with the state).
-  double ready_s() const;
-  std::string ready_at() const;
 
  private:
   cluster::SlurmEngine& engine_;
@@ -149,6 +289,7 @@ class SlurmRigSpawner : public RigSpawner {
   std::optional<std::chrono::system_clock::time_point> submitted_;
   double ready_s_ = 0;
   std::string ready_at_;
+  nlohmann::json live_state_;
 };
 
 // The class's rig jobs as a restarted server finds them: DATA/cluster/rigs.json (0600: it holds

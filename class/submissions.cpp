@@ -219,44 +219,49 @@ std::optional<int> SubmissionStore::Counted(const std::string& student) const {
 // ----------------------------------------------------------------------------------
 
 SubmissionService::SubmissionService(const ClassConfig& config, SubmissionOptions options,
+                                     RigSpawnerFactory& spawners,
+                                     std::function<void(const std::string&)> log)
+    : config_(config), options_(std::move(options)), log_(std::move(log)), store_(config.data_dir) {
+  Start(spawners);
+}
+
+SubmissionService::SubmissionService(const ClassConfig& config, SubmissionOptions options,
                                      ProcessLauncher& launcher,
                                      std::function<void(const std::string&)> log)
-    : config_(config),
-      options_(std::move(options)),
-      launcher_(launcher),
-      log_(std::move(log)),
-      store_(config.data_dir) {
+    : config_(config), options_(std::move(options)), log_(std::move(log)), store_(config.data_dir) {
+  own_spawners_ =
+      MakeRigSpawnerFactory(config_, RigSpawnerOptions{options_.bin_dir, log_}, launcher);
+  Start(*own_spawners_);
+}
+
+void SubmissionService::Start(RigSpawnerFactory& spawners) {
   if (!config_.grading_suite.empty()) {
     suite_ = grade::LoadSuite(config_.grading_suite, &runtime::ResolveDataPath);
   }
+  GradeHooks hooks;
+  hooks.log = log_;
+  hooks.save = [this](const std::string& student, int id, const Json& record) {
+    SaveGradingJob(student, id, record);
+  };
+  hooks.clear = [this](const std::string& student, int id) { ClearGradingJob(student, id); };
+  place_ = spawners.MakeGradePlace(
+      LocalGradeOptions{options_.grade_nice, options_.grade_time_limit_s}, std::move(hooks));
   // What a stopped server left queued or half graded is graded again.
   for (const std::string& student : config_.students) {
     for (const int id : store_.Ids(student)) {
       const Json meta = store_.Read(student, id);
       const std::string state = meta.is_object() ? meta.value("state", "") : "";
       if (state == "queued" || state == "grading") queue_.emplace_back(student, id);
-      // A grading job the last server left (killed while it ran): taken back, never submitted
-      // again while it may still run.
-      if (config_.cluster && state == "grading" && meta.contains("grading_job")) {
-        const Json& job = meta["grading_job"];
-        const Json job_id = job.is_object() && job.contains("id") ? job["id"] : Json();
-        const Json attempt = job.is_object() && job.contains("attempt") ? job["attempt"] : Json(1);
-        if (job_id.is_string() && cluster::IsJobId(job_id.get<std::string>())) {
-          resume_[{student, id}] =
-              SavedJob{job_id.get<std::string>(),
-                       attempt.is_number_integer() ? std::clamp(attempt.get<int>(), 1, 2) : 1};
+      // A grading run the last server left (killed while it ran): taken back when the place can,
+      // never started again while it may still run.
+      if (state == "grading" && meta.contains("grading_job")) {
+        if (std::optional<Json> run = place_->TakeBack(meta["grading_job"])) {
+          resume_[{student, id}] = *run;
         }
       }
     }
   }
-  int workers = 1;
-  if (config_.cluster) {
-    runner_ = std::make_unique<cluster::SystemRunner>();
-    cluster::SlurmOptions slurm;
-    slurm.command_timeout_s = config_.cluster->command_timeout_s;
-    engine_ = std::make_unique<cluster::SlurmEngine>(*runner_, slurm);
-    workers = config_.cluster->grading_jobs;
-  }
+  const int workers = std::max(1, place_->Slots());
   for (int i = 0; i < workers; ++i) workers_.emplace_back([this] { Worker(); });
 }
 
@@ -266,11 +271,8 @@ void SubmissionService::Stop() {
   {
     const std::lock_guard<std::mutex> lock(mutex_);
     stop_ = true;
-    if (grading_pid_ > 0) ::kill(-grading_pid_, SIGKILL);
-    if (engine_) {
-      for (const std::string& job : grading_jobs_) engine_->Cancel(job);
-    }
   }
+  if (place_) place_->Stop();
   wake_.notify_all();
   for (std::thread& worker : workers_) {
     if (worker.joinable()) worker.join();
@@ -367,7 +369,7 @@ void SubmissionService::Worker() {
 void SubmissionService::Grade(const std::string& student, int id) {
   const std::string folder = store_.Folder(student, id);
   Json meta;
-  std::optional<SavedJob> resume;
+  std::optional<Json> resume;
   {
     const std::lock_guard<std::mutex> lock(mutex_);
     meta = store_.Read(student, id);
@@ -400,8 +402,7 @@ void SubmissionService::Grade(const std::string& student, int id) {
   const std::string log_file = folder + "/grade.log";
   if (!resume) fs::remove(log_file);
   log_(student + ": grading submission " + std::to_string(id));
-  const GradeRun run =
-      engine_ ? GradeAsJob(student, id, argv, log_file, resume) : GradeHere(argv, log_file);
+  const GradeRun run = place_->Grade(GradeTask{student, id, argv, log_file, resume});
   const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
   const std::lock_guard<std::mutex> lock(mutex_);
   if (stop_ || run.stopped) return;  // killed by Stop(): stays "grading", graded again next start
@@ -459,150 +460,11 @@ void SubmissionService::Grade(const std::string& student, int id) {
        std::to_string(static_cast<int>(seconds)) + " s: " + summary);
 }
 
-// sirupp grade as this server's child: niced below the rigs, its own process group, killed at
-// the time limit.
-SubmissionService::GradeRun SubmissionService::GradeHere(const std::vector<std::string>& argv,
-                                                         const std::string& log_file) {
-  const auto start = Clock::now();
-  proc::ProcessSpec grading;
-  grading.argv = argv;
-  grading.log_path = log_file;
-  grading.limits.nice = options_.grade_nice;
-  grading.death_signal = SIGTERM;
-  proc::Child grader;
-  grader.Start(grading, 0, &launcher_);
-  const pid_t pid = grader.pid();
-  {
-    const std::lock_guard<std::mutex> lock(mutex_);
-    grading_pid_ = pid;
-    if (stop_) ::kill(-pid, SIGKILL);
-  }
-  bool timed_out = false;
-  while (grader.Running()) {
-    if (!timed_out &&
-        std::chrono::duration<double>(Clock::now() - start).count() > options_.grade_time_limit_s) {
-      ::kill(-pid, SIGKILL);
-      timed_out = true;
-    }
-    std::this_thread::sleep_for(std::chrono::milliseconds(100));
-  }
-  proc::KillGroup(grader.group());  // anything of its group left behind
-  const int status = grader.status();
-  {
-    const std::lock_guard<std::mutex> lock(mutex_);
-    grading_pid_ = 0;
-  }
-  GradeRun run;
-  run.ok = !timed_out && WIFEXITED(status) && WEXITSTATUS(status) == 0;
-  if (timed_out) {
-    run.problem = "grading took longer than " +
-                  std::to_string(static_cast<int>(options_.grade_time_limit_s)) +
-                  " s and was stopped";
-  }
-  return run;
-}
-
-// sirupp grade as one Slurm job (cluster.grading's time, CPUs and memory), writing into the
-// submission's folder on the shared filesystem. A job lost with its node (or preempted) is
-// submitted once more, then the submission is marked failed with Slurm's reason. An unknown
-// state is waited out (it is not an end).
-SubmissionService::GradeRun SubmissionService::GradeAsJob(const std::string& student, int id,
-                                                          const std::vector<std::string>& argv,
-                                                          const std::string& log_file,
-                                                          std::optional<SavedJob> resume) {
-  const cluster::ClusterConfig& jobs = *config_.cluster;
-  const std::string node_data = jobs.node_data.empty() ? config_.data_dir : jobs.node_data;
-  const auto on_nodes = [&](const std::string& path) {
-    if (path.rfind(config_.data_dir + "/", 0) != 0) return path;
-    return node_data + path.substr(config_.data_dir.size());
-  };
-  proc::ProcessSpec grading;
-  for (const std::string& word : argv) grading.argv.push_back(on_nodes(word));
-  grading.log_path = on_nodes(log_file);
-  const cluster::JobRequest request = cluster::GradingJobRequest(
-      jobs, "sirupp-grade-" + student + "-" + std::to_string(id),
-      student + "'s submission " + std::to_string(id) + " (sirupp class serve, cluster:)",
-      proc::ExecLine(grading), on_nodes(log_file) + ".job");
-  const std::string which = student + ": submission " + std::to_string(id);
-  GradeRun run;
-  for (int attempt = resume ? resume->attempt : 1; attempt <= 2; ++attempt) {
-    std::string job_id;
-    const bool taken_back = resume && attempt == resume->attempt;
-    if (taken_back) {
-      job_id = resume->id;
-      log_(which + ": took back grading job " + job_id +
-           " (left running by the last class server)");
-    } else {
-      const cluster::SubmitResult submitted = engine_->Submit(request);
-      if (!submitted.ok()) {
-        run.problem = "the cluster refused the grading job: " + submitted.error;
-        return run;
-      }
-      job_id = submitted.job_id;
-      SaveGradingJob(student, id, SavedJob{job_id, attempt});
-      log_(which + " grading as Slurm job " + job_id);
-    }
-    {
-      const std::lock_guard<std::mutex> lock(mutex_);
-      grading_jobs_.push_back(job_id);
-      if (stop_) engine_->Cancel(job_id);
-    }
-    cluster::JobStatus status;
-    while (true) {
-      {
-        const std::lock_guard<std::mutex> lock(mutex_);
-        if (stop_) break;  // Stop() cancelled the job
-      }
-      status = engine_->Poll(job_id);
-      if (status.state == cluster::JobState::kEnded) break;
-      std::this_thread::sleep_for(std::chrono::milliseconds(500));
-    }
-    {
-      const std::lock_guard<std::mutex> lock(mutex_);
-      grading_jobs_.erase(std::remove(grading_jobs_.begin(), grading_jobs_.end(), job_id),
-                          grading_jobs_.end());
-    }
-    bool stopping = false;
-    {
-      const std::lock_guard<std::mutex> lock(mutex_);
-      stopping = stop_;
-    }
-    if (stopping) {
-      // Cancelled by Stop(): the next start grades it again, unless the cancel was not taken
-      // (then the job is still ours to take back).
-      if (engine_->Cancel(job_id).empty()) ClearGradingJob(student, id);
-      run.stopped = true;
-      return run;
-    }
-    if (taken_back && status.slurm_state.empty() &&
-        !Json::parse(ReadAll((fs::path(log_file).parent_path() / "grade/results.json").string()),
-                     nullptr, false)
-             .is_discarded()) {
-      run.ok = true;  // ended while no server watched and Slurm has forgotten it: its result
-      return run;
-    }
-    if (taken_back && status.slurm_state == "CANCELLED" && attempt == 1) {
-      log_(which + ": grading job " + job_id +
-           " was cancelled while the class server was down; graded once more");
-      continue;
-    }
-    const cluster::GradingEnd end = cluster::AfterGradingJob(status, attempt);
-    if (end.next == cluster::GradingNext::kAgain) {
-      log_(which + ": " + status.reason + "; submitted once more");
-      continue;
-    }
-    run.ok = end.next == cluster::GradingNext::kGraded;
-    run.problem = end.problem;  // "" for FAILED: sirupp grade's own last line says why
-    return run;
-  }
-  return run;
-}
-
-void SubmissionService::SaveGradingJob(const std::string& student, int id, const SavedJob& job) {
+void SubmissionService::SaveGradingJob(const std::string& student, int id, const Json& record) {
   const std::lock_guard<std::mutex> lock(mutex_);
   Json meta = store_.Read(student, id);
   if (!meta.is_object()) return;
-  meta["grading_job"] = Json{{"id", job.id}, {"attempt", job.attempt}};
+  meta["grading_job"] = record;
   store_.Write(student, id, meta);
 }
 

@@ -24,6 +24,8 @@
 #include <condition_variable>
 #include <deque>
 #include <functional>
+#include <map>
+#include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
 #include <optional>
@@ -33,9 +35,8 @@
 #include <vector>
 
 #include "class/class_config.hpp"
-#include "cluster/class_job.hpp"
-#include "cluster/command_runner.hpp"
-#include "cluster/slurm_engine.hpp"
+#include "class/grade_place.hpp"
+#include "class/rig_spawner.hpp"
 #include "grade/build_controller.hpp"
 #include "grade/suite.hpp"
 #include "panel/panel_api.hpp"
@@ -88,8 +89,13 @@ struct SubmissionOptions {
 
 class SubmissionService {
  public:
-  // Starts the grading worker; queued or interrupted submissions found in the folders are graded
-  // again. `log`: one line per submission, build and grade.
+  // Starts the grading workers (as many as the class's grading place runs at once: its spawner
+  // factory's MakeGradePlace, made by `spawners`, which must outlive the service); queued or
+  // interrupted submissions found in the folders are graded again (a grading job a previous
+  // server left is taken back). `log`: one line per submission, build and grade.
+  SubmissionService(const ClassConfig& config, SubmissionOptions options,
+                    RigSpawnerFactory& spawners, std::function<void(const std::string&)> log);
+  // The same with the class file's own factory (MakeRigSpawnerFactory), owned by the service.
   SubmissionService(const ClassConfig& config, SubmissionOptions options, ProcessLauncher& launcher,
                     std::function<void(const std::string&)> log);
   ~SubmissionService();
@@ -134,25 +140,13 @@ class SubmissionService {
   const SubmissionStore& store() const { return store_; }
 
  private:
+  void Start(RigSpawnerFactory& spawners);
   void Worker();
   void Grade(const std::string& student, int id);
-  // How one grading run ended: ok (sirupp grade exited 0), or the problem in words.
-  struct GradeRun {
-    bool ok = false;
-    bool stopped = false;  // by Stop(): graded again at the next start
-    std::string problem;
-  };
-  GradeRun GradeHere(const std::vector<std::string>& argv, const std::string& log_file);
-  // A grading job a previous server left running (the submission's meta.json "grading_job").
-  struct SavedJob {
-    std::string id;
-    int attempt = 1;
-  };
-  GradeRun GradeAsJob(const std::string& student, int id, const std::vector<std::string>& argv,
-                      const std::string& log_file, std::optional<SavedJob> resume);
-  // The job grading `student`'s submission `id` now, in its meta.json (so a server killed while
-  // it runs finds it again instead of grading twice); Clear when it ended or was cancelled.
-  void SaveGradingJob(const std::string& student, int id, const SavedJob& job);
+  // The grading place's record of the run grading `student`'s submission `id` now, in its
+  // meta.json "grading_job" (so a server killed while it runs finds it again instead of grading
+  // twice); Clear when it ended or was cancelled.
+  void SaveGradingJob(const std::string& student, int id, const nlohmann::json& record);
   void ClearGradingJob(const std::string& student, int id);
   nlohmann::json Public(const std::string& student, int id) const;
   nlohmann::json ListJson(const std::string& student) const;
@@ -161,7 +155,7 @@ class SubmissionService {
 
   ClassConfig config_;
   SubmissionOptions options_;
-  ProcessLauncher& launcher_;
+  std::unique_ptr<RigSpawnerFactory> own_spawners_;  // when made by the service
   std::function<void(const std::string&)> log_;
   SubmissionStore store_;
   std::optional<grade::Suite> suite_;
@@ -172,15 +166,12 @@ class SubmissionService {
   std::deque<std::pair<std::string, int>> queue_;
   int busy_ = 0;  // grades in progress
   bool stop_ = false;
-  pid_t grading_pid_ = 0;
-  // With the class file's cluster:, each grade is one Slurm job (cluster.grading: time, CPUs,
-  // memory), cluster.grading.jobs at once; the jobs in progress are cancelled by Stop().
-  std::unique_ptr<cluster::SystemRunner> runner_;
-  std::unique_ptr<cluster::SlurmEngine> engine_;
-  std::vector<std::string> grading_jobs_;
-  // Grading jobs found in the submissions at the start, taken back by the worker that takes the
-  // submission from the queue (under mutex_).
-  std::map<std::pair<std::string, int>, SavedJob> resume_;
+  // Where the grades run (the class's spawner factory decides: this server's child, or a Slurm
+  // job); what runs is stopped by Stop().
+  std::unique_ptr<GradePlace> place_;
+  // Grading runs found in the submissions at the start (the place's TakeBack of their record),
+  // taken back by the worker that takes the submission from the queue (under mutex_).
+  std::map<std::pair<std::string, int>, nlohmann::json> resume_;
   std::vector<std::thread> workers_;
 };
 
