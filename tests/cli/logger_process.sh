@@ -41,7 +41,7 @@ sim=$!; pids+=("$sim")
 "$SIRUPP_CONTROL" --lcm-url "$URL" --sim-timeout 3 2>"$work/control.err" &
 control=$!; pids+=("$control")
 # Raw traffic, with the flags that work on lcm-logger 1.3.1 (docs/logging.md).
-lcm-logger --lcm-url="$URL" -c 'ROBOT_MODEL|SIM_ARM_STATE|ARM_SETPOINT|CONTROLLER_STATUS|ARM_MOVE' -f -q \
+lcm-logger --lcm-url="$URL" -c 'ROBOT_MODEL|SIM_ARM_STATE|SIM_ARM_TICKS|ARM_SETPOINT|CONTROLLER_STATUS|ARM_MOVE' -f -q \
   "$work/raw.lcm" 2>"$work/lcm-logger.err" &
 raw=$!; pids+=("$raw")
 "$SIRUPP_LOGGER" --lcm-url "$URL" --out "$work/data" --name a 2>"$work/a.err" &
