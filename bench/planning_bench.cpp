@@ -6,7 +6,7 @@
 // all solved within 1 s; slice < 0.5 s.
 //
 //   build/bin/bench_planning [--pairs 200] [--bitstar 10] [--time 1] [--step 0.01]
-//                            [--padding 0.01] [--states 200000]
+//                            [--padding 0.01] [--states 200000] [--scene both|table|shelf]
 
 #include <algorithm>
 #include <chrono>
@@ -116,7 +116,18 @@ std::vector<Pair> TableTopPairs(planning::CollisionModel& cm, int count, std::mt
 struct Figures {
   std::vector<double> total_ms, length;
   int solved = 0, count = 0, straight = 0;
+  std::vector<std::string> unsolved;  // "pair i: start [...] goal [...] deg: message"
 };
+
+std::string Degrees(const JointVector& q) {
+  std::string out;
+  for (int j = 0; j < q.size(); ++j) {
+    char text[32];
+    std::snprintf(text, sizeof text, "%s%.17g", j > 0 ? " " : "", q[j] / kDeg);
+    out += text;
+  }
+  return out;
+}
 
 Figures PlanAll(planning::CollisionModel& cm, const std::vector<Pair>& pairs,
                 const planning::PlanRequest& base) {
@@ -131,6 +142,10 @@ Figures PlanAll(planning::CollisionModel& cm, const std::vector<Pair>& pairs,
     if (r.solved) {
       ++f.solved;
       f.length.push_back(r.length_rad);
+    } else {
+      f.unsolved.push_back("pair " + std::to_string(i + 1) + " (seed " +
+                           std::to_string(request.seed) + "): --from " + Degrees(pairs[i].start) +
+                           " --to " + Degrees(pairs[i].goal) + ": " + r.message);
     }
   }
   return f;
@@ -143,6 +158,7 @@ void Print(const char* scene, const char* what, const Figures& f) {
       scene, what, f.solved, f.count, f.straight, Percentile(f.total_ms, 0.5),
       Percentile(f.total_ms, 0.95), Percentile(f.total_ms, 1.0), Percentile(f.length, 0.5),
       LoadAverage().c_str());
+  for (const std::string& line : f.unsolved) std::printf("    unsolved %s\n", line.c_str());
 }
 
 // RRTConnect + simplify against BIT* (1 s, simplified too) on the first `count` pairs.
@@ -181,6 +197,14 @@ int main(int argc, char** argv) {
        runtime::Flag("time", "time limit per plan, s").Takes("S").Above(0, 60),
        runtime::Flag("step", "edge step, rad").Takes("RAD").Above(0, 0.2),
        runtime::Flag("padding", "padding, m").Takes("M").Range(0, 0.1),
+       runtime::Flag("fallback", "the fallback planner, or none").Takes("NAME"),
+       runtime::Flag("fallback-after", "states the first planner checks before the fallback")
+           .Takes("N")
+           .Integer(1, 1000000000),
+       runtime::Flag("planner", "the first planner").Takes("NAME").OneOf(planning::PlannerNames()),
+       runtime::Flag("scene", "the scenes to measure")
+           .Takes("NAME")
+           .OneOf({"both", "table", "shelf"}),
        runtime::Flag("states", "random states for the check rate")
            .Takes("N")
            .Integer(1, 100000000)});
@@ -192,13 +216,22 @@ int main(int argc, char** argv) {
   base.time_limit_s = args.Number("time", 1.0);
   base.edge_step_rad = args.Number("step", 0.01);
   const double padding = args.Number("padding", 0.01);
+  if (args.Has("planner")) base.planner = args.String("planner");
+  if (args.Has("fallback")) {
+    base.fallback_planner = args.String("fallback") == "none" ? "" : args.String("fallback");
+  }
+  base.fallback_after_states = args.Integer("fallback-after", base.fallback_after_states);
 
   const core::RobotModel model = core::LoadRobotModel("config/robots/puma260.yaml");
   std::printf(
-      "bench_planning: PUMA 260, RRTConnect (range 1 rad), edge step %.3g rad, padding "
-      "%.0f mm, time limit %.3g s\n",
-      base.edge_step_rad, padding * 1000, base.time_limit_s);
+      "bench_planning: PUMA 260, %s (range 1 rad), then %s after %lld states checked, edge step "
+      "%.3g rad, padding %.0f mm, time limit %.3g s\n",
+      base.planner.c_str(), base.fallback_planner.empty() ? "none" : base.fallback_planner.c_str(),
+      static_cast<long long>(base.fallback_after_states), base.edge_step_rad, padding * 1000,
+      base.time_limit_s);
+  const std::string scenes = args.Has("scene") ? args.String("scene") : "both";
   for (const char* scene : {"table", "shelf"}) {
+    if (scenes != "both" && scenes != scene) continue;
     const core::Environment env =
         core::LoadEnvironment(std::string("config/environments/") + scene + ".xml");
     planning::CollisionModel cm(model, env, {padding, true});

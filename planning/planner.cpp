@@ -15,6 +15,7 @@
 #include <ompl/geometric/planners/rrt/RRT.h>
 #include <ompl/geometric/planners/rrt/RRTConnect.h>
 #include <ompl/geometric/planners/rrt/RRTstar.h>
+#include <ompl/geometric/planners/sbl/SBL.h>
 #include <ompl/util/Console.h>
 
 #include <algorithm>
@@ -159,6 +160,11 @@ ob::PlannerPtr MakePlanner(const std::string& name, const ob::SpaceInformationPt
     planner->setRange(range);
     return planner;
   }
+  if (name == "sbl") {
+    auto planner = std::make_shared<Seeded<og::SBL>>(si, seed);
+    planner->setRange(range);
+    return planner;
+  }
   if (name == "bitstar") return std::make_shared<og::BITstar>(si);
   return nullptr;
 }
@@ -180,9 +186,9 @@ void CheckRequest(const PlanRequest& r) {
     throw std::invalid_argument("fallback planner '" + r.fallback_planner +
                                 "' is not known; allowed: none or " + JoinedNames());
   }
-  if (!(r.fallback_after > 0 && r.fallback_after < 1)) {
-    throw std::invalid_argument("fallback_after " + FormatNumber(r.fallback_after) +
-                                ": allowed (0, 1) of the time limit");
+  if (r.fallback_after_states < 1 || r.fallback_after_states > 1000000000) {
+    throw std::invalid_argument("fallback_after_states " + std::to_string(r.fallback_after_states) +
+                                ": allowed 1 to 10^9 states");
   }
   if (!(r.edge_step_rad > 0 && r.edge_step_rad <= 0.2)) {
     throw std::invalid_argument("edge_step_rad " + FormatNumber(r.edge_step_rad) +
@@ -205,8 +211,8 @@ void CheckRequest(const PlanRequest& r) {
 }  // namespace
 
 const std::vector<std::string>& PlannerNames() {
-  static const std::vector<std::string> names{"rrtconnect", "rrt",     "prm",
-                                              "rrtstar",    "bitstar", "kpiece"};
+  static const std::vector<std::string> names{"rrtconnect", "rrt",    "prm", "rrtstar",
+                                              "bitstar",    "kpiece", "sbl"};
   return names;
 }
 
@@ -346,19 +352,24 @@ PlanResult PlanPath(CollisionModel& model, const JointVector& start, const Joint
 
   ob::IterationTerminationCondition iterations(
       request.iteration_limit > 0 ? static_cast<unsigned int>(request.iteration_limit) : 0U);
-  // The fallback takes over after a share of the time when the first planner found nothing (a
-  // heavy tail of narrow passages); never with an iteration limit (that run is to be
-  // reproducible) nor when the first planner is the fallback.
+  // The fallback takes over when the first planner has checked fallback_after_states states
+  // without a path (the heavy tail of narrow passages): a count, not a clock, so where it takes
+  // over does not depend on the machine or its load. Never with an iteration limit, nor when the
+  // first planner is the fallback.
   const bool may_fall_back = !request.fallback_planner.empty() &&
                              request.fallback_planner != request.planner &&
                              request.iteration_limit == 0;
-  const double first_s =
-      may_fall_back ? request.time_limit_s * request.fallback_after : request.time_limit_s;
+  const uint64_t switch_at = checked_before + static_cast<uint64_t>(request.fallback_after_states);
   ob::PlannerTerminationCondition ptc =
       request.iteration_limit > 0
           ? ob::plannerOrTerminationCondition(
                 ob::timedPlannerTerminationCondition(request.time_limit_s), iterations)
-          : ob::timedPlannerTerminationCondition(first_s);
+      : may_fall_back ? ob::plannerOrTerminationCondition(
+                            ob::timedPlannerTerminationCondition(request.time_limit_s),
+                            ob::PlannerTerminationCondition([&model, switch_at] {
+                              return model.states_checked() >= switch_at;
+                            }))
+                      : ob::timedPlannerTerminationCondition(request.time_limit_s);
 
   const auto solve_start = std::chrono::steady_clock::now();
   ob::PlannerStatus status = planner->solve(ptc);
@@ -411,8 +422,11 @@ PlanResult PlanPath(CollisionModel& model, const JointVector& start, const Joint
     why << seconds << " ("
         << (by_iterations ? std::to_string(request.iteration_limit) + " iterations, the limit"
                           : "time limit " + FormatNumber(request.time_limit_s) + " s")
-        << (result.fell_back ? "; then " + request.fallback_planner + " for the rest" : "") << "), "
-        << result.states_checked << " states checked at an edge step of "
+        << (result.fell_back ? "; " + request.fallback_planner + " after " +
+                                   std::to_string(request.fallback_after_states) +
+                                   " states checked by " + request.planner
+                             : "")
+        << "), " << result.states_checked << " states checked at an edge step of "
         << FormatNumber(request.edge_step_rad) << " rad, padding "
         << FormatNumber(model.options().padding_m * 1000) << " mm, seed " << request.seed
         << "; start and goal are free. Try a longer time, another planner or seed, or less "

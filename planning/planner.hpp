@@ -9,9 +9,10 @@
 // Reproducible: every random number of a planning call comes from generators seeded from
 // `seed` for that call (the state samplers, the planner's own and the simplifier's), so the same
 // request gives the same path in any process and after any earlier call, as long as the planner
-// stops on its own (its first exact solution: RRTConnect, RRT, KPIECE) or on the iteration
-// budget, not on the clock. Only exact solutions count: no path is returned that ends short of
-// the goal or touches anything the filter counts.
+// stops on its own (its first exact solution: RRTConnect, RRT, KPIECE, SBL, and the SBL fallback,
+// which takes over after a count of checked states) or on the iteration budget, not on the clock.
+// Only exact solutions count: no path is returned that ends short of the goal or touches anything
+// the filter counts.
 
 #include <Eigen/Geometry>
 #include <cstdint>
@@ -25,7 +26,8 @@
 
 namespace sirupp::planning {
 
-// The planners by name: "rrtconnect" (default), "rrt", "prm", "rrtstar", "bitstar", "kpiece".
+// The planners by name: "rrtconnect" (default), "rrt", "prm", "rrtstar", "bitstar", "kpiece",
+// "sbl".
 const std::vector<std::string>& PlannerNames();
 
 struct PlanRequest {
@@ -38,12 +40,15 @@ struct PlanRequest {
   double range_rad = 0.0;  // the longest tree edge of tree planners; 0 = 1 rad
   bool keep_tree = false;  // fill PlanResult::tree with the planner's graph
   CheckFilter avoid;       // what the path must not touch (default: everything)
-  // When `planner` has found no path after fallback_after x time_limit_s, `fallback_planner`
-  // (BIT*, stopping at its first solution) gets the rest of the time: RRTConnect's times are
-  // heavy-tailed in narrow passages, where BIT* often finds one quickly. Clock-dependent, so never
-  // used with an iteration_limit (a reproducible run); "" = no fallback.
-  std::string fallback_planner = "bitstar";
-  double fallback_after = 0.5;  // (0, 1)
+  // When `planner` has checked fallback_after_states states (edge states included) without a
+  // path, `fallback_planner` gets the rest of the time. RRTConnect's times are heavy-tailed: a
+  // state deep in a narrow passage (shelf.xml: the upper arm down and back at its limit, the
+  // forearm folded) can take it seconds to leave, where SBL (a lazy bidirectional planner that
+  // grows its trees where they are sparse) leaves in tens of ms. The switch is a count, not a
+  // clock, so a fallback that stops at its first path (sbl, rrt, kpiece) keeps the plan
+  // reproducible. Not used with an iteration_limit; "" = no fallback; 1 to 10^9 states.
+  std::string fallback_planner = "sbl";
+  int64_t fallback_after_states = 20000;
 };
 
 // The planner's graph: vertices in joint space, edges as index pairs into vertices.

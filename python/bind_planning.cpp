@@ -59,7 +59,7 @@ std::string PlannerArg(const std::string& name) {
   const auto& names = planning::PlannerNames();
   if (std::find(names.begin(), names.end(), key) == names.end()) {
     throw py::value_error("planner: '" + name +
-                          "'; allowed: RRTConnect, RRT, PRM, RRT*, BIT*, KPIECE (any case)");
+                          "'; allowed: RRTConnect, RRT, PRM, RRT*, BIT*, KPIECE, SBL (any case)");
   }
   return key;
 }

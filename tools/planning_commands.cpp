@@ -121,8 +121,9 @@ core::JointVector Endpoint(const runtime::Args& parsed, const std::string& which
 
 const char* const kPlanMakeAbout =
     "  make: a collision-free plan from --from to --to around the objects of --env (and the arm\n"
-    "  itself), planned with OMPL (--planner: rrtconnect, rrt, prm, rrtstar, bitstar, kpiece),\n"
-    "  each edge checked at --step rad, the arm padded by --padding m. Joints in degrees, or a\n"
+    "  itself), planned with OMPL (--planner: rrtconnect, rrt, prm, rrtstar, bitstar, kpiece,\n"
+    "  sbl; rrtconnect hands over to sbl after 20000 states checked without a path), each edge\n"
+    "  checked at --step rad, the arm padded by --padding m. Joints in degrees, or a\n"
     "  pose name (home, zero, ready, ...); --to-tool X Y Z ROLL PITCH YAW (m, deg) with --config\n"
     "  (nearest, or e.g. right-up-noflip) for a tool goal. The same request with the same --seed\n"
     "  gives the same plan in any process (when the planner stops on its own or on --iterations,\n"
@@ -263,7 +264,7 @@ int PlanMake(const std::vector<std::string>& args, std::ostream& out) {
                      "IK configuration of a tool pose: nearest (default) or e.g. "
                      "right-up-noflip")
            .Takes("NAME"),
-       runtime::Flag("planner", "rrtconnect (default), rrt, prm, rrtstar, bitstar, kpiece")
+       runtime::Flag("planner", "rrtconnect (default), rrt, prm, rrtstar, bitstar, kpiece, sbl")
            .Takes("NAME")
            .OneOf(planning::PlannerNames()),
        runtime::Flag("seed", "random seed (default 1)").Takes("N").Integer(0, 4294967295L),

@@ -34,7 +34,7 @@ class Scene(_Scene):
         """A collision-free joint path from start to goal (OMPL): a k x n numpy array, start first
         and goal last, every straight segment checked every `step` rad.
 
-        planner: RRTConnect (default), RRT, PRM, RRT*, BIT*, KPIECE; seed: the same request gives
+        planner: RRTConnect (default), RRT, PRM, RRT*, BIT*, KPIECE, SBL; seed: the same request gives
         the same path (with iterations=N, or a planner stopping at its first solution); time: the
         budget in s; simplify: OMPL's shortcutting; free_objects=False lets the path push table.xml's
         blocks; tree=True keeps the planner's tree in scene.last_plan (tree_vertices, m x n;

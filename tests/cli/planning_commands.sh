@@ -1,6 +1,7 @@
 #!/usr/bin/env bash
 # `sirupp plan make` and `sirupp plan check --env`: a plan made around table.xml passes the check;
-# the same request with the same seed gives the same file in two processes; a shipped plan that
+# the same request with the same seed gives the same file in two processes (also through the sbl
+# fallback in shelf.xml); a shipped plan that
 # runs the flange into the table is named by file:line; bad input is one line naming what and
 # where, with a non-zero exit and no file written.
 set -u
@@ -24,6 +25,15 @@ cmp -s "$dir/a.plan" "$dir/b.plan" || { echo "FAIL determinism: two processes, s
 run "make prm iterations" 0 plan make --env $env --from zero --to ready --planner kpiece --iterations 5000 --seed 3 -o "$dir/c.plan"
 run "make kpiece again" 0 plan make --env $env --from zero --to ready --planner kpiece --iterations 5000 --seed 3 -o "$dir/d.plan"
 cmp -s "$dir/c.plan" "$dir/d.plan" || { echo "FAIL determinism: kpiece with --iterations differs"; fail=1; }
+# shelf.xml: a goal deep in a narrow passage (bench_planning's pair 92), where rrtconnect hands
+# over to sbl after 20000 states: solved, and the same plan in another process.
+deep_from="17.812559293806363 54.3446876986375 -103.96307372297635 -279.71883911701764 -91.015290570393006 -239.65859087162616"
+deep_to="-24.991160194167474 146.0237271012922 121.70170582446818 1.1185831967432112 107.67944687658918 67.400396398925594"
+run "make shelf deep" 0 plan make --env config/environments/shelf.xml --from $deep_from --to $deep_to --seed 92 -o "$dir/e.plan"
+has "shelf deep by sbl" "$out" "solved by sbl (after rrtconnect found none) in"
+run "make shelf deep again" 0 plan make --env config/environments/shelf.xml --from $deep_from --to $deep_to --seed 92 -o "$dir/f.plan"
+cmp -s "$dir/e.plan" "$dir/f.plan" || { echo "FAIL determinism: shelf pair 92 through the sbl fallback differs"; fail=1; }
+run "check shelf deep" 0 plan check "$dir/e.plan" --env config/environments/shelf.xml --from $deep_from
 
 # A tool goal over the table, in a configuration.
 run "make tool goal" 0 plan make --env $env --from ready --to-tool 0.32 0.15 0.18 0 180 0 --config nearest -o "$dir/t.plan"
@@ -75,7 +85,7 @@ has "unreachable says" "$err" "--to-tool: tool pose (2 0 0.3 m"
 run "tool in the table" 2 plan make --env $env --from zero --to-tool 0.32 0.15 0.10 0 180 0 -o "$dir/x.plan"
 has "tool in table says" "$err" "no usable solution"
 run "unknown planner" 2 plan make --env $env --from zero --to ready --planner astar -o "$dir/x.plan"
-has "unknown planner says" "$err" "--planner: 'astar' is not allowed; allowed: rrtconnect, rrt, prm, rrtstar, bitstar, kpiece"
+has "unknown planner says" "$err" "--planner: 'astar' is not allowed; allowed: rrtconnect, rrt, prm, rrtstar, bitstar, kpiece, sbl"
 run "bad seed" 2 plan make --env $env --from zero --to ready --seed -1 -o "$dir/x.plan"
 has "bad seed says" "$err" "--seed"
 run "bad time" 2 plan make --env $env --from zero --to ready --time 0 -o "$dir/x.plan"
