@@ -13,6 +13,9 @@ from . import _paths
 from ._sirupp import (Model, RigError, _Child, _Client, _PortLease, _Recorder,
                       _path_to_plan_text, _pose_parts, _rig_processes, _rig_url)
 
+# How long a private rig's logger may take to write what it received when the rig is closed.
+_LOGGER_GRACE_S = 30.0
+
 DEFAULT_MODEL = os.path.join(_paths.SOURCE_DIR, "config/robots/puma260.yaml")
 # Private rigs take their port from the range `sirupp grade` uses, with the same lock files
 # (grade/port_lease.hpp), so rigs and grading tasks never share a port.
@@ -107,10 +110,11 @@ class Rig:
     or plan is stopped (the stop button: a smooth stop) before KeyboardInterrupt is raised."""
 
     def __init__(self, lcm_url=None, prefix="", model=None, timeout=5.0, _processes=None,
-                 _lease=None):
+                 _lease=None, _logger=None):
         self.lcm_url = lcm_url if lcm_url is not None else os.environ.get("LCM_DEFAULT_URL", "")
         self.prefix = prefix
         self._processes = _processes or []
+        self._logger = _logger  # one of _processes: stopped last, given time to write
         self._lease = _lease
         self._closed = False
         self.model = model if isinstance(model, Model) else Model(model or DEFAULT_MODEL)
@@ -251,9 +255,15 @@ class Rig:
         if self._closed:
             return
         self._closed = True
+        # The logger last, once nothing sends any more, with time to write what it has: a lockstep
+        # sim runs ahead of it (100 times real time and more), and its rows must not be lost.
         for child in reversed(self._processes):
-            child.stop(1.0)
+            if child is not self._logger:
+                child.stop(1.0)
+        if self._logger is not None:
+            self._logger.stop(_LOGGER_GRACE_S)
         self._processes = []
+        self._logger = None
         if self._lease is not None:
             self._lease.release()
             self._lease = None
@@ -371,7 +381,10 @@ def start_rig(model=None, mode="realtime", environment=None, panel=False, logger
             child.stop(1.0)
         lease.release()
         raise
-    rig = Rig(url, "", m, timeout, _processes=children, _lease=lease)
+    loggers = [child for child, (argv, _) in zip(children, commands)
+               if os.path.basename(argv[0]) == "sirupp-logger"]
+    rig = Rig(url, "", m, timeout, _processes=children, _lease=lease,
+              _logger=loggers[0] if loggers else None)
     # Ready when sirupp-control (on the bus: its status was heard) has a state of the sim: a state
     # newer than the first one seen now (in lockstep the sim steps only once the controller
     # answered). A controller file may take seconds to import before sirupp-control joins.
