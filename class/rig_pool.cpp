@@ -66,17 +66,15 @@ RigPool::RigPool(const ClassConfig& config, RigPoolOptions options, ProcessLaunc
       own_spawners_(MakeRigSpawnerFactory(config, RigSpawnerOptions{options_.bin_dir, options_.log},
                                           launcher)),
       spawners_(*own_spawners_) {
-  for (const std::string& name : config_.students) {
-    auto seat = std::make_unique<Seat>();
-    seat->name = name;
-    seat->Touch(Now());
-    seats_[name] = std::move(seat);
-  }
-  Reattach();
+  AddSeats();
 }
 
 RigPool::RigPool(const ClassConfig& config, RigPoolOptions options, RigSpawnerFactory& spawners)
     : config_(config), options_(std::move(options)), spawners_(spawners) {
+  AddSeats();
+}
+
+void RigPool::AddSeats() {
   for (const std::string& name : config_.students) {
     auto seat = std::make_unique<Seat>();
     seat->name = name;

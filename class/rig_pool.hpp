@@ -138,6 +138,8 @@ class RigPool {
   std::string StartFailed(Seat& seat, const std::string& why);
   void StopRig(Seat& seat, const std::string& why, bool failed = false);
   void SaveRigs();
+  // One seat per student of the class file, then the rigs a previous server left taken back.
+  void AddSeats();
   void Reattach();
   void Monitor();
   bool PollRig(Seat& seat, Clock::time_point now);

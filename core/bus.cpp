@@ -228,18 +228,23 @@ void Bus::ForgetTickBatchesIfUnused() {
   Unsubscribe(*unbatcher);
 }
 
-void Bus::DispatchNested(const std::string& full_channel, const uint8_t* data, int size_bytes,
-                         int64_t recv_utime, bool newest_only) {
-  lcm::ReceiveBuffer rbuf{};
-  rbuf.data = const_cast<uint8_t*>(data);  // LCM's type; handlers only read it
-  rbuf.data_size = static_cast<uint32_t>(size_bytes);
-  rbuf.recv_utime = recv_utime;
+std::vector<Subscription*> Bus::Matching(const std::string& full_channel) const {
   std::vector<Subscription*> matching;
   for (const auto& subscription : subscriptions_) {
     if (subscription->active_ && subscription->channel() == full_channel) {
       matching.push_back(subscription.get());
     }
   }
+  return matching;
+}
+
+void Bus::DispatchNested(const std::string& full_channel, const uint8_t* data, int size_bytes,
+                         int64_t recv_utime, bool newest_only) {
+  lcm::ReceiveBuffer rbuf{};
+  rbuf.data = const_cast<uint8_t*>(data);  // LCM's type; handlers only read it
+  rbuf.data_size = static_cast<uint32_t>(size_bytes);
+  rbuf.recv_utime = recv_utime;
+  const std::vector<Subscription*> matching = Matching(full_channel);
   const int64_t outer = dispatch_number_;
   dispatch_number_ = --nested_number_;
   for (Subscription* subscription : matching) {
@@ -450,12 +455,7 @@ int Bus::DeliverRecorded(const std::string& full_channel, const void* data, int 
   rbuf.data = const_cast<void*>(data);  // LCM's type; handlers only read it
   rbuf.data_size = static_cast<uint32_t>(size_bytes);
   rbuf.recv_utime = recv_utime;
-  std::vector<Subscription*> matching;
-  for (const auto& subscription : subscriptions_) {
-    if (subscription->active_ && subscription->channel() == full_channel) {
-      matching.push_back(subscription.get());
-    }
-  }
+  const std::vector<Subscription*> matching = Matching(full_channel);
   dispatching_ = true;
   ++dispatch_number_;  // one message: counted once however many subscriptions take it
   for (Subscription* subscription : matching) {

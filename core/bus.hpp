@@ -337,6 +337,9 @@ class Bus {
   // SIM_ARM_TICKS taken while SIM_ARM_STATE or ARM_SETPOINT is subscribed (Subscribe).
   void FollowTickBatches(int queue_capacity);
   void ForgetTickBatchesIfUnused();
+  // The active subscriptions of one channel (full name), taken before a dispatch so that a handler
+  // that subscribes or unsubscribes does not change the list being walked.
+  std::vector<Subscription*> Matching(const std::string& full_channel) const;
   // Inside a dispatch: hands one message unpacked from a batch to the subscriptions of
   // full_channel, counted as its own message there.
   void DispatchNested(const std::string& full_channel, const uint8_t* data, int size_bytes,
