@@ -41,12 +41,11 @@ void Bounded(std::vector<RelayFrame>& frames, size_t* dropped = nullptr) {
 const std::vector<std::string>& UpChannels() {
   static const std::vector<std::string> names = [] {
     const core::Channels c;
-    return std::vector<std::string>{c.arm_move.name(),          c.arm_gains.name(),
-                                    c.controller_status.name(), c.robot_model.name(),
-                                    c.hardware_command.name(),  c.estop.name(),
-                                    c.controller_reply.name(),  c.controller_gains.name(),
-                                    c.sim_arm_state.name(),     c.arm_setpoint.name(),
-                                    c.sim_arm_ticks.name()};
+    return std::vector<std::string>{
+        c.arm_move.name(),         c.arm_gains.name(),        c.controller_status.name(),
+        c.robot_model.name(),      c.hardware_command.name(), c.estop.name(),
+        c.controller_reply.name(), c.controller_gains.name(), c.sim_arm_state.name(),
+        c.arm_setpoint.name(),     c.sim_arm_ticks.name()};
   }();
   return names;
 }

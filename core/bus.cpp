@@ -194,13 +194,13 @@ class TickUnbatcher final : public Subscription {
     }
     NoteSequenceNumber(info, batch.seq);
     Bus& bus = this->bus();
-    core::ForEachTick(batch, info.recv_utime, info.newest_only, scratch_,
-                      [&bus, &info](core::TickKind kind, const uint8_t* data, int size,
-                                    int64_t recv_utime) {
-                        bus.DispatchNested(kind == core::TickKind::kState ? bus.states_channel_
-                                                                          : bus.setpoints_channel_,
-                                           data, size, recv_utime, info.newest_only);
-                      });
+    core::ForEachTick(
+        batch, info.recv_utime, info.newest_only, scratch_,
+        [&bus, &info](core::TickKind kind, const uint8_t* data, int size, int64_t recv_utime) {
+          bus.DispatchNested(
+              kind == core::TickKind::kState ? bus.states_channel_ : bus.setpoints_channel_, data,
+              size, recv_utime, info.newest_only);
+        });
   }
 
   std::vector<uint8_t> scratch_;

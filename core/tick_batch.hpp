@@ -43,9 +43,9 @@ class TickBatch {
  private:
   int max_ticks_;
   int64_t seq_ = 0;
-  int bytes_ = 0;          // encoded size of the gathered messages and their times
-  int largest_tick_ = 0;   // bytes of the largest state plus set-point added so far
-  int last_state_ = 0;     // bytes of the last state added
+  int bytes_ = 0;         // encoded size of the gathered messages and their times
+  int largest_tick_ = 0;  // bytes of the largest state plus set-point added so far
+  int last_state_ = 0;    // bytes of the last state added
   sirupp::arm_ticks_t batch_{};
   sirupp::arm_ticks_t taken_{};
 };

@@ -56,14 +56,14 @@ class Importer {
         // alone (core/tick_batch.hpp).
         const auto batch = Decode<sirupp::arm_ticks_t>(reader, event);
         for (size_t k = 0; k < batch.states.size(); ++k) {
-          AddArmState(reader, event, batch.states[k], false,
-                      core::TickReceiveTime(event.timestamp_us, batch.sent_utime,
-                                            batch.state_utime[k]));
+          AddArmState(
+              reader, event, batch.states[k], false,
+              core::TickReceiveTime(event.timestamp_us, batch.sent_utime, batch.state_utime[k]));
         }
         for (size_t k = 0; k < batch.setpoints.size(); ++k) {
-          AddSetpoint(reader, event, batch.setpoints[k],
-                      core::TickReceiveTime(event.timestamp_us, batch.sent_utime,
-                                            batch.setpoint_utime[k]));
+          AddSetpoint(
+              reader, event, batch.setpoints[k],
+              core::TickReceiveTime(event.timestamp_us, batch.sent_utime, batch.setpoint_utime[k]));
         }
       } else if (event.channel == c.controller_status) {
         aligner_.AddStatus(StatusFromMessage(Decode<sirupp::controller_status_t>(reader, event),

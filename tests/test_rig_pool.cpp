@@ -504,8 +504,8 @@ TEST_F(RigPoolTest, TheClassFileDecidesWhereRigsAndGradesRun) {
   EXPECT_TRUE(local->Load().rigs.empty());
   EXPECT_THROW(local->Restore(Json{{"student", "alice"}}), std::invalid_argument);
 
-  const ClassConfig cluster_config = ParseClassConfig(
-      base + "cluster: {engine: slurm, grading: {jobs: 3}}\n", "c.yaml", dir);
+  const ClassConfig cluster_config =
+      ParseClassConfig(base + "cluster: {engine: slurm, grading: {jobs: 3}}\n", "c.yaml", dir);
   const auto slurm = MakeRigSpawnerFactory(cluster_config, RigSpawnerOptions{}, launcher);
   EXPECT_EQ(slurm->Describe(), "Slurm jobs (cluster:)");
   const auto jobs = slurm->MakeGradePlace(LocalGradeOptions{}, GradeHooks{});

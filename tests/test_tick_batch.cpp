@@ -102,12 +102,12 @@ TEST(TickBatch, TheBusHandsEveryTickToThePerTickSubscriptionsInOrder) {
   std::vector<sirupp::arm_state_t> states;
   std::vector<int64_t> state_recv;
   std::vector<sirupp::servo_setpoint_t> setpoints;
-  bus.Subscribe<sirupp::arm_state_t>(
-      "SIM_ARM_STATE", [&](const sirupp::arm_state_t& m, const ReceiveInfo& info) {
-        EXPECT_EQ(info.channel, "SIM_ARM_STATE");
-        states.push_back(m);
-        state_recv.push_back(info.recv_utime);
-      });
+  bus.Subscribe<sirupp::arm_state_t>("SIM_ARM_STATE",
+                                     [&](const sirupp::arm_state_t& m, const ReceiveInfo& info) {
+                                       EXPECT_EQ(info.channel, "SIM_ARM_STATE");
+                                       states.push_back(m);
+                                       state_recv.push_back(info.recv_utime);
+                                     });
   bus.Subscribe<sirupp::servo_setpoint_t>(
       "ARM_SETPOINT",
       [&](const sirupp::servo_setpoint_t& m, const ReceiveInfo&) { setpoints.push_back(m); });
@@ -171,11 +171,11 @@ TEST(TickBatch, AReaderOfTheNewestGetsTheNewestTickOfEachKind) {
 TEST(TickBatch, ABadBatchIsCountedOnItsChannelAndAThrowingHandlerLosesOnlyItsTick) {
   Bus bus("memq://");
   std::vector<int64_t> ticks;
-  bus.Subscribe<sirupp::arm_state_t>(
-      "SIM_ARM_STATE", [&](const sirupp::arm_state_t& m, const ReceiveInfo&) {
-        if (m.tick == 3) throw std::runtime_error("tick 3 refused");
-        ticks.push_back(m.tick);
-      });
+  bus.Subscribe<sirupp::arm_state_t>("SIM_ARM_STATE",
+                                     [&](const sirupp::arm_state_t& m, const ReceiveInfo&) {
+                                       if (m.tick == 3) throw std::runtime_error("tick 3 refused");
+                                       ticks.push_back(m.tick);
+                                     });
   // Not an arm_ticks_t: a state published on the batch channel.
   bus.Publish("SIM_ARM_TICKS", State(1));
   bus.HandleAvailable();
