@@ -230,12 +230,17 @@ void Bus::ForgetTickBatchesIfUnused() {
 
 std::vector<Subscription*> Bus::Matching(const std::string& full_channel) const {
   std::vector<Subscription*> matching;
+  Matching(full_channel, matching);
+  return matching;
+}
+
+void Bus::Matching(const std::string& full_channel, std::vector<Subscription*>& out) const {
+  out.clear();
   for (const auto& subscription : subscriptions_) {
     if (subscription->active_ && subscription->channel() == full_channel) {
-      matching.push_back(subscription.get());
+      out.push_back(subscription.get());
     }
   }
-  return matching;
 }
 
 void Bus::DispatchNested(const std::string& full_channel, const uint8_t* data, int size_bytes,
@@ -244,10 +249,11 @@ void Bus::DispatchNested(const std::string& full_channel, const uint8_t* data, i
   rbuf.data = const_cast<uint8_t*>(data);  // LCM's type; handlers only read it
   rbuf.data_size = static_cast<uint32_t>(size_bytes);
   rbuf.recv_utime = recv_utime;
-  const std::vector<Subscription*> matching = Matching(full_channel);
+  // Reused: a message unpacked from a batch is never dispatched from inside another one's handler.
+  Matching(full_channel, nested_matching_);
   const int64_t outer = dispatch_number_;
   dispatch_number_ = --nested_number_;
-  for (Subscription* subscription : matching) {
+  for (Subscription* subscription : nested_matching_) {
     subscription->Dispatch(rbuf, full_channel, newest_only);
   }
   dispatch_number_ = outer;

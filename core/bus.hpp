@@ -340,6 +340,7 @@ class Bus {
   // The active subscriptions of one channel (full name), taken before a dispatch so that a handler
   // that subscribes or unsubscribes does not change the list being walked.
   std::vector<Subscription*> Matching(const std::string& full_channel) const;
+  void Matching(const std::string& full_channel, std::vector<Subscription*>& out) const;
   // Inside a dispatch: hands one message unpacked from a batch to the subscriptions of
   // full_channel, counted as its own message there.
   void DispatchNested(const std::string& full_channel, const uint8_t* data, int size_bytes,
@@ -386,7 +387,8 @@ class Bus {
   std::string states_channel_;
   std::string setpoints_channel_;
   Subscription* unbatcher_ = nullptr;
-  int lcm_fd_ = -1;  // LCM's notification descriptor, with ReadDirectly
+  std::vector<Subscription*> nested_matching_;  // DispatchNested's list, kept between ticks
+  int lcm_fd_ = -1;                             // LCM's notification descriptor, with ReadDirectly
   // Last: destroyed first, while what it gives the channels back to is still there.
   std::unique_ptr<TickFeed> direct_;
 };

@@ -11,8 +11,6 @@ TickBatch::TickBatch(int max_ticks) : max_ticks_(max_ticks) {
     throw std::invalid_argument("tick batch of " + std::to_string(max_ticks) +
                                 " ticks: allowed 1 to " + std::to_string(kTickBatchMaxTicks));
   }
-  // The fixed part: sent_utime, seq and the two counts.
-  bytes_ = 8 + 8 + 4 + 4 + 8;
 }
 
 void TickBatch::Add(const sirupp::arm_state_t& state, int64_t made_utime) {
@@ -50,7 +48,7 @@ const sirupp::arm_ticks_t& TickBatch::Take(int64_t sent_utime) {
   batch_.state_utime.clear();
   batch_.setpoints.clear();
   batch_.setpoint_utime.clear();
-  bytes_ = 8 + 8 + 4 + 4 + 8;
+  bytes_ = kEmptyBytes;
   return taken_;
 }
 

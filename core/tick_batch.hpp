@@ -34,16 +34,17 @@ class TickBatch {
   void Add(const sirupp::servo_setpoint_t& setpoint, int64_t made_utime);
 
   bool empty() const { return batch_.num_states == 0 && batch_.num_setpoints == 0; }
-  int states() const { return batch_.num_states; }
   // max_ticks states, or one more tick of the largest yet would pass kTickBatchMaxBytes.
   bool Full() const;
   // The message to send (seq counted here), and the batch empty again.
   const sirupp::arm_ticks_t& Take(int64_t sent_utime);
 
  private:
+  // The encoded size of an empty batch: fingerprint, sent_utime, seq and the two counts.
+  static constexpr int kEmptyBytes = 8 + 8 + 8 + 4 + 4;
   int max_ticks_;
   int64_t seq_ = 0;
-  int bytes_ = 0;         // encoded size of the gathered messages and their times
+  int bytes_ = kEmptyBytes;  // encoded size of the gathered messages and their times
   int largest_tick_ = 0;  // bytes of the largest state plus set-point added so far
   int last_state_ = 0;    // bytes of the last state added
   sirupp::arm_ticks_t batch_{};
@@ -75,26 +76,27 @@ int EncodeInto(const Msg& msg, std::vector<uint8_t>& scratch) {
   return msg.encode(scratch.data(), 0, size);
 }
 
+// Each of `messages` (all, or the last one) encoded, with its own receive time.
+template <class Msg, class Fn>
+void ForEachOf(const std::vector<Msg>& messages, const std::vector<int64_t>& made_utime,
+               TickKind kind, int64_t recv_utime, int64_t sent_utime, bool newest_only,
+               std::vector<uint8_t>& scratch, Fn& fn) {
+  const size_t count = messages.size();
+  for (size_t k = newest_only && count > 0 ? count - 1 : 0; k < count; ++k) {
+    const int size = EncodeInto(messages[k], scratch);
+    if (size < 0) continue;
+    fn(kind, scratch.data(), size, TickReceiveTime(recv_utime, sent_utime, made_utime[k]));
+  }
+}
+
 template <class Fn>
 void ForEachTick(const sirupp::arm_ticks_t& batch, int64_t recv_utime, bool newest_only,
                  std::vector<uint8_t>& scratch, Fn&& fn) {
   CheckTickBatch(batch);
-  const int states = batch.num_states;
-  for (int i = newest_only && states > 0 ? states - 1 : 0; i < states; ++i) {
-    const auto k = static_cast<size_t>(i);
-    const int size = EncodeInto(batch.states[k], scratch);
-    if (size < 0) continue;
-    fn(TickKind::kState, scratch.data(), size,
-       TickReceiveTime(recv_utime, batch.sent_utime, batch.state_utime[k]));
-  }
-  const int setpoints = batch.num_setpoints;
-  for (int i = newest_only && setpoints > 0 ? setpoints - 1 : 0; i < setpoints; ++i) {
-    const auto k = static_cast<size_t>(i);
-    const int size = EncodeInto(batch.setpoints[k], scratch);
-    if (size < 0) continue;
-    fn(TickKind::kSetpoint, scratch.data(), size,
-       TickReceiveTime(recv_utime, batch.sent_utime, batch.setpoint_utime[k]));
-  }
+  ForEachOf(batch.states, batch.state_utime, TickKind::kState, recv_utime, batch.sent_utime,
+            newest_only, scratch, fn);
+  ForEachOf(batch.setpoints, batch.setpoint_utime, TickKind::kSetpoint, recv_utime,
+            batch.sent_utime, newest_only, scratch, fn);
 }
 
 }  // namespace sirupp::core
