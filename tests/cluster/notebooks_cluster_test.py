@@ -10,7 +10,8 @@ cluster of with_cluster.sh (SLURM_CONF exported): a class of alice whose rigs ar
   (jupyterhub-singleuser) runs under it;
 - a kernel started over the hub's REST and WebSocket API runs sirupp.connect() and a joint move;
   the class server's panel API for alice's rig (proxied to the job) shows the arm at the goal;
-- the hub restarted finds the same server (srun and supervisor) again;
+- the hub's stop of the server ends its step and not the rig's job; started again it is a new
+  step of the same job; the hub restarted finds it (srun and supervisor) again;
 - scancel of the rig's job ends the step and the server: the hub's poll sees it stopped, and no
   supervisor, srun, step or notebook server is left.
 
@@ -161,6 +162,21 @@ def main(bin_dir, source_dir):
         far = max(abs(a - b) for a, b in zip(state["virtual"]["q"], goal_deg))
         check(far < 2.0, f"the panel API shows alice's arm at the kernel's goal: "
                          f"{state['virtual']['q']} ({far:.2f} deg off)")
+
+        # The hub's stop ends the step (SIGTERM to srun, which passes it on), not the rig's job;
+        # started again, the server is a new step of the same job.
+        status, _ = alice.api("DELETE", "/hub/api/users/alice/server", token=token)
+        check(status in (202, 204), f"alice's server stopped from the hub's API: {status}")
+        wait_for("the step and its processes gone after the hub's stop", 30,
+                 lambda: not notebook_processes(hub) and
+                 [s[1] for s in steps_of(job)] == ["batch"])
+        check(rig_job("alice") == job, f"alice's rig job {job} still runs")
+        status, _ = alice.api("POST", "/hub/api/users/alice/server", token=token)
+        check(status in (201, 202), f"alice's server started again: {status}")
+        hub.wait_server(alice, "alice", timeout=60)
+        steps = steps_of(job)
+        check(any(s[1] == "notebook-alice" and s[0] != job + ".0" for s in steps),
+              f"it is a new step of job {job}: {steps}")
 
         # A restarted hub finds the server in the job again (its database: srun's pid and start,
         # the node's address and port), no longer as its child.
