@@ -935,13 +935,27 @@ struct ClassServer::Impl {
     if (!body.is_object() || !body.contains("student") || !body["student"].is_string() ||
         !body.contains("host") || !body["host"].is_string() || !body.contains("port") ||
         !body["port"].is_number_integer()) {
-      SendError(res, 400, "expected {\"student\", \"job\", \"host\", \"port\"}");
+      SendError(res, 400, "expected {\"student\", \"job\", \"host\", \"port\", \"udpm_port\"}");
       return;
     }
     const std::string job_id =
         body.contains("job") && body["job"].is_string() ? body["job"].get<std::string>() : "";
+    // The rig's bus on its node, where a notebook server beside it joins (docs/notebooks.md).
+    // A job that does not say (older than it) is taken; its notebooks say why they cannot start.
+    int udpm_port = 0;
+    if (body.contains("udpm_port")) {
+      const Json& value = body["udpm_port"];
+      if (!value.is_number_integer() || value.get<int64_t>() < 1 || value.get<int64_t>() > 65535) {
+        SendError(
+            res, 400,
+            "udpm_port: expected a port from 1 to 65535, got " + core::Printable(value.dump(), 40));
+        return;
+      }
+      udpm_port = value.get<int>();
+    }
     if (!rigs->Reported(body["student"].get<std::string>(), req.get_header_value(kRigSecretHeader),
-                        job_id, body["host"].get<std::string>(), body["port"].get<int>())) {
+                        job_id, body["host"].get<std::string>(), body["port"].get<int>(),
+                        udpm_port)) {
       Log("refused a rig report from " + req.remote_addr);
       SendError(res, 403, "not a rig of this class waiting for its report");
       return;

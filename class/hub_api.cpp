@@ -154,6 +154,17 @@ panel::Response WhoAmI(const HubApiContext& context, const std::string& text) {
   return WhoByToken(context, client, student, token);
 }
 
+// The fields of a site inside a rig's job (none for a rig on this machine, whose answers stay
+// as they were): the job, its node's address and name, the rig's bus there, the data folder there.
+void AddJobSite(const NotebookSite& site, Json& answer) {
+  if (site.job.empty()) return;
+  answer["job"] = site.job;
+  answer["host"] = site.host;
+  answer["node"] = site.node;
+  answer["lcm_url"] = site.lcm_url;
+  answer["node_data"] = site.node_data;
+}
+
 panel::Response RigRoute(const HubApiContext& context, const std::string& student,
                          const std::string& verb) {
   if (!context.rigs.Has(student)) {
@@ -163,16 +174,23 @@ panel::Response RigRoute(const HubApiContext& context, const std::string& studen
   context.rigs.Touch(student);
   if (verb == "touch") {
     // Where the rig is now ("" while it is stopped): a rig restarted on another bus is followed.
-    return JsonResponse(
-        200, Json{{"name", student}, {"ok", true}, {"lcm_url", context.rigs.LcmUrl(student)}});
+    Json answer{{"name", student}, {"ok", true}, {"lcm_url", context.rigs.LcmUrl(student)}};
+    const NotebookSite site = context.rigs.Notebook(student);
+    if (site.why_not.empty()) AddJobSite(site, answer);
+    return JsonResponse(200, answer);
   }
   const std::string why = context.rigs.Ensure(student);
   if (!why.empty()) return panel::ErrorResponse(503, why);
   // Where the notebook server runs beside the rig is the rig's spawner's to say.
   const NotebookSite site = context.rigs.Notebook(student);
-  if (!site.why_not.empty()) return panel::ErrorResponse(503, site.why_not);
-  const std::string& url = site.lcm_url;
-  return JsonResponse(200, Json{{"name", student}, {"state", "running"}, {"lcm_url", url}});
+  if (!site.why_not.empty()) {
+    // "starting": the rig is on its way (a job that has not reported yet); the hub asks again.
+    return JsonResponse(503,
+                        Json{{"ok", false}, {"error", site.why_not}, {"starting", site.starting}});
+  }
+  Json answer{{"name", student}, {"state", "running"}, {"lcm_url", site.lcm_url}};
+  AddJobSite(site, answer);
+  return JsonResponse(200, answer);
 }
 
 }  // namespace

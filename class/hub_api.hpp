@@ -10,9 +10,14 @@
 //                                   token) -> 200 {name} or 403 {error} naming who they are
 //                                   signed in as and why that opens no notebooks
 //   POST /hub/api/rigs/NAME/ensure  the student's rig started unless it runs (as their page visit
-//                                   does) -> 200 {name, state, lcm_url}; 503 with why it cannot
+//                                   does) -> 200 {name, state, lcm_url}; for a rig in a job
+//                                   also {job, host, node, node_data} (NotebookSite: the server
+//                                   runs as a step of that job, lcm_url is the bus on its node);
+//                                   503 {error} with why it cannot, {starting: true} while the
+//                                   rig's job has not reported yet (the hub asks again)
 //   POST /hub/api/rigs/NAME/touch   the notebook server is in use: the rig is not idle
-//                                   -> 200 {name, ok, lcm_url} (where the rig is now; "" stopped)
+//                                   -> 200 {name, ok, lcm_url} (where the rig is now; "" stopped),
+//                                   with the job's fields as ensure gives them
 //
 // Every request carries the hub's secret in X-Sirupp-Hub-Secret (DATA/hub.secret, 0600, made on
 // the first serve of a class with notebooks:, compared in constant time); anything else is 403.

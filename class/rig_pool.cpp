@@ -347,13 +347,15 @@ void RigPool::Reattach() {
 }
 
 bool RigPool::Reported(const std::string& student, const std::string& secret,
-                       const std::string& job_id, const std::string& host, int port) {
+                       const std::string& job_id, const std::string& host, int port,
+                       int udpm_port) {
   Seat* seat = Find(student);
   if (seat == nullptr) return false;
   std::string address;
   {
     const std::lock_guard<std::mutex> lock(seat->mutex);
-    if (!seat->rig || !seat->rig->Report(RigReport{secret, job_id, host, port})) return false;
+    if (!seat->rig || !seat->rig->Report(RigReport{secret, job_id, host, port, udpm_port}))
+      return false;
     const RigSpawner& rig = *seat->rig;
     const std::lock_guard<std::mutex> info(seat->info_mutex);
     seat->reach = rig.Reach();

@@ -97,9 +97,10 @@ class RigPool {
   // Stops the student's rig, if any, saying why on the pages.
   void Stop(const std::string& student, const std::string& why);
   // A job's report (POST /cluster/report): true when `secret` and `job` are those of the rig
-  // the student's seat waits for; then the rig runs at host:port.
+  // the student's seat waits for; then the rig runs at host:port, its bus on udpm_port there
+  // (0: the job did not say).
   bool Reported(const std::string& student, const std::string& secret, const std::string& job,
-                const std::string& host, int port);
+                const std::string& host, int port, int udpm_port = 0);
 
   RigAccess Access(const std::string& student) const;
   // Held by the student's open event stream: the rig is not idle while it is held.

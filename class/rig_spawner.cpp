@@ -233,6 +233,11 @@ SlurmRigSpawner::SlurmRigSpawner(cluster::SlurmEngine& engine, const cluster::Cl
   const auto port = state.find("port");
   if (!text("host").empty() && port != state.end() && port->is_number_integer()) {
     endpoint_ = RigEndpoint{text("host"), port->get<int>(), secret_};
+    const auto udpm = state.find("udpm_port");
+    if (udpm != state.end() && udpm->is_number_integer() && udpm->get<int>() > 0 &&
+        udpm->get<int>() <= 65535) {
+      udpm_port_ = udpm->get<int>();
+    }
   }
   const auto submitted = state.find("submitted_unix_ms");
   if (submitted != state.end() && submitted->is_number_integer()) {
@@ -269,6 +274,7 @@ RigStatus SlurmRigSpawner::Start() {
   const std::lock_guard<std::mutex> lock(mutex_);
   job_id_ = submitted.job_id;
   endpoint_.reset();
+  udpm_port_ = 0;
   submitted_ = std::chrono::system_clock::now();
   ready_s_ = 0;
   ready_at_.clear();
@@ -342,12 +348,30 @@ void SlurmRigSpawner::Refresh() {
   live_state_ = state ? *state : nlohmann::json();
 }
 
-// A rig job's bus is on its node: no notebook server runs beside it yet (docs/notebooks.md).
+// The notebook server runs inside the rig's job, as a step on its node beside the rig, its
+// bridge on the rig's bus there (docs/notebooks.md): known once the job has reported.
 NotebookSite SlurmRigSpawner::Notebook() const {
+  const std::lock_guard<std::mutex> lock(mutex_);
   NotebookSite site;
-  site.why_not = spec_.student +
-                 "'s rig is not on this server's bus (a cluster job, or not ready yet): "
-                 "notebooks drive only the class server's local rigs";
+  const std::string job = job_id_.empty() ? std::string("its job") : "Slurm job " + job_id_;
+  if (!endpoint_) {
+    site.why_not = spec_.student + "'s rig is still starting (" + job +
+                   (node_.empty() ? std::string() : " on " + node_) +
+                   " has not reported yet): try again in a few seconds";
+    site.starting = true;
+    return site;
+  }
+  if (udpm_port_ <= 0) {
+    site.why_not = spec_.student + "'s rig (" + job + " on " + endpoint_->host +
+                   ") did not report its bus (udpm_port; a sirupp-rig-job older than notebooks on "
+                   "a cluster): restart the rig from the teacher's page";
+    return site;
+  }
+  site.lcm_url = RigUrl(udpm_port_);
+  site.job = job_id_;
+  site.host = endpoint_->host;
+  site.node = node_;
+  site.node_data = config_.node_data;
   return site;
 }
 
@@ -363,6 +387,7 @@ nlohmann::json SlurmRigSpawner::State() const {
   if (endpoint_) {
     state["host"] = endpoint_->host;
     state["port"] = endpoint_->port;
+    if (udpm_port_ > 0) state["udpm_port"] = udpm_port_;
   }
   if (submitted_) {
     state["submitted_unix_ms"] =
@@ -388,7 +413,9 @@ bool SlurmRigSpawner::Report(const RigReport& report) {
   }
   if (!job.empty() && job != job_id_) return false;
   if (host.empty() || port <= 0 || port > 65535) return false;
+  if (report.udpm_port < 0 || report.udpm_port > 65535) return false;
   endpoint_ = RigEndpoint{host, port, secret_};
+  udpm_port_ = report.udpm_port;
   const auto now = std::chrono::system_clock::now();
   ready_s_ =
       submitted_ ? std::max(0.0, std::chrono::duration<double>(now - *submitted_).count()) : 0;

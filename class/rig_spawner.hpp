@@ -68,10 +68,16 @@ struct RigReach {
 };
 
 // Where the student's notebook server runs beside their rig (docs/notebooks.md): on this
-// machine, its bridge on the rig's bus; or nowhere yet, and why.
+// machine, its bridge on the rig's bus; inside the rig's job on its node (job set), its bridge
+// on the rig's bus there; or nowhere yet, and why.
 struct NotebookSite {
-  std::string lcm_url;  // the bus the notebook's bridge joins ("" when none)
-  std::string why_not;  // "" when a notebook server can run beside the rig
+  std::string lcm_url;  // the bus the notebook's bridge joins, on the rig's machine ("" when none)
+  std::string job;      // the rig's job the server runs in (a step of it); "" = this machine
+  std::string host;     // the job's node as it reported itself: where the server listens
+  std::string node;     // the node's name as the engine gives it (for the log), else ""
+  std::string node_data;  // the class's data folder as the node sees it ("" = the same path)
+  std::string why_not;    // "" when a notebook server can run beside the rig
+  bool starting = false;  // why_not is passing: the rig is on its way (ask again in a moment)
 };
 
 // A rig job's report (POST /cluster/report).
@@ -80,6 +86,7 @@ struct RigReport {
   std::string job;
   std::string host;
   int port = 0;
+  int udpm_port = 0;  // the rig's udpm port on its node; 0 = not told (a job before it was)
 };
 
 class RigSpawner {
@@ -286,6 +293,7 @@ class SlurmRigSpawner : public RigSpawner {
   mutable std::mutex mutex_;
   std::optional<RigEndpoint> endpoint_;
   std::string node_;
+  int udpm_port_ = 0;  // the rig's bus on its node, as reported (0: not told)
   std::optional<std::chrono::system_clock::time_point> submitted_;
   double ready_s_ = 0;
   std::string ready_at_;

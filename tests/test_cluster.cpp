@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "class/class_config.hpp"
+#include "class/rig_spawner.hpp"
 #include "cluster/class_job.hpp"
 #include "cluster/cluster_config.hpp"
 #include "cluster/command_runner.hpp"
@@ -379,6 +380,52 @@ TEST(ClusterConfigTest, TheClassFileTakesItStrictlyAndWithoutItNothingChanges) {
     EXPECT_NE(text.find("c.yaml:7:"), std::string::npos) << text;
     EXPECT_NE(text.find("cpu"), std::string::npos) << text;
   }
+}
+
+// Where a rig job's notebook server runs (class/rig_spawner.hpp, docs/notebooks.md): nowhere
+// while the job has not reported (starting: the hub asks again), inside the job on the node it
+// reported with the rig's bus there once it has, clearly not for a job that did not say its bus;
+// the bus is kept for a restarted server.
+TEST(SlurmRigSpawnerTest, TheNotebookRunsInTheJobOnceItReportedItsBus) {
+  FakeRunner runner;
+  SlurmEngine engine(runner);
+  ClusterConfig config;
+  config.node_data = "/shared/data";
+  const std::string secret(64, 'a');
+  const nlohmann::json saved{
+      {"student", "alice"}, {"job", "12"}, {"secret", secret}, {"node", "node07"}};
+  classroom::SlurmRigSpawner rig(engine, config, saved, "/tmp/nowhere");
+  classroom::NotebookSite site = rig.Notebook();
+  EXPECT_TRUE(site.starting);
+  EXPECT_NE(site.why_not.find("still starting"), std::string::npos) << site.why_not;
+  EXPECT_NE(site.why_not.find("Slurm job 12"), std::string::npos) << site.why_not;
+
+  EXPECT_FALSE(rig.Report(classroom::RigReport{secret, "12", "10.0.0.7", 8123, 70000}))
+      << "a bus port out of range is not taken";
+  ASSERT_TRUE(rig.Report(classroom::RigReport{secret, "12", "10.0.0.7", 8123, 7911}));
+  site = rig.Notebook();
+  EXPECT_EQ(site.why_not, "");
+  EXPECT_FALSE(site.starting);
+  EXPECT_EQ(site.job, "12");
+  EXPECT_EQ(site.host, "10.0.0.7");
+  EXPECT_EQ(site.node, "node07");
+  EXPECT_EQ(site.node_data, "/shared/data");
+  EXPECT_EQ(site.lcm_url, "udpm://239.255.76.67:7911?ttl=0");
+
+  // A restarted server knows the bus from the saved state.
+  classroom::SlurmRigSpawner again(engine, config, rig.State(), "/tmp/nowhere");
+  EXPECT_EQ(again.Notebook().lcm_url, site.lcm_url);
+  EXPECT_EQ(again.Notebook().job, "12");
+
+  // A job that reported no bus (older than udpm_port in the report): its panel works, its
+  // notebooks say why not, and not as "starting".
+  classroom::SlurmRigSpawner old(engine, config, saved, "/tmp/nowhere");
+  ASSERT_TRUE(old.Report(classroom::RigReport{secret, "12", "10.0.0.7", 8123, 0}));
+  EXPECT_TRUE(old.Reach().reachable());
+  site = old.Notebook();
+  EXPECT_FALSE(site.starting);
+  EXPECT_NE(site.why_not.find("udpm_port"), std::string::npos) << site.why_not;
+  EXPECT_EQ(site.job, "");
 }
 
 }  // namespace

@@ -10,10 +10,11 @@ SECRET_HEADER = "X-Sirupp-Hub-Secret"
 class ClassApiError(Exception):
     """The class server refused (status, its message) or could not be reached (status 0)."""
 
-    def __init__(self, status, message):
+    def __init__(self, status, message, starting=False):
         super().__init__(message)
         self.status = status
         self.message = message
+        self.starting = starting  # the rig is on its way (a job not reported yet): ask again
 
 
 class ClassApi:
@@ -37,10 +38,14 @@ class ClassApi:
                 return json.loads(answer.read().decode())
         except urllib.error.HTTPError as error:
             try:
-                message = json.loads(error.read().decode()).get("error", "")
+                body = json.loads(error.read().decode())
             except ValueError:
-                message = ""
-            raise ClassApiError(error.code, message or f"the class server answered {error.code}")
+                body = {}
+            if not isinstance(body, dict):
+                body = {}
+            message = str(body.get("error", ""))
+            raise ClassApiError(error.code, message or f"the class server answered {error.code}",
+                                body.get("starting") is True)
         except (urllib.error.URLError, OSError) as error:
             raise ClassApiError(0, f"the class server at {self.class_url} cannot be reached: "
                                    f"{getattr(error, 'reason', error)}")

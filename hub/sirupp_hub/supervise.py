@@ -4,7 +4,10 @@ session of its own, so that it outlives a restarted hub) and JupyterHub's poll()
 It runs, and ends together:
 - the outer bus bridge (sirupp-notebook-bridge --listen RUN/bus.sock) on the student's rig bus;
 - the forwarders: 127.0.0.1:PORT (the hub's proxy's target) -> RUN/nb.sock (the notebook server),
-  RUN/hubapi.sock (the notebook server's way to the hub's API) -> the hub's API;
+  RUN/hubapi.sock (the notebook server's way to the hub's API) -> the hub's API; inside a rig's
+  Slurm job (a step on its node, started by srun) the first listens on the node's address
+  (listen_host) on a port it picks there (port 0), and tells it in RUN/port.json
+  {port, host, job, step} (written whole, then renamed), which the spawner waits for;
 - the sandbox (sirupp_hub.sandbox), in which sirupp_hub.inner starts the notebook server.
 
 It exits with the sandbox's exit status (0 when the notebook server shut itself down after its
@@ -40,6 +43,14 @@ def stop_process(process):
         process.wait()
 
 
+def write_port_file(path, told):
+    """The port this server listens on, for the spawner: written whole, then renamed in."""
+    temporary = path + ".new"
+    with open(os.open(temporary, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o600), "w") as out:
+        json.dump(told, out)
+    os.rename(temporary, path)
+
+
 def log(line):
     print(f"sirupp_hub.supervise: {line}", file=sys.stderr, flush=True)
 
@@ -62,12 +73,24 @@ async def run(plan):
              "--listen", os.path.join(sock_dir, "bus.sock")], preexec_fn=_die_with_parent)
 
     bridges = [start_bridge(plan["lcm_url"])] if plan.get("lcm_url") else []
-    servers = [
-        await forward.serve(("tcp", "127.0.0.1", plan["port"]),
-                            ("unix", os.path.join(sock_dir, "nb.sock"))),
-        await forward.serve(("unix", os.path.join(sock_dir, "hubapi.sock")),
-                            ("tcp", plan["hub_api_host"], plan["hub_api_port"])),
-    ]
+    listen_host = plan.get("listen_host") or "127.0.0.1"
+    try:
+        servers = [
+            await forward.serve(("tcp", listen_host, plan["port"]),
+                                ("unix", os.path.join(sock_dir, "nb.sock"))),
+            await forward.serve(("unix", os.path.join(sock_dir, "hubapi.sock")),
+                                ("tcp", plan["hub_api_host"], plan["hub_api_port"])),
+        ]
+    except OSError as error:
+        log(f"{plan['name']}: cannot listen on {listen_host}:{plan['port']}: {error}")
+        for bridge in bridges:
+            stop_process(bridge)
+        return 1
+    port = servers[0].sockets[0].getsockname()[1]
+    if plan.get("port_file"):
+        write_port_file(plan["port_file"], {
+            "port": port, "host": listen_host, "job": os.environ.get("SLURM_JOB_ID", ""),
+            "step": os.environ.get("SLURM_STEP_ID", "")})
     inner_plan = os.path.join(sock_dir, "inner.json")
     with open(os.open(inner_plan, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644), "w") as out:
         json.dump({"env": plan["inner_env"], "args": plan["args"], "bin_dir": plan["bin_dir"],
@@ -82,7 +105,9 @@ async def run(plan):
          os.path.join(sandbox.INSIDE_RUN, "inner.json")]))
     process = await asyncio.create_subprocess_exec(
         *command, preexec_fn=sandbox.limit_process(plan["memory_mb"], plan["processes"]))
-    log(f"{plan['name']}: sandbox pid {process.pid}, port {plan['port']}")
+    log(f"{plan['name']}: sandbox pid {process.pid}, listening on {listen_host}:{port}" +
+        (f" (Slurm job {os.environ['SLURM_JOB_ID']} step {os.environ.get('SLURM_STEP_ID', '?')})"
+         if os.environ.get("SLURM_JOB_ID") else ""))
 
     stop = asyncio.Event()
     loop = asyncio.get_running_loop()

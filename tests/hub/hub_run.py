@@ -95,7 +95,7 @@ class Session:
 
 class HubRun:
     def __init__(self, bin_dir, source_dir, students, idle_timeout_s=900, poll_interval_s=None,
-                 notebooks_folder=None):
+                 notebooks_folder=None, extra_yaml=""):
         self.bin = os.path.abspath(bin_dir)
         self.src = os.path.abspath(source_dir)
         self.hub_port = free_port_block(3)
@@ -109,7 +109,7 @@ class HubRun:
                          "proxy_secret_file: front.secret, proxy_teachers: [jsmith]}"),
             extra_yaml=(f"notebooks: {{hub_url: 'http://127.0.0.1:{self.hub_port}', "
                         f"hub_port: {self.hub_port}, idle_timeout_s: {max(60, idle_timeout_s)}"
-                        f"{folder}}}\n"))
+                        f"{folder}}}\n" + extra_yaml))
         secret = os.path.join(self.cls.work, "front.secret")
         with open(os.open(secret, os.O_WRONLY | os.O_CREAT, 0o600), "w") as out:
             out.write(FRONT_SECRET + "\n")
@@ -255,7 +255,13 @@ class HubRun:
             while time.time() < deadline and self.supervisors():
                 time.sleep(0.1)
             for pid in self.supervisors():
-                os.killpg(pid, signal.SIGKILL)
+                try:  # a supervisor in a Slurm step may lead no process group of its own
+                    os.killpg(pid, signal.SIGKILL)
+                except ProcessLookupError:
+                    try:
+                        os.kill(pid, signal.SIGKILL)
+                    except ProcessLookupError:
+                        pass
 
     def stop(self):
         self.stop_hub()
